@@ -1,0 +1,22 @@
+// Numeric CSV tables (shared/SPEC.md recording rules): one header line, '#' comments, any column
+// order, extra columns ignored, every error reported as FILE:LINE: reason.
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace delta {
+
+struct CsvTable {
+  std::string path;
+  std::vector<std::string> columns;          // the requested columns, in request order
+  std::vector<std::vector<double>> rows;     // rows[i][k]: requested column k of data row i
+  std::vector<std::size_t> line_numbers;     // file line of each data row, for later errors
+};
+
+// Reads the requested columns; all of them must be present, numeric and finite on every row.
+// Throws InputError for a missing file, an empty file (no header or no data), a missing column,
+// a wrong field count, or a non-numeric or non-finite field.
+CsvTable read_csv(const std::string& path, const std::vector<std::string>& required_columns);
+
+}  // namespace delta

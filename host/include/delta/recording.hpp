@@ -1,0 +1,27 @@
+// Recordings of the robot (shared/SPEC.md): t_s, alpha1..3_deg, x_m, y_m, z_m, in time order.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "delta/virtual_robot.hpp"
+
+namespace delta {
+
+struct Recording {
+  std::string path;
+  std::vector<Sample> samples;
+  std::vector<std::size_t> line_numbers;  // file line of each sample
+};
+
+// Throws InputError (file, line, reason) on any SPEC violation, including time going backwards.
+Recording read_recording(const std::string& path);
+
+// Writes atomically (no partial file on failure); header comment lines go first, each prefixed '#'.
+void write_recording(const std::string& path, const std::vector<Sample>& samples,
+                     const std::vector<std::string>& comments = {});
+
+// Plate positions of any CSV with x_m, y_m, z_m columns (the input of `deltactl ik`).
+std::vector<Vec3> read_positions(const std::string& path);
+
+}  // namespace delta

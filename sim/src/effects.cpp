@@ -1,0 +1,84 @@
+// The effect vocabulary of shared/SPEC.md: geometry, measuring frame and joint sensor chain.
+#include "delta/effects.hpp"
+
+#include <Eigen/Geometry>
+
+namespace delta {
+
+const std::vector<std::string>& effect_vocabulary() {
+  static const std::vector<std::string> names = {
+      "joint_offset", "upper_arm_length", "lower_arm_length", "radius_offset",
+      "chain_angle",  "frame_misalignment", "backlash", "transmission_error", "encoder_scale"};
+  return names;
+}
+
+bool EffectSet::empty() const { return names().empty(); }
+
+std::vector<std::string> EffectSet::names() const {
+  std::vector<std::string> present;
+  if (joint_offset_deg) present.push_back("joint_offset");
+  if (upper_arm_length_m) present.push_back("upper_arm_length");
+  if (lower_arm_length_m) present.push_back("lower_arm_length");
+  if (radius_offset_m) present.push_back("radius_offset");
+  if (chain_angle_deg) present.push_back("chain_angle");
+  if (frame_misalignment) present.push_back("frame_misalignment");
+  if (backlash_deg) present.push_back("backlash");
+  if (transmission_error) present.push_back("transmission_error");
+  if (encoder_scale) present.push_back("encoder_scale");
+  return present;
+}
+
+Geometry apply_geometry_effects(const Geometry& nominal, const EffectSet& effects) {
+  Geometry geometry = nominal;
+  for (int j = 0; j < 3; ++j) {
+    ChainGeometry& chain = geometry.chains[j];
+    if (effects.upper_arm_length_m) chain.upper_arm_m += (*effects.upper_arm_length_m)[j];
+    if (effects.lower_arm_length_m) chain.lower_arm_m += (*effects.lower_arm_length_m)[j];
+    if (effects.radius_offset_m) chain.radius_offset_m += (*effects.radius_offset_m)[j];
+    if (effects.chain_angle_deg) chain.angle_deg += (*effects.chain_angle_deg)[j];
+  }
+  return geometry;
+}
+
+Eigen::Matrix3d misalignment_rotation(const Vec3& rotation_deg) {
+  const Vec3 r = rotation_deg * kRadPerDeg;
+  return (Eigen::AngleAxisd(r.z(), Vec3::UnitZ()) * Eigen::AngleAxisd(r.y(), Vec3::UnitY()) *
+          Eigen::AngleAxisd(r.x(), Vec3::UnitX()))
+      .toRotationMatrix();
+}
+
+Vec3 apply_frame_misalignment(const EffectSet& effects, const Vec3& true_position_m) {
+  if (!effects.frame_misalignment) return true_position_m;
+  const FrameMisalignment& frame = *effects.frame_misalignment;
+  return misalignment_rotation(frame.rotation_deg) * true_position_m + frame.translation_m;
+}
+
+JointSensorChain::JointSensorChain(const EffectSet& effects) : effects_(effects) {
+  for (int j = 0; j < 3; ++j) {
+    backlash_[j] = Backlash(effects.backlash_deg ? (*effects.backlash_deg)[j] : 0.0);
+  }
+}
+
+void JointSensorChain::reset() {
+  for (Backlash& play : backlash_) play.reset();
+}
+
+Vec3 JointSensorChain::update(const Vec3& true_alpha_deg) {
+  Vec3 measured;
+  for (int j = 0; j < 3; ++j) {
+    const double scale = effects_.encoder_scale ? (*effects_.encoder_scale)[j] : 0.0;
+    double amplitude = 0.0, period = 360.0, phase = 0.0;
+    if (effects_.transmission_error) {
+      amplitude = effects_.transmission_error->amplitude_deg[j];
+      period = effects_.transmission_error->period_deg[j];
+      phase = effects_.transmission_error->phase_rad[j];
+    }
+    double alpha = scale_and_transmission(true_alpha_deg[j], scale, amplitude, period, phase);
+    if (effects_.backlash_deg) alpha = backlash_[j].update(alpha);
+    if (effects_.joint_offset_deg) alpha += (*effects_.joint_offset_deg)[j];
+    measured[j] = alpha;
+  }
+  return measured;
+}
+
+}  // namespace delta

@@ -1,0 +1,64 @@
+// The paper's trajectories (validation run, experiments 1 and 2) and a seeded sweep of the cube.
+#include "delta/trajectory.hpp"
+
+#include <cmath>
+#include <random>
+#include <stdexcept>
+
+namespace delta {
+
+const std::vector<std::pair<std::string, std::string>>& trajectory_catalogue() {
+  static const std::vector<std::pair<std::string, std::string>> catalogue = {
+      {"validation", "paper's trajectory (1): x,y sinusoids of 5 mm, z down 10 mm; 13333 samples at 10 Hz"},
+      {"experiment1", "paper's experiment 1: ellipse 4.5 x 3 mm, z +-2 mm about -75 mm, 0.2 Hz; 5000 at 100 Hz"},
+      {"experiment2", "paper's experiment 2: figure-eight 3 x 3 mm at z = -75 mm, 0.2 Hz; 5000 at 100 Hz"},
+      {"sweep", "Lissajous sweep of the 10 mm cube, frequencies and phases drawn from --seed; 6000 at 10 Hz"}};
+  return catalogue;
+}
+
+Trajectory make_trajectory(const std::string& name, std::uint64_t seed) {
+  Trajectory trajectory;
+  trajectory.name = name;
+  const double two_pi = 2.0 * kPi;
+  if (name == "validation") {
+    trajectory.rate_hz = 10.0;
+    trajectory.samples = 13333;
+    trajectory.position_m = [two_pi](double t) {
+      return Vec3(-0.005 * std::sin(two_pi * 0.0075 * t), 0.005 * std::sin(two_pi * 0.03 * t),
+                  -0.07084 - t * 0.01 / 1333.3);
+    };
+  } else if (name == "experiment1") {
+    trajectory.rate_hz = 100.0;
+    trajectory.samples = 5000;
+    trajectory.position_m = [two_pi](double t) {
+      const double f = 0.2;
+      return Vec3(0.0045 * std::sin(two_pi * f * t), 0.003 * std::cos(two_pi * f * t),
+                  -0.075 + 0.002 * std::sin(two_pi * f * t));
+    };
+  } else if (name == "experiment2") {
+    trajectory.rate_hz = 100.0;
+    trajectory.samples = 5000;
+    trajectory.position_m = [two_pi](double t) {
+      const double f = 0.2;
+      return Vec3(0.003 * std::sin(two_pi * f * t), 0.003 * std::cos(2.0 * two_pi * f * t), -0.075);
+    };
+  } else if (name == "sweep") {
+    trajectory.rate_hz = 10.0;
+    trajectory.samples = 6000;
+    std::mt19937_64 generator(seed);
+    std::uniform_real_distribution<double> frequency(0.004, 0.04);
+    std::uniform_real_distribution<double> phase(0.0, two_pi);
+    const Vec3 f(frequency(generator), frequency(generator), frequency(generator));
+    const Vec3 p(phase(generator), phase(generator), phase(generator));
+    trajectory.position_m = [two_pi, f, p](double t) {
+      return Vec3(0.005 * std::sin(two_pi * f.x() * t + p.x()), 0.005 * std::sin(two_pi * f.y() * t + p.y()),
+                  -0.07584 + 0.005 * std::sin(two_pi * f.z() * t + p.z()));
+    };
+  } else {
+    throw std::invalid_argument("unknown trajectory '" + name +
+                                "' (choose validation, experiment1, experiment2 or sweep)");
+  }
+  return trajectory;
+}
+
+}  // namespace delta

@@ -1,0 +1,45 @@
+// Runs a command line in a shell for CLI tests and captures its exit code, stdout and stderr.
+#pragma once
+
+#include <sys/wait.h>
+
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+namespace delta::test {
+
+struct CommandResult {
+  int exit_code = -1;
+  std::string out;
+  std::string err;
+};
+
+inline std::string read_text(const std::string& path) {
+  std::ifstream input(path);
+  std::stringstream buffer;
+  buffer << input.rdbuf();
+  return buffer.str();
+}
+
+// `arguments` is appended to the deltactl path as shell words.
+inline CommandResult run_deltactl(const std::string& arguments) {
+  static int counter = 0;
+  const std::string stem = ::testing::TempDir() + "deltactl_run_" + std::to_string(++counter);
+  const std::string command = std::string(DELTACTL_PATH) + " " + arguments + " >" + stem + ".out 2>" + stem + ".err";
+  const int status = std::system(command.c_str());
+  CommandResult result;
+  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  result.out = read_text(stem + ".out");
+  result.err = read_text(stem + ".err");
+  return result;
+}
+
+inline void write_text(const std::string& path, const std::string& text) {
+  std::ofstream(path) << text;
+}
+
+inline bool file_exists(const std::string& path) { return std::ifstream(path).good(); }
+
+}  // namespace delta::test
