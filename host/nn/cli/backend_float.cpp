@@ -1,0 +1,47 @@
+// The `float` inverse-kinematics back end: a W.json (pure network or hybrid) evaluated in double.
+#include <memory>
+
+#include "delta/ik_backend.hpp"
+#include "delta/nn/trained_model.hpp"
+#include "delta/nn/weights_file.hpp"
+
+namespace delta::nn {
+namespace {
+
+class FloatIkBackend : public IkBackend {
+ public:
+  explicit FloatIkBackend(WeightsFile weights) : weights_(std::move(weights)) {}
+
+  std::vector<IkRow> evaluate(const std::vector<Vec3>& positions_m) override {
+    std::vector<IkRow> rows(positions_m.size());
+    for (std::size_t i = 0; i < positions_m.size(); ++i) {
+      const IkSolution solution = evaluate_model(weights_, positions_m[i]);
+      if (solution.ok()) rows[i].alpha_deg = solution.alpha_deg;
+      else rows[i].error = solution.reason();
+      // Positions outside the training range make the network extrapolate: count them.
+      const Network& network = weights_.network;
+      if ((positions_m[i].array() < network.input_min.array()).any() ||
+          (positions_m[i].array() > network.input_max.array()).any()) {
+        ++outside_training_range_;
+      }
+    }
+    return rows;
+  }
+
+  std::vector<std::string> report() const override {
+    return {"model: " + weights_.model + " (3-" + std::to_string(weights_.network.hidden()) + "-3 tanh network" +
+                (weights_.hybrid() ? " on the math model's residual)" : ")"),
+            "positions outside the training range (extrapolated): " + std::to_string(outside_training_range_)};
+  }
+
+ private:
+  WeightsFile weights_;
+  std::size_t outside_training_range_ = 0;
+};
+
+const RegisterIkBackend float_backend(
+    "float", "the network of W.json in double precision (pure network or hybrid); the default",
+    [](const std::string& weights_path) { return std::make_unique<FloatIkBackend>(read_weights_file(weights_path)); });
+
+}  // namespace
+}  // namespace delta::nn

@@ -1,0 +1,21 @@
+// Pose-wise evaluation of a weights file: the pure network, or the hybrid (math model with the
+// identified effects plus the network's residual).
+#pragma once
+
+#include "delta/effects.hpp"
+#include "delta/kinematics.hpp"
+#include "delta/nn/weights_file.hpp"
+
+namespace delta::nn {
+
+// The math model with memoryless effects, inverting the SPEC measurement chain: the measured
+// position is taken back through frame_misalignment, the closed-form inverse kinematics of the
+// nominal geometry with the geometric effects gives the true angle, then encoder_scale,
+// transmission_error and joint_offset give the measured angle. Backlash is ignored (it needs the
+// direction of motion). An unreachable pose is an error value, never NaN.
+IkSolution math_model_angles(const EffectSet& effects, const Vec3& measured_position_m);
+
+// Joint angles in degrees the model of `weights` predicts for a measured plate position in metres.
+IkSolution evaluate_model(const WeightsFile& weights, const Vec3& measured_position_m);
+
+}  // namespace delta::nn

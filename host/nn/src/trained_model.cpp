@@ -1,0 +1,40 @@
+// Pose-wise evaluation of pure-network and hybrid weights files.
+#include "delta/nn/trained_model.hpp"
+
+#include <Eigen/Geometry>
+
+namespace delta::nn {
+
+IkSolution math_model_angles(const EffectSet& effects, const Vec3& measured_position_m) {
+  Vec3 true_position_m = measured_position_m;
+  if (effects.frame_misalignment) {
+    const FrameMisalignment& frame = *effects.frame_misalignment;
+    true_position_m = misalignment_rotation(frame.rotation_deg).transpose() * (measured_position_m - frame.translation_m);
+  }
+  IkSolution solution = inverse_kinematics(apply_geometry_effects(Geometry::nominal(), effects), true_position_m);
+  if (!solution.ok()) return solution;
+  for (int j = 0; j < 3; ++j) {
+    const double scale = effects.encoder_scale ? (*effects.encoder_scale)[j] : 0.0;
+    const TransmissionError transmission = effects.transmission_error.value_or(TransmissionError{});
+    solution.alpha_deg[j] = scale_and_transmission(solution.alpha_deg[j], scale, transmission.amplitude_deg[j],
+                                                   transmission.period_deg[j], transmission.phase_rad[j]);
+  }
+  if (effects.joint_offset_deg) solution.alpha_deg += *effects.joint_offset_deg;
+  return solution;
+}
+
+IkSolution evaluate_model(const WeightsFile& weights, const Vec3& measured_position_m) {
+  IkSolution solution;
+  if (!measured_position_m.allFinite()) {
+    solution.error = KinematicsError::not_finite;
+    return solution;
+  }
+  if (weights.hybrid()) {
+    solution = math_model_angles(weights.effects, measured_position_m);
+    if (!solution.ok()) return solution;
+  }
+  solution.alpha_deg += weights.network.evaluate(measured_position_m);
+  return solution;
+}
+
+}  // namespace delta::nn

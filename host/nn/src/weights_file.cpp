@@ -1,0 +1,199 @@
+// Reader and writer of W.json (see weights_file.hpp for the layout) with line-accurate errors.
+#include "delta/nn/weights_file.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+#include "delta/effect_file.hpp"
+#include "delta/input_error.hpp"
+#include "delta/output_file.hpp"
+
+namespace delta::nn {
+namespace {
+
+using nlohmann::json;
+
+constexpr const char* kFormatName = "delta-nn-weights";
+
+std::size_t line_of_offset(const std::string& text, std::size_t offset) {
+  offset = std::min(offset, text.size());
+  return 1 + static_cast<std::size_t>(std::count(text.begin(), text.begin() + offset, '\n'));
+}
+
+// nlohmann::json keeps no positions: an error about a key points at its first quoted occurrence.
+struct Reader {
+  const std::string& text;
+  const std::string& path;
+  const json& document;
+
+  std::size_t line_of(const std::string& key) const {
+    const std::size_t found = text.find("\"" + key + "\"");
+    return found == std::string::npos ? 1 : line_of_offset(text, found);
+  }
+  [[noreturn]] void fail(const std::string& key, const std::string& reason) const {
+    throw InputError(path, line_of(key), reason);
+  }
+  const json& field(const std::string& key) const {
+    const auto found = document.find(key);
+    if (found == document.end()) throw InputError(path, 1, "missing field \"" + key + "\"");
+    return *found;
+  }
+  double number(const json& value, const std::string& key) const {
+    if (!value.is_number()) fail(key, key + ": expected a number, got " + value.dump());
+    const double number = value.get<double>();
+    if (!std::isfinite(number)) fail(key, key + ": value is not finite");
+    return number;
+  }
+  Eigen::VectorXd vector(const std::string& key, Eigen::Index size) const {
+    const json& value = field(key);
+    if (!value.is_array() || static_cast<Eigen::Index>(value.size()) != size) {
+      fail(key, key + ": expected an array of " + std::to_string(size) + " numbers");
+    }
+    Eigen::VectorXd result(size);
+    for (Eigen::Index i = 0; i < size; ++i) result[i] = number(value[static_cast<std::size_t>(i)], key);
+    return result;
+  }
+  Eigen::MatrixXd matrix(const std::string& key, Eigen::Index rows, Eigen::Index columns) const {
+    const json& value = field(key);
+    const std::string shape = std::to_string(rows) + " rows of " + std::to_string(columns) + " numbers";
+    if (!value.is_array() || static_cast<Eigen::Index>(value.size()) != rows) {
+      fail(key, key + ": expected " + shape + ", got " + std::to_string(value.is_array() ? value.size() : 0) + " rows");
+    }
+    Eigen::MatrixXd result(rows, columns);
+    for (Eigen::Index r = 0; r < rows; ++r) {
+      const json& row = value[static_cast<std::size_t>(r)];
+      if (!row.is_array() || static_cast<Eigen::Index>(row.size()) != columns) {
+        fail(key, key + ": row " + std::to_string(r + 1) + " is not an array of " + std::to_string(columns) +
+                      " numbers (expected " + shape + ")");
+      }
+      for (Eigen::Index c = 0; c < columns; ++c) result(r, c) = number(row[static_cast<std::size_t>(c)], key);
+    }
+    return result;
+  }
+};
+
+std::string vector_text(const Eigen::VectorXd& values) {
+  std::string text = "[";
+  for (Eigen::Index i = 0; i < values.size(); ++i) text += (i ? ", " : "") + format_number(values[i]);
+  return text + "]";
+}
+
+std::string matrix_text(const Eigen::MatrixXd& values) {
+  std::string text = "[";
+  for (Eigen::Index r = 0; r < values.rows(); ++r) {
+    text += std::string(r ? ",\n    " : "\n    ") + vector_text(values.row(r).transpose());
+  }
+  return text + "]";
+}
+
+}  // namespace
+
+WeightsFile parse_weights_file(const std::string& text, const std::string& path) {
+  json document;
+  try {
+    document = json::parse(text);
+  } catch (const json::parse_error& error) {
+    std::string reason = error.what();
+    const auto detail = reason.find("parse error");
+    if (detail != std::string::npos) reason = reason.substr(detail);
+    throw InputError(path, error.byte ? line_of_offset(text, error.byte - 1) : 0, "invalid JSON: " + reason);
+  }
+  if (!document.is_object()) throw InputError(path, 1, "a weights file must be a JSON object");
+  const Reader reader{text, path, document};
+  const json& format = reader.field("format");
+  if (format != kFormatName) reader.fail("format", "format must be \"" + std::string(kFormatName) + "\", got " + format.dump());
+  const json& version = reader.field("version");
+  if (!version.is_number_integer() || version.get<int>() != kWeightsFileVersion) {
+    reader.fail("version", "unsupported weights file version " + version.dump() + " (this build reads version " +
+                               std::to_string(kWeightsFileVersion) + ")");
+  }
+  WeightsFile weights;
+  const json& model = reader.field("model");
+  if (model != "network" && model != "hybrid") {
+    reader.fail("model", "model must be \"network\" or \"hybrid\", got " + model.dump());
+  }
+  weights.model = model.get<std::string>();
+  const json& hidden_value = reader.field("hidden");
+  if (!hidden_value.is_number_integer() || hidden_value.get<long long>() < 1 || hidden_value.get<long long>() > 10000) {
+    reader.fail("hidden", "hidden must be a whole number of neurons between 1 and 10000, got " + hidden_value.dump());
+  }
+  const Eigen::Index hidden = hidden_value.get<Eigen::Index>();
+  Network& network = weights.network;
+  network.input_min = reader.vector("input_min", 3);
+  network.input_max = reader.vector("input_max", 3);
+  network.output_min = reader.vector("output_min", 3);
+  network.output_max = reader.vector("output_max", 3);
+  for (int k = 0; k < 3; ++k) {
+    if (!(network.input_max[k] > network.input_min[k])) {
+      reader.fail("input_max", "input_max must exceed input_min on every axis (mapminmax divides by the range)");
+    }
+    if (!(network.output_max[k] > network.output_min[k])) {
+      reader.fail("output_max", "output_max must exceed output_min on every joint (mapminmax divides by the range)");
+    }
+  }
+  network.input_weights = reader.matrix("input_weights", hidden, 3);
+  network.hidden_bias = reader.vector("hidden_bias", hidden);
+  network.output_weights = reader.matrix("output_weights", 3, hidden);
+  network.output_bias = reader.vector("output_bias", 3);
+  const auto effects = document.find("effects");
+  if (weights.hybrid()) {
+    if (effects == document.end()) throw InputError(path, 1, "a hybrid model needs an \"effects\" object");
+    try {
+      weights.effects = parse_effects(effects->dump(), path);
+    } catch (const InputError& error) {
+      reader.fail("effects", "effects: " + error.reason());
+    }
+    if (weights.effects.backlash_deg) {
+      reader.fail("effects", "effects: backlash depends on the direction of motion; a pose-wise model cannot apply it");
+    }
+  } else if (effects != document.end()) {
+    reader.fail("effects", "effects belong to a hybrid model only (this file says model \"network\")");
+  }
+  const auto provenance = document.find("provenance");
+  if (provenance != document.end()) {
+    if (!provenance->is_object()) reader.fail("provenance", "provenance must be a JSON object");
+    weights.provenance = *provenance;
+  }
+  return weights;
+}
+
+WeightsFile read_weights_file(const std::string& path) {
+  std::ifstream input(path);
+  if (!input) throw InputError(path, 0, "cannot open file");
+  std::stringstream buffer;
+  buffer << input.rdbuf();
+  const std::string text = buffer.str();
+  if (text.find_first_not_of(" \t\r\n") == std::string::npos) throw InputError(path, 0, "empty file");
+  return parse_weights_file(text, path);
+}
+
+std::string weights_file_text(const WeightsFile& weights) {
+  const Network& network = weights.network;
+  std::string text = "{\n";
+  text += "  \"format\": \"" + std::string(kFormatName) + "\",\n";
+  text += "  \"version\": " + std::to_string(kWeightsFileVersion) + ",\n";
+  text += "  \"model\": " + json(weights.model).dump() + ",\n";
+  text += "  \"hidden\": " + std::to_string(network.hidden()) + ",\n";
+  text += "  \"input_min\": " + vector_text(network.input_min) + ",\n";
+  text += "  \"input_max\": " + vector_text(network.input_max) + ",\n";
+  text += "  \"output_min\": " + vector_text(network.output_min) + ",\n";
+  text += "  \"output_max\": " + vector_text(network.output_max) + ",\n";
+  text += "  \"input_weights\": " + matrix_text(network.input_weights) + ",\n";
+  text += "  \"hidden_bias\": " + vector_text(network.hidden_bias) + ",\n";
+  text += "  \"output_weights\": " + matrix_text(network.output_weights) + ",\n";
+  text += "  \"output_bias\": " + vector_text(network.output_bias) + ",\n";
+  if (weights.hybrid()) text += "  \"effects\": " + effects_to_json(weights.effects).dump() + ",\n";
+  // nlohmann's dump prints doubles as shortest round-trip text and sorts keys: deterministic.
+  text += "  \"provenance\": " + weights.provenance.dump() + "\n";
+  return text + "}\n";
+}
+
+void write_weights_file(const std::string& path, const WeightsFile& weights) {
+  OutputFile file(path);
+  file.stream() << weights_file_text(weights);
+  file.commit();
+}
+
+}  // namespace delta::nn
