@@ -1,0 +1,51 @@
+// Single-joint plant: semi-implicit Euler on the rotor side with sticking Coulomb friction.
+#include "delta/joint_plant.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "delta/geometry.hpp"
+
+namespace delta {
+
+double rotor_side_inertia(const JointPlantParameters& parameters) {
+  return parameters.rotor_inertia_kg_m2 +
+         parameters.arm_inertia_kg_m2 / (parameters.gear_ratio * parameters.gear_ratio);
+}
+
+JointPlant::JointPlant(const JointPlantParameters& parameters, double shaft_angle_deg)
+    : parameters_(parameters),
+      inertia_kg_m2_(rotor_side_inertia(parameters)),
+      rotor_angle_rad_(shaft_angle_deg * kRadPerDeg * parameters.gear_ratio) {}
+
+double JointPlant::shaft_angle_deg() const {
+  return rotor_angle_rad_ / parameters_.gear_ratio * kDegPerRad;
+}
+
+std::int32_t JointPlant::encoder_count() const {
+  return static_cast<std::int32_t>(std::floor(shaft_angle_deg() / parameters_.encoder_resolution_deg));
+}
+
+void JointPlant::step(double current_a, double period_s, double extra_load_shaft_nm) {
+  const double limit = parameters_.current_limit_a;
+  const double motor_nm = parameters_.torque_constant_nm_per_a * std::clamp(current_a, -limit, limit);
+  const double dt = period_s / parameters_.substeps;
+  for (int n = 0; n < parameters_.substeps; ++n) {
+    const double shaft_rad = rotor_angle_rad_ / parameters_.gear_ratio;
+    const double load_shaft_nm = parameters_.gravity_nm * std::cos(shaft_rad) + extra_load_shaft_nm;
+    // Everything except Coulomb friction, referred to the rotor.
+    const double drive_nm = motor_nm - load_shaft_nm / parameters_.gear_ratio -
+                            parameters_.viscous_nm_s_per_rad * rotor_velocity_rad_s_;
+    if (rotor_velocity_rad_s_ == 0.0 && std::abs(drive_nm) <= parameters_.coulomb_nm) continue;  // stuck
+    const double direction = rotor_velocity_rad_s_ != 0.0 ? std::copysign(1.0, rotor_velocity_rad_s_)
+                                                          : std::copysign(1.0, drive_nm);
+    const double acceleration = (drive_nm - direction * parameters_.coulomb_nm) / inertia_kg_m2_;
+    const double new_velocity = rotor_velocity_rad_s_ + acceleration * dt;
+    // Friction cannot reverse the motion within a step: crossing zero means the joint stops there.
+    const bool reversed = rotor_velocity_rad_s_ != 0.0 && new_velocity * rotor_velocity_rad_s_ < 0.0;
+    rotor_velocity_rad_s_ = reversed ? 0.0 : new_velocity;
+    rotor_angle_rad_ += rotor_velocity_rad_s_ * dt;
+  }
+}
+
+}  // namespace delta
