@@ -2,6 +2,7 @@
 #pragma once
 
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <cstdio>
 #include <fstream>
@@ -26,7 +27,8 @@ inline std::string read_text(const std::string& path) {
 // `arguments` is appended to the deltactl path as shell words.
 inline CommandResult run_deltactl(const std::string& arguments) {
   static int counter = 0;
-  const std::string stem = ::testing::TempDir() + "deltactl_run_" + std::to_string(++counter);
+  // Unique across the test processes CTest runs in parallel.
+  const std::string stem = ::testing::TempDir() + "deltactl_run_" + std::to_string(::getpid()) + "_" + std::to_string(++counter);
   const std::string command = std::string(DELTACTL_PATH) + " " + arguments + " >" + stem + ".out 2>" + stem + ".err";
   const int status = std::system(command.c_str());
   CommandResult result;
