@@ -18,7 +18,10 @@ using test::file_exists;
 using test::run_deltactl;
 using test::write_text;
 
-std::string temp(const std::string& name) { return ::testing::TempDir() + "foundation_" + name; }
+// Unique per process: several build trees may run this suite at once on one machine.
+std::string temp(const std::string& name) {
+  return ::testing::TempDir() + "foundation_" + std::to_string(::getpid()) + "_" + name;
+}
 
 const std::string kHeader = "t_s,alpha1_deg,alpha2_deg,alpha3_deg,x_m,y_m,z_m\n";
 const std::string kRow1 = "0,30,30,30,0,0,-0.071295\n";
