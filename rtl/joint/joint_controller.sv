@@ -1,0 +1,308 @@
+// Three joint controllers (reference filter, VOB, DOB, eq. 5) on one bit-serial datapath, no DSP.
+//
+// Interface as a Vitis HLS block-level (ap_ctrl_hs) export of hls/joint's top: ap_start is taken
+// when idle; reference_i and encoder_i must stay stable until ap_ready; current_o, limited_o and
+// overflow_count_o are valid from ap_done (ap_ready and ap_done rise together) until the next
+// ap_done. The first period after reset starts from rest at its own input (golden:
+// fixed_rest_state). Latency: 808 cycles from ap_start to ap_done (6 input writes, 3 x 267 for
+// the joints, 1 done cycle); 33.7 us at 24 MHz, well inside the 100 us control period.
+module joint_controller (
+  input  logic         clk_i,
+  input  logic         rst_ni,
+  input  logic         ap_start_i,
+  output logic         ap_done_o,
+  output logic         ap_idle_o,
+  output logic         ap_ready_o,
+  input  logic [95:0]  reference_i,       // joint j at [32j +: 32], Q23.8 shaft encoder counts
+  input  logic [47:0]  encoder_i,         // joint j at [16j +: 16], shaft encoder counts
+  output logic [47:0]  current_o,         // joint j at [16j +: 16], applied current, Q0.15 A
+  output logic [2:0]   limited_o,         // joint j: the current limit clipped its command
+  output logic [15:0]  overflow_count_o   // saturated operands and states since reset (sticks at max)
+);
+  localparam int unsigned AccWidth = delta_joint_pkg::AccumulatorWidth;
+
+  typedef enum logic [1:0] {StateIdle, StateLoad, StateRun, StateDone} state_e;
+
+  state_e       state_q, state_d;
+  logic [2:0]   load_q, load_d;      // input write counter: joint = load / 2, reference then encoder
+  logic [1:0]   joint_q, joint_d;
+  logic [4:0]   pc_q, pc_d;
+  logic [2:0]   phase_q, phase_d;
+  logic [4:0]   bit_q, bit_d;
+  logic         bank_q, bank_d;      // bank written this period; the other holds the old states
+  logic         primed_q, primed_d;  // an earlier period has filled the old bank
+  logic [AccWidth-1:0] acc_q, acc_d;
+  logic [AccWidth-1:0] multiplicand_q, multiplicand_d;  // operand << bit
+  logic [23:0]  coefficient_q, coefficient_d;
+  logic [31:0]  first_q, first_d;    // operand a
+  logic [32:0]  difference_q, difference_d;  // a - b
+  logic [4:0]   source_q, source_d;  // source of the word arriving on read_data
+  logic [47:0]  current_q, current_d;
+  logic [2:0]   limited_q, limited_d;
+  logic [15:0]  overflow_q, overflow_d;
+
+  logic [5:0]   read_address, write_address;
+  logic [31:0]  read_data, write_data, source_data;
+  logic         write_enable, overflow_event;
+
+  // Fields of the current instruction (delta_joint_pkg, "An instruction is ...").
+  logic [1:0] op;
+  logic [4:0] source_a, source_b, source_c, instr_frac, instr_shift;
+  logic [2:0] operand_shift, dest;
+  logic [3:0] coefficient;
+  assign {op, source_a, source_b, source_c, operand_shift, coefficient, instr_frac, instr_shift, dest} =
+      delta_joint_pkg::program_rom(pc_q);
+
+  joint_state_ram u_state_ram (
+    .clk_i,
+    .read_address_i (read_address),
+    .read_data_o    (read_data),
+    .write_enable_i (write_enable),
+    .write_address_i(write_address),
+    .write_data_i   (write_data)
+  );
+
+  // Before the first period the old bank is empty: its states read as zero and its previous
+  // reference and encoder as this period's (rest at the first input).
+  // A source is {bank[1:0], slot[2:0]} (delta_joint_pkg::source_t).
+  function automatic logic is_input_slot(logic [2:0] slot);
+    is_input_slot = slot == delta_joint_pkg::SlotReference || slot == delta_joint_pkg::SlotEncoder;
+  endfunction
+
+  function automatic logic reads_new_bank(logic [4:0] source, logic primed);
+    reads_new_bank = source[4:3] == delta_joint_pkg::SourceNew || (!primed && is_input_slot(source[2:0]));
+  endfunction
+
+  function automatic logic reads_zero(logic [4:0] source, logic primed);
+    reads_zero = source[4:3] == delta_joint_pkg::SourceZero ||
+           (source[4:3] == delta_joint_pkg::SourceOld && !primed && !is_input_slot(source[2:0]));
+  endfunction
+
+  // Constant shifts selected per instruction (a barrel shifter would cost far more logic).
+  function automatic logic [AccWidth-1:0] init_value(logic [31:0] word, logic [4:0] frac, logic [4:0] shift);
+    logic [AccWidth-1:0] extended, shifted, half;
+    extended = {{(AccWidth - 32){word[31]}}, word};
+    unique case (frac)
+      5'd26:   shifted = extended << 26;
+      5'd25:   shifted = extended << 25;
+      5'd22:   shifted = extended << 22;
+      default: shifted = extended << 20;
+    endcase
+    half = '0;
+    half[7'(shift) - 7'd1] = 1'b1;
+    init_value = shifted + half;
+  endfunction
+
+  function automatic logic [AccWidth-1:0] shift_right(logic [AccWidth-1:0] value, logic [4:0] shift);
+    unique case (shift)
+      5'd26:   shift_right = $signed(value) >>> 26;
+      5'd25:   shift_right = $signed(value) >>> 25;
+      5'd22:   shift_right = $signed(value) >>> 22;
+      default: shift_right = $signed(value) >>> 29;
+    endcase
+  endfunction
+
+  // ((a - b) << shift) - c on 58 bits, exact.
+  function automatic logic [57:0] raw_operand(logic [32:0] difference, logic [31:0] subtrahend, logic [2:0] shift);
+    logic [57:0] extended, shifted;
+    extended = {{25{difference[32]}}, difference};
+    unique case (shift)
+      delta_joint_pkg::Shift8:  shifted = extended << 8;
+      delta_joint_pkg::Shift9:  shifted = extended << 9;
+      delta_joint_pkg::Shift16: shifted = extended << 16;
+      delta_joint_pkg::Shift24: shifted = extended << 24;
+      default:                  shifted = extended;
+    endcase
+    raw_operand = shifted - {{26{subtrahend[31]}}, subtrahend};
+  endfunction
+
+  logic [57:0]         operand_wide;
+  logic [39:0]         operand;
+  logic                operand_saturated;
+  logic [AccWidth-1:0] shifted_acc;
+  logic                state_saturated;
+  logic [31:0]         state_word;
+  logic                current_high, current_low;
+  logic [15:0]         current_word;
+  logic [4:0]          issue_source;
+
+  always_comb begin
+    operand_wide = raw_operand(difference_q, source_data, operand_shift);
+    operand_saturated = operand_wide[57:39] != {19{operand_wide[57]}};
+    operand = operand_saturated ? {operand_wide[57], {39{!operand_wide[57]}}} : operand_wide[39:0];
+    shifted_acc = shift_right(acc_q, instr_shift);
+    state_saturated = shifted_acc[AccWidth-1:31] != {(AccWidth - 31){shifted_acc[AccWidth-1]}};
+    state_word = state_saturated ? {shifted_acc[AccWidth-1], {31{!shifted_acc[AccWidth-1]}}} : shifted_acc[31:0];
+    current_high = $signed(shifted_acc) > $signed({{(AccWidth - 16){1'b0}}, delta_joint_pkg::CurrentLimit});
+    current_low = $signed(shifted_acc) < -$signed({{(AccWidth - 16){1'b0}}, delta_joint_pkg::CurrentLimit});
+    current_word = current_high ? delta_joint_pkg::CurrentLimit :
+                   current_low  ? 16'(-delta_joint_pkg::CurrentLimit) : shifted_acc[15:0];
+  end
+
+  assign source_data = reads_zero(source_q, primed_q) ? 32'd0 : read_data;
+
+  always_comb begin
+    // Which operand is fetched this cycle: a at phase 0, b at 1, c at 2.
+    unique case (phase_q)
+      3'd0:    issue_source = source_a;
+      3'd1:    issue_source = source_b;
+      default: issue_source = source_c;
+    endcase
+    read_address = {joint_q, reads_new_bank(issue_source, primed_q) ? bank_q : !bank_q, issue_source[2:0]};
+  end
+
+  always_comb begin
+    state_d        = state_q;
+    load_d         = load_q;
+    joint_d        = joint_q;
+    pc_d           = pc_q;
+    phase_d        = phase_q;
+    bit_d          = bit_q;
+    bank_d         = bank_q;
+    primed_d       = primed_q;
+    acc_d          = acc_q;
+    multiplicand_d = multiplicand_q;
+    coefficient_d  = coefficient_q;
+    first_d        = first_q;
+    difference_d   = difference_q;
+    source_d       = issue_source;
+    current_d      = current_q;
+    limited_d      = limited_q;
+    write_enable   = 1'b0;
+    write_address  = {joint_q, bank_q, dest};
+    write_data     = state_word;
+    overflow_event = 1'b0;
+
+    unique case (state_q)
+      StateIdle: begin
+        if (ap_start_i) begin
+          state_d = StateLoad;
+          load_d  = 3'd0;
+        end
+      end
+      StateLoad: begin
+        write_enable  = 1'b1;
+        write_address = {load_q[2:1], bank_q, load_q[0] ? delta_joint_pkg::SlotEncoder : delta_joint_pkg::SlotReference};
+        write_data    = load_q[0] ? {{16{encoder_i[16 * load_q[2:1] + 15]}}, encoder_i[16 * load_q[2:1] +: 16]}
+                                  : reference_i[32 * load_q[2:1] +: 32];
+        load_d        = load_q + 3'd1;
+        if (load_q == 3'd5) begin
+          state_d = StateRun;
+          joint_d = 2'd0;
+          pc_d    = 5'd0;
+          phase_d = 3'd0;
+        end
+      end
+      StateRun: begin
+        unique case (op)
+          delta_joint_pkg::OpInit: begin
+            phase_d = phase_q + 3'd1;
+            if (phase_q == 3'd1) begin
+              acc_d   = init_value(source_data, instr_frac, instr_shift);
+              phase_d = 3'd0;
+              pc_d    = pc_q + 5'd1;
+            end
+          end
+          delta_joint_pkg::OpMac: begin
+            phase_d = phase_q + 3'd1;
+            unique case (phase_q)
+              3'd0: ;
+              3'd1: first_d = source_data;
+              3'd2: difference_d = {first_q[31], first_q} - {source_data[31], source_data};
+              3'd3: begin
+                multiplicand_d = {{(AccWidth - 40){operand[39]}}, operand};
+                coefficient_d  = delta_joint_pkg::coefficient_value(coefficient);
+                bit_d          = 5'd0;
+                overflow_event = operand_saturated;
+              end
+              default: begin
+                // Bit-serial two's complement product: the sign bit (23) weighs -2^23.
+                if (coefficient_q[0]) acc_d = bit_q == 5'd23 ? acc_q - multiplicand_q : acc_q + multiplicand_q;
+                multiplicand_d = multiplicand_q << 1;
+                coefficient_d  = coefficient_q >> 1;
+                bit_d          = bit_q + 5'd1;
+                phase_d        = phase_q;
+                if (bit_q == 5'd23) begin
+                  phase_d = 3'd0;
+                  pc_d    = pc_q + 5'd1;
+                end
+              end
+            endcase
+          end
+          delta_joint_pkg::OpStoreState: begin
+            write_enable   = 1'b1;
+            overflow_event = state_saturated;
+            pc_d           = pc_q + 5'd1;
+          end
+          default: begin  // OpStoreCurrent: last instruction of a joint
+            write_enable = 1'b1;
+            write_data   = {{16{current_word[15]}}, current_word};
+            current_d[16 * joint_q +: 16] = current_word;
+            limited_d[joint_q] = current_high || current_low;
+            pc_d = 5'd0;
+            if (joint_q == 2'd2) begin
+              state_d = StateDone;
+            end else begin
+              joint_d = joint_q + 2'd1;
+            end
+          end
+        endcase
+      end
+      default: begin  // StateDone: one cycle
+        state_d  = StateIdle;
+        bank_d   = !bank_q;
+        primed_d = 1'b1;
+      end
+    endcase
+
+    overflow_d = overflow_q;
+    if (overflow_event && overflow_q != 16'hFFFF) overflow_d = overflow_q + 16'd1;
+  end
+
+  always_ff @(posedge clk_i or negedge rst_ni) begin
+    if (!rst_ni) begin
+      state_q        <= StateIdle;
+      load_q         <= '0;
+      joint_q        <= '0;
+      pc_q           <= '0;
+      phase_q        <= '0;
+      bit_q          <= '0;
+      bank_q         <= 1'b0;
+      primed_q       <= 1'b0;
+      acc_q          <= '0;
+      multiplicand_q <= '0;
+      coefficient_q  <= '0;
+      first_q        <= '0;
+      difference_q   <= '0;
+      source_q       <= delta_joint_pkg::Zero;
+      current_q      <= '0;
+      limited_q      <= '0;
+      overflow_q     <= '0;
+    end else begin
+      state_q        <= state_d;
+      load_q         <= load_d;
+      joint_q        <= joint_d;
+      pc_q           <= pc_d;
+      phase_q        <= phase_d;
+      bit_q          <= bit_d;
+      bank_q         <= bank_d;
+      primed_q       <= primed_d;
+      acc_q          <= acc_d;
+      multiplicand_q <= multiplicand_d;
+      coefficient_q  <= coefficient_d;
+      first_q        <= first_d;
+      difference_q   <= difference_d;
+      source_q       <= source_d;
+      current_q      <= current_d;
+      limited_q      <= limited_d;
+      overflow_q     <= overflow_d;
+    end
+  end
+
+  assign ap_idle_o        = state_q == StateIdle;
+  assign ap_done_o        = state_q == StateDone;
+  assign ap_ready_o       = state_q == StateDone;
+  assign current_o        = current_q;
+  assign limited_o        = limited_q;
+  assign overflow_count_o = overflow_q;
+endmodule

@@ -1,0 +1,11 @@
+# Joint control: double and fixed-point controllers, closed loops on the plant, HLS and RTL bit-exactness.
+delta_add_gtest(control_tests
+  SOURCES
+    ${CMAKE_CURRENT_LIST_DIR}/control/test_joint_fixed.cpp
+    ${CMAKE_CURRENT_LIST_DIR}/control/test_joint_closed_loop.cpp
+  LIBRARIES delta::control
+  LABELS control)
+delta_add_gtest(control_bit_exact_tests
+  SOURCES ${CMAKE_CURRENT_LIST_DIR}/control/test_joint_bit_exact.cpp
+  LIBRARIES delta::control delta::joint_hls delta::joint_rtl
+  LABELS control rtl)
