@@ -1,0 +1,73 @@
+// deltactl train: fit the inverse-kinematics network (or the hybrid) to a recording -> W.json.
+#include <chrono>
+#include <iostream>
+#include <memory>
+
+#include <CLI/CLI.hpp>
+
+#include "delta/command.hpp"
+#include "delta/nn/model_training.hpp"
+#include "delta/table.hpp"
+
+namespace delta::nn {
+namespace {
+
+struct TrainOptions {
+  std::string data;
+  std::string out;
+  std::string model = "network";
+  TrainingOptions training;
+};
+
+void run_train(const TrainOptions& options) {
+  const Recording recording = read_recording(options.data);
+  const auto start = std::chrono::steady_clock::now();
+  const ModelTraining result = train_model(recording, options.model, options.training, [](const TrainingEpoch& epoch) {
+    std::cerr << "train: " << describe_epoch(epoch) << '\n';
+  });
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  write_weights_file(options.out, result.weights);
+  if (result.effect_fit) {
+    const EffectFit& fit = *result.effect_fit;
+    std::cerr << "train: math model fitted in " << fit.iterations << " iterations, RMSE per joint "
+              << fixed(fit.rmse_before_deg[0], 4) << ' ' << fixed(fit.rmse_before_deg[1], 4) << ' '
+              << fixed(fit.rmse_before_deg[2], 4) << " -> " << fixed(fit.rmse_after_deg[0], 4) << ' '
+              << fixed(fit.rmse_after_deg[1], 4) << ' ' << fixed(fit.rmse_after_deg[2], 4) << " deg\n";
+  }
+  const TrainingResult& training = result.training;
+  std::cerr << "train: " << options.model << " 3-" << options.training.hidden << "-3 on " << training.training_samples
+            << " samples (+" << training.validation_samples << " validation), " << training.epochs
+            << " epochs, stopped by " << training.stop_reason << ", best epoch " << training.best_epoch
+            << ", validation RMSE " << fixed(std::sqrt(training.validation_mse_deg2), 5) << " deg, "
+            << fixed(seconds, 1) << " s -> " << options.out << '\n';
+}
+
+const RegisterCommand command("train", 40, [](CLI::App& root) {
+  auto options = std::make_shared<TrainOptions>();
+  CLI::App* sub = root.add_subcommand("train", "Train the inverse-kinematics network on a recording (-> W.json)");
+  sub->footer(
+      "\nLevenberg-Marquardt (MATLAB trainlm's damping schedule) on the sum of squared joint-angle errors in\n"
+      "degrees, analytic Jacobian, inputs and outputs scaled to [-1, 1] from the data (mapminmax).\n"
+      "A seeded share of the samples (--validation) is held out: training stops when it has not improved\n"
+      "for 6 epochs in a row, when the training error has plateaued (< 0.1 % over 25 epochs), or at\n"
+      "--max-epochs; the weights with the best validation error are kept. One line per epoch on stderr.\n"
+      "--model hybrid first fits the math model's effects (geometry per chain, joint offsets, encoder\n"
+      "scales, frame tilt and shift) and trains the network on what remains.\n"
+      "The same data, seed and options give the same W.json, byte for byte, with any thread count.\n"
+      "Example: deltactl train --data rec.csv --out W.json --seed 1 --hidden 25");
+  sub->add_option("--data", options->data, "recording to fit (SPEC CSV)")->required();
+  sub->add_option("--out", options->out, "weights file to write (W.json)")->required();
+  sub->add_option("--seed", options->training.seed, "seed of the initial weights and the validation split")->capture_default_str();
+  sub->add_option("--hidden", options->training.hidden, "hidden tanh neurons")->capture_default_str()->check(CLI::Range(1, 1000));
+  sub->add_option("--model", options->model, "network (the paper's) or hybrid (math model + network)")
+      ->capture_default_str()->check(CLI::IsMember({"network", "hybrid"}));
+  sub->add_option("--max-epochs", options->training.max_epochs, "epoch limit")->capture_default_str()->check(CLI::Range(1, 100000));
+  sub->add_option("--validation", options->training.validation_fraction, "share of samples held out for early stopping")
+      ->capture_default_str()->check(CLI::Range(0.0, 0.5));
+  sub->add_option("--threads", options->training.threads, "worker threads (0: all cores; same result for any)")
+      ->capture_default_str()->check(CLI::Range(0, 256));
+  sub->callback([options] { run_train(*options); });
+});
+
+}  // namespace
+}  // namespace delta::nn
