@@ -99,6 +99,14 @@ WeightsFile parse_weights_file(const std::string& text, const std::string& path)
     const auto detail = reason.find("parse error");
     if (detail != std::string::npos) reason = reason.substr(detail);
     throw InputError(path, error.byte ? line_of_offset(text, error.byte - 1) : 0, "invalid JSON: " + reason);
+  } catch (const json::out_of_range& error) {
+    // A number too large for a double (1e999): name the line of the offending text.
+    const std::string reason = error.what();
+    const std::size_t quote = reason.find('\'');
+    const std::string token = quote == std::string::npos ? "" : reason.substr(quote + 1, reason.rfind('\'') - quote - 1);
+    const std::size_t at = token.empty() ? std::string::npos : text.find(token);
+    throw InputError(path, at == std::string::npos ? 0 : line_of_offset(text, at),
+                     "a number is not finite (overflows a double): " + token);
   }
   if (!document.is_object()) throw InputError(path, 1, "a weights file must be a JSON object");
   const Reader reader{text, path, document};

@@ -1,0 +1,60 @@
+// deltactl train and table1 on a small recording: progress per epoch, a usable W.json, bad input.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+
+#include "../support/run_command.hpp"
+#include "delta/nn/weights_file.hpp"
+#include "nn_test_data.hpp"
+
+namespace delta::nn {
+namespace {
+
+using delta::test::run_deltactl;
+
+std::string small_recording(const std::string& experiment, std::size_t samples, std::uint64_t seed) {
+  const std::string path = ::testing::TempDir() + "nn_cli_" + experiment + ".csv";
+  write_recording(path, test::record(experiment, test::paper_like_effects(), samples, seed));
+  return path;
+}
+
+TEST(TrainCommand, OneProgressLinePerEpochAndSameSeedSameFile) {
+  const std::string data = small_recording("validation", 1500, 1);
+  const std::string a = ::testing::TempDir() + "nn_cli_a.json", b = ::testing::TempDir() + "nn_cli_b.json";
+  const auto first = run_deltactl("train --data " + data + " --out " + a + " --seed 2 --hidden 6 --max-epochs 4");
+  ASSERT_EQ(first.exit_code, 0) << first.err;
+  EXPECT_EQ(std::count(first.err.begin(), first.err.end(), '\n'), 5) << first.err;  // 4 epochs + summary
+  EXPECT_NE(first.err.find("epoch    4"), std::string::npos) << first.err;
+  const auto second = run_deltactl("train --data " + data + " --out " + b + " --seed 2 --hidden 6 --max-epochs 4 --threads 1");
+  ASSERT_EQ(second.exit_code, 0) << second.err;
+  EXPECT_EQ(delta::test::read_text(a), delta::test::read_text(b));
+  const WeightsFile weights = read_weights_file(a);
+  EXPECT_EQ(weights.network.hidden(), 6);
+  EXPECT_EQ(weights.provenance.at("seed"), 2);
+}
+
+TEST(TrainCommand, BadRecordingExitsWith2AndWritesNothing) {
+  const std::string data = ::testing::TempDir() + "nn_cli_bad.csv";
+  delta::test::write_text(data, "t_s,alpha1_deg,alpha2_deg,alpha3_deg,x_m,y_m,z_m\n0,30,30,30,0,0,-0.07\n1,30,nan,30,0,0,-0.07\n");
+  const std::string out = ::testing::TempDir() + "nn_cli_bad.json";
+  const auto result = run_deltactl("train --data " + data + " --out " + out);
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_NE(result.err.find(data + ":3:"), std::string::npos) << result.err;
+  EXPECT_FALSE(delta::test::file_exists(out));
+}
+
+TEST(Table1Command, PrintsEveryModelForFitAndHoldout) {
+  const std::string data = small_recording("validation", 1500, 1);
+  const std::string check = small_recording("sweep", 600, 7);
+  const auto result = run_deltactl("table1 --data " + data + " --holdout " + check + " --max-epochs 3 --hidden 8");
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  for (const char* row : {"paper: math model", "paper: NN 3-25-3", "ours: math model (nominal)",
+                          "ours: math model + identified effects", "ours: network 3-8-3", "ours: hybrid"}) {
+    const std::size_t first = result.out.find(row);
+    ASSERT_NE(first, std::string::npos) << row << "\n" << result.out;
+    EXPECT_NE(result.out.find(row, first + 1), std::string::npos) << "one row per recording: " << row;
+  }
+}
+
+}  // namespace
+}  // namespace delta::nn

@@ -1,0 +1,143 @@
+// W.json: exact round trip, the loader's rejections (exit code 2 through deltactl, no output file),
+// and the float back end of `deltactl ik` against Network::evaluate.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <random>
+
+#include "../support/run_command.hpp"
+#include "delta/csv.hpp"
+#include "delta/input_error.hpp"
+#include "delta/nn/weights_file.hpp"
+#include "delta/output_file.hpp"
+
+namespace delta::nn {
+namespace {
+
+using delta::test::file_exists;
+using delta::test::run_deltactl;
+using delta::test::write_text;
+
+// A seeded random 3-5-3 network with realistic scaling (the 10 mm cube, angles about 30 deg).
+WeightsFile random_weights(std::uint64_t seed, int hidden = 5) {
+  std::printf("seed %llu\n", static_cast<unsigned long long>(seed));
+  std::mt19937_64 generator(seed);
+  std::uniform_real_distribution<double> uniform(-2.0, 2.0);
+  WeightsFile weights;
+  Network& n = weights.network;
+  n.input_min = Vec3(-0.005, -0.005, -0.081);
+  n.input_max = Vec3(0.005, 0.005, -0.0708);
+  n.output_min = Vec3(14.1, 15.2, 16.3);
+  n.output_max = Vec3(45.5, 44.4, 43.3);
+  n.input_weights = Eigen::MatrixXd::NullaryExpr(hidden, 3, [&] { return uniform(generator); });
+  n.hidden_bias = Eigen::VectorXd::NullaryExpr(hidden, [&] { return uniform(generator); });
+  n.output_weights = Eigen::MatrixXd::NullaryExpr(3, hidden, [&] { return uniform(generator) / 3.0; });
+  n.output_bias = Vec3(uniform(generator), uniform(generator), uniform(generator)) / 3.0;
+  weights.provenance = {{"tool", "test"}, {"seed", seed}};
+  return weights;
+}
+
+std::string temp(const std::string& name) { return ::testing::TempDir() + "nn_weights_" + name; }
+
+TEST(WeightsFile, RoundTripIsExactAndTheTextDeterministic) {
+  const WeightsFile weights = random_weights(11);
+  const std::string text = weights_file_text(weights);
+  const WeightsFile back = parse_weights_file(text, "memory");
+  EXPECT_EQ(back.network.input_weights, weights.network.input_weights);
+  EXPECT_EQ(back.network.hidden_bias, weights.network.hidden_bias);
+  EXPECT_EQ(back.network.output_weights, weights.network.output_weights);
+  EXPECT_EQ(back.network.output_bias, weights.network.output_bias);
+  EXPECT_EQ(back.network.input_min, weights.network.input_min);
+  EXPECT_EQ(back.network.output_max, weights.network.output_max);
+  EXPECT_EQ(back.provenance, weights.provenance);
+  EXPECT_EQ(weights_file_text(back), text);
+}
+
+TEST(WeightsFile, HybridKeepsItsEffectsAndRefusesBacklash) {
+  WeightsFile weights = random_weights(12);
+  weights.model = "hybrid";
+  weights.effects.joint_offset_deg = Vec3(0.1, -0.2, 0.3);
+  weights.effects.chain_angle_deg = Vec3(-0.5, 0.25, 0.125);
+  const WeightsFile back = parse_weights_file(weights_file_text(weights), "memory");
+  ASSERT_TRUE(back.hybrid());
+  EXPECT_EQ(*back.effects.joint_offset_deg, *weights.effects.joint_offset_deg);
+  EXPECT_EQ(*back.effects.chain_angle_deg, *weights.effects.chain_angle_deg);
+  weights.effects.backlash_deg = Vec3(0.1, 0, 0);
+  EXPECT_THROW(parse_weights_file(weights_file_text(weights), "memory"), InputError);
+}
+
+struct BadCase {
+  std::string name;
+  std::string from;
+  std::string to;
+  std::string reason;  // part of the expected message
+};
+
+TEST(WeightsFile, DeltactlRejectsBrokenFilesWithFileLineReasonAndExitCode2) {
+  const std::string good = weights_file_text(random_weights(13, 2));
+  const std::string in = temp("in.csv");
+  write_text(in, "x_m,y_m,z_m\n0,0,-0.075\n");
+  const std::vector<BadCase> cases = {
+      {"version", "\"version\": 1", "\"version\": 2", "unsupported weights file version 2"},
+      {"shape", "\"hidden\": 2", "\"hidden\": 3", "input_weights: expected 3 rows"},
+      {"row", "\"output_bias\": [", "\"output_bias\": [1, ", "output_bias: expected an array of 3"},
+      {"infinite", "\"hidden_bias\": [", "\"hidden_bias\": [1e999, ", "not finite"},
+      {"null", "\"hidden_bias\": [", "\"hidden_bias\": [null, ", "hidden_bias: expected a number"},
+      {"model", "\"model\": \"network\"", "\"model\": \"table\"", "model must be"},
+      {"range", "\"input_max\": [0.005", "\"input_max\": [-0.005", "input_max must exceed"},
+      {"json", "\"format\"", "format\"", "invalid JSON"}};
+  for (const BadCase& c : cases) {
+    SCOPED_TRACE(c.name);
+    std::string text = good;
+    const std::size_t at = text.find(c.from);
+    ASSERT_NE(at, std::string::npos);
+    text.replace(at, c.from.size(), c.to);
+    if (c.name == "infinite" || c.name == "null") {  // keep the length: drop the original first value
+      const std::size_t value = at + c.to.size();
+      text.erase(value, text.find(',', value) + 2 - value);
+    }
+    const std::string path = temp(c.name + ".json");
+    write_text(path, text);
+    EXPECT_THROW(read_weights_file(path), InputError);
+    const std::string out = temp(c.name + "_out.csv");
+    std::remove(out.c_str());
+    const auto result = run_deltactl("ik --weights " + path + " --in " + in + " --out " + out);
+    EXPECT_EQ(result.exit_code, 2) << result.err;
+    EXPECT_NE(result.err.find(path + ":"), std::string::npos) << result.err;
+    EXPECT_NE(result.err.find(c.reason), std::string::npos) << result.err;
+    EXPECT_FALSE(file_exists(out));
+  }
+}
+
+TEST(FloatBackend, DeltactlIkEqualsNetworkEvaluateExactly) {
+  const WeightsFile weights = random_weights(14, 25);
+  const std::string path = temp("float.json");
+  write_weights_file(path, weights);
+  std::mt19937_64 generator(14);
+  std::uniform_real_distribution<double> xy(-0.006, 0.006), z(-0.082, -0.070);
+  std::string text = "t_s,x_m,y_m,z_m\n";
+  std::vector<Vec3> positions;
+  for (int i = 0; i < 200; ++i) {
+    positions.emplace_back(xy(generator), xy(generator), z(generator));
+    text += std::to_string(i) + "," + format_number(positions.back()[0]) + "," + format_number(positions.back()[1]) +
+            "," + format_number(positions.back()[2]) + "\n";
+  }
+  const std::string in = temp("float_in.csv"), out = temp("float_out.csv");
+  write_text(in, text);
+  const auto result = run_deltactl("ik --weights " + path + " --in " + in + " --out " + out + " --backend float");
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  const CsvTable table = read_csv(out, {"alpha1_deg", "alpha2_deg", "alpha3_deg"});
+  ASSERT_EQ(table.rows.size(), positions.size());
+  const WeightsFile loaded = read_weights_file(path);
+  for (std::size_t i = 0; i < positions.size(); ++i) {
+    const Vec3 expected = weights.network.evaluate(positions[i]);
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(table.rows[i][k], expected[k]) << "row " << i << " joint " << k;
+  }
+  // The default back end is the float one.
+  const auto fallback = run_deltactl("ik --weights " + path + " --in " + in + " --out " + out + "_default");
+  ASSERT_EQ(fallback.exit_code, 0) << fallback.err;
+  EXPECT_EQ(delta::test::read_text(out), delta::test::read_text(out + "_default"));
+}
+
+}  // namespace
+}  // namespace delta::nn
