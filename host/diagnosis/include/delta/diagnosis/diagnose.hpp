@@ -1,0 +1,109 @@
+// Sim-to-real diagnosis: which effect families explain a recording, judged on held-out data, how
+// far the gap shrinks, and what this data cannot tell apart.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "delta/diagnosis/effect_model.hpp"
+#include "delta/diagnosis/fit.hpp"
+
+namespace delta::diagnosis {
+
+// Encoder quantisation of 0.01 deg seen as uniform noise: 0.01 / sqrt(12) deg per joint.
+constexpr double kNoiseFloorDeg = 0.0028867513459481290;
+
+struct DiagnosisOptions {
+  double noise_floor_deg = kNoiseFloorDeg;
+  // Stopping rule: an effect joins the model only if it lowers the held-out mean square error
+  // (over the three joints) by more than significance * floor^2, i.e. it carries held-out signal
+  // of at least sqrt(significance) * floor RMS. 0.05 -> 0.22 floor = 0.00065 deg.
+  double significance = 0.05;
+  // `explained` when every joint's held-out RMSE is at most this many noise floors.
+  double explained_ratio = 1.2;
+  int threads = 2;
+  std::size_t screening_stride = 2;  // candidates are fitted on every 2nd FIT row (all rows with backlash)
+};
+
+// One family as the report ranks it.
+struct EffectFinding {
+  Family family;
+  bool significant = false;
+  Parameters theta;                 // parameters of the model this finding was measured with
+  Vec3 holdout_rmse_deg = Vec3::Zero();  // significant: after adding it (cumulative, in rank order);
+                                         // not significant: the final model plus this family
+  double holdout_gain_deg2 = 0.0;   // drop of held-out MSE (mean over joints) it brought
+};
+
+// One forward-selection step: every candidate tried and the one kept.
+struct SelectionStep {
+  FamilySet base;
+  std::vector<std::pair<Family, double>> candidate_mse;  // held-out MSE (mean over joints, deg^2)
+  int chosen = -1;                  // family index kept, -1 if none passed the stopping rule
+  double seconds = 0.0;             // time the round took
+  std::string note;
+};
+
+// A direction in parameter space the data barely sees.
+struct WeakDirection {
+  double singular_value = 0.0;      // of the column-normalised Jacobian (1 = fully independent)
+  std::vector<std::pair<int, double>> components;  // (parameter index, weight), largest first
+  std::string advice;               // the extra measurement that would separate them
+};
+
+struct Correlation {
+  int a = 0, b = 0;                 // parameter indices
+  double value = 0.0;
+};
+
+struct Identifiability {
+  std::string model;                // the family set it was computed for
+  std::vector<int> parameters;
+  std::vector<double> singular_values;  // normalised, descending
+  std::vector<WeakDirection> weak;      // singular value below 1e-2
+  std::vector<Correlation> correlations;  // |correlation| above 0.95, strongest first
+};
+
+struct RegionError {
+  std::string label;                // e.g. "x- y+ z-" (octant of the trajectory's bounding box)
+  std::size_t samples = 0;
+  Vec3 nominal_rmse_deg = Vec3::Zero();
+  Vec3 after_rmse_deg = Vec3::Zero();
+};
+
+struct Diagnosis {
+  double noise_floor_deg = kNoiseFloorDeg;
+  double significance_threshold_deg2 = 0.0;  // the stopping rule's minimum held-out MSE gain
+  bool explained = false;
+  FamilySet significant;
+  Parameters theta;                 // final model
+  EffectSet fitted_effects;         // final model in SPEC units
+  std::vector<EffectFinding> findings;  // ranked, most important first
+  std::vector<SelectionStep> steps;
+  std::vector<std::string> eliminated;  // families dropped again by backward elimination
+  Vec3 fit_rmse_nominal_deg = Vec3::Zero(), fit_rmse_after_deg = Vec3::Zero();
+  Vec3 holdout_rmse_nominal_deg = Vec3::Zero(), holdout_rmse_after_deg = Vec3::Zero();
+  double explained_fraction = 0.0;  // of the held-out MSE above the floor, the part removed
+  std::vector<Vec3> check_nominal_deg, check_after_deg;  // predictions per CHECK row
+  std::size_t check_unreachable = 0;
+  std::vector<RegionError> regions;
+  // Per subsystem: held-out RMSE per joint of the final model with that subsystem's families
+  // removed (how much of the gap lives there).
+  std::vector<std::pair<std::string, Vec3>> subsystem_rmse_without_deg;
+  Identifiability final_model, all_families;
+  double seconds = 0.0;
+};
+
+// Fits on `fit` only; `check` is used to choose effects and to report held-out errors.
+// Throws InputError (naming `fit_path`/`check_path` and the row's line) when the nominal model
+// cannot reach a measured position.
+Diagnosis diagnose(const std::vector<Sample>& fit, const std::vector<Sample>& check,
+                   const DiagnosisOptions& options = {});
+
+// Per-joint RMSE of measured - predicted.
+Vec3 joint_rmse(const std::vector<Sample>& rows, const std::vector<Vec3>& predicted);
+
+// Identifiability of `families` at theta on `rows`.
+Identifiability analyse_identifiability(const std::vector<Sample>& rows, FamilySet families, const Parameters& theta);
+
+}  // namespace delta::diagnosis

@@ -1,0 +1,339 @@
+// JSON, predictions CSV, Markdown report and plots of a diagnosis.
+#include "delta/diagnosis/report.hpp"
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "delta/effect_file.hpp"
+#include "delta/input_error.hpp"
+#include "delta/output_file.hpp"
+#include "delta/plot.hpp"
+#include "delta/table.hpp"
+
+namespace delta::diagnosis {
+namespace {
+
+using nlohmann::json;
+
+json triple(const Vec3& v) { return json::array({v[0], v[1], v[2]}); }
+
+double rms(const Vec3& v) { return std::sqrt(v.squaredNorm() / 3.0); }
+
+std::string parameter_label(int k) {
+  const ParameterInfo& info = parameter_table()[k];
+  return info.name + " [" + info.unit + "]";
+}
+
+json identifiability_json(const Identifiability& identifiability) {
+  json document;
+  document["model"] = identifiability.model;
+  json names = json::array();
+  for (int k : identifiability.parameters) names.push_back(parameter_label(k));
+  document["parameters"] = names;
+  document["normalised_singular_values"] = identifiability.singular_values;
+  json weak = json::array();
+  for (const WeakDirection& direction : identifiability.weak) {
+    json components = json::object();
+    for (const auto& [k, w] : direction.components) components[parameter_label(k)] = w;
+    weak.push_back({{"singular_value", direction.singular_value}, {"combination", components},
+                    {"separate_by", direction.advice}});
+  }
+  document["weak_directions"] = weak;
+  json correlations = json::array();
+  for (const Correlation& c : identifiability.correlations) {
+    correlations.push_back({{"a", parameter_label(c.a)}, {"b", parameter_label(c.b)}, {"correlation", c.value}});
+  }
+  document["strong_correlations"] = correlations;
+  return document;
+}
+
+std::string joined_parameters(Family family, const Parameters& theta) {
+  std::ostringstream text;
+  const json parameters = family_parameters_json(family, theta);
+  for (auto it = parameters.begin(); it != parameters.end(); ++it) {
+    if (it != parameters.begin()) text << "; ";
+    text << it.key() << " ";
+    if (it.value().is_array()) {
+      for (std::size_t j = 0; j < it.value().size(); ++j) {
+        text << (j ? ", " : "") << format_number(std::round(it.value()[j].get<double>() * 1e6) / 1e6);
+      }
+    } else {
+      text << format_number(std::round(it.value().get<double>() * 1e6) / 1e6);
+    }
+  }
+  return text.str();
+}
+
+}  // namespace
+
+json family_parameters_json(Family family, const Parameters& theta) {
+  const json effect = effects_to_json(to_effect_set(theta, single(family)))[family_name(family)];
+  if (effect.is_object()) return effect;
+  static const char* keys[kFamilyCount] = {"o_deg", "dL_A_m", "dL_B_m", "dr_m", "dphi_deg", "", "b_deg", "", "k"};
+  return json{{keys[index_of(family)], effect}};
+}
+
+json diagnosis_json(const Diagnosis& diagnosis) {
+  json document;
+  document["noise_floor_deg"] = diagnosis.noise_floor_deg;
+  document["explained"] = diagnosis.explained;
+  document["explained_fraction"] = diagnosis.explained_fraction;
+  json effects = json::array();
+  for (const EffectFinding& finding : diagnosis.findings) {
+    effects.push_back({{"name", family_name(finding.family)},
+                       {"significant", finding.significant},
+                       {"subsystem", subsystem_of(finding.family)},
+                       {"parameters", family_parameters_json(finding.family, finding.theta)},
+                       {"holdout_rmse_deg", triple(finding.holdout_rmse_deg)},
+                       {"holdout_gain_deg2", finding.holdout_gain_deg2}});
+  }
+  document["effects"] = effects;
+  document["holdout"] = {{"rmse_nominal_deg", triple(diagnosis.holdout_rmse_nominal_deg)},
+                         {"rmse_after_deg", triple(diagnosis.holdout_rmse_after_deg)},
+                         {"samples", diagnosis.check_after_deg.size()},
+                         {"unreachable_rows", diagnosis.check_unreachable}};
+  document["fit"] = {{"rmse_nominal_deg", triple(diagnosis.fit_rmse_nominal_deg)},
+                     {"rmse_after_deg", triple(diagnosis.fit_rmse_after_deg)}};
+  document["fitted_effects"] = effects_to_json(diagnosis.fitted_effects);
+  json steps = json::array();
+  for (const SelectionStep& step : diagnosis.steps) {
+    json candidates = json::object();
+    for (const auto& [family, mse] : step.candidate_mse) candidates[family_name(family)] = std::sqrt(mse);
+    steps.push_back({{"model", describe(step.base)},
+                     {"candidate_holdout_rmse_deg", candidates},
+                     {"added", step.chosen >= 0 ? json(family_name(family_at(step.chosen))) : json(nullptr)}});
+  }
+  document["selection"] = steps;
+  document["eliminated"] = diagnosis.eliminated;
+  json subsystems = json::object();
+  for (const auto& [name, rmse] : diagnosis.subsystem_rmse_without_deg) subsystems[name] = triple(rmse);
+  document["holdout_rmse_without_subsystem_deg"] = subsystems;
+  json regions = json::array();
+  for (const RegionError& region : diagnosis.regions) {
+    regions.push_back({{"octant", region.label}, {"samples", region.samples},
+                       {"rmse_nominal_deg", triple(region.nominal_rmse_deg)},
+                       {"rmse_after_deg", triple(region.after_rmse_deg)}});
+  }
+  document["regions"] = regions;
+  document["identifiability"] = {{"final_model", identifiability_json(diagnosis.final_model)},
+                                 {"all_families", identifiability_json(diagnosis.all_families)}};
+  document["seconds"] = diagnosis.seconds;
+  return document;
+}
+
+void write_predictions(std::ostream& out, const std::vector<Sample>& check, const Diagnosis& diagnosis) {
+  out << "t_s,alpha1_deg,alpha2_deg,alpha3_deg\n";
+  for (std::size_t i = 0; i < check.size(); ++i) {
+    out << format_number(check[i].t_s);
+    for (int j = 0; j < 3; ++j) out << ',' << format_number(diagnosis.check_after_deg[i][j]);
+    out << '\n';
+  }
+}
+
+void print_summary(std::ostream& out, const Diagnosis& diagnosis) {
+  Table table({"model", "held-out RMSE alpha_1 [deg]", "alpha_2 [deg]", "alpha_3 [deg]", "x noise floor"});
+  const double floor = diagnosis.noise_floor_deg;
+  auto row = [&](const std::string& name, const Vec3& rmse) {
+    table.add_row({name, fixed(rmse[0], 5), fixed(rmse[1], 5), fixed(rmse[2], 5), fixed(rmse.maxCoeff() / floor, 2)});
+  };
+  row("nominal", diagnosis.holdout_rmse_nominal_deg);
+  for (const EffectFinding& finding : diagnosis.findings) {
+    if (finding.significant) row(std::string("+ ") + family_name(finding.family), finding.holdout_rmse_deg);
+  }
+  table.print(out);
+  out << "\nnoise floor " << fixed(floor, 5) << " deg; explained: " << (diagnosis.explained ? "yes" : "no")
+      << " (" << fixed(100.0 * diagnosis.explained_fraction, 1) << " % of the held-out excess removed); "
+      << "significant: " << describe(diagnosis.significant) << "; " << fixed(diagnosis.seconds, 1) << " s\n";
+}
+
+void write_report(const std::string& markdown_path, const ReportInputs& inputs, const std::vector<Sample>& check,
+                  const Diagnosis& diagnosis) {
+  namespace fs = std::filesystem;
+  const fs::path markdown(markdown_path);
+  const std::string stem = markdown.stem().string();
+  const fs::path folder = markdown.has_parent_path() ? markdown.parent_path() : fs::path(".");
+  const std::string residual_png = stem + "_residual.png", ranking_png = stem + "_ranking.png",
+                    map_png = stem + "_map.png";
+  const double floor = diagnosis.noise_floor_deg;
+  std::error_code error;
+  fs::create_directories(folder, error);
+  if (error) throw InputError(markdown_path, 0, "cannot create the report folder: " + error.message());
+
+  // Residual along the CHECK trajectory, before and after.
+  {
+    PlotSpec spec;
+    spec.title = "Held-out residual (measured - predicted) along " + inputs.check_path;
+    PlotPanel before{"nominal model", "t [s]", "residual [deg]", {}, false};
+    PlotPanel after{"after diagnosis (" + describe(diagnosis.significant) + ")", "t [s]", "residual [deg]", {}, false};
+    for (int j = 0; j < 3; ++j) {
+      PlotSeries b{"alpha" + std::to_string(j + 1), {}, {}, false}, a = b;
+      for (std::size_t i = 0; i < check.size(); ++i) {
+        b.x.push_back(check[i].t_s);
+        b.y.push_back(check[i].alpha_deg[j] - diagnosis.check_nominal_deg[i][j]);
+        a.x.push_back(check[i].t_s);
+        a.y.push_back(check[i].alpha_deg[j] - diagnosis.check_after_deg[i][j]);
+      }
+      before.series.push_back(std::move(b));
+      after.series.push_back(std::move(a));
+    }
+    spec.panels = {before, after};
+    write_plot((folder / residual_png).string(), spec);
+  }
+  // Effect ranking: held-out RMSE as effects are added, and what each would still add.
+  {
+    PlotSpec spec;
+    spec.title = "Effect ranking on held-out data";
+    PlotPanel path{"held-out RMSE (mean over joints) after each added effect; step 0 = nominal", "step",
+                   "RMSE [deg]", {}, true};
+    PlotSeries model{"model", {0.0}, {rms(diagnosis.holdout_rmse_nominal_deg)}, true};
+    PlotSeries floor_line{"noise floor 0.01/sqrt(12) deg", {}, {}, false};
+    int step = 0;
+    for (const EffectFinding& finding : diagnosis.findings) {
+      if (!finding.significant) continue;
+      model.x.push_back(++step);
+      model.y.push_back(rms(finding.holdout_rmse_deg));
+    }
+    floor_line.x = {0.0, static_cast<double>(std::max(step, 1))};
+    floor_line.y = {floor, floor};
+    path.series = {model, floor_line};
+    PlotPanel gains{"held-out MSE gain of each family at its rank (ranked order; significant first)", "rank",
+                    "gain [deg^2]", {}, true};
+    PlotSeries gain{"gain", {}, {}, true};
+    PlotSeries threshold{"significance threshold", {}, {}, false};
+    for (std::size_t r = 0; r < diagnosis.findings.size(); ++r) {
+      gain.x.push_back(static_cast<double>(r + 1));
+      gain.y.push_back(std::max(diagnosis.findings[r].holdout_gain_deg2, 1e-12));
+    }
+    threshold.x = {1.0, static_cast<double>(diagnosis.findings.size())};
+    threshold.y = {diagnosis.significance_threshold_deg2, diagnosis.significance_threshold_deg2};
+    gains.series = {gain, threshold};
+    spec.panels = {path, gains};
+    write_plot((folder / ranking_png).string(), spec);
+  }
+  // Error map: RMS over joints per octant of the CHECK workspace, before and after.
+  {
+    PlotSpec spec;
+    spec.title = "Held-out error per workspace octant (0: x- y- z-, bit 0 x+, bit 1 y+, bit 2 z+)";
+    PlotPanel map{"RMS over joints per octant", "octant", "RMSE [deg]", {}, true};
+    PlotSeries before{"nominal", {}, {}, true}, after{"after diagnosis", {}, {}, true};
+    for (std::size_t r = 0; r < diagnosis.regions.size(); ++r) {
+      int index = 0;
+      const std::string& label = diagnosis.regions[r].label;
+      index |= label[1] == '+' ? 1 : 0;
+      index |= label[4] == '+' ? 2 : 0;
+      index |= label[7] == '+' ? 4 : 0;
+      before.x.push_back(index);
+      before.y.push_back(rms(diagnosis.regions[r].nominal_rmse_deg));
+      after.x.push_back(index);
+      after.y.push_back(rms(diagnosis.regions[r].after_rmse_deg));
+    }
+    map.series = {before, after};
+    spec.panels = {map};
+    spec.panel_height_px = 420;
+    write_plot((folder / map_png).string(), spec);
+  }
+
+  OutputFile file(markdown_path);
+  std::ostream& out = file.stream();
+  out << "# Sim-to-real diagnosis\n\n"
+      << "Fitted on `" << inputs.fit_path << "` (" << inputs.fit_rows << " rows), judged on the held-out `"
+      << inputs.check_path << "` (" << check.size() << " rows). Noise floor (encoder quantisation 0.01 deg / sqrt(12)): "
+      << fixed(floor, 5) << " deg.\n\n"
+      << "**Verdict:** " << (diagnosis.significant.any() ? describe(diagnosis.significant) : std::string("no effect"))
+      << (diagnosis.explained ? " explains the recording down to the noise floor"
+                              : " does not bring the held-out error to the noise floor: an effect outside the "
+                                "library is at work")
+      << "; " << fixed(100.0 * diagnosis.explained_fraction, 1)
+      << " % of the held-out mean-square error above the floor removed.\n\n";
+
+  out << "## How far the gap shrinks (held-out RMSE per joint)\n\n";
+  print_summary(out, diagnosis);
+
+  out << "\n## Effects, ranked\n\nSignificant effects in the order forward selection added them (judged on the "
+         "held-out rows only); then the others by the held-out gain they would still bring. The stopping rule "
+         "keeps an effect only if it lowers the held-out mean-square error by more than "
+      << format_number(diagnosis.significance_threshold_deg2) << " deg^2.\n\n";
+  Table ranking({"rank", "effect", "subsystem", "significant", "held-out gain [deg^2]", "parameters (SPEC units)"});
+  for (std::size_t r = 0; r < diagnosis.findings.size(); ++r) {
+    const EffectFinding& finding = diagnosis.findings[r];
+    std::ostringstream gain;
+    gain.precision(3);
+    gain << finding.holdout_gain_deg2;
+    ranking.add_row({std::to_string(r + 1), family_name(finding.family), subsystem_of(finding.family),
+                     finding.significant ? "yes" : "no", gain.str(), joined_parameters(finding.family, finding.theta)});
+  }
+  ranking.print(out);
+  out << "\n![effect ranking](" << ranking_png << ")\n";
+  if (!diagnosis.eliminated.empty()) {
+    out << "\nBackward elimination dropped again:";
+    for (const std::string& name : diagnosis.eliminated) out << ' ' << name;
+    out << " (made redundant by effects added later).\n";
+  }
+
+  out << "\n## Where: per subsystem\n\nHeld-out RMSE of the final model with one subsystem's effects taken out "
+         "(the part of the gap that lives there).\n\n";
+  Table subsystems({"final model without", "alpha_1 [deg]", "alpha_2 [deg]", "alpha_3 [deg]"});
+  for (const auto& [name, rmse] : diagnosis.subsystem_rmse_without_deg) {
+    subsystems.add_row({name, fixed(rmse[0], 5), fixed(rmse[1], 5), fixed(rmse[2], 5)});
+  }
+  subsystems.add_row({"(nothing: final model)", fixed(diagnosis.holdout_rmse_after_deg[0], 5),
+                      fixed(diagnosis.holdout_rmse_after_deg[1], 5), fixed(diagnosis.holdout_rmse_after_deg[2], 5)});
+  subsystems.print(out);
+
+  out << "\n## Where: per workspace region (held-out octants of the trajectory's bounding box)\n\n";
+  Table regions({"octant", "rows", "nominal RMSE a1/a2/a3 [deg]", "after RMSE a1/a2/a3 [deg]"});
+  for (const RegionError& region : diagnosis.regions) {
+    auto three = [](const Vec3& v) { return fixed(v[0], 4) + " / " + fixed(v[1], 4) + " / " + fixed(v[2], 4); };
+    regions.add_row({region.label, std::to_string(region.samples), three(region.nominal_rmse_deg),
+                     three(region.after_rmse_deg)});
+  }
+  regions.print(out);
+  out << "\n![error map](" << map_png << ")\n\n![residual along the trajectory](" << residual_png << ")\n";
+
+  out << "\n## Selection trace (held-out RMSE, mean over joints, of each candidate)\n\n";
+  for (const SelectionStep& step : diagnosis.steps) {
+    out << "- from **" << describe(step.base) << "**: ";
+    for (std::size_t c = 0; c < step.candidate_mse.size(); ++c) {
+      out << (c ? ", " : "") << family_name(step.candidate_mse[c].first) << " "
+          << fixed(std::sqrt(step.candidate_mse[c].second), 5);
+    }
+    out << " -> " << (step.chosen >= 0 ? std::string("added ") + family_name(family_at(step.chosen)) : "stop") << "\n";
+  }
+
+  out << "\n## What this data cannot tell apart\n\n";
+  auto weak_section = [&out](const Identifiability& identifiability, const std::string& what) {
+    out << "### " << what << " (" << identifiability.model << ")\n\n";
+    if (!identifiability.singular_values.empty()) {
+      out << "Normalised Jacobian singular values: largest " << fixed(identifiability.singular_values.front(), 3)
+          << ", smallest " << format_number(identifiability.singular_values.back()) << ".\n\n";
+    }
+    if (identifiability.weak.empty()) {
+      out << "No direction below 1e-2: every parameter is determined by this data.\n\n";
+    }
+    for (const WeakDirection& direction : identifiability.weak) {
+      out << "- singular value " << format_number(direction.singular_value) << ": ";
+      for (std::size_t c = 0; c < direction.components.size() && c < 6; ++c) {
+        out << (c ? " " : "") << (direction.components[c].second >= 0 ? "+" : "-")
+            << fixed(std::abs(direction.components[c].second), 2) << " " << parameter_table()[direction.components[c].first].name;
+      }
+      out << ". Separate by: " << direction.advice << ".\n";
+    }
+    if (!identifiability.correlations.empty()) {
+      out << "\nStrongest parameter correlations:";
+      for (const Correlation& c : identifiability.correlations) {
+        out << " " << parameter_table()[c.a].name << "~" << parameter_table()[c.b].name << " " << fixed(c.value, 3) << ";";
+      }
+      out << "\n\n";
+    }
+  };
+  weak_section(diagnosis.final_model, "The fitted model");
+  weak_section(diagnosis.all_families, "Every family of the vocabulary at once");
+  out << "Gauge fixing: with chain_angle and frame_misalignment both in a model the common chain rotation is "
+         "pinned to zero (it is the frame yaw rz); every parameter carries a weak prior worth one observation at "
+         "the noise floor, so directions the data cannot see stay at zero instead of drifting.\n";
+  file.commit();
+}
+
+}  // namespace delta::diagnosis
