@@ -1,6 +1,7 @@
 // Levenberg-Marquardt fit of the hybrid model's math-model effects (central-difference Jacobian).
 #include "delta/nn/effect_fit.hpp"
 
+#include <array>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -14,9 +15,9 @@ namespace {
 
 // Parameter vector in units of order one so that the damping mu I treats them alike:
 // per chain j at 6 j: dL_A [mm], dL_B [mm], dr [mm], dphi [deg], offset [deg], scale [1e-3];
-// then frame rx, ry [deg], tx, ty, tz [mm].
+// then frame rx, ry [deg], tx, ty, tz [mm]; then backlash widths [deg] (their magnitude is used).
 constexpr Eigen::Index kChainParameters = 6;
-constexpr Eigen::Index kParameters = 3 * kChainParameters + 5;
+constexpr Eigen::Index kParameters = 3 * kChainParameters + 5 + 3;
 
 EffectSet effects_of(const Eigen::VectorXd& x) {
   EffectSet effects;
@@ -39,6 +40,7 @@ EffectSet effects_of(const Eigen::VectorXd& x) {
   const Eigen::Index at = 3 * kChainParameters;
   effects.frame_misalignment =
       FrameMisalignment{Vec3(x[at], x[at + 1], 0.0), Vec3(x[at + 2], x[at + 3], x[at + 4]) * 1e-3};
+  effects.backlash_deg = x.segment<3>(at + 5).cwiseAbs();
   return effects;
 }
 
@@ -48,12 +50,11 @@ class EffectProblem : public LeastSquaresProblem {
 
   // Measured minus predicted angles, 3 per sample; false when a pose is unreachable.
   bool residuals(const Eigen::VectorXd& x, Eigen::VectorXd& out) const {
-    const EffectSet effects = effects_of(x);
+    std::vector<Vec3> predicted;
+    if (!predict_in_time_order(effects_of(x), samples_, predicted)) return false;
     out.resize(3 * static_cast<Eigen::Index>(samples_.size()));
     for (std::size_t i = 0; i < samples_.size(); ++i) {
-      const IkSolution solution = math_model_angles(effects, samples_[i].position_m);
-      if (!solution.ok()) return false;
-      out.segment<3>(3 * static_cast<Eigen::Index>(i)) = samples_[i].alpha_deg - solution.alpha_deg;
+      out.segment<3>(3 * static_cast<Eigen::Index>(i)) = samples_[i].alpha_deg - predicted[i];
     }
     return true;
   }
@@ -86,17 +87,37 @@ class EffectProblem : public LeastSquaresProblem {
 };
 
 Vec3 rmse_of(const std::vector<Sample>& samples, const EffectSet& effects) {
-  std::vector<Vec3> measured, predicted;
-  for (const Sample& sample : samples) {
-    const IkSolution solution = math_model_angles(effects, sample.position_m);
-    if (!solution.ok()) throw std::invalid_argument("the math model cannot reach a recorded pose: " + solution.reason());
-    measured.push_back(sample.alpha_deg);
-    predicted.push_back(solution.alpha_deg);
-  }
-  return joint_error_stats(measured, predicted).rmse_deg;
+  std::vector<Vec3> measured;
+  for (const Sample& sample : samples) measured.push_back(sample.alpha_deg);
+  return joint_error_stats(measured, predict_recording(effects, samples)).rmse_deg;
 }
 
 }  // namespace
+
+bool predict_in_time_order(const EffectSet& effects, const std::vector<Sample>& samples, std::vector<Vec3>& predicted) {
+  // The SPEC order: encoder_scale and transmission_error, then backlash, then joint_offset.
+  EffectSet before_backlash = effects;
+  before_backlash.backlash_deg.reset();
+  before_backlash.joint_offset_deg.reset();
+  std::array<Backlash, 3> play;
+  for (int j = 0; j < 3; ++j) play[j] = Backlash(effects.backlash_deg ? (*effects.backlash_deg)[j] : 0.0);
+  const Vec3 offset = effects.joint_offset_deg.value_or(Vec3::Zero());
+  predicted.resize(samples.size());
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    const IkSolution solution = math_model_angles(before_backlash, samples[i].position_m);
+    if (!solution.ok()) return false;
+    for (int j = 0; j < 3; ++j) predicted[i][j] = play[j].update(solution.alpha_deg[j]) + offset[j];
+  }
+  return true;
+}
+
+std::vector<Vec3> predict_recording(const EffectSet& effects, const std::vector<Sample>& samples) {
+  std::vector<Vec3> predicted;
+  if (!predict_in_time_order(effects, samples, predicted)) {
+    throw std::invalid_argument("the math model cannot reach a recorded pose");
+  }
+  return predicted;
+}
 
 EffectFit fit_math_model_effects(const std::vector<Sample>& samples, int max_iterations) {
   EffectFit fit;
@@ -106,7 +127,10 @@ EffectFit fit_math_model_effects(const std::vector<Sample>& samples, int max_ite
   options.max_epochs = max_iterations;
   options.plateau_epochs = 5;
   options.plateau_fraction = 1e-6;
-  const LmResult result = levenberg_marquardt(problem, Eigen::VectorXd::Zero(kParameters), options);
+  // Start from the nominal robot with a little play: |b| has no slope at b = 0.
+  Eigen::VectorXd start = Eigen::VectorXd::Zero(kParameters);
+  start.tail<3>().setConstant(0.05);
+  const LmResult result = levenberg_marquardt(problem, start, options);
   fit.effects = effects_of(result.x);
   fit.iterations = result.epochs;
   fit.rmse_after_deg = rmse_of(samples, fit.effects);

@@ -24,10 +24,12 @@ ModelTraining train_model(const Recording& recording, const std::string& model, 
   }
   if (model == "hybrid") {
     result.effect_fit = fit_math_model_effects(recording.samples);
+    // The network learns what the identified model, backlash included, leaves: a residual that
+    // depends on the pose alone. The weights file keeps the pose-wise effects (no backlash).
+    const std::vector<Vec3> predicted = predict_recording(result.effect_fit->effects, recording.samples);
+    for (std::size_t i = 0; i < inputs.size(); ++i) targets[i] -= predicted[i];
     result.weights.effects = result.effect_fit->effects;
-    for (std::size_t i = 0; i < inputs.size(); ++i) {
-      targets[i] -= math_model_angles(result.weights.effects, inputs[i]).alpha_deg;  // the residual
-    }
+    result.weights.effects.backlash_deg.reset();
   }
   result.training = train_network(inputs, targets, options, progress);
   result.weights.network = result.training.network;
@@ -52,6 +54,8 @@ ModelTraining train_model(const Recording& recording, const std::string& model, 
     const Vec3& after = result.effect_fit->rmse_after_deg;
     provenance["math_model_rmse_nominal_deg"] = {before[0], before[1], before[2]};
     provenance["math_model_rmse_fitted_deg"] = {after[0], after[1], after[2]};
+    const Vec3& backlash = *result.effect_fit->effects.backlash_deg;
+    provenance["identified_backlash_deg"] = {backlash[0], backlash[1], backlash[2]};
   }
   return result;
 }
