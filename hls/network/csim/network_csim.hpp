@@ -1,0 +1,104 @@
+// Host side of the HLS C-simulation (not synthesised): loads a golden QuantisedNetwork into the HLS
+// weight struct and runs the HLS network on raw integer codes, so both models see the same codes.
+#pragma once
+
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <memory>
+#include <stdexcept>
+
+#include "delta/golden/fixed_network.hpp"
+#include "network.hpp"
+
+namespace delta_hls {
+
+// The golden formats this config implements; quantise with these to feed the HLS model.
+template <class C>
+delta::golden::Formats golden_formats() {
+  delta::golden::Formats f;
+  f.input_bits = C::input_bits;
+  f.input_fraction_bits = C::input_fraction;
+  f.scaled_input_bits = C::scaled_input_bits;
+  f.input_weight_bits = C::input_weight_bits;
+  f.input_weight_fraction_bits = C::input_weight_fraction;
+  f.tanh_input_bits = C::tanh_input_bits;
+  f.tanh_input_fraction_bits = C::tanh_input_fraction;
+  f.tanh_segments_per_unit_log2 = C::tanh_segments_per_unit_log2;
+  f.tanh_guard_bits = C::tanh_guard_bits;
+  f.hidden_fraction_bits = C::hidden_fraction;
+  f.output_weight_bits = C::output_weight_bits;
+  f.output_weight_fraction_bits = C::output_weight_fraction;
+  f.output_bits = C::output_bits;
+  f.output_fraction_bits = C::output_fraction;
+  return f;
+}
+
+inline bool same_formats(const delta::golden::Formats& a, const delta::golden::Formats& b) {
+  return a.input_bits == b.input_bits && a.input_fraction_bits == b.input_fraction_bits &&
+         a.scaled_input_bits == b.scaled_input_bits && a.input_weight_bits == b.input_weight_bits &&
+         a.input_weight_fraction_bits == b.input_weight_fraction_bits && a.tanh_input_bits == b.tanh_input_bits &&
+         a.tanh_input_fraction_bits == b.tanh_input_fraction_bits &&
+         a.tanh_segments_per_unit_log2 == b.tanh_segments_per_unit_log2 && a.tanh_guard_bits == b.tanh_guard_bits &&
+         a.hidden_fraction_bits == b.hidden_fraction_bits && a.output_weight_bits == b.output_weight_bits &&
+         a.output_weight_fraction_bits == b.output_weight_fraction_bits && a.output_bits == b.output_bits &&
+         a.output_fraction_bits == b.output_fraction_bits;
+}
+
+// code * 2^-fraction as a double: exact, every code has fewer than 53 bits.
+inline double code_value(std::int64_t code, int fraction) { return std::ldexp(static_cast<double>(code), -fraction); }
+
+template <class C>
+std::unique_ptr<NetworkWeights<C>> load_weights(const delta::golden::QuantisedNetwork& q) {
+  if (q.hidden != C::hidden) throw std::invalid_argument("HLS config has " + std::to_string(C::hidden) +
+                                                         " hidden neurons, the network " + std::to_string(q.hidden));
+  if (!same_formats(q.formats, golden_formats<C>())) {
+    throw std::invalid_argument("network quantised with formats other than the HLS config's");
+  }
+  auto weights = std::make_unique<NetworkWeights<C>>();
+  const int acc1 = C::hidden_accumulator_fraction;
+  const int acc2 = C::output_accumulator_fraction;
+  for (int j = 0; j < C::inputs; ++j) {
+    weights->input_centre[j] = code_value(q.input_centre[j], C::input_fraction);
+    weights->input_gain[j] = std::ldexp(1.0, -q.input_exponent[j]);
+    if (weights->input_gain[j].to_double() != std::ldexp(1.0, -q.input_exponent[j])) {
+      throw std::invalid_argument("input gain 2^" + std::to_string(-q.input_exponent[j]) + " outside the HLS gain type");
+    }
+  }
+  for (int k = 0; k < C::hidden; ++k) {
+    for (int j = 0; j < C::inputs; ++j) {
+      weights->input_weights[k][j] = code_value(q.input_weights[C::inputs * k + j], C::input_weight_fraction);
+    }
+    weights->hidden_bias[k] = code_value(q.hidden_bias[k], acc1);
+  }
+  for (int i = 0; i < C::tanh_segments; ++i) {
+    weights->tanh_table[i] = code_value(q.tanh_table[i], C::tanh_entry_fraction);
+    weights->tanh_slope[i] = code_value(q.tanh_slope[i], C::tanh_entry_fraction);
+  }
+  for (int o = 0; o < C::outputs; ++o) {
+    for (int k = 0; k < C::hidden; ++k) {
+      weights->output_weights[o][k] = code_value(q.output_weights[C::hidden * o + k], C::output_weight_fraction);
+    }
+    weights->output_bias[o] = code_value(q.output_bias[o], acc2);
+  }
+  return weights;
+}
+
+// The HLS network on raw input codes; returns raw output codes and the saturation bits.
+template <class C>
+std::array<std::int64_t, 3> evaluate_codes(const NetworkWeights<C>& weights, const std::array<std::int64_t, 3>& position_code,
+                                           unsigned* saturation = nullptr) {
+  typename C::input_t x[C::inputs];
+  for (int j = 0; j < C::inputs; ++j) x[j] = code_value(position_code[j], C::input_fraction);
+  typename C::output_t alpha[C::outputs];
+  typename C::saturation_t flags;
+  network_core<C>(x, weights, alpha, flags);
+  std::array<std::int64_t, 3> raw{};
+  for (int o = 0; o < C::outputs; ++o) {
+    raw[o] = static_cast<std::int64_t>(std::ldexp(alpha[o].to_double(), C::output_fraction));
+  }
+  if (saturation) *saturation = static_cast<unsigned>(flags.to_uint());
+  return raw;
+}
+
+}  // namespace delta_hls
