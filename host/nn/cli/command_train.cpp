@@ -49,7 +49,7 @@ const RegisterCommand command("train", 40, [](CLI::App& root) {
       "\nLevenberg-Marquardt (MATLAB trainlm's damping schedule) on the sum of squared joint-angle errors in\n"
       "degrees, analytic Jacobian, inputs and outputs scaled to [-1, 1] from the data (mapminmax).\n"
       "A seeded share of the samples (--validation) is held out: training stops when it has not improved\n"
-      "for 6 epochs in a row, when the training error has plateaued (< 0.1 % over 25 epochs), or at\n"
+      "for 6 epochs in a row, when the training error has plateaued (< 1 % over 25 epochs), or at\n"
       "--max-epochs; the weights with the best validation error are kept. One line per epoch on stderr.\n"
       "--model hybrid first fits the math model's effects (geometry per chain, joint offsets, encoder\n"
       "scales, frame tilt and shift) and trains the network on what remains.\n"

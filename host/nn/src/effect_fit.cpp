@@ -79,7 +79,8 @@ class EffectProblem : public LeastSquaresProblem {
       jacobian.col(p) = plus_ok && minus_ok ? Eigen::VectorXd((minus - plus) / (2.0 * kStep))
                                             : Eigen::VectorXd::Zero(errors.size());
     }
-    return {jacobian.transpose() * jacobian, jacobian.transpose() * errors};
+    // Coefficient-based products: a summation order independent of the CPU's cache sizes.
+    return {jacobian.transpose().lazyProduct(jacobian), jacobian.transpose().lazyProduct(errors)};
   }
 
  private:

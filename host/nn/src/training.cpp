@@ -52,18 +52,21 @@ class NetworkProblem : public LeastSquaresProblem {
         hidden_(shape.hidden()),
         threads_(threads) {}
 
-  Eigen::MatrixXd predict(const Eigen::VectorXd& x, const Eigen::MatrixXd& inputs) const {
-    const Layers layers = unpack(x, hidden_);
+  // Predicted angles (3 x n, degrees) for scaled inputs (3 x n); the hidden outputs on request.
+  // Products are coefficient-based (lazyProduct): their summation order is fixed by the code, not
+  // by the cache-size-dependent blocking of Eigen's matrix product, so results do not depend on the CPU.
+  Eigen::MatrixXd predict(const Layers& layers, const Eigen::MatrixXd& inputs, Eigen::MatrixXd* hidden = nullptr) const {
     const Eigen::MatrixXd hidden_out =
-        ((layers.input_weights * inputs).colwise() + layers.hidden_bias).array().tanh().matrix();
-    Eigen::MatrixXd out = (layers.output_weights * hidden_out).colwise() + layers.output_bias;
+        (layers.input_weights.lazyProduct(inputs).colwise() + layers.hidden_bias).array().tanh().matrix();
+    Eigen::MatrixXd out = layers.output_weights.lazyProduct(hidden_out).colwise() + layers.output_bias;
     out = ((out.array() + 1.0).colwise() * half_range_.array()).colwise() + output_min_.array();
+    if (hidden) *hidden = hidden_out;
     return out;
   }
 
   double sum_squared_error_on(const Eigen::VectorXd& x, const Eigen::MatrixXd& inputs,
                               const Eigen::MatrixXd& targets) const {
-    return (targets - predict(x, inputs)).squaredNorm();
+    return (targets - predict(unpack(x, hidden_), inputs)).squaredNorm();
   }
 
   double sum_squared_error(const Eigen::VectorXd& x) override { return sum_squared_error_on(x, inputs_, targets_); }
@@ -100,7 +103,7 @@ class NetworkProblem : public LeastSquaresProblem {
     const Eigen::Index parameters = x.size();
     NormalEquations result{Eigen::MatrixXd::Zero(parameters, parameters), Eigen::VectorXd::Zero(parameters)};
     const Eigen::Vector3d s2 = half_range_.cwiseAbs2();
-    const Eigen::MatrixXd lw_weighted = layers.output_weights.transpose() * s2.asDiagonal() * layers.output_weights;
+    const Eigen::MatrixXd lw_weighted = layers.output_weights.transpose().lazyProduct(s2.asDiagonal() * layers.output_weights);
     for (Eigen::Index m = 0; m < 4; ++m) {
       for (Eigen::Index m2 = m; m2 < 4; ++m2) {
         const Eigen::MatrixXd block = lw_weighted.cwiseProduct(total.hidden_hidden[pair_index(m, m2)]);
@@ -156,11 +159,8 @@ class NetworkProblem : public LeastSquaresProblem {
     const Eigen::Index count = end - begin;
     const Eigen::Index h = hidden_;
     const Eigen::MatrixXd inputs = inputs_.middleCols(begin, count);
-    const Eigen::MatrixXd hidden_out =
-        ((layers.input_weights * inputs).colwise() + layers.hidden_bias).array().tanh().matrix();
-    Eigen::MatrixXd out = (layers.output_weights * hidden_out).colwise() + layers.output_bias;
-    out = ((out.array() + 1.0).colwise() * half_range_.array()).colwise() + output_min_.array();
-    const Eigen::MatrixXd errors = targets_.middleCols(begin, count) - out;  // 3 x n, degrees
+    Eigen::MatrixXd hidden_out;
+    const Eigen::MatrixXd errors = targets_.middleCols(begin, count) - predict(layers, inputs, &hidden_out);  // degrees
     const Eigen::ArrayXXd slope = 1.0 - hidden_out.array().square();        // tanh', H x n
     std::array<Eigen::MatrixXd, 4> weighted;  // W_m = tanh' .* u~_m
     weighted[0] = slope.matrix();
@@ -169,18 +169,26 @@ class NetworkProblem : public LeastSquaresProblem {
     augmented.row(0).setOnes();
     augmented.bottomRows(h) = hidden_out;
     const Eigen::MatrixXd back =
-        (slope * (layers.output_weights.transpose() * half_range_.asDiagonal() * errors).array()).matrix();
+        (slope * layers.output_weights.transpose().lazyProduct(half_range_.asDiagonal() * errors).array()).matrix();
+    // Sample-major copies (n x ...): every coefficient of the products below is then a dot product
+    // of two contiguous columns, which the coefficient-based product vectorises.
+    std::array<Eigen::MatrixXd, 4> weighted_t;
+    for (std::size_t m = 0; m < 4; ++m) weighted_t[m] = weighted[m].transpose();
+    const Eigen::MatrixXd augmented_t = augmented.transpose();
+    const Eigen::MatrixXd back_t = back.transpose();
+    const Eigen::MatrixXd inputs_t = inputs.transpose();
+    const Eigen::MatrixXd errors_t = errors.transpose();
     BlockSums sums;
     for (Eigen::Index m = 0; m < 4; ++m) {
       for (Eigen::Index m2 = m; m2 < 4; ++m2) {
-        sums.hidden_hidden[pair_index(m, m2)] = weighted[m] * weighted[m2].transpose();
+        sums.hidden_hidden[pair_index(m, m2)] = weighted_t[m].transpose().lazyProduct(weighted_t[m2]);
       }
-      sums.hidden_output[m] = weighted[m] * augmented.transpose();
-      sums.hidden_gradient[m] = m == 0 ? Eigen::VectorXd(back.rowwise().sum())
-                                       : Eigen::VectorXd(back * inputs.row(m - 1).transpose());
+      sums.hidden_output[m] = weighted_t[m].transpose().lazyProduct(augmented_t);
+      sums.hidden_gradient[m] = m == 0 ? Eigen::VectorXd(back_t.colwise().sum().transpose())
+                                       : Eigen::VectorXd(back_t.transpose().lazyProduct(inputs_t.col(m - 1)));
     }
-    sums.output_output = augmented * augmented.transpose();
-    sums.output_gradient = augmented * errors.transpose();
+    sums.output_output = augmented_t.transpose().lazyProduct(augmented_t);
+    sums.output_gradient = augmented_t.transpose().lazyProduct(errors_t);
     return sums;
   }
 

@@ -18,11 +18,11 @@ namespace delta::nn {
 struct TrainingOptions {
   int hidden = 25;
   std::uint64_t seed = 1;            // initial weights (Nguyen-Widrow) and the validation split
-  int max_epochs = 200;
+  int max_epochs = 1000;            // MATLAB trainlm default
   double validation_fraction = 0.15; // share of samples held out of the fit for early stopping
   int max_validation_failures = 6;   // MATLAB's max_fail: epochs in a row without a better validation error
   int plateau_epochs = 25;           // converged: training SSE fell by < plateau_fraction over this many epochs
-  double plateau_fraction = 1e-3;
+  double plateau_fraction = 0.01;
   int threads = 0;                   // 0: all cores. The result does not depend on it.
 };
 
