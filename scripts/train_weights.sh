@@ -1,0 +1,23 @@
+#!/usr/bin/env bash
+# Regenerates the shipped weights (weights/paper_like.json, weights/paper_like_hybrid.json) bit for bit:
+# records the paper's validation trajectory on the paper-like virtual robot and trains on it, seed 1.
+# BUILD selects the build folder (default build/, configured by scripts/build.sh).
+set -euo pipefail
+root=$(cd "$(dirname "$0")/.." && pwd)
+build=$(cd "$root" && mkdir -p "${BUILD:-build}" && cd "${BUILD:-build}" && pwd)
+if [[ ! -f "$build/CMakeCache.txt" ]]; then
+  bash "$root/scripts/build.sh" --target deltactl
+else
+  cmake --build "$build" -j2 --target deltactl
+fi
+deltactl="$build/bin/deltactl"
+# Train from inside the data folder so the provenance names the recording without a machine path.
+data="$build/weights-data"
+mkdir -p "$data"
+cd "$data"
+"$deltactl" simulate --experiment validation --effects "$root/sim/paper_like_effects.json" --seed 1 \
+  --out paper_like_validation_seed1.csv
+"$deltactl" train --data paper_like_validation_seed1.csv --seed 1 --out "$root/weights/paper_like.json"
+"$deltactl" train --model hybrid --data paper_like_validation_seed1.csv --seed 1 \
+  --out "$root/weights/paper_like_hybrid.json"
+echo "train_weights: wrote weights/paper_like.json and weights/paper_like_hybrid.json (git diff shows any change)"
