@@ -3,6 +3,7 @@ delta_add_gtest(control_tests
   SOURCES
     ${CMAKE_CURRENT_LIST_DIR}/control/test_joint_fixed.cpp
     ${CMAKE_CURRENT_LIST_DIR}/control/test_joint_closed_loop.cpp
+    ${CMAKE_CURRENT_LIST_DIR}/control/test_joint_loop_command.cpp
   LIBRARIES delta::control
   LABELS control)
 delta_add_gtest(control_bit_exact_tests

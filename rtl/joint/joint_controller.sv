@@ -1,23 +1,39 @@
 // Three joint controllers (reference filter, VOB, DOB, eq. 5) on one bit-serial datapath, no DSP.
 //
-// Interface as a Vitis HLS block-level (ap_ctrl_hs) export of hls/joint's top: ap_start is taken
-// when idle; reference_i and encoder_i must stay stable until ap_ready; current_o, limited_o and
-// overflow_count_o are valid from ap_done (ap_ready and ap_done rise together) until the next
-// ap_done. The first period after reset starts from rest at its own input (golden:
-// fixed_rest_state). Latency: 808 cycles from ap_start to ap_done (6 input writes, 3 x 267 for
-// the joints, 1 done cycle); 33.7 us at 24 MHz, well inside the 100 us control period.
+// Interface (Vitis HLS ap_ctrl_hs, port names as the export of hls/joint's joint_top, like
+// rtl/network's delta_network): ap_start is sampled while ap_idle is high and must stay high
+// until ap_ready; reference_j and encoder_j must stay stable until ap_ready, which is high in the
+// last of the 6 cycles that copy them into the state memory. current_j changes when joint j's
+// command is stored, with current_j_ap_vld high for that cycle; ap_done pulses after the third
+// joint, with limited and overflow_count valid; all outputs hold until rewritten. ap_rst is
+// synchronous and active high. The first period after reset starts from rest at its own input
+// (golden: fixed_rest_state). Latency from the ap_start edge to ap_done: 808 cycles (6 input
+// copies, 3 x 267 for the joints, 1 done cycle): 33.7 us at 24 MHz, a third of the 100 us period.
+//
+// Schedule: per joint the 19 instructions of delta_joint_pkg::program_rom, each
+//   OpInit 2 cycles (read, load acc), OpMac 28 (read a, b, c; form the operand; 24 bit-serial
+//   steps over the coefficient), OpStore 1; 5 x 2 + 9 x 28 + 5 x 1 = 267 cycles.
 module joint_controller (
-  input  logic         clk_i,
-  input  logic         rst_ni,
-  input  logic         ap_start_i,
-  output logic         ap_done_o,
-  output logic         ap_idle_o,
-  output logic         ap_ready_o,
-  input  logic [95:0]  reference_i,       // joint j at [32j +: 32], Q23.8 shaft encoder counts
-  input  logic [47:0]  encoder_i,         // joint j at [16j +: 16], shaft encoder counts
-  output logic [47:0]  current_o,         // joint j at [16j +: 16], applied current, Q0.15 A
-  output logic [2:0]   limited_o,         // joint j: the current limit clipped its command
-  output logic [15:0]  overflow_count_o   // saturated operands and states since reset (sticks at max)
+  input  logic        ap_clk,
+  input  logic        ap_rst,
+  input  logic        ap_start,
+  output logic        ap_done,
+  output logic        ap_idle,
+  output logic        ap_ready,
+  input  logic [31:0] reference_0,       // Q23.8 shaft encoder counts (0.01 deg)
+  input  logic [31:0] reference_1,
+  input  logic [31:0] reference_2,
+  input  logic [15:0] encoder_0,         // shaft encoder counts
+  input  logic [15:0] encoder_1,
+  input  logic [15:0] encoder_2,
+  output logic [15:0] current_0,         // applied current, Q0.15 A
+  output logic        current_0_ap_vld,
+  output logic [15:0] current_1,
+  output logic        current_1_ap_vld,
+  output logic [15:0] current_2,
+  output logic        current_2_ap_vld,
+  output logic [2:0]  limited,           // bit j: the current limit clipped joint j's command
+  output logic [15:0] overflow_count     // saturated operands and states since reset (sticks at max)
 );
   localparam int unsigned AccWidth = delta_joint_pkg::AccumulatorWidth;
 
@@ -40,6 +56,12 @@ module joint_controller (
   logic [47:0]  current_q, current_d;
   logic [2:0]   limited_q, limited_d;
   logic [15:0]  overflow_q, overflow_d;
+  logic [2:0]   current_valid_q, current_valid_d;
+
+  logic [95:0]  references;  // joint j at [32j +: 32] (yosys 0.23 reads no packed 2-D arrays)
+  logic [47:0]  encoders;    // joint j at [16j +: 16]
+  assign references = {reference_2, reference_1, reference_0};
+  assign encoders   = {encoder_2, encoder_1, encoder_0};
 
   logic [5:0]   read_address, write_address;
   logic [31:0]  read_data, write_data, source_data;
@@ -54,7 +76,7 @@ module joint_controller (
       delta_joint_pkg::program_rom(pc_q);
 
   joint_state_ram u_state_ram (
-    .clk_i,
+    .clk_i          (ap_clk),
     .read_address_i (read_address),
     .read_data_o    (read_data),
     .write_enable_i (write_enable),
@@ -168,6 +190,7 @@ module joint_controller (
     source_d       = issue_source;
     current_d      = current_q;
     limited_d      = limited_q;
+    current_valid_d = 3'b000;
     write_enable   = 1'b0;
     write_address  = {joint_q, bank_q, dest};
     write_data     = state_word;
@@ -175,7 +198,7 @@ module joint_controller (
 
     unique case (state_q)
       StateIdle: begin
-        if (ap_start_i) begin
+        if (ap_start) begin
           state_d = StateLoad;
           load_d  = 3'd0;
         end
@@ -183,8 +206,8 @@ module joint_controller (
       StateLoad: begin
         write_enable  = 1'b1;
         write_address = {load_q[2:1], bank_q, load_q[0] ? delta_joint_pkg::SlotEncoder : delta_joint_pkg::SlotReference};
-        write_data    = load_q[0] ? {{16{encoder_i[16 * load_q[2:1] + 15]}}, encoder_i[16 * load_q[2:1] +: 16]}
-                                  : reference_i[32 * load_q[2:1] +: 32];
+        write_data    = load_q[0] ? {{16{encoders[16 * load_q[2:1] + 15]}}, encoders[16 * load_q[2:1] +: 16]}
+                                  : references[32 * load_q[2:1] +: 32];
         load_d        = load_q + 3'd1;
         if (load_q == 3'd5) begin
           state_d = StateRun;
@@ -239,6 +262,7 @@ module joint_controller (
             write_data   = {{16{current_word[15]}}, current_word};
             current_d[16 * joint_q +: 16] = current_word;
             limited_d[joint_q] = current_high || current_low;
+            current_valid_d[joint_q] = 1'b1;
             pc_d = 5'd0;
             if (joint_q == 2'd2) begin
               state_d = StateDone;
@@ -259,8 +283,8 @@ module joint_controller (
     if (overflow_event && overflow_q != 16'hFFFF) overflow_d = overflow_q + 16'd1;
   end
 
-  always_ff @(posedge clk_i or negedge rst_ni) begin
-    if (!rst_ni) begin
+  always_ff @(posedge ap_clk) begin
+    if (ap_rst) begin
       state_q        <= StateIdle;
       load_q         <= '0;
       joint_q        <= '0;
@@ -278,6 +302,7 @@ module joint_controller (
       current_q      <= '0;
       limited_q      <= '0;
       overflow_q     <= '0;
+      current_valid_q <= '0;
     end else begin
       state_q        <= state_d;
       load_q         <= load_d;
@@ -296,13 +321,19 @@ module joint_controller (
       current_q      <= current_d;
       limited_q      <= limited_d;
       overflow_q     <= overflow_d;
+      current_valid_q <= current_valid_d;
     end
   end
 
-  assign ap_idle_o        = state_q == StateIdle;
-  assign ap_done_o        = state_q == StateDone;
-  assign ap_ready_o       = state_q == StateDone;
-  assign current_o        = current_q;
-  assign limited_o        = limited_q;
-  assign overflow_count_o = overflow_q;
+  assign ap_idle          = state_q == StateIdle;
+  assign ap_ready         = state_q == StateLoad && load_q == 3'd5;
+  assign ap_done          = state_q == StateDone;
+  assign current_0        = current_q[15:0];
+  assign current_1        = current_q[31:16];
+  assign current_2        = current_q[47:32];
+  assign current_0_ap_vld = current_valid_q[0];
+  assign current_1_ap_vld = current_valid_q[1];
+  assign current_2_ap_vld = current_valid_q[2];
+  assign limited          = limited_q;
+  assign overflow_count   = overflow_q;
 endmodule
