@@ -13,18 +13,18 @@ namespace delta::hls_joint {
 constexpr int kJoints = 3;
 
 // Ports.
-using reference_t = sc_fixed<32, 24>;  // Q23.8 shaft encoder counts (0.01 deg)
+using reference_t = sc_fixed<32, 24>;  // Q24.8 shaft encoder counts (0.01 deg)
 using encoder_t = sc_int<16>;          // shaft encoder counts
-using current_t = sc_fixed<16, 1>;     // Q0.15 A, applied current
+using current_t = sc_fixed<16, 1>;     // Q1.15 A, applied current
 
-// States: Q7.24, rounded (half up) and saturated on every store.
+// States: Q8.24, rounded (half up) and saturated on every store.
 using state_t = sc_fixed<32, 8, SC_RND, SC_SAT>;
 using previous_reference_t = reference_t;
 using previous_encoder_t = sc_int<32>;
 
 // Multiplier operands: 40 bits, saturated; the binary point follows the operand's unit.
-using operand_t = sc_fixed<40, 16, SC_TRN, SC_SAT>;           // Q15.24 (per-period units, A)
-using position_operand_t = sc_fixed<40, 32, SC_TRN, SC_SAT>;  // Q31.8 counts
+using operand_t = sc_fixed<40, 16, SC_TRN, SC_SAT>;           // Q16.24 (per-period units, A)
+using position_operand_t = sc_fixed<40, 32, SC_TRN, SC_SAT>;  // Q32.8 counts
 
 // Coefficients: 24 bits signed; the fraction bits F of each update give sc_fixed<24, 24 - F>.
 template <int Fraction>

@@ -4,8 +4,8 @@
 // (JointRtlPackage) checks the coefficients against make_fixed_coefficients() of the defaults.
 package delta_joint_pkg;
 
-  // Ports: reference Q23.8 shaft encoder counts (32 bits), encoder counts (16), current Q0.15 A
-  // (16); states Q7.24 (32); coefficients signed 24 bits, bit-serial; multiplier operand
+  // Ports: reference Q24.8 shaft encoder counts (32 bits), encoder counts (16), current Q1.15 A
+  // (16); states Q8.24 (32); coefficients signed 24 bits, bit-serial; multiplier operand
   // saturated to 40 bits; the accumulator is exact: three 40 x 24 products + a shifted state.
   localparam int unsigned AccumulatorWidth = 66;
 
@@ -18,18 +18,18 @@ package delta_joint_pkg;
   localparam logic [23:0] LawAccelerationGain     = 24'h63C0F0;  //  Kacc                  << 20
   localparam logic [23:0] LawVelocityGain         = 24'hFF00A1;  // -Kacc k_v Ts           << 20
   localparam logic [23:0] LawPositionGain         = 24'hBEA01D;  // -Kacc k_p Ts^2         << 36
-  localparam logic [15:0] CurrentLimit            = 16'h4000;    //  0.5 A in Q0.15
+  localparam logic [15:0] CurrentLimit            = 16'h4000;    //  0.5 A in Q1.15
 
   // Plain constants rather than enums and structs: yosys 0.23 resolves neither enum items nor
   // typedefs inside package functions.
   // State slots of one joint in one bank. The new bank of a period is the old bank of the next.
-  localparam logic [2:0] SlotReference = 3'd0;  // reference, Q23.8 (written from the input)
+  localparam logic [2:0] SlotReference = 3'd0;  // reference, Q24.8 (written from the input)
   localparam logic [2:0] SlotRefVelocity = 3'd1;
   localparam logic [2:0] SlotRefAccel = 3'd2;
   localparam logic [2:0] SlotEncoder = 3'd3;  // encoder count (written from the input)
   localparam logic [2:0] SlotVelocity = 3'd4;  // VOB
   localparam logic [2:0] SlotDisturbance = 3'd5;  // DOB
-  localparam logic [2:0] SlotCurrent = 3'd6;  // applied current, Q0.15 sign-extended
+  localparam logic [2:0] SlotCurrent = 3'd6;  // applied current, Q1.15 sign-extended
   localparam logic [2:0] SlotUnused = 3'd7;
 
   // Operations.
@@ -46,7 +46,7 @@ package delta_joint_pkg;
   // Left shifts of the operand difference.
   localparam logic [2:0] Shift0 = 3'd0;
   localparam logic [2:0] Shift8 = 3'd1;  // Q.8 reference -> encoder counts Q.8
-  localparam logic [2:0] Shift9 = 3'd2;  // Q0.15 current -> Q.24
+  localparam logic [2:0] Shift9 = 3'd2;  // Q1.15 current -> Q.24
   localparam logic [2:0] Shift16 = 3'd3;  // Q.8 reference -> Q.24
   localparam logic [2:0] Shift24 = 3'd4;  // counts -> Q.24
 

@@ -20,13 +20,13 @@ module joint_controller (
   output logic        ap_done,
   output logic        ap_idle,
   output logic        ap_ready,
-  input  logic [31:0] reference_0,       // Q23.8 shaft encoder counts (0.01 deg)
+  input  logic [31:0] reference_0,       // Q24.8 shaft encoder counts (0.01 deg)
   input  logic [31:0] reference_1,
   input  logic [31:0] reference_2,
   input  logic [15:0] encoder_0,         // shaft encoder counts
   input  logic [15:0] encoder_1,
   input  logic [15:0] encoder_2,
-  output logic [15:0] current_0,         // applied current, Q0.15 A
+  output logic [15:0] current_0,         // applied current, Q1.15 A
   output logic        current_0_ap_vld,
   output logic [15:0] current_1,
   output logic        current_1_ap_vld,

@@ -72,7 +72,7 @@ TEST(JointFixed, SaturationIsCountedNeverWrapped) {
   EXPECT_TRUE(status.limited);
   EXPECT_EQ(current, c.current_limit_code);
   EXPECT_EQ(state.current, c.current_limit_code);  // the DOB sees the applied (limited) current
-  EXPECT_EQ(state.reference_velocity, INT32_MAX);  // 2^23 counts/period does not fit Q7.24
+  EXPECT_EQ(state.reference_velocity, INT32_MAX);  // 2^23 counts/period does not fit Q8.24
   fixed_update(c, state, {INT32_MIN, 0}, status);
   EXPECT_GT(status.overflow_count, 0);
   EXPECT_EQ(state.reference_velocity, INT32_MIN);
@@ -82,7 +82,7 @@ TEST(JointFixed, SaturationIsCountedNeverWrapped) {
 // Open loop on the same random inputs (the double controller sees the reference as quantised to
 // Q.8, so that only the arithmetic differs), the fixed-point current follows the double one
 // within one output LSB (2^-15 A) while commands span tens of mA. Without a plant
-// the DOB is a pure integrator of (i - i_dis) and random-walks on the Q0.15 rounding of the
+// the DOB is a pure integrator of (i - i_dis) and random-walks on the Q1.15 rounding of the
 // applied current, so it is off here; the closed-loop tests cover it.
 TEST(JointFixed, CurrentFollowsTheDoubleControllerOnRandomInputs) {
   const std::uint64_t seed = 7;

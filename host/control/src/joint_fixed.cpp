@@ -73,7 +73,7 @@ JointFixedCoefficients make_fixed_coefficients(const JointControllerParameters& 
   c.law_position_gain = coefficient(-kacc * p.position_gain * ts * ts,
                                     kLawShift + kStateFraction - kReferenceFraction, "law_position_gain");
   const double limit = std::nearbyint(std::ldexp(p.current_limit_a, kCurrentFraction));
-  if (!(limit > 0 && limit < 32768)) throw std::invalid_argument("current limit outside Q0.15");
+  if (!(limit > 0 && limit < 32768)) throw std::invalid_argument("current limit outside Q1.15");
   c.current_limit_code = static_cast<std::int16_t>(limit);
   return c;
 }

@@ -7,14 +7,15 @@
 
 namespace delta::control {
 
-// Formats (hls/README.md, "Joint controller fixed-point formats"). Angles are counted in shaft
+// Formats (hls/README.md, "Joint controller fixed-point formats"; Q(i.f) with i counting the
+// sign bit, as the network's specification). Angles are counted in shaft
 // encoder counts (0.01 deg); the gear ratio lives in the coefficients.
-//   reference      int32  Q23.8   counts            (input)
-//   encoder        int16  Q15.0   counts            (input)
-//   velocities     int32  Q7.24   counts / period   (states)
-//   acceleration   int32  Q7.24   counts / period^2 (state)
-//   disturbance    int32  Q7.24   A                 (state)
-//   current        int16  Q0.15   A                 (output, limited to +-limit_code)
+//   reference      int32  Q24.8   counts            (input)
+//   encoder        int16  Q16.0   counts            (input)
+//   velocities     int32  Q8.24   counts / period   (states)
+//   acceleration   int32  Q8.24   counts / period^2 (state)
+//   disturbance    int32  Q8.24   A                 (state)
+//   current        int16  Q1.15   A                 (output, limited to +-limit_code)
 constexpr int kReferenceFraction = 8;
 constexpr int kStateFraction = 24;
 constexpr int kCurrentFraction = 15;
@@ -38,25 +39,25 @@ struct JointFixedCoefficients {
   std::int32_t law_acceleration_gain;          // Kacc = m g_r q / (K Ts^2), A per count/period^2 << 20
   std::int32_t law_velocity_gain;              // -Kacc k_v Ts                             << 20
   std::int32_t law_position_gain;              // -Kacc k_p Ts^2 (A per count)             << 36
-  std::int16_t current_limit_code;             // limit in Q0.15
+  std::int16_t current_limit_code;             // limit in Q1.15
 };
 
 // Rounds every coefficient to nearest. Throws std::invalid_argument if one does not fit 24 bits.
 JointFixedCoefficients make_fixed_coefficients(const JointControllerParameters& parameters);
 
 struct JointFixedInput {
-  std::int32_t reference = 0;  // Q23.8 counts
+  std::int32_t reference = 0;  // Q24.8 counts
   std::int16_t encoder = 0;    // counts
 };
 
 struct JointFixedState {
-  std::int32_t reference = 0;               // previous reference, Q23.8
-  std::int32_t reference_velocity = 0;      // Q7.24
-  std::int32_t reference_acceleration = 0;  // Q7.24
+  std::int32_t reference = 0;               // previous reference, Q24.8
+  std::int32_t reference_velocity = 0;      // Q8.24
+  std::int32_t reference_acceleration = 0;  // Q8.24
   std::int32_t encoder = 0;                 // previous encoder count
-  std::int32_t velocity = 0;                // VOB, Q7.24
-  std::int32_t disturbance = 0;             // DOB, Q7.24 A
-  std::int32_t current = 0;                 // applied over the last period, Q0.15 (int16 range)
+  std::int32_t velocity = 0;                // VOB, Q8.24
+  std::int32_t disturbance = 0;             // DOB, Q8.24 A
+  std::int32_t current = 0;                 // applied over the last period, Q1.15 (int16 range)
   bool operator==(const JointFixedState& other) const;
 };
 
