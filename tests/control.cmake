@@ -7,6 +7,8 @@ delta_add_gtest(control_tests
   LIBRARIES delta::control
   LABELS control)
 delta_add_gtest(control_bit_exact_tests
-  SOURCES ${CMAKE_CURRENT_LIST_DIR}/control/test_joint_bit_exact.cpp
+  SOURCES
+    ${CMAKE_CURRENT_LIST_DIR}/control/test_joint_bit_exact.cpp
+    ${CMAKE_CURRENT_LIST_DIR}/control/test_joint_axes.cpp
   LIBRARIES delta::control delta::joint_hls delta::joint_rtl
   LABELS control rtl)

@@ -1,0 +1,46 @@
+// Quadrature decoder (x4) with a 16-bit signed position counter in shaft encoder counts (0.01 deg).
+//
+// Inputs must already be synchronised to clk_i. Every edge of A or B is one count (x4 decoding);
+// a step of both channels at once (a lost state) is not counted but flagged on error_o for one
+// cycle. The counter starts at HomeCount: the joint is assumed at its home angle at reset.
+module quadrature_counter #(
+  parameter logic [15:0] HomeCount = 16'd3000  // 30.00 deg, the paper's start pose
+) (
+  input  logic        clk_i,
+  input  logic        rst_ni,
+  input  logic        a_i,
+  input  logic        b_i,
+  output logic [15:0] count_o,  // two's complement counts, wraps at +-32768 (+-327 deg)
+  output logic        error_o
+);
+  logic [1:0]  previous_q;
+  logic [15:0] count_q, count_d;
+  logic        error_d, error_q;
+
+  always_comb begin
+    count_d = count_q;
+    error_d = 1'b0;
+    // {A, B} in Gray order 00 -> 10 -> 11 -> 01 -> 00 (A leads B) counts up.
+    unique case ({previous_q, a_i, b_i})
+      4'b00_10, 4'b10_11, 4'b11_01, 4'b01_00: count_d = count_q + 16'd1;
+      4'b00_01, 4'b01_11, 4'b11_10, 4'b10_00: count_d = count_q - 16'd1;
+      4'b00_11, 4'b11_00, 4'b01_10, 4'b10_01: error_d = 1'b1;
+      default: ;  // no change
+    endcase
+  end
+
+  always_ff @(posedge clk_i or negedge rst_ni) begin
+    if (!rst_ni) begin
+      previous_q <= 2'b00;
+      count_q    <= HomeCount;
+      error_q    <= 1'b0;
+    end else begin
+      previous_q <= {a_i, b_i};
+      count_q    <= count_d;
+      error_q    <= error_d;
+    end
+  end
+
+  assign count_o = count_q;
+  assign error_o = error_q;
+endmodule
