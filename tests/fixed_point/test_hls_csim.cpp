@@ -7,7 +7,7 @@
 
 #include <gtest/gtest.h>
 
-#include "csim_vectors.hpp"
+#include "delta/golden/test_vectors.hpp"
 #include "delta/nn/weights_file.hpp"
 #include "fixed_point_fixture.hpp"
 #include "network_csim.hpp"
@@ -40,7 +40,7 @@ std::array<std::size_t, 3> expect_hls_equals_golden(const delta::nn::Network& ne
                                                     std::uint64_t seed) {
   const delta::golden::QuantisedNetwork q = delta::golden::quantise(network, golden_formats<Config>());
   const auto weights = load_weights<Config>(q);
-  const auto vectors = delta::test::csim_vectors(q, network.input_min, network.input_max, count, seed);
+  const auto vectors = delta::golden::csim_vectors(q, network.input_min, network.input_max, count, seed);
   std::cout << "seed " << seed << ", " << vectors.size() << " vectors\n";
   const auto start = std::chrono::steady_clock::now();
   std::size_t mismatches = 0;

@@ -11,13 +11,13 @@
 
 #include "delta/golden/fixed_network.hpp"
 
-namespace delta::test {
+namespace delta::golden {
 
 using RawInput = std::array<std::int64_t, 3>;
 
 // Per input: the extremes of the raw format, the centre, and codes one LSB either side of where u
 // starts to saturate (u = 1 - 2^-16 rounds up to 1, i.e. offset = (2^15 - 1/2) 2^shift).
-inline std::vector<RawInput> saturation_corners(const golden::QuantisedNetwork& q) {
+inline std::vector<RawInput> saturation_corners(const QuantisedNetwork& q) {
   std::array<std::vector<std::int64_t>, 3> values;
   const std::int64_t max_code = (std::int64_t{1} << (q.formats.input_bits - 1)) - 1;
   for (int j = 0; j < 3; ++j) {
@@ -36,7 +36,7 @@ inline std::vector<RawInput> saturation_corners(const golden::QuantisedNetwork& 
 // `count` vectors: the corners, then (in equal parts) a grid of the trained range plus 30 % margin,
 // uniform positions inside the trained range, uniform positions up to 3 half-ranges beyond it, and
 // uniform raw codes of the whole 32-bit input format.
-inline std::vector<RawInput> csim_vectors(const golden::QuantisedNetwork& q, const Vec3& trained_min_m,
+inline std::vector<RawInput> csim_vectors(const QuantisedNetwork& q, const Vec3& trained_min_m,
                                           const Vec3& trained_max_m, std::size_t count, std::uint64_t seed) {
   std::vector<RawInput> vectors = saturation_corners(q);
   if (vectors.size() > count) vectors.resize(count);
@@ -50,7 +50,7 @@ inline std::vector<RawInput> csim_vectors(const golden::QuantisedNetwork& q, con
       for (int c = 0; c < per_axis && vectors.size() < count; ++c) {
         const Vec3 t(a, b, c);
         const Vec3 p = centre + 1.3 * half.cwiseProduct(2.0 * t / (per_axis - 1) - Vec3::Ones());
-        vectors.push_back(golden::encode_position(q.formats, p));
+        vectors.push_back(encode_position(q.formats, p));
       }
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> unit(-1.0, 1.0);
@@ -62,11 +62,11 @@ inline std::vector<RawInput> csim_vectors(const golden::QuantisedNetwork& q, con
     switch (kind++ % 3) {
       case 0:
         for (int j = 0; j < 3; ++j) p[j] = centre[j] + unit(rng) * half[j];
-        vectors.push_back(golden::encode_position(q.formats, p));
+        vectors.push_back(encode_position(q.formats, p));
         break;
       case 1:
         for (int j = 0; j < 3; ++j) p[j] = centre[j] + 3.0 * unit(rng) * half[j];
-        vectors.push_back(golden::encode_position(q.formats, p));
+        vectors.push_back(encode_position(q.formats, p));
         break;
       default:
         vectors.push_back({raw(rng), raw(rng), raw(rng)});
@@ -75,4 +75,4 @@ inline std::vector<RawInput> csim_vectors(const golden::QuantisedNetwork& q, con
   return vectors;
 }
 
-}  // namespace delta::test
+}  // namespace delta::golden

@@ -1,0 +1,112 @@
+// The `fixed` (golden integer model) and `hls` (HLS C++ on sc_fixed) inverse-kinematics back ends:
+// raw output codes beside the angles, saturation counts in the report.
+#include <functional>
+#include <memory>
+
+#include "delta/golden/fixed_network.hpp"
+#include "delta/ik_backend.hpp"
+#include "delta/input_error.hpp"
+#include "delta/nn/trained_model.hpp"
+#include "delta/nn/weights_file.hpp"
+#include "network_csim.hpp"
+
+namespace delta::golden {
+namespace {
+
+using RawEvaluator = std::function<RawOutput(const std::array<std::int64_t, 3>&)>;
+
+// Reads and quantises W.json; a weight that would saturate its format is bad input.
+QuantisedNetwork quantise_file(const std::string& weights_path, const nn::WeightsFile& weights) {
+  try {
+    return quantise(weights.network, delta_hls::golden_formats<delta_hls::DefaultNetworkConfig>());
+  } catch (const std::invalid_argument& error) {
+    throw InputError(weights_path, 0, std::string("cannot be quantised: ") + error.what());
+  }
+}
+
+class FixedPointIkBackend : public IkBackend {
+ public:
+  FixedPointIkBackend(std::string name, nn::WeightsFile weights, QuantisedNetwork quantised, RawEvaluator evaluator)
+      : name_(std::move(name)), weights_(std::move(weights)), quantised_(std::move(quantised)),
+        evaluator_(std::move(evaluator)) {}
+
+  bool has_raw_codes() const override { return true; }
+
+  std::vector<IkRow> evaluate(const std::vector<Vec3>& positions_m) override {
+    std::vector<IkRow> rows(positions_m.size());
+    const nn::Network& network = weights_.network;
+    for (std::size_t i = 0; i < positions_m.size(); ++i) {
+      bool input_clamped = false;
+      const auto codes = encode_position(quantised_.formats, positions_m[i], &input_clamped);
+      raw_input_clamped_ += input_clamped;
+      const RawOutput out = evaluator_(codes);
+      counters_.scaled_input += out.scaled_input_saturated;
+      counters_.tanh_input += out.tanh_input_saturated;
+      counters_.output += out.output_saturated;
+      ++counters_.evaluations;
+      if ((positions_m[i].array() < network.input_min.array()).any() ||
+          (positions_m[i].array() > network.input_max.array()).any()) {
+        ++outside_training_range_;
+      }
+      rows[i].raw = out.alpha;
+      for (int o = 0; o < 3; ++o) rows[i].alpha_deg[o] = decode_angle_deg(quantised_.formats, out.alpha[o]);
+      if (weights_.hybrid()) {  // the raw codes are the network's residual; the math model adds in double
+        const IkSolution model = nn::math_model_angles(weights_.effects, positions_m[i]);
+        if (model.ok()) rows[i].alpha_deg += model.alpha_deg;
+        else rows[i].error = model.reason();
+      }
+    }
+    return rows;
+  }
+
+  std::vector<std::string> report() const override {
+    return {name_ + ": 3-" + std::to_string(quantised_.hidden) + "-3 network in fixed point (hls/README.md)" +
+                (weights_.hybrid() ? "; raw codes are the residual added to the math model" : ""),
+            "positions outside the training range: " + std::to_string(outside_training_range_),
+            "saturations: scaled input " + std::to_string(counters_.scaled_input) + ", tanh input " +
+                std::to_string(counters_.tanh_input) + " (harmless), output " + std::to_string(counters_.output) +
+                ", raw input " + std::to_string(raw_input_clamped_)};
+  }
+
+ private:
+  std::string name_;
+  nn::WeightsFile weights_;
+  QuantisedNetwork quantised_;
+  RawEvaluator evaluator_;
+  SaturationCounters counters_;
+  std::size_t outside_training_range_ = 0;
+  std::size_t raw_input_clamped_ = 0;
+};
+
+const RegisterIkBackend fixed_backend(
+    "fixed", "the golden fixed-point model (integer C++), raw output codes", [](const std::string& weights_path) {
+      nn::WeightsFile weights = nn::read_weights_file(weights_path);
+      QuantisedNetwork q = quantise_file(weights_path, weights);
+      RawEvaluator evaluator = [q](const std::array<std::int64_t, 3>& codes) { return evaluate_raw(q, codes); };
+      return std::make_unique<FixedPointIkBackend>("fixed", std::move(weights), std::move(q), std::move(evaluator));
+    });
+
+const RegisterIkBackend hls_backend(
+    "hls", "the HLS C++ (sc_fixed C-simulation), raw output codes", [](const std::string& weights_path) {
+      using Config = delta_hls::DefaultNetworkConfig;
+      nn::WeightsFile weights = nn::read_weights_file(weights_path);
+      QuantisedNetwork q = quantise_file(weights_path, weights);
+      if (q.hidden != Config::hidden) {
+        throw InputError(weights_path, 0, "has " + std::to_string(q.hidden) + " hidden neurons; the HLS build is "
+                                          "configured for " + std::to_string(Config::hidden));
+      }
+      std::shared_ptr<delta_hls::NetworkWeights<Config>> hls_weights = delta_hls::load_weights<Config>(q);
+      RawEvaluator evaluator = [hls_weights](const std::array<std::int64_t, 3>& codes) {
+        unsigned flags = 0;
+        RawOutput out;
+        out.alpha = delta_hls::evaluate_codes<Config>(*hls_weights, codes, &flags);
+        out.scaled_input_saturated = flags & delta_hls::kScaledInputSaturated;
+        out.tanh_input_saturated = flags & delta_hls::kTanhInputSaturated;
+        out.output_saturated = flags & delta_hls::kOutputSaturated;
+        return out;
+      };
+      return std::make_unique<FixedPointIkBackend>("hls", std::move(weights), std::move(q), std::move(evaluator));
+    });
+
+}  // namespace
+}  // namespace delta::golden

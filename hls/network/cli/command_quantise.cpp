@@ -1,0 +1,53 @@
+// deltactl quantise: W.json -> the $readmemh files and C++ header of the fixed-point network.
+#include <filesystem>
+#include <iostream>
+#include <memory>
+
+#include <CLI/CLI.hpp>
+
+#include "delta/command.hpp"
+#include "delta/golden/export.hpp"
+#include "delta/input_error.hpp"
+#include "delta/nn/weights_file.hpp"
+
+namespace delta::golden {
+namespace {
+
+struct QuantiseOptions {
+  std::string weights;
+  std::string out_dir;
+};
+
+void run_quantise(const QuantiseOptions& options) {
+  const nn::WeightsFile weights = nn::read_weights_file(options.weights);
+  QuantisedNetwork q;
+  std::vector<ExportFile> files;
+  try {
+    q = quantise(weights.network);
+    files = export_files(q);
+  } catch (const std::invalid_argument& error) {
+    throw InputError(options.weights, 0, std::string("cannot be quantised: ") + error.what());
+  }
+  if (!std::filesystem::is_directory(options.out_dir)) throw InputError(options.out_dir, 0, "is not a folder");
+  write_export(q, options.out_dir);
+  for (const ExportFile& file : files) std::cout << options.out_dir << "/" << file.name << '\n';
+  std::cerr << "quantise: 3-" << q.hidden << "-3 network, input shifts " << q.input_shift[0] << ' ' << q.input_shift[1]
+            << ' ' << q.input_shift[2] << (weights.hybrid() ? "; hybrid model: the network part (residual)" : "")
+            << '\n';
+}
+
+const RegisterCommand command("quantise", 45, [](CLI::App& root) {
+  auto options = std::make_shared<QuantiseOptions>();
+  CLI::App* sub = root.add_subcommand("quantise", "Quantise W.json for the FPGA: $readmemh files and a C++ header");
+  sub->footer("\nWrites input_centre, input_shift, input_weights, hidden_bias, tanh_table, tanh_slope,\n"
+              "output_weights, output_bias (.mem, one hex word per line, format in each file's header) and\n"
+              "fixed_network_weights.hpp. Formats: hls/README.md. Weights that would saturate a format are\n"
+              "refused (exit 2, nothing written). The output is the same bytes for the same W.json.\n"
+              "Example: deltactl quantise --weights weights/paper_like.json --out-dir build/network_mem");
+  sub->add_option("--weights", options->weights, "network weights (W.json)")->required();
+  sub->add_option("--out-dir", options->out_dir, "existing folder for the files")->required();
+  sub->callback([options] { run_quantise(*options); });
+});
+
+}  // namespace
+}  // namespace delta::golden
