@@ -7,12 +7,14 @@
 // command is stored, with current_j_ap_vld high for that cycle; ap_done pulses after the third
 // joint, with limited and overflow_count valid; all outputs hold until rewritten. ap_rst is
 // synchronous and active high. The first period after reset starts from rest at its own input
-// (golden: fixed_rest_state). Latency from the ap_start edge to ap_done: 808 cycles (6 input
-// copies, 3 x 267 for the joints, 1 done cycle): 33.7 us at 24 MHz, a third of the 100 us period.
+// (golden: fixed_rest_state). Latency from the ap_start edge to ap_done: 850 cycles (6 input
+// copies, 3 x 281 for the joints, 1 done cycle): 35.4 us at 24 MHz, a third of the 100 us period.
 //
 // Schedule: per joint the 19 instructions of delta_joint_pkg::program_rom, each
-//   OpInit 2 cycles (read, load acc), OpMac 28 (read a, b, c; form the operand; 24 bit-serial
-//   steps over the coefficient), OpStore 1; 5 x 2 + 9 x 28 + 5 x 1 = 267 cycles.
+//   OpInit 3 cycles (read, register, load acc), OpMac 29 (read a, b, c; a - b shifted; minus c,
+//   saturated; 24 bit-serial steps over the coefficient), OpStore 1: 5 x 3 + 9 x 29 + 5 = 281.
+// Every memory word passes a pipeline register (word_q) and the operand is formed in two
+// steps, so no path holds more than one carry chain: 24 MHz with the network on the UP5K.
 module joint_controller (
   input  logic        ap_clk,
   input  logic        ap_rst,
@@ -50,8 +52,9 @@ module joint_controller (
   logic [AccWidth-1:0] acc_q, acc_d;
   logic [AccWidth-1:0] multiplicand_q, multiplicand_d;  // operand << bit
   logic [23:0]  coefficient_q, coefficient_d;
+  logic [31:0]  word_q, word_d;      // the word read two cycles ago, masked (pipeline register)
   logic [31:0]  first_q, first_d;    // operand a
-  logic [32:0]  difference_q, difference_d;  // a - b
+  logic [57:0]  shifted_difference_q, shifted_difference_d;  // (a - b) << operand_shift
   logic [4:0]   source_q, source_d;  // source of the word arriving on read_data
   logic [47:0]  current_q, current_d;
   logic [2:0]   limited_q, limited_d;
@@ -124,18 +127,17 @@ module joint_controller (
     endcase
   endfunction
 
-  // ((a - b) << shift) - c on 58 bits, exact.
-  function automatic logic [57:0] raw_operand(logic [32:0] difference, logic [31:0] subtrahend, logic [2:0] shift);
-    logic [57:0] extended, shifted;
+  // (a - b) << shift on 58 bits, exact; the operand is this minus c.
+  function automatic logic [57:0] shift_difference(logic [32:0] difference, logic [2:0] shift);
+    logic [57:0] extended;
     extended = {{25{difference[32]}}, difference};
     unique case (shift)
-      delta_joint_pkg::Shift8:  shifted = extended << 8;
-      delta_joint_pkg::Shift9:  shifted = extended << 9;
-      delta_joint_pkg::Shift16: shifted = extended << 16;
-      delta_joint_pkg::Shift24: shifted = extended << 24;
-      default:                  shifted = extended;
+      delta_joint_pkg::Shift8:  shift_difference = extended << 8;
+      delta_joint_pkg::Shift9:  shift_difference = extended << 9;
+      delta_joint_pkg::Shift16: shift_difference = extended << 16;
+      delta_joint_pkg::Shift24: shift_difference = extended << 24;
+      default:                  shift_difference = extended;
     endcase
-    raw_operand = shifted - {{26{subtrahend[31]}}, subtrahend};
   endfunction
 
   logic [57:0]         operand_wide;
@@ -149,7 +151,7 @@ module joint_controller (
   logic [4:0]          issue_source;
 
   always_comb begin
-    operand_wide = raw_operand(difference_q, source_data, operand_shift);
+    operand_wide = shifted_difference_q - {{26{word_q[31]}}, word_q};
     operand_saturated = operand_wide[57:39] != {19{operand_wide[57]}};
     operand = operand_saturated ? {operand_wide[57], {39{!operand_wide[57]}}} : operand_wide[39:0];
     shifted_acc = shift_right(acc_q, instr_shift);
@@ -162,6 +164,7 @@ module joint_controller (
   end
 
   assign source_data = reads_zero(source_q, primed_q) ? 32'd0 : read_data;
+  assign word_d      = source_data;
 
   always_comb begin
     // Which operand is fetched this cycle: a at phase 0, b at 1, c at 2.
@@ -186,7 +189,7 @@ module joint_controller (
     multiplicand_d = multiplicand_q;
     coefficient_d  = coefficient_q;
     first_d        = first_q;
-    difference_d   = difference_q;
+    shifted_difference_d = shifted_difference_q;
     source_d       = issue_source;
     current_d      = current_q;
     limited_d      = limited_q;
@@ -220,8 +223,8 @@ module joint_controller (
         unique case (op)
           delta_joint_pkg::OpInit: begin
             phase_d = phase_q + 3'd1;
-            if (phase_q == 3'd1) begin
-              acc_d   = init_value(source_data, instr_frac, instr_shift);
+            if (phase_q == 3'd2) begin
+              acc_d   = init_value(word_q, instr_frac, instr_shift);
               phase_d = 3'd0;
               pc_d    = pc_q + 5'd1;
             end
@@ -229,10 +232,10 @@ module joint_controller (
           delta_joint_pkg::OpMac: begin
             phase_d = phase_q + 3'd1;
             unique case (phase_q)
-              3'd0: ;
-              3'd1: first_d = source_data;
-              3'd2: difference_d = {first_q[31], first_q} - {source_data[31], source_data};
-              3'd3: begin
+              3'd0, 3'd1: ;  // reads of a and b issued
+              3'd2: first_d = word_q;
+              3'd3: shifted_difference_d = shift_difference({first_q[31], first_q} - {word_q[31], word_q}, operand_shift);
+              3'd4: begin
                 multiplicand_d = {{(AccWidth - 40){operand[39]}}, operand};
                 coefficient_d  = delta_joint_pkg::coefficient_value(coefficient);
                 bit_d          = 5'd0;
@@ -296,8 +299,9 @@ module joint_controller (
       acc_q          <= '0;
       multiplicand_q <= '0;
       coefficient_q  <= '0;
+      word_q         <= '0;
       first_q        <= '0;
-      difference_q   <= '0;
+      shifted_difference_q <= '0;
       source_q       <= delta_joint_pkg::Zero;
       current_q      <= '0;
       limited_q      <= '0;
@@ -315,8 +319,9 @@ module joint_controller (
       acc_q          <= acc_d;
       multiplicand_q <= multiplicand_d;
       coefficient_q  <= coefficient_d;
+      word_q         <= word_d;
       first_q        <= first_d;
-      difference_q   <= difference_d;
+      shifted_difference_q <= shifted_difference_d;
       source_q       <= source_d;
       current_q      <= current_d;
       limited_q      <= limited_d;
