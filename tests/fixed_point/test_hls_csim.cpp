@@ -24,15 +24,16 @@ TEST(HlsConfig, MatchesGoldenDefaultFormats) {
   EXPECT_EQ(Config::tanh_segments, 1024);
 }
 
-// CTest runs 100000 vectors (about 15 s); scripts/bench_hls_csim.sh sets DELTA_CSIM_VECTORS=1000000.
+// CTest runs 80000 vectors on the shipped weights (about 12 s on an idle core, 140 us per vector)
+// plus a quarter of that on each other network; scripts/bench_hls_csim.sh sets DELTA_CSIM_VECTORS=1000000.
 std::size_t vector_count() {
   const char* text = std::getenv("DELTA_CSIM_VECTORS");
-  return text ? std::strtoull(text, nullptr, 10) : 100000;
+  return text ? std::strtoull(text, nullptr, 10) : 80000;
 }
 
 unsigned golden_flags(const delta::golden::RawOutput& out) {
-  return (out.scaled_input_saturated ? kScaledInputSaturated : 0u) | (out.tanh_input_saturated ? kTanhInputSaturated : 0u) |
-         (out.output_saturated ? kOutputSaturated : 0u);
+  return (out.scaled_input_saturated ? unsigned{kScaledInputSaturated} : 0u) | (out.tanh_input_saturated ? unsigned{kTanhInputSaturated} : 0u) |
+         (out.output_saturated ? unsigned{kOutputSaturated} : 0u);
 }
 
 // Returns how many vectors set each saturation bit (scaled input, tanh input, output).
@@ -68,7 +69,7 @@ std::array<std::size_t, 3> expect_hls_equals_golden(const delta::nn::Network& ne
 }
 
 TEST(HlsCsim, EveryRawCodeMatchesGoldenOnFittedNetwork) {
-  const auto saturated = expect_hls_equals_golden(delta::test::cube_network(), vector_count(), 20261121);
+  const auto saturated = expect_hls_equals_golden(delta::test::cube_network(), vector_count() / 4, 20261121);
   // The vectors must reach the input and tanh clamps, or they do not test those casts. (This
   // network's outputs stay within +-120 deg, far from the +-512 deg limit: see the stress test.)
   EXPECT_GT(saturated[0], 0u);
@@ -99,7 +100,7 @@ TEST(HlsCsim, EveryRawCodeMatchesGoldenOnStressNetwork) {
 TEST(HlsCsim, EveryRawCodeMatchesGoldenOnShippedWeights) {
   const std::string path = std::string(DELTA_SOURCE_DIR) + "/weights/paper_like.json";
   if (!std::ifstream(path)) GTEST_SKIP() << path << " not present";
-  expect_hls_equals_golden(delta::nn::read_weights_file(path).network, vector_count() / 4, 7);
+  expect_hls_equals_golden(delta::nn::read_weights_file(path).network, vector_count(), 7);
 }
 
 }  // namespace

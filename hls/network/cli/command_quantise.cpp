@@ -7,8 +7,10 @@
 
 #include "delta/command.hpp"
 #include "delta/golden/export.hpp"
+#include "delta/golden/test_vectors.hpp"
 #include "delta/input_error.hpp"
 #include "delta/nn/weights_file.hpp"
+#include "delta/output_file.hpp"
 
 namespace delta::golden {
 namespace {
@@ -16,7 +18,23 @@ namespace {
 struct QuantiseOptions {
   std::string weights;
   std::string out_dir;
+  std::size_t vectors = 0;
 };
+
+// golden_vectors.txt: raw input codes and the golden model's raw output codes, one vector a line.
+void write_golden_vectors(const QuantisedNetwork& q, const nn::Network& network, std::size_t count,
+                          const std::string& path) {
+  OutputFile file(path);
+  std::ostream& out = file.stream();
+  out << "# Golden vectors of the fixed-point network (hls/README.md): x_0 x_1 x_2 (raw input codes,\n"
+         "# metres * 2^" << q.formats.input_fraction_bits << ") y_0 y_1 y_2 (raw output codes, degrees * 2^"
+      << q.formats.output_fraction_bits << "), decimal; saturation corners, grid, random (seed 1).\n";
+  for (const RawInput& x : csim_vectors(q, network.input_min, network.input_max, count, 1)) {
+    const RawOutput y = evaluate_raw(q, x);
+    out << x[0] << ' ' << x[1] << ' ' << x[2] << ' ' << y.alpha[0] << ' ' << y.alpha[1] << ' ' << y.alpha[2] << '\n';
+  }
+  file.commit();
+}
 
 void run_quantise(const QuantiseOptions& options) {
   const nn::WeightsFile weights = nn::read_weights_file(options.weights);
@@ -31,6 +49,10 @@ void run_quantise(const QuantiseOptions& options) {
   if (!std::filesystem::is_directory(options.out_dir)) throw InputError(options.out_dir, 0, "is not a folder");
   write_export(q, options.out_dir);
   for (const ExportFile& file : files) std::cout << options.out_dir << "/" << file.name << '\n';
+  if (options.vectors > 0) {
+    write_golden_vectors(q, weights.network, options.vectors, options.out_dir + "/golden_vectors.txt");
+    std::cout << options.out_dir << "/golden_vectors.txt\n";
+  }
   std::cerr << "quantise: 3-" << q.hidden << "-3 network, input shifts " << q.input_shift[0] << ' ' << q.input_shift[1]
             << ' ' << q.input_shift[2] << (weights.hybrid() ? "; hybrid model: the network part (residual)" : "")
             << '\n';
@@ -43,9 +65,11 @@ const RegisterCommand command("quantise", 45, [](CLI::App& root) {
               "output_weights, output_bias (.mem, one hex word per line, format in each file's header) and\n"
               "fixed_network_weights.hpp. Formats: hls/README.md. Weights that would saturate a format are\n"
               "refused (exit 2, nothing written). The output is the same bytes for the same W.json.\n"
+              "--vectors N adds golden_vectors.txt (raw codes in and out) for the HLS and RTL testbenches.\n"
               "Example: deltactl quantise --weights weights/paper_like.json --out-dir build/network_mem");
   sub->add_option("--weights", options->weights, "network weights (W.json)")->required();
   sub->add_option("--out-dir", options->out_dir, "existing folder for the files")->required();
+  sub->add_option("--vectors", options->vectors, "also write golden_vectors.txt with this many test vectors");
   sub->callback([options] { run_quantise(*options); });
 });
 

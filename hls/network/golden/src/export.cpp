@@ -1,6 +1,7 @@
 // $readmemh files and the C++ weights header of a quantised network.
 #include "delta/golden/export.hpp"
 
+#include <cmath>
 #include <sstream>
 
 #include "delta/output_file.hpp"
@@ -24,6 +25,7 @@ std::vector<MemSpec> mem_specs(const QuantisedNetwork& q) {
   const int bias1_bits = f.tanh_input_bits + acc1 - f.tanh_input_fraction_bits;
   const int bias2_bits = f.output_bits + acc2 - f.output_fraction_bits;
   auto q_format = [](const char* sign, int bits, int fraction) {
+    if (bits < fraction) return std::string(sign) + ", LSB 2^-" + std::to_string(fraction);  // no integer bits
     return std::string(sign) + " Q" + std::to_string(bits - fraction) + "." + std::to_string(fraction);
   };
   const std::vector<std::int64_t> shifts(q.input_shift.begin(), q.input_shift.end());
@@ -43,8 +45,8 @@ std::vector<MemSpec> mem_specs(const QuantisedNetwork& q) {
                              std::to_string(f.tanh_segments() - 1),
        q_format("unsigned", f.tanh_entry_fraction_bits(), f.tanh_entry_fraction_bits()), f.tanh_entry_fraction_bits(),
        q.tanh_table, "kTanhTable"},
-      {"tanh_slope.mem", "D[i] = T[i+1] - T[i], i = 0.." + std::to_string(f.tanh_segments() - 1),
-       q_format("signed", f.tanh_entry_fraction_bits() - f.tanh_segments_per_unit_log2 + 1, f.tanh_entry_fraction_bits()),
+      {"tanh_slope.mem", "D[i] = T[i+1] - T[i] (0 <= D <= 2^(20-7)), i = 0.." + std::to_string(f.tanh_segments() - 1),
+       q_format("unsigned", f.tanh_entry_fraction_bits() - f.tanh_segments_per_unit_log2 + 1, f.tanh_entry_fraction_bits()),
        f.tanh_entry_fraction_bits() - f.tanh_segments_per_unit_log2 + 1, q.tanh_slope, "kTanhSlope"},
       {"output_weights.mem", "LW'_ok (degrees per unit h), 3 x " + h + " output-major: word " + h + " o + k",
        q_format("signed", f.output_weight_bits, f.output_weight_fraction_bits), f.output_weight_bits, q.output_weights,
@@ -52,6 +54,51 @@ std::vector<MemSpec> mem_specs(const QuantisedNetwork& q) {
       {"output_bias.mem", "b2'_o (degrees), o = 0..2", q_format("signed", bias2_bits, acc2), bias2_bits,
        std::vector<std::int64_t>(q.output_bias.begin(), q.output_bias.end()), "kOutputBias"},
   };
+}
+
+// Brace initialiser of delta_hls::NetworkWeights<Config> (hls/network/network.hpp): every constant
+// as the shortest decimal that reads back as the exact double code * 2^-fraction, which the
+// fixed-point types then hold exactly.
+std::string hls_initialiser(const QuantisedNetwork& q) {
+  const Formats& f = q.formats;
+  std::ostringstream out;
+  auto list = [&out](const std::vector<std::int64_t>& codes, std::size_t begin, std::size_t count, int fraction) {
+    out << "{";
+    for (std::size_t i = 0; i < count; ++i) {
+      out << (i ? ", " : "") << format_number(std::ldexp(static_cast<double>(codes[begin + i]), -fraction));
+    }
+    out << "}";
+  };
+  const std::vector<std::int64_t> centre(q.input_centre.begin(), q.input_centre.end());
+  const std::vector<std::int64_t> bias2(q.output_bias.begin(), q.output_bias.end());
+  std::vector<std::int64_t> gain;
+  for (int e : q.input_exponent) gain.push_back(std::int64_t{1} << (16 - e));  // 2^-e as a code with 16 fraction bits
+  const std::size_t h = static_cast<std::size_t>(q.hidden);
+  out << "// Initialiser of delta_hls::NetworkWeights<DefaultNetworkConfig> for the synthesis top.\n"
+         "#define DELTA_NETWORK_WEIGHTS_INIT \\\n  { ";
+  list(centre, 0, 3, f.input_fraction_bits);
+  out << ", ";
+  list(gain, 0, 3, 16);
+  out << ", \\\n    {";
+  for (std::size_t k = 0; k < h; ++k) {
+    out << (k ? ", " : "");
+    list(q.input_weights, 3 * k, 3, f.input_weight_fraction_bits);
+  }
+  out << "}, \\\n    ";
+  list(q.hidden_bias, 0, h, f.hidden_accumulator_fraction_bits());
+  out << ", \\\n    ";
+  list(q.tanh_table, 0, q.tanh_table.size(), f.tanh_entry_fraction_bits());
+  out << ", \\\n    ";
+  list(q.tanh_slope, 0, q.tanh_slope.size(), f.tanh_entry_fraction_bits());
+  out << ", \\\n    {";
+  for (std::size_t o = 0; o < 3; ++o) {
+    out << (o ? ", " : "");
+    list(q.output_weights, h * o, h, f.output_weight_fraction_bits);
+  }
+  out << "}, \\\n    ";
+  list(bias2, 0, 3, f.output_accumulator_fraction_bits());
+  out << " }\n";
+  return out.str();
 }
 
 }  // namespace
@@ -98,7 +145,7 @@ std::vector<ExportFile> export_files(const QuantisedNetwork& q) {
     }
     header << "};\n\n";
   }
-  header << "}  // namespace delta_network_weights\n";
+  header << "}  // namespace delta_network_weights\n\n" << hls_initialiser(q);
   files.push_back({"fixed_network_weights.hpp", header.str()});
   return files;
 }
