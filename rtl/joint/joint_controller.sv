@@ -7,14 +7,16 @@
 // command is stored, with current_j_ap_vld high for that cycle; ap_done pulses after the third
 // joint, with limited and overflow_count valid; all outputs hold until rewritten. ap_rst is
 // synchronous and active high. The first period after reset starts from rest at its own input
-// (golden: fixed_rest_state). Latency from the ap_start edge to ap_done: 850 cycles (6 input
-// copies, 3 x 281 for the joints, 1 done cycle): 35.4 us at 24 MHz, a third of the 100 us period.
+// (golden: fixed_rest_state). Latency from the ap_start edge to ap_done: 865 cycles (6 input
+// copies, 3 x 286 for the joints, 1 done cycle): 36.0 us at 24 MHz, a third of the 100 us period.
 //
 // Schedule: per joint the 19 instructions of delta_joint_pkg::program_rom, each
 //   OpInit 3 cycles (read, register, load acc), OpMac 29 (read a, b, c; a - b shifted; minus c,
-//   saturated; 24 bit-serial steps over the coefficient), OpStore 1: 5 x 3 + 9 x 29 + 5 = 281.
-// Every memory word passes a pipeline register (word_q) and the operand is formed in two
-// steps, so no path holds more than one carry chain: 24 MHz with the network on the UP5K.
+//   saturated; 24 bit-serial steps over the coefficient), OpStore 2 (shift, then saturate and
+//   write): 5 x 3 + 9 x 29 + 5 x 2 = 286.
+// The instruction, every memory word (word_q) and the shifted accumulator pass a register and
+// the operand is formed in two steps, so no path holds more than one carry chain: 24 MHz with
+// the network on the UP5K.
 module joint_controller (
   input  logic        ap_clk,
   input  logic        ap_rst,
@@ -75,8 +77,10 @@ module joint_controller (
   logic [4:0] source_a, source_b, source_c, instr_frac, instr_shift;
   logic [2:0] operand_shift, dest;
   logic [3:0] coefficient;
+  // The instruction is registered (decoded from pc_d) so that no data path starts at the ROM.
+  logic [delta_joint_pkg::InstructionWidth-1:0] instruction_q;
   assign {op, source_a, source_b, source_c, operand_shift, coefficient, instr_frac, instr_shift, dest} =
-      delta_joint_pkg::program_rom(pc_q);
+      instruction_q;
 
   joint_state_ram u_state_ram (
     .clk_i          (ap_clk),
@@ -143,7 +147,7 @@ module joint_controller (
   logic [57:0]         operand_wide;
   logic [39:0]         operand;
   logic                operand_saturated;
-  logic [AccWidth-1:0] shifted_acc;
+  logic [AccWidth-1:0] shifted_acc, shifted_acc_q;  // acc >>> shift, registered for the stores
   logic                state_saturated;
   logic [31:0]         state_word;
   logic                current_high, current_low;
@@ -154,7 +158,7 @@ module joint_controller (
     operand_wide = shifted_difference_q - {{26{word_q[31]}}, word_q};
     operand_saturated = operand_wide[57:39] != {19{operand_wide[57]}};
     operand = operand_saturated ? {operand_wide[57], {39{!operand_wide[57]}}} : operand_wide[39:0];
-    shifted_acc = shift_right(acc_q, instr_shift);
+    shifted_acc = shifted_acc_q;
     state_saturated = shifted_acc[AccWidth-1:31] != {(AccWidth - 31){shifted_acc[AccWidth-1]}};
     state_word = state_saturated ? {shifted_acc[AccWidth-1], {31{!shifted_acc[AccWidth-1]}}} : shifted_acc[31:0];
     current_high = $signed(shifted_acc) > $signed({{(AccWidth - 16){1'b0}}, delta_joint_pkg::CurrentLimit});
@@ -255,22 +259,31 @@ module joint_controller (
               end
             endcase
           end
+          // Stores: phase 0 registers acc >>> shift (shifted_acc_q), phase 1 writes.
           delta_joint_pkg::OpStoreState: begin
-            write_enable   = 1'b1;
-            overflow_event = state_saturated;
-            pc_d           = pc_q + 5'd1;
+            phase_d = 3'd1;
+            if (phase_q == 3'd1) begin
+              write_enable   = 1'b1;
+              overflow_event = state_saturated;
+              phase_d        = 3'd0;
+              pc_d           = pc_q + 5'd1;
+            end
           end
           default: begin  // OpStoreCurrent: last instruction of a joint
-            write_enable = 1'b1;
-            write_data   = {{16{current_word[15]}}, current_word};
-            current_d[16 * joint_q +: 16] = current_word;
-            limited_d[joint_q] = current_high || current_low;
-            current_valid_d[joint_q] = 1'b1;
-            pc_d = 5'd0;
-            if (joint_q == 2'd2) begin
-              state_d = StateDone;
-            end else begin
-              joint_d = joint_q + 2'd1;
+            phase_d = 3'd1;
+            if (phase_q == 3'd1) begin
+              phase_d      = 3'd0;
+              write_enable = 1'b1;
+              write_data   = {{16{current_word[15]}}, current_word};
+              current_d[16 * joint_q +: 16] = current_word;
+              limited_d[joint_q]            = current_high || current_low;
+              current_valid_d[joint_q]      = 1'b1;
+              pc_d = 5'd0;
+              if (joint_q == 2'd2) begin
+                state_d = StateDone;
+              end else begin
+                joint_d = joint_q + 2'd1;
+              end
             end
           end
         endcase
@@ -307,6 +320,8 @@ module joint_controller (
       limited_q      <= '0;
       overflow_q     <= '0;
       current_valid_q <= '0;
+      instruction_q  <= delta_joint_pkg::program_rom(5'd0);
+      shifted_acc_q  <= '0;
     end else begin
       state_q        <= state_d;
       load_q         <= load_d;
@@ -327,6 +342,8 @@ module joint_controller (
       limited_q      <= limited_d;
       overflow_q     <= overflow_d;
       current_valid_q <= current_valid_d;
+      instruction_q  <= delta_joint_pkg::program_rom(pc_d);
+      shifted_acc_q  <= shift_right(acc_q, instr_shift);
     end
   end
 
