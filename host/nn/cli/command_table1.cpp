@@ -12,6 +12,7 @@
 #include "delta/nn/model_training.hpp"
 #include "delta/nn/trained_model.hpp"
 #include "delta/table.hpp"
+#include "training_options.hpp"
 
 namespace delta::nn {
 namespace {
@@ -118,9 +119,7 @@ const RegisterCommand command("table1", 45, [](CLI::App& root) {
   sub->add_option("--hybrid", options->hybrid_weights, "use this hybrid W.json instead of training one");
   sub->add_option("--save-network", options->save_network, "write the trained network here");
   sub->add_option("--save-hybrid", options->save_hybrid, "write the trained hybrid here");
-  sub->add_option("--seed", options->training.seed, "training seed")->capture_default_str();
-  sub->add_option("--hidden", options->training.hidden, "hidden tanh neurons")->capture_default_str()->check(CLI::Range(1, 1000));
-  sub->add_option("--max-epochs", options->training.max_epochs, "epoch limit")->capture_default_str()->check(CLI::Range(1, 100000));
+  add_training_options(sub, options->training);
   sub->callback([options] { run_table1(*options); });
 });
 

@@ -8,6 +8,7 @@
 #include "delta/command.hpp"
 #include "delta/nn/model_training.hpp"
 #include "delta/table.hpp"
+#include "training_options.hpp"
 
 namespace delta::nn {
 namespace {
@@ -52,16 +53,14 @@ const RegisterCommand command("train", 40, [](CLI::App& root) {
       "for 6 epochs in a row, when the training error has plateaued (< 1 % over 25 epochs), or at\n"
       "--max-epochs; the weights with the best validation error are kept. One line per epoch on stderr.\n"
       "--model hybrid first fits the math model's effects (geometry per chain, joint offsets, encoder\n"
-      "scales, frame tilt and shift) and trains the network on what remains.\n"
+      "scales, frame tilt and shift, backlash; in time order) and trains the network on what remains.\n"
       "The same data, seed and options give the same W.json, byte for byte, with any thread count.\n"
       "Example: deltactl train --data rec.csv --out W.json --seed 1 --hidden 25");
   sub->add_option("--data", options->data, "recording to fit (SPEC CSV)")->required();
   sub->add_option("--out", options->out, "weights file to write (W.json)")->required();
-  sub->add_option("--seed", options->training.seed, "seed of the initial weights and the validation split")->capture_default_str();
-  sub->add_option("--hidden", options->training.hidden, "hidden tanh neurons")->capture_default_str()->check(CLI::Range(1, 1000));
+  add_training_options(sub, options->training);
   sub->add_option("--model", options->model, "network (the paper's) or hybrid (math model + network)")
       ->capture_default_str()->check(CLI::IsMember({"network", "hybrid"}));
-  sub->add_option("--max-epochs", options->training.max_epochs, "epoch limit")->capture_default_str()->check(CLI::Range(1, 100000));
   sub->add_option("--validation", options->training.validation_fraction, "share of samples held out for early stopping")
       ->capture_default_str()->check(CLI::Range(0.0, 0.5));
   sub->add_option("--threads", options->training.threads, "worker threads (0: all cores; same result for any)")
