@@ -125,7 +125,6 @@ void network_core(const typename C::input_t x[C::inputs], const NetworkWeights<C
   constexpr int multiplier_limit = (C::inputs * C::hidden + C::hidden * C::outputs + C::reuse_factor - 1) / C::reuse_factor;
   (void)multiplier_limit;
   DELTA_HLS_PRAGMA(HLS ALLOCATION operation instances=mul limit=multiplier_limit)
-  DELTA_HLS_PRAGMA(HLS ARRAY_PARTITION variable=weights.input_weights type=complete dim=2)
   typename C::scaled_input_t u[C::inputs];
   DELTA_HLS_PRAGMA(HLS ARRAY_PARTITION variable=u type=complete)
   typename C::hidden_t h[C::hidden];

@@ -237,7 +237,7 @@ bool run_sweep(const AccuracyOptions& options, const nn::Network& network, const
     PlotSeries bound{"bound " + fixed(options.bound_deg, 4) + " deg", {-4.0, 2.0}, {options.bound_deg, options.bound_deg}, false};
     panel.series.push_back(bound);
     PlotSpec spec;
-    spec.title = "Fixed-point network: word-length sweep (" + options.weights + ")";
+    spec.title = "Fixed-point network: word-length sweep";
     spec.panels = {panel};
     write_plot(options.plot, spec);
     std::cout << "plot: " << options.plot << "\n\n";
