@@ -48,3 +48,33 @@ TEST(TrainedModel, HybridIsTheMathModelPlusTheNetwork) {
 
 }  // namespace
 }  // namespace delta::nn
+
+namespace delta::nn {
+namespace {
+
+// The shipped weights (weights/README.md) on a sweep they never saw. Tolerance: the paper's NN
+// column of Table 1 (0.1655, 0.0616, 0.0576 deg) for both; the hybrid also below the pose-wise
+// floor plus a margin (half the 0.15 deg backlash of joint 1, 0.03 deg on the others).
+TEST(ShippedWeights, BeatThePaperOnAHeldOutSweep) {
+  const std::vector<Sample> check = test::record("sweep", test::paper_like_effects(), 2000, 7);
+  for (const char* name : {"paper_like.json", "paper_like_hybrid.json"}) {
+    SCOPED_TRACE(name);
+    const WeightsFile weights = read_weights_file(std::string(DELTA_SOURCE_DIR) + "/weights/" + name);
+    std::vector<Vec3> measured, predicted;
+    for (const Sample& s : check) {
+      const IkSolution solution = evaluate_model(weights, s.position_m);
+      ASSERT_TRUE(solution.ok()) << solution.reason();
+      measured.push_back(s.alpha_deg);
+      predicted.push_back(solution.alpha_deg);
+    }
+    const Vec3 rmse = joint_error_stats(measured, predicted).rmse_deg;
+    std::printf("%s: held-out RMSE %.4f %.4f %.4f deg\n", name, rmse[0], rmse[1], rmse[2]);
+    EXPECT_LT(rmse[0], 0.1655);
+    EXPECT_LT(rmse[1], 0.0616);
+    EXPECT_LT(rmse[2], 0.0576);
+    if (weights.hybrid()) EXPECT_LT(rmse.maxCoeff(), 0.08);
+  }
+}
+
+}  // namespace
+}  // namespace delta::nn
