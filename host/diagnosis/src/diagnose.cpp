@@ -343,6 +343,57 @@ Diagnosis diagnose(const std::vector<Sample>& fit, const std::vector<Sample>& ch
     }
   }
 
+  // Swap search: a wrong early pick can absorb two true effects and end as a larger model at the
+  // floor (chain_angle + joint_offset read as frame_misalignment + radius_offset + joint_offset).
+  // When a model of three or four families reaches the floor, try each two-for-one swap and keep
+  // a smaller model that does as well on CHECK (within the threshold).
+  const double floor_limit = options.explained_ratio * options.noise_floor_deg;
+  // Limited to models of three or four families: the search grows as k^2 (9 - k) fits.
+  while (current.count() >= 3 && current.count() <= 4 && current_rmse.maxCoeff() <= floor_limit) {
+    std::vector<FamilySet> sets;
+    std::vector<std::function<Candidate()>> jobs;
+    for (std::size_t a = 0; a < order.size(); ++a) {
+      for (std::size_t b = a + 1; b < order.size(); ++b) {
+        FamilySet reduced = current;
+        reduced.reset(index_of(order[a]));
+        reduced.reset(index_of(order[b]));
+        Parameters reduced_theta = theta;
+        for (int k : parameter_indices(single(order[a]) | single(order[b]))) reduced_theta[k] = neutral_parameters()[k];
+        const std::vector<Vec3> reduced_prediction =
+            predict_recording(to_effect_set(reduced_theta, reduced), fit).alpha_deg;
+        for (int f = 0; f < kFamilyCount; ++f) {
+          if (current[f]) continue;
+          const Parameters start = initial_guess(family_at(f), reduced_theta, fit, reduced_prediction);
+          const FamilySet families = reduced | single(family_at(f));
+          sets.push_back(families);
+          jobs.push_back([&fit, &thinned_fit, &check, families, start, &options] {
+            return fit_and_check(fit, thinned_fit, check, families, start, options);
+          });
+        }
+      }
+    }
+    const std::vector<Candidate> results = run_parallel(jobs, options.threads);
+    int best = -1;
+    for (std::size_t r = 0; r < results.size(); ++r) {
+      if (results[r].ok && (best < 0 || mean_square(results[r].holdout_rmse) < mean_square(results[best].holdout_rmse))) {
+        best = static_cast<int>(r);
+      }
+    }
+    if (best < 0 || mean_square(results[best].holdout_rmse) > mean_square(current_rmse) + threshold) break;
+    std::vector<Family> kept;
+    for (Family family : order) {
+      if (sets[best][index_of(family)]) kept.push_back(family);
+      else diagnosis.eliminated.push_back(std::string(family_name(family)) + " (swapped out)");
+    }
+    for (int f = 0; f < kFamilyCount; ++f) {
+      if (sets[best][f] && !current[f]) kept.push_back(family_at(f));
+    }
+    order = kept;
+    current = sets[best];
+    theta = results[best].fit.theta;
+    current_rmse = results[best].holdout_rmse;
+  }
+
   // The kept model, refitted on every FIT row.
   if (current.any()) {
     FitOptions fit_options;

@@ -1,0 +1,80 @@
+// diagnosis_blind_suite: runs the blind suite through `deltactl diagnose` and prints the score table.
+#include <cstdio>
+#include <cstdlib>
+#include <iostream>
+#include <string>
+
+#include "blind_suite.hpp"
+#include "delta/table.hpp"
+
+namespace {
+
+void usage() {
+  std::cerr << "usage: diagnosis_blind_suite --deltactl PATH --work DIR [--cases N] [--first K] [--quick]\n"
+               "Runs cases K..K+N-1 (default 0..59) of the seeded blind suite and prints one row per case and the\n"
+               "score: significant set equal to the injected set (outside-library cases: explained false),\n"
+               "and held-out RMSE from PRED.csv within 1.5 noise floors. Exit 1 when the score misses 95 %.\n";
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string deltactl, work;
+  int cases = 60, first = 0;
+  bool quick = false;
+  for (int i = 1; i < argc; ++i) {
+    const std::string argument = argv[i];
+    auto value = [&]() -> std::string {
+      if (i + 1 >= argc) {
+        usage();
+        std::exit(2);
+      }
+      return argv[++i];
+    };
+    if (argument == "--deltactl") deltactl = value();
+    else if (argument == "--work") work = value();
+    else if (argument == "--cases") cases = std::stoi(value());
+    else if (argument == "--first") first = std::stoi(value());
+    else if (argument == "--quick") quick = true;
+    else {
+      usage();
+      return argument == "--help" ? 0 : 2;
+    }
+  }
+  if (deltactl.empty() || work.empty()) {
+    usage();
+    return 2;
+  }
+  delta::Table table({"case", "kind", "injected", "reported significant", "explained", "held-out RMSE / floor",
+                      "set", "RMSE", "time [s]"});
+  int passed = 0, set_passed = 0, rmse_checked = 0, rmse_passed = 0;
+  double slowest = 0.0;
+  for (int id = first; id < first + cases; ++id) {
+    const delta::blind::BlindCase blind_case = delta::blind::make_case(id, quick);
+    const delta::blind::CaseScore score = delta::blind::run_case(blind_case, deltactl, work);
+    std::string reported;
+    for (const std::string& name : score.reported) reported += (reported.empty() ? "" : " + ") + name;
+    if (reported.empty()) reported = "none";
+    if (!score.error.empty()) reported = "ERROR: " + score.error;
+    passed += score.pass();
+    set_passed += score.error.empty() && score.set_ok;
+    if (blind_case.kind != delta::blind::CaseKind::outside) {
+      ++rmse_checked;
+      rmse_passed += score.error.empty() && score.rmse_ok;
+    }
+    slowest = std::max(slowest, score.seconds);
+    table.add_row({std::to_string(id), delta::blind::kind_name(blind_case.kind), blind_case.description, reported,
+                   score.explained ? "yes" : "no", delta::fixed(score.rmse_after_over_floor, 3),
+                   score.set_ok ? "ok" : "WRONG", score.rmse_ok ? "ok" : "HIGH", delta::fixed(score.seconds, 1)});
+    std::cerr << "case " << id << ": " << (score.pass() ? "pass" : "FAIL") << " (" << blind_case.description
+              << " -> " << reported << ")\n";
+  }
+  table.print(std::cout);
+  const double set_score = 100.0 * set_passed / cases;
+  std::cout << "\nsignificant set correct (outside library: explained false): " << set_passed << " / " << cases << " = "
+            << delta::fixed(set_score, 1) << " %\n"
+            << "in-library held-out RMSE from PRED.csv <= 1.5 noise floors: " << rmse_passed << " / " << rmse_checked
+            << "\ncases passing both: " << passed << " / " << cases << "\nslowest diagnosis: "
+            << delta::fixed(slowest, 1) << " s\n";
+  return set_score >= 95.0 && rmse_passed == rmse_checked ? 0 : 1;
+}

@@ -1,0 +1,116 @@
+// deltactl diagnose: the SPEC contract (outputs, bad input) and a quick subset of the blind suite.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include <nlohmann/json.hpp>
+
+#include "../support/run_command.hpp"
+#include "blind_suite.hpp"
+#include "delta/csv.hpp"
+#include "delta/recording.hpp"
+
+namespace delta::test {
+namespace {
+
+std::string temp(const std::string& name) { return ::testing::TempDir() + "diagnose_" + name; }
+
+TEST(DiagnoseCli, HelpTeachesWithAnExample) {
+  const CommandResult result = run_deltactl("diagnose --help");
+  EXPECT_EQ(result.exit_code, 0);
+  EXPECT_NE(result.out.find("Example"), std::string::npos);
+  EXPECT_NE(result.out.find("--holdout"), std::string::npos);
+}
+
+// One recording pair with a known effect, shared by the contract tests.
+struct Pair {
+  std::string fit = temp("fit.csv"), check = temp("check.csv");
+  Pair() {
+    EffectSet effects;
+    effects.joint_offset_deg = Vec3(0.2, -0.1, 0.3);
+    RecordingOptions options;
+    options.samples = 2000;
+    const VirtualRobot robot(effects);
+    write_recording(fit, robot.record(make_trajectory("sweep", 11), options).samples);
+    options.samples = 700;
+    write_recording(check, robot.record(make_trajectory("sweep", 12), options).samples);
+  }
+};
+
+TEST(DiagnoseCli, WritesTheSpecOutputs) {
+  const Pair pair;
+  const std::string json = temp("out.json"), predictions = temp("pred.csv"), report = temp("report/r.md");
+  const CommandResult result = run_deltactl("diagnose --data " + pair.fit + " --holdout " + pair.check + " --json " +
+                                            json + " --predictions " + predictions + " --report " + report);
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  nlohmann::json document;
+  std::ifstream(json) >> document;
+  EXPECT_NEAR(document.at("noise_floor_deg").get<double>(), 0.01 / std::sqrt(12.0), 1e-12);
+  EXPECT_TRUE(document.at("explained").get<bool>());
+  ASSERT_FALSE(document.at("effects").empty());
+  EXPECT_EQ(document["effects"][0].at("name"), "joint_offset");
+  EXPECT_TRUE(document["effects"][0].at("significant").get<bool>());
+  EXPECT_NEAR(document["effects"][0]["parameters"]["o_deg"][2].get<double>(), 0.3, 2e-3);
+  for (int j = 0; j < 3; ++j) {
+    EXPECT_GT(document["holdout"]["rmse_nominal_deg"][j].get<double>(), 0.09);
+    EXPECT_LT(document["holdout"]["rmse_after_deg"][j].get<double>(), 0.0032);
+  }
+  const Recording check = read_recording(pair.check);
+  const CsvTable rows = read_csv(predictions, {"t_s", "alpha1_deg", "alpha2_deg", "alpha3_deg"});
+  ASSERT_EQ(rows.rows.size(), check.samples.size());
+  for (std::size_t i = 0; i < rows.rows.size(); ++i) ASSERT_EQ(rows.rows[i][0], check.samples[i].t_s);
+  EXPECT_TRUE(file_exists(report));
+  EXPECT_TRUE(file_exists(temp("report/r_map.png")));
+}
+
+TEST(DiagnoseCli, BadInputNamesFileAndLineAndWritesNothing) {
+  const Pair pair;
+  std::string text = read_text(pair.check);
+  // Time going backwards on the 4th data line.
+  std::vector<std::string> lines;
+  std::istringstream stream(text);
+  for (std::string line; std::getline(stream, line);) lines.push_back(line);
+  std::size_t header = 0;
+  while (lines[header][0] == '#') ++header;
+  lines[header + 4] = "0" + lines[header + 4].substr(lines[header + 4].find(','));
+  std::string broken;
+  for (const std::string& line : lines) broken += line + "\n";
+  const std::string bad = temp("bad.csv");
+  write_text(bad, broken);
+  const std::string json = temp("bad.json"), predictions = temp("bad_pred.csv");
+  std::filesystem::remove(json);
+  std::filesystem::remove(predictions);
+  const CommandResult result = run_deltactl("diagnose --data " + pair.fit + " --holdout " + bad + " --json " + json +
+                                            " --predictions " + predictions);
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_NE(result.err.find(bad + ":" + std::to_string(header + 5) + ": time goes backwards"), std::string::npos)
+      << result.err;
+  EXPECT_FALSE(file_exists(json));
+  EXPECT_FALSE(file_exists(predictions));
+  // A position the nominal robot cannot reach.
+  write_text(bad, "t_s,alpha1_deg,alpha2_deg,alpha3_deg,x_m,y_m,z_m\n0,30,30,30,0,0,-0.5\n");
+  const CommandResult unreachable = run_deltactl("diagnose --data " + bad + " --holdout " + pair.check + " --json " +
+                                                 json + " --predictions " + predictions);
+  EXPECT_EQ(unreachable.exit_code, 2);
+  EXPECT_NE(unreachable.err.find(bad + ": has 1 rows"), std::string::npos) << unreachable.err;
+  EXPECT_FALSE(file_exists(json));
+}
+
+// Quick blind subset: none, backlash, transmission error, a pair and the unequal-rods robot.
+class BlindSubset : public ::testing::TestWithParam<int> {};
+
+TEST_P(BlindSubset, DiagnosisFindsTheInjectedSet) {
+  const blind::BlindCase blind_case = blind::make_case(GetParam(), true);
+  std::cout << "blind case " << GetParam() << ": " << blind_case.description << '\n';
+  const blind::CaseScore score = blind::run_case(blind_case, DELTACTL_PATH, ::testing::TempDir() + "blind_subset");
+  ASSERT_TRUE(score.error.empty()) << score.error;
+  std::string reported;
+  for (const std::string& name : score.reported) reported += name + " ";
+  EXPECT_TRUE(score.set_ok) << "injected " << blind_case.description << ", reported " << reported;
+  EXPECT_TRUE(score.rmse_ok) << "held-out RMSE " << score.rmse_after_over_floor << " noise floors";
+}
+
+INSTANTIATE_TEST_SUITE_P(Quick, BlindSubset, ::testing::Values(0, 7, 8, 12, 17));
+
+}  // namespace
+}  // namespace delta::test
