@@ -67,15 +67,16 @@ QuantisedNetwork quantise(const nn::Network& network, const Formats& formats) {
   q.hidden = network.hidden();
   const int hidden = q.hidden;
   const Formats& f = formats;
-  // Input: u_j = (x_j - centre_j) / 2^e_j with 2^e_j >= 1.5 * half range, so u stays in [-1, 1) up
-  // to half a half-range beyond the trained range; the exact gain 2^e_j / half_range folds into IW'.
+  // Input: u_j = (x_j - centre_j) / 2^e_j with 2^e_j >= 1.25 * half range, so u stays in [-1, 1) up
+  // to a quarter of a half-range beyond the trained range; the exact gain 2^e_j / half_range folds
+  // into IW'. (1.5 cost the shipped weights' x and y one bit of u: 0.00070 instead of 0.00056 deg.)
   std::array<double, 3> half_range{};
   std::array<double, 3> centre_error{};  // quantised centre minus true centre, in mapminmax units
   for (int j = 0; j < 3; ++j) {
     half_range[j] = (network.input_max[j] - network.input_min[j]) / 2.0;
     const double centre = (network.input_max[j] + network.input_min[j]) / 2.0;
     if (!(half_range[j] > 0.0)) throw std::invalid_argument("input range of input " + std::to_string(j + 1) + " is empty");
-    q.input_exponent[j] = static_cast<int>(std::ceil(std::log2(1.5 * half_range[j])));
+    q.input_exponent[j] = static_cast<int>(std::ceil(std::log2(1.25 * half_range[j])));
     q.input_shift[j] = f.input_fraction_bits + q.input_exponent[j] - (f.scaled_input_bits - 1);
     q.input_centre[j] = quantise_value(centre, f.input_fraction_bits, f.input_bits, "input centre " + std::to_string(j + 1));
     centre_error[j] = (std::ldexp(static_cast<double>(q.input_centre[j]), -f.input_fraction_bits) - centre) / half_range[j];
