@@ -96,7 +96,8 @@ TEST(DiagnoseCli, BadInputNamesFileAndLineAndWritesNothing) {
   EXPECT_FALSE(file_exists(json));
 }
 
-// Quick blind subset: none, backlash, transmission error, a pair and the unequal-rods robot.
+// Quick blind subset: none, chain angle, backlash, transmission error, two pairs (one needs the
+// swap search) and the unequal-rods robot.
 class BlindSubset : public ::testing::TestWithParam<int> {};
 
 TEST_P(BlindSubset, DiagnosisFindsTheInjectedSet) {
@@ -110,7 +111,7 @@ TEST_P(BlindSubset, DiagnosisFindsTheInjectedSet) {
   EXPECT_TRUE(score.rmse_ok) << "held-out RMSE " << score.rmse_after_over_floor << " noise floors";
 }
 
-INSTANTIATE_TEST_SUITE_P(Quick, BlindSubset, ::testing::Values(0, 7, 8, 12, 17));
+INSTANTIATE_TEST_SUITE_P(Quick, BlindSubset, ::testing::Values(0, 5, 7, 8, 12, 15, 17));
 
 }  // namespace
 }  // namespace delta::test

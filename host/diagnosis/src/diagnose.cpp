@@ -217,10 +217,11 @@ Identifiability analyse_identifiability(const std::vector<Sample>& rows, FamilyS
     weak.advice = advice_for(weak.components);
     result.weak.push_back(weak);
   }
-  // Correlations from the pseudo-inverse (directions below 1e-8 left out: exact gauges).
+  // Correlations from the pseudo-inverse; exact gauges (normalised singular value below 1e-6,
+  // such as frame yaw against a common chain rotation) are left out, they are reported above.
   Eigen::MatrixXd covariance = Eigen::MatrixXd::Zero(n, n);
   for (int a = 0; a < n; ++a) {
-    if (eigen.eigenvalues()[a] > 1e-16) {
+    if (eigen.eigenvalues()[a] > 1e-12) {
       covariance += eigen.eigenvectors().col(a) * eigen.eigenvectors().col(a).transpose() / eigen.eigenvalues()[a];
     }
   }
