@@ -5,7 +5,7 @@
 // held by the caller and refreshed with reference_valid_i. Until the first reference arrives the
 // controller holds each joint where its encoder is and drive_enable_o stays low. Every
 // ClocksPerPeriod cycles (10 kHz at the default 24 MHz) the encoder counts and references are
-// latched and the controller started (865-cycle latency, see joint_controller.sv); each current
+// latched and the controller started (892-cycle latency, see joint_controller.sv); each current
 // command updates its PWM as soon as it is stored. PWM: period 2^PwmBits cycles (23.4 kHz at
 // 24 MHz and 10 bits), duty = |current| / 0.5 A (the current limit), direction = sign.
 module joint_axes #(

@@ -7,16 +7,16 @@
 // command is stored, with current_j_ap_vld high for that cycle; ap_done pulses after the third
 // joint, with limited and overflow_count valid; all outputs hold until rewritten. ap_rst is
 // synchronous and active high. The first period after reset starts from rest at its own input
-// (golden: fixed_rest_state). Latency from the ap_start edge to ap_done: 865 cycles (6 input
-// copies, 3 x 286 for the joints, 1 done cycle): 36.0 us at 24 MHz, a third of the 100 us period.
+// (golden: fixed_rest_state). Latency from the ap_start edge to ap_done: 892 cycles (6 input
+// copies, 3 x 295 for the joints, 1 done cycle): 37.2 us at 24 MHz, a third of the 100 us period.
 //
 // Schedule: per joint the 19 instructions of delta_joint_pkg::program_rom, each
-//   OpInit 3 cycles (read, register, load acc), OpMac 29 (read a, b, c; a - b shifted; minus c,
-//   saturated; 24 bit-serial steps over the coefficient), OpStore 2 (shift, then saturate and
-//   write): 5 x 3 + 9 x 29 + 5 x 2 = 286.
-// The instruction, every memory word (word_q) and the shifted accumulator pass a register and
-// the operand is formed in two steps, so no path holds more than one carry chain: 24 MHz with
-// the network on the UP5K.
+//   OpInit 3 cycles (read, register, load acc), OpMac 30 (read a, b, c; a - b shifted; minus c;
+//   saturate; 24 bit-serial steps over the coefficient), OpStore 2 (shift, then saturate and
+//   write): 5 x 3 + 9 x 30 + 5 x 2 = 295.
+// The instruction, every memory word (word_q), each step of the operand and the shifted
+// accumulator pass a register, so no path holds more than one carry chain: 24 MHz beside the
+// network on the UP5K.
 module joint_controller (
   input  logic        ap_clk,
   input  logic        ap_rst,
@@ -57,6 +57,7 @@ module joint_controller (
   logic [31:0]  word_q, word_d;      // the word read two cycles ago, masked (pipeline register)
   logic [31:0]  first_q, first_d;    // operand a
   logic [57:0]  shifted_difference_q, shifted_difference_d;  // (a - b) << operand_shift
+  logic [57:0]  operand_wide_q, operand_wide_d;              // ((a - b) << operand_shift) - c
   logic [4:0]   source_q, source_d;  // source of the word arriving on read_data
   logic [47:0]  current_q, current_d;
   logic [2:0]   limited_q, limited_d;
@@ -155,7 +156,7 @@ module joint_controller (
   logic [4:0]          issue_source;
 
   always_comb begin
-    operand_wide = shifted_difference_q - {{26{word_q[31]}}, word_q};
+    operand_wide = operand_wide_q;
     operand_saturated = operand_wide[57:39] != {19{operand_wide[57]}};
     operand = operand_saturated ? {operand_wide[57], {39{!operand_wide[57]}}} : operand_wide[39:0];
     shifted_acc = shifted_acc_q;
@@ -194,6 +195,7 @@ module joint_controller (
     coefficient_d  = coefficient_q;
     first_d        = first_q;
     shifted_difference_d = shifted_difference_q;
+    operand_wide_d = operand_wide_q;
     source_d       = issue_source;
     current_d      = current_q;
     limited_d      = limited_q;
@@ -239,7 +241,8 @@ module joint_controller (
               3'd0, 3'd1: ;  // reads of a and b issued
               3'd2: first_d = word_q;
               3'd3: shifted_difference_d = shift_difference({first_q[31], first_q} - {word_q[31], word_q}, operand_shift);
-              3'd4: begin
+              3'd4: operand_wide_d = shifted_difference_q - {{26{word_q[31]}}, word_q};
+              3'd5: begin
                 multiplicand_d = {{(AccWidth - 40){operand[39]}}, operand};
                 coefficient_d  = delta_joint_pkg::coefficient_value(coefficient);
                 bit_d          = 5'd0;
@@ -315,6 +318,7 @@ module joint_controller (
       word_q         <= '0;
       first_q        <= '0;
       shifted_difference_q <= '0;
+      operand_wide_q <= '0;
       source_q       <= delta_joint_pkg::Zero;
       current_q      <= '0;
       limited_q      <= '0;
@@ -337,6 +341,7 @@ module joint_controller (
       word_q         <= word_d;
       first_q        <= first_d;
       shifted_difference_q <= shifted_difference_d;
+      operand_wide_q <= operand_wide_d;
       source_q       <= source_d;
       current_q      <= current_d;
       limited_q      <= limited_d;

@@ -100,10 +100,10 @@ TEST(JointAxes, EncoderCountsReferencesAndPwmFollowTheGoldenController) {
         top.encoder_a_i = a;
         top.encoder_b_i = b;
       }
-      if (cycle >= 900 && cycle < 900 + 1024) {
+      if (cycle >= 950 && cycle < 950 + 1024) {
         for (int j = 0; j < 3; ++j) high[j] += (top.drive_pwm_o >> j) & 1;
       }
-      if (cycle == 900) {
+      if (cycle == 950) {
         for (int j = 0; j < 3; ++j) {
           ASSERT_EQ((top.drive_dir_o >> j) & 1, expected_current[j] < 0 ? 1 : 0) << "period " << period;
         }
