@@ -1,0 +1,87 @@
+# Verilator and FPGA helpers for rtl/: lint tests, one shared Verilated library per RTL top,
+# the gate-level (yosys netlist) model, and FPGA flow targets outside the default build.
+#
+# Every Verilator invocation gets absolute source paths and the one waiver file
+# rtl/lint_waivers.vlt, so lint, models and gate-level builds see the same rules.
+
+set(DELTA_RTL_WAIVERS ${PROJECT_SOURCE_DIR}/rtl/lint_waivers.vlt)
+# `include search path (readmemh_load.svh).
+set(DELTA_RTL_INCLUDE -I${PROJECT_SOURCE_DIR}/rtl/network)
+set(DELTA_ICE40_CELLS_SIM /usr/share/yosys/ice40/cells_sim.v)
+find_package(ZLIB REQUIRED)  # Verilator's FST writer
+
+function(_delta_absolute_paths out_var)
+  set(paths)
+  foreach(source IN LISTS ARGN)
+    get_filename_component(source "${source}" ABSOLUTE BASE_DIR "${CMAKE_CURRENT_SOURCE_DIR}")
+    list(APPEND paths "${source}")
+  endforeach()
+  set(${out_var} ${paths} PARENT_SCOPE)
+endfunction()
+
+# delta_rtl_lint(NAME TOP top SOURCES a.sv ... [LIBRARIES lib.v ...] [ARGS ...])
+# CTest entry rtl_lint_NAME: `verilator --lint-only -Wall` must print nothing and exit 0.
+# LIBRARIES are read with -v (vendor cell models: linted only through the waiver file).
+function(delta_rtl_lint name)
+  cmake_parse_arguments(ARG "" "TOP" "SOURCES;LIBRARIES;ARGS" ${ARGN})
+  _delta_absolute_paths(sources ${ARG_SOURCES})
+  set(libraries)
+  foreach(library IN LISTS ARG_LIBRARIES)
+    list(APPEND libraries -v ${library})
+  endforeach()
+  add_test(NAME rtl_lint_${name}
+    COMMAND ${VERILATOR_BIN} --lint-only -Wall ${DELTA_RTL_INCLUDE} --top-module ${ARG_TOP} ${ARG_ARGS}
+            ${DELTA_RTL_WAIVERS} ${sources} ${libraries})
+  set_tests_properties(rtl_lint_${name} PROPERTIES LABELS "rtl;lint" FAIL_REGULAR_EXPRESSION "%Warning|%Error")
+endfunction()
+
+# delta_verilated_library(TARGET PREFIX Vname TOP top SOURCES a.sv ... [SYSTEMC] [ARGS ...])
+# A static library holding the Verilated model (FST tracing compiled in, used only on request).
+# Verilated once; every test executable and deltactl link this one library.
+function(delta_verilated_library target)
+  cmake_parse_arguments(ARG "SYSTEMC" "PREFIX;TOP" "SOURCES;ARGS" ${ARGN})
+  _delta_absolute_paths(sources ${ARG_SOURCES})
+  add_library(${target} STATIC)
+  set(systemc_option)
+  if(ARG_SYSTEMC)
+    set(systemc_option SYSTEMC)
+    target_link_libraries(${target} PUBLIC PkgConfig::SystemC)
+  endif()
+  verilate(${target} ${systemc_option} TRACE_FST
+    PREFIX ${ARG_PREFIX} TOP_MODULE ${ARG_TOP}
+    SOURCES ${DELTA_RTL_WAIVERS} ${sources}
+    VERILATOR_ARGS -Wall ${DELTA_RTL_INCLUDE} -O3 --x-assign unique --x-initial unique ${ARG_ARGS})
+  # Generated code and Verilator's headers are not ours to warn about.
+  target_compile_options(${target} PRIVATE -w)
+  target_include_directories(${target} SYSTEM PUBLIC ${VERILATOR_ROOT}/include ${VERILATOR_ROOT}/include/vltstd)
+  target_link_libraries(${target} PUBLIC Threads::Threads)
+endfunction()
+
+# delta_gate_level_library(TARGET PREFIX Vname TOP top NETLIST file.v DEPENDS ...)
+# Verilates a yosys netlist (made at build time by a custom command that outputs NETLIST) with
+# yosys's iCE40 cell models, builds it with Verilator's own makefile into an archive and exposes
+# it as the INTERFACE library TARGET. NO_ICE40_DEFAULT_ASSIGNMENTS: cells_sim.v's input-port
+# defaults are SystemVerilog Verilator 5.006 does not parse; the netlist connects every port used.
+# Lint warnings are off: the netlist is generated, not written.
+function(delta_gate_level_library target)
+  cmake_parse_arguments(ARG "" "PREFIX;TOP;NETLIST" "DEPENDS" ${ARGN})
+  set(model_dir ${CMAKE_CURRENT_BINARY_DIR}/${ARG_PREFIX}.dir)
+  set(archive ${model_dir}/${ARG_PREFIX}__ALL.a)
+  set(runtime ${model_dir}/libverilated.a)
+  add_custom_command(OUTPUT ${archive} ${runtime}
+    COMMAND ${CMAKE_COMMAND} -E make_directory ${model_dir}
+    COMMAND ${VERILATOR_BIN} --cc --build -j 2 -O3 --prefix ${ARG_PREFIX} --Mdir ${model_dir}
+            --top-module ${ARG_TOP} -DNO_ICE40_DEFAULT_ASSIGNMENTS -Wno-fatal -Wno-lint -Wno-style
+            -Wno-TIMESCALEMOD -Wno-UNOPTFLAT --trace-fst -CFLAGS "-O2 -w"
+            ${ARG_NETLIST} ${DELTA_ICE40_CELLS_SIM}
+    DEPENDS ${ARG_NETLIST} ${ARG_DEPENDS}
+    COMMENT "Verilating the gate-level netlist ${ARG_NETLIST}"
+    VERBATIM)
+  add_custom_target(${target}_build DEPENDS ${archive} ${runtime})
+  add_library(${target} INTERFACE)
+  add_dependencies(${target} ${target}_build)
+  target_include_directories(${target} SYSTEM INTERFACE ${model_dir} ${VERILATOR_ROOT}/include
+                             ${VERILATOR_ROOT}/include/vltstd)
+  target_compile_definitions(${target} INTERFACE VM_TRACE=1 VM_TRACE_FST=1)
+  target_link_libraries(${target} INTERFACE ${archive} ${runtime} Threads::Threads ZLIB::ZLIB)
+endfunction()

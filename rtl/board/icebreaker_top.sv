@@ -1,0 +1,78 @@
+// iCEBreaker (iCE40UP5K-SG48) top: 12 MHz oscillator -> PLL -> board_core; pins in icebreaker.pcf.
+//
+// Clock: the PLL makes SystemClockHz from the 12 MHz pin (DivR/DivF/DivQ/FilterRange from
+// `icepll -i 12 -o 24`: 12 MHz * (DivF + 1) / (DivR + 1) / 2^DivQ = 24 MHz, with timing margin;
+// see README.md for the clock the 2 us latency target needs). Reset: held until the PLL
+// locks and while the user button (active low) is pressed, released synchronously.
+module icebreaker_top #(
+  parameter              MemDir      = ".",  // directory of the network's .mem files
+  parameter logic [3:0]  DivR        = 4'd0,
+  parameter logic [6:0]  DivF        = 7'd63,
+  parameter logic [2:0]  DivQ        = 3'd5,
+  parameter logic [2:0]  FilterRange = 3'd1,
+  parameter int unsigned SystemClockHz = 24_000_000,
+  parameter int unsigned BaudRate      = 115_200
+) (
+  input  logic       clk_12mhz_i,   // pin 35, 12 MHz oscillator
+  input  logic       button_ni,     // pin 10, user button, low when pressed: reset
+  input  logic       uart_rx_i,     // pin 6, from the FTDI's TXD (host -> FPGA)
+  output logic       uart_tx_o,     // pin 9, to the FTDI's RXD (FPGA -> host)
+  output logic       led_red_no,    // pin 11, low = on
+  output logic       led_green_no,  // pin 37, low = on
+  input  logic [2:0] encoder_a_i,   // PMOD1A pins 1, 3, 7 (4, 47, 3)
+  input  logic [2:0] encoder_b_i,   // PMOD1A pins 2, 4, 8 (2, 45, 48)
+  output logic [2:0] drive_pwm_o,   // PMOD1B pins 1, 3, 7 (43, 34, 42)
+  output logic [2:0] drive_dir_o,   // PMOD1B pins 2, 4, 8 (38, 31, 36)
+  output logic       drive_enable_o // PMOD1B pin 9 (32)
+);
+  logic clk, pll_locked;
+
+  SB_PLL40_PAD #(
+    .FEEDBACK_PATH("SIMPLE"),
+    .DIVR        (DivR),
+    .DIVF        (DivF),
+    .DIVQ        (DivQ),
+    .FILTER_RANGE(FilterRange)
+  ) u_pll (
+    .PACKAGEPIN     (clk_12mhz_i),
+    .PLLOUTCORE     (),
+    .PLLOUTGLOBAL   (clk),
+    .EXTFEEDBACK    (1'b0),
+    .DYNAMICDELAY   (8'd0),
+    .LOCK           (pll_locked),
+    .BYPASS         (1'b0),
+    .RESETB         (1'b1),
+    .LATCHINPUTVALUE(1'b0),
+    .SDO            (),
+    .SDI            (1'b0),
+    .SCLK           (1'b0)
+  );
+
+  // Asynchronous assertion, synchronous release.
+  logic [1:0] reset_sync_q;
+  always_ff @(posedge clk or negedge pll_locked) begin
+    if (!pll_locked) reset_sync_q <= 2'b00;
+    else reset_sync_q <= {reset_sync_q[0], button_ni};
+  end
+  wire rst_n = reset_sync_q[1];
+
+  logic led_red, led_green;
+  board_core #(
+    .ClocksPerBit((SystemClockHz + BaudRate / 2) / BaudRate),
+    .MemDir      (MemDir)
+  ) u_core (
+    .clk_i      (clk),
+    .rst_ni     (rst_n),
+    .uart_rx_i,
+    .uart_tx_o,
+    .led_red_o  (led_red),
+    .led_green_o(led_green),
+    .encoder_a_i,
+    .encoder_b_i,
+    .drive_pwm_o,
+    .drive_dir_o,
+    .drive_enable_o
+  );
+  assign led_red_no   = !led_red;
+  assign led_green_no = !led_green;
+endmodule

@@ -1,0 +1,376 @@
+// The 3-25-3 tanh inverse-kinematics network in fixed point, bit-exact to the golden model of
+// hls/README.md (formats and casts: delta_network_pkg.sv), with the block-level interface a Vitis
+// HLS export of the HLS top has.
+//
+// Interface (Vitis HLS ap_ctrl_hs; the port names are exactly the HLS export's, so one testbench
+// drives either): ap_start is sampled while ap_idle is high and must stay high until ap_ready;
+// ap_ready is high in the cycle the inputs x_0..x_2 are captured (the first one). ap_done and
+// y_k_ap_vld pulse together for one cycle with y_0..y_2 valid; y keeps its value until the next
+// ap_done. ap_rst is synchronous and active high. Latency from the ap_start edge to ap_done:
+// Steps + 15 cycles, Steps = (NumHidden + 1) * ReuseFactor / NumHidden (41 at 25, 93 at 75).
+//
+// ReuseFactor (hls4ml's meaning): multiplications per multiplier per inference. Each layer does
+// 3 * NumHidden products with 3 * NumHidden / ReuseFactor multipliers ("lanes"):
+//   25: 3 + 3 lanes, one hidden neuron per cycle;  75: 1 + 1 lanes, one neuron every 3 cycles.
+// A layer-1 lane is 16 x 24 bits (2 iCE40 DSPs), a layer-2 lane 18 x 24 (3 DSPs), the tanh
+// interpolation 14 x 10 (1 DSP): 75 fits the UP5K's 8 DSPs with 6, 25 needs 16.
+//
+// Schedule: a token stream steps through (neuron h, group g), h = 0..NumHidden, g = 0..Groups-1,
+// one token per cycle. Layer 1 of neuron h uses the tokens (h, *); layer 2 of neuron h uses the
+// tokens (h + 1, *) eleven stages later, when tanh(h) is ready (the extra neuron NumHidden only
+// finishes layer 2 of the last real neuron). Stages of a token:
+//   S0  weight/bias ROM addresses                    S7  tanh ROM data (T[i], D[i])
+//   S1  ROM data; lane input selected                S8  D[i] * f
+//   S2  multiply u * IW'                             S9  T[i] * 2^10 + D[i] * f
+//   S3  acc1 = b1' + sum of products                 S10 m = round_shift(.., 13); LW' ROM address
+//   S4  n = sat_21(round_shift(acc1, 17))            S11 h = +-m; LW' data
+//   S5  a = min(|n|, 2^20 - 1)                       S12 multiply h * LW'
+//   S6  tanh ROM address i, fraction f               S13 acc2 += product
+//                                                    S14 alpha = sat_24(round_shift(acc2, 20))
+// The input scaling (spec step 2) runs in S0 of token 0, so u is ready in S1.
+module delta_network #(
+  parameter int unsigned ReuseFactor = 75,  // 25 or 75, see above
+  parameter              MemDir      = "."  // directory of the .mem files (+delta_mem_dir in sim)
+) (
+  input  logic                                              ap_clk,
+  input  logic                                              ap_rst,
+  input  logic                                              ap_start,
+  output logic                                              ap_done,
+  output logic                                              ap_idle,
+  output logic                                              ap_ready,
+  input  logic signed [delta_network_pkg::InputWidth-1:0]   x_0,  // metres, Q4.28
+  input  logic signed [delta_network_pkg::InputWidth-1:0]   x_1,
+  input  logic signed [delta_network_pkg::InputWidth-1:0]   x_2,
+  output logic signed [delta_network_pkg::OutputWidth-1:0]  y_0,  // degrees, Q10.14
+  output logic                                              y_0_ap_vld,
+  output logic signed [delta_network_pkg::OutputWidth-1:0]  y_1,
+  output logic                                              y_1_ap_vld,
+  output logic signed [delta_network_pkg::OutputWidth-1:0]  y_2,
+  output logic                                              y_2_ap_vld
+);
+  // Formats from the package (yosys 0.23 reads no `import`: qualified names only).
+  localparam int unsigned NumInputs          = delta_network_pkg::NumInputs;
+  localparam int unsigned NumHidden          = delta_network_pkg::NumHidden;
+  localparam int unsigned NumOutputs         = delta_network_pkg::NumOutputs;
+  localparam int unsigned InputWidth         = delta_network_pkg::InputWidth;
+  localparam int unsigned ScaledInputWidth   = delta_network_pkg::ScaledInputWidth;
+  localparam int unsigned InputShiftWidth    = delta_network_pkg::InputShiftWidth;
+  localparam int unsigned OffsetWidth        = delta_network_pkg::OffsetWidth;
+  localparam int unsigned Weight1Width       = delta_network_pkg::Weight1Width;
+  localparam int unsigned Bias1Width         = delta_network_pkg::Bias1Width;
+  localparam int unsigned Product1Width      = delta_network_pkg::Product1Width;
+  localparam int unsigned Accum1Width        = delta_network_pkg::Accum1Width;
+  localparam int unsigned TanhInputWidth     = delta_network_pkg::TanhInputWidth;
+  localparam int unsigned TanhMagnitudeWidth = delta_network_pkg::TanhMagnitudeWidth;
+  localparam int unsigned TanhFractionWidth  = delta_network_pkg::TanhFractionWidth;
+  localparam int unsigned TanhSegments       = delta_network_pkg::TanhSegments;
+  localparam int unsigned TanhEntryWidth     = delta_network_pkg::TanhEntryWidth;
+  localparam int unsigned TanhSlopeWidth     = delta_network_pkg::TanhSlopeWidth;
+  localparam int unsigned InterpolationWidth = delta_network_pkg::InterpolationWidth;
+  localparam int unsigned HiddenWidth        = delta_network_pkg::HiddenWidth;
+  localparam int unsigned Weight2Width       = delta_network_pkg::Weight2Width;
+  localparam int unsigned Bias2Width         = delta_network_pkg::Bias2Width;
+  localparam int unsigned Product2Width      = delta_network_pkg::Product2Width;
+  localparam int unsigned Accum2Width        = delta_network_pkg::Accum2Width;
+  localparam int unsigned OutputWidth        = delta_network_pkg::OutputWidth;
+
+  localparam int unsigned Groups      = ReuseFactor / NumHidden;   // tokens per neuron
+  localparam int unsigned Lanes       = NumInputs / Groups;        // multipliers per layer
+  localparam int unsigned Steps       = (NumHidden + 1) * Groups;  // tokens per inference
+  localparam int unsigned LastStage   = 14;
+  localparam int unsigned StepWidth   = $clog2(Steps + 1);
+  localparam int unsigned NeuronWidth = $clog2(NumHidden + 1);
+  localparam int unsigned GroupWidth  = (Groups > 1) ? $clog2(Groups) : 1;
+  localparam int unsigned Weight1Depth        = NumHidden * NumInputs;
+  localparam int unsigned Weight2Depth        = NumOutputs * NumHidden;
+  localparam int unsigned Weight1AddressWidth = $clog2(Weight1Depth);
+  localparam int unsigned Weight2AddressWidth = $clog2(Weight2Depth);
+  localparam int unsigned Bias1AddressWidth   = $clog2(NumHidden);
+
+  if (ReuseFactor % NumHidden != 0 || NumInputs % (ReuseFactor / NumHidden) != 0 ||
+      NumOutputs != NumInputs) begin : g_bad_reuse_factor
+    $error("delta_network: ReuseFactor must be NumHidden * k with k dividing NumInputs (25 or 75)");
+  end
+
+  // ---- control: accept, token stream, done ----------------------------------------------------
+  logic                   busy_q;
+  logic [StepWidth-1:0]   step_q;
+  logic [NeuronWidth-1:0] neuron_q;
+  logic [GroupWidth-1:0]  group_q;
+  logic                   done_q;
+
+  // The token in stage k (1..LastStage): valid_q[k], neuron and group at [(k - 1) * width +: width]
+  // (flat vectors: yosys 0.23 reads neither arrays of structs nor multi-dimensional packed arrays).
+  logic [LastStage:1]               valid_q;
+  logic [LastStage*NeuronWidth-1:0] neurons_q;
+  logic [LastStage*GroupWidth-1:0]  groups_q;
+  logic [NeuronWidth-1:0]           neuron_s [1:LastStage];
+  logic [GroupWidth-1:0]            group_s [1:LastStage];
+  for (genvar k = 1; k <= LastStage; k++) begin : g_stage
+    assign neuron_s[k] = neurons_q[(k-1)*NeuronWidth +: NeuronWidth];
+    assign group_s[k]  = groups_q[(k-1)*GroupWidth +: GroupWidth];
+  end
+
+  wire accept     = ap_start && !busy_q;
+  wire issue      = busy_q && (step_q != StepWidth'(Steps));
+  wire last_group = (group_q == GroupWidth'(Groups - 1));
+  // The last token in S14: every output accumulator is complete.
+  wire final_token = valid_q[LastStage] && neuron_s[LastStage] == NeuronWidth'(NumHidden) &&
+                     group_s[LastStage] == GroupWidth'(Groups - 1);
+
+  always_ff @(posedge ap_clk) begin
+    if (ap_rst) begin
+      busy_q   <= 1'b0;
+      step_q   <= '0;
+      neuron_q <= '0;
+      group_q  <= '0;
+      done_q   <= 1'b0;
+      valid_q  <= '0;
+    end else begin
+      done_q  <= final_token;
+      valid_q <= {valid_q[LastStage-1:1], issue};
+      if (accept) begin
+        busy_q   <= 1'b1;
+        step_q   <= '0;
+        neuron_q <= '0;
+        group_q  <= '0;
+      end else if (issue) begin
+        step_q   <= step_q + 1'b1;
+        group_q  <= last_group ? '0 : group_q + 1'b1;
+        neuron_q <= last_group ? neuron_q + 1'b1 : neuron_q;
+      end
+      if (final_token) busy_q <= 1'b0;
+    end
+  end
+
+  always_ff @(posedge ap_clk) begin
+    neurons_q <= {neurons_q[(LastStage-1)*NeuronWidth-1:0], neuron_q};
+    groups_q  <= {groups_q[(LastStage-1)*GroupWidth-1:0], group_q};
+  end
+
+  // ---- spec step 2: scaled inputs, ready in S1 of token 0 ---------------------------------------
+  logic [NumInputs*InputWidth-1:0]      centre_words;
+  logic [NumInputs*InputShiftWidth-1:0] shift_words;
+  readmemh_table #(
+    .Depth  (NumInputs),
+    .Width  (InputWidth),
+    .MemDir (MemDir),
+    .MemFile(delta_network_pkg::InputCentreFile)
+  ) u_input_centre (
+    .words_o(centre_words)
+  );
+  readmemh_table #(
+    .Depth  (NumInputs),
+    .Width  (InputShiftWidth),
+    .MemDir (MemDir),
+    .MemFile(delta_network_pkg::InputShiftFile)
+  ) u_input_shift (
+    .words_o(shift_words)
+  );
+
+  // round_shift(x_j - centre_j, shift_j) = (x_j - (centre_j - 2^(shift_j - 1))) >>> shift_j: the
+  // difference with the rounding half folded in is registered in the accept cycle straight from
+  // the ports (offset_q); the shift (wires: shift_j is a constant of the weights, folded by
+  // synthesis) and sat_16 follow in S0 of token 0 (scaled_q). shift_j >= 1 (hls/README.md).
+  logic signed [InputWidth-1:0]       x [NumInputs];
+  logic signed [OffsetWidth-1:0]      offset_q [NumInputs];
+  logic signed [ScaledInputWidth-1:0] scaled_q [NumInputs];
+  assign x[0] = x_0;
+  assign x[1] = x_1;
+  assign x[2] = x_2;
+
+  for (genvar j = 0; j < NumInputs; j++) begin : g_scale
+    logic [InputShiftWidth-1:0]    shift;
+    logic signed [OffsetWidth-1:0] rounded_centre;  // centre_j - 2^(shift_j - 1)
+    assign shift          = shift_words[j*InputShiftWidth +: InputShiftWidth];
+    assign rounded_centre = OffsetWidth'(signed'(centre_words[j*InputWidth +: InputWidth])) -
+                            (OffsetWidth'(1) << (shift - 1'b1));
+    always_ff @(posedge ap_clk) begin
+      if (accept) offset_q[j] <= OffsetWidth'(x[j]) - rounded_centre;
+      // offset_q is signed, so >>> is arithmetic.
+      scaled_q[j] <= delta_network_pkg::saturate_scaled_input(offset_q[j] >>> shift);
+    end
+  end
+
+  // ---- layer 1: S0 addresses, S1 data, S2 multiply, S3 accumulate -------------------------------
+  logic signed [Weight1Width-1:0]     weight1_q [Lanes];     // S2
+  logic signed [ScaledInputWidth-1:0] lane_input_q [Lanes];  // S2
+  logic signed [Product1Width-1:0]    product1_q [Lanes];    // S3
+  logic signed [Accum1Width-1:0]      bias1_s2_q, bias1_s3_q;   // b1', then b1' + 2^16
+  logic signed [Accum1Width-1:0]      accum1_q;              // S4
+
+  for (genvar lane = 0; lane < Lanes; lane++) begin : g_layer1_lane
+    // Token (h, g), lane l multiplies u[g * Lanes + l] by IW'[h][g * Lanes + l], stored at
+    // h * NumInputs + g * Lanes + l = step * Lanes + l (row-major IW').
+    logic [Weight1Width-1:0] weight1_word;
+    readmemh_rom #(
+      .Depth  (Weight1Depth),
+      .Width  (Weight1Width),
+      .MemDir (MemDir),
+      .MemFile(delta_network_pkg::Weight1File)
+    ) u_weight1_rom (
+      .clk_i    (ap_clk),
+      .address_i(Weight1AddressWidth'(step_q * Lanes + lane)),
+      .data_o   (weight1_word)
+    );
+
+    always_ff @(posedge ap_clk) begin
+      // scaled_q is valid from S1 of token 0 on.
+      lane_input_q[lane] <= scaled_q[group_s[1] * Lanes + lane];
+      weight1_q[lane]    <= signed'(weight1_word);
+      product1_q[lane]   <= Product1Width'(lane_input_q[lane]) * Product1Width'(weight1_q[lane]);
+    end
+  end
+
+  logic [Bias1Width-1:0] bias1_word;
+  readmemh_rom #(
+    .Depth  (NumHidden),
+    .Width  (Bias1Width),
+    .MemDir (MemDir),
+    .MemFile(delta_network_pkg::Bias1File)
+  ) u_bias1_rom (
+    .clk_i    (ap_clk),
+    .address_i(Bias1AddressWidth'(neuron_q)),
+    .data_o   (bias1_word)
+  );
+
+  // S3: acc1 starts from the bias at the neuron's first group; exact in 41 bits (spec step 3).
+  // The accumulator carries + 2^16, the rounding half of n = round_shift(acc1, 17), added to the
+  // bias in S2, so S4 only shifts and saturates.
+  always_ff @(posedge ap_clk) begin
+    logic signed [Accum1Width-1:0] sum;
+    bias1_s2_q <= Accum1Width'(signed'(bias1_word));
+    bias1_s3_q <= bias1_s2_q + (Accum1Width'(1) <<< (delta_network_pkg::TanhInputShift - 1));
+    sum = (group_s[3] == '0) ? bias1_s3_q : accum1_q;
+    for (int lane = 0; lane < Lanes; lane++) sum = sum + Accum1Width'(product1_q[lane]);
+    accum1_q <= sum;
+  end
+
+  // ---- tanh (spec step 4): S4..S11 ------------------------------------------------------------
+  logic signed [TanhInputWidth-1:0]     tanh_input_q;   // S5
+  logic [TanhMagnitudeWidth-1:0]        magnitude_q;    // S6
+  logic [TanhFractionWidth-1:0]         fraction_s7_q, fraction_s8_q;
+  logic [TanhEntryWidth-1:0]            entry_word, entry_s8_q, entry_s9_q;
+  logic [TanhSlopeWidth-1:0]            slope_word, slope_s8_q;
+  logic [TanhSlopeWidth+TanhFractionWidth-1:0] slope_product_q;  // S9, D >= 0
+  logic [InterpolationWidth-1:0]        interpolation_q;  // S10
+  logic [HiddenWidth-2:0]               rounded_q;        // S11
+  logic [6:1]                           negative_q;       // sign of n, stages S6..S11
+  logic signed [HiddenWidth-1:0]        activation_q;     // h of the neuron before the S12 token
+
+  always_ff @(posedge ap_clk) begin
+    tanh_input_q    <= delta_network_pkg::tanh_input(accum1_q);
+    magnitude_q     <= delta_network_pkg::tanh_magnitude(tanh_input_q);
+    negative_q      <= {negative_q[5:1], tanh_input_q[TanhInputWidth-1]};
+    fraction_s7_q   <= magnitude_q[TanhFractionWidth-1:0];
+    fraction_s8_q   <= fraction_s7_q;
+    entry_s8_q      <= entry_word;
+    slope_s8_q      <= slope_word;
+    // + 2^12 (as 4 * 2^10): the rounding half of m = round_shift(.., 13), so S10 only shifts.
+    entry_s9_q      <= entry_s8_q + TanhEntryWidth'(1 << (delta_network_pkg::TanhRoundShift - TanhFractionWidth - 1));
+    slope_product_q <= (TanhSlopeWidth + TanhFractionWidth)'(slope_s8_q) *
+                       (TanhSlopeWidth + TanhFractionWidth)'(fraction_s8_q);
+    interpolation_q <= {1'b0, entry_s9_q, {TanhFractionWidth{1'b0}}} + InterpolationWidth'(slope_product_q);
+    rounded_q       <= delta_network_pkg::tanh_round(interpolation_q);
+    // h of neuron h is loaded by its last token in S11 and used by the tokens of h + 1.
+    if (valid_q[11] && group_s[11] == GroupWidth'(Groups - 1) && neuron_s[11] != NeuronWidth'(NumHidden)) begin
+      activation_q <= negative_q[6] ? HiddenWidth'(0) - HiddenWidth'(rounded_q) : HiddenWidth'(rounded_q);
+    end
+  end
+
+  readmemh_rom #(
+    .Depth  (TanhSegments),
+    .Width  (TanhEntryWidth),
+    .MemDir (MemDir),
+    .MemFile(delta_network_pkg::TanhEntryFile)
+  ) u_tanh_entry_rom (
+    .clk_i    (ap_clk),
+    .address_i(magnitude_q[TanhMagnitudeWidth-1:TanhFractionWidth]),
+    .data_o   (entry_word)
+  );
+  readmemh_rom #(
+    .Depth  (TanhSegments),
+    .Width  (TanhSlopeWidth),
+    .MemDir (MemDir),
+    .MemFile(delta_network_pkg::TanhSlopeFile)
+  ) u_tanh_slope_rom (
+    .clk_i    (ap_clk),
+    .address_i(magnitude_q[TanhMagnitudeWidth-1:TanhFractionWidth]),
+    .data_o   (slope_word)
+  );
+
+  // ---- layer 2: S10 addresses, S11 data, S12 multiply, S13 accumulate ---------------------------
+  logic signed [Product2Width-1:0] product2_q [Lanes];  // S13
+  logic signed [Accum2Width-1:0]   accum2_q [NumOutputs];
+  logic [NumOutputs*Bias2Width-1:0] bias2_words;
+
+  for (genvar lane = 0; lane < Lanes; lane++) begin : g_layer2_lane
+    // Token (h + 1, g) in S10 addresses LW'[g * Lanes + l][h], stored at (g * Lanes + l) *
+    // NumHidden + h (row-major LW'); the neuron-0 tokens read a word that is never accumulated.
+    logic [Weight2Width-1:0]        weight2_word;
+    logic signed [Weight2Width-1:0] weight2_q;
+    logic signed [HiddenWidth-1:0]  activation_lane_q;
+    logic [Weight2AddressWidth-1:0] weight2_address;
+    always_comb begin
+      weight2_address = Weight2AddressWidth'((group_s[10] * Lanes + lane) * NumHidden);
+      if (neuron_s[10] != '0) begin
+        weight2_address = weight2_address + Weight2AddressWidth'(neuron_s[10]) - Weight2AddressWidth'(1);
+      end
+    end
+    readmemh_rom #(
+      .Depth  (Weight2Depth),
+      .Width  (Weight2Width),
+      .MemDir (MemDir),
+      .MemFile(delta_network_pkg::Weight2File)
+    ) u_weight2_rom (
+      .clk_i    (ap_clk),
+      .address_i(weight2_address),
+      .data_o   (weight2_word)
+    );
+    always_ff @(posedge ap_clk) begin
+      weight2_q         <= signed'(weight2_word);
+      activation_lane_q <= activation_q;
+      product2_q[lane]  <= Product2Width'(activation_lane_q) * Product2Width'(weight2_q);
+    end
+  end
+
+  readmemh_table #(
+    .Depth  (NumOutputs),
+    .Width  (Bias2Width),
+    .MemDir (MemDir),
+    .MemFile(delta_network_pkg::Bias2File)
+  ) u_bias2_table (
+    .words_o(bias2_words)
+  );
+
+  // S13: output o accumulates in group o / Lanes, lane o % Lanes; exact in 47 bits (spec step 5).
+  always_ff @(posedge ap_clk) begin
+    for (int o = 0; o < NumOutputs; o++) begin
+      if (accept) begin
+        // + 2^19: the rounding half of alpha = round_shift(acc2, 20), so S14 only shifts and saturates.
+        accum2_q[o] <= Accum2Width'(signed'(bias2_words[o*Bias2Width +: Bias2Width])) +
+                       (Accum2Width'(1) <<< (delta_network_pkg::OutputShift - 1));
+      end else if (valid_q[13] && neuron_s[13] != '0 && group_s[13] == GroupWidth'(o / Lanes)) begin
+        accum2_q[o] <= accum2_q[o] + Accum2Width'(product2_q[o % Lanes]);
+      end
+    end
+  end
+
+  // ---- S14: outputs (spec step 5) ---------------------------------------------------------------
+  logic signed [OutputWidth-1:0] y_q [NumOutputs];
+  always_ff @(posedge ap_clk) begin
+    if (final_token) begin
+      for (int o = 0; o < NumOutputs; o++) y_q[o] <= delta_network_pkg::output_code(accum2_q[o]);
+    end
+  end
+
+  assign ap_done    = done_q;
+  assign ap_ready   = accept;  // the inputs are captured in the accept cycle
+  assign ap_idle    = !busy_q;
+  assign y_0        = y_q[0];
+  assign y_1        = y_q[1];
+  assign y_2        = y_q[2];
+  assign y_0_ap_vld = done_q;
+  assign y_1_ap_vld = done_q;
+  assign y_2_ap_vld = done_q;
+endmodule

@@ -1,0 +1,108 @@
+// The `rtl` inverse-kinematics back end: poses through the Verilated network RTL (delta_network.sv
+// at the board's ReuseFactor 75), one ap_ctrl_hs transaction per pose.
+//
+// W.json is quantised by the golden model's quantise() (which refuses weights that would
+// saturate), written as the .mem files the RTL loads ($readmemh, +delta_mem_dir), and every pose
+// is encoded to raw input codes exactly as the fixed back end does, so the raw output codes of
+// fixed, hls and rtl must be identical.
+#include <filesystem>
+#include <memory>
+#include <string>
+
+#include <unistd.h>
+
+#include "Vdelta_network.h"
+#include "delta/golden/export.hpp"
+#include "delta/golden/fixed_network.hpp"
+#include "delta/ik_backend.hpp"
+#include "delta/input_error.hpp"
+#include "delta/nn/trained_model.hpp"
+#include "delta/nn/weights_file.hpp"
+#include "delta/rtl/network_harness.hpp"
+
+namespace delta::rtl {
+namespace {
+
+// A private directory for the .mem files, removed with the back end.
+class TemporaryDirectory {
+ public:
+  TemporaryDirectory() {
+    std::string pattern = (std::filesystem::temp_directory_path() / "deltactl_rtl_XXXXXX").string();
+    if (::mkdtemp(pattern.data()) == nullptr) throw std::runtime_error("rtl back end: cannot create a temporary directory");
+    path_ = pattern;
+  }
+  ~TemporaryDirectory() {
+    std::error_code ignored;
+    std::filesystem::remove_all(path_, ignored);
+  }
+  const std::string& path() const { return path_; }
+
+ private:
+  std::string path_;
+};
+
+class RtlIkBackend : public IkBackend {
+ public:
+  explicit RtlIkBackend(const std::string& weights_path) : weights_(nn::read_weights_file(weights_path)) {
+    if (weights_.network.hidden() != 25) {
+      throw InputError(weights_path, 0, "has " + std::to_string(weights_.network.hidden()) +
+                                            " hidden neurons; the RTL is built for 25");
+    }
+    try {
+      quantised_ = golden::quantise(weights_.network);
+    } catch (const std::invalid_argument& error) {
+      throw InputError(weights_path, 0, std::string("cannot be quantised: ") + error.what());
+    }
+    golden::write_export(quantised_, directory_.path());
+    network_ = std::make_unique<NetworkHarness<Vdelta_network>>(quantised_.formats.input_bits,
+                                                                 quantised_.formats.output_bits, directory_.path());
+  }
+
+  bool has_raw_codes() const override { return true; }
+
+  std::vector<IkRow> evaluate(const std::vector<Vec3>& positions_m) override {
+    std::vector<IkRow> rows(positions_m.size());
+    for (std::size_t i = 0; i < positions_m.size(); ++i) {
+      bool clamped = false;
+      const std::array<std::int64_t, 3> codes = golden::encode_position(quantised_.formats, positions_m[i], &clamped);
+      if (clamped) ++clamped_positions_;
+      const NetworkRun run = network_->run(codes);
+      latency_cycles_ = run.latency_cycles;
+      rows[i].raw = run.outputs;
+      for (int o = 0; o < 3; ++o) {
+        rows[i].alpha_deg[o] = golden::decode_angle_deg(quantised_.formats, run.outputs[o]);
+        const std::int64_t limit = std::int64_t{1} << (quantised_.formats.output_bits - 1);
+        if (run.outputs[o] == limit - 1 || run.outputs[o] == -limit) ++outputs_at_limit_;
+      }
+      if (weights_.hybrid()) {  // the raw codes are the network's residual; the math model adds in double
+        const IkSolution model = nn::math_model_angles(weights_.effects, positions_m[i]);
+        if (model.ok()) rows[i].alpha_deg += model.alpha_deg;
+        else rows[i].error = model.reason();
+      }
+    }
+    return rows;
+  }
+
+  std::vector<std::string> report() const override {
+    return {"rtl: delta_network.sv (Verilator), ReuseFactor 75, latency " + std::to_string(latency_cycles_) +
+                " cycles per pose" + (weights_.hybrid() ? "; raw codes are the residual added to the math model" : ""),
+            "positions clamped to the 32-bit input code: " + std::to_string(clamped_positions_),
+            "output codes at the 24-bit limit (saturated): " + std::to_string(outputs_at_limit_)};
+  }
+
+ private:
+  nn::WeightsFile weights_;
+  golden::QuantisedNetwork quantised_;
+  TemporaryDirectory directory_;
+  std::unique_ptr<NetworkHarness<Vdelta_network>> network_;
+  std::size_t clamped_positions_ = 0;
+  std::size_t outputs_at_limit_ = 0;
+  int latency_cycles_ = 0;
+};
+
+const RegisterIkBackend rtl_backend(
+    "rtl", "the network RTL (rtl/network/delta_network.sv) simulated by Verilator; raw codes as 'fixed'",
+    [](const std::string& weights_path) { return std::make_unique<RtlIkBackend>(weights_path); });
+
+}  // namespace
+}  // namespace delta::rtl

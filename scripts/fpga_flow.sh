@@ -1,0 +1,80 @@
+#!/usr/bin/env bash
+# iCE40 UP5K flow: yosys synth_ice40 -> nextpnr-ice40 --up5k -> icepack, with timing and resource reports.
+#
+# Usage: scripts/fpga_flow.sh --top MODULE --pcf FILE.pcf --freq MHZ --out DIR
+#                             [--param NAME=VALUE]... SOURCE.sv...
+#   --param sets a top-level parameter (string values are given with their quotes: MemDir='"/abs"').
+# Writes in DIR: TOP.json (netlist), TOP.asc, TOP.bin (bitstream), yosys.log, nextpnr.log,
+#   timing.txt (post-route Fmax against the target; exit code 1 when timing fails) and
+#   resources.txt (logic cells, DSPs, block RAMs, I/O, PLLs used out of the UP5K's).
+# nextpnr prints "Max frequency" once after placement and once after routing: the second is the
+# post-route figure, the only one that counts.
+set -euo pipefail
+
+usage() { sed -n '2,12p' "$0" | sed 's/^# \{0,1\}//'; }
+top="" pcf="" freq="" out="" params=() sources=()
+while (($#)); do
+  case "$1" in
+    --top) top=$2; shift 2 ;;
+    --pcf) pcf=$2; shift 2 ;;
+    --freq) freq=$2; shift 2 ;;
+    --out) out=$2; shift 2 ;;
+    --param) params+=("$2"); shift 2 ;;
+    -h|--help) usage; exit 0 ;;
+    -*) echo "fpga_flow: unknown option $1" >&2; usage >&2; exit 2 ;;
+    *) sources+=("$1"); shift ;;
+  esac
+done
+if [[ -z $top || -z $pcf || -z $freq || -z $out || ${#sources[@]} -eq 0 ]]; then
+  echo "fpga_flow: need --top, --pcf, --freq, --out and at least one source" >&2; usage >&2; exit 2
+fi
+for file in "$pcf" "${sources[@]}"; do
+  [[ -f $file ]] || { echo "fpga_flow: error: $file: no such file" >&2; exit 2; }
+done
+mkdir -p "$out"
+
+# -defer elaborates only after chparam, so $readmemh sees the final paths.
+chparams=""
+for param in "${params[@]}"; do chparams+="chparam -set ${param%%=*} ${param#*=} $top; "; done
+read_sources=""
+for source in "${sources[@]}"; do read_sources+="read_verilog -defer -sv -I$(dirname "$(realpath "$source")") $(realpath "$source"); "; done
+echo "fpga_flow: yosys synth_ice40 -dsp ($top)" >&2
+yosys -q -l "$out/yosys.log" -p "$read_sources $chparams synth_ice40 -dsp -top $top -json $out/$top.json" >/dev/null
+
+echo "fpga_flow: nextpnr-ice40 --up5k at $freq MHz" >&2
+nextpnr-ice40 --up5k --package sg48 --pcf "$pcf" --json "$out/$top.json" --asc "$out/$top.asc" \
+  --freq "$freq" --seed 1 --timing-allow-fail --log "$out/nextpnr.log" -q >/dev/null 2>&1 ||
+  { echo "fpga_flow: nextpnr failed, see $out/nextpnr.log" >&2; tail -5 "$out/nextpnr.log" >&2; exit 1; }
+
+echo "fpga_flow: icepack" >&2
+icepack "$out/$top.asc" "$out/$top.bin"
+
+# Post-route Fmax: the second "Max frequency for clock" line of each clock.
+fmax_lines=$(grep "Max frequency for clock" "$out/nextpnr.log" || true)
+clock_count=$(printf '%s\n' "$fmax_lines" | sed -n 's/.*clock *'"'"'\([^'"'"']*\)'"'"'.*/\1/p' | sort -u | wc -l)
+post_route=$(printf '%s\n' "$fmax_lines" | tail -n "$clock_count")
+{
+  echo "# Timing of $top on the iCE40 UP5K (nextpnr-ice40, seed 1), target $freq MHz"
+  echo "# post-route (the second nextpnr figure of each clock):"
+  printf '%s\n' "$post_route" | sed 's/^Info: *//'
+} >"$out/timing.txt"
+timing_ok=1
+while read -r line; do
+  [[ -z $line ]] && continue
+  achieved=$(sed -n 's/.*: *\([0-9.]*\) MHz (\(PASS\|FAIL\).*/\1/p' <<<"$line")
+  verdict=$(sed -n 's/.*(\(PASS\|FAIL\) at.*/\1/p' <<<"$line")
+  [[ $verdict == PASS ]] || timing_ok=0
+  echo "fmax_mhz $achieved ($verdict)" >>"$out/timing.txt"
+done <<<"$post_route"
+
+# Resources: nextpnr's device utilisation table.
+{
+  echo "# Resources of $top on the iCE40 UP5K (used / available)"
+  sed -n '/Device utilisation:/,/^Info: *$/p' "$out/nextpnr.log" | sed 's/^Info: *//' | grep -E 'ICESTORM_(LC|RAM|DSP|PLL|SPRAM)|SB_IO|SB_GB' || true
+} >"$out/resources.txt"
+cat "$out/timing.txt" "$out/resources.txt"
+if ((timing_ok == 0)); then
+  echo "fpga_flow: timing FAILED at $freq MHz" >&2
+  exit 1
+fi
+echo "fpga_flow: bitstream $out/$top.bin" >&2

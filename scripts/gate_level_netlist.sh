@@ -1,0 +1,34 @@
+#!/usr/bin/env bash
+# Synthesises an RTL top for the iCE40 UP5K with yosys (synth_ice40 -dsp, as the FPGA flow) and
+# writes the gate-level netlist (SB_LUT4, SB_CARRY, SB_DFF*, SB_MAC16, SB_RAM40_4K cells, memories
+# filled from the .mem files) for simulation with yosys's cells_sim.v.
+#
+# Usage: scripts/gate_level_netlist.sh --top MODULE --out NETLIST.v [--param NAME=VALUE]... SOURCE.sv...
+# Fails when yosys reports a warning that means the netlist differs from the RTL's intent
+# (implicitly declared identifiers, out-of-bounds selects, multiple drivers).
+set -euo pipefail
+
+top="" out="" params=() sources=()
+while (($#)); do
+  case "$1" in
+    --top) top=$2; shift 2 ;;
+    --out) out=$2; shift 2 ;;
+    --param) params+=("$2"); shift 2 ;;
+    -h|--help) sed -n '2,9p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -*) echo "gate_level_netlist: unknown option $1" >&2; exit 2 ;;
+    *) sources+=("$1"); shift ;;
+  esac
+done
+[[ -n $top && -n $out && ${#sources[@]} -gt 0 ]] || { echo "gate_level_netlist: need --top, --out and sources" >&2; exit 2; }
+
+script=""
+for source in "${sources[@]}"; do script+="read_verilog -defer -sv -I$(dirname "$(realpath "$source")") $(realpath "$source"); "; done
+for param in "${params[@]}"; do script+="chparam -set ${param%%=*} ${param#*=} $top; "; done
+script+="synth_ice40 -dsp -top $top; write_verilog -noattr $out.tmp"
+log="$out.yosys.log"
+yosys -q -l "$log" -p "$script" >/dev/null 2>&1 || { tail -5 "$log" >&2; echo "gate_level_netlist: yosys failed, see $log" >&2; exit 1; }
+if grep -E "is implicitly declared|out of bounds|multiple conflicting drivers" "$log" | grep -v "^$" >&2; then
+  echo "gate_level_netlist: yosys warnings above change the design; see $log" >&2
+  exit 1
+fi
+mv "$out.tmp" "$out"

@@ -1,0 +1,23 @@
+# RTL tests: Verilated network against the golden model (C++ and SystemC testbenches), the
+# gate-level netlist, the board's UART link, lint (rtl/*/CMakeLists.txt) and the rtl back end.
+delta_add_gtest(rtl_network_tests
+  SOURCES ${CMAKE_CURRENT_LIST_DIR}/rtl/test_network_rtl.cpp
+  LIBRARIES delta::rtl_network
+  LABELS rtl)
+target_include_directories(rtl_network_tests PRIVATE ${CMAKE_CURRENT_LIST_DIR}/rtl)
+
+delta_add_gtest(rtl_gate_level_tests
+  SOURCES ${CMAKE_CURRENT_LIST_DIR}/rtl/test_network_gate_level.cpp
+  LIBRARIES delta_rtl_network_gate_model delta::golden
+  LABELS rtl)
+target_include_directories(rtl_gate_level_tests PRIVATE ${CMAKE_CURRENT_LIST_DIR}/rtl
+                           ${PROJECT_SOURCE_DIR}/rtl/network/sim/include)
+target_compile_definitions(rtl_gate_level_tests PRIVATE DELTA_NETWORK_WEIGHTS="${DELTA_NETWORK_WEIGHTS}")
+
+# SystemC testbench: its own sc_main (SystemC owns main), one CTest entry.
+add_executable(rtl_network_systemc_test ${CMAKE_CURRENT_LIST_DIR}/rtl/test_network_systemc.cpp)
+target_include_directories(rtl_network_systemc_test PRIVATE ${CMAKE_CURRENT_LIST_DIR}/rtl)
+target_link_libraries(rtl_network_systemc_test PRIVATE delta_rtl_network_sc_model delta::golden PkgConfig::SystemC)
+set_target_properties(rtl_network_systemc_test PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${PROJECT_BINARY_DIR}/tests)
+add_test(NAME rtl_network_systemc COMMAND rtl_network_systemc_test)
+set_tests_properties(rtl_network_systemc PROPERTIES LABELS rtl PASS_REGULAR_EXPRESSION "PASS")
