@@ -1,7 +1,11 @@
 // JSON, predictions CSV, Markdown report and plots of a diagnosis.
 #include "delta/diagnosis/report.hpp"
 
+#include <unistd.h>
+
+#include <array>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -66,6 +70,65 @@ std::string joined_parameters(Family family, const Parameters& theta) {
   return text.str();
 }
 
+
+// Error map: the CHECK positions binned on an 8 x 8 grid in x-y, RMS over joints and rows per
+// cell, nominal and after side by side (each with its own colour scale, degrees). gnuplot directly: plot.hpp
+// draws line series only.
+void write_error_map(const std::string& png_path, const std::vector<Sample>& check, const Diagnosis& diagnosis) {
+  namespace fs = std::filesystem;
+  constexpr int kCells = 8;
+  Vec3 low = check.front().position_m, high = low;
+  for (const Sample& sample : check) {
+    low = low.cwiseMin(sample.position_m);
+    high = high.cwiseMax(sample.position_m);
+  }
+  const double width_x = std::max(high.x() - low.x(), 1e-9) / kCells, width_y = std::max(high.y() - low.y(), 1e-9) / kCells;
+  std::array<std::array<double, kCells * kCells>, 2> sum{};
+  std::array<int, kCells * kCells> count{};
+  for (std::size_t i = 0; i < check.size(); ++i) {
+    const int cx = std::min(kCells - 1, static_cast<int>((check[i].position_m.x() - low.x()) / width_x));
+    const int cy = std::min(kCells - 1, static_cast<int>((check[i].position_m.y() - low.y()) / width_y));
+    const int cell = cy * kCells + cx;
+    ++count[cell];
+    sum[0][cell] += (check[i].alpha_deg - diagnosis.check_nominal_deg[i]).squaredNorm() / 3.0;
+    sum[1][cell] += (check[i].alpha_deg - diagnosis.check_after_deg[i]).squaredNorm() / 3.0;
+  }
+  char folder_template[] = "/tmp/deltactl-map-XXXXXX";
+  if (!::mkdtemp(folder_template)) throw std::runtime_error("cannot create a temporary folder for the error map");
+  const fs::path folder(folder_template);
+  const char* names[2] = {"nominal model", "after diagnosis"};
+  std::ofstream script(folder / "map.gp");
+  const std::string partial = fs::absolute(png_path).string() + ".partial.png";
+  script << "set terminal pngcairo size 1300,560 font 'sans,10'\nset output '" << partial << "'\n"
+         << "set multiplot layout 1,2 title 'Held-out RMSE over the three joints per x-y cell of the CHECK workspace [deg]'\n"
+         << "set format cb '%.2g'\nset xlabel 'x [mm]'\nset ylabel 'y [mm]'\nset size ratio -1\n"
+         << "set palette rgbformulae 22,13,-31\n";
+  for (int panel = 0; panel < 2; ++panel) {
+    std::ofstream data(folder / ("map" + std::to_string(panel) + ".dat"));
+    for (int cy = 0; cy < kCells; ++cy) {
+      for (int cx = 0; cx < kCells; ++cx) {
+        const int cell = cy * kCells + cx;
+        if (!count[cell]) continue;
+        data << format_number((low.x() + (cx + 0.5) * width_x) * 1e3) << ' '
+             << format_number((low.y() + (cy + 0.5) * width_y) * 1e3) << ' '
+             << format_number(std::max(std::sqrt(sum[panel][cell] / count[cell]), 1e-6)) << '\n';
+      }
+    }
+    script << "set title '" << names[panel] << "'\nplot '" << (folder / ("map" + std::to_string(panel) + ".dat")).string()
+           << "' using 1:2:3 with points pt 5 ps 5.5 lc palette notitle\n";
+  }
+  script << "unset multiplot\n";
+  script.close();
+  const std::string command = "gnuplot '" + (folder / "map.gp").string() + "' 2>/dev/null";
+  const int status = std::system(command.c_str());
+  std::error_code ignored;
+  fs::remove_all(folder, ignored);
+  if (status != 0) {
+    fs::remove(partial, ignored);
+    throw std::runtime_error("gnuplot failed drawing the error map (scripts/setup.sh installs gnuplot-nox)");
+  }
+  fs::rename(partial, png_path);
+}
 }  // namespace
 
 json family_parameters_json(Family family, const Parameters& theta) {
@@ -212,28 +275,7 @@ void write_report(const std::string& markdown_path, const ReportInputs& inputs, 
     spec.panels = {path, gains};
     write_plot((folder / ranking_png).string(), spec);
   }
-  // Error map: RMS over joints per octant of the CHECK workspace, before and after.
-  {
-    PlotSpec spec;
-    spec.title = "Held-out error per workspace octant (0: x- y- z-, bit 0 x+, bit 1 y+, bit 2 z+)";
-    PlotPanel map{"RMS over joints per octant", "octant", "RMSE [deg]", {}, true};
-    PlotSeries before{"nominal", {}, {}, true}, after{"after diagnosis", {}, {}, true};
-    for (std::size_t r = 0; r < diagnosis.regions.size(); ++r) {
-      int index = 0;
-      const std::string& label = diagnosis.regions[r].label;
-      index |= label[1] == '+' ? 1 : 0;
-      index |= label[4] == '+' ? 2 : 0;
-      index |= label[7] == '+' ? 4 : 0;
-      before.x.push_back(index);
-      before.y.push_back(rms(diagnosis.regions[r].nominal_rmse_deg));
-      after.x.push_back(index);
-      after.y.push_back(rms(diagnosis.regions[r].after_rmse_deg));
-    }
-    map.series = {before, after};
-    spec.panels = {map};
-    spec.panel_height_px = 420;
-    write_plot((folder / map_png).string(), spec);
-  }
+  write_error_map((folder / map_png).string(), check, diagnosis);
 
   OutputFile file(markdown_path);
   std::ostream& out = file.stream();
@@ -290,7 +332,7 @@ void write_report(const std::string& markdown_path, const ReportInputs& inputs, 
                      three(region.after_rmse_deg)});
   }
   regions.print(out);
-  out << "\n![error map](" << map_png << ")\n\n![residual along the trajectory](" << residual_png << ")\n";
+  out << "\n![error map before and after](" << map_png << ")\n\n![residual along the trajectory](" << residual_png << ")\n";
 
   out << "\n## Selection trace (held-out RMSE, mean over joints, of each candidate)\n\n";
   for (const SelectionStep& step : diagnosis.steps) {
