@@ -3,26 +3,14 @@
 
 #include <algorithm>
 #include <cmath>
-#include <fstream>
-#include <sstream>
 
 #include "delta/input_error.hpp"
+#include "delta/json_input.hpp"
 
 namespace delta {
 namespace {
 
 using nlohmann::json;
-
-std::size_t line_of_offset(const std::string& text, std::size_t offset) {
-  offset = std::min(offset, text.size());
-  return 1 + static_cast<std::size_t>(std::count(text.begin(), text.begin() + offset, '\n'));
-}
-
-// nlohmann::json keeps no positions, so errors about a key point at its first quoted occurrence.
-std::size_t line_of_key(const std::string& text, const std::string& key) {
-  const std::size_t found = text.find("\"" + key + "\"");
-  return found == std::string::npos ? 1 : line_of_offset(text, found);
-}
 
 struct Context {
   const std::string& text;
@@ -94,15 +82,7 @@ FrameMisalignment parse_frame(const json& value, const Context& context) {
 }  // namespace
 
 EffectSet parse_effects(const std::string& text, const std::string& path) {
-  json document;
-  try {
-    document = json::parse(text);
-  } catch (const json::parse_error& error) {
-    std::string reason = error.what();
-    const auto detail = reason.find("parse error");
-    if (detail != std::string::npos) reason = reason.substr(detail);
-    throw InputError(path, error.byte ? line_of_offset(text, error.byte - 1) : 0, "invalid JSON: " + reason);
-  }
+  const json document = parse_json_input(text, path);
   if (!document.is_object()) throw InputError(path, 1, "an effect file must be a JSON object of effect names");
   const Context context{text, path};
   EffectSet effects;
@@ -127,15 +107,7 @@ EffectSet parse_effects(const std::string& text, const std::string& path) {
   return effects;
 }
 
-EffectSet read_effect_file(const std::string& path) {
-  std::ifstream input(path);
-  if (!input) throw InputError(path, 0, "cannot open file");
-  std::stringstream buffer;
-  buffer << input.rdbuf();
-  const std::string text = buffer.str();
-  if (text.find_first_not_of(" \t\r\n") == std::string::npos) throw InputError(path, 0, "empty file");
-  return parse_effects(text, path);
-}
+EffectSet read_effect_file(const std::string& path) { return parse_effects(read_input_text(path), path); }
 
 nlohmann::json effects_to_json(const EffectSet& effects) {
   auto triple = [](const Vec3& v) { return json::array({v[0], v[1], v[2]}); };

@@ -69,6 +69,7 @@ TEST(FoundationCli, MalformedEffectFilesAreRejectedWithFileLineAndReason) {
       {"text", "{\n\"encoder_scale\": [0.01, \"x\", 0]\n}", ":2:", "must be a number"},
       {"empty", "  \n", ": ", "empty file"},
       {"not_object", "[1, 2, 3]", ":1:", "JSON object"},
+      {"overflow", "{\n\"joint_offset\": [0, 1e999, 0]\n}", ":2:", "not finite"},
   };
   for (const BadRecording& bad : cases) {
     const std::string effects = temp(bad.name + ".json");

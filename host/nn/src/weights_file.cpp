@@ -8,6 +8,7 @@
 
 #include "delta/effect_file.hpp"
 #include "delta/input_error.hpp"
+#include "delta/json_input.hpp"
 #include "delta/output_file.hpp"
 
 namespace delta::nn {
@@ -17,23 +18,14 @@ using nlohmann::json;
 
 constexpr const char* kFormatName = "delta-nn-weights";
 
-std::size_t line_of_offset(const std::string& text, std::size_t offset) {
-  offset = std::min(offset, text.size());
-  return 1 + static_cast<std::size_t>(std::count(text.begin(), text.begin() + offset, '\n'));
-}
-
 // nlohmann::json keeps no positions: an error about a key points at its first quoted occurrence.
 struct Reader {
   const std::string& text;
   const std::string& path;
   const json& document;
 
-  std::size_t line_of(const std::string& key) const {
-    const std::size_t found = text.find("\"" + key + "\"");
-    return found == std::string::npos ? 1 : line_of_offset(text, found);
-  }
   [[noreturn]] void fail(const std::string& key, const std::string& reason) const {
-    throw InputError(path, line_of(key), reason);
+    throw InputError(path, line_of_key(text, key), reason);
   }
   const json& field(const std::string& key) const {
     const auto found = document.find(key);
@@ -91,23 +83,7 @@ std::string matrix_text(const Eigen::MatrixXd& values) {
 }  // namespace
 
 WeightsFile parse_weights_file(const std::string& text, const std::string& path) {
-  json document;
-  try {
-    document = json::parse(text);
-  } catch (const json::parse_error& error) {
-    std::string reason = error.what();
-    const auto detail = reason.find("parse error");
-    if (detail != std::string::npos) reason = reason.substr(detail);
-    throw InputError(path, error.byte ? line_of_offset(text, error.byte - 1) : 0, "invalid JSON: " + reason);
-  } catch (const json::out_of_range& error) {
-    // A number too large for a double (1e999): name the line of the offending text.
-    const std::string reason = error.what();
-    const std::size_t quote = reason.find('\'');
-    const std::string token = quote == std::string::npos ? "" : reason.substr(quote + 1, reason.rfind('\'') - quote - 1);
-    const std::size_t at = token.empty() ? std::string::npos : text.find(token);
-    throw InputError(path, at == std::string::npos ? 0 : line_of_offset(text, at),
-                     "a number is not finite (overflows a double): " + token);
-  }
+  const json document = parse_json_input(text, path);
   if (!document.is_object()) throw InputError(path, 1, "a weights file must be a JSON object");
   const Reader reader{text, path, document};
   const json& format = reader.field("format");
@@ -167,15 +143,7 @@ WeightsFile parse_weights_file(const std::string& text, const std::string& path)
   return weights;
 }
 
-WeightsFile read_weights_file(const std::string& path) {
-  std::ifstream input(path);
-  if (!input) throw InputError(path, 0, "cannot open file");
-  std::stringstream buffer;
-  buffer << input.rdbuf();
-  const std::string text = buffer.str();
-  if (text.find_first_not_of(" \t\r\n") == std::string::npos) throw InputError(path, 0, "empty file");
-  return parse_weights_file(text, path);
-}
+WeightsFile read_weights_file(const std::string& path) { return parse_weights_file(read_input_text(path), path); }
 
 std::string weights_file_text(const WeightsFile& weights) {
   const Network& network = weights.network;
