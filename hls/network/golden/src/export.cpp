@@ -134,8 +134,9 @@ std::vector<ExportFile> export_files(const QuantisedNetwork& q) {
     std::ostringstream mem;
     mem << "// delta fixed-point network, spec version 1 (hls/README.md): " << spec.name << "\n"
         << "// " << spec.content << "\n"
-        << "// " << spec.words.size() << " words, " << spec.format << " in " << spec.bits << " bits, two's complement, "
-        << (spec.bits + 3) / 4 << " hex digits per word\n";
+        << "// " << spec.words.size() << " words, " << spec.format << " in " << spec.bits << " bits, "
+        << (spec.format.rfind("signed", 0) == 0 ? "two's complement, " : "") << (spec.bits + 3) / 4
+        << " hex digits per word\n";
     for (std::int64_t word : spec.words) mem << hex_word(word, spec.bits) << '\n';
     files.push_back({spec.name, mem.str()});
     header << "// " << spec.content << "; " << spec.format << " in " << spec.bits << " bits\n"
