@@ -7,6 +7,7 @@
 
 #include "../support/run_command.hpp"
 #include "blind_suite.hpp"
+#include "delta/diagnosis/diagnose.hpp"
 #include "delta/csv.hpp"
 #include "delta/recording.hpp"
 
@@ -94,6 +95,27 @@ TEST(DiagnoseCli, BadInputNamesFileAndLineAndWritesNothing) {
   EXPECT_EQ(unreachable.exit_code, 2);
   EXPECT_NE(unreachable.err.find(bad + ": has 1 rows"), std::string::npos) << unreachable.err;
   EXPECT_FALSE(file_exists(json));
+}
+
+// A once-per-revolution ripple (P = 360 deg) spans a fraction of a period over the cube: it must
+// still be found as transmission_error, not as joint_offset + encoder_scale.
+TEST(Diagnose, OncePerRevolutionRippleIsTransmissionError) {
+  EffectSet effects;
+  TransmissionError ripple;
+  ripple.amplitude_deg = Vec3(0.05, 0.04, 0.03);
+  ripple.period_deg = Vec3(360.0, 360.0, 360.0);
+  ripple.phase_rad = Vec3(0.3, 1.0, 2.0);
+  effects.transmission_error = ripple;
+  const VirtualRobot robot(effects);
+  RecordingOptions options;
+  options.samples = 4000;
+  const std::vector<Sample> fit = robot.record(make_trajectory("sweep", 21), options).samples;
+  options.samples = 1500;
+  const std::vector<Sample> check = robot.record(make_trajectory("sweep", 22), options).samples;
+  const diagnosis::Diagnosis result = diagnosis::diagnose(fit, check);
+  EXPECT_EQ(diagnosis::describe(result.significant), "transmission_error");
+  EXPECT_TRUE(result.explained);
+  EXPECT_LT(result.holdout_rmse_after_deg.maxCoeff(), 1.1 * diagnosis::kNoiseFloorDeg);
 }
 
 // Quick blind subset: none, chain angle, backlash, transmission error, two pairs (one needs the

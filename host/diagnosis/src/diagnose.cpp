@@ -55,6 +55,7 @@ Parameters initial_guess(Family family, const Parameters& theta, const std::vect
       const double range = std::max(high - low, 1e-3);
       const double centre = 0.5 * (high + low);
       const int m = static_cast<int>(angle.size());
+      const std::vector<double> raw = residual;
       // Remove a quadratic trend in the angle once (what offsets, scales and geometry leave).
       Eigen::Matrix3d normal = Eigen::Matrix3d::Zero();
       Eigen::Vector3d right = Eigen::Vector3d::Zero();
@@ -89,6 +90,38 @@ Parameters initial_guess(Family family, const Parameters& theta, const std::vect
           best_period = period;
           best_amplitude = std::hypot(c[0], c[1]);
           best_phase = std::atan2(c[0], c[1]);  // A sin(w + phi) = A cos(phi) sin(w) + A sin(phi) cos(w)
+        }
+      }
+      // Periods much longer than the range look like a trend and vanish with it; try them on the
+      // residual as it is (a once-per-revolution ripple, P = 360 deg, is the common case) and keep
+      // whichever start explains more of it.
+      auto raw_fit = [&](double period, double& amplitude, double& phase) {
+        Eigen::Matrix2d normal = Eigen::Matrix2d::Zero();
+        Eigen::Vector2d right = Eigen::Vector2d::Zero();
+        double total = 0.0;
+        for (int i = 0; i < m; ++i) {
+          const double w = 2.0 * kPi * angle[i] / period;
+          const Eigen::Vector2d basis(std::cos(w), std::sin(w));
+          normal += basis * basis.transpose();
+          right += raw[i] * basis;
+          total += raw[i] * raw[i];
+        }
+        const Eigen::Vector2d c = normal.ldlt().solve(right);
+        amplitude = std::hypot(c[0], c[1]);
+        phase = std::atan2(c[0], c[1]);
+        return total - c.dot(right);
+      };
+      double amplitude = 0.0, phase = 0.0;
+      double best_sse = raw_fit(best_period, amplitude, phase);
+      best_amplitude = amplitude;
+      best_phase = phase;
+      for (double period : {2.0 * range, 4.0 * range, 8.0 * range, 90.0, 180.0, 360.0}) {
+        const double sse = raw_fit(period, amplitude, phase);
+        if (sse < best_sse) {
+          best_sse = sse;
+          best_period = period;
+          best_amplitude = amplitude;
+          best_phase = phase;
         }
       }
       start[slot::amplitude + j] = best_amplitude;
