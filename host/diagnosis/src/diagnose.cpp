@@ -19,8 +19,10 @@ double mean_square(const Vec3& rmse) { return rmse.squaredNorm() / 3.0; }
 // Starting values of a family added to a fitted model, from the FIT residuals of that model.
 // backlash: half the jump of the residual between falling and rising motion; transmission_error:
 // a periodogram of the residual against the angle (quadratic trend removed), per joint.
+// long_period: start transmission_error from the best long period fitted to the raw residual
+// instead of the periodogram (forward selection tries both starts).
 Parameters initial_guess(Family family, const Parameters& theta, const std::vector<Sample>& rows,
-                         const std::vector<Vec3>& predicted) {
+                         const std::vector<Vec3>& predicted, bool long_period = false) {
   Parameters start = theta;
   if (family == Family::backlash) {
     for (int j = 0; j < 3; ++j) {
@@ -92,9 +94,8 @@ Parameters initial_guess(Family family, const Parameters& theta, const std::vect
           best_phase = std::atan2(c[0], c[1]);  // A sin(w + phi) = A cos(phi) sin(w) + A sin(phi) cos(w)
         }
       }
-      // Periods much longer than the range look like a trend and vanish with it; try them on the
-      // residual as it is (a once-per-revolution ripple, P = 360 deg, is the common case) and keep
-      // whichever start explains more of it.
+      // Periods much longer than the range look like a trend and vanish with it: the long-period
+      // start fits them to the residual as it is (a once-per-revolution ripple, P = 360 deg).
       auto raw_fit = [&](double period, double& amplitude, double& phase) {
         Eigen::Matrix2d normal = Eigen::Matrix2d::Zero();
         Eigen::Vector2d right = Eigen::Vector2d::Zero();
@@ -112,10 +113,9 @@ Parameters initial_guess(Family family, const Parameters& theta, const std::vect
         return total - c.dot(right);
       };
       double amplitude = 0.0, phase = 0.0;
-      double best_sse = raw_fit(best_period, amplitude, phase);
-      best_amplitude = amplitude;
-      best_phase = phase;
+      double best_sse = 1e300;
       for (double period : {2.0 * range, 4.0 * range, 8.0 * range, 90.0, 180.0, 360.0}) {
+        if (!long_period) break;
         const double sse = raw_fit(period, amplitude, phase);
         if (sse < best_sse) {
           best_sse = sse;
@@ -310,7 +310,24 @@ Diagnosis diagnose(const std::vector<Sample>& fit, const std::vector<Sample>& ch
         return fit_and_check(fit, thinned_fit, check, families, start, options);
       });
     }
-    const std::vector<Candidate> results = run_parallel(jobs, options.threads);
+    // transmission_error also from its long-period start (appended; the better one is kept).
+    const auto transmission = std::find(candidates.begin(), candidates.end(), Family::transmission_error);
+    if (transmission != candidates.end()) {
+      const Parameters start = initial_guess(Family::transmission_error, theta, fit, current_fit_prediction, true);
+      const FamilySet families = current | single(Family::transmission_error);
+      jobs.push_back([&fit, &thinned_fit, &check, families, start, &options] {
+        return fit_and_check(fit, thinned_fit, check, families, start, options);
+      });
+    }
+    std::vector<Candidate> results = run_parallel(jobs, options.threads);
+    if (transmission != candidates.end()) {
+      Candidate& short_start = results[transmission - candidates.begin()];
+      const Candidate& long_start = results.back();
+      if (long_start.ok && (!short_start.ok || mean_square(long_start.holdout_rmse) < mean_square(short_start.holdout_rmse))) {
+        short_start = long_start;
+      }
+      results.pop_back();
+    }
     SelectionStep step;
     step.base = current;
     step.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - round_started).count();
@@ -340,6 +357,33 @@ Diagnosis diagnose(const std::vector<Sample>& fit, const std::vector<Sample>& ch
     theta = results[best].fit.theta;
     current_rmse = results[best].holdout_rmse;
     current_fit_prediction = predict_recording(to_effect_set(theta, current), fit).alpha_deg;
+  }
+
+  // A transmission ripple picked early can have locked onto another effect's trend (a long
+  // period standing in for an arm length). If the model misses the floor, restart the ripple
+  // from the residual of the model without it, from both starts, and keep what CHECK prefers.
+  const double floor_limit = options.explained_ratio * options.noise_floor_deg;
+  bool path_changed = false;
+  if (current[index_of(Family::transmission_error)] && current_rmse.maxCoeff() > floor_limit) {
+    FamilySet without = current;
+    without.reset(index_of(Family::transmission_error));
+    Parameters base = theta;
+    for (int k : parameter_indices(single(Family::transmission_error))) base[k] = neutral_parameters()[k];
+    const std::vector<Vec3> prediction = predict_recording(to_effect_set(base, without), fit).alpha_deg;
+    std::vector<std::function<Candidate()>> jobs;
+    for (bool long_period : {false, true}) {
+      const Parameters start = initial_guess(Family::transmission_error, base, fit, prediction, long_period);
+      jobs.push_back([&fit, &thinned_fit, &check, current, start, &options] {
+        return fit_and_check(fit, thinned_fit, check, current, start, options);
+      });
+    }
+    for (const Candidate& restarted : run_parallel(jobs, options.threads)) {
+      if (restarted.ok && mean_square(restarted.holdout_rmse) < mean_square(current_rmse)) {
+        theta = restarted.fit.theta;
+        current_rmse = restarted.holdout_rmse;
+        path_changed = true;
+      }
+    }
   }
 
   // Backward elimination: drop a family whose removal costs less than the threshold on CHECK
@@ -381,7 +425,6 @@ Diagnosis diagnose(const std::vector<Sample>& fit, const std::vector<Sample>& ch
   // floor (chain_angle + joint_offset read as frame_misalignment + radius_offset + joint_offset).
   // When a model of three or four families reaches the floor, try each two-for-one swap and keep
   // a smaller model that does as well on CHECK (within the threshold).
-  const double floor_limit = options.explained_ratio * options.noise_floor_deg;
   // Limited to models of three or four families: the search grows as k^2 (9 - k) fits.
   while (current.count() >= 3 && current.count() <= 4 && current_rmse.maxCoeff() <= floor_limit) {
     std::vector<FamilySet> sets;
@@ -435,7 +478,7 @@ Diagnosis diagnose(const std::vector<Sample>& fit, const std::vector<Sample>& ch
     const FitResult final_fit = fit_model(fit, current, theta, theta, fit_options);
     if (final_fit.ok) {
       theta = final_fit.theta;
-      if (!forward_path.empty() && diagnosis.eliminated.empty()) forward_path.back().fit.theta = theta;
+      if (!forward_path.empty() && diagnosis.eliminated.empty() && !path_changed) forward_path.back().fit.theta = theta;
     }
   }
   diagnosis.significant = current;
@@ -479,7 +522,7 @@ Diagnosis diagnose(const std::vector<Sample>& fit, const std::vector<Sample>& ch
     };
     // Without eliminations the forward path already is this path.
     const std::vector<Candidate> path =
-        diagnosis.eliminated.empty() ? forward_path : run_parallel(jobs, options.threads);
+        diagnosis.eliminated.empty() && !path_changed ? forward_path : run_parallel(jobs, options.threads);
     Vec3 previous = diagnosis.holdout_rmse_nominal_deg;
     for (std::size_t r = 0; r < order.size(); ++r) {
       EffectFinding finding;
