@@ -57,31 +57,32 @@ function(delta_verilated_library target)
   target_link_libraries(${target} PUBLIC Threads::Threads)
 endfunction()
 
-# delta_gate_level_library(TARGET PREFIX Vname TOP top NETLIST file.v DEPENDS ...)
+# delta_gate_level_library(TARGET PREFIX Vname TOP top NETLIST file.v RUNTIME library)
 # Verilates a yosys netlist (made at build time by a custom command that outputs NETLIST) with
-# yosys's iCE40 cell models, builds it with Verilator's own makefile into an archive and exposes
-# it as the INTERFACE library TARGET. NO_ICE40_DEFAULT_ASSIGNMENTS: cells_sim.v's input-port
-# defaults are SystemVerilog Verilator 5.006 does not parse; the netlist connects every port used.
-# Lint warnings are off: the netlist is generated, not written.
+# yosys's iCE40 cell models, builds the model archive with Verilator's own makefile and exposes
+# it as the INTERFACE library TARGET. The Verilator runtime (verilated.cpp, FST writer) comes from
+# RUNTIME, a delta_verilated_library target: one runtime for every model.
+# NO_ICE40_DEFAULT_ASSIGNMENTS: cells_sim.v's input-port defaults are SystemVerilog that
+# Verilator 5.006 does not parse; the netlist connects every port it uses. Lint warnings are
+# off: the netlist is generated, not written.
 function(delta_gate_level_library target)
-  cmake_parse_arguments(ARG "" "PREFIX;TOP;NETLIST" "DEPENDS" ${ARGN})
+  cmake_parse_arguments(ARG "" "PREFIX;TOP;NETLIST;RUNTIME" "" ${ARGN})
   set(model_dir ${CMAKE_CURRENT_BINARY_DIR}/${ARG_PREFIX}.dir)
   set(archive ${model_dir}/${ARG_PREFIX}__ALL.a)
-  set(runtime ${model_dir}/libverilated.a)
-  add_custom_command(OUTPUT ${archive} ${runtime}
+  add_custom_command(OUTPUT ${archive}
     COMMAND ${CMAKE_COMMAND} -E make_directory ${model_dir}
     COMMAND ${VERILATOR_BIN} --cc --build -j 2 -O3 --prefix ${ARG_PREFIX} --Mdir ${model_dir}
             --top-module ${ARG_TOP} -DNO_ICE40_DEFAULT_ASSIGNMENTS -Wno-fatal -Wno-lint -Wno-style
             -Wno-TIMESCALEMOD -Wno-UNOPTFLAT --trace-fst -CFLAGS "-O2 -w"
             ${ARG_NETLIST} ${DELTA_ICE40_CELLS_SIM}
-    DEPENDS ${ARG_NETLIST} ${ARG_DEPENDS}
+    DEPENDS ${ARG_NETLIST}
     COMMENT "Verilating the gate-level netlist ${ARG_NETLIST}"
     VERBATIM)
-  add_custom_target(${target}_build DEPENDS ${archive} ${runtime})
+  add_custom_target(${target}_build DEPENDS ${archive})
   add_library(${target} INTERFACE)
   add_dependencies(${target} ${target}_build)
   target_include_directories(${target} SYSTEM INTERFACE ${model_dir} ${VERILATOR_ROOT}/include
                              ${VERILATOR_ROOT}/include/vltstd)
   target_compile_definitions(${target} INTERFACE VM_TRACE=1 VM_TRACE_FST=1)
-  target_link_libraries(${target} INTERFACE ${archive} ${runtime} Threads::Threads ZLIB::ZLIB)
+  target_link_libraries(${target} INTERFACE ${archive} ${ARG_RUNTIME} Threads::Threads ZLIB::ZLIB)
 endfunction()

@@ -70,7 +70,7 @@ done <<<"$post_route"
 # Resources: nextpnr's device utilisation table.
 {
   echo "# Resources of $top on the iCE40 UP5K (used / available)"
-  sed -n '/Device utilisation:/,/^Info: *$/p' "$out/nextpnr.log" | sed 's/^Info: *//' | grep -E 'ICESTORM_(LC|RAM|DSP|PLL|SPRAM)|SB_IO|SB_GB' || true
+  sed -n '/Device utilisation:/,/^Info: *$/p' "$out/nextpnr.log" | sed 's/^Info: *//' | grep -E '^[[:space:]]*(ICESTORM_(LC|RAM|DSP|PLL|SPRAM)|SB_IO|SB_GB):' || true
 } >"$out/resources.txt"
 cat "$out/timing.txt" "$out/resources.txt"
 if ((timing_ok == 0)); then
