@@ -20,7 +20,8 @@ double mean_square(const Vec3& rmse) { return rmse.squaredNorm() / 3.0; }
 // backlash: half the jump of the residual between falling and rising motion; transmission_error:
 // a periodogram of the residual against the angle (quadratic trend removed), per joint.
 // long_period: start transmission_error from the best long period fitted to the raw residual
-// instead of the periodogram (forward selection tries both starts).
+// instead of the periodogram (only the restart after forward selection uses it: in the rounds a
+// long-period ripple is flexible enough to stand in for geometry and mislead the greedy choice).
 Parameters initial_guess(Family family, const Parameters& theta, const std::vector<Sample>& rows,
                          const std::vector<Vec3>& predicted, bool long_period = false) {
   Parameters start = theta;
@@ -310,24 +311,7 @@ Diagnosis diagnose(const std::vector<Sample>& fit, const std::vector<Sample>& ch
         return fit_and_check(fit, thinned_fit, check, families, start, options);
       });
     }
-    // transmission_error also from its long-period start (appended; the better one is kept).
-    const auto transmission = std::find(candidates.begin(), candidates.end(), Family::transmission_error);
-    if (transmission != candidates.end()) {
-      const Parameters start = initial_guess(Family::transmission_error, theta, fit, current_fit_prediction, true);
-      const FamilySet families = current | single(Family::transmission_error);
-      jobs.push_back([&fit, &thinned_fit, &check, families, start, &options] {
-        return fit_and_check(fit, thinned_fit, check, families, start, options);
-      });
-    }
-    std::vector<Candidate> results = run_parallel(jobs, options.threads);
-    if (transmission != candidates.end()) {
-      Candidate& short_start = results[transmission - candidates.begin()];
-      const Candidate& long_start = results.back();
-      if (long_start.ok && (!short_start.ok || mean_square(long_start.holdout_rmse) < mean_square(short_start.holdout_rmse))) {
-        short_start = long_start;
-      }
-      results.pop_back();
-    }
+    const std::vector<Candidate> results = run_parallel(jobs, options.threads);
     SelectionStep step;
     step.base = current;
     step.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - round_started).count();
