@@ -15,59 +15,13 @@ struct JointRtlModel::Impl {
   long runs = 0;  // the n-th run after reset writes bank (n - 1) % 2
 };
 
-JointRtlModel::JointRtlModel() : impl_(std::make_unique<Impl>()) {
-  Vjoint_controller& top = impl_->top;
-  top.ap_clk = 0;
-  top.ap_rst = 1;
-  top.ap_start = 0;
-  top.eval();
-  for (int i = 0; i < 4; ++i) tick();
-  top.ap_rst = 0;
-  tick();
-}
+JointRtlModel::JointRtlModel() : impl_(std::make_unique<Impl>()) { reset_model(impl_->top); }
 
 JointRtlModel::~JointRtlModel() { impl_->top.final(); }
 
-void JointRtlModel::tick() {
-  impl_->top.ap_clk = 1;
-  impl_->top.eval();
-  impl_->top.ap_clk = 0;
-  impl_->top.eval();
-}
-
 JointRtlResult JointRtlModel::run(const std::array<control::JointFixedInput, 3>& inputs) {
-  Vjoint_controller& top = impl_->top;
-  top.reference_0 = static_cast<std::uint32_t>(inputs[0].reference);
-  top.reference_1 = static_cast<std::uint32_t>(inputs[1].reference);
-  top.reference_2 = static_cast<std::uint32_t>(inputs[2].reference);
-  top.encoder_0 = static_cast<std::uint16_t>(inputs[0].encoder);
-  top.encoder_1 = static_cast<std::uint16_t>(inputs[1].encoder);
-  top.encoder_2 = static_cast<std::uint16_t>(inputs[2].encoder);
-  if (!top.ap_idle) throw std::runtime_error("joint_controller: not idle before ap_start");
-  // ap_start stays high until ap_ready; every current_j_ap_vld must pulse once before ap_done.
-  top.ap_start = 1;
-  JointRtlResult result;
-  std::array<int, 3> valid_pulses{};
-  for (;;) {
-    const bool ready = top.ap_ready;
-    tick();
-    if (ready) top.ap_start = 0;
-    ++result.cycles;
-    valid_pulses[0] += top.current_0_ap_vld;
-    valid_pulses[1] += top.current_1_ap_vld;
-    valid_pulses[2] += top.current_2_ap_vld;
-    if (top.ap_done) break;
-    if (result.cycles > 100000) throw std::runtime_error("joint_controller: no ap_done");
-  }
-  if (valid_pulses != std::array<int, 3>{1, 1, 1}) throw std::runtime_error("joint_controller: current_j_ap_vld");
+  const JointRtlResult result = run_period(impl_->top, inputs);
   ++impl_->runs;
-  const std::array<std::uint16_t, 3> currents{top.current_0, top.current_1, top.current_2};
-  for (int j = 0; j < 3; ++j) {
-    result.current[j] = static_cast<std::int16_t>(currents[j]);
-    result.limited[j] = (top.limited >> j) & 1u;
-  }
-  result.overflow_count = top.overflow_count;
-  tick();  // StateDone -> idle, the bank flips
   return result;
 }
 

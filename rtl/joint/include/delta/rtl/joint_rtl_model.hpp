@@ -6,15 +6,9 @@
 #include <memory>
 
 #include "delta/control/joint_fixed.hpp"
+#include "delta/rtl/joint_handshake.hpp"
 
 namespace delta::rtl {
-
-struct JointRtlResult {
-  std::array<std::int16_t, 3> current{};
-  std::array<bool, 3> limited{};
-  std::uint16_t overflow_count = 0;  // since reset, sticks at 0xFFFF
-  long cycles = 0;                   // ap_start to ap_done
-};
 
 class JointRtlModel {
  public:
@@ -29,7 +23,6 @@ class JointRtlModel {
   control::JointFixedState state(int joint) const;
 
  private:
-  void tick();
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
