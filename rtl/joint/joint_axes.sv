@@ -9,7 +9,7 @@
 // command updates its PWM as soon as it is stored. PWM: period 2^PwmBits cycles (23.4 kHz at
 // 24 MHz and 10 bits), duty = |current| / 0.5 A (the current limit), direction = sign.
 module joint_axes #(
-  parameter int unsigned ClocksPerPeriod = 2400,     // clk_i / 10 kHz
+  parameter int unsigned ClocksPerPeriod = 2400,     // clk_i / 10 kHz (2400 at 24 MHz, 4200 at 42 MHz)
   parameter logic [15:0] HomeCount       = 16'd3000  // encoder count at reset (30.00 deg)
 ) (
   input  logic        clk_i,
@@ -24,7 +24,8 @@ module joint_axes #(
   output logic [2:0]  encoder_error_o,    // sticky: a quadrature state was skipped
   output logic [15:0] overflow_count_o    // the controller's saturation counter
 );
-  localparam int unsigned PwmBits = 10;
+  localparam int unsigned PwmBits   = 10;
+  localparam int unsigned TickWidth = $clog2(ClocksPerPeriod);
 
   // ---- encoders -------------------------------------------------------------------------------
   logic [47:0] counts;
@@ -41,7 +42,7 @@ module joint_axes #(
   end
 
   // ---- control tick and latched inputs --------------------------------------------------------
-  logic [11:0] tick_q;
+  logic [TickWidth-1:0] tick_q;
   logic        start_q, referenced_q;
   logic [47:0] counts_q;
   logic [71:0] references_q;
@@ -57,12 +58,12 @@ module joint_axes #(
       references_q    <= '0;
       encoder_error_q <= '0;
     end else begin
-      tick_q          <= tick_q == 12'(ClocksPerPeriod - 1) ? 12'd0 : tick_q + 12'd1;
+      tick_q          <= tick_q == TickWidth'(ClocksPerPeriod - 1) ? '0 : tick_q + 1'b1;
       encoder_error_q <= encoder_error_q | step_error;
       if (reference_valid_i) referenced_q <= 1'b1;
       // ap_start stays high until ap_ready; the inputs are latched at the tick and held.
       if (ap_ready) start_q <= 1'b0;
-      if (tick_q == 12'd0 && ap_idle) begin
+      if (tick_q == '0 && ap_idle) begin
         start_q      <= 1'b1;
         counts_q     <= counts;
         references_q <= references_i;
