@@ -1,7 +1,7 @@
 # RTL tests: Verilated network against the golden model (C++ and SystemC testbenches), the
-# gate-level netlist, the board's UART link, lint (rtl/*/CMakeLists.txt) and the rtl back end.
+# gate-level netlist, lint (rtl/*/CMakeLists.txt) and the rtl back end of deltactl.
 delta_add_gtest(rtl_network_tests
-  SOURCES ${CMAKE_CURRENT_LIST_DIR}/rtl/test_network_rtl.cpp
+  SOURCES ${CMAKE_CURRENT_LIST_DIR}/rtl/test_network_rtl.cpp ${CMAKE_CURRENT_LIST_DIR}/rtl/test_backend_rtl.cpp
   LIBRARIES delta::rtl_network
   LABELS rtl)
 target_include_directories(rtl_network_tests PRIVATE ${CMAKE_CURRENT_LIST_DIR}/rtl)
@@ -21,3 +21,9 @@ target_link_libraries(rtl_network_systemc_test PRIVATE delta_rtl_network_sc_mode
 set_target_properties(rtl_network_systemc_test PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${PROJECT_BINARY_DIR}/tests)
 add_test(NAME rtl_network_systemc COMMAND rtl_network_systemc_test)
 set_tests_properties(rtl_network_systemc PROPERTIES LABELS rtl PASS_REGULAR_EXPRESSION "PASS")
+
+delta_add_gtest(rtl_board_tests
+  SOURCES ${CMAKE_CURRENT_LIST_DIR}/rtl/test_board_uart.cpp
+  LIBRARIES delta_rtl_board_core_model delta::golden
+  LABELS rtl)
+target_include_directories(rtl_board_tests PRIVATE ${CMAKE_CURRENT_LIST_DIR}/rtl)

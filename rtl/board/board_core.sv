@@ -10,15 +10,15 @@
 // reference_valid_q), and drive drive_pwm_o/drive_dir_o/drive_enable_o. Until then the drive
 // outputs are held off (enable low, no PWM).
 module board_core #(
-  parameter int unsigned ClocksPerBit = 208,  // clk_i / UART baud rate (24 MHz / 115200)
+  parameter int unsigned ClocksPerBit = 365,  // clk_i / UART baud rate (42 MHz / 115200)
   parameter              MemDir       = "."   // directory of the network's .mem files (synthesis)
 ) (
   input  logic       clk_i,
   input  logic       rst_ni,
   input  logic       uart_rx_i,
   output logic       uart_tx_o,
-  output logic       led_red_o,       // a request was rejected (checksum or range), held ~0.7 s
-  output logic       led_green_o,     // a request was answered, held ~0.7 s
+  output logic       led_red_o,       // a request was rejected (checksum or range), held ~0.4 s
+  output logic       led_green_o,     // a request was answered, held ~0.4 s
   input  logic [2:0] encoder_a_i,     // quadrature encoders, asynchronous
   input  logic [2:0] encoder_b_i,
   output logic [2:0] drive_pwm_o,     // drive current command: PWM duty = |current|
@@ -141,16 +141,22 @@ module board_core #(
                                  net_idle, net_output_valid, rx_frame_error};
 
   // ---- status LEDs --------------------------------------------------------------------------
-  // Pulse stretchers: 2^24 cycles, about 0.7 s at 24 MHz.
+  // Pulse stretchers: 2^24 cycles, about 0.4 s at 42 MHz. The pulses are registered first: the
+  // link's decision logic and the counters' carry chains stay in separate cycles.
   logic [23:0] green_count_q, red_count_q;
+  logic        answered_q, rejected_q;
   always_ff @(posedge clk_i or negedge rst_ni) begin
     if (!rst_ni) begin
+      answered_q    <= 1'b0;
+      rejected_q    <= 1'b0;
       green_count_q <= '0;
       red_count_q   <= '0;
     end else begin
-      if (answered) green_count_q <= '1;
+      answered_q <= answered;
+      rejected_q <= rejected;
+      if (answered_q) green_count_q <= '1;
       else if (green_count_q != '0) green_count_q <= green_count_q - 1'b1;
-      if (rejected) red_count_q <= '1;
+      if (rejected_q) red_count_q <= '1;
       else if (red_count_q != '0) red_count_q <= red_count_q - 1'b1;
     end
   end

@@ -49,6 +49,7 @@ module network_uart_link #(
     WaitSync,
     ReceiveCodes,
     ReceiveChecksum,
+    Check,
     Compute,
     Answer
   } link_state_e;
@@ -124,15 +125,19 @@ module network_uart_link #(
       end
       ReceiveChecksum: begin
         if (rx_valid_i) begin
-          if (8'(sum_q + rx_data_i) == 8'd0 && codes_fit) begin
-            state_d   = Compute;
-            started_d = 1'b0;
-          end else begin
-            state_d    = Answer;
-            answer_d   = {{(AnswerBytes - 1) * 8{1'b0}}, Nak};
-            count_d    = CountWidth'(1);
-            rejected_o = 1'b1;
-          end
+          sum_d   = sum_q + rx_data_i;
+          state_d = Check;
+        end
+      end
+      Check: begin  // a cycle of its own: the checksum's carry chain stays off the decision
+        if (sum_q == 8'd0 && codes_fit) begin
+          state_d   = Compute;
+          started_d = 1'b0;
+        end else begin
+          state_d    = Answer;
+          answer_d   = {{(AnswerBytes - 1) * 8{1'b0}}, Nak};
+          count_d    = CountWidth'(1);
+          rejected_o = 1'b1;
         end
       end
       Compute: begin

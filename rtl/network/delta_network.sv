@@ -310,12 +310,13 @@ module delta_network #(
     logic [Weight2Width-1:0]        weight2_word;
     logic signed [Weight2Width-1:0] weight2_q;
     logic signed [HiddenWidth-1:0]  activation_lane_q;
-    logic [Weight2AddressWidth-1:0] weight2_address;
-    always_comb begin
-      weight2_address = Weight2AddressWidth'((group_s[10] * Lanes + lane) * NumHidden);
-      if (neuron_s[10] != '0) begin
-        weight2_address = weight2_address + Weight2AddressWidth'(neuron_s[10]) - Weight2AddressWidth'(1);
-      end
+    // The address is computed from the token in S9 and registered: the ROM may be LUTs, and the
+    // adder in front of them would otherwise share their cycle.
+    logic [Weight2AddressWidth-1:0] weight2_address_q;
+    always_ff @(posedge ap_clk) begin
+      weight2_address_q <= Weight2AddressWidth'((group_s[9] * Lanes + lane) * NumHidden) +
+                           ((neuron_s[9] != '0) ? Weight2AddressWidth'(neuron_s[9]) - Weight2AddressWidth'(1)
+                                                : Weight2AddressWidth'(0));
     end
     readmemh_rom #(
       .Depth  (Weight2Depth),
@@ -324,7 +325,7 @@ module delta_network #(
       .MemFile(delta_network_pkg::Weight2File)
     ) u_weight2_rom (
       .clk_i    (ap_clk),
-      .address_i(weight2_address),
+      .address_i(weight2_address_q),
       .data_o   (weight2_word)
     );
     always_ff @(posedge ap_clk) begin
