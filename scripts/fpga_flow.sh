@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # iCE40 UP5K flow: yosys synth_ice40 -> nextpnr-ice40 --up5k -> icepack, with timing and resource reports.
 #
-# Usage: scripts/fpga_flow.sh --top MODULE --pcf FILE.pcf --freq MHZ --out DIR
+# Usage: scripts/fpga_flow.sh --top MODULE --pcf FILE.pcf --freq MHZ --out DIR [--seed N]
 #                             [--param NAME=VALUE]... SOURCE.sv...
 #   --param sets a top-level parameter (string values are given with their quotes: MemDir='"/abs"').
 # Writes in DIR: TOP.json (netlist), TOP.asc, TOP.bin (bitstream), yosys.log, nextpnr.log,
@@ -12,13 +12,14 @@
 set -euo pipefail
 
 usage() { sed -n '2,12p' "$0" | sed 's/^# \{0,1\}//'; }
-top="" pcf="" freq="" out="" params=() sources=()
+top="" pcf="" freq="" out="" seed=1 params=() sources=()
 while (($#)); do
   case "$1" in
     --top) top=$2; shift 2 ;;
     --pcf) pcf=$2; shift 2 ;;
     --freq) freq=$2; shift 2 ;;
     --out) out=$2; shift 2 ;;
+    --seed) seed=$2; shift 2 ;;
     --param) params+=("$2"); shift 2 ;;
     -h|--help) usage; exit 0 ;;
     -*) echo "fpga_flow: unknown option $1" >&2; usage >&2; exit 2 ;;
@@ -43,7 +44,7 @@ yosys -q -l "$out/yosys.log" -p "$read_sources $chparams synth_ice40 -dsp -top $
 
 echo "fpga_flow: nextpnr-ice40 --up5k at $freq MHz" >&2
 nextpnr-ice40 --up5k --package sg48 --pcf "$pcf" --json "$out/$top.json" --asc "$out/$top.asc" \
-  --freq "$freq" --seed 1 --timing-allow-fail --log "$out/nextpnr.log" -q >/dev/null 2>&1 ||
+  --freq "$freq" --seed "$seed" --timing-allow-fail --log "$out/nextpnr.log" -q >/dev/null 2>&1 ||
   { echo "fpga_flow: nextpnr failed, see $out/nextpnr.log" >&2; tail -5 "$out/nextpnr.log" >&2; exit 1; }
 
 echo "fpga_flow: icepack" >&2
@@ -54,7 +55,7 @@ fmax_lines=$(grep "Max frequency for clock" "$out/nextpnr.log" || true)
 clock_count=$(printf '%s\n' "$fmax_lines" | sed -n 's/.*clock *'"'"'\([^'"'"']*\)'"'"'.*/\1/p' | sort -u | wc -l)
 post_route=$(printf '%s\n' "$fmax_lines" | tail -n "$clock_count")
 {
-  echo "# Timing of $top on the iCE40 UP5K (nextpnr-ice40, seed 1), target $freq MHz"
+  echo "# Timing of $top on the iCE40 UP5K (nextpnr-ice40, seed $seed), target $freq MHz"
   echo "# post-route (the second nextpnr figure of each clock):"
   printf '%s\n' "$post_route" | sed 's/^Info: *//'
 } >"$out/timing.txt"
