@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
-# The main job on built-in defaults: the paper's validation experiment on the simulated
-# (paper-like) robot, and the math model's error against it (Table 1 layout, Fig. 4/5 plot).
+# The main job on built-in defaults (the simulated paper-like robot, the shipped weights): the
+# paper's validation experiment and the math model's error, the network against it on held-out
+# data, the same network in fixed point, HLS C++ and RTL (identical raw codes), the joint
+# controllers in closed loop, and the sim-to-real diagnosis. Outputs go to build/run/.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 cd "$root"
@@ -8,9 +10,39 @@ bash scripts/build.sh --target deltactl
 out=build/run
 mkdir -p "$out"
 deltactl=build/bin/deltactl
-echo "== Validation experiment on the paper-like virtual robot (sim/paper_like_effects.json)"
-$deltactl simulate --experiment validation --effects sim/paper_like_effects.json --seed 1 --out "$out/validation.csv"
+effects=sim/paper_like_effects.json
+weights=weights/paper_like.json
+
+section() { printf '\n== %s\n\n' "$1"; }
+
+section "1. Validation experiment on the paper-like virtual robot ($effects)"
+$deltactl simulate --experiment validation --effects "$effects" --seed 1 --out "$out/fit.csv"
+$deltactl simulate --experiment sweep --effects "$effects" --seed 7 --out "$out/check.csv"
+$deltactl compare --data "$out/fit.csv" --plot "$out/validation_errors.png"
+
+section "2. Table 1 on a held-out sweep: math model, shipped network ($weights) and hybrid"
+$deltactl table1 --data "$out/fit.csv" --holdout "$out/check.csv" \
+  --network "$weights" --hybrid weights/paper_like_hybrid.json
+
+section "3. The network in fixed point (golden model), HLS C++ and RTL: raw output codes"
+for backend in float fixed hls rtl; do
+  $deltactl ik --weights "$weights" --backend "$backend" --in "$out/check.csv" --out "$out/ik_$backend.csv"
+done
+raw_columns() { cut -d, -f4-6 "$1"; }
+if cmp -s <(raw_columns "$out/ik_fixed.csv") <(raw_columns "$out/ik_hls.csv") &&
+   cmp -s <(raw_columns "$out/ik_fixed.csv") <(raw_columns "$out/ik_rtl.csv"); then
+  echo "fixed, hls and rtl: identical raw codes on all $(($(wc -l < "$out/ik_fixed.csv") - 1)) poses"
+else
+  echo "MISMATCH: raw codes differ between back ends (see $out/ik_*.csv)" >&2
+  exit 1
+fi
+
+section "4. Joint controllers in closed loop (double vs fixed point, single-joint plant)"
+$deltactl joint-loop --plot "$out/joint_loop.png"
+
+section "5. Sim-to-real diagnosis of the paper-like robot (fit on the validation run, judged on the sweep)"
+$deltactl diagnose --data "$out/fit.csv" --holdout "$out/check.csv" --json "$out/diagnosis.json" \
+  --predictions "$out/diagnosis_predictions.csv" --report "$out/diagnosis/report.md"
+
 echo
-$deltactl compare --data "$out/validation.csv" --plot "$out/validation_errors.png"
-echo
-echo "Outputs in $out/"
+echo "Outputs (recordings, plots, reports) in $out/"
