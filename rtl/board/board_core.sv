@@ -10,7 +10,7 @@
 // reference_valid_q), and drive drive_pwm_o/drive_dir_o/drive_enable_o. Until then the drive
 // outputs are held off (enable low, no PWM).
 module board_core #(
-  parameter int unsigned ClocksPerBit = 365,  // clk_i / UART baud rate (42 MHz / 115200)
+  parameter int unsigned ClocksPerBit = 404,  // clk_i / UART baud rate (46.5 MHz / 115200)
   parameter              MemDir       = "."   // directory of the network's .mem files (synthesis)
 ) (
   input  logic       clk_i,
@@ -141,7 +141,7 @@ module board_core #(
                                  net_idle, net_output_valid, rx_frame_error};
 
   // ---- status LEDs --------------------------------------------------------------------------
-  // Pulse stretchers: 2^24 cycles, about 0.4 s at 42 MHz. The pulses are registered first: the
+  // Pulse stretchers: 2^24 cycles, about 0.36 s at 46.5 MHz. The pulses are registered first: the
   // link's decision logic and the counters' carry chains stay in separate cycles.
   logic [23:0] green_count_q, red_count_q;
   logic        answered_q, rejected_q;

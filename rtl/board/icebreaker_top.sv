@@ -1,16 +1,16 @@
 // iCEBreaker (iCE40UP5K-SG48) top: 12 MHz oscillator -> PLL -> board_core; pins in icebreaker.pcf.
 //
 // Clock: the PLL makes SystemClockHz from the 12 MHz pin (DivR/DivF/DivQ/FilterRange from
-// `icepll -i 12 -o 42`: 12 MHz * (DivF + 1) / (DivR + 1) / 2^DivQ = 42 MHz, below the measured
-// post-route Fmax; README.md gives the latency and what the 2 us target still needs). Reset: held until the PLL
+// `icepll -i 12 -o 46.5`: 12 MHz * (DivF + 1) / (DivR + 1) / 2^DivQ = 46.5 MHz, below the
+// measured post-route Fmax; the network's 91 cycles take 1.96 us, README.md). Reset: held until the PLL
 // locks and while the user button (active low) is pressed, released synchronously.
 module icebreaker_top #(
   parameter              MemDir      = ".",  // directory of the network's .mem files
   parameter logic [3:0]  DivR        = 4'd0,
-  parameter logic [6:0]  DivF        = 7'd55,
+  parameter logic [6:0]  DivF        = 7'd61,
   parameter logic [2:0]  DivQ        = 3'd4,
   parameter logic [2:0]  FilterRange = 3'd1,
-  parameter int unsigned SystemClockHz = 42_000_000,
+  parameter int unsigned SystemClockHz = 46_500_000,
   parameter int unsigned BaudRate      = 115_200
 ) (
   input  logic       clk_12mhz_i,   // pin 35, 12 MHz oscillator

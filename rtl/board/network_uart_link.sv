@@ -59,6 +59,7 @@ module network_uart_link #(
   logic [RequestBytes*8-1:0]    request_d, request_q;   // byte 0 at [7:0]
   logic [7:0]                   sum_d, sum_q;           // running sum of received code bytes
   logic [AnswerBytes*8-1:0]     answer_d, answer_q;     // next byte to send at [7:0]
+  logic [7:0]                   check_d, check_q;       // sync minus the code bytes sent so far
   logic                         started_d, started_q;   // ap_start accepted (ap_ready seen)
 
   // A code fits when the bits above InputWidth-1 repeat its sign bit.
@@ -80,20 +81,20 @@ module network_uart_link #(
     end
   end
 
-  // The answer frame for the current outputs: sync, sign-extended codes, checksum.
+  // The answer frame for the current outputs: sync, sign-extended codes, and a placeholder for
+  // the checksum. The checksum is summed byte by byte while the frame is sent (check_q) and put
+  // in its place when the last code byte leaves: an adder tree over all code bytes in the cycle
+  // of done_i was the board's critical path.
   logic [AnswerBytes*8-1:0] answer_frame;
   always_comb begin
     logic [Outputs*OutputBytes*8-1:0] codes;
-    logic [7:0]                       code_sum;
     codes = '0;
     for (int k = 0; k < Outputs; k++) begin
       for (int b = 0; b < OutputBytes * 8; b++) begin
         codes[k*OutputBytes*8 + b] = outputs_i[k*OutputWidth + ((b < OutputWidth) ? b : OutputWidth - 1)];
       end
     end
-    code_sum = 8'd0;
-    for (int i = 0; i < Outputs * OutputBytes; i++) code_sum = code_sum + codes[i*8 +: 8];
-    answer_frame = {8'(8'd0 - code_sum), codes, AnswerSync};
+    answer_frame = {8'd0, codes, AnswerSync};
   end
 
   always_comb begin
@@ -102,6 +103,7 @@ module network_uart_link #(
     request_d  = request_q;
     sum_d      = sum_q;
     answer_d   = answer_q;
+    check_d    = check_q;
     started_d  = started_q;
     start_o    = 1'b0;
     tx_valid_o = 1'b0;
@@ -146,6 +148,7 @@ module network_uart_link #(
         if (done_i) begin
           state_d    = Answer;
           answer_d   = answer_frame;
+          check_d    = AnswerSync;  // the sync byte is subtracted first: the checksum covers the codes
           count_d    = CountWidth'(AnswerBytes);
           answered_o = 1'b1;
         end
@@ -154,6 +157,9 @@ module network_uart_link #(
         tx_valid_o = 1'b1;
         if (tx_ready_i) begin
           answer_d = {8'd0, answer_q[AnswerBytes*8-1:8]};
+          check_d  = check_q - answer_q[7:0];
+          // The last code byte leaves: the checksum (minus the sum of the code bytes) is next.
+          if (count_q == CountWidth'(2)) answer_d[7:0] = check_d;
           count_d  = count_q - 1'b1;
           if (count_q == CountWidth'(1)) state_d = WaitSync;
         end
@@ -171,6 +177,7 @@ module network_uart_link #(
       request_q <= '0;
       sum_q     <= 8'd0;
       answer_q  <= '0;
+      check_q   <= 8'd0;
       started_q <= 1'b0;
     end else begin
       state_q   <= state_d;
@@ -178,6 +185,7 @@ module network_uart_link #(
       request_q <= request_d;
       sum_q     <= sum_d;
       answer_q  <= answer_d;
+      check_q   <= check_d;
       started_q <= started_d;
     end
   end

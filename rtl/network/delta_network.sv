@@ -7,7 +7,7 @@
 // ap_ready is high in the cycle the inputs x_0..x_2 are captured (the first one). ap_done and
 // y_k_ap_vld pulse together for one cycle with y_0..y_2 valid; y keeps its value until the next
 // ap_done. ap_rst is synchronous and active high. Latency from the ap_start edge to ap_done:
-// Steps + 15 cycles, Steps = (NumHidden + 1) * ReuseFactor / NumHidden (41 at 25, 93 at 75).
+// Steps + 13 cycles, Steps = (NumHidden + 1) * ReuseFactor / NumHidden (39 at 25, 91 at 75).
 //
 // ReuseFactor (hls4ml's meaning): multiplications per multiplier per inference. Each layer does
 // 3 * NumHidden products with 3 * NumHidden / ReuseFactor multipliers ("lanes"):
@@ -17,16 +17,16 @@
 //
 // Schedule: a token stream steps through (neuron h, group g), h = 0..NumHidden, g = 0..Groups-1,
 // one token per cycle. Layer 1 of neuron h uses the tokens (h, *); layer 2 of neuron h uses the
-// tokens (h + 1, *) eleven stages later, when tanh(h) is ready (the extra neuron NumHidden only
+// tokens (h + 1, *) nine stages later, when tanh(h) is ready (the extra neuron NumHidden only
 // finishes layer 2 of the last real neuron). Stages of a token:
-//   S0  weight/bias ROM addresses                    S7  tanh ROM data (T[i], D[i])
-//   S1  ROM data; lane input selected                S8  D[i] * f
-//   S2  multiply u * IW'                             S9  T[i] * 2^10 + D[i] * f
-//   S3  acc1 = b1' + sum of products                 S10 m = round_shift(.., 13); LW' ROM address
-//   S4  n = sat_21(round_shift(acc1, 17))            S11 h = +-m; LW' data
-//   S5  a = min(|n|, 2^20 - 1)                       S12 multiply h * LW'
-//   S6  tanh ROM address i, fraction f               S13 acc2 += product
-//                                                    S14 alpha = sat_24(round_shift(acc2, 20))
+//   S0  weight/bias ROM addresses                    S6  tanh ROM data (T[i], D[i])
+//   S1  ROM data; lane input selected                S7  D[i] * f
+//   S2  multiply u * IW'                             S8  T[i] * 2^10 + D[i] * f; LW' ROM address
+//   S3  acc1 = b1' + sum of products                 S9  h = +-round_shift(.., 13) (a shift); LW' data
+//   S4  n = sat_21(round_shift(acc1, 17)) and        S10 multiply h * LW'
+//       a = min(|n|, 2^20 - 1) as |s| mod 2^20 and   S11 acc2 += product
+//       |s| >= 2^20, s = acc1 >> 17 (pkg)            S12 alpha = sat_24(round_shift(acc2, 20))
+//   S5  a (the clamp); tanh ROM address i, fraction f
 // The input scaling (spec step 2) runs in S0 of token 0, so u is ready in S1.
 module delta_network #(
   parameter int unsigned ReuseFactor = 75,  // 25 or 75, see above
@@ -60,7 +60,6 @@ module delta_network #(
   localparam int unsigned Bias1Width         = delta_network_pkg::Bias1Width;
   localparam int unsigned Product1Width      = delta_network_pkg::Product1Width;
   localparam int unsigned Accum1Width        = delta_network_pkg::Accum1Width;
-  localparam int unsigned TanhInputWidth     = delta_network_pkg::TanhInputWidth;
   localparam int unsigned TanhMagnitudeWidth = delta_network_pkg::TanhMagnitudeWidth;
   localparam int unsigned TanhFractionWidth  = delta_network_pkg::TanhFractionWidth;
   localparam int unsigned TanhSegments       = delta_network_pkg::TanhSegments;
@@ -77,7 +76,7 @@ module delta_network #(
   localparam int unsigned Groups      = ReuseFactor / NumHidden;   // tokens per neuron
   localparam int unsigned Lanes       = NumInputs / Groups;        // multipliers per layer
   localparam int unsigned Steps       = (NumHidden + 1) * Groups;  // tokens per inference
-  localparam int unsigned LastStage   = 14;
+  localparam int unsigned LastStage   = 12;
   localparam int unsigned StepWidth   = $clog2(Steps + 1);
   localparam int unsigned NeuronWidth = $clog2(NumHidden + 1);
   localparam int unsigned GroupWidth  = (Groups > 1) ? $clog2(Groups) : 1;
@@ -114,7 +113,7 @@ module delta_network #(
   wire accept     = ap_start && !busy_q;
   wire issue      = busy_q && (step_q != StepWidth'(Steps));
   wire last_group = (group_q == GroupWidth'(Groups - 1));
-  // The last token in S14: every output accumulator is complete.
+  // The last token in S12: every output accumulator is complete.
   wire final_token = valid_q[LastStage] && neuron_s[LastStage] == NeuronWidth'(NumHidden) &&
                      group_s[LastStage] == GroupWidth'(Groups - 1);
 
@@ -197,6 +196,7 @@ module delta_network #(
   logic signed [ScaledInputWidth-1:0] lane_input_q [Lanes];  // S2
   logic signed [Product1Width-1:0]    product1_q [Lanes];    // S3
   logic signed [Accum1Width-1:0]      bias1_s2_q, bias1_s3_q;   // b1', then b1' + 2^16
+  logic                               first_group_s3_q;      // the token in S3 starts a neuron
   logic signed [Accum1Width-1:0]      accum1_q;              // S4
 
   for (genvar lane = 0; lane < Lanes; lane++) begin : g_layer1_lane
@@ -236,47 +236,68 @@ module delta_network #(
 
   // S3: acc1 starts from the bias at the neuron's first group; exact in 41 bits (spec step 3).
   // The accumulator carries + 2^16, the rounding half of n = round_shift(acc1, 17), added to the
-  // bias in S2, so S4 only shifts and saturates.
+  // bias in S2, so S4 only shifts and saturates. The bias/accumulator select is a register
+  // (decoded in S2). The 41-bit add is a carry-select adder: the low 20 bits and the high 21
+  // bits, the latter both without and with the low carry, chosen by it (three short carry chains
+  // side by side instead of one of 41 bits: the recurrence must fit one cycle).
+  localparam int unsigned Accum1LowWidth  = 20;
+  localparam int unsigned Accum1HighWidth = Accum1Width - Accum1LowWidth;
   always_ff @(posedge ap_clk) begin
-    logic signed [Accum1Width-1:0] sum;
-    bias1_s2_q <= Accum1Width'(signed'(bias1_word));
-    bias1_s3_q <= bias1_s2_q + (Accum1Width'(1) <<< (delta_network_pkg::TanhInputShift - 1));
-    sum = (group_s[3] == '0) ? bias1_s3_q : accum1_q;
-    for (int lane = 0; lane < Lanes; lane++) sum = sum + Accum1Width'(product1_q[lane]);
-    accum1_q <= sum;
+    logic signed [Accum1Width-1:0]   base;     // b1' + 2^16 or acc1
+    logic signed [Accum1Width-1:0]   addend;   // the products of the token
+    logic [Accum1LowWidth:0]         low;      // with its carry out
+    logic [Accum1HighWidth-1:0]      high_without_carry;
+    logic [Accum1HighWidth-1:0]      high_with_carry;  // the carry enters below the LSB as 1 + 1
+    bias1_s2_q       <= Accum1Width'(signed'(bias1_word));
+    bias1_s3_q       <= bias1_s2_q + (Accum1Width'(1) <<< (delta_network_pkg::TanhInputShift - 1));
+    first_group_s3_q <= (group_s[2] == '0);
+    base   = first_group_s3_q ? bias1_s3_q : accum1_q;
+    addend = '0;
+    for (int lane = 0; lane < Lanes; lane++) addend = addend + Accum1Width'(product1_q[lane]);
+    low                = {1'b0, base[Accum1LowWidth-1:0]} + {1'b0, addend[Accum1LowWidth-1:0]};
+    high_without_carry = base[Accum1Width-1:Accum1LowWidth] + addend[Accum1Width-1:Accum1LowWidth];
+    high_with_carry    = Accum1HighWidth'(({base[Accum1Width-1:Accum1LowWidth], 1'b1} +
+                                           {addend[Accum1Width-1:Accum1LowWidth], 1'b1}) >> 1);
+    accum1_q <= {low[Accum1LowWidth] ? high_with_carry : high_without_carry,
+                 low[Accum1LowWidth-1:0]};
   end
 
-  // ---- tanh (spec step 4): S4..S11 ------------------------------------------------------------
-  logic signed [TanhInputWidth-1:0]     tanh_input_q;   // S5
-  logic [TanhMagnitudeWidth-1:0]        magnitude_q;    // S6
-  logic [TanhFractionWidth-1:0]         fraction_s7_q, fraction_s8_q;
-  logic [TanhEntryWidth-1:0]            entry_word, entry_s8_q, entry_s9_q;
-  logic [TanhSlopeWidth-1:0]            slope_word, slope_s8_q;
-  logic [TanhSlopeWidth+TanhFractionWidth-1:0] slope_product_q;  // S9, D >= 0
-  logic [InterpolationWidth-1:0]        interpolation_q;  // S10
-  logic [HiddenWidth-2:0]               rounded_q;        // S11
-  logic [6:1]                           negative_q;       // sign of n, stages S6..S11
-  logic signed [HiddenWidth-1:0]        activation_q;     // h of the neuron before the S12 token
+  // ---- tanh (spec step 4): S4..S9 -------------------------------------------------------------
+  logic [TanhMagnitudeWidth-1:0]        magnitude_low_q;        // S5: |s| mod 2^20
+  logic                                 magnitude_saturates_q;  // S5: |s| >= 2^20
+  logic [TanhMagnitudeWidth-1:0]        magnitude;              // S5: a
+  logic [TanhFractionWidth-1:0]         fraction_s6_q, fraction_s7_q;
+  logic [TanhEntryWidth-1:0]            entry_word, entry_s7_q, entry_s8_q;
+  logic [TanhSlopeWidth-1:0]            slope_word, slope_s7_q;
+  logic [TanhSlopeWidth+TanhFractionWidth-1:0] slope_product_q;  // S8, D >= 0
+  logic [InterpolationWidth-1:0]        interpolation_q;  // S9
+  logic [5:1]                           negative_q;       // sign of n, stages S5..S9
+  logic signed [HiddenWidth-1:0]        activation_q;     // h of the neuron before the S10 token
 
   always_ff @(posedge ap_clk) begin
-    tanh_input_q    <= delta_network_pkg::tanh_input(accum1_q);
-    magnitude_q     <= delta_network_pkg::tanh_magnitude(tanh_input_q);
-    negative_q      <= {negative_q[5:1], tanh_input_q[TanhInputWidth-1]};
-    fraction_s7_q   <= magnitude_q[TanhFractionWidth-1:0];
-    fraction_s8_q   <= fraction_s7_q;
-    entry_s8_q      <= entry_word;
-    slope_s8_q      <= slope_word;
-    // + 2^12 (as 4 * 2^10): the rounding half of m = round_shift(.., 13), so S10 only shifts.
-    entry_s9_q      <= entry_s8_q + TanhEntryWidth'(1 << (delta_network_pkg::TanhRoundShift - TanhFractionWidth - 1));
-    slope_product_q <= (TanhSlopeWidth + TanhFractionWidth)'(slope_s8_q) *
-                       (TanhSlopeWidth + TanhFractionWidth)'(fraction_s8_q);
-    interpolation_q <= {1'b0, entry_s9_q, {TanhFractionWidth{1'b0}}} + InterpolationWidth'(slope_product_q);
-    rounded_q       <= delta_network_pkg::tanh_round(interpolation_q);
-    // h of neuron h is loaded by its last token in S11 and used by the tokens of h + 1.
-    if (valid_q[11] && group_s[11] == GroupWidth'(Groups - 1) && neuron_s[11] != NeuronWidth'(NumHidden)) begin
-      activation_q <= negative_q[6] ? HiddenWidth'(0) - HiddenWidth'(rounded_q) : HiddenWidth'(rounded_q);
+    magnitude_low_q       <= delta_network_pkg::tanh_magnitude_low(accum1_q);
+    magnitude_saturates_q <= delta_network_pkg::tanh_magnitude_saturates(accum1_q);
+    negative_q      <= {negative_q[4:1], accum1_q[Accum1Width-1]};  // sign of n = sign of acc1
+    fraction_s6_q   <= magnitude[TanhFractionWidth-1:0];
+    fraction_s7_q   <= fraction_s6_q;
+    entry_s7_q      <= entry_word;
+    slope_s7_q      <= slope_word;
+    // + 2^12 (as 4 * 2^10): the rounding half of m = round_shift(.., 13), so S9 only shifts.
+    entry_s8_q      <= entry_s7_q + TanhEntryWidth'(1 << (delta_network_pkg::TanhRoundShift - TanhFractionWidth - 1));
+    slope_product_q <= (TanhSlopeWidth + TanhFractionWidth)'(slope_s7_q) *
+                       (TanhSlopeWidth + TanhFractionWidth)'(fraction_s7_q);
+    interpolation_q <= {1'b0, entry_s8_q, {TanhFractionWidth{1'b0}}} + InterpolationWidth'(slope_product_q);
+    // h of neuron h is loaded by its last token in S9 and used by the tokens of h + 1; m is a bit
+    // select of the interpolation (its rounding half is in the table word), so S9 only negates.
+    if (valid_q[9] && group_s[9] == GroupWidth'(Groups - 1) && neuron_s[9] != NeuronWidth'(NumHidden)) begin
+      activation_q <= negative_q[5]
+          ? HiddenWidth'(0) - HiddenWidth'(delta_network_pkg::tanh_round(interpolation_q))
+          : HiddenWidth'(delta_network_pkg::tanh_round(interpolation_q));
     end
   end
+
+  // The clamp to 2^20 - 1 is applied here, off the negation's carry chain.
+  assign magnitude = magnitude_saturates_q ? '1 : magnitude_low_q;
 
   readmemh_rom #(
     .Depth  (TanhSegments),
@@ -285,7 +306,7 @@ module delta_network #(
     .MemFile(delta_network_pkg::TanhEntryFile)
   ) u_tanh_entry_rom (
     .clk_i    (ap_clk),
-    .address_i(magnitude_q[TanhMagnitudeWidth-1:TanhFractionWidth]),
+    .address_i(magnitude[TanhMagnitudeWidth-1:TanhFractionWidth]),
     .data_o   (entry_word)
   );
   readmemh_rom #(
@@ -295,27 +316,33 @@ module delta_network #(
     .MemFile(delta_network_pkg::TanhSlopeFile)
   ) u_tanh_slope_rom (
     .clk_i    (ap_clk),
-    .address_i(magnitude_q[TanhMagnitudeWidth-1:TanhFractionWidth]),
+    .address_i(magnitude[TanhMagnitudeWidth-1:TanhFractionWidth]),
     .data_o   (slope_word)
   );
 
-  // ---- layer 2: S10 addresses, S11 data, S12 multiply, S13 accumulate ---------------------------
-  logic signed [Product2Width-1:0] product2_q [Lanes];  // S13
-  logic signed [Accum2Width-1:0]   accum2_q [NumOutputs];
+  // ---- layer 2: S8 addresses, S9 data, S10 multiply, S11 accumulate -----------------------------
+  logic signed [Product2Width-1:0] product2_q [Lanes];  // S11
+  // acc2 of output o = accum2_high_q[o] * 2^24 + accum2_low_q[o], the low part 25 bits wide: its
+  // bit 24 is the carry of the last update, added to the high part by the next one. Two 24-bit
+  // carry chains instead of one of 47 (the DSP's product register is far from the fabric).
+  localparam int unsigned Accum2LowWidth  = 24;
+  localparam int unsigned Accum2HighWidth = Accum2Width - Accum2LowWidth;
+  logic [Accum2LowWidth:0]                accum2_low_q [NumOutputs];
+  logic signed [Accum2HighWidth-1:0]      accum2_high_q [NumOutputs];
   logic [NumOutputs*Bias2Width-1:0] bias2_words;
 
   for (genvar lane = 0; lane < Lanes; lane++) begin : g_layer2_lane
-    // Token (h + 1, g) in S10 addresses LW'[g * Lanes + l][h], stored at (g * Lanes + l) *
+    // Token (h + 1, g) in S8 addresses LW'[g * Lanes + l][h], stored at (g * Lanes + l) *
     // NumHidden + h (row-major LW'); the neuron-0 tokens read a word that is never accumulated.
     logic [Weight2Width-1:0]        weight2_word;
     logic signed [Weight2Width-1:0] weight2_q;
     logic signed [HiddenWidth-1:0]  activation_lane_q;
-    // The address is computed from the token in S9 and registered: the ROM may be LUTs, and the
+    // The address is computed from the token in S7 and registered: the ROM may be LUTs, and the
     // adder in front of them would otherwise share their cycle.
     logic [Weight2AddressWidth-1:0] weight2_address_q;
     always_ff @(posedge ap_clk) begin
-      weight2_address_q <= Weight2AddressWidth'((group_s[9] * Lanes + lane) * NumHidden) +
-                           ((neuron_s[9] != '0) ? Weight2AddressWidth'(neuron_s[9]) - Weight2AddressWidth'(1)
+      weight2_address_q <= Weight2AddressWidth'((group_s[7] * Lanes + lane) * NumHidden) +
+                           ((neuron_s[7] != '0) ? Weight2AddressWidth'(neuron_s[7]) - Weight2AddressWidth'(1)
                                                 : Weight2AddressWidth'(0));
     end
     readmemh_rom #(
@@ -344,24 +371,36 @@ module delta_network #(
     .words_o(bias2_words)
   );
 
-  // S13: output o accumulates in group o / Lanes, lane o % Lanes; exact in 47 bits (spec step 5).
+  // S11: output o accumulates in group o / Lanes, lane o % Lanes; exact in 47 bits (spec step 5).
   always_ff @(posedge ap_clk) begin
+    logic signed [Accum2Width-1:0] start;    // b2' + 2^19
+    logic signed [Accum2Width-1:0] product;  // sign-extended
     for (int o = 0; o < NumOutputs; o++) begin
+      // + 2^19: the rounding half of alpha = round_shift(acc2, 20), so S12 only shifts and saturates.
+      start   = Accum2Width'(signed'(bias2_words[o*Bias2Width +: Bias2Width])) +
+                (Accum2Width'(1) <<< (delta_network_pkg::OutputShift - 1));
+      product = Accum2Width'(product2_q[o % Lanes]);
       if (accept) begin
-        // + 2^19: the rounding half of alpha = round_shift(acc2, 20), so S14 only shifts and saturates.
-        accum2_q[o] <= Accum2Width'(signed'(bias2_words[o*Bias2Width +: Bias2Width])) +
-                       (Accum2Width'(1) <<< (delta_network_pkg::OutputShift - 1));
-      end else if (valid_q[13] && neuron_s[13] != '0 && group_s[13] == GroupWidth'(o / Lanes)) begin
-        accum2_q[o] <= accum2_q[o] + Accum2Width'(product2_q[o % Lanes]);
+        accum2_low_q[o]  <= {1'b0, start[Accum2LowWidth-1:0]};
+        accum2_high_q[o] <= start[Accum2Width-1:Accum2LowWidth];
+      end else if (valid_q[11] && neuron_s[11] != '0 && group_s[11] == GroupWidth'(o / Lanes)) begin
+        accum2_low_q[o]  <= {1'b0, accum2_low_q[o][Accum2LowWidth-1:0]} +
+                            {1'b0, product[Accum2LowWidth-1:0]};
+        accum2_high_q[o] <= accum2_high_q[o] + product[Accum2Width-1:Accum2LowWidth] +
+                            Accum2HighWidth'(accum2_low_q[o][Accum2LowWidth]);
       end
     end
   end
 
-  // ---- S14: outputs (spec step 5) ---------------------------------------------------------------
+  // ---- S12: outputs (spec step 5) ---------------------------------------------------------------
   logic signed [OutputWidth-1:0] y_q [NumOutputs];
   always_ff @(posedge ap_clk) begin
     if (final_token) begin
-      for (int o = 0; o < NumOutputs; o++) y_q[o] <= delta_network_pkg::output_code(accum2_q[o]);
+      for (int o = 0; o < NumOutputs; o++) begin
+        y_q[o] <= delta_network_pkg::output_code(
+            {accum2_high_q[o] + Accum2HighWidth'(accum2_low_q[o][Accum2LowWidth]),
+             accum2_low_q[o][Accum2LowWidth-1:0]});
+      end
     end
   end
 

@@ -71,26 +71,29 @@ package delta_network_pkg;
     else saturate_scaled_input = {1'b0, {(ScaledInputWidth - 1){1'b1}}};
   endfunction
 
-  // 3. n = sat_21(round_shift(acc1, 17)), given acc1 + 2^16 (the rounding half, added by the
-  // network to the bias): only the shift and the saturation are left.
+  // 3-4. n = sat_21(round_shift(acc1, 17)) and a = min(|n|, 2^20 - 1), given acc1 + 2^16 (the
+  // rounding half, added by the network to the bias). With s = the shifted accumulator (24 bits),
+  // sat_21 only clamps s to [-2^20, 2^20 - 1], so min(|n|, 2^20 - 1) = min(|s|, 2^20 - 1):
+  // a = |s| mod 2^20 (a 20-bit negation, the one carry chain), or 2^20 - 1 when |s| >= 2^20
+  // (decided from s beside the chain; the network applies it a cycle later). The sign of n is
+  // the sign of s.
   localparam int unsigned Accum1RoundedWidth = Accum1Width - TanhInputShift;
-  function automatic logic signed [TanhInputWidth-1:0] tanh_input(input logic signed [Accum1Width-1:0] accum_plus_half);
-    logic [Accum1RoundedWidth-1:0] shifted;
-    logic                          in_range;
-    shifted  = accum_plus_half[Accum1Width-1:TanhInputShift];
-    in_range = (shifted[Accum1RoundedWidth-1:TanhInputWidth-1] == '0) ||
-               (shifted[Accum1RoundedWidth-1:TanhInputWidth-1] == '1);
-    if (in_range) tanh_input = shifted[TanhInputWidth-1:0];
-    else if (shifted[Accum1RoundedWidth-1]) tanh_input = {1'b1, {(TanhInputWidth - 1){1'b0}}};
-    else tanh_input = {1'b0, {(TanhInputWidth - 1){1'b1}}};
+  function automatic logic [TanhMagnitudeWidth-1:0] tanh_magnitude_low(input logic signed [Accum1Width-1:0] accum_plus_half);
+    logic [Accum1RoundedWidth-1:0] shifted;  // s
+    shifted = accum_plus_half[Accum1Width-1:TanhInputShift];
+    if (shifted[Accum1RoundedWidth-1]) tanh_magnitude_low = TanhMagnitudeWidth'(0) - shifted[TanhMagnitudeWidth-1:0];
+    else tanh_magnitude_low = shifted[TanhMagnitudeWidth-1:0];
   endfunction
 
-  // 4. a = min(|n|, 2^20 - 1): only n = -2^20 has |n| = 2^20.
-  function automatic logic [TanhMagnitudeWidth-1:0] tanh_magnitude(input logic signed [TanhInputWidth-1:0] n);
-    logic [TanhInputWidth-1:0] magnitude;
-    magnitude = n[TanhInputWidth-1] ? TanhInputWidth'(0) - n : n;
-    if (magnitude[TanhInputWidth-1]) tanh_magnitude = '1;
-    else tanh_magnitude = magnitude[TanhMagnitudeWidth-1:0];
+  function automatic logic tanh_magnitude_saturates(input logic signed [Accum1Width-1:0] accum_plus_half);
+    logic [Accum1RoundedWidth-1:0] shifted;  // s
+    shifted = accum_plus_half[Accum1Width-1:TanhInputShift];
+    if (shifted[Accum1RoundedWidth-1]) begin  // s <= -2^20
+      tanh_magnitude_saturates = shifted[Accum1RoundedWidth-1:TanhMagnitudeWidth] != '1 ||
+                                 shifted[TanhMagnitudeWidth-1:0] == '0;
+    end else begin  // s >= 2^20
+      tanh_magnitude_saturates = shifted[Accum1RoundedWidth-1:TanhMagnitudeWidth] != '0;
+    end
   endfunction
 
   // 4. m = round_shift(interpolation, 13), given interpolation + 2^12 (the rounding half, added
