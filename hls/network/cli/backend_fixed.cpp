@@ -50,11 +50,7 @@ class FixedPointIkBackend : public IkBackend {
       }
       rows[i].raw = out.alpha;
       for (int o = 0; o < 3; ++o) rows[i].alpha_deg[o] = decode_angle_deg(quantised_.formats, out.alpha[o]);
-      if (weights_.hybrid()) {  // the raw codes are the network's residual; the math model adds in double
-        const IkSolution model = nn::math_model_angles(weights_.effects, positions_m[i]);
-        if (model.ok()) rows[i].alpha_deg += model.alpha_deg;
-        else rows[i].error = model.reason();
-      }
+      nn::add_hybrid_math_model(weights_, positions_m[i], rows[i]);  // raw codes: the residual
     }
     return rows;
   }

@@ -37,4 +37,11 @@ IkSolution evaluate_model(const WeightsFile& weights, const Vec3& measured_posit
   return solution;
 }
 
+void add_hybrid_math_model(const WeightsFile& weights, const Vec3& measured_position_m, IkRow& row) {
+  if (!weights.hybrid()) return;
+  const IkSolution model = math_model_angles(weights.effects, measured_position_m);
+  if (model.ok()) row.alpha_deg += model.alpha_deg;
+  else row.error = model.reason();
+}
+
 }  // namespace delta::nn

@@ -74,11 +74,7 @@ class RtlIkBackend : public IkBackend {
         const std::int64_t limit = std::int64_t{1} << (quantised_.formats.output_bits - 1);
         if (run.outputs[o] == limit - 1 || run.outputs[o] == -limit) ++outputs_at_limit_;
       }
-      if (weights_.hybrid()) {  // the raw codes are the network's residual; the math model adds in double
-        const IkSolution model = nn::math_model_angles(weights_.effects, positions_m[i]);
-        if (model.ok()) rows[i].alpha_deg += model.alpha_deg;
-        else rows[i].error = model.reason();
-      }
+      nn::add_hybrid_math_model(weights_, positions_m[i], rows[i]);  // raw codes: the residual
     }
     return rows;
   }

@@ -3,6 +3,7 @@
 #pragma once
 
 #include "delta/effects.hpp"
+#include "delta/ik_backend.hpp"
 #include "delta/kinematics.hpp"
 #include "delta/nn/weights_file.hpp"
 
@@ -17,5 +18,10 @@ IkSolution math_model_angles(const EffectSet& effects, const Vec3& measured_posi
 
 // Joint angles in degrees the model of `weights` predicts for a measured plate position in metres.
 IkSolution evaluate_model(const WeightsFile& weights, const Vec3& measured_position_m);
+
+// For back ends that evaluate only the network (fixed point, HLS, RTL): with hybrid weights their
+// angles are the network's residual, so this adds the math model in double (or sets row.error
+// when the model cannot reach the pose). A pure network leaves the row as it is.
+void add_hybrid_math_model(const WeightsFile& weights, const Vec3& measured_position_m, IkRow& row);
 
 }  // namespace delta::nn
