@@ -43,7 +43,7 @@ module joint_axes #(
 
   // ---- control tick and latched inputs --------------------------------------------------------
   logic [TickWidth-1:0] tick_q;
-  logic        start_q, referenced_q;
+  logic        start_q, referenced_q, reference_latched_q;
   logic [47:0] counts_q;
   logic [71:0] references_q;
   logic [2:0]  encoder_error_q;
@@ -54,6 +54,7 @@ module joint_axes #(
       tick_q          <= '0;
       start_q         <= 1'b0;
       referenced_q    <= 1'b0;
+      reference_latched_q <= 1'b0;
       counts_q        <= '0;
       references_q    <= '0;
       encoder_error_q <= '0;
@@ -63,10 +64,14 @@ module joint_axes #(
       if (reference_valid_i) referenced_q <= 1'b1;
       // ap_start stays high until ap_ready; the inputs are latched at the tick and held.
       if (ap_ready) start_q <= 1'b0;
+      // Whether this period uses the network's reference is latched with the reference itself:
+      // a reference_valid_i arriving while the controller copies its inputs must not pair the
+      // new flag with the old (zero) reference (that would command 0 deg for one period).
       if (tick_q == '0 && ap_idle) begin
-        start_q      <= 1'b1;
-        counts_q     <= counts;
-        references_q <= references_i;
+        start_q             <= 1'b1;
+        counts_q            <= counts;
+        references_q        <= references_i;
+        reference_latched_q <= referenced_q;
       end
     end
   end
@@ -81,7 +86,7 @@ module joint_axes #(
 
   logic [95:0] references;
   for (genvar j = 0; j < 3; j++) begin : g_reference
-    assign references[32 * j +: 32] = referenced_q ? reference_code(references_q[24 * j +: 24])
+    assign references[32 * j +: 32] = reference_latched_q ? reference_code(references_q[24 * j +: 24])
                                                    : {{8{counts_q[16 * j + 15]}}, counts_q[16 * j +: 16], 8'd0};
   end
 

@@ -76,7 +76,9 @@ TEST(JointAxes, EncoderCountsReferencesAndPwmFollowTheGoldenController) {
     std::array<int, 3> high{0, 0, 0};
     for (int cycle = 0; cycle < kClocksPerPeriod; ++cycle) {
       board.tick();
-      if (period == 20 && cycle == 500) {
+      // The reference arrives at the first cycle of period 20, while the controller copies its
+      // inputs: period 20 must still hold the encoder position (no zero reference for a period).
+      if (period == 20 && cycle == 0) {
         for (int j = 0; j < 3; ++j) {
           const std::uint32_t raw = static_cast<std::uint32_t>(std::llround(target_deg[j] * 16384.0)) & 0xFFFFFFu;
           // 72-bit port: joint j at bits [24j +: 24] over three 32-bit words.
@@ -107,7 +109,7 @@ TEST(JointAxes, EncoderCountsReferencesAndPwmFollowTheGoldenController) {
         for (int j = 0; j < 3; ++j) {
           ASSERT_EQ((top.drive_dir_o >> j) & 1, expected_current[j] < 0 ? 1 : 0) << "period " << period;
         }
-        ASSERT_EQ(top.drive_enable_o, referenced || period == 20 ? 1 : 0) << "period " << period;  // valid at 500
+        ASSERT_EQ(top.drive_enable_o, referenced || period == 20 ? 1 : 0) << "period " << period;  // valid at 0
       }
     }
     for (int j = 0; j < 3; ++j) {
