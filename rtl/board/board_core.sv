@@ -1,29 +1,37 @@
 // Everything on the iCEBreaker except the PLL and the pads: UART link to the host, the network,
-// and the joint I/O (three quadrature encoders in, three drive current commands out).
+// and the three joint controllers (quadrature encoders in, drive current commands out).
 //
-// Data path: host UART request (positions as raw input codes) -> network_uart_link -> network
-// (ap_ctrl_hs) -> response (joint references as raw output codes). See network_uart_link.sv for
-// the frame format and README.md for the host side.
+// Data path: host UART request (positions as raw input codes) -> network_uart_link ->
+// network_crossing -> network (ap_ctrl_hs) -> back: response (joint references as raw output
+// codes) to the host, and the same references to joint_axes (10 kHz controllers, PWM +
+// direction). See network_uart_link.sv for the frame format and README.md for the host side.
 //
-// Joint controllers (issue 6) plug in at the marked place below: they take encoder_a_i/b_i
-// (already synchronised here), the network's joint references (references_q, updated with
-// reference_valid_q), and drive drive_pwm_o/drive_dir_o/drive_enable_o. Until then the drive
-// outputs are held off (enable low, no PWM).
+// Two clocks from one PLL. clk_network_i (46.5 MHz) runs the network alone: its 91-cycle latency
+// is 1.96 us there. clk_i (half of it, 23.25 MHz) runs everything else: UART, link, LEDs,
+// encoders, joint controllers (their datapath routes at about 24 MHz, rtl/joint/README.md) and
+// PWM. network_crossing is the only place where signals cross (a toggle handshake each way).
 module board_core #(
-  parameter int unsigned ClocksPerBit = 404,  // clk_i / UART baud rate (46.5 MHz / 115200)
-  parameter              MemDir       = "."   // directory of the network's .mem files (synthesis)
+  parameter int unsigned ClocksPerBit    = 202,       // clk_i / UART baud rate (23.25 MHz / 115200)
+  parameter int unsigned ClocksPerPeriod = 2325,      // clk_i / 10 kHz: the joint control period
+  parameter int unsigned LedHoldBits     = 23,        // LED pulses held 2^LedHoldBits cycles (0.36 s)
+  parameter logic [15:0] HomeCount       = 16'd3000,  // encoder counts at reset (30.00 deg)
+  parameter              MemDir          = "."        // directory of the network's .mem files (synthesis)
 ) (
-  input  logic       clk_i,
-  input  logic       rst_ni,
+  input  logic       clk_i,           // board clock: UART, link, joints
+  input  logic       rst_ni,          // asynchronous assertion, synchronous release in clk_i
+  input  logic       clk_network_i,   // the network's clock
+  input  logic       rst_network_ni,  // asynchronous assertion, synchronous release in clk_network_i
   input  logic       uart_rx_i,
   output logic       uart_tx_o,
-  output logic       led_red_o,       // a request was rejected (checksum or range), held ~0.4 s
-  output logic       led_green_o,     // a request was answered, held ~0.4 s
+  output logic       led_red_o,       // a request was rejected (checksum or range), held ~0.36 s
+  output logic       led_green_o,     // a request was answered, held ~0.36 s
   input  logic [2:0] encoder_a_i,     // quadrature encoders, asynchronous
   input  logic [2:0] encoder_b_i,
-  output logic [2:0] drive_pwm_o,     // drive current command: PWM duty = |current|
-  output logic [2:0] drive_dir_o,     // drive current command: sign
-  output logic       drive_enable_o
+  output logic [2:0] drive_pwm_o,     // drive current command: PWM duty = |current| / 0.5 A
+  output logic [2:0] drive_dir_o,     // drive current command: sign (1 = negative)
+  output logic       drive_enable_o,  // low until the first network answer
+  output logic [2:0] encoder_error_o, // sticky: encoder j skipped a quadrature state
+  output logic       joint_limited_o  // sticky: a joint controller saturated an operand or state
 );
   // Network formats (yosys 0.23 reads no `import`: qualified names only).
   localparam int unsigned NumInputs   = delta_network_pkg::NumInputs;
@@ -53,9 +61,9 @@ module board_core #(
     .tx_o        (uart_tx_o)
   );
 
-  logic                                 net_start, net_done, net_idle, net_ready;
+  logic                                 net_start, net_done, net_ready;
   logic [NumInputs*InputWidth-1:0]      net_inputs;
-  logic [NumOutputs*OutputWidth-1:0]    net_outputs;
+  logic [NumOutputs*OutputWidth-1:0]    net_outputs;  // the last answer, held
   logic                                 answered, rejected;
 
   network_uart_link #(
@@ -80,41 +88,51 @@ module board_core #(
     .rejected_o(rejected)
   );
 
-  // ---- the network ------------------------------------------------------------------------
-  logic [NumOutputs-1:0] net_output_valid;
+  // ---- the network, on its own clock behind the crossing ----------------------------------------
+  logic                              net_clk_start, net_clk_ready, net_clk_done;
+  logic [NumInputs*InputWidth-1:0]   net_clk_inputs;
+  logic [NumOutputs*OutputWidth-1:0] net_clk_outputs;
+  logic                              net_idle;
+  logic [NumOutputs-1:0]             net_output_valid;
 
+  network_crossing #(
+    .InputBits (NumInputs * InputWidth),
+    .OutputBits(NumOutputs * OutputWidth)
+  ) u_crossing (
+    .clk_i,
+    .rst_ni,
+    .start_i       (net_start),
+    .ready_o       (net_ready),
+    .done_o        (net_done),
+    .inputs_i      (net_inputs),
+    .outputs_o     (net_outputs),
+    .clk_network_i,
+    .rst_network_ni,
+    .net_start_o   (net_clk_start),
+    .net_ready_i   (net_clk_ready),
+    .net_done_i    (net_clk_done),
+    .net_inputs_o  (net_clk_inputs),
+    .net_outputs_i (net_clk_outputs)
+  );
   delta_network #(.MemDir(MemDir)) u_network (
-    .ap_clk      (clk_i),
-    .ap_rst      (!rst_ni),
-    .ap_start    (net_start),
-    .ap_done     (net_done),
+    .ap_clk      (clk_network_i),
+    .ap_rst      (!rst_network_ni),
+    .ap_start    (net_clk_start),
+    .ap_done     (net_clk_done),
     .ap_idle     (net_idle),
-    .ap_ready    (net_ready),
-    .x_0         (net_inputs[0*InputWidth +: InputWidth]),
-    .x_1         (net_inputs[1*InputWidth +: InputWidth]),
-    .x_2         (net_inputs[2*InputWidth +: InputWidth]),
-    .y_0         (net_outputs[0*OutputWidth +: OutputWidth]),
+    .ap_ready    (net_clk_ready),
+    .x_0         (net_clk_inputs[0*InputWidth +: InputWidth]),
+    .x_1         (net_clk_inputs[1*InputWidth +: InputWidth]),
+    .x_2         (net_clk_inputs[2*InputWidth +: InputWidth]),
+    .y_0         (net_clk_outputs[0*OutputWidth +: OutputWidth]),
     .y_0_ap_vld  (net_output_valid[0]),
-    .y_1         (net_outputs[1*OutputWidth +: OutputWidth]),
+    .y_1         (net_clk_outputs[1*OutputWidth +: OutputWidth]),
     .y_1_ap_vld  (net_output_valid[1]),
-    .y_2         (net_outputs[2*OutputWidth +: OutputWidth]),
+    .y_2         (net_clk_outputs[2*OutputWidth +: OutputWidth]),
     .y_2_ap_vld  (net_output_valid[2])
   );
 
-  // Joint references for the joint controllers: the last answer, held.
-  logic [NumOutputs*OutputWidth-1:0] references_q;
-  logic                              reference_valid_q;
-  always_ff @(posedge clk_i or negedge rst_ni) begin
-    if (!rst_ni) begin
-      references_q      <= '0;
-      reference_valid_q <= 1'b0;
-    end else begin
-      reference_valid_q <= net_done;
-      if (net_done) references_q <= net_outputs;
-    end
-  end
-
-  // ---- joint I/O ----------------------------------------------------------------------------
+  // ---- joint I/O ------------------------------------------------------------------------------
   // Two-flip-flop synchronisers for the asynchronous encoder inputs.
   logic [2:0] encoder_a_meta_q, encoder_a_q, encoder_b_meta_q, encoder_b_q;
   always_ff @(posedge clk_i or negedge rst_ni) begin
@@ -131,19 +149,33 @@ module board_core #(
     end
   end
 
-  // >>> Joint controllers (issue 6) go here: inputs encoder_a_q, encoder_b_q, references_q,
-  // reference_valid_q; outputs drive_pwm_o, drive_dir_o, drive_enable_o. Until then: drives off.
-  assign drive_pwm_o    = 3'b000;
-  assign drive_dir_o    = 3'b000;
-  assign drive_enable_o = 1'b0;
-  logic unused_joint_inputs;
-  assign unused_joint_inputs = ^{encoder_a_q, encoder_b_q, references_q, reference_valid_q,
-                                 net_idle, net_output_valid, rx_frame_error};
+  // ---- the three joint controllers: references = the network's last answer ---------------------
+  logic [15:0] joint_overflow_count;
+  joint_axes #(
+    .ClocksPerPeriod(ClocksPerPeriod),
+    .HomeCount      (HomeCount)
+  ) u_joint_axes (
+    .clk_i,
+    .rst_ni,
+    .encoder_a_i      (encoder_a_q),
+    .encoder_b_i      (encoder_b_q),
+    .references_i     (net_outputs),
+    .reference_valid_i(net_done),
+    .drive_pwm_o,
+    .drive_dir_o,
+    .drive_enable_o,
+    .encoder_error_o,
+    .overflow_count_o (joint_overflow_count)
+  );
+  assign joint_limited_o = joint_overflow_count != '0;
+
+  logic unused_status;
+  assign unused_status = ^{net_idle, net_output_valid, rx_frame_error};
 
   // ---- status LEDs --------------------------------------------------------------------------
-  // Pulse stretchers: 2^24 cycles, about 0.36 s at 46.5 MHz. The pulses are registered first: the
+  // Pulse stretchers: 2^LedHoldBits cycles, about 0.36 s at 23.25 MHz. The pulses are registered first: the
   // link's decision logic and the counters' carry chains stay in separate cycles.
-  logic [23:0] green_count_q, red_count_q;
+  logic [LedHoldBits-1:0] green_count_q, red_count_q;
   logic        answered_q, rejected_q;
   always_ff @(posedge clk_i or negedge rst_ni) begin
     if (!rst_ni) begin

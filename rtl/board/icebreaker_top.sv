@@ -1,16 +1,18 @@
 // iCEBreaker (iCE40UP5K-SG48) top: 12 MHz oscillator -> PLL -> board_core; pins in icebreaker.pcf.
 //
-// Clock: the PLL makes SystemClockHz from the 12 MHz pin (DivR/DivF/DivQ/FilterRange from
-// `icepll -i 12 -o 46.5`: 12 MHz * (DivF + 1) / (DivR + 1) / 2^DivQ = 46.5 MHz, below the
-// measured post-route Fmax; the network's 91 cycles take 1.96 us, README.md). Reset: held until the PLL
-// locks and while the user button (active low) is pressed, released synchronously.
+// Clocks: the PLL makes NetworkClockHz from the 12 MHz pin (DivR/DivF/DivQ/FilterRange from
+// `icepll -i 12 -o 46.5`: 12 MHz * (DivF + 1) / (DivR + 1) / 2^DivQ = 46.5 MHz) on port A for the
+// network alone (91 cycles = 1.96 us, README.md), and half of it on port B (GENCLK_HALF,
+// 23.25 MHz) for the rest of the board: UART link and the joint controllers, whose datapath
+// routes at about 24 MHz. The frequencies the place and route checks are in icebreaker.pcf. Reset: held until the PLL locks and while the user button (active low)
+// is pressed; asserted asynchronously, released synchronously in each clock domain.
 module icebreaker_top #(
   parameter              MemDir      = ".",  // directory of the network's .mem files
   parameter logic [3:0]  DivR        = 4'd0,
   parameter logic [6:0]  DivF        = 7'd61,
   parameter logic [2:0]  DivQ        = 3'd4,
   parameter logic [2:0]  FilterRange = 3'd1,
-  parameter int unsigned SystemClockHz = 46_500_000,
+  parameter int unsigned NetworkClockHz = 46_500_000,
   parameter int unsigned BaudRate      = 115_200
 ) (
   input  logic       clk_12mhz_i,   // pin 35, 12 MHz oscillator
@@ -23,20 +25,27 @@ module icebreaker_top #(
   input  logic [2:0] encoder_b_i,   // PMOD1A pins 2, 4, 8 (2, 45, 48)
   output logic [2:0] drive_pwm_o,   // PMOD1B pins 1, 3, 7 (43, 34, 42)
   output logic [2:0] drive_dir_o,   // PMOD1B pins 2, 4, 8 (38, 31, 36)
-  output logic       drive_enable_o // PMOD1B pin 9 (32)
+  output logic       drive_enable_o,// PMOD1B pin 9 (32)
+  output logic [2:0] led_encoder_error_o, // break-off board LED1..LED3 (26, 27, 25): encoder j skipped a state
+  output logic       led_joint_limited_o, // break-off board LED4 (23): a joint controller saturated
+  output logic       led_drive_enable_o   // break-off board LED5 (21): drives enabled
 );
-  logic clk, pll_locked;
+  logic clk_network, clk, pll_locked;  // port A, port B (half)
 
-  SB_PLL40_PAD #(
-    .FEEDBACK_PATH("SIMPLE"),
-    .DIVR        (DivR),
-    .DIVF        (DivF),
-    .DIVQ        (DivQ),
-    .FILTER_RANGE(FilterRange)
+  SB_PLL40_2F_PAD #(
+    .FEEDBACK_PATH       ("SIMPLE"),
+    .PLLOUT_SELECT_PORTA ("GENCLK"),
+    .PLLOUT_SELECT_PORTB ("GENCLK_HALF"),
+    .DIVR                (DivR),
+    .DIVF                (DivF),
+    .DIVQ                (DivQ),
+    .FILTER_RANGE        (FilterRange)
   ) u_pll (
     .PACKAGEPIN     (clk_12mhz_i),
-    .PLLOUTCORE     (),
-    .PLLOUTGLOBAL   (clk),
+    .PLLOUTCOREA    (),
+    .PLLOUTGLOBALA  (clk_network),
+    .PLLOUTCOREB    (),
+    .PLLOUTGLOBALB  (clk),
     .EXTFEEDBACK    (1'b0),
     .DYNAMICDELAY   (8'd0),
     .LOCK           (pll_locked),
@@ -48,21 +57,30 @@ module icebreaker_top #(
     .SCLK           (1'b0)
   );
 
-  // Asynchronous assertion, synchronous release.
-  logic [1:0] reset_sync_q;
+  // Asynchronous assertion, synchronous release, one synchroniser per clock domain.
+  logic [1:0] reset_sync_q, network_reset_sync_q;
   always_ff @(posedge clk or negedge pll_locked) begin
     if (!pll_locked) reset_sync_q <= 2'b00;
     else reset_sync_q <= {reset_sync_q[0], button_ni};
   end
-  wire rst_n = reset_sync_q[1];
+  always_ff @(posedge clk_network or negedge pll_locked) begin
+    if (!pll_locked) network_reset_sync_q <= 2'b00;
+    else network_reset_sync_q <= {network_reset_sync_q[0], button_ni};
+  end
+  wire rst_n         = reset_sync_q[1];
+  wire rst_network_n = network_reset_sync_q[1];
 
   logic led_red, led_green;
+  localparam int unsigned BoardClockHz = NetworkClockHz / 2;
   board_core #(
-    .ClocksPerBit((SystemClockHz + BaudRate / 2) / BaudRate),
-    .MemDir      (MemDir)
+    .ClocksPerBit   ((BoardClockHz + BaudRate / 2) / BaudRate),
+    .ClocksPerPeriod(BoardClockHz / 10_000),
+    .MemDir         (MemDir)
   ) u_core (
-    .clk_i      (clk),
-    .rst_ni     (rst_n),
+    .clk_i         (clk),
+    .rst_ni        (rst_n),
+    .clk_network_i (clk_network),
+    .rst_network_ni(rst_network_n),
     .uart_rx_i,
     .uart_tx_o,
     .led_red_o  (led_red),
@@ -71,8 +89,11 @@ module icebreaker_top #(
     .encoder_b_i,
     .drive_pwm_o,
     .drive_dir_o,
-    .drive_enable_o
+    .drive_enable_o,
+    .encoder_error_o(led_encoder_error_o),
+    .joint_limited_o(led_joint_limited_o)
   );
+  assign led_drive_enable_o = drive_enable_o;
   assign led_red_no   = !led_red;
   assign led_green_no = !led_green;
 endmodule

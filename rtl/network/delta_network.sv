@@ -7,7 +7,7 @@
 // ap_ready is high in the cycle the inputs x_0..x_2 are captured (the first one). ap_done and
 // y_k_ap_vld pulse together for one cycle with y_0..y_2 valid; y keeps its value until the next
 // ap_done. ap_rst is synchronous and active high. Latency from the ap_start edge to ap_done:
-// Steps + 13 cycles, Steps = (NumHidden + 1) * ReuseFactor / NumHidden (39 at 25, 91 at 75).
+// Steps + 14 cycles, Steps = (NumHidden + 1) * ReuseFactor / NumHidden (40 at 25, 92 at 75).
 //
 // ReuseFactor (hls4ml's meaning): multiplications per multiplier per inference. Each layer does
 // 3 * NumHidden products with 3 * NumHidden / ReuseFactor multipliers ("lanes"):
@@ -25,8 +25,8 @@
 //   S3  acc1 = b1' + sum of products                 S9  h = +-round_shift(.., 13) (a shift); LW' data
 //   S4  n = sat_21(round_shift(acc1, 17)) and        S10 multiply h * LW'
 //       a = min(|n|, 2^20 - 1) as |s| mod 2^20 and   S11 acc2 += product
-//       |s| >= 2^20, s = acc1 >> 17 (pkg)            S12 alpha = sat_24(round_shift(acc2, 20))
-//   S5  a (the clamp); tanh ROM address i, fraction f
+//       |s| >= 2^20, s = acc1 >> 17 (pkg)            S12 round_shift(acc2, 20) (carry resolved)
+//   S5  a (the clamp); tanh ROM address i, fraction f S13 alpha = sat_24(..) (last token only)
 // The input scaling (spec step 2) runs in S0 of token 0, so u is ready in S1.
 module delta_network #(
   parameter int unsigned ReuseFactor = 75,  // 25 or 75, see above
@@ -96,6 +96,7 @@ module delta_network #(
   logic [StepWidth-1:0]   step_q;
   logic [NeuronWidth-1:0] neuron_q;
   logic [GroupWidth-1:0]  group_q;
+  logic                   output_q;  // S13 of the last token: the outputs are saturated
   logic                   done_q;
 
   // The token in stage k (1..LastStage): valid_q[k], neuron and group at [(k - 1) * width +: width]
@@ -123,10 +124,12 @@ module delta_network #(
       step_q   <= '0;
       neuron_q <= '0;
       group_q  <= '0;
+      output_q <= 1'b0;
       done_q   <= 1'b0;
       valid_q  <= '0;
     end else begin
-      done_q  <= final_token;
+      output_q <= final_token;
+      done_q   <= output_q;
       valid_q <= {valid_q[LastStage-1:1], issue};
       if (accept) begin
         busy_q   <= 1'b1;
@@ -138,7 +141,7 @@ module delta_network #(
         group_q  <= last_group ? '0 : group_q + 1'b1;
         neuron_q <= last_group ? neuron_q + 1'b1 : neuron_q;
       end
-      if (final_token) busy_q <= 1'b0;
+      if (output_q) busy_q <= 1'b0;
     end
   end
 
@@ -392,14 +395,22 @@ module delta_network #(
     end
   end
 
-  // ---- S12: outputs (spec step 5) ---------------------------------------------------------------
-  logic signed [OutputWidth-1:0] y_q [NumOutputs];
+  // ---- S12, S13: outputs (spec step 5) -----------------------------------------------------------
+  // S12 adds the low part's pending carry c to the high part: resolved = acc2 >> 20 (the rounding
+  // half is already in); S13 saturates it to 24 bits. In one cycle, the carry chain and the
+  // range check behind it were the board's critical path.
+  logic [delta_network_pkg::Accum2RoundedWidth-1:0] resolved_q [NumOutputs];  // S12
+  logic signed [OutputWidth-1:0]                    y_q [NumOutputs];         // S13
   always_ff @(posedge ap_clk) begin
     if (final_token) begin
       for (int o = 0; o < NumOutputs; o++) begin
-        y_q[o] <= delta_network_pkg::output_code(
-            {accum2_high_q[o] + Accum2HighWidth'(accum2_low_q[o][Accum2LowWidth]),
-             accum2_low_q[o][Accum2LowWidth-1:0]});
+        resolved_q[o] <= {accum2_high_q[o] + Accum2HighWidth'(accum2_low_q[o][Accum2LowWidth]),
+                          accum2_low_q[o][Accum2LowWidth-1:delta_network_pkg::OutputShift]};
+      end
+    end
+    if (output_q) begin
+      for (int o = 0; o < NumOutputs; o++) begin
+        y_q[o] <= delta_network_pkg::output_code({resolved_q[o], delta_network_pkg::OutputShift'(0)});
       end
     end
   end
