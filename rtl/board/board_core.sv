@@ -6,8 +6,8 @@
 // codes) to the host, and the same references to joint_axes (10 kHz controllers, PWM +
 // direction). See network_uart_link.sv for the frame format and README.md for the host side.
 //
-// Two clocks from one PLL. clk_network_i (46.5 MHz) runs the network alone: its 91-cycle latency
-// is 1.96 us there. clk_i (half of it, 23.25 MHz) runs everything else: UART, link, LEDs,
+// Two clocks from one PLL. clk_network_i (46.5 MHz) runs the network alone: its 92-cycle latency
+// is 1.98 us there. clk_i (half of it, 23.25 MHz) runs everything else: UART, link, LEDs,
 // encoders, joint controllers (their datapath routes at about 24 MHz, rtl/joint/README.md) and
 // PWM. network_crossing is the only place where signals cross (a toggle handshake each way).
 module board_core #(

@@ -2,7 +2,7 @@
 //
 // Clocks: the PLL makes NetworkClockHz from the 12 MHz pin (DivR/DivF/DivQ/FilterRange from
 // `icepll -i 12 -o 46.5`: 12 MHz * (DivF + 1) / (DivR + 1) / 2^DivQ = 46.5 MHz) on port A for the
-// network alone (91 cycles = 1.96 us, README.md), and half of it on port B (GENCLK_HALF,
+// network alone (92 cycles = 1.98 us, README.md), and half of it on port B (GENCLK_HALF,
 // 23.25 MHz) for the rest of the board: UART link and the joint controllers, whose datapath
 // routes at about 24 MHz. The frequencies the place and route checks are in icebreaker.pcf. Reset: held until the PLL locks and while the user button (active low)
 // is pressed; asserted asynchronously, released synchronously in each clock domain.

@@ -9,7 +9,7 @@
 // command updates its PWM as soon as it is stored. PWM: period 2^PwmBits cycles (23.4 kHz at
 // 24 MHz and 10 bits), duty = |current| / 0.5 A (the current limit), direction = sign.
 module joint_axes #(
-  parameter int unsigned ClocksPerPeriod = 2400,     // clk_i / 10 kHz (2400 at 24 MHz, 4650 at 46.5 MHz)
+  parameter int unsigned ClocksPerPeriod = 2400,     // clk_i / 10 kHz (2400 at 24 MHz, 2325 on the board: 23.25 MHz)
   parameter logic [15:0] HomeCount       = 16'd3000  // encoder count at reset (30.00 deg)
 ) (
   input  logic        clk_i,

@@ -8,14 +8,14 @@
 // joint, with limited and overflow_count valid; all outputs hold until rewritten. ap_rst is
 // synchronous and active high. The first period after reset starts from rest at its own input
 // (golden: fixed_rest_state). Latency from the ap_start edge to ap_done: 892 cycles (6 input
-// copies, 3 x 295 for the joints, 1 done cycle): 37.2 us at 24 MHz, a third of the 100 us period.
+// copies, 3 x 295 for the joints, 1 done cycle): 38.4 us at the board's 23.25 MHz, 38 % of the 100 us period.
 //
 // Schedule: per joint the 19 instructions of delta_joint_pkg::program_rom, each
 //   OpInit 3 cycles (read, register, load acc), OpMac 30 (read a, b, c; a - b shifted; minus c;
 //   saturate; 24 bit-serial steps over the coefficient), OpStore 2 (shift, then saturate and
 //   write): 5 x 3 + 9 x 30 + 5 x 2 = 295.
 // The instruction, every memory word (word_q), each step of the operand and the shifted
-// accumulator pass a register, so no path holds more than one carry chain: 24 MHz beside the
+// accumulator pass a register, so no path holds more than one carry chain: 25 MHz beside the
 // network on the UP5K.
 module joint_controller (
   input  logic        ap_clk,
