@@ -27,3 +27,9 @@ delta_add_gtest(rtl_board_tests
   LIBRARIES delta_rtl_network_model delta::golden delta::control
   LABELS rtl)
 target_include_directories(rtl_board_tests PRIVATE ${CMAKE_CURRENT_LIST_DIR}/rtl)
+
+delta_add_gtest(rtl_cosim_tests
+  SOURCES ${CMAKE_CURRENT_LIST_DIR}/rtl/test_cosim.cpp
+  LIBRARIES delta::board_cosim delta::golden delta::nn delta::host
+  LABELS rtl cosim)
+target_include_directories(rtl_cosim_tests PRIVATE ${CMAKE_CURRENT_LIST_DIR}/rtl)
