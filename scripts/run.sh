@@ -2,7 +2,8 @@
 # The main job on built-in defaults (the simulated paper-like robot, the shipped weights): the
 # paper's validation experiment and the math model's error, the network against it on held-out
 # data, the same network in fixed point, HLS C++ and RTL (identical raw codes), the joint
-# controllers in closed loop, and the sim-to-real diagnosis. Outputs go to build/run/.
+# controllers in closed loop, the sim-to-real diagnosis, and the whole robot co-simulated around
+# the board RTL. Outputs go to build/run/.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 cd "$root"
@@ -44,5 +45,9 @@ section "5. Sim-to-real diagnosis of the paper-like robot (fit on the validation
 $deltactl diagnose --data "$out/fit.csv" --holdout "$out/check.csv" --json "$out/diagnosis.json" \
   --predictions "$out/diagnosis_predictions.csv" --report "$out/diagnosis/report.md"
 
+section "6. Co-simulation: the board RTL (network + joint controllers) driving the paper-like robot"
+# One period of experiment 1 after a 0.3 s start; about 8 s of wall time per simulated second.
+$deltactl cosim --weights "$weights" --effects "$effects" --trajectory experiment1 --duration 5.3 \
+  --out "$out/cosim.csv" --plot "$out/cosim.png"
 echo
 echo "Outputs (recordings, plots, reports) in $out/"

@@ -63,17 +63,26 @@ void JointSensorChain::reset() {
   for (Backlash& play : backlash_) play.reset();
 }
 
+double JointSensorChain::scaled_and_transmitted(int joint, double true_alpha_deg) const {
+  const double scale = effects_.encoder_scale ? (*effects_.encoder_scale)[joint] : 0.0;
+  double amplitude = 0.0, period = 360.0, phase = 0.0;
+  if (effects_.transmission_error) {
+    amplitude = effects_.transmission_error->amplitude_deg[joint];
+    period = effects_.transmission_error->period_deg[joint];
+    phase = effects_.transmission_error->phase_rad[joint];
+  }
+  return scale_and_transmission(true_alpha_deg, scale, amplitude, period, phase);
+}
+
+double JointSensorChain::reading_without_backlash(int joint, double true_alpha_deg) const {
+  const double offset = effects_.joint_offset_deg ? (*effects_.joint_offset_deg)[joint] : 0.0;
+  return scaled_and_transmitted(joint, true_alpha_deg) + offset;
+}
+
 Vec3 JointSensorChain::update(const Vec3& true_alpha_deg) {
   Vec3 measured;
   for (int j = 0; j < 3; ++j) {
-    const double scale = effects_.encoder_scale ? (*effects_.encoder_scale)[j] : 0.0;
-    double amplitude = 0.0, period = 360.0, phase = 0.0;
-    if (effects_.transmission_error) {
-      amplitude = effects_.transmission_error->amplitude_deg[j];
-      period = effects_.transmission_error->period_deg[j];
-      phase = effects_.transmission_error->phase_rad[j];
-    }
-    double alpha = scale_and_transmission(true_alpha_deg[j], scale, amplitude, period, phase);
+    double alpha = scaled_and_transmitted(j, true_alpha_deg[j]);
     if (effects_.backlash_deg) alpha = backlash_[j].update(alpha);
     if (effects_.joint_offset_deg) alpha += (*effects_.joint_offset_deg)[j];
     measured[j] = alpha;

@@ -15,6 +15,7 @@
 
 #include "Vboard_core.h"
 #include "delta/control/joint_fixed.hpp"
+#include "delta/cosim/board_link.hpp"
 #include "delta/golden/export.hpp"
 #include "delta/golden/fixed_network.hpp"
 #include "rtl_fixture.hpp"
@@ -175,16 +176,7 @@ class BoardUart {
   // the receiver samples tx_o mid-bit after a falling edge (a start bit).
   void tick() {
     if (listening_) joints_.drive(*core_);
-    core_->clk_i = 1;
-    core_->clk_network_i = 1;
-    core_->eval();
-    core_->clk_network_i = 0;
-    core_->eval();
-    core_->clk_i = 0;
-    core_->clk_network_i = 1;
-    core_->eval();
-    core_->clk_network_i = 0;
-    core_->eval();
+    cosim::clock_board(*core_);
     context_->timeInc(1);
     const int tx = core_->uart_tx_o;
     if (!listening_) return;
@@ -218,36 +210,12 @@ class BoardUart {
 
 // The answer's three codes, after its framing and checksum are checked.
 std::array<std::int64_t, 3> answer_codes(const std::vector<std::uint8_t>& answer, int vector) {
-  EXPECT_EQ(answer.size(), 11u) << "vector " << vector;  // 5A, 3 x 3 bytes, checksum
-  std::array<std::int64_t, 3> y{};
-  if (answer.size() != 11u) return y;
-  EXPECT_EQ(answer[0], 0x5A);
-  std::uint8_t sum = 0;
-  for (int o = 0; o < 3; ++o) {
-    std::uint32_t raw = 0;
-    for (int b = 0; b < 3; ++b) {
-      raw |= static_cast<std::uint32_t>(answer[1 + 3 * o + b]) << (8 * b);
-      sum += answer[1 + 3 * o + b];
-    }
-    y[o] = static_cast<std::int32_t>(raw << 8) >> 8;  // sign-extend 24 bits
-  }
-  EXPECT_EQ(static_cast<std::uint8_t>(sum + answer[10]), 0) << "answer checksum, vector " << vector;
-  return y;
+  const auto codes = cosim::parse_answer(answer);
+  EXPECT_TRUE(codes.has_value()) << "vector " << vector << ": " << answer.size() << " bytes, or a bad checksum";
+  return codes.value_or(std::array<std::int64_t, 3>{});
 }
 
-std::vector<std::uint8_t> request_frame(const std::array<std::int64_t, 3>& codes, std::uint8_t checksum_error = 0) {
-  std::vector<std::uint8_t> frame = {0xA5};
-  std::uint8_t sum = 0;
-  for (std::int64_t code : codes) {
-    for (int b = 0; b < 4; ++b) {
-      const auto byte = static_cast<std::uint8_t>((static_cast<std::uint64_t>(code) >> (8 * b)) & 0xFF);
-      frame.push_back(byte);
-      sum += byte;
-    }
-  }
-  frame.push_back(static_cast<std::uint8_t>(-sum + checksum_error));
-  return frame;
-}
+using cosim::request_frame;
 
 TEST(BoardUart, AnswersEqualTheGoldenModel) {
   constexpr std::uint64_t kSeed = 20260105;

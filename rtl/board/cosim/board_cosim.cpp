@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "Vboard_core.h"
+#include "delta/cosim/board_link.hpp"
 #include "delta/kinematics.hpp"
 #include "verilated.h"
 
@@ -20,31 +21,17 @@ constexpr int kQuadratureDwell = 4;  // board cycles per quadrature state, at le
 constexpr double kCurrentFullScaleA = 0.5;
 constexpr double kCountDeg = 0.01;
 
-// Measured angle of the sensor chain without backlash (monotonic for the vocabulary's small
-// effects), for finding the home pose.
-double static_reading(const EffectSet& effects, int joint, double true_deg) {
-  const double scale = effects.encoder_scale ? (*effects.encoder_scale)[joint] : 0.0;
-  double amplitude = 0.0, period = 360.0, phase = 0.0;
-  if (effects.transmission_error) {
-    amplitude = effects.transmission_error->amplitude_deg[joint];
-    period = effects.transmission_error->period_deg[joint];
-    phase = effects.transmission_error->phase_rad[joint];
-  }
-  double alpha = scale_and_transmission(true_deg, scale, amplitude, period, phase);
-  if (effects.joint_offset_deg) alpha += (*effects.joint_offset_deg)[joint];
-  return alpha;
-}
-
 // The true angle at which joint j's encoder reads `reading_deg` (bisection over +-20 deg).
-double true_angle_for_reading(const EffectSet& effects, int joint, double reading_deg) {
+double true_angle_for_reading(const JointSensorChain& sensors, int joint, double reading_deg) {
+  auto error = [&](double true_deg) { return sensors.reading_without_backlash(joint, true_deg) - reading_deg; };
   double low = reading_deg - 20.0, high = reading_deg + 20.0;
-  if ((static_reading(effects, joint, low) - reading_deg) * (static_reading(effects, joint, high) - reading_deg) > 0) {
+  if (error(low) * error(high) > 0) {
     throw std::runtime_error("cosim: no true angle of joint " + std::to_string(joint + 1) + " reads " +
                              std::to_string(reading_deg) + " deg within +-20 deg");
   }
   for (int i = 0; i < 80; ++i) {
     const double mid = 0.5 * (low + high);
-    if ((static_reading(effects, joint, mid) - reading_deg) * (static_reading(effects, joint, low) - reading_deg) <= 0) {
+    if (error(mid) * error(low) <= 0) {
       high = mid;
     } else {
       low = mid;
@@ -126,20 +113,6 @@ class UartHost {
   std::vector<std::uint8_t> answer_;
 };
 
-std::vector<std::uint8_t> request_frame(const std::array<std::int64_t, 3>& codes) {
-  std::vector<std::uint8_t> frame = {0xA5};
-  std::uint8_t sum = 0;
-  for (std::int64_t code : codes) {
-    for (int b = 0; b < 4; ++b) {
-      const auto byte = static_cast<std::uint8_t>((static_cast<std::uint64_t>(code) >> (8 * b)) & 0xFF);
-      frame.push_back(byte);
-      sum += byte;
-    }
-  }
-  frame.push_back(static_cast<std::uint8_t>(-sum));
-  return frame;
-}
-
 // Quadrature signals that follow a target count one state per kQuadratureDwell cycles.
 class QuadratureEmitter {
  public:
@@ -170,8 +143,9 @@ CosimResult run_cosim(const CosimOptions& options) {
   const Geometry true_geometry = apply_geometry_effects(options.nominal, options.effects);
 
   // Home: the encoders read 30.00 deg (board_core's HomeCount) with the plate at rest there.
+  JointSensorChain sensors(options.effects);
   for (int j = 0; j < 3; ++j) {
-    result.home_true_alpha_deg[j] = true_angle_for_reading(options.effects, j, kHomeCount * kCountDeg);
+    result.home_true_alpha_deg[j] = true_angle_for_reading(sensors, j, kHomeCount * kCountDeg);
   }
   const FkSolution home = forward_kinematics(true_geometry, result.home_true_alpha_deg);
   if (!home.ok()) throw std::runtime_error("cosim: home pose: " + home.reason());
@@ -181,7 +155,6 @@ CosimResult run_cosim(const CosimOptions& options) {
   JointPlantParameters plant_parameters = options.plant;
   plant_parameters.substeps = 1;  // the plant step (1 us) is already short
   for (int j = 0; j < 3; ++j) plants[j] = std::make_unique<JointPlant>(plant_parameters, result.home_true_alpha_deg[j]);
-  JointSensorChain sensors(options.effects);
   sensors.update(result.home_true_alpha_deg);  // backlash starts centred at home
   std::array<QuadratureEmitter, 3> encoders{QuadratureEmitter(kHomeCount), QuadratureEmitter(kHomeCount),
                                             QuadratureEmitter(kHomeCount)};
@@ -196,21 +169,19 @@ CosimResult run_cosim(const CosimOptions& options) {
   core->encoder_b_i = 0;
   core->rst_ni = 0;
   core->rst_network_ni = 0;
-  auto board_cycle = [&core] {
-    core->clk_i = 1;
-    core->clk_network_i = 1;
-    core->eval();
-    core->clk_network_i = 0;
-    core->eval();
-    core->clk_i = 0;
-    core->clk_network_i = 1;
-    core->eval();
-    core->clk_network_i = 0;
-    core->eval();
-  };
+  auto board_cycle = [&core] { clock_board(*core); };
   for (int i = 0; i < 4; ++i) board_cycle();
   core->rst_ni = 1;
   core->rst_network_ni = 1;
+
+  // Measured plate position if the encoders read `readings` (the static sensor chain inverted).
+  auto plate_for_readings = [&](const Vec3& readings) -> Vec3 {
+    Vec3 alpha;
+    for (int j = 0; j < 3; ++j) alpha[j] = true_angle_for_reading(sensors, j, readings[j]);
+    const FkSolution plate = forward_kinematics(true_geometry, alpha);
+    if (!plate.ok()) throw std::runtime_error("cosim: plate pose for readings: " + plate.reason());
+    return apply_frame_misalignment(options.effects, plate.position_m);
+  };
 
   auto reference_at = [&](double t) -> Vec3 {
     const double s = options.blend_s > 0.0 ? smoothstep(t / options.blend_s) : 1.0;
@@ -251,15 +222,10 @@ CosimResult run_cosim(const CosimOptions& options) {
     board_cycle();
 
     if (host.receive(core->uart_tx_o)) {
-      const std::vector<std::uint8_t>& answer = host.answer();
-      if (answer.size() == 11 && answer[0] == 0x5A) {
+      if (const auto codes = parse_answer(host.answer())) {
         ++result.round_trips;
         if (result.first_answer_s < 0.0) result.first_answer_s = t;
-        for (int o = 0; o < 3; ++o) {
-          std::uint32_t raw = 0;
-          for (int k = 0; k < 3; ++k) raw |= static_cast<std::uint32_t>(answer[1 + 3 * o + k]) << (8 * k);
-          network_deg[o] = options.decode_angle_deg(static_cast<std::int32_t>(raw << 8) >> 8);
-        }
+        for (int o = 0; o < 3; ++o) network_deg[o] = options.decode_angle_deg((*codes)[o]);
       } else {
         ++result.naks;
       }
@@ -285,6 +251,14 @@ CosimResult run_cosim(const CosimOptions& options) {
 
     if (cycle % record_every == 0) {
       CosimSample sample;
+      // The backlash's present lag (reading - reading without backlash) is kept: the ideal
+      // joints read their target through the same play.
+      Vec3 play;
+      for (int j = 0; j < 3; ++j) play[j] = reading[j] - sensors.reading_without_backlash(j, true_alpha[j]);
+      sample.network_ideal_m = plate_for_readings(network_deg - play);
+      const IkSolution textbook = inverse_kinematics(options.nominal, sent_reference);
+      if (!textbook.ok()) throw std::runtime_error("cosim: textbook IK at t = " + std::to_string(t) + " s: " + textbook.reason());
+      sample.textbook_ideal_m = plate_for_readings(textbook.alpha_deg - play);
       sample.t_s = t;
       sample.reference_m = sent_reference;
       const FkSolution plate = forward_kinematics(true_geometry, true_alpha);
@@ -311,22 +285,36 @@ CosimResult run_cosim(const CosimOptions& options) {
 
 TrackingSummary summarise(const CosimResult& result, double from_s) {
   TrackingSummary summary;
-  Vec3 sum_sq = Vec3::Zero(), joint_sq = Vec3::Zero();
-  double distance_sq = 0.0;
+  Vec3 joint_sq = Vec3::Zero();
+  struct Accumulator {
+    Vec3 sum_sq = Vec3::Zero();
+    double distance_sq = 0.0, max_distance = 0.0;
+    void add(const Vec3& error) {
+      sum_sq += error.cwiseProduct(error);
+      distance_sq += error.squaredNorm();
+      max_distance = std::max(max_distance, error.norm());
+    }
+    ErrorStats stats(double n) const {
+      return {(sum_sq / n).cwiseSqrt(), std::sqrt(distance_sq / n), max_distance};
+    }
+  } closed_loop, network_ideal, textbook_ideal;
   for (const CosimSample& sample : result.samples) {
     if (sample.t_s < from_s) continue;
-    const Vec3 error = sample.position_m - sample.reference_m;
-    sum_sq += error.cwiseProduct(error);
-    distance_sq += error.squaredNorm();
-    summary.max_distance_m = std::max(summary.max_distance_m, error.norm());
+    closed_loop.add(sample.position_m - sample.reference_m);
+    network_ideal.add(sample.network_ideal_m - sample.reference_m);
+    textbook_ideal.add(sample.textbook_ideal_m - sample.reference_m);
     const Vec3 joint_error = sample.encoder_deg - sample.network_deg;
     joint_sq += joint_error.cwiseProduct(joint_error);
     ++summary.samples;
   }
   if (summary.samples == 0) return summary;
   const double n = static_cast<double>(summary.samples);
-  summary.rms_m = (sum_sq / n).cwiseSqrt();
-  summary.rms_distance_m = std::sqrt(distance_sq / n);
+  const ErrorStats loop = closed_loop.stats(n);
+  summary.rms_m = loop.rms_m;
+  summary.rms_distance_m = loop.rms_distance_m;
+  summary.max_distance_m = loop.max_distance_m;
+  summary.network_ideal = network_ideal.stats(n);
+  summary.textbook_ideal = textbook_ideal.stats(n);
   summary.joint_rms_deg = (joint_sq / n).cwiseSqrt();
   return summary;
 }

@@ -1,11 +1,8 @@
 // deltactl cosim: the whole robot around the board RTL (see delta/cosim/board_cosim.hpp).
 #include <chrono>
 #include <cmath>
-#include <filesystem>
 #include <iostream>
 #include <memory>
-
-#include <unistd.h>
 
 #include <CLI/CLI.hpp>
 
@@ -19,6 +16,7 @@
 #include "delta/output_file.hpp"
 #include "delta/plot.hpp"
 #include "delta/table.hpp"
+#include "delta/temporary_directory.hpp"
 #include "delta/trajectory.hpp"
 
 namespace delta::cosim {
@@ -36,24 +34,6 @@ struct CosimCommandOptions {
   std::string plot;
 };
 
-// The .mem files of the quantised network, in a private directory removed afterwards.
-class MemDirectory {
- public:
-  MemDirectory() {
-    std::string pattern = (std::filesystem::temp_directory_path() / "deltactl_cosim_XXXXXX").string();
-    if (::mkdtemp(pattern.data()) == nullptr) throw std::runtime_error("cosim: cannot create a temporary directory");
-    path_ = pattern;
-  }
-  ~MemDirectory() {
-    std::error_code ignored;
-    std::filesystem::remove_all(path_, ignored);
-  }
-  const std::string& path() const { return path_; }
-
- private:
-  std::string path_;
-};
-
 std::string micrometres(double metres) { return fixed(metres * 1e6, 2); }
 
 void write_samples(const std::string& path, const CosimResult& result, const std::string& command_line) {
@@ -61,12 +41,15 @@ void write_samples(const std::string& path, const CosimResult& result, const std
   std::ostream& out = file.stream();
   out << "# " << command_line << "\n"
       << "# alpha*_deg: encoder readings; x/y/z_m: measured plate position; ref_*: the host's reference;\n"
-      << "# net*_deg: the network's joint references; true*_deg: plant angles; current*_a: drive currents\n"
+      << "# net*_deg: the network's joint references; true*_deg: plant angles; current*_a: drive currents;\n"
+      << "# netideal_*, bookideal_*: the plate if the encoders read the network's answer or the textbook IK\n"
       << "t_s,alpha1_deg,alpha2_deg,alpha3_deg,x_m,y_m,z_m,ref_x_m,ref_y_m,ref_z_m,net1_deg,net2_deg,net3_deg,"
-         "true1_deg,true2_deg,true3_deg,current1_a,current2_a,current3_a,drives_enabled\n";
+         "true1_deg,true2_deg,true3_deg,current1_a,current2_a,current3_a,"
+         "netideal_x_m,netideal_y_m,netideal_z_m,bookideal_x_m,bookideal_y_m,bookideal_z_m,drives_enabled\n";
   for (const CosimSample& s : result.samples) {
     out << format_number(s.t_s);
-    for (const Vec3* v : {&s.encoder_deg, &s.position_m, &s.reference_m, &s.network_deg, &s.true_alpha_deg, &s.current_a}) {
+    for (const Vec3* v : {&s.encoder_deg, &s.position_m, &s.reference_m, &s.network_deg, &s.true_alpha_deg,
+                          &s.current_a, &s.network_ideal_m, &s.textbook_ideal_m}) {
       for (int k = 0; k < 3; ++k) out << ',' << format_number((*v)[k]);
     }
     out << ',' << (s.drives_enabled ? 1 : 0) << '\n';
@@ -131,7 +114,7 @@ void run_cosim_command(const CosimCommandOptions& options, const std::string& co
   if (!options.out.empty()) OutputFile probe(options.out);
   if (!options.plot.empty()) OutputFile probe(options.plot);
 
-  MemDirectory mem;
+  const TemporaryDirectory mem("deltactl_cosim");  // the network's .mem files
   golden::write_export(quantised, mem.path());
   CosimOptions cosim;
   cosim.mem_dir = mem.path();
@@ -170,10 +153,15 @@ void run_cosim_command(const CosimCommandOptions& options, const std::string& co
   std::cout << "Co-simulation: '" << options.trajectory << "', " << options.duration_s << " s, smooth start over "
             << options.blend_s << " s; statistics from t = " << from_s << " s (" << summary.samples
             << " samples at 1 kHz)\n\n";
-  Table plate({"plate error (measured - reference)", "x", "y", "z", "distance"});
-  plate.add_row({"rms [um]", micrometres(summary.rms_m.x()), micrometres(summary.rms_m.y()),
-                 micrometres(summary.rms_m.z()), micrometres(summary.rms_distance_m)});
-  plate.add_row({"max [um]", "", "", "", micrometres(summary.max_distance_m)});
+  Table plate({"plate error (measured - reference)", "rms x [um]", "rms y [um]", "rms z [um]",
+               "rms distance [um]", "max distance [um]"});
+  auto add = [&plate](const std::string& label, const ErrorStats& e) {
+    plate.add_row({label, micrometres(e.rms_m.x()), micrometres(e.rms_m.y()), micrometres(e.rms_m.z()),
+                   micrometres(e.rms_distance_m), micrometres(e.max_distance_m)});
+  };
+  add("closed loop: board RTL, plants, effects", {summary.rms_m, summary.rms_distance_m, summary.max_distance_m});
+  add("network answers, joints exact", summary.network_ideal);
+  add("textbook IK, joints exact", summary.textbook_ideal);
   plate.print(std::cout);
   std::cout << '\n';
   Table joints({"joint tracking (encoder - network reference)", "alpha_1", "alpha_2", "alpha_3"});

@@ -5,11 +5,8 @@
 // saturate), written as the .mem files the RTL loads ($readmemh, +delta_mem_dir), and every pose
 // is encoded to raw input codes exactly as the fixed back end does, so the raw output codes of
 // fixed, hls and rtl must be identical.
-#include <filesystem>
 #include <memory>
 #include <string>
-
-#include <unistd.h>
 
 #include "Vdelta_network.h"
 #include "delta/golden/export.hpp"
@@ -19,27 +16,10 @@
 #include "delta/nn/trained_model.hpp"
 #include "delta/nn/weights_file.hpp"
 #include "delta/rtl/network_harness.hpp"
+#include "delta/temporary_directory.hpp"
 
 namespace delta::rtl {
 namespace {
-
-// A private directory for the .mem files, removed with the back end.
-class TemporaryDirectory {
- public:
-  TemporaryDirectory() {
-    std::string pattern = (std::filesystem::temp_directory_path() / "deltactl_rtl_XXXXXX").string();
-    if (::mkdtemp(pattern.data()) == nullptr) throw std::runtime_error("rtl back end: cannot create a temporary directory");
-    path_ = pattern;
-  }
-  ~TemporaryDirectory() {
-    std::error_code ignored;
-    std::filesystem::remove_all(path_, ignored);
-  }
-  const std::string& path() const { return path_; }
-
- private:
-  std::string path_;
-};
 
 class RtlIkBackend : public IkBackend {
  public:
@@ -89,7 +69,7 @@ class RtlIkBackend : public IkBackend {
  private:
   nn::WeightsFile weights_;
   golden::QuantisedNetwork quantised_;
-  TemporaryDirectory directory_;
+  TemporaryDirectory directory_{"deltactl_rtl"};
   std::unique_ptr<NetworkHarness<Vdelta_network>> network_;
   std::size_t clamped_positions_ = 0;
   std::size_t outputs_at_limit_ = 0;

@@ -98,8 +98,13 @@ class JointSensorChain {
   explicit JointSensorChain(const EffectSet& effects);
   Vec3 update(const Vec3& true_alpha_deg);
   void reset();
+  // Joint j's reading of a true angle without the backlash (which depends on the history):
+  // encoder_scale, transmission_error, joint_offset. Monotonic for the vocabulary's small effects.
+  double reading_without_backlash(int joint, double true_alpha_deg) const;
 
  private:
+  double scaled_and_transmitted(int joint, double true_alpha_deg) const;
+
   EffectSet effects_;
   std::array<Backlash, 3> backlash_;
 };

@@ -56,6 +56,11 @@ struct CosimSample {
   Vec3 network_deg = Vec3::Zero();    // the last network answer (joint references)
   Vec3 current_a = Vec3::Zero();      // drive currents (PWM decoded)
   bool drives_enabled = false;
+  // Where the plate would be if the encoders read exactly (through the backlash's present play)
+  // the network's answer (the network's own error), or the textbook model's inverse kinematics
+  // of the reference (what the network corrects).
+  Vec3 network_ideal_m = Vec3::Zero();
+  Vec3 textbook_ideal_m = Vec3::Zero();
 };
 
 struct CosimResult {
@@ -75,10 +80,17 @@ struct CosimResult {
 CosimResult run_cosim(const CosimOptions& options);
 
 // Plate tracking statistics over t >= from_s: per-axis RMS and the largest distance [m].
+struct ErrorStats {
+  Vec3 rms_m = Vec3::Zero();
+  double rms_distance_m = 0.0;
+  double max_distance_m = 0.0;
+};
 struct TrackingSummary {
   Vec3 rms_m = Vec3::Zero();
   double max_distance_m = 0.0;
   double rms_distance_m = 0.0;
+  ErrorStats network_ideal;   // network_ideal_m - reference
+  ErrorStats textbook_ideal;  // textbook_ideal_m - reference
   Vec3 joint_rms_deg = Vec3::Zero();  // encoder - network reference
   std::size_t samples = 0;
 };
