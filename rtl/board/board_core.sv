@@ -31,7 +31,9 @@ module board_core #(
   output logic [2:0] drive_dir_o,     // drive current command: sign (1 = negative)
   output logic       drive_enable_o,  // low until the first network answer
   output logic [2:0] encoder_error_o, // sticky: encoder j skipped a quadrature state
-  output logic       joint_limited_o  // sticky: a joint controller saturated an operand or state
+  output logic       joint_limited_o, // sticky: a joint controller saturated an operand or state
+  output logic       joint_fault_o,   // latched until reset: torque off (joint_axes.sv, "Safety")
+  output logic [3:0] joint_fault_cause_o  // encoder skip, following error, watchdog, reference limit
 );
   // Network formats (yosys 0.23 reads no `import`: qualified names only).
   localparam int unsigned NumInputs   = delta_network_pkg::NumInputs;
@@ -165,7 +167,9 @@ module board_core #(
     .drive_dir_o,
     .drive_enable_o,
     .encoder_error_o,
-    .overflow_count_o (joint_overflow_count)
+    .overflow_count_o (joint_overflow_count),
+    .fault_o          (joint_fault_o),
+    .fault_cause_o    (joint_fault_cause_o)
   );
   assign joint_limited_o = joint_overflow_count != '0;
 

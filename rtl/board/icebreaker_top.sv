@@ -27,7 +27,7 @@ module icebreaker_top #(
   output logic [2:0] drive_dir_o,   // PMOD1B pins 2, 4, 8 (38, 31, 36)
   output logic       drive_enable_o,// PMOD1B pin 9 (32)
   output logic [2:0] led_encoder_error_o, // break-off board LED1..LED3 (26, 27, 25): encoder j skipped a state
-  output logic       led_joint_limited_o, // break-off board LED4 (23): a joint controller saturated
+  output logic       led_joint_fault_o,   // break-off board LED4 (23): joint fault, torque off (until reset)
   output logic       led_drive_enable_o   // break-off board LED5 (21): drives enabled
 );
   logic clk_network, clk, pll_locked;  // port A, port B (half)
@@ -72,6 +72,10 @@ module icebreaker_top #(
 
   logic led_red, led_green;
   localparam int unsigned BoardClockHz = NetworkClockHz / 2;
+  // Seen in simulation (tests, deltactl cosim); on the board the fault LED and the drive-enable
+  // LED show what matters.
+  logic       joint_limited;
+  logic [3:0] joint_fault_cause;
   board_core #(
     .ClocksPerBit   ((BoardClockHz + BaudRate / 2) / BaudRate),
     .ClocksPerPeriod(BoardClockHz / 10_000),
@@ -90,9 +94,13 @@ module icebreaker_top #(
     .drive_pwm_o,
     .drive_dir_o,
     .drive_enable_o,
-    .encoder_error_o(led_encoder_error_o),
-    .joint_limited_o(led_joint_limited_o)
+    .encoder_error_o    (led_encoder_error_o),
+    .joint_limited_o    (joint_limited),
+    .joint_fault_o      (led_joint_fault_o),
+    .joint_fault_cause_o(joint_fault_cause)
   );
+  logic       unused_status;
+  assign unused_status = ^{joint_limited, joint_fault_cause};
   assign led_drive_enable_o = drive_enable_o;
   assign led_red_no   = !led_red;
   assign led_green_no = !led_green;

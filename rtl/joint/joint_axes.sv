@@ -10,7 +10,11 @@
 // 24 MHz and 10 bits), duty = |current| / 0.5 A (the current limit), direction = sign.
 module joint_axes #(
   parameter int unsigned ClocksPerPeriod = 2400,     // clk_i / 10 kHz (2400 at 24 MHz, 2325 on the board: 23.25 MHz)
-  parameter logic [15:0] HomeCount       = 16'd3000  // encoder count at reset (30.00 deg)
+  parameter logic [15:0] HomeCount       = 16'd3000, // encoder count at reset (30.00 deg)
+  parameter int unsigned FollowingLimit  = 500,      // counts (5 deg)
+  parameter int unsigned WatchdogPeriods = 500,      // control periods (50 ms at 10 kHz)
+  parameter int          MinCount        = -1000,    // reference limits, counts (-10 deg)
+  parameter int          MaxCount        = 9000      // (90 deg)
 ) (
   input  logic        clk_i,
   input  logic        rst_ni,
@@ -22,7 +26,9 @@ module joint_axes #(
   output logic [2:0]  drive_dir_o,
   output logic        drive_enable_o,
   output logic [2:0]  encoder_error_o,    // sticky: a quadrature state was skipped
-  output logic [15:0] overflow_count_o    // the controller's saturation counter
+  output logic [15:0] overflow_count_o,   // the controller's saturation counter
+  output logic        fault_o,            // latched: torque off
+  output logic [3:0]  fault_cause_o       // latched causes, see above
 );
   localparam int unsigned PwmBits   = 10;
   localparam int unsigned TickWidth = $clog2(ClocksPerPeriod);
@@ -90,6 +96,46 @@ module joint_axes #(
                                                    : {{8{counts_q[16 * j + 15]}}, counts_q[16 * j +: 16], 8'd0};
   end
 
+  // ---- faults ------------------------------------------------------------------------------------
+  localparam int unsigned WatchdogWidth = $clog2(WatchdogPeriods + 2);
+  logic [WatchdogWidth-1:0] silent_periods_q;  // periods since the last reference
+  logic                     check_q;           // the cycle after a start: latched values ready
+  logic [3:0]               fault_cause_q;
+  logic [2:0]               following, outside;
+  // Signed 25-bit limits: the comparisons below must all be signed.
+  localparam logic signed [24:0] Following = 25'(FollowingLimit);
+  localparam logic signed [24:0] MinimumCount = 25'(MinCount);
+  localparam logic signed [24:0] MaximumCount = 25'(MaxCount);
+  for (genvar j = 0; j < 3; ++j) begin : g_check
+    // Reference and count in whole counts (the reference's 8 fraction bits dropped).
+    logic signed [24:0] reference_count, count, difference;
+    assign reference_count = 25'(signed'(references[32 * j + 8 +: 24]));
+    assign count           = 25'(signed'(counts_q[16 * j +: 16]));
+    assign difference      = reference_count - count;
+    assign following[j] = difference > Following || difference < 25'(-Following);
+    assign outside[j]   = reference_count < MinimumCount || reference_count > MaximumCount;
+  end
+
+  always_ff @(posedge clk_i or negedge rst_ni) begin
+    if (!rst_ni) begin
+      silent_periods_q <= '0;
+      check_q          <= 1'b0;
+      fault_cause_q    <= '0;
+    end else begin
+      check_q <= tick_q == '0 && ap_idle;
+      if (reference_valid_i) silent_periods_q <= '0;
+      else if (tick_q == '0 && silent_periods_q != '1) silent_periods_q <= silent_periods_q + 1'b1;
+      fault_cause_q[0] <= fault_cause_q[0] || step_error != '0;
+      if (check_q && reference_latched_q) begin
+        fault_cause_q[1] <= fault_cause_q[1] || following != '0;
+        fault_cause_q[3] <= fault_cause_q[3] || outside != '0;
+      end
+      fault_cause_q[2] <= fault_cause_q[2] ||
+                          (referenced_q && silent_periods_q > WatchdogWidth'(WatchdogPeriods));
+    end
+  end
+  wire fault = fault_cause_q != '0;
+
   // ---- controller -----------------------------------------------------------------------------
   logic [47:0] currents;
   logic [2:0]  current_valid, limited;
@@ -140,11 +186,25 @@ module joint_axes #(
     end
   end
 
-  for (genvar j = 0; j < 3; j++) begin : g_pwm
-    assign drive_pwm_o[j] = {1'b0, pwm_phase_q} < duty_q[(PwmBits + 1) * j +: PwmBits + 1];
+  // Outputs registered (the fault gate included): glitch-free pins.
+  logic [2:0] pwm_q;
+  logic       enable_q;
+  always_ff @(posedge clk_i or negedge rst_ni) begin
+    if (!rst_ni) begin
+      pwm_q    <= '0;
+      enable_q <= 1'b0;
+    end else begin
+      for (int j = 0; j < 3; j++) begin
+        pwm_q[j] <= !fault && ({1'b0, pwm_phase_q} < duty_q[(PwmBits + 1) * j +: PwmBits + 1]);
+      end
+      enable_q <= referenced_q && !fault;
+    end
   end
+  assign drive_pwm_o     = pwm_q;
   assign drive_dir_o     = direction_q;
-  assign drive_enable_o  = referenced_q;
+  assign drive_enable_o  = enable_q;
+  assign fault_o         = fault;
+  assign fault_cause_o   = fault_cause_q;
   assign encoder_error_o = encoder_error_q;
 
   logic unused;

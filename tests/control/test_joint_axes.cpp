@@ -125,5 +125,140 @@ TEST(JointAxes, EncoderCountsReferencesAndPwmFollowTheGoldenController) {
   EXPECT_GT(largest_duty, 100);  // the PWM was exercised well away from zero
 }
 
+// ---- Safety: every fault stops the torque and stays latched ------------------------------------
+
+// joint_axes with its default safety parameters (FollowingLimit 500 counts, WatchdogPeriods 500,
+// reference travel -1000..9000 counts), encoders driven by position, references in degrees.
+class SafetyBench {
+ public:
+  void send_reference(const std::array<double, 3>& deg) {
+    Vjoint_axes& top = board_.top();
+    top.references_i[0] = top.references_i[1] = top.references_i[2] = 0;
+    for (int j = 0; j < 3; ++j) {
+      const std::uint32_t raw = static_cast<std::uint32_t>(std::llround(deg[j] * 16384.0)) & 0xFFFFFFu;
+      const int bit = 24 * j;
+      top.references_i[bit / 32] |= raw << (bit % 32);
+      if (bit % 32 > 8) top.references_i[bit / 32 + 1] |= raw >> (32 - bit % 32);
+    }
+    top.reference_valid_i = 1;
+    cycle();
+    top.reference_valid_i = 0;
+  }
+  // Moves joint j's encoder by `counts`, one quadrature state every 3 cycles.
+  void move(int joint, int counts) {
+    for (int k = 0; k < std::abs(counts); ++k) {
+      position_[joint] += counts > 0 ? 1 : -1;
+      apply_encoders();
+      for (int c = 0; c < 3; ++c) cycle();
+    }
+  }
+  // Two quadrature states at once on joint j: a skipped state.
+  void skip(int joint) {
+    position_[joint] += 2;
+    apply_encoders();
+    cycle();
+  }
+  void periods(int count) { cycles(count * 2400); }
+  void cycles(int count) {
+    for (int i = 0; i < count; ++i) cycle();
+  }
+  Vjoint_axes& top() { return board_.top(); }
+  int pwm_high_cycles() const { return pwm_high_; }
+  void clear_pwm_count() { pwm_high_ = 0; }
+
+ private:
+  void cycle() {
+    board_.tick();
+    pwm_high_ += __builtin_popcount(board_.top().drive_pwm_o);
+  }
+  void apply_encoders() {
+    int a = 0, b = 0;
+    for (int j = 0; j < 3; ++j) {
+      const int bits = quadrature_bits(position_[j]);
+      a |= (bits >> 1) << j;
+      b |= (bits & 1) << j;
+    }
+    board_.top().encoder_a_i = a;
+    board_.top().encoder_b_i = b;
+  }
+  Board board_;
+  std::array<int, 3> position_{0, 0, 0};
+  int pwm_high_ = 0;
+};
+
+constexpr int kEncoderSkip = 1, kFollowing = 2, kWatchdog = 4, kTravel = 8;
+
+// Torque off: enable low and no PWM pulse over two whole periods, whatever the controller computes.
+void expect_torque_off(SafetyBench& bench, int cause) {
+  EXPECT_EQ(bench.top().fault_o, 1);
+  EXPECT_EQ(bench.top().fault_cause_o, cause);
+  bench.clear_pwm_count();
+  bench.periods(2);
+  EXPECT_EQ(bench.top().drive_enable_o, 0);
+  EXPECT_EQ(bench.pwm_high_cycles(), 0);
+  EXPECT_EQ(bench.top().fault_o, 1);  // latched
+}
+
+TEST(JointAxesSafety, EncoderSkipStopsTorqueWithinACycle) {
+  SafetyBench bench;
+  bench.send_reference({30.2, 29.9, 30.05});  // 20, -10 and 5 counts from home: currents flow
+  bench.periods(5);
+  EXPECT_EQ(bench.top().drive_enable_o, 1);
+  EXPECT_EQ(bench.top().fault_o, 0);
+  bench.clear_pwm_count();
+  bench.periods(1);
+  EXPECT_GT(bench.pwm_high_cycles(), 0);  // torque before the fault
+  bench.skip(1);
+  bench.cycles(3);  // the counter's input register, its decision, the output register
+  EXPECT_EQ(bench.top().drive_enable_o, 0);
+  bench.send_reference({30.2, 29.9, 30.05});  // a new reference does not revive the drives
+  expect_torque_off(bench, kEncoderSkip);
+}
+
+TEST(JointAxesSafety, FollowingErrorWithinTheLimitKeepsTorque) {
+  SafetyBench within;
+  within.send_reference({34.9, 30.0, 30.0});  // 490 counts: inside the 500-count limit
+  within.periods(20);
+  EXPECT_EQ(within.top().fault_o, 0);
+  EXPECT_EQ(within.top().drive_enable_o, 1);
+}
+
+TEST(JointAxesSafety, FollowingErrorBeyondTheLimitStopsTorque) {
+  SafetyBench beyond;
+  beyond.send_reference({30.0, 30.0, 25.0});  // 500 counts below, plus one
+  beyond.periods(1);
+  EXPECT_EQ(beyond.top().fault_o, 0);  // exactly at the limit: allowed
+  beyond.send_reference({30.0, 30.0, 24.99});
+  beyond.periods(1);
+  expect_torque_off(beyond, kFollowing);
+}
+
+TEST(JointAxesSafety, WatchdogStopsTorqueWhenTheReferencesStop) {
+  SafetyBench bench;
+  for (int i = 0; i < 3; ++i) {  // refreshed every 400 periods: no fault
+    bench.send_reference({30.0, 30.0, 30.0});
+    bench.periods(400);
+  }
+  EXPECT_EQ(bench.top().fault_o, 0);
+  bench.send_reference({30.0, 30.0, 30.0});
+  bench.periods(499);
+  EXPECT_EQ(bench.top().fault_o, 0);
+  EXPECT_EQ(bench.top().drive_enable_o, 1);
+  bench.periods(3);
+  expect_torque_off(bench, kWatchdog);
+}
+
+// One Verilated bench per test: two alive at once in one thread hang in eval().
+TEST(JointAxesSafety, ReferenceOutsideTheTravelStopsTorque) {
+  SafetyBench outside;
+  outside.move(0, 8990 - 3000);  // 89.90 deg, inside the travel
+  outside.send_reference({89.9, 30.0, 30.0});
+  outside.periods(2);
+  EXPECT_EQ(outside.top().fault_o, 0);
+  outside.send_reference({90.05, 30.0, 30.0});  // 15 counts on, past the 9000-count end
+  outside.periods(1);
+  expect_torque_off(outside, kTravel);
+}
+
 }  // namespace
 }  // namespace delta::control

@@ -84,6 +84,7 @@ class JointMonitor {
     }
     EXPECT_EQ(core.encoder_error_o, 0);
     EXPECT_EQ(core.joint_limited_o, 0);
+    EXPECT_EQ(core.joint_fault_o, 0);
     enabled_ = core.drive_enable_o;
   }
 

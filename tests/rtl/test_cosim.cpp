@@ -46,6 +46,7 @@ TEST(Cosim, PaperLikeRobotFollowsExperimentOneThroughTheBoardRtl) {
   EXPECT_EQ(result.clamped_positions, 0u);
   EXPECT_EQ(result.encoder_error_bits, 0);
   EXPECT_FALSE(result.joint_limited);
+  EXPECT_EQ(result.fault_cause_bits, 0);
   EXPECT_GT(result.round_trips, 5000u);  // a reference every ~55 us
   EXPECT_GT(result.first_answer_s, 0.0);
   EXPECT_LT(result.first_answer_s, 0.001);

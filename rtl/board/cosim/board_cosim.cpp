@@ -278,6 +278,7 @@ CosimResult run_cosim(const CosimOptions& options) {
   }
   result.encoder_error_bits = core->encoder_error_o;
   result.joint_limited = core->joint_limited_o;
+  result.fault_cause_bits = core->joint_fault_cause_o;
   result.board_cycles = total_cycles;
   core->final();
   return result;

@@ -178,6 +178,8 @@ void run_cosim_command(const CosimCommandOptions& options, const std::string& co
   link.add_row({"drives enabled at [ms]", result.first_answer_s >= 0 ? fixed(1e3 * result.first_answer_s, 3) : "never"});
   link.add_row({"encoder errors (sticky, bit per joint)", std::to_string(result.encoder_error_bits)});
   link.add_row({"joint controller saturations (sticky)", result.joint_limited ? "yes" : "no"});
+  link.add_row({"joint fault, torque off (causes: 1 encoder, 2 following, 4 watchdog, 8 travel)",
+                result.fault_cause_bits ? std::to_string(result.fault_cause_bits) : "none"});
   link.add_row({"samples with a current at the 0.5 A limit", std::to_string(result.full_scale_current_samples)});
   link.print(std::cout);
 
@@ -189,8 +191,8 @@ void run_cosim_command(const CosimCommandOptions& options, const std::string& co
     write_cosim_plot(options.plot, result, "Co-simulation: board RTL + plants + virtual robot, " + options.trajectory);
     std::cout << "plot: " << options.plot << '\n';
   }
-  if (result.round_trips == 0 || result.naks != 0 || result.encoder_error_bits != 0) {
-    std::cerr << "deltactl: cosim: the link or the encoders faulted (see the table)\n";
+  if (result.round_trips == 0 || result.naks != 0 || result.encoder_error_bits != 0 || result.fault_cause_bits != 0) {
+    std::cerr << "deltactl: cosim: the link, the encoders or the joint safety faulted (see the table)\n";
     throw CommandExit{kExitFailure};
   }
 }
@@ -211,7 +213,8 @@ const RegisterCommand command("cosim", 70, [](CLI::App& root) {
       "into the trajectory over --blend seconds.\n"
       "Output: tables on stdout; --out: a CSV with the SPEC recording columns (t_s, alpha*_deg = encoder\n"
       "readings, x/y/z_m = measured plate) plus references, network answers, plant angles, currents.\n"
-      "Exit 1 when the link NAKs, no answer arrives or an encoder skips a state.\n"
+      "Exit 1 when the link NAKs, no answer arrives, an encoder skips a state or the board's joint\n"
+      "safety stops the torque (following error, reference watchdog, travel limits).\n"
       "Example: deltactl cosim --weights weights/paper_like.json --effects sim/paper_like_effects.json \\\n"
       "           --duration 2 --out cosim.csv --plot cosim.png");
   sub->add_option("--weights", options->weights, "network weights (W.json, model 'network', 25 hidden)")->required();

@@ -72,6 +72,7 @@ struct CosimResult {
   double first_answer_s = -1.0;
   int encoder_error_bits = 0;               // board's sticky flags (bit j: joint j)
   bool joint_limited = false;               // a joint controller saturated an operand or state
+  int fault_cause_bits = 0;                 // joint_axes' latched fault causes (0: no fault, torque on)
   std::size_t full_scale_current_samples = 0;  // recorded samples with some |current| at 0.5 A
   std::uint64_t board_cycles = 0;
 };
