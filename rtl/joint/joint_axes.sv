@@ -11,10 +11,10 @@
 module joint_axes #(
   parameter int unsigned ClocksPerPeriod = 2400,     // clk_i / 10 kHz (2400 at 24 MHz, 2325 on the board: 23.25 MHz)
   parameter logic [15:0] HomeCount       = 16'd3000, // encoder count at reset (30.00 deg)
-  parameter int unsigned FollowingLimit  = 500,      // counts (5 deg)
+  parameter int unsigned FollowingBits   = 9,        // following limit 2^9 = 512 counts (5.12 deg)
   parameter int unsigned WatchdogPeriods = 500,      // control periods (50 ms at 10 kHz)
-  parameter int          MinCount        = -1000,    // reference limits, counts (-10 deg)
-  parameter int          MaxCount        = 9000      // (90 deg)
+  parameter int          MinBlock        = -1,       // reference travel in 1024-count blocks:
+  parameter int          MaxBlock        = 8         //   -1024 .. 9215 counts (-10.24 .. 92.15 deg)
 ) (
   input  logic        clk_i,
   input  logic        rst_ni,
@@ -102,18 +102,21 @@ module joint_axes #(
   logic                     check_q;           // the cycle after a start: latched values ready
   logic [3:0]               fault_cause_q;
   logic [2:0]               following, outside;
-  // Signed 25-bit limits: the comparisons below must all be signed.
-  localparam logic signed [24:0] Following = 25'(FollowingLimit);
-  localparam logic signed [24:0] MinimumCount = 25'(MinCount);
-  localparam logic signed [24:0] MaximumCount = 25'(MaxCount);
-  for (genvar j = 0; j < 3; ++j) begin : g_check
-    // Reference and count in whole counts (the reference's 8 fraction bits dropped).
-    logic signed [24:0] reference_count, count, difference;
-    assign reference_count = 25'(signed'(references[32 * j + 8 +: 24]));
-    assign count           = 25'(signed'(counts_q[16 * j +: 16]));
-    assign difference      = reference_count - count;
-    assign following[j] = difference > Following || difference < 25'(-Following);
-    assign outside[j]   = reference_count < MinimumCount || reference_count > MaximumCount;
+  // Cheap on a full device: the following error is a 17-bit difference whose bits from
+  // FollowingBits up must be a sign extension (-2^FollowingBits .. 2^FollowingBits - 1, and the
+  // reference fits 16 bits when it is inside the travel), and the travel is checked on the
+  // reference's 1024-count blocks (its bits 23..10).
+  for (genvar j = 0; j < 3; j++) begin : g_check
+    logic signed [23:0] reference_count;
+    logic signed [16:0] difference;
+    logic signed [13:0] block;
+    assign reference_count = references[32 * j + 8 +: 24];
+    assign difference      = reference_count[16:0] - {counts_q[16 * j + 15], counts_q[16 * j +: 16]};
+    assign following[j]    = difference[16:FollowingBits] != '0 && difference[16:FollowingBits] != '1;
+    assign block           = reference_count[23:10];
+    assign outside[j]      = block < 14'(MinBlock) || block > 14'(MaxBlock);
+    logic unused_low_bits;
+    assign unused_low_bits = ^difference[FollowingBits-1:0];
   end
 
   always_ff @(posedge clk_i or negedge rst_ni) begin

@@ -127,8 +127,8 @@ TEST(JointAxes, EncoderCountsReferencesAndPwmFollowTheGoldenController) {
 
 // ---- Safety: every fault stops the torque and stays latched ------------------------------------
 
-// joint_axes with its default safety parameters (FollowingLimit 500 counts, WatchdogPeriods 500,
-// reference travel -1000..9000 counts), encoders driven by position, references in degrees.
+// joint_axes with its default safety parameters (following error -512..511 counts, WatchdogPeriods
+// 500, reference travel -1024..9215 counts), encoders driven by position, references in degrees.
 class SafetyBench {
  public:
   void send_reference(const std::array<double, 3>& deg) {
@@ -217,7 +217,7 @@ TEST(JointAxesSafety, EncoderSkipStopsTorqueWithinACycle) {
 
 TEST(JointAxesSafety, FollowingErrorWithinTheLimitKeepsTorque) {
   SafetyBench within;
-  within.send_reference({34.9, 30.0, 30.0});  // 490 counts: inside the 500-count limit
+  within.send_reference({34.9, 30.0, 30.0});  // 490 counts: inside the 511-count limit
   within.periods(20);
   EXPECT_EQ(within.top().fault_o, 0);
   EXPECT_EQ(within.top().drive_enable_o, 1);
@@ -225,10 +225,10 @@ TEST(JointAxesSafety, FollowingErrorWithinTheLimitKeepsTorque) {
 
 TEST(JointAxesSafety, FollowingErrorBeyondTheLimitStopsTorque) {
   SafetyBench beyond;
-  beyond.send_reference({30.0, 30.0, 25.0});  // 500 counts below, plus one
+  beyond.send_reference({30.0, 30.0, 24.88});  // 512 counts below: the limit, allowed
   beyond.periods(1);
-  EXPECT_EQ(beyond.top().fault_o, 0);  // exactly at the limit: allowed
-  beyond.send_reference({30.0, 30.0, 24.99});
+  EXPECT_EQ(beyond.top().fault_o, 0);
+  beyond.send_reference({30.0, 30.0, 24.87});  // 513 counts below
   beyond.periods(1);
   expect_torque_off(beyond, kFollowing);
 }
@@ -251,11 +251,11 @@ TEST(JointAxesSafety, WatchdogStopsTorqueWhenTheReferencesStop) {
 // One Verilated bench per test: two alive at once in one thread hang in eval().
 TEST(JointAxesSafety, ReferenceOutsideTheTravelStopsTorque) {
   SafetyBench outside;
-  outside.move(0, 8990 - 3000);  // 89.90 deg, inside the travel
-  outside.send_reference({89.9, 30.0, 30.0});
+  outside.move(0, 9150 - 3000);  // 91.50 deg, inside the travel
+  outside.send_reference({92.15, 30.0, 30.0});  // 9215 counts: the travel's end, allowed
   outside.periods(2);
   EXPECT_EQ(outside.top().fault_o, 0);
-  outside.send_reference({90.05, 30.0, 30.0});  // 15 counts on, past the 9000-count end
+  outside.send_reference({92.17, 30.0, 30.0});  // 9217 counts, past the end
   outside.periods(1);
   expect_torque_off(outside, kTravel);
 }
