@@ -8,6 +8,14 @@
 // latched and the controller started (892-cycle latency, see joint_controller.sv); each current
 // command updates its PWM as soon as it is stored. PWM: period 2^PwmBits cycles (23.4 kHz at
 // 24 MHz and 10 bits), duty = |current| / 0.5 A (the current limit), direction = sign.
+//
+// Safety: a fault stops the torque (drive_enable_o low, every PWM output low, both registered)
+// and stays latched until reset. Causes (fault_cause_o): [0] an encoder skipped a quadrature
+// state; [1] following error: reference - encoder count outside -2^FollowingBits ..
+// 2^FollowingBits - 1 counts at a period start; [2] watchdog: a referenced controller got no new
+// reference for WatchdogPeriods periods (the host must keep streaming, the hold position
+// included); [3] a reference outside the travel, blocks MinBlock..MaxBlock of 1024 counts. [1]
+// and [3] use the period's latched values and decide two cycles after the tick.
 module joint_axes #(
   parameter int unsigned ClocksPerPeriod = 2400,     // clk_i / 10 kHz (2400 at 24 MHz, 2325 on the board: 23.25 MHz)
   parameter logic [15:0] HomeCount       = 16'd3000, // encoder count at reset (30.00 deg)
@@ -100,36 +108,47 @@ module joint_axes #(
   localparam int unsigned WatchdogWidth = $clog2(WatchdogPeriods + 2);
   logic [WatchdogWidth-1:0] silent_periods_q;  // periods since the last reference
   logic                     check_q;           // the cycle after a start: latched values ready
+  logic                     checked_q;         // the next: differences and flags registered
   logic [3:0]               fault_cause_q;
   logic [2:0]               following, outside;
   // Cheap on a full device: the following error is a 17-bit difference whose bits from
   // FollowingBits up must be a sign extension (-2^FollowingBits .. 2^FollowingBits - 1, and the
   // reference fits 16 bits when it is inside the travel), and the travel is checked on the
   // reference's 1024-count blocks (its bits 23..10).
+  // The reference conversion and the difference are two carry chains: the difference and the
+  // travel flag are registered (the flip-flops share the subtractor's logic cells), and the
+  // fault decides a cycle later (check_q, then checked_q).
   for (genvar j = 0; j < 3; j++) begin : g_check
     logic signed [23:0] reference_count;
-    logic signed [16:0] difference;
+    logic signed [16:0] difference, difference_q;
     logic signed [13:0] block;
+    logic               outside_q;
     assign reference_count = references[32 * j + 8 +: 24];
     assign difference      = reference_count[16:0] - {counts_q[16 * j + 15], counts_q[16 * j +: 16]};
-    assign following[j]    = difference[16:FollowingBits] != '0 && difference[16:FollowingBits] != '1;
     assign block           = reference_count[23:10];
-    assign outside[j]      = block < 14'(MinBlock) || block > 14'(MaxBlock);
+    always_ff @(posedge clk_i) begin
+      difference_q <= difference;
+      outside_q    <= block < 14'(MinBlock) || block > 14'(MaxBlock);
+    end
+    assign following[j] = difference_q[16:FollowingBits] != '0 && difference_q[16:FollowingBits] != '1;
+    assign outside[j]   = outside_q;
     logic unused_low_bits;
-    assign unused_low_bits = ^difference[FollowingBits-1:0];
+    assign unused_low_bits = ^difference_q[FollowingBits-1:0];
   end
 
   always_ff @(posedge clk_i or negedge rst_ni) begin
     if (!rst_ni) begin
       silent_periods_q <= '0;
       check_q          <= 1'b0;
+      checked_q        <= 1'b0;
       fault_cause_q    <= '0;
     end else begin
-      check_q <= tick_q == '0 && ap_idle;
+      check_q   <= tick_q == '0 && ap_idle;
+      checked_q <= check_q;
       if (reference_valid_i) silent_periods_q <= '0;
       else if (tick_q == '0 && silent_periods_q != '1) silent_periods_q <= silent_periods_q + 1'b1;
       fault_cause_q[0] <= fault_cause_q[0] || step_error != '0;
-      if (check_q && reference_latched_q) begin
+      if (checked_q && reference_latched_q) begin
         fault_cause_q[1] <= fault_cause_q[1] || following != '0;
         fault_cause_q[3] <= fault_cause_q[3] || outside != '0;
       end

@@ -230,6 +230,7 @@ TEST(JointAxesSafety, FollowingErrorBeyondTheLimitStopsTorque) {
   EXPECT_EQ(beyond.top().fault_o, 0);
   beyond.send_reference({30.0, 30.0, 24.87});  // 513 counts below
   beyond.periods(1);
+  beyond.cycles(3);  // decided two cycles after the period's tick
   expect_torque_off(beyond, kFollowing);
 }
 
@@ -257,6 +258,7 @@ TEST(JointAxesSafety, ReferenceOutsideTheTravelStopsTorque) {
   EXPECT_EQ(outside.top().fault_o, 0);
   outside.send_reference({92.17, 30.0, 30.0});  // 9217 counts, past the end
   outside.periods(1);
+  outside.cycles(3);  // decided two cycles after the period's tick
   expect_torque_off(outside, kTravel);
 }
 
