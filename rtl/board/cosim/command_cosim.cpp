@@ -4,6 +4,8 @@
 #include <iostream>
 #include <memory>
 
+#include <unistd.h>
+
 #include <CLI/CLI.hpp>
 
 #include "delta/command.hpp"
@@ -130,9 +132,13 @@ void run_cosim_command(const CosimCommandOptions& options, const std::string& co
   auto wall_s = [&start] {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   };
-  cosim.progress = [&](double simulated_s) {
-    std::cerr << "\rcosim: " << fixed(simulated_s, 1) << " / " << fixed(options.duration_s, 1) << " s simulated, "
-              << fixed(wall_s(), 0) << " s wall" << std::flush;
+  // On a terminal the progress line rewrites itself; in a log, one line per simulated second.
+  const bool terminal = ::isatty(2) != 0;
+  cosim.progress = [&, terminal](double simulated_s) {
+    const long tenths = std::lround(simulated_s * 10.0);
+    if (!terminal && tenths % 10 != 0) return;
+    std::cerr << (terminal ? "\r" : "") << "cosim: " << fixed(simulated_s, 1) << " / " << fixed(options.duration_s, 1)
+              << " s simulated, " << fixed(wall_s(), 0) << " s wall" << (terminal ? "" : "\n") << std::flush;
   };
   std::cerr << "cosim: board core RTL (Verilator) + 3 joint plants + virtual robot ("
             << (options.effects.empty() ? std::string("nominal") : options.effects) << "), '" << options.trajectory
@@ -141,11 +147,11 @@ void run_cosim_command(const CosimCommandOptions& options, const std::string& co
   try {
     result = run_cosim(cosim);
   } catch (const std::runtime_error& error) {
-    std::cerr << "\ndeltactl: error: " << error.what() << '\n';
+    std::cerr << (terminal ? "\n" : "") << "deltactl: error: " << error.what() << '\n';
     throw CommandExit{kExitFailure};
   }
   const double wall = wall_s();
-  std::cerr << "\rcosim: " << fixed(options.duration_s, 1) << " s simulated in " << fixed(wall, 1) << " s wall ("
+  std::cerr << (terminal ? "\r" : "") << "cosim: " << fixed(options.duration_s, 1) << " s simulated in " << fixed(wall, 1) << " s wall ("
             << fixed(result.board_cycles / wall / 1e6, 2) << " M board cycles/s)\n";
 
   const double from_s = options.blend_s + options.settle_s;
