@@ -1,6 +1,7 @@
 // The paper's trajectories (validation run, experiments 1 and 2) and a seeded sweep of the cube.
 #include "delta/trajectory.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <stdexcept>
@@ -14,6 +15,11 @@ const std::vector<std::pair<std::string, std::string>>& trajectory_catalogue() {
       {"experiment2", "paper's experiment 2: figure-eight 3 x 3 mm at z = -75 mm, 0.2 Hz; 5000 at 100 Hz"},
       {"sweep", "Lissajous sweep of the 10 mm cube, frequencies and phases drawn from --seed; 6000 at 10 Hz"}};
   return catalogue;
+}
+
+double quintic_blend(double u) {
+  u = std::clamp(u, 0.0, 1.0);
+  return u * u * u * (10.0 - 15.0 * u + 6.0 * u * u);
 }
 
 Trajectory make_trajectory(const std::string& name, std::uint64_t seed) {

@@ -48,11 +48,9 @@ class JointMonitor {
   // Encoder inputs for the next edge.
   void drive(Vboard_core& core) const {
     int a = 0, b = 0;
-    static const int kGray[4] = {0b00, 0b10, 0b11, 0b01};  // {A, B} counting up
     for (int j = 0; j < 3; ++j) {
-      const int bits = kGray[((position_[j] % 4) + 4) % 4];
-      a |= (bits >> 1) << j;
-      b |= (bits & 1) << j;
+      a |= cosim::quadrature_a(position_[j]) << j;
+      b |= cosim::quadrature_b(position_[j]) << j;
     }
     core.encoder_a_i = a;
     core.encoder_b_i = b;

@@ -39,7 +39,7 @@ TEST(Cosim, PaperLikeRobotFollowsExperimentOneThroughTheBoardRtl) {
   const cosim::CosimResult result = cosim::run_cosim(options);
   const cosim::TrackingSummary summary = cosim::summarise(result, 0.4);
   std::cout << "round trips " << result.round_trips << ", first answer at " << result.first_answer_s * 1e3
-            << " ms; plate rms " << summary.rms_distance_m * 1e6 << " um, max " << summary.max_distance_m * 1e6
+            << " ms; plate rms " << summary.closed_loop.rms_distance_m * 1e6 << " um, max " << summary.closed_loop.max_distance_m * 1e6
             << " um; joint rms " << summary.joint_rms_deg.transpose() << " deg\n";
 
   EXPECT_EQ(result.naks, 0u);
@@ -57,15 +57,15 @@ TEST(Cosim, PaperLikeRobotFollowsExperimentOneThroughTheBoardRtl) {
   // Plate: the network's inverse kinematics plus control (measured 79 um RMS, 116 um max, mostly
   // the backlash the network cannot know on this trajectory); the textbook model misses this robot
   // by up to 1 mm.
-  EXPECT_LT(summary.rms_distance_m, 150e-6);
-  EXPECT_LT(summary.max_distance_m, 250e-6);
+  EXPECT_LT(summary.closed_loop.rms_distance_m, 150e-6);
+  EXPECT_LT(summary.closed_loop.max_distance_m, 250e-6);
   // The closed loop adds little to the network's own error (the plate if the encoders read the
   // answers exactly; measured 79.4 um RMS), and the network removes most of the textbook model's
   // (measured 690 um RMS).
   std::cout << "network answers with exact joints: rms " << summary.network_ideal.rms_distance_m * 1e6
             << " um; textbook IK with exact joints: rms " << summary.textbook_ideal.rms_distance_m * 1e6 << " um\n";
-  EXPECT_LT(std::abs(summary.rms_distance_m - summary.network_ideal.rms_distance_m), 20e-6);
-  EXPECT_GT(summary.textbook_ideal.rms_distance_m, 4.0 * summary.rms_distance_m);
+  EXPECT_LT(std::abs(summary.closed_loop.rms_distance_m - summary.network_ideal.rms_distance_m), 20e-6);
+  EXPECT_GT(summary.textbook_ideal.rms_distance_m, 4.0 * summary.closed_loop.rms_distance_m);
   // The drives were enabled and the plant moved along the ellipse (x span of experiment 1 is 9 mm).
   double x_min = 1, x_max = -1;
   for (const cosim::CosimSample& s : result.samples) {

@@ -73,9 +73,7 @@ std::function<double(double)> experiment1_joint_reference(int joint, double blen
   const double start = angle(0.0);
   return [angle, start, blend_s](double t) {
     if (t >= blend_s) return angle(t);
-    const double u = std::max(t, 0.0) / blend_s;
-    const double weight = u * u * u * (10.0 - 15.0 * u + 6.0 * u * u);  // quintic: C2 at both ends
-    return start + weight * (angle(t) - start);
+    return start + quintic_blend(t / blend_s) * (angle(t) - start);
   };
 }
 

@@ -10,6 +10,7 @@
 #include "Vboard_core.h"
 #include "delta/cosim/board_link.hpp"
 #include "delta/kinematics.hpp"
+#include "delta/trajectory.hpp"
 #include "verilated.h"
 
 namespace delta::cosim {
@@ -38,11 +39,6 @@ double true_angle_for_reading(const JointSensorChain& sensors, int joint, double
     }
   }
   return 0.5 * (low + high);
-}
-
-double smoothstep(double x) {
-  x = std::clamp(x, 0.0, 1.0);
-  return x * x * x * (10.0 + x * (-15.0 + 6.0 * x));  // C2: zero velocity and acceleration at both ends
 }
 
 // Host side of the UART link: 8N1 at kClocksPerBit board cycles per bit, one request at a time.
@@ -124,13 +120,10 @@ class QuadratureEmitter {
     count_ += count_ < target_ ? 1 : -1;
   }
   int count() const { return count_; }
-  // {A, B} Gray sequence counting up: 00 -> 10 -> 11 -> 01 (quadrature_counter.sv).
-  int a() const { return (kGray[phase()] >> 1) & 1; }
-  int b() const { return kGray[phase()] & 1; }
+  int a() const { return quadrature_a(count_ - kHomeCount); }
+  int b() const { return quadrature_b(count_ - kHomeCount); }
 
  private:
-  static constexpr int kGray[4] = {0b00, 0b10, 0b11, 0b01};
-  int phase() const { return ((count_ - kHomeCount) % 4 + 4) % 4; }
   int count_;
   int target_;
   int dwell_ = 0;
@@ -155,7 +148,6 @@ CosimResult run_cosim(const CosimOptions& options) {
   JointPlantParameters plant_parameters = options.plant;
   plant_parameters.substeps = 1;  // the plant step (1 us) is already short
   for (int j = 0; j < 3; ++j) plants[j] = std::make_unique<JointPlant>(plant_parameters, result.home_true_alpha_deg[j]);
-  sensors.update(result.home_true_alpha_deg);  // backlash starts centred at home
   std::array<QuadratureEmitter, 3> encoders{QuadratureEmitter(kHomeCount), QuadratureEmitter(kHomeCount),
                                             QuadratureEmitter(kHomeCount)};
 
@@ -169,8 +161,7 @@ CosimResult run_cosim(const CosimOptions& options) {
   core->encoder_b_i = 0;
   core->rst_ni = 0;
   core->rst_network_ni = 0;
-  auto board_cycle = [&core] { clock_board(*core); };
-  for (int i = 0; i < 4; ++i) board_cycle();
+  for (int i = 0; i < 4; ++i) clock_board(*core);
   core->rst_ni = 1;
   core->rst_network_ni = 1;
 
@@ -184,7 +175,7 @@ CosimResult run_cosim(const CosimOptions& options) {
   };
 
   auto reference_at = [&](double t) -> Vec3 {
-    const double s = options.blend_s > 0.0 ? smoothstep(t / options.blend_s) : 1.0;
+    const double s = options.blend_s > 0.0 ? quintic_blend(t / options.blend_s) : 1.0;
     return (1.0 - s) * home_measured_m + s * options.trajectory(t);
   };
 
@@ -195,7 +186,7 @@ CosimResult run_cosim(const CosimOptions& options) {
   std::array<int, 3> pwm_high{0, 0, 0};
   Vec3 current_a = Vec3::Zero();
   Vec3 true_alpha = result.home_true_alpha_deg;
-  Vec3 reading = sensors.update(true_alpha);
+  Vec3 reading = sensors.update(true_alpha);  // the backlash starts centred at home
   const auto total_cycles = static_cast<std::uint64_t>(std::llround(options.duration_s * kBoardClockHz));
   const auto record_every = static_cast<std::uint64_t>(std::max(1.0, std::round(kBoardClockHz / options.record_rate_hz)));
   const auto progress_every = static_cast<std::uint64_t>(0.1 * kBoardClockHz);
@@ -219,7 +210,7 @@ CosimResult run_cosim(const CosimOptions& options) {
     core->encoder_a_i = a;
     core->encoder_b_i = b;
 
-    board_cycle();
+    clock_board(*core);
 
     if (host.receive(core->uart_tx_o)) {
       if (const auto codes = parse_answer(host.answer())) {
@@ -310,10 +301,7 @@ TrackingSummary summarise(const CosimResult& result, double from_s) {
   }
   if (summary.samples == 0) return summary;
   const double n = static_cast<double>(summary.samples);
-  const ErrorStats loop = closed_loop.stats(n);
-  summary.rms_m = loop.rms_m;
-  summary.rms_distance_m = loop.rms_distance_m;
-  summary.max_distance_m = loop.max_distance_m;
+  summary.closed_loop = closed_loop.stats(n);
   summary.network_ideal = network_ideal.stats(n);
   summary.textbook_ideal = textbook_ideal.stats(n);
   summary.joint_rms_deg = (joint_sq / n).cwiseSqrt();

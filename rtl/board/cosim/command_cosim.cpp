@@ -165,7 +165,7 @@ void run_cosim_command(const CosimCommandOptions& options, const std::string& co
     plate.add_row({label, micrometres(e.rms_m.x()), micrometres(e.rms_m.y()), micrometres(e.rms_m.z()),
                    micrometres(e.rms_distance_m), micrometres(e.max_distance_m)});
   };
-  add("closed loop: board RTL, plants, effects", {summary.rms_m, summary.rms_distance_m, summary.max_distance_m});
+  add("closed loop: board RTL, plants, effects", summary.closed_loop);
   add("network answers, joints exact", summary.network_ideal);
   add("textbook IK, joints exact", summary.textbook_ideal);
   plate.print(std::cout);

@@ -26,4 +26,8 @@ const std::vector<std::pair<std::string, std::string>>& trajectory_catalogue();
 // Throws std::invalid_argument for an unknown name.
 Trajectory make_trajectory(const std::string& name, std::uint64_t seed = 1);
 
+// Weight of a smooth start: 0 at u <= 0, 1 at u >= 1, the quintic u^3 (10 - 15 u + 6 u^2) between
+// (zero velocity and acceleration at both ends).
+double quintic_blend(double u);
+
 }  // namespace delta

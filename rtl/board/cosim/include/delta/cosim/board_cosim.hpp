@@ -87,9 +87,7 @@ struct ErrorStats {
   double max_distance_m = 0.0;
 };
 struct TrackingSummary {
-  Vec3 rms_m = Vec3::Zero();
-  double max_distance_m = 0.0;
-  double rms_distance_m = 0.0;
+  ErrorStats closed_loop;     // position_m - reference
   ErrorStats network_ideal;   // network_ideal_m - reference
   ErrorStats textbook_ideal;  // textbook_ideal_m - reference
   Vec3 joint_rms_deg = Vec3::Zero();  // encoder - network reference

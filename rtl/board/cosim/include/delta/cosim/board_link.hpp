@@ -44,6 +44,11 @@ inline std::optional<std::array<std::int64_t, 3>> parse_answer(const std::vector
   return codes;
 }
 
+// Quadrature encoder lines `steps` counts from the start ({A, B} = 00 -> 10 -> 11 -> 01 counting
+// up, rtl/joint/quadrature_counter.sv).
+inline int quadrature_a(int steps) { return ((steps % 4 + 4) % 4 + 1) / 2 % 2; }  // 0, 1, 1, 0
+inline int quadrature_b(int steps) { return ((steps % 4 + 4) % 4) / 2; }          // 0, 0, 1, 1
+
 // One board clock of a Verilated board_core: two network clocks, rising together with it (the
 // PLL's GENCLK and GENCLK_HALF).
 template <typename BoardCore>
