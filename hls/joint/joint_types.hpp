@@ -2,7 +2,7 @@
 //
 // Written for SystemC's sc_fixed (the same source maps to Vitis ap_fixed: sc_fixed<W, I, Q, O>
 // -> ap_fixed<W, I, AP_RND, AP_SAT>; SC_RND and AP_RND both round half towards plus infinity).
-// Values mirror host/control/include/delta/control/joint_fixed.hpp, the golden model.
+// Values mirror host/control/include/delta/golden/joint_fixed.hpp, the golden model.
 #pragma once
 
 #define SC_INCLUDE_FX

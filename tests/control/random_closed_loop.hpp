@@ -10,7 +10,7 @@
 #include <random>
 
 #include "delta/control/closed_loop.hpp"
-#include "delta/control/joint_fixed.hpp"
+#include "delta/golden/joint_fixed.hpp"
 #include "delta/geometry.hpp"
 #include "delta/joint_plant.hpp"
 

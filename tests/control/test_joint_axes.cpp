@@ -6,7 +6,7 @@
 #include <random>
 
 #include "Vjoint_axes.h"
-#include "delta/control/joint_fixed.hpp"
+#include "delta/golden/joint_fixed.hpp"
 #include "verilated.h"
 
 namespace delta::control {

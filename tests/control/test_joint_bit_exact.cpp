@@ -9,7 +9,7 @@
 #include <sstream>
 
 #include "delta/control/closed_loop.hpp"
-#include "delta/control/joint_fixed.hpp"
+#include "delta/golden/joint_fixed.hpp"
 #include "delta/geometry.hpp"
 #include "delta/joint_plant.hpp"
 #include "delta/rtl/joint_rtl_model.hpp"

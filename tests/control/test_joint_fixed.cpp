@@ -5,7 +5,7 @@
 #include <random>
 
 #include "delta/control/joint_controller.hpp"
-#include "delta/control/joint_fixed.hpp"
+#include "delta/golden/joint_fixed.hpp"
 
 namespace delta::control {
 namespace {

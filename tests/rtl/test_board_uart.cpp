@@ -14,8 +14,8 @@
 #include <vector>
 
 #include "Vboard_core.h"
-#include "delta/control/joint_fixed.hpp"
-#include "delta/cosim/board_link.hpp"
+#include "delta/golden/joint_fixed.hpp"
+#include "delta/rtl/board_link.hpp"
 #include "delta/golden/export.hpp"
 #include "delta/golden/fixed_network.hpp"
 #include "rtl_fixture.hpp"

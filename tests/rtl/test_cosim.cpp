@@ -1,4 +1,4 @@
-// Whole-robot co-simulation (rtl/board/cosim): the Verilated board core in closed loop with three
+// Whole-robot co-simulation (host/codesign/board_cosim.cpp): the Verilated board core in closed loop with three
 // joint plants and the paper-like robot's effects, the host streaming experiment 1 over the UART.
 #include <gtest/gtest.h>
 

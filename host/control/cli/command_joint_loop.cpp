@@ -8,7 +8,7 @@
 
 #include "delta/command.hpp"
 #include "delta/control/closed_loop.hpp"
-#include "delta/control/joint_fixed.hpp"
+#include "delta/golden/joint_fixed.hpp"
 #include "delta/plot.hpp"
 #include "delta/table.hpp"
 

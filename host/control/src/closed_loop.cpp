@@ -6,7 +6,7 @@
 #include <stdexcept>
 
 #include "delta/control/joint_controller.hpp"
-#include "delta/control/joint_fixed.hpp"
+#include "delta/golden/joint_fixed.hpp"
 #include "delta/kinematics.hpp"
 #include "delta/trajectory.hpp"
 

@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-#include "delta/control/joint_parameters.hpp"
+#include "delta/golden/joint_parameters.hpp"
 #include "delta/joint_plant.hpp"
 
 namespace delta::control {

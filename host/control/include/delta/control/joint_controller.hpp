@@ -1,7 +1,7 @@
 // Double-precision reference of one joint's controller: reference filter, VOB, DOB, eq. 5.
 #pragma once
 
-#include "delta/control/joint_parameters.hpp"
+#include "delta/golden/joint_parameters.hpp"
 
 namespace delta::control {
 

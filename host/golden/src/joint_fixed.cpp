@@ -1,5 +1,5 @@
 // Golden fixed-point joint controller: every update is acc = state << f + sum(c * x), y = round(acc >> S).
-#include "delta/control/joint_fixed.hpp"
+#include "delta/golden/joint_fixed.hpp"
 
 #include <cmath>
 #include <stdexcept>

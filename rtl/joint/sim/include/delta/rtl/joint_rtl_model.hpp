@@ -5,7 +5,7 @@
 #include <cstdint>
 #include <memory>
 
-#include "delta/control/joint_fixed.hpp"
+#include "delta/golden/joint_fixed.hpp"
 #include "delta/rtl/joint_handshake.hpp"
 
 namespace delta::rtl {

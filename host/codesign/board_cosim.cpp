@@ -8,7 +8,7 @@
 #include <stdexcept>
 
 #include "Vboard_core.h"
-#include "delta/cosim/board_link.hpp"
+#include "delta/rtl/board_link.hpp"
 #include "delta/kinematics.hpp"
 #include "delta/trajectory.hpp"
 #include "verilated.h"

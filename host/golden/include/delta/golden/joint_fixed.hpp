@@ -3,7 +3,7 @@
 
 #include <cstdint>
 
-#include "delta/control/joint_parameters.hpp"
+#include "delta/golden/joint_parameters.hpp"
 
 namespace delta::control {
 

@@ -1,24 +1,27 @@
-// The `fixed` (golden integer model) and `hls` (HLS C++ on sc_fixed) inverse-kinematics back ends:
-// raw output codes beside the angles, saturation counts in the report.
+// The fixed-point inverse-kinematics back end shared by `ik --backend fixed` (golden integer model)
+// and `ik --backend hls` (HLS C simulation): raw output codes beside the angles, saturation counts
+// in the report. Only the evaluator of raw codes differs between them.
+#pragma once
+
 #include <functional>
 #include <memory>
+#include <string>
+#include <vector>
 
 #include "delta/golden/fixed_network.hpp"
 #include "delta/ik_backend.hpp"
 #include "delta/input_error.hpp"
 #include "delta/nn/trained_model.hpp"
 #include "delta/nn/weights_file.hpp"
-#include "network_csim.hpp"
 
 namespace delta::golden {
-namespace {
 
 using RawEvaluator = std::function<RawOutput(const std::array<std::int64_t, 3>&)>;
 
 // Reads and quantises W.json; a weight that would saturate its format is bad input.
-QuantisedNetwork quantise_file(const std::string& weights_path, const nn::WeightsFile& weights) {
+inline QuantisedNetwork quantise_file(const std::string& weights_path, const nn::WeightsFile& weights) {
   try {
-    return quantise(weights.network, delta_hls::golden_formats<delta_hls::DefaultNetworkConfig>());
+    return quantise(weights.network, Formats{});  // the HLS config's formats (a test checks they agree)
   } catch (const std::invalid_argument& error) {
     throw InputError(weights_path, 0, std::string("cannot be quantised: ") + error.what());
   }
@@ -74,35 +77,4 @@ class FixedPointIkBackend : public IkBackend {
   std::size_t raw_input_clamped_ = 0;
 };
 
-const RegisterIkBackend fixed_backend(
-    "fixed", "the golden fixed-point model (integer C++), raw output codes", [](const std::string& weights_path) {
-      nn::WeightsFile weights = nn::read_weights_file(weights_path);
-      QuantisedNetwork q = quantise_file(weights_path, weights);
-      RawEvaluator evaluator = [q](const std::array<std::int64_t, 3>& codes) { return evaluate_raw(q, codes); };
-      return std::make_unique<FixedPointIkBackend>("fixed", std::move(weights), std::move(q), std::move(evaluator));
-    });
-
-const RegisterIkBackend hls_backend(
-    "hls", "the HLS C++ (sc_fixed C-simulation), raw output codes", [](const std::string& weights_path) {
-      using Config = delta_hls::DefaultNetworkConfig;
-      nn::WeightsFile weights = nn::read_weights_file(weights_path);
-      QuantisedNetwork q = quantise_file(weights_path, weights);
-      if (q.hidden != Config::hidden) {
-        throw InputError(weights_path, 0, "has " + std::to_string(q.hidden) + " hidden neurons; the HLS build is "
-                                          "configured for " + std::to_string(Config::hidden));
-      }
-      std::shared_ptr<delta_hls::NetworkWeights<Config>> hls_weights = delta_hls::load_weights<Config>(q);
-      RawEvaluator evaluator = [hls_weights](const std::array<std::int64_t, 3>& codes) {
-        unsigned flags = 0;
-        RawOutput out;
-        out.alpha = delta_hls::evaluate_codes<Config>(*hls_weights, codes, &flags);
-        out.scaled_input_saturated = flags & delta_hls::kScaledInputSaturated;
-        out.tanh_input_saturated = flags & delta_hls::kTanhInputSaturated;
-        out.output_saturated = flags & delta_hls::kOutputSaturated;
-        return out;
-      };
-      return std::make_unique<FixedPointIkBackend>("hls", std::move(weights), std::move(q), std::move(evaluator));
-    });
-
-}  // namespace
 }  // namespace delta::golden

@@ -6,7 +6,7 @@
 #include <cstdint>
 #include <stdexcept>
 
-#include "delta/control/joint_fixed.hpp"
+#include "delta/golden/joint_fixed.hpp"
 
 namespace delta::rtl {
 
