@@ -11,11 +11,13 @@
 // encoders, joint controllers (their datapath routes at about 24 MHz, rtl/joint/README.md) and
 // PWM. network_crossing is the only place where signals cross (a toggle handshake each way).
 module board_core #(
-  parameter int unsigned ClocksPerBit    = 202,       // clk_i / UART baud rate (23.25 MHz / 115200)
-  parameter int unsigned ClocksPerPeriod = 2325,      // clk_i / 10 kHz: the joint control period
-  parameter int unsigned LedHoldBits     = 23,        // LED pulses held 2^LedHoldBits cycles (0.36 s)
-  parameter logic [15:0] HomeCount       = 16'd3000,  // encoder counts at reset (30.00 deg)
-  parameter              MemDir          = "."        // directory of the network's .mem files (synthesis)
+  // Defaults: the board's facts (delta_board_pkg.sv); the Verilated test build overrides the
+  // first two with SimClocksPerBit and SimClocksPerPeriod.
+  parameter int unsigned ClocksPerBit    = delta_board_pkg::ClocksPerBit,     // clk_i / UART baud rate
+  parameter int unsigned ClocksPerPeriod = delta_board_pkg::ClocksPerPeriod,  // clk_i / 10 kHz
+  parameter int unsigned LedHoldBits     = delta_board_pkg::LedHoldBits,      // LED pulses: 2^LedHoldBits cycles
+  parameter logic [15:0] HomeCount       = 16'(delta_board_pkg::HomeCount),   // encoder counts at reset
+  parameter              MemDir          = "."  // directory of the network's .mem files (synthesis)
 ) (
   input  logic       clk_i,           // board clock: UART, link, joints
   input  logic       rst_ni,          // asynchronous assertion, synchronous release in clk_i
@@ -33,7 +35,7 @@ module board_core #(
   output logic [2:0] encoder_error_o, // sticky: encoder j skipped a quadrature state
   output logic       joint_limited_o, // sticky: a joint controller saturated an operand or state
   output logic       joint_fault_o,   // latched until reset: torque off (joint_axes.sv, "Safety")
-  output logic [3:0] joint_fault_cause_o  // encoder skip, following error, watchdog, reference limit
+  output logic [delta_board_pkg::FaultCauseBits-1:0] joint_fault_cause_o  // bits: delta_board_pkg::Fault*
 );
   // Network formats (yosys 0.23 reads no `import`: qualified names only).
   localparam int unsigned NumInputs   = delta_network_pkg::NumInputs;

@@ -12,8 +12,8 @@ module icebreaker_top #(
   parameter logic [6:0]  DivF        = 7'd61,
   parameter logic [2:0]  DivQ        = 3'd4,
   parameter logic [2:0]  FilterRange = 3'd1,
-  parameter int unsigned NetworkClockHz = 46_500_000,
-  parameter int unsigned BaudRate      = 115_200
+  parameter int unsigned NetworkClockHz = delta_board_pkg::NetworkClockHz,  // what the PLL settings above make
+  parameter int unsigned BaudRate      = delta_board_pkg::UartBaud
 ) (
   input  logic       clk_12mhz_i,   // pin 35, 12 MHz oscillator
   input  logic       button_ni,     // pin 10, user button, low when pressed: reset
@@ -75,10 +75,10 @@ module icebreaker_top #(
   // Seen in simulation (tests, deltactl cosim); on the board the fault LED and the drive-enable
   // LED show what matters.
   logic       joint_limited;
-  logic [3:0] joint_fault_cause;
+  logic [delta_board_pkg::FaultCauseBits-1:0] joint_fault_cause;
   board_core #(
     .ClocksPerBit   ((BoardClockHz + BaudRate / 2) / BaudRate),
-    .ClocksPerPeriod(BoardClockHz / 10_000),
+    .ClocksPerPeriod(BoardClockHz / delta_board_pkg::ControlRateHz),
     .MemDir         (MemDir)
   ) u_core (
     .clk_i         (clk),

@@ -1,6 +1,6 @@
 // Formats, coefficients and microprogram of the three-joint controller (golden: host/control joint_fixed).
 //
-// Every value here mirrors host/control/include/delta/control/joint_fixed.hpp; a CTest
+// Every value here mirrors host/golden/include/delta/golden/joint_fixed.hpp; a CTest
 // (JointRtlPackage) checks the coefficients against make_fixed_coefficients() of the defaults.
 package delta_joint_pkg;
 

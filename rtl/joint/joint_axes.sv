@@ -1,28 +1,20 @@
 // The three joints on the board: encoder counters, the 10 kHz control tick, joint_controller,
-// and the drive current commands as PWM magnitude + direction.
+// the fault latch (joint_safety.sv) and the drive current commands (joint_pwm.sv).
 //
 // references_i are the network's outputs (degrees, Q10.14, 24 bits each, joint j at [24j +: 24]),
 // held by the caller and refreshed with reference_valid_i. Until the first reference arrives the
 // controller holds each joint where its encoder is and drive_enable_o stays low. Every
-// ClocksPerPeriod cycles (10 kHz at the default 24 MHz) the encoder counts and references are
-// latched and the controller started (892-cycle latency, see joint_controller.sv); each current
-// command updates its PWM as soon as it is stored. PWM: period 2^PwmBits cycles (23.4 kHz at
-// 24 MHz and 10 bits), duty = |current| / 0.5 A (the current limit), direction = sign.
-//
-// Safety: a fault stops the torque (drive_enable_o low, every PWM output low, both registered)
-// and stays latched until reset. Causes (fault_cause_o): [0] an encoder skipped a quadrature
-// state; [1] following error: reference - encoder count outside -2^FollowingBits ..
-// 2^FollowingBits - 1 counts at a period start; [2] watchdog: a referenced controller got no new
-// reference for WatchdogPeriods periods (the host must keep streaming, the hold position
-// included); [3] a reference outside the travel, blocks MinBlock..MaxBlock of 1024 counts. [1]
-// and [3] use the period's latched values and decide two cycles after the tick.
+// ClocksPerPeriod cycles (10 kHz) the encoder counts and references are latched and the
+// controller started (892-cycle latency, see joint_controller.sv); each current command updates
+// its PWM as soon as it is stored (joint_pwm.sv). A fault (joint_safety.sv) stops the torque and
+// stays latched until reset. Board facts (clock, home count, limits, cause bits): delta_board_pkg.
 module joint_axes #(
-  parameter int unsigned ClocksPerPeriod = 2400,     // clk_i / 10 kHz (2400 at 24 MHz, 2325 on the board: 23.25 MHz)
-  parameter logic [15:0] HomeCount       = 16'd3000, // encoder count at reset (30.00 deg)
-  parameter int unsigned FollowingBits   = 9,        // following limit 2^9 = 512 counts (5.12 deg)
-  parameter int unsigned WatchdogPeriods = 500,      // control periods (50 ms at 10 kHz)
-  parameter int          MinBlock        = -1,       // reference travel in 1024-count blocks:
-  parameter int          MaxBlock        = 8         //   -1024 .. 9215 counts (-10.24 .. 92.15 deg)
+  parameter int unsigned ClocksPerPeriod = delta_board_pkg::ClocksPerPeriod,  // clk_i / 10 kHz
+  parameter logic [15:0] HomeCount       = 16'(delta_board_pkg::HomeCount),   // encoder count at reset
+  parameter int unsigned FollowingBits   = delta_board_pkg::FollowingBits,
+  parameter int unsigned WatchdogPeriods = delta_board_pkg::WatchdogPeriods,
+  parameter int          MinTravelBlock  = delta_board_pkg::MinTravelBlock,
+  parameter int          MaxTravelBlock  = delta_board_pkg::MaxTravelBlock
 ) (
   input  logic        clk_i,
   input  logic        rst_ni,
@@ -36,9 +28,8 @@ module joint_axes #(
   output logic [2:0]  encoder_error_o,    // sticky: a quadrature state was skipped
   output logic [15:0] overflow_count_o,   // the controller's saturation counter
   output logic        fault_o,            // latched: torque off
-  output logic [3:0]  fault_cause_o       // latched causes, see above
+  output logic [delta_board_pkg::FaultCauseBits-1:0] fault_cause_o  // latched causes (joint_safety.sv)
 );
-  localparam int unsigned PwmBits   = 10;
   localparam int unsigned TickWidth = $clog2(ClocksPerPeriod);
 
   // ---- encoders -------------------------------------------------------------------------------
@@ -105,58 +96,26 @@ module joint_axes #(
   end
 
   // ---- faults ------------------------------------------------------------------------------------
-  localparam int unsigned WatchdogWidth = $clog2(WatchdogPeriods + 2);
-  logic [WatchdogWidth-1:0] silent_periods_q;  // periods since the last reference
-  logic                     check_q;           // the cycle after a start: latched values ready
-  logic                     checked_q;         // the next: differences and flags registered
-  logic [3:0]               fault_cause_q;
-  logic [2:0]               following, outside;
-  // Cheap on a full device: the following error is a 17-bit difference whose bits from
-  // FollowingBits up must be a sign extension (-2^FollowingBits .. 2^FollowingBits - 1, and the
-  // reference fits 16 bits when it is inside the travel), and the travel is checked on the
-  // reference's 1024-count blocks (its bits 23..10).
-  // The reference conversion and the difference are two carry chains: the difference and the
-  // travel flag are registered (the flip-flops share the subtractor's logic cells), and the
-  // fault decides a cycle later (check_q, then checked_q).
-  for (genvar j = 0; j < 3; j++) begin : g_check
-    logic signed [23:0] reference_count;
-    logic signed [16:0] difference, difference_q;
-    logic signed [13:0] block;
-    logic               outside_q;
-    assign reference_count = references[32 * j + 8 +: 24];
-    assign difference      = reference_count[16:0] - {counts_q[16 * j + 15], counts_q[16 * j +: 16]};
-    assign block           = reference_count[23:10];
-    always_ff @(posedge clk_i) begin
-      difference_q <= difference;
-      outside_q    <= block < 14'(MinBlock) || block > 14'(MaxBlock);
-    end
-    assign following[j] = difference_q[16:FollowingBits] != '0 && difference_q[16:FollowingBits] != '1;
-    assign outside[j]   = outside_q;
-    logic unused_low_bits;
-    assign unused_low_bits = ^difference_q[FollowingBits-1:0];
-  end
-
-  always_ff @(posedge clk_i or negedge rst_ni) begin
-    if (!rst_ni) begin
-      silent_periods_q <= '0;
-      check_q          <= 1'b0;
-      checked_q        <= 1'b0;
-      fault_cause_q    <= '0;
-    end else begin
-      check_q   <= tick_q == '0 && ap_idle;
-      checked_q <= check_q;
-      if (reference_valid_i) silent_periods_q <= '0;
-      else if (tick_q == '0 && silent_periods_q != '1) silent_periods_q <= silent_periods_q + 1'b1;
-      fault_cause_q[0] <= fault_cause_q[0] || step_error != '0;
-      if (checked_q && reference_latched_q) begin
-        fault_cause_q[1] <= fault_cause_q[1] || following != '0;
-        fault_cause_q[3] <= fault_cause_q[3] || outside != '0;
-      end
-      fault_cause_q[2] <= fault_cause_q[2] ||
-                          (referenced_q && silent_periods_q > WatchdogWidth'(WatchdogPeriods));
-    end
-  end
-  wire fault = fault_cause_q != '0;
+  logic fault;
+  joint_safety #(
+    .FollowingBits  (FollowingBits),
+    .WatchdogPeriods(WatchdogPeriods),
+    .MinTravelBlock (MinTravelBlock),
+    .MaxTravelBlock (MaxTravelBlock)
+  ) u_safety (
+    .clk_i,
+    .rst_ni,
+    .tick_i             (tick_q == '0),
+    .period_start_i     (tick_q == '0 && ap_idle),
+    .step_error_i       (step_error),
+    .reference_valid_i,
+    .referenced_i       (referenced_q),
+    .reference_latched_i(reference_latched_q),
+    .references_i       (references),
+    .counts_i           (counts_q),
+    .fault_o            (fault),
+    .fault_cause_o
+  );
 
   // ---- controller -----------------------------------------------------------------------------
   logic [47:0] currents;
@@ -185,48 +144,19 @@ module joint_axes #(
     .overflow_count  (overflow_count_o)
   );
 
-  // ---- PWM --------------------------------------------------------------------------------------
-  logic [PwmBits-1:0] pwm_phase_q;
-  logic [3*(PwmBits+1)-1:0] duty_q;  // 0 .. 2^PwmBits (= 100 %)
-  logic [2:0] direction_q;
-
-  always_ff @(posedge clk_i or negedge rst_ni) begin
-    if (!rst_ni) begin
-      pwm_phase_q <= '0;
-      duty_q      <= '0;
-      direction_q <= '0;
-    end else begin
-      pwm_phase_q <= pwm_phase_q + 1'b1;
-      for (int j = 0; j < 3; j++) begin
-        if (current_valid[j]) begin
-          // |current| <= 16384 (0.5 A) -> duty <= 1024; the limit keeps 16'(-x) exact.
-          duty_q[(PwmBits + 1) * j +: PwmBits + 1] <=
-              11'((currents[16 * j + 15] ? 16'(-currents[16 * j +: 16]) : currents[16 * j +: 16]) >> 4);
-          direction_q[j] <= currents[16 * j + 15];
-        end
-      end
-    end
-  end
-
-  // Outputs registered (the fault gate included): glitch-free pins.
-  logic [2:0] pwm_q;
-  logic       enable_q;
-  always_ff @(posedge clk_i or negedge rst_ni) begin
-    if (!rst_ni) begin
-      pwm_q    <= '0;
-      enable_q <= 1'b0;
-    end else begin
-      for (int j = 0; j < 3; j++) begin
-        pwm_q[j] <= !fault && ({1'b0, pwm_phase_q} < duty_q[(PwmBits + 1) * j +: PwmBits + 1]);
-      end
-      enable_q <= referenced_q && !fault;
-    end
-  end
-  assign drive_pwm_o     = pwm_q;
-  assign drive_dir_o     = direction_q;
-  assign drive_enable_o  = enable_q;
+  // ---- PWM and drive enable ----------------------------------------------------------------------
+  joint_pwm u_pwm (
+    .clk_i,
+    .rst_ni,
+    .currents_i     (currents),
+    .current_valid_i(current_valid),
+    .referenced_i   (referenced_q),
+    .fault_i        (fault),
+    .drive_pwm_o,
+    .drive_dir_o,
+    .drive_enable_o
+  );
   assign fault_o         = fault;
-  assign fault_cause_o   = fault_cause_q;
   assign encoder_error_o = encoder_error_q;
 
   logic unused;

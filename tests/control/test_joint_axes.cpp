@@ -6,14 +6,17 @@
 #include <random>
 
 #include "Vjoint_axes.h"
+#include "delta/board_facts.hpp"
+#include "delta/robot_world.hpp"
 #include "delta/golden/joint_fixed.hpp"
 #include "verilated.h"
 
 namespace delta::control {
 namespace {
 
-constexpr int kClocksPerPeriod = 2400;
-constexpr int kHomeCount = 3000;
+// Vjoint_axes is Verilated with its defaults: the board's facts (rtl/board/delta_board_pkg.sv).
+constexpr int kClocksPerPeriod = static_cast<int>(board::kClocksPerPeriod);
+constexpr int kHomeCount = static_cast<int>(board::kHomeCount);
 
 class Board {
  public:
@@ -41,11 +44,8 @@ class Board {
   Vjoint_axes top_{&context_};
 };
 
-// {A, B} Gray sequence counting up: 00 -> 10 -> 11 -> 01.
-int quadrature_bits(int position) {
-  static const int kGray[4] = {0b00, 0b10, 0b11, 0b01};
-  return kGray[((position % 4) + 4) % 4];
-}
+// {A, B} Gray sequence counting up: 00 -> 10 -> 11 -> 01 (the world's encoder lines, sim/).
+int quadrature_bits(int position) { return quadrature_a(position) << 1 | quadrature_b(position); }
 
 TEST(JointAxes, EncoderCountsReferencesAndPwmFollowTheGoldenController) {
   const std::uint64_t seed = 11;
@@ -102,7 +102,7 @@ TEST(JointAxes, EncoderCountsReferencesAndPwmFollowTheGoldenController) {
         top.encoder_a_i = a;
         top.encoder_b_i = b;
       }
-      if (cycle >= 950 && cycle < 950 + 1024) {
+      if (cycle >= 950 && cycle < 950 + board::kPwmPeriodCycles) {
         for (int j = 0; j < 3; ++j) high[j] += (top.drive_pwm_o >> j) & 1;
       }
       if (cycle == 950) {
@@ -158,7 +158,7 @@ class SafetyBench {
     apply_encoders();
     cycle();
   }
-  void periods(int count) { cycles(count * 2400); }
+  void periods(int count) { cycles(count * kClocksPerPeriod); }
   void cycles(int count) {
     for (int i = 0; i < count; ++i) cycle();
   }
@@ -186,7 +186,9 @@ class SafetyBench {
   int pwm_high_ = 0;
 };
 
-constexpr int kEncoderSkip = 1, kFollowing = 2, kWatchdog = 4, kTravel = 8;
+// Fault cause bits, named in the board's package.
+constexpr int kEncoderSkip = 1 << board::kFaultEncoderSkip, kFollowing = 1 << board::kFaultFollowing,
+              kWatchdog = 1 << board::kFaultWatchdog, kTravel = 1 << board::kFaultTravel;
 
 // Torque off: enable low and no PWM pulse over two whole periods, whatever the controller computes.
 void expect_torque_off(SafetyBench& bench, int cause) {
@@ -252,7 +254,7 @@ TEST(JointAxesSafety, WatchdogStopsTorqueWhenTheReferencesStop) {
 // One Verilated bench per test: two alive at once in one thread hang in eval().
 TEST(JointAxesSafety, ReferenceOutsideTheTravelStopsTorque) {
   SafetyBench outside;
-  outside.move(0, 9150 - 3000);  // 91.50 deg, inside the travel
+  outside.move(0, 9150 - kHomeCount);  // 91.50 deg, inside the travel
   outside.send_reference({92.15, 30.0, 30.0});  // 9215 counts: the travel's end, allowed
   outside.periods(2);
   EXPECT_EQ(outside.top().fault_o, 0);

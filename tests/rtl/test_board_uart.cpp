@@ -15,7 +15,10 @@
 
 #include "Vboard_core.h"
 #include "delta/golden/joint_fixed.hpp"
-#include "delta/rtl/board_link.hpp"
+#include "delta/board_facts.hpp"
+#include "delta/link_v1.hpp"
+#include "delta/robot_world.hpp"
+#include "delta/rtl/board_clock.hpp"
 #include "delta/golden/export.hpp"
 #include "delta/golden/fixed_network.hpp"
 #include "rtl_fixture.hpp"
@@ -23,10 +26,11 @@
 namespace delta::test {
 namespace {
 
-// -G parameters of the Verilated board core (rtl/board/CMakeLists.txt).
-constexpr int kClocksPerBit = 4;
-constexpr int kClocksPerPeriod = 2000;  // joint control period in board clocks
-constexpr int kHomeCount = 3000;        // board_core's default HomeCount
+// The Verilated board core's test build (-G values from rtl/board/delta_board_pkg.sv, Sim*).
+constexpr int kClocksPerBit = static_cast<int>(board::kSimClocksPerBit);
+constexpr int kClocksPerPeriod = static_cast<int>(board::kSimClocksPerPeriod);  // control period in board clocks
+constexpr int kHomeCount = static_cast<int>(board::kHomeCount);
+constexpr int kPwmPeriod = static_cast<int>(board::kPwmPeriodCycles);
 
 // Checks the drive outputs against the golden joint controller, period by period, and moves the
 // encoders (one count per period at most, 100 deg/s). Board edge e (0 at the first edge after
@@ -49,8 +53,8 @@ class JointMonitor {
   void drive(Vboard_core& core) const {
     int a = 0, b = 0;
     for (int j = 0; j < 3; ++j) {
-      a |= cosim::quadrature_a(position_[j]) << j;
-      b |= cosim::quadrature_b(position_[j]) << j;
+      a |= quadrature_a(position_[j]) << j;
+      b |= quadrature_b(position_[j]) << j;
     }
     core.encoder_a_i = a;
     core.encoder_b_i = b;
@@ -69,7 +73,7 @@ class JointMonitor {
         EXPECT_EQ((core.drive_dir_o >> j) & 1, expected_[j] < 0 ? 1 : 0) << "period " << edge / kClocksPerPeriod << " joint " << j;
       }
     }
-    if (cycle >= kWindowStart && cycle < kWindowStart + 1024) {
+    if (cycle >= kWindowStart && cycle < kWindowStart + kPwmPeriod) {
       for (int j = 0; j < 3; ++j) high_[j] += (core.drive_pwm_o >> j) & 1;
     }
     if (cycle == kWindowStart + 1023) {
@@ -77,7 +81,7 @@ class JointMonitor {
         const int duty = std::abs(static_cast<int>(expected_[j])) >> 4;
         EXPECT_EQ(high_[j], duty) << "period " << edge / kClocksPerPeriod << " joint " << j << " current " << expected_[j];
         largest_duty_ = std::max(largest_duty_, duty);
-        partial_duties_ += duty > 0 && duty < 1024;
+        partial_duties_ += duty > 0 && duty < kPwmPeriod;
       }
     }
     EXPECT_EQ(core.encoder_error_o, 0);
@@ -175,7 +179,7 @@ class BoardUart {
   // the receiver samples tx_o mid-bit after a falling edge (a start bit).
   void tick() {
     if (listening_) joints_.drive(*core_);
-    cosim::clock_board(*core_);
+    rtl::clock_board(*core_);
     context_->timeInc(1);
     const int tx = core_->uart_tx_o;
     if (!listening_) return;
@@ -209,12 +213,12 @@ class BoardUart {
 
 // The answer's three codes, after its framing and checksum are checked.
 std::array<std::int64_t, 3> answer_codes(const std::vector<std::uint8_t>& answer, int vector) {
-  const auto codes = cosim::parse_answer(answer);
+  const auto codes = link_v1::parse_answer(answer);
   EXPECT_TRUE(codes.has_value()) << "vector " << vector << ": " << answer.size() << " bytes, or a bad checksum";
   return codes.value_or(std::array<std::int64_t, 3>{});
 }
 
-using cosim::request_frame;
+using link_v1::request_frame;
 
 TEST(BoardUart, AnswersEqualTheGoldenModel) {
   constexpr std::uint64_t kSeed = 20260105;

@@ -10,9 +10,14 @@
 //     0.01 deg counts) -> quadrature A/B --> board_core
 //   plate: true geometry FK(a) -> frame_misalignment -> measured position p (compared with p_ref)
 //
-// Time base: the board core is the Verilated test build (rtl/CMakeLists.txt): 2000 board cycles
-// per 100 us control period, i.e. a 20 MHz board clock (40 MHz network clock), and a UART of 4
-// board cycles per bit (5 Mbaud). The plants are integrated every 20 board cycles (1 us).
+// Parts: the world (sim/robot_world.hpp: plants, sensors, encoders, PWM averaging), the board
+// (the Verilated board core and its serial line, rtl/board/sim) and the host side (link_v1.hpp:
+// frames and one request in flight, bytes only).
+//
+// Time base: the board core is the Verilated test build (rtl/CMakeLists.txt): SimClocksPerPeriod
+// board cycles per 100 us control period, i.e. a 20 MHz board clock, and a UART of
+// SimClocksPerBit board cycles per bit (5 Mbaud). The plants are integrated every 20 board
+// cycles (1 us).
 #pragma once
 
 #include <array>
@@ -22,15 +27,19 @@
 #include <string>
 #include <vector>
 
+#include "delta/board_facts.hpp"
 #include "delta/effects.hpp"
 #include "delta/geometry.hpp"
 #include "delta/joint_plant.hpp"
 
 namespace delta::cosim {
 
-constexpr double kBoardClockHz = 20.0e6;  // 2000 cycles per 100 us (Vboard_core's ClocksPerPeriod)
-constexpr int kClocksPerBit = 4;          // Vboard_core's ClocksPerBit
-constexpr int kHomeCount = 3000;          // board_core's HomeCount: 30.00 deg at reset
+// The Verilated test build's clock and link (rtl/board/delta_board_pkg.sv, Sim*), and the board's home.
+constexpr double kBoardClockHz = static_cast<double>(board::kSimClocksPerPeriod * board::kControlRateHz);
+constexpr int kClocksPerBit = static_cast<int>(board::kSimClocksPerBit);
+constexpr int kHomeCount = static_cast<int>(board::kHomeCount);
+constexpr double kCurrentFullScaleA = board::kCurrentFullScaleMilliamp / 1000.0;
+constexpr double kCountDeg = board::kEncoderCountMicrodeg * 1e-6;
 
 struct CosimOptions {
   std::string mem_dir;                          // the network's .mem files (golden::write_export)

@@ -1,0 +1,99 @@
+// The robot around a board, one board clock at a time: drive pins in, encoder lines out.
+//
+//   drives: PWM duty -> current (full scale at 100 % duty, averaged over one PWM period)
+//   plants: current -> true joint angle (joint_plant: motor, gearbox, friction, gravity)
+//   sensors: true angle -> encoder reading (encoder_scale, transmission_error, backlash,
+//     joint_offset, counts) -> quadrature A/B lines, one state per quadrature dwell at most
+//   plate: true geometry FK(true angles) -> frame_misalignment -> what the measuring stage sees
+//
+// Plain C++/Eigen, no board model: the co-simulation and the virtual board bind it to an RTL
+// or a model of the board, whose facts (clock, PWM period, home count) come in BoardInterface.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "delta/effects.hpp"
+#include "delta/geometry.hpp"
+#include "delta/joint_plant.hpp"
+
+namespace delta {
+
+// What the world needs to know of the board's pins and clock.
+struct BoardInterface {
+  double board_clock_hz = 0.0;
+  int pwm_period_cycles = 0;          // PWM period in board cycles
+  double current_full_scale_a = 0.0;  // current at 100 % duty
+  int home_count = 0;                 // encoder count at the board's reset
+  double count_deg = 0.01;            // one encoder count
+  int plant_divider = 20;             // board cycles per plant integration step
+  int quadrature_dwell = 4;           // board cycles per quadrature state, at least
+};
+
+// The board's drive outputs during one board cycle.
+struct DrivePins {
+  int pwm = 0;       // bit j: joint j's PWM level
+  int direction = 0; // bit j: 1 = negative current
+  bool enable = false;
+};
+
+class RobotWorld {
+ public:
+  // Places the plants where the encoders read the home count (the arms on their home fixture)
+  // with the plate at rest there. Throws std::runtime_error if no such pose exists.
+  RobotWorld(const BoardInterface& board, const EffectSet& effects, const Geometry& nominal,
+             const JointPlantParameters& plant);
+  ~RobotWorld();
+  RobotWorld(const RobotWorld&) = delete;
+  RobotWorld& operator=(const RobotWorld&) = delete;
+
+  // One board cycle with the drive pins the board showed in it: PWM averaging, the plants every
+  // plant_divider cycles; then the encoder lines of the next cycle, one quadrature state closer to
+  // the reading.
+  void step(const DrivePins& pins);
+
+  int encoder_a() const;  // bit j: joint j's A line for the next board cycle
+  int encoder_b() const;
+  std::uint64_t cycle() const { return cycle_; }
+  double time_s() const { return static_cast<double>(cycle_) / board_.board_clock_hz; }
+
+  const Vec3& true_alpha_deg() const { return true_alpha_deg_; }
+  const Vec3& current_a() const { return current_a_; }  // applied over the last plant step
+  Vec3 encoder_deg() const;                             // the counts on the lines, in degrees
+  Vec3 measured_position_m() const;                     // the plate as the stage sees it
+  const Vec3& home_true_alpha_deg() const { return home_true_alpha_deg_; }
+  const Vec3& home_measured_m() const { return home_measured_m_; }
+  // Where the stage would see the plate if the encoders read `readings_deg` through the
+  // backlash's present play (the play kept, the rest of the sensor chain inverted).
+  Vec3 plate_for_readings(const Vec3& readings_deg) const;
+  const Geometry& true_geometry() const { return true_geometry_; }
+  const EffectSet& effects() const { return effects_; }
+
+ private:
+  class Quadrature;
+  double true_angle_for_reading(int joint, double reading_deg) const;
+
+  BoardInterface board_;
+  EffectSet effects_;
+  Geometry true_geometry_;
+  JointSensorChain sensors_;
+  std::array<std::unique_ptr<JointPlant>, 3> plants_;
+  std::array<std::unique_ptr<Quadrature>, 3> encoders_;
+  std::array<std::vector<std::uint8_t>, 3> pwm_history_;
+  std::array<int, 3> pwm_high_{0, 0, 0};
+  Vec3 true_alpha_deg_ = Vec3::Zero();
+  Vec3 reading_deg_ = Vec3::Zero();
+  Vec3 current_a_ = Vec3::Zero();
+  Vec3 home_true_alpha_deg_ = Vec3::Zero();
+  Vec3 home_measured_m_ = Vec3::Zero();
+  std::uint64_t cycle_ = 0;
+};
+
+// Quadrature encoder lines `steps` counts from the start ({A, B} = 00 -> 10 -> 11 -> 01 counting
+// up, as rtl/joint/quadrature_counter.sv decodes them).
+inline int quadrature_a(int steps) { return ((steps % 4 + 4) % 4 + 1) / 2 % 2; }  // 0, 1, 1, 0
+inline int quadrature_b(int steps) { return ((steps % 4 + 4) % 4) / 2; }          // 0, 0, 1, 1
+
+}  // namespace delta

@@ -1,0 +1,140 @@
+// The robot around a board, one board clock at a time (see robot_world.hpp).
+#include "delta/robot_world.hpp"
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+#include "delta/kinematics.hpp"
+
+namespace delta {
+
+// Quadrature lines that follow a target count one state per dwell.
+class RobotWorld::Quadrature {
+ public:
+  Quadrature(int count, int home_count, int dwell) : count_(count), target_(count), home_(home_count), dwell_(dwell) {}
+  void set_target(int count) { target_ = count; }
+  void step() {
+    if (++waited_ < dwell_ || count_ == target_) return;
+    waited_ = 0;
+    count_ += count_ < target_ ? 1 : -1;
+  }
+  int count() const { return count_; }
+  int a() const { return quadrature_a(count_ - home_); }
+  int b() const { return quadrature_b(count_ - home_); }
+
+ private:
+  int count_;
+  int target_;
+  int home_;
+  int dwell_;
+  int waited_ = 0;
+};
+
+RobotWorld::RobotWorld(const BoardInterface& board, const EffectSet& effects, const Geometry& nominal,
+                       const JointPlantParameters& plant)
+    : board_(board), effects_(effects), true_geometry_(apply_geometry_effects(nominal, effects)), sensors_(effects) {
+  if (!(board.board_clock_hz > 0.0) || board.pwm_period_cycles <= 0 || board.plant_divider <= 0) {
+    throw std::invalid_argument("RobotWorld: board clock, PWM period and plant divider must be positive");
+  }
+  // Home: the encoders read the home count with the plate at rest there.
+  for (int j = 0; j < 3; ++j) home_true_alpha_deg_[j] = true_angle_for_reading(j, board.home_count * board.count_deg);
+  const FkSolution home = forward_kinematics(true_geometry_, home_true_alpha_deg_);
+  if (!home.ok()) throw std::runtime_error("the robot's home pose: " + home.reason());
+  home_measured_m_ = apply_frame_misalignment(effects, home.position_m);
+
+  JointPlantParameters plant_parameters = plant;
+  plant_parameters.substeps = 1;  // the plant step (plant_divider board cycles, ~1 us) is already short
+  for (int j = 0; j < 3; ++j) {
+    plants_[j] = std::make_unique<JointPlant>(plant_parameters, home_true_alpha_deg_[j]);
+    encoders_[j] = std::make_unique<Quadrature>(board.home_count, board.home_count, board.quadrature_dwell);
+    pwm_history_[j].assign(static_cast<std::size_t>(board.pwm_period_cycles), 0);
+  }
+  true_alpha_deg_ = home_true_alpha_deg_;
+  reading_deg_ = sensors_.update(true_alpha_deg_);  // the backlash starts centred at home
+  for (auto& encoder : encoders_) encoder->step();  // the lines of the first board cycle
+}
+
+RobotWorld::~RobotWorld() = default;
+
+// The true angle at which joint j's encoder reads `reading_deg` (bisection over +-20 deg).
+double RobotWorld::true_angle_for_reading(int joint, double reading_deg) const {
+  auto error = [&](double true_deg) { return sensors_.reading_without_backlash(joint, true_deg) - reading_deg; };
+  double low = reading_deg - 20.0, high = reading_deg + 20.0;
+  if (error(low) * error(high) > 0) {
+    throw std::runtime_error("no true angle of joint " + std::to_string(joint + 1) + " reads " +
+                             std::to_string(reading_deg) + " deg within +-20 deg");
+  }
+  for (int i = 0; i < 80; ++i) {
+    const double mid = 0.5 * (low + high);
+    if (error(mid) * error(low) <= 0) {
+      high = mid;
+    } else {
+      low = mid;
+    }
+  }
+  return 0.5 * (low + high);
+}
+
+void RobotWorld::step(const DrivePins& pins) {
+  // Drives: the current follows the PWM duty averaged over one PWM period.
+  const std::size_t slot = cycle_ % static_cast<std::uint64_t>(board_.pwm_period_cycles);
+  for (int j = 0; j < 3; ++j) {
+    const std::uint8_t high = (pins.pwm >> j) & 1;
+    pwm_high_[j] += high - pwm_history_[j][slot];
+    pwm_history_[j][slot] = high;
+  }
+  if (cycle_ % board_.plant_divider == static_cast<std::uint64_t>(board_.plant_divider - 1)) {
+    for (int j = 0; j < 3; ++j) {
+      const double sign = ((pins.direction >> j) & 1) ? -1.0 : 1.0;
+      current_a_[j] = pins.enable ? sign * board_.current_full_scale_a * pwm_high_[j] / board_.pwm_period_cycles : 0.0;
+      plants_[j]->step(current_a_[j], board_.plant_divider / board_.board_clock_hz);
+      true_alpha_deg_[j] = plants_[j]->shaft_angle_deg();
+    }
+    reading_deg_ = sensors_.update(true_alpha_deg_);
+    for (int j = 0; j < 3; ++j) {
+      encoders_[j]->set_target(static_cast<int>(std::lround(reading_deg_[j] / board_.count_deg)));
+    }
+  }
+  ++cycle_;
+  // The lines the board samples in its next cycle.
+  for (auto& encoder : encoders_) encoder->step();
+}
+
+int RobotWorld::encoder_a() const {
+  int a = 0;
+  for (int j = 0; j < 3; ++j) a |= encoders_[j]->a() << j;
+  return a;
+}
+
+int RobotWorld::encoder_b() const {
+  int b = 0;
+  for (int j = 0; j < 3; ++j) b |= encoders_[j]->b() << j;
+  return b;
+}
+
+Vec3 RobotWorld::encoder_deg() const {
+  Vec3 deg;
+  for (int j = 0; j < 3; ++j) deg[j] = encoders_[j]->count() * board_.count_deg;
+  return deg;
+}
+
+Vec3 RobotWorld::measured_position_m() const {
+  const FkSolution plate = forward_kinematics(true_geometry_, true_alpha_deg_);
+  if (!plate.ok()) throw std::runtime_error("plate pose at t = " + std::to_string(time_s()) + " s: " + plate.reason());
+  return apply_frame_misalignment(effects_, plate.position_m);
+}
+
+Vec3 RobotWorld::plate_for_readings(const Vec3& readings_deg) const {
+  Vec3 alpha;
+  for (int j = 0; j < 3; ++j) {
+    // The backlash's present lag (reading - reading without backlash) is kept.
+    const double play = reading_deg_[j] - sensors_.reading_without_backlash(j, true_alpha_deg_[j]);
+    alpha[j] = true_angle_for_reading(j, readings_deg[j] - play);
+  }
+  const FkSolution plate = forward_kinematics(true_geometry_, alpha);
+  if (!plate.ok()) throw std::runtime_error("plate pose for readings: " + plate.reason());
+  return apply_frame_misalignment(effects_, plate.position_m);
+}
+
+}  // namespace delta

@@ -1,0 +1,4 @@
+# The layout: hls/ and rtl/ hold no command-line, table or plot code; hls/ no float or double.
+add_test(NAME Layout.HlsAndRtlHoldNoCommandLineCodeAndHlsNoFloatingPoint
+  COMMAND ${PROJECT_SOURCE_DIR}/tests/layout/check_layout.sh)
+set_tests_properties(Layout.HlsAndRtlHoldNoCommandLineCodeAndHlsNoFloatingPoint PROPERTIES LABELS host)

@@ -1,0 +1,21 @@
+#!/usr/bin/env bash
+# The layout shows the architecture (issue 11): hls/ holds only synthesizable C++ and its
+# C-simulation testbenches, rtl/ SystemVerilog, harnesses and the FPGA flow; neither includes the
+# command line (CLI11, delta/command.hpp) nor the host's table or plot code; nothing under hls/
+# computes in float or double. Prints every offending line; exit 1 if there is one.
+set -euo pipefail
+root=$(cd "$(dirname "$0")/../.." && pwd)
+cd "$root"
+status=0
+if grep -rn -E '#include *[<"](CLI/|delta/(command|table|plot)\.hpp)' hls rtl; then
+  echo "layout: hls/ or rtl/ includes command-line, table or plot code (move it to host/)" >&2
+  status=1
+fi
+# float/double as a type or a cast, outside comments.
+if grep -rn -E '\b(double|float)\b' hls --include='*.cpp' --include='*.hpp' --include='*.h' |
+   grep -v -E '^[^:]+:[0-9]+: *//' | grep -v -E '//.*\b(double|float)\b' ; then
+  echo "layout: float or double under hls/ (coefficients and constants as integer codes)" >&2
+  status=1
+fi
+if ((status == 0)); then echo "layout: hls/ and rtl/ include no command-line, table or plot code; no float or double under hls/"; fi
+exit $status
