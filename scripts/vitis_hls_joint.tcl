@@ -33,6 +33,8 @@ add_files -tb $export_dir/joint_golden_vectors.txt
 open_solution -reset solution_xc7a35t -flow_target vivado
 set_part xc7a35ticsg324-1L
 create_clock -period 10 -name default
+# ap_rst also clears the static states (primed, overflow count), as the RTL's reset does.
+config_rtl -reset state
 
 csim_design -argv joint_golden_vectors.txt
 csynth_design

@@ -16,9 +16,9 @@ struct DefaultJointConfig {
   static constexpr int encoder_bits = 16;                            // counts (input)
   static constexpr int state_bits = 32, state_fraction = 24;         // Q8.24: velocities, acceleration, disturbance
   static constexpr int current_bits = 16, current_fraction = 15;     // Q1.15 A (output)
-  static constexpr int operand_bits = 40;       // signed multiplier operand, saturated
-  static constexpr int coefficient_bits = 24;   // signed coefficient codes
-  static constexpr int overflow_count_bits = 16;  // saturations since reset, sticks at its maximum
+  static constexpr int operand_bits = 40;                            // signed multiplier operand, saturated
+  static constexpr int coefficient_bits = 24;                        // signed coefficient codes
+  static constexpr int overflow_count_bits = 16;                     // saturations since reset, sticks at its maximum
   // Fraction bits of the coefficients of each update (the largest that keeps them in 24 bits).
   static constexpr int reference_shift = 26;    // reference filter
   static constexpr int velocity_shift = 25;     // velocity observer (VOB)
@@ -55,7 +55,7 @@ struct DefaultJointConfig {
   typedef fixed_exact<reference_bits, reference_integer> reference_t;
   typedef fixed_exact<encoder_bits, encoder_bits> encoder_t;
   typedef fixed_exact<current_bits, current_bits - current_fraction> current_t;  // limited before the store
-  typedef uint_t<joints> limited_t;                      // bit j: joint j's command was clipped
+  typedef uint_t<joints> limited_t;                                              // bit j: joint j's command was clipped
   typedef uint_t<overflow_count_bits> overflow_count_t;
   // States: rounded (half up) and saturated on every store.
   typedef fixed_round_sat<state_bits, state_integer> state_t;
@@ -76,11 +76,13 @@ struct DefaultJointConfig {
   // Accumulators (exact) and the rounded results before the saturating store (never saturate).
   typedef fixed_exact<reference_accumulator_bits, reference_accumulator_bits - reference_shift - state_fraction>
       reference_accumulator_t;
-  typedef fixed_round_sat<reference_accumulator_bits - reference_shift, reference_accumulator_bits - reference_shift - state_fraction>
+  typedef fixed_round_sat<reference_accumulator_bits - reference_shift,
+                          reference_accumulator_bits - reference_shift - state_fraction>
       reference_rounded_t;
   typedef fixed_exact<velocity_accumulator_bits, velocity_accumulator_bits - velocity_shift - state_fraction>
       velocity_accumulator_t;
-  typedef fixed_round_sat<velocity_accumulator_bits - velocity_shift, velocity_accumulator_bits - velocity_shift - state_fraction>
+  typedef fixed_round_sat<velocity_accumulator_bits - velocity_shift,
+                          velocity_accumulator_bits - velocity_shift - state_fraction>
       velocity_rounded_t;
   typedef fixed_exact<disturbance_accumulator_bits, disturbance_accumulator_bits - disturbance_shift - state_fraction>
       disturbance_accumulator_t;

@@ -41,21 +41,24 @@ struct JointCoefficients {
 template <class C>
 JointCoefficients<C> joint_coefficients(const JointCoefficientCodes& codes) {
   JointCoefficients<C> c;
-  c.reference_gain =
-      fixed_from_code<typename C::reference_coefficient_t, C::coefficient_bits, C::reference_shift>(codes.reference_gain);
-  c.velocity_encoder_gain =
-      fixed_from_code<typename C::velocity_coefficient_t, C::coefficient_bits, C::velocity_shift>(codes.velocity_encoder_gain);
-  c.velocity_current_gain =
-      fixed_from_code<typename C::velocity_coefficient_t, C::coefficient_bits, C::velocity_shift>(codes.velocity_current_gain);
+  c.reference_gain = fixed_from_code<typename C::reference_coefficient_t, C::coefficient_bits, C::reference_shift>(
+      codes.reference_gain);
+  c.velocity_encoder_gain = fixed_from_code<typename C::velocity_coefficient_t, C::coefficient_bits, C::velocity_shift>(
+      codes.velocity_encoder_gain);
+  c.velocity_current_gain = fixed_from_code<typename C::velocity_coefficient_t, C::coefficient_bits, C::velocity_shift>(
+      codes.velocity_current_gain);
   c.disturbance_gain =
-      fixed_from_code<typename C::disturbance_coefficient_t, C::coefficient_bits, C::disturbance_shift>(codes.disturbance_gain);
-  c.disturbance_velocity_gain = fixed_from_code<typename C::disturbance_coefficient_t, C::coefficient_bits,
-                                                C::disturbance_shift>(codes.disturbance_velocity_gain);
+      fixed_from_code<typename C::disturbance_coefficient_t, C::coefficient_bits, C::disturbance_shift>(
+          codes.disturbance_gain);
+  c.disturbance_velocity_gain =
+      fixed_from_code<typename C::disturbance_coefficient_t, C::coefficient_bits, C::disturbance_shift>(
+          codes.disturbance_velocity_gain);
   c.law_acceleration_gain =
       fixed_from_code<typename C::law_coefficient_t, C::coefficient_bits, C::law_shift>(codes.law_acceleration_gain);
-  c.law_velocity_gain = fixed_from_code<typename C::law_coefficient_t, C::coefficient_bits, C::law_shift>(codes.law_velocity_gain);
-  c.law_position_gain =
-      fixed_from_code<typename C::position_coefficient_t, C::coefficient_bits, C::position_shift>(codes.law_position_gain);
+  c.law_velocity_gain =
+      fixed_from_code<typename C::law_coefficient_t, C::coefficient_bits, C::law_shift>(codes.law_velocity_gain);
+  c.law_position_gain = fixed_from_code<typename C::position_coefficient_t, C::coefficient_bits, C::position_shift>(
+      codes.law_position_gain);
   c.current_limit = fixed_from_code<typename C::current_t, C::current_bits, C::current_fraction>(codes.current_limit);
   return c;
 }
@@ -66,10 +69,10 @@ struct JointState {
   typename C::reference_t reference;  // previous reference
   typename C::state_t reference_velocity;
   typename C::state_t reference_acceleration;
-  typename C::encoder_t encoder;      // previous encoder count
-  typename C::state_t velocity;       // VOB
-  typename C::state_t disturbance;    // DOB, A
-  typename C::current_t current;      // applied over the previous period
+  typename C::encoder_t encoder;    // previous encoder count
+  typename C::state_t velocity;     // VOB
+  typename C::state_t disturbance;  // DOB, A
+  typename C::current_t current;    // applied over the previous period
 };
 
 // Everything the block keeps across calls.
@@ -116,8 +119,9 @@ typename C::state_t joint_store(const Accumulator& accumulator, JointSaturations
 
 // One control period of one joint: the golden fixed_update, term by term. Returns the current.
 template <class C>
-typename C::current_t joint_update(JointState<C>& s, const JointCoefficients<C>& c, const typename C::reference_t& reference,
-                                   const typename C::encoder_t& encoder, bool& limited, JointSaturations& saturations) {
+typename C::current_t joint_update(JointState<C>& s, const JointCoefficients<C>& c,
+                                   const typename C::reference_t& reference, const typename C::encoder_t& encoder,
+                                   bool& limited, JointSaturations& saturations) {
   typedef typename C::operand_t operand_t;
   typedef typename C::operand_exact_t operand_exact_t;
 
@@ -150,7 +154,8 @@ typename C::current_t joint_update(JointState<C>& s, const JointCoefficients<C>&
   typename C::disturbance_accumulator_t disturbance_sum = s.disturbance;
   disturbance_sum += c.disturbance_gain * joint_operand<operand_t>(current_error, saturations);
   disturbance_sum += c.disturbance_velocity_gain * joint_operand<operand_t>(velocity_step, saturations);
-  const typename C::state_t disturbance = joint_store<C, typename C::disturbance_rounded_t>(disturbance_sum, saturations);
+  const typename C::state_t disturbance =
+      joint_store<C, typename C::disturbance_rounded_t>(disturbance_sum, saturations);
 
   // Eq. 5: i = i_dis + Kacc a_ref - Kacc k_v Ts (v - v_ref) - Kacc k_p Ts^2 (theta - theta_ref).
   const operand_exact_t acceleration = reference_acceleration;
@@ -189,9 +194,9 @@ typename C::current_t joint_update(JointState<C>& s, const JointCoefficients<C>&
 // One control period of every joint: the block's whole behaviour between ap_start and ap_done.
 template <class C>
 void joint_controller(JointMemory<C>& memory, const JointCoefficientCodes& codes,
-                      const typename C::reference_t reference[C::joints], const typename C::encoder_t encoder[C::joints],
-                      typename C::current_t current[C::joints], typename C::limited_t& limited,
-                      typename C::overflow_count_t& overflow_count) {
+                      const typename C::reference_t reference[C::joints],
+                      const typename C::encoder_t encoder[C::joints], typename C::current_t current[C::joints],
+                      typename C::limited_t& limited, typename C::overflow_count_t& overflow_count) {
   const JointCoefficients<C> coefficients = joint_coefficients<C>(codes);
   const int overflow_count_max = (1 << C::overflow_count_bits) - 1;
 Joints:

@@ -1,7 +1,8 @@
 // C-simulation testbench of the joint synthesis top (Vitis csim and cosim, and CTest here): every
 // output code, and in C simulation every state code and the compiled-in coefficients, against the
 // golden vectors that tests/control/joint_golden_vectors.cpp writes from the golden model in closed loop.
-// Usage: joint_top_tb [joint_golden_vectors.txt] [--ports-only]; exit 0 only if every code matches.
+// Usage: joint_top_tb [joint_golden_vectors.txt] [--ports-only]; exit 0 only if every code matches
+// and every period the file announces (its closing line `end N`) was read.
 // --ports-only (C/RTL co-simulation) compares the ports alone: there the states live in the RTL.
 #include <cstdio>
 #include <cstring>
@@ -18,9 +19,9 @@ const int kStateFields = 7;
 
 struct Mismatches {
   long long count = 0;
-  void report(long long period, const char* what, int joint, long long top, long long golden) {
+  void report(long long period, const char* what, int index, long long top, long long golden) {
     if (top != golden && ++count <= 5) {
-      std::fprintf(stderr, "period %lld %s joint %d: top %lld, golden %lld\n", period, what, joint, top, golden);
+      std::fprintf(stderr, "period %lld %s[%d]: top %lld, golden %lld\n", period, what, index, top, golden);
     }
   }
 };
@@ -52,10 +53,12 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "joint_top_tb: cannot read %s\n", path);
     return 2;
   }
-  static const char* const kStateNames[kStateFields] = {"state reference", "state reference_velocity",
-                                                         "state reference_acceleration", "state encoder",
-                                                         "state velocity", "state disturbance", "state current"};
+  static const char* const kStateNames[kStateFields] = {
+      "state reference", "state reference_velocity", "state reference_acceleration",
+      "state encoder",   "state velocity",           "state disturbance",
+      "state current"};
   long long periods = 0;
+  long long periods_written = -1;  // from the closing "end N" line: a cut file fails
   bool coefficients_checked = false;
   Mismatches mismatches;
   std::string line;
@@ -66,6 +69,11 @@ int main(int argc, char** argv) {
       continue;
     }
     std::istringstream fields(line);
+    if (line.compare(0, 4, "end ") == 0) {
+      std::string word;
+      fields >> word >> periods_written;
+      break;
+    }
     if (line.compare(0, 12, "coefficients") == 0) {
       std::string word;
       long long golden[9];
@@ -77,9 +85,9 @@ int main(int argc, char** argv) {
       }
       if (!ports_only) {
         const delta_hls::JointCoefficientCodes c = joint_top_coefficient_codes();
-        const long long top[9] = {c.reference_gain,        c.velocity_encoder_gain, c.velocity_current_gain,
-                                  c.disturbance_gain,      c.disturbance_velocity_gain, c.law_acceleration_gain,
-                                  c.law_velocity_gain,     c.law_position_gain,     c.current_limit};
+        const long long top[9] = {c.reference_gain,    c.velocity_encoder_gain,     c.velocity_current_gain,
+                                  c.disturbance_gain,  c.disturbance_velocity_gain, c.law_acceleration_gain,
+                                  c.law_velocity_gain, c.law_position_gain,         c.current_limit};
         for (int n = 0; n < 9; ++n) mismatches.report(-1, "coefficient", n, top[n], golden[n]);
         coefficients_checked = true;
       }
@@ -104,12 +112,14 @@ int main(int argc, char** argv) {
     C::limited_t limited;
     C::overflow_count_t overflow_count;
     for (int j = 0; j < C::joints; ++j) {
-      reference[j] = delta_hls::fixed_from_code<C::reference_t, C::reference_bits, C::reference_fraction>(reference_code[j]);
+      reference[j] =
+          delta_hls::fixed_from_code<C::reference_t, C::reference_bits, C::reference_fraction>(reference_code[j]);
       encoder[j] = delta_hls::fixed_from_code<C::encoder_t, C::encoder_bits, 0>(encoder_code[j]);
     }
     joint_top(reference, encoder, current, limited, overflow_count);
     for (int j = 0; j < C::joints; ++j) {
-      mismatches.report(periods, "current", j, delta_hls::fixed_to_code<C::current_bits, C::current_fraction>(current[j]),
+      mismatches.report(periods, "current", j,
+                        delta_hls::fixed_to_code<C::current_bits, C::current_fraction>(current[j]),
                         current_expected[j]);
     }
     mismatches.report(periods, "limited", -1, limited.to_uint(), limited_expected);
@@ -118,13 +128,17 @@ int main(int argc, char** argv) {
       for (int j = 0; j < C::joints; ++j) {
         long long top[kStateFields];
         state_codes(joint_top_state(j), top);
-        for (int n = 0; n < kStateFields; ++n) mismatches.report(periods, kStateNames[n], j, top[n], state_expected[j][n]);
+        for (int n = 0; n < kStateFields; ++n)
+          mismatches.report(periods, kStateNames[n], j, top[n], state_expected[j][n]);
       }
     }
     ++periods;
   }
   std::printf("joint_top_tb: %lld periods x %d joints, %s, %lld mismatching codes\n", periods, C::joints,
               ports_only ? "ports only" : "ports, states and coefficients", mismatches.count);
-  const bool complete = ports_only || coefficients_checked;
+  if (periods_written != periods) {
+    std::fprintf(stderr, "joint_top_tb: %s: %lld periods read, the file says %lld\n", path, periods, periods_written);
+  }
+  const bool complete = periods_written == periods && (ports_only || coefficients_checked);
   return periods > 0 && complete && mismatches.count == 0 ? 0 : 1;
 }

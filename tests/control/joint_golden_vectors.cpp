@@ -18,9 +18,9 @@ using delta::control::JointFixedCoefficients;
 using delta::control::JointFixedState;
 
 std::array<long long, 9> codes(const JointFixedCoefficients& c) {
-  return {c.reference_gain,        c.velocity_encoder_gain, c.velocity_current_gain,
-          c.disturbance_gain,      c.disturbance_velocity_gain, c.law_acceleration_gain,
-          c.law_velocity_gain,     c.law_position_gain,     c.current_limit_code};
+  return {c.reference_gain,    c.velocity_encoder_gain,     c.velocity_current_gain,
+          c.disturbance_gain,  c.disturbance_velocity_gain, c.law_acceleration_gain,
+          c.law_velocity_gain, c.law_position_gain,         c.current_limit_code};
 }
 
 bool write_coefficients(const std::string& path, const JointFixedCoefficients& c) {
@@ -47,7 +47,8 @@ int main(int argc, char** argv) {
   const std::string directory = argv[1];
   const long periods = std::strtol(argv[2], nullptr, 10);
   const std::uint64_t seed = argc > 3 ? std::strtoull(argv[3], nullptr, 10) : delta::control::test_seed();
-  const JointFixedCoefficients coefficients = delta::control::make_fixed_coefficients(delta::control::JointControllerParameters{});
+  const JointFixedCoefficients coefficients =
+      delta::control::make_fixed_coefficients(delta::control::JointControllerParameters{});
   if (!write_coefficients(directory + "/joint_coefficients.hpp", coefficients)) {
     std::fprintf(stderr, "joint_golden_vectors: cannot write %s/joint_coefficients.hpp\n", directory.c_str());
     return 1;
@@ -64,7 +65,8 @@ int main(int argc, char** argv) {
                "# coefficients: the 9 codes of JointFixedCoefficients in declaration order.\n"
                "# Per period: reference_0..2 (Q24.8), encoder_0..2, then the expected current_0..2 (Q1.15),\n"
                "# limited (bit j), overflow_count, and per joint the state after the period: reference,\n"
-               "# reference_velocity, reference_acceleration, encoder, velocity, disturbance, current.\n",
+               "# reference_velocity, reference_acceleration, encoder, velocity, disturbance, current.\n"
+               "# The last line, end N, gives the number of periods written.\n",
                static_cast<unsigned long long>(seed), periods);
   std::fprintf(out, "coefficients");
   for (long long code : codes(coefficients)) std::fprintf(out, " %lld", code);
@@ -75,7 +77,8 @@ int main(int argc, char** argv) {
     for (const auto& input : inputs) std::fprintf(out, "%d ", input.reference);
     for (const auto& input : inputs) std::fprintf(out, "%d ", input.encoder);
     for (std::int16_t current : loop.golden_current) std::fprintf(out, "%d ", current);
-    const int limited = (loop.golden_limited[0] ? 1 : 0) | (loop.golden_limited[1] ? 2 : 0) | (loop.golden_limited[2] ? 4 : 0);
+    const int limited =
+        (loop.golden_limited[0] ? 1 : 0) | (loop.golden_limited[1] ? 2 : 0) | (loop.golden_limited[2] ? 4 : 0);
     std::fprintf(out, "%d %u", limited, static_cast<unsigned>(loop.overflow_code()));
     for (const JointFixedState& s : loop.golden) {
       std::fprintf(out, " %d %d %d %d %d %d %d", s.reference, s.reference_velocity, s.reference_acceleration, s.encoder,
@@ -84,6 +87,7 @@ int main(int argc, char** argv) {
     std::fprintf(out, "\n");
     loop.step_plants();
   }
+  std::fprintf(out, "end %ld\n", periods);
   std::fprintf(stderr, "joint_golden_vectors: %ld periods, %ld limited joint-periods, %d saturations, %ld glitches\n",
                periods, loop.limited_periods, loop.overflows, loop.glitches);
   return std::fclose(out) == 0 ? 0 : 1;

@@ -9,29 +9,34 @@
 #include <sstream>
 
 #include "delta/control/closed_loop.hpp"
-#include "delta/golden/joint_fixed.hpp"
 #include "delta/geometry.hpp"
+#include "delta/golden/joint_fixed.hpp"
 #include "delta/joint_plant.hpp"
 #include "delta/rtl/joint_rtl_model.hpp"
-#include "random_closed_loop.hpp"
 #include "joint_top.hpp"
+#include "random_closed_loop.hpp"
 
 namespace delta::control {
 namespace {
 
 typedef DeltaJointConfig HlsConfig;
 
+// The integer code of an HLS value with `Fraction` fraction bits in `Bits` bits.
+template <int Bits, int Fraction, class Fixed>
+std::int32_t code(const Fixed& value) {
+  return static_cast<std::int32_t>(delta_hls::fixed_to_code<Bits, Fraction>(value));
+}
+
 JointFixedState hls_state(int joint) {
   const delta_hls::JointState<HlsConfig> s = joint_top_state(joint);
   JointFixedState state;
-  state.reference = static_cast<std::int32_t>(delta_hls::fixed_to_code<32, kReferenceFraction>(s.reference));
-  state.reference_velocity = static_cast<std::int32_t>(delta_hls::fixed_to_code<32, kStateFraction>(s.reference_velocity));
-  state.reference_acceleration =
-      static_cast<std::int32_t>(delta_hls::fixed_to_code<32, kStateFraction>(s.reference_acceleration));
-  state.encoder = static_cast<std::int32_t>(delta_hls::fixed_to_code<16, 0>(s.encoder));
-  state.velocity = static_cast<std::int32_t>(delta_hls::fixed_to_code<32, kStateFraction>(s.velocity));
-  state.disturbance = static_cast<std::int32_t>(delta_hls::fixed_to_code<32, kStateFraction>(s.disturbance));
-  state.current = static_cast<std::int32_t>(delta_hls::fixed_to_code<16, kCurrentFraction>(s.current));
+  state.reference = code<HlsConfig::reference_bits, kReferenceFraction>(s.reference);
+  state.reference_velocity = code<HlsConfig::state_bits, kStateFraction>(s.reference_velocity);
+  state.reference_acceleration = code<HlsConfig::state_bits, kStateFraction>(s.reference_acceleration);
+  state.encoder = code<HlsConfig::encoder_bits, 0>(s.encoder);
+  state.velocity = code<HlsConfig::state_bits, kStateFraction>(s.velocity);
+  state.disturbance = code<HlsConfig::state_bits, kStateFraction>(s.disturbance);
+  state.current = code<HlsConfig::current_bits, kCurrentFraction>(s.current);
   return state;
 }
 
@@ -59,8 +64,9 @@ TEST(JointBitExact, GoldenHlsAndRtlAgreeOnClosedLoopWithRandomReferencesAndLoads
     HlsConfig::current_t hls_current[3];
     for (int j = 0; j < 3; ++j) {
       hls_reference[j] =
-          delta_hls::fixed_from_code<HlsConfig::reference_t, 32, kReferenceFraction>(inputs[j].reference);
-      hls_encoder[j] = delta_hls::fixed_from_code<HlsConfig::encoder_t, 16, 0>(inputs[j].encoder);
+          delta_hls::fixed_from_code<HlsConfig::reference_t, HlsConfig::reference_bits, kReferenceFraction>(
+              inputs[j].reference);
+      hls_encoder[j] = delta_hls::fixed_from_code<HlsConfig::encoder_t, HlsConfig::encoder_bits, 0>(inputs[j].encoder);
     }
     HlsConfig::limited_t hls_limited;
     HlsConfig::overflow_count_t hls_overflows;
@@ -71,7 +77,8 @@ TEST(JointBitExact, GoldenHlsAndRtlAgreeOnClosedLoopWithRandomReferencesAndLoads
     ASSERT_EQ(rtl_result.overflow_count, loop.overflow_code()) << "period " << k;
     ASSERT_EQ(rtl_result.cycles, 892) << "latency, period " << k;
     for (int j = 0; j < 3; ++j) {
-      ASSERT_EQ((delta_hls::fixed_to_code<16, kCurrentFraction>(hls_current[j])), loop.golden_current[j]) << "HLS period " << k << " joint " << j;
+      ASSERT_EQ((code<HlsConfig::current_bits, kCurrentFraction>(hls_current[j])), loop.golden_current[j])
+          << "HLS period " << k << " joint " << j;
       ASSERT_EQ(rtl_result.current[j], loop.golden_current[j]) << "RTL period " << k << " joint " << j;
       ASSERT_EQ(static_cast<bool>(hls_limited[j]), loop.golden_limited[j]) << "HLS period " << k << " joint " << j;
       ASSERT_EQ(rtl_result.limited[j], loop.golden_limited[j]) << "RTL period " << k << " joint " << j;
@@ -95,20 +102,20 @@ TEST(JointBitExact, GoldenHlsAndRtlAgreeOnClosedLoopWithRandomReferencesAndLoads
 // RTL package equal the golden model's.
 TEST(JointBitExact, HlsAndRtlCoefficientsEqualTheGoldenModel) {
   const JointFixedCoefficients c = make_fixed_coefficients(JointControllerParameters{});
-  const std::array<std::pair<const char*, std::int32_t>, 9> expected{{
-      {"ReferenceGain", c.reference_gain},
-      {"VelocityEncoderGain", c.velocity_encoder_gain},
-      {"VelocityCurrentGain", c.velocity_current_gain},
-      {"DisturbanceGain", c.disturbance_gain},
-      {"DisturbanceVelocityGain", c.disturbance_velocity_gain},
-      {"LawAccelerationGain", c.law_acceleration_gain},
-      {"LawVelocityGain", c.law_velocity_gain},
-      {"LawPositionGain", c.law_position_gain},
-      {"CurrentLimit", c.current_limit_code}}};
+  const std::array<std::pair<const char*, std::int32_t>, 9> expected{
+      {{"ReferenceGain", c.reference_gain},
+       {"VelocityEncoderGain", c.velocity_encoder_gain},
+       {"VelocityCurrentGain", c.velocity_current_gain},
+       {"DisturbanceGain", c.disturbance_gain},
+       {"DisturbanceVelocityGain", c.disturbance_velocity_gain},
+       {"LawAccelerationGain", c.law_acceleration_gain},
+       {"LawVelocityGain", c.law_velocity_gain},
+       {"LawPositionGain", c.law_position_gain},
+       {"CurrentLimit", c.current_limit_code}}};
   const delta_hls::JointCoefficientCodes h = joint_top_coefficient_codes();
-  const std::array<std::int32_t, 9> hls{h.reference_gain,        h.velocity_encoder_gain, h.velocity_current_gain,
-                                        h.disturbance_gain,      h.disturbance_velocity_gain, h.law_acceleration_gain,
-                                        h.law_velocity_gain,     h.law_position_gain,     h.current_limit};
+  const std::array<std::int32_t, 9> hls{h.reference_gain,    h.velocity_encoder_gain,     h.velocity_current_gain,
+                                        h.disturbance_gain,  h.disturbance_velocity_gain, h.law_acceleration_gain,
+                                        h.law_velocity_gain, h.law_position_gain,         h.current_limit};
   std::ifstream file(std::string(DELTA_SOURCE_DIR) + "/rtl/joint/delta_joint_pkg.sv");
   std::stringstream text;
   text << file.rdbuf();

@@ -46,8 +46,9 @@ inline bool same_formats(const delta::golden::Formats& a, const delta::golden::F
 
 template <class C>
 std::unique_ptr<NetworkWeights<C>> load_weights(const delta::golden::QuantisedNetwork& q) {
-  if (q.hidden != C::hidden) throw std::invalid_argument("HLS config has " + std::to_string(C::hidden) +
-                                                         " hidden neurons, the network " + std::to_string(q.hidden));
+  if (q.hidden != C::hidden)
+    throw std::invalid_argument("HLS config has " + std::to_string(C::hidden) + " hidden neurons, the network " +
+                                std::to_string(q.hidden));
   if (!same_formats(q.formats, golden_formats<C>())) {
     throw std::invalid_argument("network quantised with formats other than the HLS config's");
   }
@@ -55,31 +56,38 @@ std::unique_ptr<NetworkWeights<C>> load_weights(const delta::golden::QuantisedNe
   const int acc1 = C::hidden_accumulator_fraction;
   const int acc2 = C::output_accumulator_fraction;
   for (int j = 0; j < C::inputs; ++j) {
-    weights->input_centre[j] = fixed_from_code<typename C::input_t, C::input_bits, C::input_fraction>(q.input_centre[j]);
+    weights->input_centre[j] =
+        fixed_from_code<typename C::input_t, C::input_bits, C::input_fraction>(q.input_centre[j]);
     // 2^-e as a code with the gain type's fraction bits; outside [2^-fraction, 2^(integer - 1)] it does not fit.
     const int gain_fraction = C::input_gain_bits - C::input_gain_integer;
     const int gain_exponent = gain_fraction - q.input_exponent[j];
     if (gain_exponent < 0 || gain_exponent >= C::input_gain_bits) {
-      throw std::invalid_argument("input gain 2^" + std::to_string(-q.input_exponent[j]) + " outside the HLS gain type");
+      throw std::invalid_argument("input gain 2^" + std::to_string(-q.input_exponent[j]) +
+                                  " outside the HLS gain type");
     }
-    weights->input_gain[j] = fixed_from_code<typename C::input_gain_t, C::input_gain_bits + 1, C::input_gain_bits - C::input_gain_integer>(
-        1LL << gain_exponent);
+    weights->input_gain[j] =
+        fixed_from_code<typename C::input_gain_t, C::input_gain_bits + 1, C::input_gain_bits - C::input_gain_integer>(
+            1LL << gain_exponent);
   }
   for (int k = 0; k < C::hidden; ++k) {
     for (int j = 0; j < C::inputs; ++j) {
-      weights->input_weights[k][j] = fixed_from_code<typename C::input_weight_t, C::input_weight_bits, C::input_weight_fraction>(
-          q.input_weights[C::inputs * k + j]);
+      weights->input_weights[k][j] =
+          fixed_from_code<typename C::input_weight_t, C::input_weight_bits, C::input_weight_fraction>(
+              q.input_weights[C::inputs * k + j]);
     }
     weights->hidden_bias[k] = fixed_from_code<typename C::hidden_bias_t, C::hidden_bias_bits, acc1>(q.hidden_bias[k]);
   }
   for (int i = 0; i < C::tanh_segments; ++i) {
-    weights->tanh_table[i] = fixed_from_code<typename C::tanh_entry_t, C::tanh_entry_fraction + 1, C::tanh_entry_fraction>(q.tanh_table[i]);
-    weights->tanh_slope[i] = fixed_from_code<typename C::tanh_entry_t, C::tanh_entry_fraction + 1, C::tanh_entry_fraction>(q.tanh_slope[i]);
+    weights->tanh_table[i] =
+        fixed_from_code<typename C::tanh_entry_t, C::tanh_entry_fraction + 1, C::tanh_entry_fraction>(q.tanh_table[i]);
+    weights->tanh_slope[i] =
+        fixed_from_code<typename C::tanh_entry_t, C::tanh_entry_fraction + 1, C::tanh_entry_fraction>(q.tanh_slope[i]);
   }
   for (int o = 0; o < C::outputs; ++o) {
     for (int k = 0; k < C::hidden; ++k) {
-      weights->output_weights[o][k] = fixed_from_code<typename C::output_weight_t, C::output_weight_bits, C::output_weight_fraction>(
-          q.output_weights[C::hidden * o + k]);
+      weights->output_weights[o][k] =
+          fixed_from_code<typename C::output_weight_t, C::output_weight_bits, C::output_weight_fraction>(
+              q.output_weights[C::hidden * o + k]);
     }
     weights->output_bias[o] = fixed_from_code<typename C::output_bias_t, C::output_bias_bits, acc2>(q.output_bias[o]);
   }
@@ -88,7 +96,8 @@ std::unique_ptr<NetworkWeights<C>> load_weights(const delta::golden::QuantisedNe
 
 // The HLS network on raw input codes; returns raw output codes and the saturation bits.
 template <class C>
-std::array<std::int64_t, 3> evaluate_codes(const NetworkWeights<C>& weights, const std::array<std::int64_t, 3>& position_code,
+std::array<std::int64_t, 3> evaluate_codes(const NetworkWeights<C>& weights,
+                                           const std::array<std::int64_t, 3>& position_code,
                                            unsigned* saturation = nullptr) {
   typename C::input_t x[C::inputs];
   for (int j = 0; j < C::inputs; ++j) {
