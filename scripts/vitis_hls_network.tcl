@@ -19,7 +19,7 @@
 
 set root [file normalize [file dirname [info script]]/..]
 set export_dir $root/build/vitis_network
-set cflags "-std=c++14 -DDELTA_HLS_USE_AP_FIXED -I$root/hls/network -I$export_dir"
+set cflags "-std=c++14 -DDELTA_HLS_USE_AP_FIXED -I$root/hls -I$root/hls/network -I$export_dir"
 
 open_project -reset $root/build/vitis_network/project
 set_top delta_network

@@ -1,30 +1,25 @@
-// HLS top of the three joint controllers: one call per 10 kHz control period.
+// The synthesis top of the three joint controllers (Vitis HLS): one call per 10 kHz control period.
 #pragma once
 
-#include "joint_types.hpp"
+#include "joint_controller.hpp"
 
-namespace delta::hls_joint {
+typedef delta_hls::DefaultJointConfig DeltaJointConfig;
 
-struct JointState {
-  previous_reference_t reference;
-  state_t reference_velocity;
-  state_t reference_acceleration;
-  previous_encoder_t encoder;
-  state_t velocity;
-  state_t disturbance;
-  current_t current;  // applied over the previous period
-};
-
-// Block-level ap_ctrl_hs top (the RTL rtl/joint/joint_controller.sv has the same ports).
-// State is static, as a synthesised block keeps it in registers/RAM; the first call starts from
-// rest at its own input. overflow_count counts saturated operands and states since the start.
-void joint_top(const reference_t reference[kJoints], const encoder_t encoder[kJoints],
-               current_t current[kJoints], sc_uint<kJoints>& limited, sc_uint<16>& overflow_count);
+// reference: Q24.8 shaft encoder counts (ports reference_0..2); encoder: counts (encoder_0..2);
+// current: Q1.15 A (current_0..2 with ap_vld); limited: bit j, joint j's command was clipped;
+// overflow_count: saturated operands and states since reset, sticks at 65535; block-level
+// ap_ctrl_hs. rtl/joint/joint_controller.sv has these ports. The states are static, as the RTL
+// keeps them in its state RAM; the first call starts from rest at its own input. The coefficients
+// are compiled in from the header the golden model writes (joint_coefficients.hpp).
+void joint_top(const DeltaJointConfig::reference_t reference[DeltaJointConfig::joints],
+               const DeltaJointConfig::encoder_t encoder[DeltaJointConfig::joints],
+               DeltaJointConfig::current_t current[DeltaJointConfig::joints], DeltaJointConfig::limited_t& limited,
+               DeltaJointConfig::overflow_count_t& overflow_count);
 
 #ifndef __SYNTHESIS__
-// C-simulation helpers: read a joint's state after a call, and restart from reset.
-JointState joint_top_state(int joint);
+// C-simulation helpers (not synthesised): a joint's state after a call, the restart from reset,
+// and the compiled-in coefficient codes.
+delta_hls::JointState<DeltaJointConfig> joint_top_state(int joint);
 void joint_top_reset();
+delta_hls::JointCoefficientCodes joint_top_coefficient_codes();
 #endif
-
-}  // namespace delta::hls_joint

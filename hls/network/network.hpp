@@ -1,5 +1,5 @@
 // Header-only HLS templates of the fixed-point 3-H-3 network (spec: hls/README.md), configured by
-// one struct (network_config.hpp). Synthesizable: no dynamic memory, recursion, float or division;
+// one struct (network_config.hpp). Synthesizable: integer codes only, no dynamic memory, recursion or division;
 // every loop labelled; pragmas driven by the config. Bit-exact to delta::golden::evaluate_raw.
 #pragma once
 
@@ -7,13 +7,6 @@
 #pragma GCC diagnostic ignored "-Wunused-label"
 
 #include "network_config.hpp"
-
-// Vitis HLS reads pragmas given through _Pragma; a host compiler sees nothing (no unknown-pragma noise).
-#if defined(__SYNTHESIS__) || defined(DELTA_HLS_USE_AP_FIXED)
-#define DELTA_HLS_PRAGMA(text) _Pragma(#text)
-#else
-#define DELTA_HLS_PRAGMA(text)
-#endif
 
 namespace delta_hls {
 

@@ -2,15 +2,9 @@
 // each width derived from the few chosen ones (hls/README.md, "Fixed-point specification").
 #pragma once
 
-#include "network_types.hpp"
+#include "fixed_types.hpp"
 
 namespace delta_hls {
-
-constexpr int ceil_log2(long long value) {
-  int bits = 0;
-  while ((1LL << bits) < value) ++bits;
-  return bits;
-}
 
 // Chosen widths are the golden model's defaults (delta::golden::Formats); a test checks they agree.
 struct DefaultNetworkConfig {

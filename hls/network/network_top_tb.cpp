@@ -1,7 +1,6 @@
 // C-simulation testbench of the synthesis top (Vitis csim and cosim, and CTest here): every raw
 // output code against the golden vectors that `deltactl quantise --vectors N` writes.
 // Usage: network_top_tb [golden_vectors.txt]; exit 0 only if every code matches.
-#include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <fstream>
@@ -31,10 +30,14 @@ int main(int argc, char** argv) {
     }
     DeltaNetworkConfig::input_t x[3];
     DeltaNetworkConfig::output_t y[3];
-    for (int j = 0; j < 3; ++j) x[j] = std::ldexp(static_cast<double>(x_code[j]), -DeltaNetworkConfig::input_fraction);
+    for (int j = 0; j < 3; ++j) {
+      x[j] = delta_hls::fixed_from_code<DeltaNetworkConfig::input_t, DeltaNetworkConfig::input_bits,
+                                        DeltaNetworkConfig::input_fraction>(x_code[j]);
+    }
     delta_network(x, y);
     for (int o = 0; o < 3; ++o) {
-      const long long code = static_cast<long long>(std::ldexp(y[o].to_double(), DeltaNetworkConfig::output_fraction));
+      const long long code =
+          delta_hls::fixed_to_code<DeltaNetworkConfig::output_bits, DeltaNetworkConfig::output_fraction>(y[o]);
       if (code != y_expected[o] && ++mismatches <= 5) {
         std::fprintf(stderr, "vector %lld output %d: top %lld, golden %lld\n", vectors, o, code, y_expected[o]);
       }

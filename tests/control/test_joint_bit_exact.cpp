@@ -9,32 +9,34 @@
 #include <sstream>
 
 #include "delta/control/closed_loop.hpp"
-#include "delta/golden/joint_fixed.hpp"
 #include "delta/geometry.hpp"
+#include "delta/golden/joint_fixed.hpp"
 #include "delta/joint_plant.hpp"
 #include "delta/rtl/joint_rtl_model.hpp"
-#include "random_closed_loop.hpp"
 #include "joint_top.hpp"
+#include "random_closed_loop.hpp"
 
 namespace delta::control {
 namespace {
 
-// Raw code of an sc_fixed value with `fraction` fraction bits (exact: at most 32 bits).
-template <typename Fixed>
-std::int32_t raw(const Fixed& value, int fraction) {
-  return static_cast<std::int32_t>(std::llround(std::ldexp(value.to_double(), fraction)));
+typedef DeltaJointConfig HlsConfig;
+
+// The integer code of an HLS value with `Fraction` fraction bits in `Bits` bits.
+template <int Bits, int Fraction, class Fixed>
+std::int32_t code(const Fixed& value) {
+  return static_cast<std::int32_t>(delta_hls::fixed_to_code<Bits, Fraction>(value));
 }
 
 JointFixedState hls_state(int joint) {
-  const hls_joint::JointState s = hls_joint::joint_top_state(joint);
+  const delta_hls::JointState<HlsConfig> s = joint_top_state(joint);
   JointFixedState state;
-  state.reference = raw(s.reference, kReferenceFraction);
-  state.reference_velocity = raw(s.reference_velocity, kStateFraction);
-  state.reference_acceleration = raw(s.reference_acceleration, kStateFraction);
-  state.encoder = static_cast<std::int32_t>(s.encoder.to_int());
-  state.velocity = raw(s.velocity, kStateFraction);
-  state.disturbance = raw(s.disturbance, kStateFraction);
-  state.current = raw(s.current, kCurrentFraction);
+  state.reference = code<HlsConfig::reference_bits, kReferenceFraction>(s.reference);
+  state.reference_velocity = code<HlsConfig::state_bits, kStateFraction>(s.reference_velocity);
+  state.reference_acceleration = code<HlsConfig::state_bits, kStateFraction>(s.reference_acceleration);
+  state.encoder = code<HlsConfig::encoder_bits, 0>(s.encoder);
+  state.velocity = code<HlsConfig::state_bits, kStateFraction>(s.velocity);
+  state.disturbance = code<HlsConfig::state_bits, kStateFraction>(s.disturbance);
+  state.current = code<HlsConfig::current_bits, kCurrentFraction>(s.current);
   return state;
 }
 
@@ -52,28 +54,31 @@ TEST(JointBitExact, GoldenHlsAndRtlAgreeOnClosedLoopWithRandomReferencesAndLoads
   const std::uint64_t seed = test_seed();
   std::cout << "seed " << seed << " (DELTA_TEST_SEED overrides)\n";
   RandomClosedLoop loop(seed);
-  hls_joint::joint_top_reset();
+  joint_top_reset();
   rtl::JointRtlModel rtl;
   const long periods = 100000;
   for (long k = 0; k < periods; ++k) {
     const std::array<JointFixedInput, 3>& inputs = loop.next_inputs(k);
-    hls_joint::reference_t hls_reference[3];
-    hls_joint::encoder_t hls_encoder[3];
-    hls_joint::current_t hls_current[3];
+    HlsConfig::reference_t hls_reference[3];
+    HlsConfig::encoder_t hls_encoder[3];
+    HlsConfig::current_t hls_current[3];
     for (int j = 0; j < 3; ++j) {
-      hls_reference[j] = std::ldexp(static_cast<double>(inputs[j].reference), -kReferenceFraction);
-      hls_encoder[j] = inputs[j].encoder;
+      hls_reference[j] =
+          delta_hls::fixed_from_code<HlsConfig::reference_t, HlsConfig::reference_bits, kReferenceFraction>(
+              inputs[j].reference);
+      hls_encoder[j] = delta_hls::fixed_from_code<HlsConfig::encoder_t, HlsConfig::encoder_bits, 0>(inputs[j].encoder);
     }
-    sc_uint<3> hls_limited;
-    sc_uint<16> hls_overflows;
-    hls_joint::joint_top(hls_reference, hls_encoder, hls_current, hls_limited, hls_overflows);
+    HlsConfig::limited_t hls_limited;
+    HlsConfig::overflow_count_t hls_overflows;
+    joint_top(hls_reference, hls_encoder, hls_current, hls_limited, hls_overflows);
     const rtl::JointRtlResult rtl_result = rtl.run(inputs);
 
     ASSERT_EQ(hls_overflows.to_uint(), loop.overflow_code()) << "period " << k;
     ASSERT_EQ(rtl_result.overflow_count, loop.overflow_code()) << "period " << k;
     ASSERT_EQ(rtl_result.cycles, 892) << "latency, period " << k;
     for (int j = 0; j < 3; ++j) {
-      ASSERT_EQ(raw(hls_current[j], kCurrentFraction), loop.golden_current[j]) << "HLS period " << k << " joint " << j;
+      ASSERT_EQ((code<HlsConfig::current_bits, kCurrentFraction>(hls_current[j])), loop.golden_current[j])
+          << "HLS period " << k << " joint " << j;
       ASSERT_EQ(rtl_result.current[j], loop.golden_current[j]) << "RTL period " << k << " joint " << j;
       ASSERT_EQ(static_cast<bool>(hls_limited[j]), loop.golden_limited[j]) << "HLS period " << k << " joint " << j;
       ASSERT_EQ(rtl_result.limited[j], loop.golden_limited[j]) << "RTL period " << k << " joint " << j;
@@ -93,24 +98,24 @@ TEST(JointBitExact, GoldenHlsAndRtlAgreeOnClosedLoopWithRandomReferencesAndLoads
   EXPECT_GT(loop.overflows, 0);
 }
 
-// Coefficient literals in the HLS header and the RTL package equal the golden model's.
+// The coefficient codes compiled into the HLS top (the generated header) and the literals of the
+// RTL package equal the golden model's.
 TEST(JointBitExact, HlsAndRtlCoefficientsEqualTheGoldenModel) {
   const JointFixedCoefficients c = make_fixed_coefficients(JointControllerParameters{});
-  const std::array<std::pair<const char*, std::int32_t>, 9> expected{{
-      {"ReferenceGain", c.reference_gain},
-      {"VelocityEncoderGain", c.velocity_encoder_gain},
-      {"VelocityCurrentGain", c.velocity_current_gain},
-      {"DisturbanceGain", c.disturbance_gain},
-      {"DisturbanceVelocityGain", c.disturbance_velocity_gain},
-      {"LawAccelerationGain", c.law_acceleration_gain},
-      {"LawVelocityGain", c.law_velocity_gain},
-      {"LawPositionGain", c.law_position_gain},
-      {"CurrentLimit", c.current_limit_code}}};
-  const std::array<std::int32_t, 9> hls{hls_joint::kReferenceGain,        hls_joint::kVelocityEncoderGain,
-                                        hls_joint::kVelocityCurrentGain,  hls_joint::kDisturbanceGain,
-                                        hls_joint::kDisturbanceVelocityGain, hls_joint::kLawAccelerationGain,
-                                        hls_joint::kLawVelocityGain,      hls_joint::kLawPositionGain,
-                                        hls_joint::kCurrentLimitCode};
+  const std::array<std::pair<const char*, std::int32_t>, 9> expected{
+      {{"ReferenceGain", c.reference_gain},
+       {"VelocityEncoderGain", c.velocity_encoder_gain},
+       {"VelocityCurrentGain", c.velocity_current_gain},
+       {"DisturbanceGain", c.disturbance_gain},
+       {"DisturbanceVelocityGain", c.disturbance_velocity_gain},
+       {"LawAccelerationGain", c.law_acceleration_gain},
+       {"LawVelocityGain", c.law_velocity_gain},
+       {"LawPositionGain", c.law_position_gain},
+       {"CurrentLimit", c.current_limit_code}}};
+  const delta_hls::JointCoefficientCodes h = joint_top_coefficient_codes();
+  const std::array<std::int32_t, 9> hls{h.reference_gain,    h.velocity_encoder_gain,     h.velocity_current_gain,
+                                        h.disturbance_gain,  h.disturbance_velocity_gain, h.law_acceleration_gain,
+                                        h.law_velocity_gain, h.law_position_gain,         h.current_limit};
   std::ifstream file(std::string(DELTA_SOURCE_DIR) + "/rtl/joint/delta_joint_pkg.sv");
   std::stringstream text;
   text << file.rdbuf();
@@ -126,6 +131,21 @@ TEST(JointBitExact, HlsAndRtlCoefficientsEqualTheGoldenModel) {
     if (value >= (std::int64_t{1} << (bits - 1))) value -= std::int64_t{1} << bits;  // two's complement
     EXPECT_EQ(value, expected[n].second) << expected[n].first << " in delta_joint_pkg.sv";
   }
+}
+
+// The chosen widths of the HLS config are the golden model's formats.
+TEST(JointBitExact, HlsConfigFormatsEqualTheGoldenModel) {
+  EXPECT_EQ(HlsConfig::reference_fraction, kReferenceFraction);
+  EXPECT_EQ(HlsConfig::state_fraction, kStateFraction);
+  EXPECT_EQ(HlsConfig::current_fraction, kCurrentFraction);
+  EXPECT_EQ(HlsConfig::coefficient_bits, kCoefficientBits);
+  EXPECT_EQ(HlsConfig::operand_bits, kOperandBits);
+  EXPECT_EQ(HlsConfig::reference_shift, kReferenceShift);
+  EXPECT_EQ(HlsConfig::velocity_shift, kVelocityShift);
+  EXPECT_EQ(HlsConfig::disturbance_shift, kDisturbanceShift);
+  EXPECT_EQ(HlsConfig::law_shift, kLawShift);
+  // The golden accumulator (66 bits) also holds the rounding half-LSB; the HLS casts round instead.
+  EXPECT_LE(HlsConfig::command_accumulator_bits, kAccumulatorBits);
 }
 
 }  // namespace

@@ -3,7 +3,6 @@
 #pragma once
 
 #include <array>
-#include <cmath>
 #include <cstdint>
 #include <memory>
 #include <stdexcept>
@@ -45,13 +44,11 @@ inline bool same_formats(const delta::golden::Formats& a, const delta::golden::F
          a.output_fraction_bits == b.output_fraction_bits;
 }
 
-// code * 2^-fraction as a double: exact, every code has fewer than 53 bits.
-inline double code_value(std::int64_t code, int fraction) { return std::ldexp(static_cast<double>(code), -fraction); }
-
 template <class C>
 std::unique_ptr<NetworkWeights<C>> load_weights(const delta::golden::QuantisedNetwork& q) {
-  if (q.hidden != C::hidden) throw std::invalid_argument("HLS config has " + std::to_string(C::hidden) +
-                                                         " hidden neurons, the network " + std::to_string(q.hidden));
+  if (q.hidden != C::hidden)
+    throw std::invalid_argument("HLS config has " + std::to_string(C::hidden) + " hidden neurons, the network " +
+                                std::to_string(q.hidden));
   if (!same_formats(q.formats, golden_formats<C>())) {
     throw std::invalid_argument("network quantised with formats other than the HLS config's");
   }
@@ -59,43 +56,59 @@ std::unique_ptr<NetworkWeights<C>> load_weights(const delta::golden::QuantisedNe
   const int acc1 = C::hidden_accumulator_fraction;
   const int acc2 = C::output_accumulator_fraction;
   for (int j = 0; j < C::inputs; ++j) {
-    weights->input_centre[j] = code_value(q.input_centre[j], C::input_fraction);
-    weights->input_gain[j] = std::ldexp(1.0, -q.input_exponent[j]);
-    if (weights->input_gain[j].to_double() != std::ldexp(1.0, -q.input_exponent[j])) {
-      throw std::invalid_argument("input gain 2^" + std::to_string(-q.input_exponent[j]) + " outside the HLS gain type");
+    weights->input_centre[j] =
+        fixed_from_code<typename C::input_t, C::input_bits, C::input_fraction>(q.input_centre[j]);
+    // 2^-e as a code with the gain type's fraction bits; outside [2^-fraction, 2^(integer - 1)] it does not fit.
+    const int gain_fraction = C::input_gain_bits - C::input_gain_integer;
+    const int gain_exponent = gain_fraction - q.input_exponent[j];
+    if (gain_exponent < 0 || gain_exponent >= C::input_gain_bits) {
+      throw std::invalid_argument("input gain 2^" + std::to_string(-q.input_exponent[j]) +
+                                  " outside the HLS gain type");
     }
+    weights->input_gain[j] =
+        fixed_from_code<typename C::input_gain_t, C::input_gain_bits + 1, C::input_gain_bits - C::input_gain_integer>(
+            1LL << gain_exponent);
   }
   for (int k = 0; k < C::hidden; ++k) {
     for (int j = 0; j < C::inputs; ++j) {
-      weights->input_weights[k][j] = code_value(q.input_weights[C::inputs * k + j], C::input_weight_fraction);
+      weights->input_weights[k][j] =
+          fixed_from_code<typename C::input_weight_t, C::input_weight_bits, C::input_weight_fraction>(
+              q.input_weights[C::inputs * k + j]);
     }
-    weights->hidden_bias[k] = code_value(q.hidden_bias[k], acc1);
+    weights->hidden_bias[k] = fixed_from_code<typename C::hidden_bias_t, C::hidden_bias_bits, acc1>(q.hidden_bias[k]);
   }
   for (int i = 0; i < C::tanh_segments; ++i) {
-    weights->tanh_table[i] = code_value(q.tanh_table[i], C::tanh_entry_fraction);
-    weights->tanh_slope[i] = code_value(q.tanh_slope[i], C::tanh_entry_fraction);
+    weights->tanh_table[i] =
+        fixed_from_code<typename C::tanh_entry_t, C::tanh_entry_fraction + 1, C::tanh_entry_fraction>(q.tanh_table[i]);
+    weights->tanh_slope[i] =
+        fixed_from_code<typename C::tanh_entry_t, C::tanh_entry_fraction + 1, C::tanh_entry_fraction>(q.tanh_slope[i]);
   }
   for (int o = 0; o < C::outputs; ++o) {
     for (int k = 0; k < C::hidden; ++k) {
-      weights->output_weights[o][k] = code_value(q.output_weights[C::hidden * o + k], C::output_weight_fraction);
+      weights->output_weights[o][k] =
+          fixed_from_code<typename C::output_weight_t, C::output_weight_bits, C::output_weight_fraction>(
+              q.output_weights[C::hidden * o + k]);
     }
-    weights->output_bias[o] = code_value(q.output_bias[o], acc2);
+    weights->output_bias[o] = fixed_from_code<typename C::output_bias_t, C::output_bias_bits, acc2>(q.output_bias[o]);
   }
   return weights;
 }
 
 // The HLS network on raw input codes; returns raw output codes and the saturation bits.
 template <class C>
-std::array<std::int64_t, 3> evaluate_codes(const NetworkWeights<C>& weights, const std::array<std::int64_t, 3>& position_code,
+std::array<std::int64_t, 3> evaluate_codes(const NetworkWeights<C>& weights,
+                                           const std::array<std::int64_t, 3>& position_code,
                                            unsigned* saturation = nullptr) {
   typename C::input_t x[C::inputs];
-  for (int j = 0; j < C::inputs; ++j) x[j] = code_value(position_code[j], C::input_fraction);
+  for (int j = 0; j < C::inputs; ++j) {
+    x[j] = fixed_from_code<typename C::input_t, C::input_bits, C::input_fraction>(position_code[j]);
+  }
   typename C::output_t alpha[C::outputs];
   typename C::saturation_t flags;
   network_core<C>(x, weights, alpha, flags);
   std::array<std::int64_t, 3> raw{};
   for (int o = 0; o < C::outputs; ++o) {
-    raw[o] = static_cast<std::int64_t>(std::ldexp(alpha[o].to_double(), C::output_fraction));
+    raw[o] = fixed_to_code<C::output_bits, C::output_fraction>(alpha[o]);
   }
   if (saturation) *saturation = static_cast<unsigned>(flags.to_uint());
   return raw;
