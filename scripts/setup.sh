@@ -3,7 +3,7 @@
 set -euo pipefail
 
 packages=(
-  g++ cmake ninja-build pkg-config         # build
+  g++ cmake ninja-build pkg-config ccache  # build (ccache: rebuilds of the same sources are cache hits)
   libeigen3-dev nlohmann-json3-dev libcli11-dev libgtest-dev libmatio-dev zlib1g-dev  # libraries
   verilator libsystemc-dev                 # RTL simulation (C++ and SystemC testbenches)
   yosys nextpnr-ice40 fpga-icestorm iverilog  # FPGA flow and gate-level simulation

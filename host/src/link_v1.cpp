@@ -7,7 +7,7 @@ std::vector<std::uint8_t> request_frame(const std::array<std::int64_t, 3>& codes
   std::vector<std::uint8_t> frame = {kRequestSync};
   std::uint8_t sum = 0;
   for (std::int64_t code : codes) {
-    for (int b = 0; b < 4; ++b) {
+    for (int b = 0; b < kRequestCodeBytes; ++b) {
       const auto byte = static_cast<std::uint8_t>((static_cast<std::uint64_t>(code) >> (8 * b)) & 0xFF);
       frame.push_back(byte);
       sum += byte;
@@ -19,15 +19,16 @@ std::vector<std::uint8_t> request_frame(const std::array<std::int64_t, 3>& codes
 
 std::optional<std::array<std::int64_t, 3>> parse_answer(const std::vector<std::uint8_t>& answer) {
   if (answer.size() != kAnswerBytes || answer[0] != kAnswerSync) return std::nullopt;
-  std::uint8_t sum = answer[10];
+  std::uint8_t sum = answer[kAnswerBytes - 1];
   std::array<std::int64_t, 3> codes{};
+  constexpr int kUnusedBits = 32 - 8 * kAnswerCodeBytes;
   for (int o = 0; o < 3; ++o) {
     std::uint32_t raw = 0;
-    for (int b = 0; b < 3; ++b) {
-      raw |= static_cast<std::uint32_t>(answer[1 + 3 * o + b]) << (8 * b);
-      sum += answer[1 + 3 * o + b];
+    for (int b = 0; b < kAnswerCodeBytes; ++b) {
+      raw |= static_cast<std::uint32_t>(answer[1 + kAnswerCodeBytes * o + b]) << (8 * b);
+      sum += answer[1 + kAnswerCodeBytes * o + b];
     }
-    codes[o] = static_cast<std::int32_t>(raw << 8) >> 8;
+    codes[o] = static_cast<std::int32_t>(raw << kUnusedBits) >> kUnusedBits;  // sign-extended
   }
   if (sum != 0) return std::nullopt;
   return codes;

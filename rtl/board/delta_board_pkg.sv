@@ -19,6 +19,13 @@ package delta_board_pkg;
   localparam int UartBaud /*verilator public*/ = 115_200;
   localparam int ClocksPerBit /*verilator public*/ = 202;  // round(BoardClockHz / UartBaud): 115,099 baud, -0.09 %
 
+  // Frames of the present link (network_uart_link.sv; host side: host/include/delta/link_v1.hpp).
+  localparam int LinkRequestSync /*verilator public*/ = 32'hA5;  // host -> board: sync, 3 x 4 code bytes, checksum
+  localparam int LinkAnswerSync /*verilator public*/ = 32'h5A;  // board -> host: sync, 3 x 3 code bytes, checksum
+  localparam int LinkNak /*verilator public*/ = 32'h15;  // board -> host: bad checksum or a code that does not fit
+  localparam int LinkRequestCodeBytes /*verilator public*/ = 4;  // per input code (32-bit raw position)
+  localparam int LinkAnswerCodeBytes /*verilator public*/ = 3;  // per output code (24-bit raw angle)
+
   // ---- joints ----
   localparam int HomeCount /*verilator public*/ = 3_000;  // encoder count at reset: 30.00 deg (0.01 deg per count)
   localparam int EncoderCountMicrodeg /*verilator public*/ = 10_000;  // one encoder count: 0.01 deg

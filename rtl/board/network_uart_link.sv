@@ -41,9 +41,9 @@ module network_uart_link #(
   localparam int unsigned RequestBytes = Inputs * InputBytes;
   localparam int unsigned AnswerBytes  = Outputs * OutputBytes + 2;  // sync, codes, checksum
   localparam int unsigned CountWidth   = $clog2(RequestBytes + AnswerBytes + 1);
-  localparam logic [7:0] RequestSync = 8'hA5;
-  localparam logic [7:0] AnswerSync  = 8'h5A;
-  localparam logic [7:0] Nak         = 8'h15;
+  localparam logic [7:0] RequestSync = 8'(delta_board_pkg::LinkRequestSync);
+  localparam logic [7:0] AnswerSync  = 8'(delta_board_pkg::LinkAnswerSync);
+  localparam logic [7:0] Nak         = 8'(delta_board_pkg::LinkNak);
 
   typedef enum logic [2:0] {
     WaitSync,

@@ -34,7 +34,7 @@ std::map<std::string, long long> verilated_board_facts() {
   auto core = std::make_unique<Vboard_core>(context.get(), "board");
   std::map<std::string, long long> facts;
   for (const auto& [scope_name, scope] : *context->scopeNameMap()) {
-    if (scope_name.find("delta_board_pkg") == std::string::npos || scope->varsp() == nullptr) continue;
+    if (std::string(scope_name).find("delta_board_pkg") == std::string::npos || scope->varsp() == nullptr) continue;
     for (const auto& [name, var] : *scope->varsp()) {
       facts[name] = static_cast<std::int32_t>(*static_cast<const std::uint32_t*>(var.datap()));
     }

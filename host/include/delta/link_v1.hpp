@@ -9,12 +9,17 @@
 #include <optional>
 #include <vector>
 
+#include "delta/board_facts.hpp"
+
 namespace delta::link_v1 {
 
-constexpr std::uint8_t kRequestSync = 0xA5;
-constexpr std::uint8_t kAnswerSync = 0x5A;
-constexpr std::uint8_t kNak = 0x15;
-constexpr std::size_t kAnswerBytes = 11;
+// The frames' constants come from the board's facts (rtl/board/delta_board_pkg.sv).
+constexpr std::uint8_t kRequestSync = board::kLinkRequestSync;
+constexpr std::uint8_t kAnswerSync = board::kLinkAnswerSync;
+constexpr std::uint8_t kNak = board::kLinkNak;
+constexpr int kRequestCodeBytes = static_cast<int>(board::kLinkRequestCodeBytes);
+constexpr int kAnswerCodeBytes = static_cast<int>(board::kLinkAnswerCodeBytes);
+constexpr std::size_t kAnswerBytes = 3 * kAnswerCodeBytes + 2;  // sync, codes, checksum
 
 // Request: A5, three input codes of 4 bytes (little-endian two's complement), checksum (the 8-bit
 // sum of code bytes and checksum is zero). checksum_error is added to the checksum (tests).
