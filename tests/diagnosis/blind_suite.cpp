@@ -235,12 +235,13 @@ BlindCase make_case(int id, bool quick) {
   for (const std::string& name : blind_case.effects.names()) {
     blind_case.description += (blind_case.description.empty() ? "" : " + ") + name;
   }
-  if (blind_case.kind == CaseKind::outside || blind_case.kind == CaseKind::stage_scale) {
+  if (blind_case.kind == CaseKind::outside) {
     blind_case.description = "unequal rods in chain " + std::to_string(blind_case.unequal_chain + 1) + " (" +
                              std::to_string(blind_case.unequal_rods_m * 1e3).substr(0, 5) + " mm)";
   }
   if (blind_case.kind == CaseKind::stage_scale) {
-    blind_case.description = "stage scale " + std::to_string(blind_case.stage_scale * 100.0).substr(0, 5) + " %";
+    blind_case.description = std::string("stage ") + (id % 2 ? "y" : "x") + " scale " +
+                             std::to_string(blind_case.stage_scale * 100.0).substr(0, 5) + " %";
   }
   if (blind_case.description.empty()) blind_case.description = "none";
   if (blind_case.glitches) blind_case.description += " + " + std::to_string(blind_case.glitches) + " glitches";
@@ -290,7 +291,7 @@ std::vector<Sample> record_unequal_rods(const std::string& trajectory_name, std:
 CaseRecordings record_case(const BlindCase& blind_case) {
   CaseRecordings recordings;
   const std::string check_name = "sweep:" + std::to_string(blind_case.check_seed);
-  if (blind_case.kind == CaseKind::outside || blind_case.kind == CaseKind::stage_scale) {
+  if (blind_case.kind == CaseKind::outside) {
     recordings.fit = record_unequal_rods(blind_case.fit_trajectory, 0, blind_case.fit_samples,
                                          blind_case.unequal_rods_m, blind_case.unequal_chain);
     recordings.check = record_unequal_rods(check_name, 0, blind_case.check_samples, blind_case.unequal_rods_m,
@@ -306,9 +307,8 @@ CaseRecordings record_case(const BlindCase& blind_case) {
   if (blind_case.stage_scale != 0.0) {
     for (std::vector<Sample>* rows : {&recordings.fit, &recordings.check}) {
       for (Sample& sample : *rows) {
-        for (int k = 0; k < 3; ++k) {
-          sample.position_m[k] = quantise((1.0 + blind_case.stage_scale) * sample.position_m[k], kStageResolutionM);
-        }
+        const int axis = blind_case.id % 2;  // x or y
+        sample.position_m[axis] = quantise((1.0 + blind_case.stage_scale) * sample.position_m[axis], kStageResolutionM);
       }
     }
   }

@@ -36,7 +36,8 @@ std::vector<Alternative> find_alternatives(const PipelineData& data, FamilySet c
   std::vector<FamilySet> removals;
   for (std::size_t a = 0; a < members.size(); ++a) {
     removals.push_back(single(members[a]));
-    if (members.size() < 2 || members.size() > 4) continue;
+    // Two-for-one only for small models that reach the floor: the search grows as k^2 (9 - k) fits.
+    if (members.size() < 2 || members.size() > 3 || !chosen_at_floor) continue;
     for (std::size_t b = a + 1; b < members.size(); ++b) removals.push_back(single(members[a]) | single(members[b]));
   }
   std::vector<FamilySet> sets;

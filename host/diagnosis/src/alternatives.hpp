@@ -9,8 +9,8 @@
 
 namespace delta::diagnosis {
 
-// Tries every one-for-one swap of the chosen set (and, for two to four families, every
-// two-for-one swap), fitted like the selection's candidates. A set is equivalent when its held-out
+// Tries every one-for-one swap of the chosen set (and, for two or three families at the floor,
+// every two-for-one swap), fitted like the selection's candidates. A set is equivalent when its held-out
 // MSE is not worse than the chosen set's by more than the stopping rule's threshold or not
 // significantly (paired z <= options.paired_z), and it passes the floor test whenever the chosen
 // set does. `chosen` is the final model's prediction of the kept CHECK rows.

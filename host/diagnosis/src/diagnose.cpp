@@ -2,6 +2,7 @@
 // alternatives, ranking, location, identifiability); each step lives in its own file.
 #include "delta/diagnosis/diagnose.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 
@@ -34,6 +35,69 @@ double explained_fraction(const Vec3& nominal_rmse, const Vec3& after_rmse, doub
   return before > 0.0 ? std::clamp(1.0 - after / before, 0.0, 1.0) : 1.0;
 }
 
+struct FinalModel {
+  std::vector<Vec3> fit_prediction;    // kept FIT rows
+  std::vector<Vec3> check_prediction;  // kept CHECK rows
+};
+
+// Refits `families` on every kept FIT row and fills the final model's part of the diagnosis:
+// parameters and intervals, predictions, RMSE, floor test, location of an excess, alternatives.
+FinalModel finish_model(const PipelineData& data, FamilySet families, const Parameters& theta,
+                        const std::vector<Sample>& all_check, Diagnosis& diagnosis) {
+  const DiagnosisOptions& options = data.options;
+  FitResult final_fit;
+  final_fit.theta = theta;
+  final_fit.families = families;
+  diagnosis.confidence_95 = Parameters::Zero();
+  if (families.any()) {
+    FitOptions fit_options;
+    fit_options.noise_floor_deg = options.noise_floor_deg;
+    const FitResult refit = fit_model(data.fit, families, theta, theta, fit_options);
+    if (refit.ok) final_fit = refit;
+    diagnosis.confidence_95 = confidence_half_widths(final_fit, data.fit.size());
+  }
+  diagnosis.significant = families;
+  diagnosis.theta = without_families(final_fit.theta, ~families);
+  diagnosis.fitted_effects = to_effect_set(diagnosis.theta, families);
+
+  // Every CHECK row for PRED.csv and the plots, the kept rows for the statistics.
+  const Prediction full_check = predict_recording(diagnosis.fitted_effects, all_check);
+  diagnosis.check_after_deg = full_check.alpha_deg;
+  diagnosis.check_unreachable = full_check.unreachable;
+  FinalModel model;
+  model.fit_prediction = predict_recording(diagnosis.fitted_effects, data.fit).alpha_deg;
+  model.check_prediction = predict_recording(diagnosis.fitted_effects, data.check).alpha_deg;
+  diagnosis.fit_rmse_after_deg = joint_rmse(data.fit, model.fit_prediction);
+  diagnosis.holdout_rmse_after_deg = joint_rmse(data.check, model.check_prediction);
+  diagnosis.explained_fraction = explained_fraction(diagnosis.holdout_rmse_nominal_deg,
+                                                    diagnosis.holdout_rmse_after_deg, options.noise_floor_deg);
+
+  // The floor test decides `explained`; an excess is located.
+  const NoiseModel noise = noise_model(data.fit, model.fit_prediction, data.check, options.noise_floor_deg);
+  diagnosis.floor_test = floor_test(data.check, model.check_prediction, noise, options);
+  diagnosis.explained = diagnosis.floor_test.at_floor;
+  diagnosis.unexplained = diagnosis.explained ? UnexplainedResidual{}
+                                              : locate_unexplained(data.check, model.check_prediction, noise);
+  diagnosis.alternatives =
+      find_alternatives(data, families, diagnosis.theta, model.check_prediction, noise, diagnosis.floor_test.at_floor);
+  return model;
+}
+
+// The selection's result replaced by another family set (kept families keep their rank).
+void adopt(Selection& selection, FamilySet families, const Parameters& theta) {
+  std::vector<Family> order;
+  for (Family family : selection.order) {
+    if (families[index_of(family)]) order.push_back(family);
+  }
+  for (int f = 0; f < kFamilyCount; ++f) {
+    if (families[f] && !selection.families[f]) order.push_back(family_at(f));
+  }
+  selection.order = order;
+  selection.families = families;
+  selection.theta = theta;
+  selection.path_changed = true;
+}
+
 }  // namespace
 
 Diagnosis diagnose(const std::vector<Sample>& fit, const std::vector<Sample>& check, const DiagnosisOptions& options) {
@@ -59,51 +123,36 @@ Diagnosis diagnose(const std::vector<Sample>& fit, const std::vector<Sample>& ch
   const Candidate nominal = nominal_candidate(data.check);
   diagnosis.fit_rmse_nominal_deg = joint_rmse(data.fit, predict_recording(EffectSet{}, data.fit).alpha_deg);
   diagnosis.holdout_rmse_nominal_deg = nominal.holdout_rmse;
-  const Selection selection = select_families(data, nominal);
+  diagnosis.check_nominal_deg = predict_recording(EffectSet{}, check).alpha_deg;
+
+  // 3-6. The kept model refitted on every kept FIT row, its floor test and the sets CHECK cannot
+  // tell from it. An alternative that reaches the floor when the chosen set does not, or predicts
+  // CHECK significantly better, replaces it (greedy selection can stop one swap short).
+  Selection selection = select_families(data, nominal);
   diagnosis.steps = selection.steps;
   diagnosis.eliminated = selection.eliminated;
-
-  // 3. The kept model, refitted on every kept FIT row; its covariance gives the intervals.
-  FitResult final_fit;
-  final_fit.theta = selection.theta;
-  final_fit.families = selection.families;
-  if (selection.families.any()) {
-    FitOptions fit_options;
-    fit_options.noise_floor_deg = options.noise_floor_deg;
-    const FitResult refit = fit_model(data.fit, selection.families, selection.theta, selection.theta, fit_options);
-    if (refit.ok) final_fit = refit;
-    diagnosis.confidence_95 = confidence_half_widths(final_fit, data.fit.size());
+  FinalModel final_model = finish_model(data, selection.families, selection.theta, check, diagnosis);
+  const auto better = std::find_if(diagnosis.alternatives.begin(), diagnosis.alternatives.end(), [&](const Alternative& a) {
+    return a.paired_z < -options.paired_z || (a.at_floor && !diagnosis.floor_test.at_floor);
+  });
+  if (better != diagnosis.alternatives.end()) {
+    const Alternative best = *better;
+    {
+      for (Family family : selection.order) {
+        if (!best.families[index_of(family)]) {
+          diagnosis.eliminated.push_back(std::string(family_name(family)) + " (replaced by an alternative set that predicts CHECK better)");
+        }
+      }
+      adopt(selection, best.families, best.theta);
+      final_model = finish_model(data, selection.families, selection.theta, check, diagnosis);
+    }
   }
-  diagnosis.significant = selection.families;
-  diagnosis.theta = without_families(final_fit.theta, ~selection.families);
-  diagnosis.fitted_effects = to_effect_set(diagnosis.theta, selection.families);
-
-  // 4. Predictions: every CHECK row for PRED.csv and the plots, the kept rows for the statistics.
-  const Prediction full_check = predict_recording(diagnosis.fitted_effects, check);
-  diagnosis.check_nominal_deg = predict_recording(EffectSet{}, check).alpha_deg;
-  diagnosis.check_after_deg = full_check.alpha_deg;
-  diagnosis.check_unreachable = full_check.unreachable;
-  const std::vector<Vec3> fit_after = predict_recording(diagnosis.fitted_effects, data.fit).alpha_deg;
-  const std::vector<Vec3> check_after = predict_recording(diagnosis.fitted_effects, data.check).alpha_deg;
-  diagnosis.fit_rmse_after_deg = joint_rmse(data.fit, fit_after);
-  diagnosis.holdout_rmse_after_deg = joint_rmse(data.check, check_after);
-  diagnosis.explained_fraction = explained_fraction(diagnosis.holdout_rmse_nominal_deg,
-                                                    diagnosis.holdout_rmse_after_deg, options.noise_floor_deg);
-
-  // 5. The floor test decides `explained`; an excess is located.
-  const NoiseModel noise = noise_model(data.fit, fit_after, data.check, options.noise_floor_deg);
-  diagnosis.floor_test = floor_test(data.check, check_after, noise, options);
-  diagnosis.explained = diagnosis.floor_test.at_floor;
-  if (!diagnosis.explained) diagnosis.unexplained = locate_unexplained(data.check, check_after, noise);
-
-  // 6. Other sets the held-out data cannot tell from the chosen one.
-  diagnosis.alternatives = find_alternatives(data, selection.families, diagnosis.theta, check_after, noise,
-                                             diagnosis.floor_test.at_floor);
 
   // 7. Ranking and location of the gap.
-  diagnosis.findings = rank_findings(data, selection, diagnosis, diagnosis.holdout_rmse_after_deg, fit_after);
+  diagnosis.findings =
+      rank_findings(data, selection, diagnosis, diagnosis.holdout_rmse_after_deg, final_model.fit_prediction);
   diagnosis.subsystem_rmse_without_deg = subsystem_errors(data.check, selection.families, diagnosis.theta);
-  diagnosis.regions = region_errors(data.check, nominal.check_prediction, check_after);
+  diagnosis.regions = region_errors(data.check, nominal.check_prediction, final_model.check_prediction);
 
   // 8. What the data cannot tell apart.
   diagnosis.final_model = analyse_identifiability(data.fit, selection.families, diagnosis.theta);
