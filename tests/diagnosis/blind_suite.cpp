@@ -137,6 +137,8 @@ void make_extended_case(BlindCase& blind_case, Draw& draw) {
   } else {
     blind_case.kind = CaseKind::stage_scale;
     blind_case.stage_scale = draw.magnitude(0.003, 0.01);
+    // Slot 8: every axis (a new effect, measuring_scale, must be named); slot 9: x or y alone.
+    blind_case.stage_axis = slot == 8 ? -1 : (blind_case.id / 10) % 2;
   }
 }
 
@@ -240,7 +242,8 @@ BlindCase make_case(int id, bool quick) {
                              std::to_string(blind_case.unequal_rods_m * 1e3).substr(0, 5) + " mm)";
   }
   if (blind_case.kind == CaseKind::stage_scale) {
-    blind_case.description = std::string("stage ") + (id % 2 ? "y" : "x") + " scale " +
+    const char* axes[4] = {"all-axes", "x", "y", "z"};
+    blind_case.description = std::string("stage ") + axes[blind_case.stage_axis + 1] + " scale " +
                              std::to_string(blind_case.stage_scale * 100.0).substr(0, 5) + " %";
   }
   if (blind_case.description.empty()) blind_case.description = "none";
@@ -307,8 +310,10 @@ CaseRecordings record_case(const BlindCase& blind_case) {
   if (blind_case.stage_scale != 0.0) {
     for (std::vector<Sample>* rows : {&recordings.fit, &recordings.check}) {
       for (Sample& sample : *rows) {
-        const int axis = blind_case.id % 2;  // x or y
-        sample.position_m[axis] = quantise((1.0 + blind_case.stage_scale) * sample.position_m[axis], kStageResolutionM);
+        for (int axis = 0; axis < 3; ++axis) {
+          if (blind_case.stage_axis >= 0 && axis != blind_case.stage_axis) continue;
+          sample.position_m[axis] = quantise((1.0 + blind_case.stage_scale) * sample.position_m[axis], kStageResolutionM);
+        }
       }
     }
   }

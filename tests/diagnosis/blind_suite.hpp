@@ -24,10 +24,11 @@ struct BlindCase {
   std::size_t fit_samples = 0;
   std::uint64_t check_seed = 1;      // CHECK is a sweep with this seed
   std::size_t check_samples = 0;
-  // stage_scale: one axis of the measuring stage (x for even ids, y for odd) reads (1 + s) x the
-  // position. An isotropic scale would be no error outside the vocabulary: it is exactly the robot's
-  // lengths (arms and radius offset) scaled by 1 / (1 + s), which the vocabulary holds.
+  // stage_scale: the measuring stage reads (1 + s) x the position along stage_axis (0-2), or along
+  // every axis (-1). The vocabulary imitates an all-axes scale exactly (every robot length scaled by
+  // 1 / (1 + s)), so there the diagnosis must name the new effect; one axis it cannot imitate.
   double stage_scale = 0.0;
+  int stage_axis = -1;
   std::size_t glitches = 0;          // outliers: FIT rows whose position jumps by 0.05-0.5 mm
   std::size_t gap_rows = 0;          // FIT rows missing in the middle (a gap in time)
   std::string description;           // the injected effects, for the score table
@@ -37,8 +38,8 @@ struct BlindCase {
 // Cases 0-99 cycle: none, every family alone, pairs, outside-library (unequal rods). Cases from
 // 100 on are the extended kinds, cycling every 10: two trading pairs (effects the data can hardly
 // tell from another set), two three-effect sets, two small effects near the detection limit, two
-// outlier cases (stage glitches and a gap; one without any effect) and two scale errors of one
-// axis of the measuring stage (outside the vocabulary).
+// outlier cases (stage glitches and a gap; one without any effect) and two scale errors of the
+// measuring stage (outside the vocabulary): all axes, and one axis.
 constexpr int kExtendedFirst = 100;
 BlindCase make_case(int id, bool quick);
 

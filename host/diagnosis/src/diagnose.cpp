@@ -1,5 +1,5 @@
 // diagnose(): the diagnosis as a sequence of steps (outliers, selection, final fit, floor test,
-// alternatives, ranking, location, identifiability); each step lives in its own file.
+// alternatives, ranking, location, a new effect, identifiability); each step lives in its own file.
 #include "delta/diagnosis/diagnose.hpp"
 
 #include <algorithm>
@@ -11,6 +11,7 @@
 #include "candidate.hpp"
 #include "floor_test.hpp"
 #include "identifiability.hpp"
+#include "measuring_scale.hpp"
 #include "outliers.hpp"
 #include "selection.hpp"
 
@@ -98,6 +99,66 @@ void adopt(Selection& selection, FamilySet families, const Parameters& theta) {
   selection.path_changed = true;
 }
 
+// A uniform measuring scale in place of the length families, when it does as well on CHECK with
+// fewer parameters (or reaches the floor where they do not): the new effect becomes part of the
+// final model, the vocabulary-only set its first alternative.
+void try_measuring_scale(const PipelineData& data, const std::vector<Sample>& all_check, Diagnosis& diagnosis,
+                         const std::vector<Vec3>& chosen_check) {
+  const std::optional<ScaleModel> model = fit_measuring_scale(data, diagnosis.significant, diagnosis.theta);
+  if (!model) return;
+  const DiagnosisOptions& options = data.options;
+  const NoiseModel noise =
+      noise_model(unscaled(data.fit, model->scale), model->fit_prediction, data.check, options.noise_floor_deg);
+  const FloorTest test = floor_test(data.check, model->check_prediction, noise, options);
+  const PairedDifference difference =
+      paired_difference(data.check, model->check_prediction, chosen_check, options.batch_rows);
+  if (!test.at_floor || (diagnosis.floor_test.at_floor && difference.z > options.paired_z)) return;
+
+  Alternative vocabulary;
+  vocabulary.families = diagnosis.significant;
+  vocabulary.theta = diagnosis.theta;
+  vocabulary.holdout_rmse_deg = diagnosis.holdout_rmse_after_deg;
+  vocabulary.mse_difference_deg2 = -difference.mean_deg2;
+  vocabulary.paired_z = -difference.z;
+  vocabulary.at_floor = diagnosis.floor_test.at_floor;
+  vocabulary.separate_by = "a uniform scale of the measuring stage equals every robot length scaled the other way: "
+                           "measure one arm (calipers) or check the stage against a gauge block";
+  diagnosis.alternatives.insert(diagnosis.alternatives.begin(), vocabulary);
+
+  NewEffect effect;
+  effect.name = "measuring_scale";
+  effect.subsystem = "measuring frame";
+  effect.scale = model->scale;
+  effect.confidence_95 = model->confidence_95;
+  effect.holdout_rmse_deg = model->holdout_rmse;
+  diagnosis.new_effects = {effect};
+  diagnosis.measuring_scale = model->scale;
+  for (EffectFinding& finding : diagnosis.findings) {
+    if (!finding.significant) continue;
+    finding.significant = model->families[index_of(finding.family)];
+    if (finding.significant) finding.theta = model->theta;
+  }
+  diagnosis.significant = model->families;
+  diagnosis.theta = without_families(model->theta, ~model->families);
+  diagnosis.confidence_95 =
+      model->families.any() ? confidence_half_widths(model->fit, data.fit.size()) : Parameters::Zero();
+  diagnosis.fitted_effects = to_effect_set(diagnosis.theta, model->families);
+  const Prediction full_check = predict_recording(diagnosis.fitted_effects, unscaled(all_check, model->scale));
+  diagnosis.check_after_deg = full_check.alpha_deg;
+  diagnosis.check_unreachable = full_check.unreachable;
+  diagnosis.fit_rmse_after_deg = joint_rmse(data.fit, model->fit_prediction);
+  diagnosis.holdout_rmse_after_deg = model->holdout_rmse;
+  diagnosis.explained_fraction = explained_fraction(diagnosis.holdout_rmse_nominal_deg,
+                                                    diagnosis.holdout_rmse_after_deg, options.noise_floor_deg);
+  diagnosis.floor_test = test;
+  diagnosis.explained = test.at_floor;
+  diagnosis.unexplained = UnexplainedResidual{};
+  const std::vector<Sample> check_rows = unscaled(data.check, model->scale);
+  diagnosis.subsystem_rmse_without_deg = subsystem_errors(check_rows, model->families, diagnosis.theta);
+  diagnosis.regions = region_errors(data.check, predict_recording(EffectSet{}, data.check).alpha_deg,
+                                    model->check_prediction);
+}
+
 }  // namespace
 
 Diagnosis diagnose(const std::vector<Sample>& fit, const std::vector<Sample>& check, const DiagnosisOptions& options) {
@@ -154,15 +215,19 @@ Diagnosis diagnose(const std::vector<Sample>& fit, const std::vector<Sample>& ch
   diagnosis.subsystem_rmse_without_deg = subsystem_errors(data.check, selection.families, diagnosis.theta);
   diagnosis.regions = region_errors(data.check, nominal.check_prediction, final_model.check_prediction);
 
-  // 8. What the data cannot tell apart.
-  diagnosis.final_model = analyse_identifiability(data.fit, selection.families, diagnosis.theta);
+  // 8. An effect outside the vocabulary in place of the length families (measuring_scale.hpp).
+  try_measuring_scale(data, check, diagnosis, final_model.check_prediction);
+
+  // 9. What the data cannot tell apart.
+  diagnosis.final_model = analyse_identifiability(unscaled(data.fit, diagnosis.measuring_scale), diagnosis.significant,
+                                                  diagnosis.theta);
   FamilySet everything;
   everything.set();
-  if (!selection.families[index_of(Family::transmission_error)]) everything.reset(index_of(Family::transmission_error));
+  if (!diagnosis.significant[index_of(Family::transmission_error)]) everything.reset(index_of(Family::transmission_error));
   Parameters probe = diagnosis.theta;
   // Backlash of exactly zero hides its column's sign; a tiny width makes the direction visible.
   for (int j = 0; j < 3; ++j) probe[slot::backlash + j] = std::max(probe[slot::backlash + j], 0.01);
-  diagnosis.all_families = analyse_identifiability(data.fit, everything, probe);
+  diagnosis.all_families = analyse_identifiability(unscaled(data.fit, diagnosis.measuring_scale), everything, probe);
   diagnosis.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   return diagnosis;
 }

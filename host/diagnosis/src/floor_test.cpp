@@ -8,6 +8,7 @@
 #include "delta/geometry.hpp"
 #include "delta/kinematics.hpp"
 #include "attribution.hpp"
+#include "outliers.hpp"
 
 namespace delta::diagnosis {
 namespace {
@@ -71,19 +72,6 @@ Vec3 stage_variance_deg2(const Vec3& position_m) {
   return variance;
 }
 
-// Rows i-1, i sampled at the recording's usual interval (a gap or an outlier left out breaks the pair).
-std::vector<bool> regular_pairs(const std::vector<Sample>& rows) {
-  std::vector<double> steps;
-  for (std::size_t i = 1; i < rows.size(); ++i) steps.push_back(rows[i].t_s - rows[i - 1].t_s);
-  std::vector<bool> regular(rows.size(), false);
-  if (steps.empty()) return regular;
-  std::vector<double> sorted = steps;
-  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
-  const double usual = sorted[sorted.size() / 2];
-  for (std::size_t i = 1; i < rows.size(); ++i) regular[i] = std::abs(steps[i - 1] - usual) <= 0.25 * usual;
-  return regular;
-}
-
 }  // namespace
 
 NoiseModel noise_model(const std::vector<Sample>& fit, const std::vector<Vec3>& fit_prediction,
@@ -94,10 +82,10 @@ NoiseModel noise_model(const std::vector<Sample>& fit, const std::vector<Vec3>& 
 
   // Extra noise from FIT: per pair of neighbouring rows, half of (d^2 - f (q - f) - stage), d the
   // difference of residuals; averaged over the joints.
-  const std::vector<bool> regular = regular_pairs(fit);
+  const double usual_s = usual_interval_s(fit);
   std::vector<double> excess;
   for (std::size_t i = 1; i < fit.size(); ++i) {
-    if (!regular[i]) continue;
+    if (!regular_step(fit, i, usual_s)) continue;
     const Vec3 stage = stage_variance_deg2(fit[i].position_m);
     double sum = 0.0;
     for (int j = 0; j < 3; ++j) {

@@ -53,15 +53,9 @@ std::vector<Outlier> find_outliers(const std::vector<Sample>& rows, const std::s
                                    double encoder_step_deg) {
   std::vector<Outlier> outliers;
   if (rows.size() < 5) return outliers;
-  std::vector<double> steps;
-  for (std::size_t i = 1; i < rows.size(); ++i) steps.push_back(rows[i].t_s - rows[i - 1].t_s);
-  std::vector<double> sorted = steps;
-  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
-  const double usual = sorted[sorted.size() / 2];
+  const double usual = usual_interval_s(rows);
   std::vector<bool> judged(rows.size(), false);
-  for (std::size_t i = 1; i + 1 < rows.size(); ++i) {
-    judged[i] = std::abs(steps[i - 1] - usual) <= 0.25 * usual && std::abs(steps[i] - usual) <= 0.25 * usual;
-  }
+  for (std::size_t i = 1; i + 1 < rows.size(); ++i) judged[i] = regular_step(rows, i, usual) && regular_step(rows, i + 1, usual);
   std::vector<double> position_spike(rows.size(), 0.0), angle_spike(rows.size(), 0.0);
   flag_spikes(rows, judged, 2e-6, [](const Sample& s) { return s.position_m; }, position_spike);
   flag_spikes(rows, judged, 3.0 * encoder_step_deg, [](const Sample& s) { return s.alpha_deg; }, angle_spike);
@@ -76,6 +70,18 @@ std::vector<Outlier> find_outliers(const std::vector<Sample>& rows, const std::s
     outliers.push_back(outlier);
   }
   return outliers;
+}
+
+double usual_interval_s(const std::vector<Sample>& rows) {
+  std::vector<double> steps;
+  for (std::size_t i = 1; i < rows.size(); ++i) steps.push_back(rows[i].t_s - rows[i - 1].t_s);
+  if (steps.empty()) return 0.0;
+  std::nth_element(steps.begin(), steps.begin() + steps.size() / 2, steps.end());
+  return steps[steps.size() / 2];
+}
+
+bool regular_step(const std::vector<Sample>& rows, std::size_t i, double usual_s) {
+  return i > 0 && i < rows.size() && std::abs(rows[i].t_s - rows[i - 1].t_s - usual_s) <= 0.25 * usual_s;
 }
 
 std::vector<Sample> without_outliers(const std::vector<Sample>& rows, const std::vector<Outlier>& outliers) {

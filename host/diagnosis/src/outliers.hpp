@@ -17,6 +17,13 @@ namespace delta::diagnosis {
 std::vector<Outlier> find_outliers(const std::vector<Sample>& rows, const std::string& recording,
                                    double encoder_step_deg);
 
+// The median interval between neighbouring rows (the recording's sample period), seconds.
+double usual_interval_s(const std::vector<Sample>& rows);
+
+// Whether rows i-1 and i are one usual interval apart (within 25 %); false for i = 0 and across a
+// gap in time or a row left out.
+bool regular_step(const std::vector<Sample>& rows, std::size_t i, double usual_s);
+
 // The rows not listed (row numbers are 1-based).
 std::vector<Sample> without_outliers(const std::vector<Sample>& rows, const std::vector<Outlier>& outliers);
 

@@ -152,14 +152,17 @@ json floor_test_json(const FloorTest& test) {
           {"at_floor", test.at_floor}};
 }
 
-std::string family_list(FamilySet families) {
-  return families.any() ? describe(families) : std::string("no effect");
+// The final model's effects, new ones (outside the vocabulary) included.
+std::string model_name(const Diagnosis& diagnosis) {
+  std::string text = diagnosis.significant.any() ? describe(diagnosis.significant) : std::string();
+  for (const NewEffect& effect : diagnosis.new_effects) text += (text.empty() ? "" : " + ") + effect.name;
+  return text.empty() ? std::string("no effect") : text;
 }
 
 // The verdict sentence of the report and of the summary.
 std::string verdict(const Diagnosis& diagnosis) {
   std::ostringstream text;
-  text << family_list(diagnosis.significant);
+  text << model_name(diagnosis);
   for (const Alternative& alternative : diagnosis.alternatives) text << ", or equivalently " << describe(alternative.families);
   const FloorTest& test = diagnosis.floor_test;
   if (diagnosis.explained) {
@@ -193,6 +196,17 @@ json diagnosis_json(const Diagnosis& diagnosis) {
   document["explained"] = diagnosis.explained;
   document["explained_fraction"] = diagnosis.explained_fraction;
   json effects = json::array();
+  for (const NewEffect& effect : diagnosis.new_effects) {
+    effects.push_back({{"name", effect.name},
+                       {"significant", true},
+                       {"in_vocabulary", false},
+                       {"subsystem", effect.subsystem},
+                       {"parameters", {{"s", effect.scale}}},
+                       {"final_parameters", {{"s", effect.scale}}},
+                       {"confidence_95_half_width", {{"s", effect.confidence_95}}},
+                       {"holdout_rmse_deg", triple(effect.holdout_rmse_deg)},
+                       {"description", "p_measured = (1 + s) p_true: a uniform scale error of the measuring stage"}});
+  }
   for (const EffectFinding& finding : diagnosis.findings) {
     json effect = {{"name", family_name(finding.family)},
                    {"significant", finding.significant},
@@ -297,11 +311,16 @@ void print_summary(std::ostream& out, const Diagnosis& diagnosis) {
   for (const EffectFinding& finding : diagnosis.findings) {
     if (finding.significant) row(std::string("+ ") + family_name(finding.family), finding.holdout_rmse_deg);
   }
+  for (const NewEffect& effect : diagnosis.new_effects) {
+    row("final model with " + effect.name + " (outside the vocabulary), s = " + format_number(effect.scale) + " +- " +
+            format_number(effect.confidence_95),
+        effect.holdout_rmse_deg);
+  }
   table.print(out);
   out << "\nnoise floor " << fixed(floor, 5) << " deg; explained: " << (diagnosis.explained ? "yes" : "no")
       << " (floor test z " << fixed(diagnosis.floor_test.z, 2) << ", threshold " << fixed(diagnosis.floor_test.threshold, 1)
       << "; " << fixed(100.0 * diagnosis.explained_fraction, 1) << " % of the held-out excess removed); "
-      << "significant: " << describe(diagnosis.significant) << "; " << fixed(diagnosis.seconds, 1) << " s\n"
+      << "significant: " << model_name(diagnosis) << "; " << fixed(diagnosis.seconds, 1) << " s\n"
       << "verdict: " << verdict(diagnosis) << "\n";
   if (!diagnosis.outliers.empty()) out << diagnosis.outliers.size() << " outlier rows left out (listed in the JSON)\n";
 }
@@ -324,7 +343,7 @@ void write_report(const std::string& markdown_path, const ReportInputs& inputs, 
     PlotSpec spec;
     spec.title = "Held-out residual (measured - predicted) along " + inputs.check_path;
     PlotPanel before{"nominal model", "t [s]", "residual [deg]", {}, false};
-    PlotPanel after{"after diagnosis (" + describe(diagnosis.significant) + ")", "t [s]", "residual [deg]", {}, false};
+    PlotPanel after{"after diagnosis (" + model_name(diagnosis) + ")", "t [s]", "residual [deg]", {}, false};
     for (int j = 0; j < 3; ++j) {
       PlotSeries b{"alpha" + std::to_string(j + 1), {}, {}, false}, a = b;
       for (std::size_t i = 0; i < check.size(); ++i) {
