@@ -81,6 +81,8 @@ const RegisterCommand command("diagnose", 60, [](CLI::App& root) {
       "are left out and listed. 'explained' is the floor test: the held-out mean of r^2 / sigma^2 (noise model:\n"
       "encoder and stage quantisation, plus extra noise when FIT shows one) is not above 1 by more than 4\n"
       "standard errors (batch means). 'alternatives' lists other effect sets CHECK cannot tell from the chosen one.\n"
+      "A uniform scale of the measuring stage, which the vocabulary can only imitate by scaling every length, is\n"
+      "reported as the new effect 'measuring_scale' (parameter s) when it does as well.\n"
       "Outputs: JSON (ranked effects, parameters, held-out RMSE per joint, selection trace, location per\n"
       "subsystem and octant, identifiability), PRED.csv (t_s,alpha1_deg,alpha2_deg,alpha3_deg per CHECK row,\n"
       "final model), and with --report a Markdown report with PNG plots beside it.\n"

@@ -79,8 +79,14 @@ FinalModel finish_model(const PipelineData& data, FamilySet families, const Para
   diagnosis.explained = diagnosis.floor_test.at_floor;
   diagnosis.unexplained = diagnosis.explained ? UnexplainedResidual{}
                                               : locate_unexplained(data.check, model.check_prediction, noise);
-  diagnosis.alternatives =
-      find_alternatives(data, families, diagnosis.theta, model.check_prediction, noise, diagnosis.floor_test.at_floor);
+  // Alternatives only where the floor is in reach: far above it (an effect outside the vocabulary)
+  // the search costs seconds and names nothing useful.
+  diagnosis.alternatives.clear();
+  const bool near_floor = diagnosis.holdout_rmse_after_deg.maxCoeff() <= options.near_floor_ratio * options.noise_floor_deg;
+  if (diagnosis.floor_test.at_floor || near_floor) {
+    diagnosis.alternatives =
+        find_alternatives(data, families, diagnosis.theta, model.check_prediction, noise, diagnosis.floor_test.at_floor);
+  }
   return model;
 }
 
