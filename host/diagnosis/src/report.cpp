@@ -163,7 +163,10 @@ std::string model_name(const Diagnosis& diagnosis) {
 std::string verdict(const Diagnosis& diagnosis) {
   std::ostringstream text;
   text << model_name(diagnosis);
-  for (const Alternative& alternative : diagnosis.alternatives) text << ", or equivalently " << describe(alternative.families);
+  for (const Alternative& alternative : diagnosis.alternatives) {
+    text << ", or equivalently " << describe(alternative.families) << " (to tell them apart: " << alternative.separate_by
+         << ")";
+  }
   const FloorTest& test = diagnosis.floor_test;
   if (diagnosis.explained) {
     text << (diagnosis.alternatives.empty() ? " explains" : " explain")
