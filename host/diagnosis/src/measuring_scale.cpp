@@ -37,7 +37,7 @@ std::vector<Sample> unscaled(const std::vector<Sample>& rows, double scale) {
 }
 
 std::optional<ScaleModel> fit_measuring_scale(const PipelineData& data, FamilySet chosen, const Parameters& theta) {
-  if ((chosen & kLengths).count() < 2) return std::nullopt;
+  if ((chosen & kLengths).none()) return std::nullopt;
   // Least-squares common relative change k of the present length families (mm over mm).
   const std::pair<int, double> lengths[3] = {{slot::upper_arm, 40.0}, {slot::lower_arm, 68.0}, {slot::radius, 10.0}};
   const Family families_of_lengths[3] = {Family::upper_arm_length, Family::lower_arm_length, Family::radius_offset};

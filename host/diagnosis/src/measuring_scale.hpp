@@ -23,8 +23,8 @@ struct ScaleModel {
   Vec3 holdout_rmse = Vec3::Zero();
 };
 
-// When the chosen set holds two or more length families (upper_arm_length, lower_arm_length,
-// radius_offset) whose fitted changes are one common relative change k of the nominal lengths
+// When the chosen set holds length families (upper_arm_length, lower_arm_length, radius_offset)
+// whose fitted changes are one common relative change k of the nominal lengths
 // (40, 68, 10 mm; the proportional part carries 90 % of their square sum), fits the chosen set
 // without the length families on positions divided by (1 + s), s from k and refined by a parabola
 // through three FIT costs. Returns nothing when the lengths do not look like a scale.
