@@ -165,6 +165,37 @@ void try_measuring_scale(const PipelineData& data, const std::vector<Sample>& al
                                     model->check_prediction);
 }
 
+// An alternative that reaches the floor when the chosen set does not, or predicts CHECK
+// significantly better, replaces the chosen set (greedy selection can stop one swap short).
+bool adopt_better_alternative(const DiagnosisOptions& options, Selection& selection, Diagnosis& diagnosis) {
+  const auto better = std::find_if(diagnosis.alternatives.begin(), diagnosis.alternatives.end(), [&](const Alternative& a) {
+    return a.paired_z < -options.paired_z || (a.at_floor && !diagnosis.floor_test.at_floor);
+  });
+  if (better == diagnosis.alternatives.end()) return false;
+  for (Family family : selection.order) {
+    if (!better->families[index_of(family)]) {
+      diagnosis.eliminated.push_back(std::string(family_name(family)) +
+                                     " (replaced by an alternative set that predicts CHECK better)");
+    }
+  }
+  adopt(selection, better->families, better->theta);
+  return true;
+}
+
+// Identifiability of the final model and of every family at once, on the FIT rows as the final
+// model sees them (positions unscaled when measuring_scale is part of it).
+void analyse_final_identifiability(const PipelineData& data, Diagnosis& diagnosis) {
+  const std::vector<Sample> rows = unscaled(data.fit, diagnosis.measuring_scale);
+  diagnosis.final_model = analyse_identifiability(rows, diagnosis.significant, diagnosis.theta);
+  FamilySet everything;
+  everything.set();
+  if (!diagnosis.significant[index_of(Family::transmission_error)]) everything.reset(index_of(Family::transmission_error));
+  Parameters probe = diagnosis.theta;
+  // Backlash of exactly zero hides its column's sign; a tiny width makes the direction visible.
+  for (int j = 0; j < 3; ++j) probe[slot::backlash + j] = std::max(probe[slot::backlash + j], 0.01);
+  diagnosis.all_families = analyse_identifiability(rows, everything, probe);
+}
+
 }  // namespace
 
 Diagnosis diagnose(const std::vector<Sample>& fit, const std::vector<Sample>& check, const DiagnosisOptions& options) {
@@ -186,33 +217,21 @@ Diagnosis diagnose(const std::vector<Sample>& fit, const std::vector<Sample>& ch
   data.threshold_deg2 = options.significance * options.noise_floor_deg * options.noise_floor_deg;
   diagnosis.significance_threshold_deg2 = data.threshold_deg2;
 
-  // 2. Selection of the families by held-out error.
+  // 2. The nominal model, where selection starts.
   const Candidate nominal = nominal_candidate(data.check);
   diagnosis.fit_rmse_nominal_deg = joint_rmse(data.fit, predict_recording(EffectSet{}, data.fit).alpha_deg);
   diagnosis.holdout_rmse_nominal_deg = nominal.holdout_rmse;
   diagnosis.check_nominal_deg = predict_recording(EffectSet{}, check).alpha_deg;
 
-  // 3-6. The kept model refitted on every kept FIT row, its floor test and the sets CHECK cannot
-  // tell from it. An alternative that reaches the floor when the chosen set does not, or predicts
-  // CHECK significantly better, replaces it (greedy selection can stop one swap short).
+  // 3. Selection of the families by held-out error. 4-6. The kept model refitted on every kept FIT
+  // row, its floor test and the sets CHECK cannot tell from it; a better alternative replaces it
+  // and 4-6 run again.
   Selection selection = select_families(data, nominal);
   diagnosis.steps = selection.steps;
   diagnosis.eliminated = selection.eliminated;
   FinalModel final_model = finish_model(data, selection.families, selection.theta, check, diagnosis);
-  const auto better = std::find_if(diagnosis.alternatives.begin(), diagnosis.alternatives.end(), [&](const Alternative& a) {
-    return a.paired_z < -options.paired_z || (a.at_floor && !diagnosis.floor_test.at_floor);
-  });
-  if (better != diagnosis.alternatives.end()) {
-    const Alternative best = *better;
-    {
-      for (Family family : selection.order) {
-        if (!best.families[index_of(family)]) {
-          diagnosis.eliminated.push_back(std::string(family_name(family)) + " (replaced by an alternative set that predicts CHECK better)");
-        }
-      }
-      adopt(selection, best.families, best.theta);
-      final_model = finish_model(data, selection.families, selection.theta, check, diagnosis);
-    }
+  if (adopt_better_alternative(options, selection, diagnosis)) {
+    final_model = finish_model(data, selection.families, selection.theta, check, diagnosis);
   }
 
   // 7. Ranking and location of the gap.
@@ -225,15 +244,7 @@ Diagnosis diagnose(const std::vector<Sample>& fit, const std::vector<Sample>& ch
   try_measuring_scale(data, check, diagnosis, final_model.check_prediction);
 
   // 9. What the data cannot tell apart.
-  diagnosis.final_model = analyse_identifiability(unscaled(data.fit, diagnosis.measuring_scale), diagnosis.significant,
-                                                  diagnosis.theta);
-  FamilySet everything;
-  everything.set();
-  if (!diagnosis.significant[index_of(Family::transmission_error)]) everything.reset(index_of(Family::transmission_error));
-  Parameters probe = diagnosis.theta;
-  // Backlash of exactly zero hides its column's sign; a tiny width makes the direction visible.
-  for (int j = 0; j < 3; ++j) probe[slot::backlash + j] = std::max(probe[slot::backlash + j], 0.01);
-  diagnosis.all_families = analyse_identifiability(unscaled(data.fit, diagnosis.measuring_scale), everything, probe);
+  analyse_final_identifiability(data, diagnosis);
   diagnosis.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   return diagnosis;
 }
