@@ -11,7 +11,7 @@
 
 namespace delta::blind {
 
-enum class CaseKind { none, single, pair, outside };
+enum class CaseKind { none, single, pair, outside, trading, triple, small, outliers, stage_scale };
 const char* kind_name(CaseKind kind);
 
 struct BlindCase {
@@ -24,17 +24,30 @@ struct BlindCase {
   std::size_t fit_samples = 0;
   std::uint64_t check_seed = 1;      // CHECK is a sweep with this seed
   std::size_t check_samples = 0;
+  // stage_scale: the measuring stage reads (1 + s) x the position along stage_axis (0-2), or along
+  // every axis (-1). The vocabulary imitates an all-axes scale exactly (every robot length scaled by
+  // 1 / (1 + s)), so there the diagnosis must name the new effect; one axis it cannot imitate.
+  double stage_scale = 0.0;
+  int stage_axis = -1;
+  std::size_t glitches = 0;          // outliers: FIT rows whose position jumps by 0.05-0.5 mm
+  std::size_t gap_rows = 0;          // FIT rows missing in the middle (a gap in time)
   std::string description;           // the injected effects, for the score table
 };
 
 // Case `id` of the suite (deterministic in id). quick: smaller recordings for CTest.
-// The kinds cycle: none, every family alone, pairs, outside-library (unequal rods).
+// Cases 0-99 cycle: none, every family alone, pairs, outside-library (unequal rods). Cases from
+// 100 on are the extended kinds, cycling every 10: two trading pairs (effects the data can hardly
+// tell from another set), two three-effect sets, two small effects near the detection limit, two
+// outlier cases (stage glitches and a gap; one without any effect) and two scale errors of the
+// measuring stage (outside the vocabulary): all axes, and one axis.
+constexpr int kExtendedFirst = 100;
 BlindCase make_case(int id, bool quick);
 
 // Records FIT and CHECK of a case (the generator's robot, including effects outside the library).
 struct CaseRecordings {
   std::vector<Sample> fit;
   std::vector<Sample> check;
+  std::vector<std::size_t> glitch_rows;  // 1-based FIT data rows made outliers
 };
 CaseRecordings record_case(const BlindCase& blind_case);
 
@@ -50,7 +63,11 @@ struct CaseScore {
   std::vector<std::string> reported;  // significant effect names
   bool explained = false;
   double rmse_after_over_floor = 0.0;  // worst joint, computed from PRED.csv by the suite
-  bool set_ok = false;                 // reported set == injected set (outside: explained false or a new name)
+  std::vector<std::vector<std::string>> alternatives;  // the equivalent sets the diagnosis listed
+  bool via_alternative = false;        // the injected set is not the chosen one but an alternative
+  std::size_t glitches_found = 0;      // injected glitch rows listed among the outliers
+  bool set_ok = false;                 // reported set (or an alternative) == injected set (outside:
+                                       // explained false or a new name); outliers: every glitch listed
   bool rmse_ok = false;                // in-library: <= 1.5 floor
   double seconds = 0.0;
   std::string error;                   // non-empty when deltactl failed

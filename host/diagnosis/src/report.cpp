@@ -129,6 +129,61 @@ void write_error_map(const std::string& png_path, const std::vector<Sample>& che
   }
   fs::rename(partial, png_path);
 }
+// Confidence half widths of a family laid out as parameters, so they print in the keys and units
+// of its parameters (the conversion to SPEC units is linear).
+Parameters confidence_theta(Family family, const Parameters& half_widths) {
+  Parameters theta = Parameters::Zero();
+  for (int k : parameter_indices(single(family))) theta[k] = half_widths[k];
+  return theta;
+}
+
+json floor_test_json(const FloorTest& test) {
+  return {{"statistic_z", test.z},
+          {"threshold_z", test.threshold},
+          {"ratio_to_noise_model", test.ratio},
+          {"joint_ratio", triple(test.joint_ratio)},
+          {"joint_z", triple(test.joint_z)},
+          {"noise_model_sigma_deg", triple(test.sigma_deg)},
+          {"stage_sigma_deg", test.stage_sigma_deg},
+          {"extra_noise_deg", test.extra_noise_deg},
+          {"extra_noise_z", test.extra_noise_z},
+          {"rows", test.rows},
+          {"blocks", test.blocks},
+          {"at_floor", test.at_floor}};
+}
+
+// The final model's effects, new ones (outside the vocabulary) included.
+std::string model_name(const Diagnosis& diagnosis) {
+  std::string text = diagnosis.significant.any() ? describe(diagnosis.significant) : std::string();
+  for (const NewEffect& effect : diagnosis.new_effects) text += (text.empty() ? "" : " + ") + effect.name;
+  return text.empty() ? std::string("no effect") : text;
+}
+
+// The verdict sentence of the report and of the summary.
+std::string verdict(const Diagnosis& diagnosis) {
+  std::ostringstream text;
+  text << model_name(diagnosis);
+  for (const Alternative& alternative : diagnosis.alternatives) {
+    text << ", or equivalently " << describe(alternative.families) << " (to tell them apart: " << alternative.separate_by
+         << ")";
+  }
+  const FloorTest& test = diagnosis.floor_test;
+  if (diagnosis.explained) {
+    text << (diagnosis.alternatives.empty() ? " explains" : " explain")
+         << " the recording down to the noise floor (floor test z = " << fixed(test.z, 2) << " <= " << fixed(test.threshold, 1)
+         << ", held-out r^2 / noise model = " << fixed(test.ratio, 4) << ")";
+  } else {
+    const UnexplainedResidual& where = diagnosis.unexplained;
+    text << " leaves a residual significantly above the noise floor (floor test z = " << fixed(test.z, 2) << " > "
+         << fixed(test.threshold, 1) << ", held-out r^2 / noise model = " << fixed(test.ratio, 4)
+         << "): an effect outside the vocabulary; its excess is " << format_number(where.excess_rms_deg)
+         << " deg RMS, largest on joint " << where.joint + 1 << ", in octant " << where.region << " ("
+         << format_number(where.region_excess_rms_deg) << " deg) and at t = " << fixed(where.t_from_s, 2) << "-"
+         << fixed(where.t_to_s, 2) << " s (" << format_number(where.time_excess_rms_deg) << " deg)";
+  }
+  return text.str();
+}
+
 }  // namespace
 
 json family_parameters_json(Family family, const Parameters& theta) {
@@ -144,15 +199,69 @@ json diagnosis_json(const Diagnosis& diagnosis) {
   document["explained"] = diagnosis.explained;
   document["explained_fraction"] = diagnosis.explained_fraction;
   json effects = json::array();
+  for (const NewEffect& effect : diagnosis.new_effects) {
+    effects.push_back({{"name", effect.name},
+                       {"significant", true},
+                       {"in_vocabulary", false},
+                       {"subsystem", effect.subsystem},
+                       {"parameters", {{"s", effect.scale}}},
+                       {"final_parameters", {{"s", effect.scale}}},
+                       {"confidence_95_half_width", {{"s", effect.confidence_95}}},
+                       {"holdout_rmse_deg", triple(effect.holdout_rmse_deg)},
+                       {"description", "p_measured = (1 + s) p_true: a uniform scale error of the measuring stage"}});
+  }
   for (const EffectFinding& finding : diagnosis.findings) {
-    effects.push_back({{"name", family_name(finding.family)},
-                       {"significant", finding.significant},
-                       {"subsystem", subsystem_of(finding.family)},
-                       {"parameters", family_parameters_json(finding.family, finding.theta)},
-                       {"holdout_rmse_deg", triple(finding.holdout_rmse_deg)},
-                       {"holdout_gain_deg2", finding.holdout_gain_deg2}});
+    json effect = {{"name", family_name(finding.family)},
+                   {"significant", finding.significant},
+                   {"subsystem", subsystem_of(finding.family)},
+                   {"parameters", family_parameters_json(finding.family, finding.theta)},
+                   {"holdout_rmse_deg", triple(finding.holdout_rmse_deg)},
+                   {"holdout_gain_deg2", finding.holdout_gain_deg2}};
+    if (finding.significant) {
+      // The final model's values and their 95 % intervals (value +- half width).
+      effect["final_parameters"] = family_parameters_json(finding.family, diagnosis.theta);
+      effect["confidence_95_half_width"] = family_parameters_json(finding.family, confidence_theta(finding.family, diagnosis.confidence_95));
+    }
+    effects.push_back(effect);
   }
   document["effects"] = effects;
+  document["floor_test"] = floor_test_json(diagnosis.floor_test);
+  if (!diagnosis.explained) {
+    const UnexplainedResidual& where = diagnosis.unexplained;
+    document["unexplained"] = {{"excess_rms_deg", where.excess_rms_deg},
+                               {"joint", where.joint + 1},
+                               {"octant", where.region},
+                               {"octant_excess_rms_deg", where.region_excess_rms_deg},
+                               {"time_s", json::array({where.t_from_s, where.t_to_s})},
+                               {"time_excess_rms_deg", where.time_excess_rms_deg}};
+  }
+  json alternatives = json::array();
+  for (const Alternative& alternative : diagnosis.alternatives) {
+    json names = json::array(), parameters = json::object();
+    for (int f = 0; f < kFamilyCount; ++f) {
+      if (!alternative.families[f]) continue;
+      names.push_back(family_name(family_at(f)));
+      parameters[family_name(family_at(f))] = family_parameters_json(family_at(f), alternative.theta);
+    }
+    alternatives.push_back({{"effects", names},
+                            {"parameters", parameters},
+                            {"holdout_rmse_deg", triple(alternative.holdout_rmse_deg)},
+                            {"holdout_mse_difference_deg2", alternative.mse_difference_deg2},
+                            {"paired_z", alternative.paired_z},
+                            {"at_floor", alternative.at_floor},
+                            {"separate_by", alternative.separate_by}});
+  }
+  document["alternatives"] = alternatives;
+  json outliers = json::array();
+  for (const Outlier& outlier : diagnosis.outliers) {
+    outliers.push_back({{"recording", outlier.recording},
+                        {"row", outlier.row},
+                        {"t_s", outlier.t_s},
+                        {"position_spike_mm", outlier.position_spike_mm},
+                        {"angle_spike_deg", outlier.angle_spike_deg}});
+  }
+  document["outliers"] = outliers;
+  document["verdict"] = verdict(diagnosis);
   document["holdout"] = {{"rmse_nominal_deg", triple(diagnosis.holdout_rmse_nominal_deg)},
                          {"rmse_after_deg", triple(diagnosis.holdout_rmse_after_deg)},
                          {"samples", diagnosis.check_after_deg.size()},
@@ -205,10 +314,18 @@ void print_summary(std::ostream& out, const Diagnosis& diagnosis) {
   for (const EffectFinding& finding : diagnosis.findings) {
     if (finding.significant) row(std::string("+ ") + family_name(finding.family), finding.holdout_rmse_deg);
   }
+  for (const NewEffect& effect : diagnosis.new_effects) {
+    row("final model with " + effect.name + " (outside the vocabulary), s = " + format_number(effect.scale) + " +- " +
+            format_number(effect.confidence_95),
+        effect.holdout_rmse_deg);
+  }
   table.print(out);
   out << "\nnoise floor " << fixed(floor, 5) << " deg; explained: " << (diagnosis.explained ? "yes" : "no")
-      << " (" << fixed(100.0 * diagnosis.explained_fraction, 1) << " % of the held-out excess removed); "
-      << "significant: " << describe(diagnosis.significant) << "; " << fixed(diagnosis.seconds, 1) << " s\n";
+      << " (floor test z " << fixed(diagnosis.floor_test.z, 2) << ", threshold " << fixed(diagnosis.floor_test.threshold, 1)
+      << "; " << fixed(100.0 * diagnosis.explained_fraction, 1) << " % of the held-out excess removed); "
+      << "significant: " << model_name(diagnosis) << "; " << fixed(diagnosis.seconds, 1) << " s\n"
+      << "verdict: " << verdict(diagnosis) << "\n";
+  if (!diagnosis.outliers.empty()) out << diagnosis.outliers.size() << " outlier rows left out (listed in the JSON)\n";
 }
 
 void write_report(const std::string& markdown_path, const ReportInputs& inputs, const std::vector<Sample>& check,
@@ -229,7 +346,7 @@ void write_report(const std::string& markdown_path, const ReportInputs& inputs, 
     PlotSpec spec;
     spec.title = "Held-out residual (measured - predicted) along " + inputs.check_path;
     PlotPanel before{"nominal model", "t [s]", "residual [deg]", {}, false};
-    PlotPanel after{"after diagnosis (" + describe(diagnosis.significant) + ")", "t [s]", "residual [deg]", {}, false};
+    PlotPanel after{"after diagnosis (" + model_name(diagnosis) + ")", "t [s]", "residual [deg]", {}, false};
     for (int j = 0; j < 3; ++j) {
       PlotSeries b{"alpha" + std::to_string(j + 1), {}, {}, false}, a = b;
       for (std::size_t i = 0; i < check.size(); ++i) {
@@ -283,12 +400,49 @@ void write_report(const std::string& markdown_path, const ReportInputs& inputs, 
       << "Fitted on `" << inputs.fit_path << "` (" << inputs.fit_rows << " rows), judged on the held-out `"
       << inputs.check_path << "` (" << check.size() << " rows). Noise floor (encoder quantisation 0.01 deg / sqrt(12)): "
       << fixed(floor, 5) << " deg.\n\n"
-      << "**Verdict:** " << (diagnosis.significant.any() ? describe(diagnosis.significant) : std::string("no effect"))
-      << (diagnosis.explained ? " explains the recording down to the noise floor"
-                              : " does not bring the held-out error to the noise floor: an effect outside the "
-                                "library is at work")
-      << "; " << fixed(100.0 * diagnosis.explained_fraction, 1)
+      << "**Verdict:** " << verdict(diagnosis) << "; " << fixed(100.0 * diagnosis.explained_fraction, 1)
       << " % of the held-out mean-square error above the floor removed.\n\n";
+  if (!diagnosis.alternatives.empty()) {
+    out << "## Equivalent explanations\n\nSets the held-out data cannot tell from the chosen one (held-out MSE "
+           "not worse by more than the stopping rule's threshold, or not significantly by the paired test; same "
+           "floor test). `significant` in the JSON stays the chosen set.\n\n";
+    Table table({"effects", "held-out RMSE a1/a2/a3 [deg]", "MSE - chosen [deg^2]", "paired z", "separate by"});
+    for (const Alternative& alternative : diagnosis.alternatives) {
+      std::ostringstream difference;
+      difference.precision(3);
+      difference << alternative.mse_difference_deg2;
+      table.add_row({describe(alternative.families),
+                     fixed(alternative.holdout_rmse_deg[0], 5) + " / " + fixed(alternative.holdout_rmse_deg[1], 5) +
+                         " / " + fixed(alternative.holdout_rmse_deg[2], 5),
+                     difference.str(), fixed(alternative.paired_z, 2), alternative.separate_by});
+    }
+    table.print(out);
+    out << "\n";
+  }
+  {
+    const FloorTest& test = diagnosis.floor_test;
+    out << "## Floor test\n\nNoise model per joint: encoder quantisation 0.01/sqrt(12) deg, stage quantisation "
+           "6.87 nm/sqrt(12) per axis through the kinematics ("
+        << format_number(test.stage_sigma_deg) << " deg RMS) and an extra white noise estimated from the FIT "
+        << "residual differences (" << format_number(test.extra_noise_deg) << " deg, z = " << fixed(test.extra_noise_z, 2)
+        << "; counted only above z = 4). Statistic: mean of r^2 / sigma^2 over the " << test.rows
+        << " held-out rows against 1, standard error by batch means over " << test.blocks
+        << " blocks; ratio " << fixed(test.ratio, 4) << " (joints " << fixed(test.joint_ratio[0], 4) << " / "
+        << fixed(test.joint_ratio[1], 4) << " / " << fixed(test.joint_ratio[2], 4) << "), z = " << fixed(test.z, 2)
+        << " (joints " << fixed(test.joint_z[0], 2) << " / " << fixed(test.joint_z[1], 2) << " / "
+        << fixed(test.joint_z[2], 2) << "); at the floor when z <= " << fixed(test.threshold, 1)
+        << " and every joint's z <= " << fixed(test.threshold + 0.5, 1) << ": " << (test.at_floor ? "yes" : "no") << ".\n\n";
+  }
+  if (!diagnosis.outliers.empty()) {
+    out << "## Outlier rows (left out of the fit and the scores)\n\n";
+    Table table({"recording", "data row", "t [s]", "position spike [mm]", "angle spike [deg]"});
+    for (const Outlier& outlier : diagnosis.outliers) {
+      table.add_row({outlier.recording, std::to_string(outlier.row), fixed(outlier.t_s, 3),
+                     fixed(outlier.position_spike_mm, 4), fixed(outlier.angle_spike_deg, 4)});
+    }
+    table.print(out);
+    out << "\n";
+  }
 
   out << "## How far the gap shrinks (held-out RMSE per joint)\n\n";
   print_summary(out, diagnosis);
@@ -297,14 +451,17 @@ void write_report(const std::string& markdown_path, const ReportInputs& inputs, 
          "held-out rows only); then the others by the held-out gain they would still bring. The stopping rule "
          "keeps an effect only if it lowers the held-out mean-square error by more than "
       << format_number(diagnosis.significance_threshold_deg2) << " deg^2.\n\n";
-  Table ranking({"rank", "effect", "subsystem", "significant", "held-out gain [deg^2]", "parameters (SPEC units)"});
+  Table ranking({"rank", "effect", "subsystem", "significant", "held-out gain [deg^2]", "parameters (SPEC units)",
+                 "95 % half width (final model)"});
   for (std::size_t r = 0; r < diagnosis.findings.size(); ++r) {
     const EffectFinding& finding = diagnosis.findings[r];
     std::ostringstream gain;
     gain.precision(3);
     gain << finding.holdout_gain_deg2;
     ranking.add_row({std::to_string(r + 1), family_name(finding.family), subsystem_of(finding.family),
-                     finding.significant ? "yes" : "no", gain.str(), joined_parameters(finding.family, finding.theta)});
+                     finding.significant ? "yes" : "no", gain.str(), joined_parameters(finding.family, finding.theta),
+                     finding.significant ? joined_parameters(finding.family, confidence_theta(finding.family, diagnosis.confidence_95))
+                                         : std::string("")});
   }
   ranking.print(out);
   out << "\n![effect ranking](" << ranking_png << ")\n";

@@ -19,8 +19,16 @@ struct DiagnosisOptions {
   // (over the three joints) by more than significance * floor^2, i.e. it carries held-out signal
   // of at least sqrt(significance) * floor RMS. 0.05 -> 0.22 floor = 0.00065 deg.
   double significance = 0.05;
-  // `explained` when every joint's held-out RMSE is at most this many noise floors.
-  double explained_ratio = 1.2;
+  // Selection heuristics only (ripple restart, swap search): a model counts as near the floor when
+  // every joint's held-out RMSE is within this many floors. `explained` uses the floor test below.
+  double near_floor_ratio = 1.2;
+  // Floor test: one-sided z of the held-out mean of r^2 / sigma^2 - 1 (batch means over blocks of
+  // `batch_rows` rows); above `floor_z` the residual is significantly above the noise floor.
+  double floor_z = 4.0;
+  std::size_t batch_rows = 100;
+  // Stopping rule and equivalence: a held-out MSE difference between two models counts only when
+  // its paired z (batch means over the same CHECK rows) exceeds this.
+  double paired_z = 3.0;
   int threads = 2;
   std::size_t screening_stride = 2;  // candidates are fitted on every 2nd FIT row (all rows with backlash)
 };
@@ -64,6 +72,62 @@ struct Identifiability {
   std::vector<Correlation> correlations;  // |correlation| above 0.95, strongest first
 };
 
+// The noise model and the test of a held-out residual against it.
+struct FloorTest {
+  Vec3 sigma_deg = Vec3::Zero();    // noise model per joint: encoder + stage quantisation + extra (RMS)
+  double stage_sigma_deg = 0.0;     // stage quantisation seen through the kinematics (RMS over rows and joints)
+  double extra_noise_deg = 0.0;     // extra white noise per joint estimated from FIT (0 unless significant)
+  double extra_noise_z = 0.0;       // its significance (estimate / standard error)
+  double ratio = 0.0;               // held-out mean of r^2 / sigma^2 (1 at the floor)
+  Vec3 joint_ratio = Vec3::Zero();
+  double z = 0.0;                   // (ratio - 1) / standard error (batch means)
+  Vec3 joint_z = Vec3::Zero();
+  double threshold = 0.0;           // z above this: significantly above the floor
+  std::size_t rows = 0, blocks = 0;
+  bool at_floor = false;
+};
+
+// Where a residual significantly above the floor lives.
+struct UnexplainedResidual {
+  int joint = -1;                   // 0-based joint with the largest excess
+  double excess_rms_deg = 0.0;      // sqrt(mean r^2 - sigma^2) over every joint and row
+  std::string region;               // octant with the largest excess
+  double region_excess_rms_deg = 0.0;
+  double t_from_s = 0.0, t_to_s = 0.0;  // tenth of the CHECK time with the largest excess
+  double time_excess_rms_deg = 0.0;
+};
+
+// Another set of effects that predicts CHECK as well as the chosen one.
+struct Alternative {
+  FamilySet families;
+  Parameters theta;
+  Vec3 holdout_rmse_deg = Vec3::Zero();
+  double mse_difference_deg2 = 0.0; // held-out MSE of this set minus the chosen set's
+  double paired_z = 0.0;            // of that difference
+  bool at_floor = false;
+  std::string separate_by;          // the measurement that would tell the two apart
+};
+
+// A row judged a glitch (isolated spike in position or angle) and left out of the fit and scores.
+struct Outlier {
+  std::string recording;            // "FIT" or "CHECK"
+  std::size_t row = 0;              // 1-based data row
+  double t_s = 0.0;
+  double position_spike_mm = 0.0;   // size of the spike in the measured position
+  double angle_spike_deg = 0.0;     // largest spike over the joints
+};
+
+// An effect outside the SPEC vocabulary, reported under its own name. The one tried: a uniform
+// scale of the measuring stage, p_measured = (1 + s) p_true, which the vocabulary can only imitate
+// by scaling every robot length (upper and lower arms, radius offset) by 1 / (1 + s).
+struct NewEffect {
+  std::string name;                 // "measuring_scale"
+  std::string subsystem;            // "measuring frame"
+  double scale = 0.0;               // s [-]
+  double confidence_95 = 0.0;       // half width of s
+  Vec3 holdout_rmse_deg = Vec3::Zero();  // the final model with it
+};
+
 struct RegionError {
   std::string label;                // e.g. "x- y+ z-" (octant of the trajectory's bounding box)
   std::size_t samples = 0;
@@ -91,6 +155,15 @@ struct Diagnosis {
   // removed (how much of the gap lives there).
   std::vector<std::pair<std::string, Vec3>> subsystem_rmse_without_deg;
   Identifiability final_model, all_families;
+  FloorTest floor_test;             // of the final model on CHECK; decides `explained`
+  UnexplainedResidual unexplained;  // filled when the floor test fails
+  std::vector<Alternative> alternatives;  // statistically indistinguishable sets, best first
+  std::vector<Outlier> outliers;
+  std::vector<NewEffect> new_effects;  // significant effects outside the vocabulary (final model)
+  double measuring_scale = 0.0;     // s of a measuring_scale new effect; PRED uses p / (1 + s)
+  // 1.96 standard errors of each fitted parameter (internal units), from the covariance of the
+  // final fit: residual variance on FIT times the inverse of J^T J (with the weak prior).
+  Parameters confidence_95 = Parameters::Zero();
   double seconds = 0.0;
 };
 

@@ -1,0 +1,39 @@
+// Fitting and scoring one candidate family set (shared by every step of the diagnosis).
+#include "candidate.hpp"
+
+namespace delta::diagnosis {
+
+double mean_square(const Vec3& rmse) { return rmse.squaredNorm() / 3.0; }
+
+Vec3 joint_rmse(const std::vector<Sample>& rows, const std::vector<Vec3>& predicted) {
+  Vec3 sum = Vec3::Zero();
+  for (std::size_t i = 0; i < rows.size(); ++i) sum += (rows[i].alpha_deg - predicted[i]).cwiseAbs2();
+  return (sum / static_cast<double>(std::max<std::size_t>(rows.size(), 1))).cwiseSqrt();
+}
+
+std::vector<Sample> thin_out(const std::vector<Sample>& rows, std::size_t stride) {
+  std::vector<Sample> thinned;
+  for (std::size_t i = 0; i < rows.size(); i += std::max<std::size_t>(stride, 1)) thinned.push_back(rows[i]);
+  return thinned;
+}
+
+Candidate fit_and_check(const PipelineData& data, FamilySet families, const Parameters& start) {
+  Candidate candidate;
+  FitOptions fit_options;
+  fit_options.noise_floor_deg = data.options.noise_floor_deg;
+  const bool hysteresis = families[index_of(Family::backlash)];
+  candidate.fit = fit_model(hysteresis ? data.fit : data.thinned_fit, families, start, start, fit_options);
+  if (!candidate.fit.ok) return candidate;
+  Prediction prediction = predict_recording(to_effect_set(candidate.fit.theta, families), data.check);
+  candidate.holdout_rmse = joint_rmse(data.check, prediction.alpha_deg);
+  candidate.check_prediction = std::move(prediction.alpha_deg);
+  candidate.ok = prediction.unreachable == 0 && candidate.holdout_rmse.allFinite();
+  return candidate;
+}
+
+Parameters without_families(Parameters theta, FamilySet families) {
+  for (int k : parameter_indices(families)) theta[k] = neutral_parameters()[k];
+  return theta;
+}
+
+}  // namespace delta::diagnosis

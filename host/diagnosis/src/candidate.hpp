@@ -1,0 +1,59 @@
+// A candidate model of the diagnosis: one family set fitted on FIT and scored on CHECK, and the
+// data every step of the pipeline shares (internal to the diagnosis library).
+#pragma once
+
+#include <atomic>
+#include <functional>
+#include <thread>
+#include <vector>
+
+#include "delta/diagnosis/diagnose.hpp"
+
+namespace delta::diagnosis {
+
+// What every step sees: the cleaned recordings (outlier rows left out) and the options.
+struct PipelineData {
+  std::vector<Sample> fit;          // every FIT row kept
+  std::vector<Sample> thinned_fit;  // every options.screening_stride-th of them
+  std::vector<Sample> check;        // every CHECK row kept
+  DiagnosisOptions options;
+  double threshold_deg2 = 0.0;      // the stopping rule's minimum held-out MSE gain
+};
+
+struct Candidate {
+  FitResult fit;
+  Vec3 holdout_rmse = Vec3::Zero();
+  std::vector<Vec3> check_prediction;  // per kept CHECK row
+  bool ok = false;
+};
+
+double mean_square(const Vec3& rmse);
+
+// Every `stride`-th row: candidate models are screened on this thinner FIT set unless they
+// contain backlash, whose hysteresis needs every row in time order.
+std::vector<Sample> thin_out(const std::vector<Sample>& rows, std::size_t stride);
+
+// Fits `families` from `start` (thinned FIT unless backlash is in the set) and predicts CHECK.
+Candidate fit_and_check(const PipelineData& data, FamilySet families, const Parameters& start);
+
+// `theta` with the parameters of `families` set back to neutral.
+Parameters without_families(Parameters theta, FamilySet families);
+
+// Runs jobs on up to `threads` threads; results in job order.
+template <typename Job>
+std::vector<Candidate> run_parallel(const std::vector<Job>& jobs, int threads) {
+  std::vector<Candidate> results(jobs.size());
+  std::atomic<std::size_t> next{0};
+  auto worker = [&] {
+    for (std::size_t k = next++; k < jobs.size(); k = next++) results[k] = jobs[k]();
+  };
+  std::vector<std::thread> pool;
+  for (int t = 1; t < std::max(1, threads); ++t) pool.emplace_back(worker);
+  worker();
+  for (std::thread& thread : pool) thread.join();
+  return results;
+}
+
+using Job = std::function<Candidate()>;
+
+}  // namespace delta::diagnosis

@@ -1,0 +1,192 @@
+// Selection of the effect families by their error on the held-out rows.
+#include "selection.hpp"
+
+#include <algorithm>
+#include <chrono>
+
+#include "floor_test.hpp"
+#include "initial_guess.hpp"
+
+namespace delta::diagnosis {
+namespace {
+
+bool near_floor(const Candidate& model, const DiagnosisOptions& options) {
+  return model.holdout_rmse.maxCoeff() <= options.near_floor_ratio * options.noise_floor_deg;
+}
+
+// Forward selection: each round adds the family that lowers the held-out error most, while the
+// gain passes the stopping rule: larger than the minimum effect (threshold_deg2) and significant
+// by the paired test on the CHECK rows (z above options.paired_z).
+void forward_selection(const PipelineData& data, Selection& selection) {
+  std::vector<Vec3> fit_prediction = predict_recording(EffectSet{}, data.fit).alpha_deg;
+  for (int round = 0; round < kFamilyCount; ++round) {
+    std::vector<Family> candidates;
+    for (int f = 0; f < kFamilyCount; ++f) {
+      if (!selection.families[f]) candidates.push_back(family_at(f));
+    }
+    if (candidates.empty()) break;
+    const auto round_started = std::chrono::steady_clock::now();
+    std::vector<Job> jobs;
+    for (Family family : candidates) {
+      const Parameters start = initial_guess(family, selection.theta, data.fit, fit_prediction);
+      const FamilySet families = selection.families | single(family);
+      jobs.push_back([&data, families, start] { return fit_and_check(data, families, start); });
+    }
+    const std::vector<Candidate> results = run_parallel(jobs, data.options.threads);
+    SelectionStep step;
+    step.base = selection.families;
+    step.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - round_started).count();
+    int best = -1;
+    selection.last_round.clear();
+    for (std::size_t c = 0; c < candidates.size(); ++c) {
+      if (!results[c].ok) continue;
+      selection.last_round.push_back({candidates[c], results[c]});
+      step.candidate_mse.push_back({candidates[c], mean_square(results[c].holdout_rmse)});
+      if (best < 0 || mean_square(results[c].holdout_rmse) < mean_square(results[best].holdout_rmse)) {
+        best = static_cast<int>(c);
+      }
+    }
+    const double gain = best >= 0 ? mean_square(selection.model.holdout_rmse) - mean_square(results[best].holdout_rmse) : 0.0;
+    const double z = best >= 0 ? paired_difference(data.check, selection.model.check_prediction,
+                                                   results[best].check_prediction, data.options.batch_rows).z
+                               : 0.0;
+    if (best < 0 || gain <= data.threshold_deg2 || z <= data.options.paired_z) {
+      step.note = "stop: best held-out gain " + std::to_string(gain / data.threshold_deg2) +
+                  " x the threshold, paired z " + std::to_string(z);
+      selection.steps.push_back(step);
+      break;
+    }
+    step.chosen = index_of(candidates[best]);
+    selection.steps.push_back(step);
+    selection.families.set(step.chosen);
+    selection.order.push_back(candidates[best]);
+    selection.forward_path.push_back(results[best]);
+    selection.model = results[best];
+    selection.theta = results[best].fit.theta;
+    fit_prediction = predict_recording(to_effect_set(selection.theta, selection.families), data.fit).alpha_deg;
+  }
+}
+
+// A transmission ripple picked early can have locked onto another effect's trend (a long period
+// standing in for an arm length). If the model misses the floor, restart the ripple from the
+// residual of the model without it, from both starts, and keep what CHECK prefers.
+void restart_ripple(const PipelineData& data, Selection& selection) {
+  const FamilySet ripple = single(Family::transmission_error);
+  if (!(selection.families & ripple).any() || near_floor(selection.model, data.options)) return;
+  const FamilySet without = selection.families & ~ripple;
+  const Parameters base = without_families(selection.theta, ripple);
+  const std::vector<Vec3> prediction = predict_recording(to_effect_set(base, without), data.fit).alpha_deg;
+  std::vector<Job> jobs;
+  for (bool long_period : {false, true}) {
+    const Parameters start = initial_guess(Family::transmission_error, base, data.fit, prediction, long_period);
+    const FamilySet families = selection.families;
+    jobs.push_back([&data, families, start] { return fit_and_check(data, families, start); });
+  }
+  for (const Candidate& restarted : run_parallel(jobs, data.options.threads)) {
+    if (restarted.ok && mean_square(restarted.holdout_rmse) < mean_square(selection.model.holdout_rmse)) {
+      selection.model = restarted;
+      selection.theta = restarted.fit.theta;
+      selection.path_changed = true;
+    }
+  }
+}
+
+// Backward elimination: drop a family whose removal costs less than the threshold on CHECK (an
+// early pick that later picks made redundant).
+void backward_elimination(const PipelineData& data, Selection& selection) {
+  for (bool dropped = true; dropped && selection.families.count() > 1;) {
+    dropped = false;
+    const std::vector<Family> members = selection.order;
+    std::vector<Job> jobs;
+    for (Family family : members) {
+      const FamilySet reduced = selection.families & ~single(family);
+      const Parameters start = without_families(selection.theta, single(family));
+      jobs.push_back([&data, reduced, start] { return fit_and_check(data, reduced, start); });
+    }
+    const std::vector<Candidate> results = run_parallel(jobs, data.options.threads);
+    int weakest = -1;
+    double weakest_cost = 0.0;
+    for (std::size_t m = 0; m < members.size(); ++m) {
+      if (!results[m].ok) continue;
+      const double cost = mean_square(results[m].holdout_rmse) - mean_square(selection.model.holdout_rmse);
+      if (cost <= data.threshold_deg2 && (weakest < 0 || cost < weakest_cost)) {
+        weakest = static_cast<int>(m);
+        weakest_cost = cost;
+      }
+    }
+    if (weakest >= 0) {
+      selection.eliminated.push_back(family_name(members[weakest]));
+      selection.families.reset(index_of(members[weakest]));
+      selection.order.erase(std::find(selection.order.begin(), selection.order.end(), members[weakest]));
+      selection.model = results[weakest];
+      selection.theta = results[weakest].fit.theta;
+      dropped = true;
+    }
+  }
+}
+
+// Swap search: a wrong early pick can absorb two true effects and end as a larger model at the
+// floor (chain_angle + joint_offset read as frame_misalignment + radius_offset + joint_offset).
+// When a model of three or four families reaches the floor, try each two-for-one swap and keep a
+// smaller model that does as well on CHECK (within the threshold). Limited to three or four
+// families: the search grows as k^2 (9 - k) fits.
+void swap_search(const PipelineData& data, Selection& selection) {
+  while (selection.families.count() >= 3 && selection.families.count() <= 4 && near_floor(selection.model, data.options)) {
+    std::vector<FamilySet> sets;
+    std::vector<Job> jobs;
+    const std::vector<Family>& order = selection.order;
+    for (std::size_t a = 0; a < order.size(); ++a) {
+      for (std::size_t b = a + 1; b < order.size(); ++b) {
+        const FamilySet removed = single(order[a]) | single(order[b]);
+        const FamilySet reduced = selection.families & ~removed;
+        const Parameters reduced_theta = without_families(selection.theta, removed);
+        const std::vector<Vec3> reduced_prediction =
+            predict_recording(to_effect_set(reduced_theta, reduced), data.fit).alpha_deg;
+        for (int f = 0; f < kFamilyCount; ++f) {
+          if (selection.families[f]) continue;
+          const Parameters start = initial_guess(family_at(f), reduced_theta, data.fit, reduced_prediction);
+          const FamilySet families = reduced | single(family_at(f));
+          sets.push_back(families);
+          jobs.push_back([&data, families, start] { return fit_and_check(data, families, start); });
+        }
+      }
+    }
+    const std::vector<Candidate> results = run_parallel(jobs, data.options.threads);
+    int best = -1;
+    for (std::size_t r = 0; r < results.size(); ++r) {
+      if (results[r].ok && (best < 0 || mean_square(results[r].holdout_rmse) < mean_square(results[best].holdout_rmse))) {
+        best = static_cast<int>(r);
+      }
+    }
+    if (best < 0 || mean_square(results[best].holdout_rmse) > mean_square(selection.model.holdout_rmse) + data.threshold_deg2) {
+      break;
+    }
+    std::vector<Family> kept;
+    for (Family family : order) {
+      if (sets[best][index_of(family)]) kept.push_back(family);
+      else selection.eliminated.push_back(std::string(family_name(family)) + " (swapped out)");
+    }
+    for (int f = 0; f < kFamilyCount; ++f) {
+      if (sets[best][f] && !selection.families[f]) kept.push_back(family_at(f));
+    }
+    selection.order = kept;
+    selection.families = sets[best];
+    selection.model = results[best];
+    selection.theta = results[best].fit.theta;
+  }
+}
+
+}  // namespace
+
+Selection select_families(const PipelineData& data, const Candidate& nominal) {
+  Selection selection;
+  selection.theta = neutral_parameters();
+  selection.model = nominal;
+  forward_selection(data, selection);
+  restart_ripple(data, selection);
+  backward_elimination(data, selection);
+  swap_search(data, selection);
+  return selection;
+}
+
+}  // namespace delta::diagnosis
