@@ -2,3 +2,6 @@
 add_test(NAME Layout.HlsAndRtlHoldNoCommandLineCodeAndHlsNoFloatingPoint
   COMMAND ${PROJECT_SOURCE_DIR}/tests/layout/check_layout.sh)
 set_tests_properties(Layout.HlsAndRtlHoldNoCommandLineCodeAndHlsNoFloatingPoint PROPERTIES LABELS host)
+# Every tracked C++ file follows .clang-format.
+add_test(NAME Format.EveryCppFileFollowsClangFormat COMMAND ${PROJECT_SOURCE_DIR}/tests/layout/check_format.sh)
+set_tests_properties(Format.EveryCppFileFollowsClangFormat PROPERTIES LABELS host)
