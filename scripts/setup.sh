@@ -9,6 +9,7 @@ packages=(
   yosys nextpnr-ice40 fpga-icestorm iverilog  # FPGA flow and gate-level simulation
   gnuplot-nox                              # PNG plots
   clang-format                             # C++ layout (.clang-format; CTest Format.*)
+  python3-serial socat                     # independent serial clients for the link tests
 )
 
 missing=()
