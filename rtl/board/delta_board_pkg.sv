@@ -26,6 +26,26 @@ package delta_board_pkg;
   localparam int LinkRequestCodeBytes /*verilator public*/ = 4;  // per input code (32-bit raw position)
   localparam int LinkAnswerCodeBytes /*verilator public*/ = 3;  // per output code (24-bit raw angle)
 
+  // Frames of the next link (link v2, issue 12; C++ codec host/include/delta/link/frame_codec.hpp,
+  // layout in docs/board_link.md; the RTL side is not written yet). A frame is
+  // sync, length (payload bytes), sequence, type, payload, CRC-16 (high byte first) over
+  // length..payload; CRC-16/CCITT-FALSE: polynomial 0x1021, initial value 0xFFFF.
+  localparam int FrameSync /*verilator public*/ = 32'h7E;
+  localparam int FrameHeaderBytes /*verilator public*/ = 4;  // sync, length, sequence, type
+  localparam int FrameCrcBytes /*verilator public*/ = 2;
+  localparam int FrameMaxPayloadBytes /*verilator public*/ = 48;
+  localparam int FrameCrcPolynomial /*verilator public*/ = 32'h1021;
+  localparam int FrameCrcInit /*verilator public*/ = 32'hFFFF;
+  localparam int FrameTypeIdentifyRequest /*verilator public*/ = 32'h01;  // host -> board, no payload
+  localparam int FrameTypeSetpoint /*verilator public*/ = 32'h02;  // host -> board: sample index, 3 position codes
+  localparam int FrameTypeCommand /*verilator public*/ = 32'h03;  // host -> board: one command byte
+  localparam int FrameTypeIdentify /*verilator public*/ = 32'h81;  // board -> host
+  localparam int FrameTypeTelemetry /*verilator public*/ = 32'h82;  // board -> host, 1 kHz
+  localparam int SetpointPayloadBytes /*verilator public*/ = 16;  // u32 sample index, 3 x i32 position codes
+  localparam int CommandPayloadBytes /*verilator public*/ = 1;
+  localparam int IdentifyPayloadBytes /*verilator public*/ = 24;
+  localparam int TelemetryPayloadBytes /*verilator public*/ = 44;
+
   // ---- joints ----
   localparam int HomeCount /*verilator public*/ = 3_000;  // encoder count at reset: 30.00 deg (0.01 deg per count)
   localparam int EncoderCountMicrodeg /*verilator public*/ = 10_000;  // one encoder count: 0.01 deg
