@@ -8,6 +8,7 @@ packages=(
   verilator libsystemc-dev                 # RTL simulation (C++ and SystemC testbenches)
   yosys nextpnr-ice40 fpga-icestorm iverilog  # FPGA flow and gate-level simulation
   gnuplot-nox                              # PNG plots
+  clang-14 libclang-rt-14-dev              # libFuzzer harnesses of the readers (scripts/fuzz.sh)
 )
 
 missing=()

@@ -11,6 +11,7 @@
 #include "delta/control/joint_fixed.hpp"
 #include "delta/plot.hpp"
 #include "delta/table.hpp"
+#include "delta/options.hpp"
 
 namespace delta::control {
 namespace {
@@ -166,7 +167,7 @@ const RegisterCommand command("joint-loop", 60, [](CLI::App& root) {
   sub->add_option("--plot", options->plot, "PNG of the tracking errors and the load-step responses");
   sub->add_option("--load-step", options->load_step_nm, "load-torque step on the shaft [N m]")
       ->capture_default_str()
-      ->check(CLI::Range(0.0, 1.0));
+      ->check(options::real_number(0, 1));
   sub->callback([options] { run_joint_loop(*options); });
 });
 

@@ -3,6 +3,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -14,7 +15,9 @@
 #include <matio.h>
 
 #include "delta/input_error.hpp"
+#include "delta/input_file.hpp"
 #include "delta/output_file.hpp"
+#include "delta/nn/weights_file.hpp"
 
 namespace delta::nn {
 namespace {
@@ -36,11 +39,16 @@ Variables variables_of(const Network& network) {
           {"output_xmin", {network.output_min}},  {"output_xmax", {network.output_max}}};
 }
 
+Variables read_mat(const std::string& path);
+
+// Most values one variable may hold: W.json allows 10000 hidden neurons, so IW has 30000.
+constexpr std::size_t kMaxMatElements = 3 * kMaxHiddenNeurons;
+
 const char* const kOrder[] = {"IW", "b1", "LW", "b2", "input_xmin", "input_xmax", "output_xmin", "output_xmax"};
 
 void write_mat(const std::string& path, const Variables& variables) {
-  const std::string temporary = path + ".partial." + std::to_string(::getpid());
-  mat_t* file = Mat_CreateVer(temporary.c_str(), nullptr, MAT_FT_MAT5);
+  OutputFile output(path);
+  mat_t* file = Mat_CreateVer(output.writing_path().c_str(), nullptr, MAT_FT_MAT5);
   if (!file) throw InputError(path, 0, "cannot write here (does the folder exist?)");
   bool written = true;
   for (const char* name : kOrder) {
@@ -50,11 +58,17 @@ void write_mat(const std::string& path, const Variables& variables) {
     written = written && variable && Mat_VarWrite(file, variable, MAT_COMPRESSION_NONE) == 0;
     if (variable) Mat_VarFree(variable);
   }
-  Mat_Close(file);
-  if (!written || std::rename(temporary.c_str(), path.c_str()) != 0) {
-    std::remove(temporary.c_str());
-    throw InputError(path, 0, "could not be written completely");
+  written = Mat_Close(file) == 0 && written;
+  // matio does not report every failed write (a full disk leaves a short file): read it back.
+  if (written) {
+    try {
+      written = read_mat(output.writing_path()).size() == variables.size();
+    } catch (const InputError&) {
+      written = false;
+    }
   }
+  if (!written) throw InputError(path, 0, "could not be written completely (disk full?); nothing written");
+  output.commit();
 }
 
 void write_csv(const std::string& path, const Variables& variables) {
@@ -71,13 +85,24 @@ void write_csv(const std::string& path, const Variables& variables) {
 }
 
 Variables read_mat(const std::string& path) {
+  open_input_file(path);  // a clear message for a folder or a missing file; noted as an input
   mat_t* file = Mat_Open(path.c_str(), MAT_ACC_RDONLY);
   if (!file) throw InputError(path, 0, "cannot open as a MATLAB .mat file");
   std::unique_ptr<mat_t, int (*)(mat_t*)> closer(file, Mat_Close);
   Variables variables;
   for (const char* name : kOrder) {
+    // Sizes first: a small compressed file may inflate to gigabytes.
+    matvar_t* info = Mat_VarReadInfo(file, name);
+    if (!info) continue;  // reported as missing below
+    std::size_t elements = 1;
+    for (int d = 0; d < info->rank; ++d) elements *= std::min<std::size_t>(info->dims[d], kMaxMatElements + 1);
+    Mat_VarFree(info);
+    if (elements > kMaxMatElements) {
+      throw InputError(path, 0, std::string(name) + ": more than " + std::to_string(kMaxMatElements) +
+                                    " values (a network of at most 10000 hidden neurons)");
+    }
     matvar_t* variable = Mat_VarRead(file, name);
-    if (!variable) continue;  // reported as missing below
+    if (!variable) continue;
     std::unique_ptr<matvar_t, void (*)(matvar_t*)> freer(variable, Mat_VarFree);
     if (variable->class_type != MAT_C_DOUBLE || variable->isComplex || variable->rank != 2 || !variable->data) {
       throw InputError(path, 0, std::string(name) + ": expected a real double matrix");
@@ -90,8 +115,7 @@ Variables read_mat(const std::string& path) {
 }
 
 Variables read_csv_variables(const std::string& path) {
-  std::ifstream input(path);
-  if (!input) throw InputError(path, 0, "cannot open file");
+  std::ifstream input = open_input_file(path);
   Variables variables;
   std::string line;
   std::size_t line_number = 0;
@@ -164,7 +188,10 @@ Network import_matlab(const std::string& path) {
   const auto iw = variables.find("IW");
   if (iw == variables.end()) throw InputError(path, 0, "missing variable IW");
   const Eigen::Index hidden = iw->second.value.rows();
-  if (hidden < 1) throw InputError(path, iw->second.line, "IW: expected H x 3 with H >= 1");
+  if (hidden < 1 || hidden > kMaxHiddenNeurons) {
+    throw InputError(path, iw->second.line, "IW: expected H x 3 with 1 <= H <= " + std::to_string(kMaxHiddenNeurons) +
+                                                " (the weights file limit), got H = " + std::to_string(hidden));
+  }
   Network network;
   network.input_weights = get("IW", hidden, 3);
   network.hidden_bias = get("b1", hidden, 1);

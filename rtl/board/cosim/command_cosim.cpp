@@ -20,6 +20,7 @@
 #include "delta/table.hpp"
 #include "delta/temporary_directory.hpp"
 #include "delta/trajectory.hpp"
+#include "delta/options.hpp"
 
 namespace delta::cosim {
 namespace {
@@ -227,10 +228,10 @@ const RegisterCommand command("cosim", 70, [](CLI::App& root) {
   sub->add_option("--effects", options->effects, "virtual robot's effects (JSON); none: the nominal robot");
   sub->add_option("--trajectory", options->trajectory, "experiment1, experiment2, validation or sweep")
       ->capture_default_str();
-  sub->add_option("--seed", options->seed, "seed of the sweep trajectory")->capture_default_str();
-  sub->add_option("--duration", options->duration_s, "simulated seconds")->capture_default_str();
-  sub->add_option("--blend", options->blend_s, "smooth start from the home pose [s]")->capture_default_str();
-  sub->add_option("--settle", options->settle_s, "statistics start at blend + settle [s]")->capture_default_str();
+  sub->add_option("--seed", options->seed, "seed of the sweep trajectory")->capture_default_str()->check(options::seed());
+  sub->add_option("--duration", options->duration_s, "simulated seconds")->capture_default_str()->check(options::real_number(0, 3600, true));
+  sub->add_option("--blend", options->blend_s, "smooth start from the home pose [s]")->capture_default_str()->check(options::real_number(0, 60));
+  sub->add_option("--settle", options->settle_s, "statistics start at blend + settle [s]")->capture_default_str()->check(options::real_number(0, 3600));
   sub->add_option("--out", options->out, "CSV of the run at 1 kHz");
   sub->add_option("--plot", options->plot, "PNG: plate error, joint tracking, currents");
   sub->callback([options] {
