@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <sys/stat.h>
+#include <sys/sysmacros.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -80,6 +81,9 @@ test::CommandResult run_on_full_disk(const std::string& arguments, int kib) {
   return run_deltactl(arguments, "trap '' XFSZ; ulimit -f " + std::to_string(2 * kib) + "; ");
 }
 
+// Commands that once ran for ever or grew without bound: a regression fails instead of hanging.
+const std::string kBounded = "ulimit -v 2000000; timeout 60 ";
+
 // ---- Defect 1: deep JSON crashed every effects and weights reader.
 TEST(Defect01, DeeplyNestedJsonIsBadInputInEveryReader) {
   const std::string deep = temp("deep.json");
@@ -100,11 +104,14 @@ TEST(Defect02, OutputsThatAreNotPlainFilesAreNeverReplaced) {
   const std::string recording = recording_text(20);
   const std::string in = temp("d2_in.csv");
   write_text(in, recording);
-  const auto to_null = run_deltactl("ik --model nominal --in " + in + " --out /dev/null");
+  // As root a private null device: a broken writer must not replace the machine's /dev/null.
+  std::string null = temp("d2_null");
+  if (::mknod(null.c_str(), S_IFCHR | 0666, ::makedev(1, 3)) != 0) null = "/dev/null";
+  const auto to_null = run_deltactl("ik --model nominal --in " + in + " --out " + null);
   EXPECT_EQ(to_null.exit_code, 0) << to_null.err;
   struct stat status {};
-  ASSERT_EQ(::stat("/dev/null", &status), 0);
-  EXPECT_TRUE(S_ISCHR(status.st_mode)) << "/dev/null is no longer a device";
+  ASSERT_EQ(::stat(null.c_str(), &status), 0);
+  EXPECT_TRUE(S_ISCHR(status.st_mode)) << null << " is no longer a device";
 
   const std::string real = temp("d2_real.csv"), link = temp("d2_link.csv");
   write_text(real, "old\n");
@@ -160,7 +167,7 @@ TEST(Defect04And09, NumericOptionsAreRangeChecked) {
       {"joint-loop --load-step nan", "--load-step"},
       {"ik --model nominal --backend fixed --in " + rec + " --out " + out, "--backend"},
   };
-  for (const auto& [command, option] : cases) expect_bad_input(run_deltactl(command), option, command);
+  for (const auto& [command, option] : cases) expect_bad_input(run_deltactl(command, kBounded), option, command);
   EXPECT_FALSE(fs::exists(out));
   EXPECT_FALSE(fs::exists(folder() / "golden_vectors.txt"));
 }
@@ -168,8 +175,8 @@ TEST(Defect04And09, NumericOptionsAreRangeChecked) {
 // ---- Defect 5: unbounded reads.
 TEST(Defect05, InputsWithoutLineBreaksOrOfAbsurdSizeFailFast) {
   const std::string out = temp("d5_out.csv");
-  expect_bad_input(run_deltactl("ik --model nominal --in /dev/zero --out " + out), "/dev/zero:1: line longer than", "csv");
-  expect_bad_input(run_deltactl("simulate --effects /dev/zero --out " + out), "/dev/zero: larger than", "json");
+  expect_bad_input(run_deltactl("ik --model nominal --in /dev/zero --out " + out, kBounded), "/dev/zero:1: line longer than", "csv");
+  expect_bad_input(run_deltactl("simulate --effects /dev/zero --out " + out, kBounded), "/dev/zero: larger than", "json");
   EXPECT_FALSE(fs::exists(out));
 }
 

@@ -5,6 +5,7 @@
 #include <signal.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
+#include <sys/sysmacros.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -66,19 +67,28 @@ TEST(OutputFile, RefusesAReadOnlyFileAndAFolder) {
   EXPECT_EQ(entries(folder), 1u);
 }
 
+// As root, a private device node (a broken writer must not replace the machine's /dev/null);
+// otherwise the real one, which an ordinary user cannot replace anyway.
+std::string device(const fs::path& folder, const std::string& name, unsigned minor) {
+  const std::string path = (folder / name).string();
+  return ::mknod(path.c_str(), S_IFCHR | 0666, ::makedev(1, minor)) == 0 ? path : "/dev/" + name;
+}
+
 TEST(OutputFile, WritesADeviceDirectlyAndLeavesItADevice) {
+  const fs::path folder = fresh_folder("device");
+  const std::string null = device(folder, "null", 3), full = device(folder, "full", 7);
   {
-    OutputFile file("/dev/null");
+    OutputFile file(null);
     file.stream() << "discarded\n";
     file.commit();
   }
   struct stat status {};
-  ASSERT_EQ(::stat("/dev/null", &status), 0);
-  EXPECT_TRUE(S_ISCHR(status.st_mode)) << "/dev/null was replaced by a regular file";
-  OutputFile full("/dev/full");
-  full.stream() << std::string(1 << 16, 'x');
-  EXPECT_THROW(full.commit(), InputError);
-  ASSERT_EQ(::stat("/dev/full", &status), 0);
+  ASSERT_EQ(::stat(null.c_str(), &status), 0);
+  EXPECT_TRUE(S_ISCHR(status.st_mode)) << null << " was replaced by a regular file";
+  OutputFile to_full(full);
+  to_full.stream() << std::string(1 << 16, 'x');
+  EXPECT_THROW(to_full.commit(), InputError);
+  ASSERT_EQ(::stat(full.c_str(), &status), 0);
   EXPECT_TRUE(S_ISCHR(status.st_mode));
 }
 
