@@ -60,6 +60,10 @@ bool is_blank(const std::string& line) { return line.find_first_not_of(" \t\r") 
 
 CsvTable read_csv(const std::string& path, const std::vector<std::string>& required_columns) {
   std::ifstream input = open_input_file(path);
+  return parse_csv(input, path, required_columns);
+}
+
+CsvTable parse_csv(std::istream& input, const std::string& path, const std::vector<std::string>& required_columns) {
   CsvTable table;
   table.path = path;
   table.columns = required_columns;

@@ -165,6 +165,7 @@ TEST(Defect04And09, NumericOptionsAreRangeChecked) {
       {"cosim --weights " + kWeights + " --duration inf", "--duration"},
       {"cosim --weights " + kWeights + " --duration 1e12", "--duration"},
       {"joint-loop --load-step nan", "--load-step"},
+      {"joint-loop --load-step 1", "--load-step"},
       {"ik --model nominal --backend fixed --in " + rec + " --out " + out, "--backend"},
   };
   for (const auto& [command, option] : cases) expect_bad_input(run_deltactl(command, kBounded), option, command);
