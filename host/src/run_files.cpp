@@ -16,6 +16,7 @@ enum class Role { input, output };
 
 struct Registry {
   std::mutex mutex;
+  bool enabled = false;
   std::map<std::string, std::pair<Role, std::string>> files;  // identity -> role, name as given
 };
 
@@ -41,9 +42,9 @@ bool is_special(const std::string& path) {
 }
 
 void note(const std::string& path, Role role) {
-  if (is_special(path)) return;
   Registry& files = registry();
   const std::lock_guard<std::mutex> lock(files.mutex);
+  if (!files.enabled || is_special(path)) return;
   const std::string key = identity(path);
   const auto found = files.files.find(key);
   if (found != files.files.end()) {
@@ -57,6 +58,13 @@ void note(const std::string& path, Role role) {
 }
 
 }  // namespace
+
+void track_run_files(bool enabled) {
+  Registry& files = registry();
+  const std::lock_guard<std::mutex> lock(files.mutex);
+  files.enabled = enabled;
+  files.files.clear();
+}
 
 void note_input_file(const std::string& path) { note(path, Role::input); }
 

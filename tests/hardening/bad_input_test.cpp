@@ -11,6 +11,8 @@
 #include <filesystem>
 #include <fstream>
 
+#include <matio.h>
+
 #include "../support/run_command.hpp"
 
 namespace delta {
@@ -178,6 +180,25 @@ TEST(Defect05, InputsWithoutLineBreaksOrOfAbsurdSizeFailFast) {
   const std::string out = temp("d5_out.csv");
   expect_bad_input(run_deltactl("ik --model nominal --in /dev/zero --out " + out, kBounded), "/dev/zero:1: line longer than", "csv");
   expect_bad_input(run_deltactl("simulate --effects /dev/zero --out " + out, kBounded), "/dev/zero: larger than", "json");
+  EXPECT_FALSE(fs::exists(out));
+}
+
+// A 2 MB compressed .mat inflated to gigabytes before it was rejected: sizes are checked first.
+TEST(Defect05, ACompressedMatBombIsRejectedBeforeItIsInflated) {
+  const std::string bomb = temp("d5_bomb.mat"), out = temp("d5_bomb.json");
+  {
+    std::vector<double> zeros(std::size_t{3} * 4000000, 0.0);  // 96 MB of zeros, about 100 kB compressed
+    std::size_t dims[2] = {4000000, 3};
+    mat_t* file = Mat_CreateVer(bomb.c_str(), nullptr, MAT_FT_MAT5);
+    ASSERT_NE(file, nullptr);
+    matvar_t* variable = Mat_VarCreate("IW", MAT_C_DOUBLE, MAT_T_DOUBLE, 2, dims, zeros.data(), MAT_F_DONT_COPY_DATA);
+    ASSERT_EQ(Mat_VarWrite(file, variable, MAT_COMPRESSION_ZLIB), 0);
+    Mat_VarFree(variable);
+    Mat_Close(file);
+  }
+  ASSERT_LT(fs::file_size(bomb), 2000000u);
+  expect_bad_input(run_deltactl("import-matlab --in " + bomb + " --out " + out, kBounded), bomb + ": IW: more than 30000 values",
+                   "bomb");
   EXPECT_FALSE(fs::exists(out));
 }
 

@@ -146,6 +146,7 @@ TEST(OutputFile, SigintRemovesTheTemporaryFile) {
 
 TEST(RunFiles, AnOutputThatIsAnInputOrAnotherOutputIsRefused) {
   const fs::path folder = fresh_folder("same");
+  track_run_files(true);
   const std::string data = (folder / "data.csv").string();
   write_text(data, "x_m,y_m,z_m\n0,0,-0.07\n");
   fs::create_symlink(data, folder / "alias.csv");
@@ -154,6 +155,7 @@ TEST(RunFiles, AnOutputThatIsAnInputOrAnotherOutputIsRefused) {
   OutputFile first((folder / "a.txt").string());
   EXPECT_THROW(OutputFile{(folder / "." / "a.txt").string()}, InputError);
   EXPECT_EQ(read_text(data), "x_m,y_m,z_m\n0,0,-0.07\n");
+  track_run_files(false);
 }
 
 TEST(JsonInput, DeepNestingIsAnErrorNotACrash) {

@@ -6,6 +6,10 @@
 
 namespace delta {
 
+// The registry is kept only once enabled: deltactl's main enables it for its one run; a program
+// that reads and later rewrites a file in several steps (tests, tools) is not held to one run.
+void track_run_files(bool enabled);
+
 // Called by open_input_file: throws InputError if the file is an output of this run.
 void note_input_file(const std::string& path);
 
