@@ -211,6 +211,19 @@ TEST(Defect06, QuantiseWritesItsFileSetWhollyOrNotAtAll) {
   EXPECT_EQ(listing(where), std::vector<std::string>{"golden_vectors.txt"}) << "part of the file set was written";
 }
 
+TEST(Defect06, DiagnoseWritesJsonAndPredictionsTogetherOrNeither) {
+  const fs::path where = folder() / "d6_diagnose";
+  fs::create_directories(where);
+  const std::string check = temp("d6_check.csv");
+  ASSERT_EQ(run_deltactl("simulate --experiment sweep --seed 3 --out " + check).exit_code, 0);
+  // Room for the small JSON document, not for the predictions of every CHECK row.
+  const std::string json = (where / "diag.json").string(), predictions = (where / "pred.csv").string();
+  const auto result = run_on_full_disk("diagnose --data " + good_recording() + " --holdout " + check + " --json " + json +
+                                           " --predictions " + predictions, 64);
+  expect_bad_input(result, predictions, "diagnose on a full disk");
+  EXPECT_TRUE(listing(where).empty()) << "left: " << (listing(where).empty() ? "" : listing(where).front());
+}
+
 // ---- Defect 7: an output that is an input (or another output) is refused.
 TEST(Defect07, AnOutputThatIsAnInputIsRefused) {
   const std::string data = temp("d7_data.csv");
