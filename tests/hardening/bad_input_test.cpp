@@ -318,6 +318,10 @@ TEST(Defect13, MessagesNameTheFileAndStayReadable) {
   const auto loud = run_deltactl("compare --data " + noisy);
   expect_bad_input(loud, noisy + ":2: column 'alpha1_deg'", "noisy");
   EXPECT_EQ(loud.err.find('\x1b'), std::string::npos);
+  const std::string impossible = temp("d13_impossible.json");
+  write_text(impossible, "{\"lower_arm_length\": [-0.06, -0.06, -0.06]}\n");
+  expect_bad_input(run_deltactl("cosim --weights " + kWeights + " --effects " + impossible, kBounded), impossible + ": ",
+                   "impossible robot");
   const std::string long_name = temp(std::string(250, 'n'));
   const auto long_out = run_deltactl("ik --model nominal --in " + good_recording() + " --out " + long_name);
   EXPECT_EQ(long_out.exit_code, 0) << long_out.err;

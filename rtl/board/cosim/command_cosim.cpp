@@ -14,6 +14,7 @@
 #include "delta/golden/export.hpp"
 #include "delta/golden/fixed_network.hpp"
 #include "delta/input_error.hpp"
+#include "delta/kinematics.hpp"
 #include "delta/nn/weights_file.hpp"
 #include "delta/output_file.hpp"
 #include "delta/plot.hpp"
@@ -106,6 +107,10 @@ void run_cosim_command(const CosimCommandOptions& options, const std::string& co
     throw InputError(options.weights, 0, std::string("cannot be quantised: ") + error.what());
   }
   const EffectSet effects = options.effects.empty() ? EffectSet{} : read_effect_file(options.effects);
+  if (!options.effects.empty() &&
+      !forward_kinematics(apply_geometry_effects(Geometry::nominal(), effects), Vec3::Constant(30.0)).ok()) {
+    throw InputError(options.effects, 0, "the robot of these effects cannot be assembled at its home pose (30 deg)");
+  }
   Trajectory trajectory;
   try {
     trajectory = make_trajectory(options.trajectory, options.seed);
