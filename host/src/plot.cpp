@@ -46,7 +46,7 @@ bool is_complete_png(const std::string& path) {
 
 void render_gnuplot_png(const std::string& png_path, const std::string& script) {
   OutputFile output(png_path);  // refuses a missing folder before gnuplot runs
-  const std::string full_script = "set output " + quoted(output.writing_path()) + "\n" + script;
+  const std::string output_line = "set output " + quoted(output.writing_path()) + "\n";
   std::unique_ptr<std::FILE, int (*)(std::FILE*)> log(std::tmpfile(), std::fclose);  // unlinked already
   int input[2];
   if (!log || ::pipe(input) != 0) throw std::runtime_error("cannot start gnuplot (no pipe or temporary file)");
@@ -65,11 +65,13 @@ void render_gnuplot_png(const std::string& png_path, const std::string& script) 
     throw std::runtime_error("gnuplot not found (scripts/setup.sh installs gnuplot-nox)");
   }
   const auto previous_pipe_handler = ::signal(SIGPIPE, SIG_IGN);  // gnuplot may stop reading early
-  for (std::size_t done = 0; done < full_script.size();) {
-    const ssize_t count = ::write(input[1], full_script.data() + done, full_script.size() - done);
-    if (count < 0 && errno == EINTR) continue;
-    if (count <= 0) break;
-    done += static_cast<std::size_t>(count);
+  for (const std::string* text : {&output_line, &script}) {  // no joined copy of a large script
+    for (std::size_t done = 0; done < text->size();) {
+      const ssize_t count = ::write(input[1], text->data() + done, text->size() - done);
+      if (count < 0 && errno == EINTR) continue;
+      if (count <= 0) break;
+      done += static_cast<std::size_t>(count);
+    }
   }
   ::close(input[1]);
   ::signal(SIGPIPE, previous_pipe_handler);
