@@ -2,7 +2,7 @@
 # libFuzzer harnesses of the input readers (tests/fuzz): build with clang, then run.
 #   scripts/fuzz.sh build                     configure and build build-fuzz/ (exit 77: no clang/libFuzzer)
 #   scripts/fuzz.sh run HARNESS SECONDS       short run (CI): SECONDS of fuzzing on the kept corpus
-#   scripts/fuzz.sh long [RUNS]               every harness for RUNS executions (default 1000000),
+#   scripts/fuzz.sh long [RUNS] [HARNESS...]  each harness (default all) for RUNS executions (default 1000000),
 #                                             new corpus entries merged into tests/fuzz/corpus/
 # Harnesses: csv effects weights mat. A finding leaves crash-* / leak-* files in build-fuzz/findings/.
 set -euo pipefail
@@ -43,6 +43,7 @@ case "${1:-}" in
     ;;
   long)
     runs=${2:-1000000}
+    if (($# > 2)); then harnesses=("${@:3}"); fi
     mkdir -p "$build/findings"
     for harness in "${harnesses[@]}"; do
       work=$(mktemp -d)

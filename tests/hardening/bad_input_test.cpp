@@ -197,7 +197,7 @@ TEST(Defect05, ACompressedMatBombIsRejectedBeforeItIsInflated) {
     Mat_Close(file);
   }
   ASSERT_LT(fs::file_size(bomb), 2000000u);
-  expect_bad_input(run_deltactl("import-matlab --in " + bomb + " --out " + out, kBounded), bomb + ": IW: more than 30000 values",
+  expect_bad_input(run_deltactl("import-matlab --in " + bomb + " --out " + out, kBounded), bomb + ": a compressed variable inflates beyond",
                    "bomb");
   EXPECT_FALSE(fs::exists(out));
 }
