@@ -202,6 +202,23 @@ TEST(Defect05, ACompressedMatBombIsRejectedBeforeItIsInflated) {
   EXPECT_FALSE(fs::exists(out));
 }
 
+// The .mat inputs the fuzzer found (libmatio allocated 1.6 and 8.5 GB for them): bad input, in
+// bounded memory.
+TEST(Defect05, MatFilesFoundByTheFuzzerAreBadInput) {
+  const fs::path corpus = fs::path(DELTA_SOURCE_DIR) / "tests/fuzz/corpus/mat";
+  int found = 0;
+  for (const auto& entry : fs::directory_iterator(corpus)) {
+    if (entry.path().filename().string().rfind("regression-", 0) != 0) continue;
+    ++found;
+    const std::string mat = temp("d5_" + entry.path().filename().string() + ".mat");
+    fs::copy_file(entry.path(), mat, fs::copy_options::overwrite_existing);
+    expect_bad_input(run_deltactl("import-matlab --in " + mat + " --out " + temp("d5_fuzz.json"), "ulimit -v 400000; "), mat,
+                     entry.path().string());
+  }
+  EXPECT_GE(found, 3);
+  EXPECT_FALSE(fs::exists(temp("d5_fuzz.json")));
+}
+
 // ---- Defect 6: a command's outputs appear together or not at all.
 TEST(Defect06, QuantiseWritesItsFileSetWhollyOrNotAtAll) {
   const fs::path where = folder() / "d6";
