@@ -60,21 +60,25 @@ OutputFile::OutputFile(const std::string& path) : path_(path), target_path_(path
   namespace fs = std::filesystem;
   std::error_code error;
   if (path.empty()) throw InputError("(empty path)", 0, "an output needs a file name");
+  struct stat target {};
+  bool exists = ::stat(path.c_str(), &target) == 0;
+  // /dev/stdout, /dev/fd/N and the like name an open descriptor (perhaps a pipe, or a file opened
+  // for appending): written directly, like any target that is not a regular file.
+  const bool names_descriptor = path.rfind("/dev/", 0) == 0 || path.rfind("/proc/", 0) == 0;
   const fs::file_status link_status = fs::symlink_status(path, error);
-  if (fs::is_symlink(link_status)) {
+  if (fs::is_symlink(link_status) && !(exists && (names_descriptor || !S_ISREG(target.st_mode)))) {
     const fs::path resolved = fs::weakly_canonical(path, error);
     if (error) throw InputError(path, 0, "a link that cannot be followed: " + error.message());
     target_path_ = resolved.string();
+    exists = ::stat(target_path_.c_str(), &target) == 0;
   }
-  struct stat target {};
-  const bool exists = ::stat(target_path_.c_str(), &target) == 0;
   mode_t mode = 0666;
   if (exists) {
     if (S_ISDIR(target.st_mode)) throw InputError(path, 0, "is a folder, not a file");
     if (::access(target_path_.c_str(), W_OK) != 0 || (target.st_mode & 0222) == 0) {
       throw InputError(path, 0, "is read-only; not overwritten");
     }
-    direct_ = !S_ISREG(target.st_mode);
+    direct_ = !S_ISREG(target.st_mode) || names_descriptor;
     mode = target.st_mode & 07777;
   }
   if (direct_) {

@@ -123,6 +123,13 @@ TEST(Defect02, OutputsThatAreNotPlainFilesAreNeverReplaced) {
   EXPECT_TRUE(fs::is_symlink(link)) << "the link was replaced";
   EXPECT_NE(read_text(real).find("alpha1_deg"), std::string::npos);
 
+  // A link to this process's stdout (as /dev/stdout is), here a pipe: written into, not replaced.
+  const std::string to_stdout = temp("d2_stdout");
+  fs::create_symlink("/proc/self/fd/1", to_stdout);
+  const auto piped = run_deltactl("ik --model nominal --in " + in + " --out " + to_stdout + " | cat");
+  EXPECT_EQ(piped.out.rfind("alpha1_deg,alpha2_deg,alpha3_deg\n", 0), 0u) << piped.out << piped.err;
+  EXPECT_TRUE(fs::is_symlink(to_stdout));
+
   const std::string locked = temp("d2_locked.csv");
   write_text(locked, "keep\n");
   ::chmod(locked.c_str(), 0444);
