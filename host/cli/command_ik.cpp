@@ -86,7 +86,7 @@ const RegisterCommand command("ik", 30, [](CLI::App& root) {
               "Example: deltactl ik --model nominal --in poses.csv --out angles.csv");
   sub->add_option("--model", options->model, "math model: 'nominal'");
   sub->add_option("--weights", options->weights, "network weights (W.json from 'deltactl train')");
-  sub->add_option("--backend", options->backend, "network back end")->capture_default_str();
+  sub->add_option("--backend", options->backend, "network back end (with --weights)")->capture_default_str()->excludes("--model");
   sub->add_option("--in", options->in, "CSV of plate positions (x_m,y_m,z_m)")->required();
   sub->add_option("--out", options->out, "CSV of joint angles to write")->required();
   sub->callback([options] { run_ik(*options); });

@@ -6,6 +6,7 @@
 
 #include "delta/command.hpp"
 #include "delta/input_error.hpp"
+#include "delta/run_files.hpp"
 
 namespace delta {
 std::vector<CommandSpec>& command_registry() {
@@ -32,6 +33,7 @@ int main(int argc, char** argv) {
   std::stable_sort(commands.begin(), commands.end(),
                    [](const auto& a, const auto& b) { return a.order < b.order; });
   for (const auto& command : commands) command.setup(app);
+  delta::track_run_files(true);  // no output of this run may be one of its inputs or another output
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& help) {

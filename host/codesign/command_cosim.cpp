@@ -14,12 +14,14 @@
 #include "delta/golden/export.hpp"
 #include "delta/golden/fixed_network.hpp"
 #include "delta/input_error.hpp"
+#include "delta/kinematics.hpp"
 #include "delta/nn/weights_file.hpp"
 #include "delta/output_file.hpp"
 #include "delta/plot.hpp"
 #include "delta/table.hpp"
 #include "delta/temporary_directory.hpp"
 #include "delta/trajectory.hpp"
+#include "delta/options.hpp"
 
 namespace delta::cosim {
 namespace {
@@ -105,6 +107,10 @@ void run_cosim_command(const CosimCommandOptions& options, const std::string& co
     throw InputError(options.weights, 0, std::string("cannot be quantised: ") + error.what());
   }
   const EffectSet effects = options.effects.empty() ? EffectSet{} : read_effect_file(options.effects);
+  if (!options.effects.empty() &&
+      !forward_kinematics(apply_geometry_effects(Geometry::nominal(), effects), Vec3::Constant(30.0)).ok()) {
+    throw InputError(options.effects, 0, "the robot of these effects cannot be assembled at its home pose (30 deg)");
+  }
   Trajectory trajectory;
   try {
     trajectory = make_trajectory(options.trajectory, options.seed);
@@ -227,10 +233,10 @@ const RegisterCommand command("cosim", 70, [](CLI::App& root) {
   sub->add_option("--effects", options->effects, "virtual robot's effects (JSON); none: the nominal robot");
   sub->add_option("--trajectory", options->trajectory, "experiment1, experiment2, validation or sweep")
       ->capture_default_str();
-  sub->add_option("--seed", options->seed, "seed of the sweep trajectory")->capture_default_str();
-  sub->add_option("--duration", options->duration_s, "simulated seconds")->capture_default_str();
-  sub->add_option("--blend", options->blend_s, "smooth start from the home pose [s]")->capture_default_str();
-  sub->add_option("--settle", options->settle_s, "statistics start at blend + settle [s]")->capture_default_str();
+  sub->add_option("--seed", options->seed, "seed of the sweep trajectory")->capture_default_str()->check(options::seed());
+  sub->add_option("--duration", options->duration_s, "simulated seconds")->capture_default_str()->check(options::real_number(0, 3600, true));
+  sub->add_option("--blend", options->blend_s, "smooth start from the home pose [s]")->capture_default_str()->check(options::real_number(0, 60));
+  sub->add_option("--settle", options->settle_s, "statistics start at blend + settle [s]")->capture_default_str()->check(options::real_number(0, 3600));
   sub->add_option("--out", options->out, "CSV of the run at 1 kHz");
   sub->add_option("--plot", options->plot, "PNG: plate error, joint tracking, currents");
   sub->callback([options] {

@@ -4,8 +4,10 @@
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
+#include <set>
 
 #include "delta/input_error.hpp"
+#include "delta/input_file.hpp"
 
 namespace delta {
 namespace {
@@ -32,13 +34,36 @@ std::string trim(const std::string& text) {
   return text.substr(first, last - first + 1);
 }
 
+// std::getline with a bound: a file without line breaks (/dev/zero) fails at kMaxLineBytes.
+bool read_line(std::istream& input, std::string& line, const std::string& path, std::size_t line_number) {
+  line.clear();
+  std::istream::sentry ok(input, true);
+  if (!ok) return false;
+  std::streambuf* buffer = input.rdbuf();
+  for (;;) {
+    const int c = buffer->sbumpc();
+    if (c == std::char_traits<char>::eof()) {
+      if (line.empty()) input.setstate(std::ios::eofbit | std::ios::failbit);
+      return !line.empty();
+    }
+    if (c == '\n') return true;
+    if (line.size() >= kMaxLineBytes) {
+      throw InputError(path, line_number, "line longer than " + std::to_string(kMaxLineBytes) + " bytes");
+    }
+    line.push_back(static_cast<char>(c));
+  }
+}
+
 bool is_blank(const std::string& line) { return line.find_first_not_of(" \t\r") == std::string::npos; }
 
 }  // namespace
 
 CsvTable read_csv(const std::string& path, const std::vector<std::string>& required_columns) {
-  std::ifstream input(path);
-  if (!input) throw InputError(path, 0, "cannot open file");
+  std::ifstream input = open_input_file(path);
+  return parse_csv(input, path, required_columns);
+}
+
+CsvTable parse_csv(std::istream& input, const std::string& path, const std::vector<std::string>& required_columns) {
   CsvTable table;
   table.path = path;
   table.columns = required_columns;
@@ -47,13 +72,20 @@ CsvTable read_csv(const std::string& path, const std::vector<std::string>& requi
   bool have_header = false;
   std::string line;
   std::size_t line_number = 0;
-  while (std::getline(input, line)) {
+  while (read_line(input, line, path, line_number + 1)) {
     ++line_number;
     if (is_blank(line) || trim(line).rfind('#', 0) == 0) continue;
     const std::vector<std::string> fields = split_fields(line);
     if (!have_header) {
       have_header = true;
       header_fields = fields.size();
+      std::set<std::string> names;
+      for (const std::string& field : fields) {
+        const std::string name = trim(field);
+        if (!name.empty() && !names.insert(name).second) {
+          throw InputError(path, line_number, "column " + quoted_excerpt(name) + " named twice in the header");
+        }
+      }
       for (std::size_t k = 0; k < required_columns.size(); ++k) {
         std::size_t found = fields.size();
         for (std::size_t f = 0; f < fields.size(); ++f) {
@@ -78,10 +110,10 @@ CsvTable read_csv(const std::string& path, const std::vector<std::string>& requi
       char* end = nullptr;
       const double value = std::strtod(text.c_str(), &end);
       if (text.empty() || end != text.c_str() + text.size()) {
-        throw InputError(path, line_number, "column '" + required_columns[k] + "': '" + text + "' is not a number");
+        throw InputError(path, line_number, "column '" + required_columns[k] + "': " + quoted_excerpt(text) + " is not a number");
       }
       if (!std::isfinite(value)) {
-        throw InputError(path, line_number, "column '" + required_columns[k] + "': '" + text + "' is not finite");
+        throw InputError(path, line_number, "column '" + required_columns[k] + "': " + quoted_excerpt(text) + " is not finite");
       }
       row[k] = value;
     }

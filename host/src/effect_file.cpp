@@ -64,7 +64,9 @@ FrameMisalignment parse_frame(const json& value, const Context& context) {
   const char* names[6] = {"rx", "ry", "rz", "tx", "ty", "tz"};
   double parameters[6] = {0, 0, 0, 0, 0, 0};
   if (value.is_object()) {
-    for (const auto& [name, item] : value.items()) {
+    for (const auto& entry : value.items()) {
+      const std::string& name = entry.key();  // a plain name: C++17 lambdas cannot capture a binding
+      const json& item = entry.value();
       const auto* found = std::find_if(std::begin(names), std::end(names), [&](const char* n) { return name == n; });
       if (found == std::end(names)) context.fail(key, key + ": unknown field '" + name + "' (expected rx ry rz [deg], tx ty tz [m])");
       parameters[found - std::begin(names)] = context.number(item, key, name);

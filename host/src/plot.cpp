@@ -1,15 +1,24 @@
-// gnuplot back end for PNG plots: data and script go to a temporary folder, gnuplot renders.
+// gnuplot back end for PNG plots: the script, data inline, goes to gnuplot's input; no temporary folder.
 #include "delta/plot.hpp"
 
+#include <spawn.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <cerrno>
+#include <csignal>
 #include <cstdio>
-#include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <memory>
+#include <sstream>
 #include <stdexcept>
 
+#include "delta/input_error.hpp"
 #include "delta/output_file.hpp"
+
+extern char** environ;
 
 namespace delta {
 namespace {
@@ -23,19 +32,80 @@ std::string quoted(const std::string& text) {
   return "\"" + escaped + "\"";
 }
 
+// A PNG ends with its IEND chunk: gnuplot exits 0 even when a full disk cut the file short.
+bool is_complete_png(const std::string& path) {
+  std::ifstream png(path, std::ios::binary | std::ios::ate);
+  static const char kEnd[] = {'I', 'E', 'N', 'D', '\xae', '\x42', '\x60', '\x82'};
+  if (!png || png.tellg() < static_cast<std::streamoff>(sizeof(kEnd))) return false;
+  png.seekg(-static_cast<std::streamoff>(sizeof(kEnd)), std::ios::end);
+  char tail[sizeof(kEnd)];
+  return static_cast<bool>(png.read(tail, sizeof(tail))) && std::equal(tail, tail + sizeof(tail), kEnd);
+}
+
 }  // namespace
 
+void render_gnuplot_png(const std::string& png_path, const std::string& script) {
+  OutputFile output(png_path);  // refuses a missing folder before gnuplot runs
+  const std::string output_line = "set output " + quoted(output.writing_path()) + "\n";
+  std::unique_ptr<std::FILE, int (*)(std::FILE*)> log(std::tmpfile(), std::fclose);  // unlinked already
+  int input[2];
+  if (!log || ::pipe(input) != 0) throw std::runtime_error("cannot start gnuplot (no pipe or temporary file)");
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_adddup2(&actions, input[0], 0);
+  posix_spawn_file_actions_adddup2(&actions, ::fileno(log.get()), 2);
+  posix_spawn_file_actions_addclose(&actions, input[1]);
+  char* arguments[] = {const_cast<char*>("gnuplot"), nullptr};
+  pid_t child = 0;
+  const int spawned = ::posix_spawnp(&child, "gnuplot", &actions, nullptr, arguments, environ);
+  posix_spawn_file_actions_destroy(&actions);
+  ::close(input[0]);
+  if (spawned != 0) {
+    ::close(input[1]);
+    throw std::runtime_error("gnuplot not found (scripts/setup.sh installs gnuplot-nox)");
+  }
+  const auto previous_pipe_handler = ::signal(SIGPIPE, SIG_IGN);  // gnuplot may stop reading early
+  for (const std::string* text : {&output_line, &script}) {  // no joined copy of a large script
+    for (std::size_t done = 0; done < text->size();) {
+      const ssize_t count = ::write(input[1], text->data() + done, text->size() - done);
+      if (count < 0 && errno == EINTR) continue;
+      if (count <= 0) break;
+      done += static_cast<std::size_t>(count);
+    }
+  }
+  ::close(input[1]);
+  ::signal(SIGPIPE, previous_pipe_handler);
+  int status = 0;
+  while (::waitpid(child, &status, 0) < 0 && errno == EINTR) {
+  }
+  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
+    std::rewind(log.get());
+    char first_line[200] = "";
+    if (!std::fgets(first_line, sizeof(first_line), log.get())) first_line[0] = '\0';
+    std::string message(first_line);
+    while (!message.empty() && (message.back() == '\n' || message.back() == '\r')) message.pop_back();
+    throw std::runtime_error("gnuplot failed drawing " + png_path + ": " + quoted_excerpt(message, 120));
+  }
+  if (std::filesystem::is_regular_file(output.writing_path()) && !is_complete_png(output.writing_path())) {
+    throw InputError(png_path, 0, "could not be written completely (disk full?); nothing written");
+  }
+  output.commit();
+}
+
 void write_plot(const std::string& png_path, const PlotSpec& spec) {
-  namespace fs = std::filesystem;
-  char folder_template[] = "/tmp/deltactl-plot-XXXXXX";
-  if (!::mkdtemp(folder_template)) throw std::runtime_error("cannot create a temporary folder for the plot");
-  const fs::path folder(folder_template);
-  const fs::path target = fs::absolute(png_path);
-  const std::string partial = target.string() + ".partial.png";
-  std::ofstream script(folder / "plot.gp");
+  std::ostringstream script;
   const int height = spec.panel_height_px * static_cast<int>(spec.panels.size()) + 60;
+  for (std::size_t p = 0; p < spec.panels.size(); ++p) {
+    for (std::size_t s = 0; s < spec.panels[p].series.size(); ++s) {
+      const PlotSeries& series = spec.panels[p].series[s];
+      script << "$panel" << p << "_" << s << " << EOD\n";
+      for (std::size_t i = 0; i < series.x.size() && i < series.y.size(); ++i) {
+        script << format_number(series.x[i]) << ' ' << format_number(series.y[i]) << '\n';
+      }
+      script << "EOD\n";
+    }
+  }
   script << "set terminal pngcairo size " << spec.width_px << "," << height << " font 'sans,10'\n"
-         << "set output " << quoted(partial) << "\n"
          << "set multiplot layout " << spec.panels.size() << ",1 title " << quoted(spec.title) << "\n"
          << "set grid\nset key outside right top\n";
   for (std::size_t p = 0; p < spec.panels.size(); ++p) {
@@ -45,32 +115,13 @@ void write_plot(const std::string& png_path, const PlotSpec& spec) {
            << (panel.log_y ? "set logscale y\n" : "unset logscale y\n") << "plot ";
     for (std::size_t s = 0; s < panel.series.size(); ++s) {
       const PlotSeries& series = panel.series[s];
-      const fs::path data = folder / ("panel" + std::to_string(p) + "_" + std::to_string(s) + ".dat");
-      std::ofstream out(data);
-      for (std::size_t i = 0; i < series.x.size() && i < series.y.size(); ++i) {
-        out << format_number(series.x[i]) << ' ' << format_number(series.y[i]) << '\n';
-      }
-      script << (s ? ", " : "") << quoted(data.string()) << " using 1:2 with "
+      script << (s ? ", " : "") << "$panel" << p << "_" << s << " using 1:2 with "
              << (series.points ? "linespoints pt 7 ps 0.6" : "lines") << " lw 1.2 title " << quoted(series.label);
     }
     script << "\n";
   }
   script << "unset multiplot\n";
-  script.close();
-  const std::string command = "gnuplot " + quoted((folder / "plot.gp").string()) + " 2>" +
-                              quoted((folder / "gnuplot.log").string());
-  const int status = std::system(command.c_str());
-  std::error_code ignored;
-  if (status != 0) {
-    std::ifstream log(folder / "gnuplot.log");
-    std::string first_line;
-    std::getline(log, first_line);
-    fs::remove_all(folder, ignored);
-    fs::remove(partial, ignored);
-    throw std::runtime_error("gnuplot failed (is gnuplot-nox installed? scripts/setup.sh installs it): " + first_line);
-  }
-  fs::rename(partial, target);
-  fs::remove_all(folder, ignored);
+  render_gnuplot_png(png_path, script.str());
 }
 
 }  // namespace delta

@@ -1,11 +1,33 @@
 // Recording reader and writer in the SPEC CSV format.
 #include "delta/recording.hpp"
 
+#include <cmath>
+
 #include "delta/csv.hpp"
 #include "delta/input_error.hpp"
 #include "delta/output_file.hpp"
 
 namespace delta {
+namespace {
+
+// A Delta robot of 0.1 m arms: a plate position beyond 1 m or a joint angle beyond one turn is a
+// corrupt row (or a unit mix-up), not a measurement; one such row would dominate any fit.
+constexpr double kMaxPlausiblePositionM = 1.0;
+constexpr double kMaxPlausibleAngleDeg = 360.0;
+
+void check_plausible(const CsvTable& table, std::size_t row, std::size_t first, std::size_t count, double limit,
+                     const char* unit) {
+  for (std::size_t k = first; k < first + count; ++k) {
+    const double value = table.rows[row][k];
+    if (std::fabs(value) > limit) {
+      throw InputError(table.path, table.line_numbers[row],
+                       "column '" + table.columns[k] + "': " + format_number(value) + " is not plausible (beyond " +
+                           format_number(limit) + " " + unit + ")");
+    }
+  }
+}
+
+}  // namespace
 
 Recording read_recording(const std::string& path) {
   const CsvTable table = read_csv(path, {"t_s", "alpha1_deg", "alpha2_deg", "alpha3_deg", "x_m", "y_m", "z_m"});
@@ -19,6 +41,8 @@ Recording read_recording(const std::string& path) {
       throw InputError(path, table.line_numbers[i], "time goes backwards (t_s " + format_number(row[0]) +
                                                         " after " + format_number(recording.samples.back().t_s) + ")");
     }
+    check_plausible(table, i, 1, 3, kMaxPlausibleAngleDeg, "deg");
+    check_plausible(table, i, 4, 3, kMaxPlausiblePositionM, "m");
     Sample sample;
     sample.t_s = row[0];
     sample.alpha_deg = Vec3(row[1], row[2], row[3]);
@@ -47,7 +71,10 @@ std::vector<Vec3> read_positions(const std::string& path) {
   const CsvTable table = read_csv(path, {"x_m", "y_m", "z_m"});
   std::vector<Vec3> positions;
   positions.reserve(table.rows.size());
-  for (const std::vector<double>& row : table.rows) positions.emplace_back(row[0], row[1], row[2]);
+  for (std::size_t i = 0; i < table.rows.size(); ++i) {
+    check_plausible(table, i, 0, 3, kMaxPlausiblePositionM, "m");
+    positions.emplace_back(table.rows[i][0], table.rows[i][1], table.rows[i][2]);
+  }
   return positions;
 }
 

@@ -38,6 +38,13 @@ IkSolution inverse_kinematics(const Geometry& geometry, const Vec3& position_m) 
       solution.chain = j;
       return solution;
     }
+    // The closure also has solutions the robot cannot take: the plate at or above the base plane,
+    // or an upper arm folded back over the base (the knee-out branch ends near 120 deg).
+    if (!(position_m.z() < 0.0) || !(alpha >= kMinReachableAlphaDeg && alpha <= kMaxReachableAlphaDeg)) {
+      solution.error = KinematicsError::unreachable;
+      solution.chain = j;
+      return solution;
+    }
     solution.alpha_deg[j] = alpha;
   }
   return solution;

@@ -24,12 +24,13 @@ inline std::string read_text(const std::string& path) {
   return buffer.str();
 }
 
-// `arguments` is appended to the deltactl path as shell words.
-inline CommandResult run_deltactl(const std::string& arguments) {
+// `arguments` is appended to the deltactl path as shell words; `shell_prefix` runs before it in the
+// same shell (e.g. "ulimit -f 8; ").
+inline CommandResult run_deltactl(const std::string& arguments, const std::string& shell_prefix = "") {
   static int counter = 0;
   // Unique across the test processes CTest runs in parallel.
   const std::string stem = ::testing::TempDir() + "deltactl_run_" + std::to_string(::getpid()) + "_" + std::to_string(++counter);
-  const std::string command = std::string(DELTACTL_PATH) + " " + arguments + " >" + stem + ".out 2>" + stem + ".err";
+  const std::string command = shell_prefix + std::string(DELTACTL_PATH) + " " + arguments + " >" + stem + ".out 2>" + stem + ".err";
   const int status = std::system(command.c_str());
   CommandResult result;
   result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;

@@ -11,6 +11,7 @@
 #include "delta/golden/joint_fixed.hpp"
 #include "delta/plot.hpp"
 #include "delta/table.hpp"
+#include "delta/options.hpp"
 
 namespace delta::control {
 namespace {
@@ -164,9 +165,9 @@ const RegisterCommand command("joint-loop", 60, [](CLI::App& root) {
       "fails. Plant and design figures: hls/README.md, \"Joint controller fixed-point formats\".\n"
       "Example: deltactl joint-loop --plot joint_loop.png");
   sub->add_option("--plot", options->plot, "PNG of the tracking errors and the load-step responses");
-  sub->add_option("--load-step", options->load_step_nm, "load-torque step on the shaft [N m]")
+  sub->add_option("--load-step", options->load_step_nm, "load-torque step on the shaft [N m]; the DOB-step bound (<= 2 counts) holds up to 0.03")
       ->capture_default_str()
-      ->check(CLI::Range(0.0, 1.0));
+      ->check(options::real_number(0.01, 0.03));
   sub->callback([options] { run_joint_loop(*options); });
 });
 

@@ -11,6 +11,7 @@
 #include "delta/kinematics.hpp"
 #include "delta/output_file.hpp"
 #include "delta/recording.hpp"
+#include "delta/options.hpp"
 
 namespace delta {
 namespace {
@@ -59,6 +60,8 @@ void run_diagnose(const DiagnoseOptions& options) {
   if (!options.report.empty()) {
     diagnosis::write_report(options.report, {options.data, options.holdout, fit.samples.size()}, check.samples, result);
   }
+  json_file.finish();  // both complete before either appears
+  predictions_file.finish();
   json_file.commit();
   predictions_file.commit();
   diagnosis::print_summary(std::cout, result);
@@ -100,7 +103,7 @@ const RegisterCommand command("diagnose", 60, [](CLI::App& root) {
   sub->add_option("--significance", options->significance,
                   "stopping rule: minimum held-out MSE drop in units of floor^2")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(options::real_number(0, 1e6, true));
   sub->callback([options] { run_diagnose(*options); });
 });
 

@@ -75,7 +75,6 @@ std::string joined_parameters(Family family, const Parameters& theta) {
 // cell, nominal and after side by side (each with its own colour scale, degrees). gnuplot directly: plot.hpp
 // draws line series only.
 void write_error_map(const std::string& png_path, const std::vector<Sample>& check, const Diagnosis& diagnosis) {
-  namespace fs = std::filesystem;
   constexpr int kCells = 8;
   Vec3 low = check.front().position_m, high = low;
   for (const Sample& sample : check) {
@@ -93,41 +92,31 @@ void write_error_map(const std::string& png_path, const std::vector<Sample>& che
     sum[0][cell] += (check[i].alpha_deg - diagnosis.check_nominal_deg[i]).squaredNorm() / 3.0;
     sum[1][cell] += (check[i].alpha_deg - diagnosis.check_after_deg[i]).squaredNorm() / 3.0;
   }
-  char folder_template[] = "/tmp/deltactl-map-XXXXXX";
-  if (!::mkdtemp(folder_template)) throw std::runtime_error("cannot create a temporary folder for the error map");
-  const fs::path folder(folder_template);
   const char* names[2] = {"nominal model", "after diagnosis"};
-  std::ofstream script(folder / "map.gp");
-  const std::string partial = fs::absolute(png_path).string() + ".partial.png";
-  script << "set terminal pngcairo size 1300,560 font 'sans,10'\nset output '" << partial << "'\n"
-         << "set multiplot layout 1,2 title 'Held-out RMSE over the three joints per x-y cell of the CHECK workspace [deg]'\n"
-         << "set format cb '%.2g'\nset xlabel 'x [mm]'\nset ylabel 'y [mm]'\nset size ratio -1\n"
-         << "set palette rgbformulae 22,13,-31\n";
+  std::ostringstream script;
   for (int panel = 0; panel < 2; ++panel) {
-    std::ofstream data(folder / ("map" + std::to_string(panel) + ".dat"));
+    script << "$map" << panel << " << EOD\n";
     for (int cy = 0; cy < kCells; ++cy) {
       for (int cx = 0; cx < kCells; ++cx) {
         const int cell = cy * kCells + cx;
         if (!count[cell]) continue;
-        data << format_number((low.x() + (cx + 0.5) * width_x) * 1e3) << ' '
-             << format_number((low.y() + (cy + 0.5) * width_y) * 1e3) << ' '
-             << format_number(std::max(std::sqrt(sum[panel][cell] / count[cell]), 1e-6)) << '\n';
+        script << format_number((low.x() + (cx + 0.5) * width_x) * 1e3) << ' '
+               << format_number((low.y() + (cy + 0.5) * width_y) * 1e3) << ' '
+               << format_number(std::max(std::sqrt(sum[panel][cell] / count[cell]), 1e-6)) << '\n';
       }
     }
-    script << "set title '" << names[panel] << "'\nplot '" << (folder / ("map" + std::to_string(panel) + ".dat")).string()
-           << "' using 1:2:3 with points pt 5 ps 5.5 lc palette notitle\n";
+    script << "EOD\n";
+  }
+  script << "set terminal pngcairo size 1300,560 font 'sans,10'\n"
+         << "set multiplot layout 1,2 title 'Held-out RMSE over the three joints per x-y cell of the CHECK workspace [deg]'\n"
+         << "set format cb '%.2g'\nset xlabel 'x [mm]'\nset ylabel 'y [mm]'\nset size ratio -1\n"
+         << "set palette rgbformulae 22,13,-31\n";
+  for (int panel = 0; panel < 2; ++panel) {
+    script << "set title '" << names[panel] << "'\nplot $map" << panel
+           << " using 1:2:3 with points pt 5 ps 5.5 lc palette notitle\n";
   }
   script << "unset multiplot\n";
-  script.close();
-  const std::string command = "gnuplot '" + (folder / "map.gp").string() + "' 2>/dev/null";
-  const int status = std::system(command.c_str());
-  std::error_code ignored;
-  fs::remove_all(folder, ignored);
-  if (status != 0) {
-    fs::remove(partial, ignored);
-    throw std::runtime_error("gnuplot failed drawing the error map (scripts/setup.sh installs gnuplot-nox)");
-  }
-  fs::rename(partial, png_path);
+  render_gnuplot_png(png_path, script.str());
 }
 // Confidence half widths of a family laid out as parameters, so they print in the keys and units
 // of its parameters (the conversion to SPEC units is linear).

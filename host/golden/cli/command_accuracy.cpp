@@ -16,6 +16,7 @@
 #include "delta/plot.hpp"
 #include "delta/table.hpp"
 #include "delta/trajectory.hpp"
+#include "delta/options.hpp"
 
 namespace delta::golden {
 namespace {
@@ -301,11 +302,11 @@ const RegisterCommand command("accuracy", 46, [](CLI::App& root) {
               "and reports the smallest width that still meets the bound. Exit 1 if the chosen formats miss it.\n"
               "Example: deltactl accuracy --weights weights/paper_like.json --plot sweep.png");
   sub->add_option("--weights", options->weights, "network weights (W.json)")->required();
-  sub->add_option("--grid-points", options->grid_points, "grid points per axis")->capture_default_str();
-  sub->add_option("--margin-mm", options->margin_mm, "margin around the 10 mm cube [mm]")->capture_default_str();
+  sub->add_option("--grid-points", options->grid_points, "grid points per axis")->capture_default_str()->check(options::whole_number(2, 301));
+  sub->add_option("--margin-mm", options->margin_mm, "margin around the 10 mm cube [mm]")->capture_default_str()->check(options::real_number(0, 20));
   sub->add_option("--sweep-grid-points", options->sweep_grid_points, "grid points per axis for each sweep point")
-      ->capture_default_str();
-  sub->add_option("--bound-deg", options->bound_deg, "accuracy bound [deg]")->capture_default_str();
+      ->capture_default_str()->check(options::whole_number(2, 201));
+  sub->add_option("--bound-deg", options->bound_deg, "accuracy bound [deg]")->capture_default_str()->check(options::real_number(0, 10, true));
   sub->add_option("--plot", options->plot, "PNG of the word-length sweep");
   sub->add_flag("!--no-sweep", options->sweep, "skip the word-length sweep");
   sub->callback([options] { run_accuracy(*options); });

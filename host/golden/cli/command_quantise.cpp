@@ -2,6 +2,7 @@
 #include <filesystem>
 #include <iostream>
 #include <memory>
+#include <sstream>
 
 #include <CLI/CLI.hpp>
 
@@ -10,7 +11,7 @@
 #include "delta/golden/test_vectors.hpp"
 #include "delta/input_error.hpp"
 #include "delta/nn/weights_file.hpp"
-#include "delta/output_file.hpp"
+#include "delta/options.hpp"
 
 namespace delta::golden {
 namespace {
@@ -22,10 +23,8 @@ struct QuantiseOptions {
 };
 
 // golden_vectors.txt: raw input codes and the golden model's raw output codes, one vector a line.
-void write_golden_vectors(const QuantisedNetwork& q, const nn::Network& network, std::size_t count,
-                          const std::string& path) {
-  OutputFile file(path);
-  std::ostream& out = file.stream();
+std::string golden_vectors_text(const QuantisedNetwork& q, const nn::Network& network, std::size_t count) {
+  std::ostringstream out;
   out << "# Golden vectors of the fixed-point network (hls/README.md): x_0 x_1 x_2 (raw input codes,\n"
          "# metres * 2^" << q.formats.input_fraction_bits << ") y_0 y_1 y_2 (raw output codes, degrees * 2^"
       << q.formats.output_fraction_bits << "), decimal; saturation corners, grid, random (seed 1).\n";
@@ -33,7 +32,7 @@ void write_golden_vectors(const QuantisedNetwork& q, const nn::Network& network,
     const RawOutput y = evaluate_raw(q, x);
     out << x[0] << ' ' << x[1] << ' ' << x[2] << ' ' << y.alpha[0] << ' ' << y.alpha[1] << ' ' << y.alpha[2] << '\n';
   }
-  file.commit();
+  return out.str();
 }
 
 void run_quantise(const QuantiseOptions& options) {
@@ -47,12 +46,9 @@ void run_quantise(const QuantiseOptions& options) {
     throw InputError(options.weights, 0, std::string("cannot be quantised: ") + error.what());
   }
   if (!std::filesystem::is_directory(options.out_dir)) throw InputError(options.out_dir, 0, "is not a folder");
-  write_export(q, options.out_dir);
+  if (options.vectors > 0) files.push_back({"golden_vectors.txt", golden_vectors_text(q, weights.network, options.vectors)});
+  write_export_files(files, options.out_dir);
   for (const ExportFile& file : files) std::cout << options.out_dir << "/" << file.name << '\n';
-  if (options.vectors > 0) {
-    write_golden_vectors(q, weights.network, options.vectors, options.out_dir + "/golden_vectors.txt");
-    std::cout << options.out_dir << "/golden_vectors.txt\n";
-  }
   std::cerr << "quantise: 3-" << q.hidden << "-3 network, input shifts " << q.input_shift[0] << ' ' << q.input_shift[1]
             << ' ' << q.input_shift[2] << (weights.hybrid() ? "; hybrid model: the network part (residual)" : "")
             << '\n';
@@ -69,7 +65,8 @@ const RegisterCommand command("quantise", 45, [](CLI::App& root) {
               "Example: deltactl quantise --weights weights/paper_like.json --out-dir build/network_mem");
   sub->add_option("--weights", options->weights, "network weights (W.json)")->required();
   sub->add_option("--out-dir", options->out_dir, "existing folder for the files")->required();
-  sub->add_option("--vectors", options->vectors, "also write golden_vectors.txt with this many test vectors");
+  sub->add_option("--vectors", options->vectors, "also write golden_vectors.txt with this many test vectors")
+      ->check(options::whole_number(0, 1000000));
   sub->callback([options] { run_quantise(*options); });
 });
 

@@ -2,6 +2,7 @@
 #include "delta/golden/export.hpp"
 
 #include <cmath>
+#include <memory>
 #include <sstream>
 
 #include "delta/output_file.hpp"
@@ -151,13 +152,18 @@ std::vector<ExportFile> export_files(const QuantisedNetwork& q) {
   return files;
 }
 
-void write_export(const QuantisedNetwork& q, const std::string& directory) {
-  const std::vector<ExportFile> files = export_files(q);  // all checks before the first file is written
+void write_export_files(const std::vector<ExportFile>& files, const std::string& directory) {
+  std::vector<std::unique_ptr<OutputFile>> outputs;
   for (const ExportFile& file : files) {
-    OutputFile out(directory + "/" + file.name);
-    out.stream() << file.text;
-    out.commit();
+    outputs.push_back(std::make_unique<OutputFile>(directory + "/" + file.name));
+    outputs.back()->stream() << file.text;
+    outputs.back()->finish();
   }
+  for (const auto& output : outputs) output->commit();
+}
+
+void write_export(const QuantisedNetwork& q, const std::string& directory) {
+  write_export_files(export_files(q), directory);  // all checks before the first file is written
 }
 
 }  // namespace delta::golden

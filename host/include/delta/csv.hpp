@@ -2,6 +2,7 @@
 // order, extra columns ignored, every error reported as FILE:LINE: reason.
 #pragma once
 
+#include <istream>
 #include <string>
 #include <vector>
 
@@ -18,5 +19,8 @@ struct CsvTable {
 // Throws InputError for a missing file, an empty file (no header or no data), a missing column,
 // a wrong field count, or a non-numeric or non-finite field.
 CsvTable read_csv(const std::string& path, const std::vector<std::string>& required_columns);
+
+// The same on an open stream; `path` names it in errors (the fuzzer feeds bytes this way).
+CsvTable parse_csv(std::istream& input, const std::string& path, const std::vector<std::string>& required_columns);
 
 }  // namespace delta

@@ -28,7 +28,12 @@ struct PlotSpec {
   int panel_height_px = 350;
 };
 
-// Writes a PNG atomically. Throws std::runtime_error when gnuplot is missing or fails.
+// Writes a PNG atomically. Throws InputError for an output path that cannot be written (before
+// gnuplot runs) or a PNG cut short, std::runtime_error when gnuplot is missing or fails.
 void write_plot(const std::string& png_path, const PlotSpec& spec);
+
+// Runs a gnuplot script (terminal and data included; `set output` is added) into png_path, with
+// the same guarantees: the PNG appears complete or not at all, no temporary folder is left.
+void render_gnuplot_png(const std::string& png_path, const std::string& script);
 
 }  // namespace delta

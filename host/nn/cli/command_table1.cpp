@@ -11,6 +11,8 @@
 #include "delta/model_error.hpp"
 #include "delta/nn/model_training.hpp"
 #include "delta/nn/trained_model.hpp"
+#include "delta/nn/weights_file.hpp"
+#include "delta/output_file.hpp"
 #include "delta/table.hpp"
 #include "training_options.hpp"
 
@@ -58,8 +60,9 @@ void add_row(Table& table, const std::string& name, const JointErrorStats& stats
 }
 
 WeightsFile obtain(const std::string& given, const std::string& model, const Recording& data,
-                   const TrainingOptions& training, const std::string& save) {
+                   const TrainingOptions& training, std::optional<OutputFile>& save) {
   if (!given.empty()) {
+    save.reset();  // nothing trained, nothing saved
     WeightsFile weights = read_weights_file(given);
     if (weights.model != model) {
       throw InputError(given, 0, "expected a " + model + " model, this file holds a " + weights.model + " model");
@@ -72,7 +75,7 @@ WeightsFile obtain(const std::string& given, const std::string& model, const Rec
   });
   std::cerr << "table1: " << model << ": " << result.training.epochs << " epochs, stopped by "
             << result.training.stop_reason << '\n';
-  if (!save.empty()) write_weights_file(save, result.weights);
+  if (save) save->stream() << weights_file_text(result.weights);
   return result.weights;
 }
 
@@ -80,8 +83,12 @@ void run_table1(const Table1Options& options) {
   const Recording data = read_recording(options.data);
   std::vector<Recording> holdouts;
   for (const std::string& path : options.holdouts) holdouts.push_back(read_recording(path));
-  const WeightsFile network = obtain(options.network_weights, "network", data, options.training, options.save_network);
-  const WeightsFile hybrid = obtain(options.hybrid_weights, "hybrid", data, options.training, options.save_hybrid);
+  // Saved networks are opened first (a bad path fails before training) and appear together at the end.
+  std::optional<OutputFile> save_network, save_hybrid;
+  if (!options.save_network.empty()) save_network.emplace(options.save_network);
+  if (!options.save_hybrid.empty()) save_hybrid.emplace(options.save_hybrid);
+  const WeightsFile network = obtain(options.network_weights, "network", data, options.training, save_network);
+  const WeightsFile hybrid = obtain(options.hybrid_weights, "hybrid", data, options.training, save_hybrid);
   const std::string hidden = std::to_string(network.network.hidden());
   std::cout << "Table 1: joint-angle error (measured - model) in degrees. Paper: its robot, over the whole\n"
                "recorded set. Ours: models fitted on " << options.data << " only.\n";
@@ -102,6 +109,8 @@ void run_table1(const Table1Options& options) {
     for (const auto& [name, model] : models) add_row(table, name, model_stats(*recording, name, model));
     table.print(std::cout);
   }
+  for (auto* save : {&save_network, &save_hybrid}) if (*save) (*save)->finish();
+  for (auto* save : {&save_network, &save_hybrid}) if (*save) (*save)->commit();
 }
 
 const RegisterCommand command("table1", 45, [](CLI::App& root) {

@@ -7,7 +7,9 @@
 
 #include "delta/command.hpp"
 #include "delta/nn/model_training.hpp"
+#include "delta/output_file.hpp"
 #include "delta/table.hpp"
+#include "delta/options.hpp"
 #include "training_options.hpp"
 
 namespace delta::nn {
@@ -22,6 +24,7 @@ struct TrainOptions {
 
 void run_train(const TrainOptions& options) {
   const Recording recording = read_recording(options.data);
+  OutputFile{options.out};  // an unwritable --out, or one that is the input, fails before training
   const auto start = std::chrono::steady_clock::now();
   const ModelTraining result = train_model(recording, options.model, options.training, [](const TrainingEpoch& epoch) {
     std::cerr << "train: " << describe_epoch(epoch) << '\n';
@@ -62,9 +65,9 @@ const RegisterCommand command("train", 40, [](CLI::App& root) {
   sub->add_option("--model", options->model, "network (the paper's) or hybrid (math model + network)")
       ->capture_default_str()->check(CLI::IsMember({"network", "hybrid"}));
   sub->add_option("--validation", options->training.validation_fraction, "share of samples held out for early stopping")
-      ->capture_default_str()->check(CLI::Range(0.0, 0.5));
+      ->capture_default_str()->check(options::real_number(0, 0.5));
   sub->add_option("--threads", options->training.threads, "worker threads (0: all cores; same result for any)")
-      ->capture_default_str()->check(CLI::Range(0, 256));
+      ->capture_default_str()->check(options::whole_number(0, 256));
   sub->callback([options] { run_train(*options); });
 });
 

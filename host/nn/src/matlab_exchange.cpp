@@ -3,18 +3,24 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <fstream>
+#include <iterator>
 #include <map>
 #include <memory>
 #include <sstream>
 #include <stdexcept>
 
 #include <matio.h>
+#include <zlib.h>
 
 #include "delta/input_error.hpp"
+#include "delta/input_file.hpp"
 #include "delta/output_file.hpp"
+#include "delta/nn/weights_file.hpp"
 
 namespace delta::nn {
 namespace {
@@ -36,11 +42,16 @@ Variables variables_of(const Network& network) {
           {"output_xmin", {network.output_min}},  {"output_xmax", {network.output_max}}};
 }
 
+Variables read_mat(const std::string& path);
+
+// Most values one variable may hold: W.json allows 10000 hidden neurons, so IW has 30000.
+constexpr std::size_t kMaxMatElements = 3 * kMaxHiddenNeurons;
+
 const char* const kOrder[] = {"IW", "b1", "LW", "b2", "input_xmin", "input_xmax", "output_xmin", "output_xmax"};
 
 void write_mat(const std::string& path, const Variables& variables) {
-  const std::string temporary = path + ".partial." + std::to_string(::getpid());
-  mat_t* file = Mat_CreateVer(temporary.c_str(), nullptr, MAT_FT_MAT5);
+  OutputFile output(path);
+  mat_t* file = Mat_CreateVer(output.writing_path().c_str(), nullptr, MAT_FT_MAT5);
   if (!file) throw InputError(path, 0, "cannot write here (does the folder exist?)");
   bool written = true;
   for (const char* name : kOrder) {
@@ -50,11 +61,17 @@ void write_mat(const std::string& path, const Variables& variables) {
     written = written && variable && Mat_VarWrite(file, variable, MAT_COMPRESSION_NONE) == 0;
     if (variable) Mat_VarFree(variable);
   }
-  Mat_Close(file);
-  if (!written || std::rename(temporary.c_str(), path.c_str()) != 0) {
-    std::remove(temporary.c_str());
-    throw InputError(path, 0, "could not be written completely");
+  written = Mat_Close(file) == 0 && written;
+  // matio does not report every failed write (a full disk leaves a short file): read it back.
+  if (written) {
+    try {
+      written = read_mat(output.writing_path()).size() == variables.size();
+    } catch (const InputError&) {
+      written = false;
+    }
   }
+  if (!written) throw InputError(path, 0, "could not be written completely (disk full?); nothing written");
+  output.commit();
 }
 
 void write_csv(const std::string& path, const Variables& variables) {
@@ -70,14 +87,122 @@ void write_csv(const std::string& path, const Variables& variables) {
   file.commit();
 }
 
+// libmatio trusts the sizes in a file and allocates them before reading (the fuzzer found 1.6 GB
+// and 8.5 GB from 2 kB files): the MAT5 layout is walked first. A 128-byte header, then data
+// elements, each an 8-byte tag (type, byte count) whose count must fit in what holds it; a
+// compressed element is inflated here, at most kMaxInflatedBytes, and walked the same way.
+class Mat5Layout {
+ public:
+  Mat5Layout(const std::string& path, bool swapped) : path_(path), swapped_(swapped) {}
+
+  std::uint32_t word(const std::string& bytes, std::size_t at) const {
+    std::uint32_t value = 0;
+    for (int b = 0; b < 4; ++b) {
+      const auto byte = static_cast<std::uint32_t>(static_cast<unsigned char>(bytes[at + static_cast<std::size_t>(b)]));
+      value |= swapped_ ? byte << (8 * (3 - b)) : byte << (8 * b);
+    }
+    return value;
+  }
+
+  // Elements of bytes[from, to); returns nothing, throws InputError on the first inconsistency.
+  void check_elements(const std::string& bytes, std::size_t from, std::size_t to, bool top_level) const {
+    for (std::size_t at = from; at < to;) {
+      if (to - at < 8) fail("a data element is cut short");
+      const std::uint32_t type = word(bytes, at), count = word(bytes, at + 4);
+      if (type == 15 && top_level) {  // miCOMPRESSED
+        if (count > to - at - 8) fail("a compressed element claims more bytes than the file holds");
+        const std::string inflated = inflate(bytes.substr(at + 8, count));
+        check_elements(inflated, 0, inflated.size(), false);
+        at += 8 + count;
+      } else if (type == 14) {  // miMATRIX
+        if (count > to - at - 8) fail("a matrix claims more bytes than the file holds");
+        check_matrix(bytes, at + 8, at + 8 + count);
+        at += 8 + count + (8 - count % 8) % 8;
+      } else {
+        fail("unexpected data element type " + std::to_string(type));
+      }
+    }
+  }
+
+ private:
+  static constexpr std::size_t kMaxInflatedBytes = 8 * kMaxMatElements + 4096;
+
+  [[noreturn]] void fail(const std::string& reason) const { throw InputError(path_, 0, reason); }
+
+  // Sub-elements of a real double matrix: flags, dimensions, name, real part; each must fit.
+  void check_matrix(const std::string& bytes, std::size_t from, std::size_t to) const {
+    std::size_t elements = 1;
+    int index = 0;
+    for (std::size_t at = from; at < to; ++index) {
+      if (to - at < 8) fail("a matrix sub-element is cut short");
+      const std::uint32_t first = word(bytes, at);
+      const bool small = (first >> 16) != 0;  // small data element: count in the upper half, data in 4 bytes
+      const std::uint32_t count = small ? first >> 16 : word(bytes, at + 4);
+      const std::size_t data = small ? at + 4 : at + 8;
+      if (count > to - data) fail("a matrix sub-element claims more bytes than the matrix holds");
+      if (index == 0 && (count < 8 || (word(bytes, data) & 0xff) != 6)) fail("a variable is not a real double matrix");
+      if (index == 1) {
+        for (std::size_t d = 0; d + 4 <= count; d += 4) elements *= std::min<std::size_t>(word(bytes, data + d), kMaxMatElements + 1);
+        if (elements > kMaxMatElements) {
+          fail("a variable of more than " + std::to_string(kMaxMatElements) + " values (at most 10000 hidden neurons)");
+        }
+      }
+      at = small ? at + 8 : data + count + (8 - count % 8) % 8;
+    }
+  }
+
+  std::string inflate(const std::string& compressed) const {
+    z_stream stream{};
+    if (inflateInit(&stream) != Z_OK) fail("cannot inflate");
+    std::string out(kMaxInflatedBytes + 1, '\0');
+    stream.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(compressed.data()));
+    stream.avail_in = static_cast<uInt>(compressed.size());
+    stream.next_out = reinterpret_cast<Bytef*>(out.data());
+    stream.avail_out = static_cast<uInt>(out.size());
+    const int status = ::inflate(&stream, Z_FINISH);
+    const std::size_t produced = stream.total_out;
+    inflateEnd(&stream);
+    if (produced > kMaxInflatedBytes) fail("a compressed variable inflates beyond " + std::to_string(kMaxInflatedBytes) + " bytes");
+    if (status != Z_STREAM_END) fail("a compressed variable is damaged");
+    out.resize(produced);
+    return out;
+  }
+
+  const std::string& path_;
+  bool swapped_;
+};
+
+void check_mat5_layout(const std::string& path, std::ifstream& input) {
+  const std::string bytes((std::istreambuf_iterator<char>(input)), std::istreambuf_iterator<char>());
+  if (bytes.size() > kMaxInputBytes) throw InputError(path, 0, "too large for a network's .mat file");
+  if (bytes.size() < 136) throw InputError(path, 0, "not a MATLAB 5/7 .mat file (too short)");
+  const bool swapped = bytes[126] == 'M' && bytes[127] == 'I';
+  if (!swapped && !(bytes[126] == 'I' && bytes[127] == 'M')) {
+    throw InputError(path, 0, "not a MATLAB 5/7 .mat file (a v4 or v7.3/HDF5 file? save with -v7)");
+  }
+  Mat5Layout(path, swapped).check_elements(bytes, 128, bytes.size(), true);
+}
+
 Variables read_mat(const std::string& path) {
+  std::ifstream input = open_input_file(path);  // a folder or a missing file named; noted as an input
+  check_mat5_layout(path, input);
   mat_t* file = Mat_Open(path.c_str(), MAT_ACC_RDONLY);
   if (!file) throw InputError(path, 0, "cannot open as a MATLAB .mat file");
   std::unique_ptr<mat_t, int (*)(mat_t*)> closer(file, Mat_Close);
   Variables variables;
   for (const char* name : kOrder) {
+    // Sizes first: a small compressed file may inflate to gigabytes.
+    matvar_t* info = Mat_VarReadInfo(file, name);
+    if (!info) continue;  // reported as missing below
+    std::size_t elements = 1;
+    for (int d = 0; d < info->rank; ++d) elements *= std::min<std::size_t>(info->dims[d], kMaxMatElements + 1);
+    Mat_VarFree(info);
+    if (elements > kMaxMatElements) {
+      throw InputError(path, 0, std::string(name) + ": more than " + std::to_string(kMaxMatElements) +
+                                    " values (a network of at most 10000 hidden neurons)");
+    }
     matvar_t* variable = Mat_VarRead(file, name);
-    if (!variable) continue;  // reported as missing below
+    if (!variable) continue;
     std::unique_ptr<matvar_t, void (*)(matvar_t*)> freer(variable, Mat_VarFree);
     if (variable->class_type != MAT_C_DOUBLE || variable->isComplex || variable->rank != 2 || !variable->data) {
       throw InputError(path, 0, std::string(name) + ": expected a real double matrix");
@@ -90,8 +215,7 @@ Variables read_mat(const std::string& path) {
 }
 
 Variables read_csv_variables(const std::string& path) {
-  std::ifstream input(path);
-  if (!input) throw InputError(path, 0, "cannot open file");
+  std::ifstream input = open_input_file(path);
   Variables variables;
   std::string line;
   std::size_t line_number = 0;
@@ -164,7 +288,10 @@ Network import_matlab(const std::string& path) {
   const auto iw = variables.find("IW");
   if (iw == variables.end()) throw InputError(path, 0, "missing variable IW");
   const Eigen::Index hidden = iw->second.value.rows();
-  if (hidden < 1) throw InputError(path, iw->second.line, "IW: expected H x 3 with H >= 1");
+  if (hidden < 1 || hidden > kMaxHiddenNeurons) {
+    throw InputError(path, iw->second.line, "IW: expected H x 3 with 1 <= H <= " + std::to_string(kMaxHiddenNeurons) +
+                                                " (the weights file limit), got H = " + std::to_string(hidden));
+  }
   Network network;
   network.input_weights = get("IW", hidden, 3);
   network.hidden_bias = get("b1", hidden, 1);

@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "delta/effect_file.hpp"
+#include "delta/input_error.hpp"
 #include "delta/nn/trained_model.hpp"
 
 namespace delta::nn {
@@ -22,16 +23,22 @@ ModelTraining train_model(const Recording& recording, const std::string& model, 
     inputs.push_back(sample.position_m);
     targets.push_back(sample.alpha_deg);
   }
-  if (model == "hybrid") {
-    result.effect_fit = fit_math_model_effects(recording.samples);
-    // The network learns what the identified model, backlash included, leaves: a residual that
-    // depends on the pose alone. The weights file keeps the pose-wise effects (no backlash).
-    const std::vector<Vec3> predicted = predict_recording(result.effect_fit->effects, recording.samples);
-    for (std::size_t i = 0; i < inputs.size(); ++i) targets[i] -= predicted[i];
-    result.weights.effects = result.effect_fit->effects;
-    result.weights.effects.backlash_deg.reset();
+  // What the data cannot support (too few rows, an axis that does not vary, a pose the math
+  // model cannot reach) is a fault of the recording: name it.
+  try {
+    if (model == "hybrid") {
+      result.effect_fit = fit_math_model_effects(recording.samples);
+      // The network learns what the identified model, backlash included, leaves: a residual that
+      // depends on the pose alone. The weights file keeps the pose-wise effects (no backlash).
+      const std::vector<Vec3> predicted = predict_recording(result.effect_fit->effects, recording.samples);
+      for (std::size_t i = 0; i < inputs.size(); ++i) targets[i] -= predicted[i];
+      result.weights.effects = result.effect_fit->effects;
+      result.weights.effects.backlash_deg.reset();
+    }
+    result.training = train_network(inputs, targets, options, progress);
+  } catch (const std::invalid_argument& error) {
+    throw InputError(recording.path, 0, error.what());
   }
-  result.training = train_network(inputs, targets, options, progress);
   result.weights.network = result.training.network;
   const TrainingResult& training = result.training;
   nlohmann::json& provenance = result.weights.provenance;

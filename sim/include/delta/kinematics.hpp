@@ -67,6 +67,12 @@ bool chain_inverse_kinematics(const Scalar& upper_arm_m, const Scalar& lower_arm
   return true;
 }
 
+// Shaft angles the robot can physically take (knee out, upper arm not folded over the base).
+constexpr double kMinReachableAlphaDeg = -90.0;
+constexpr double kMaxReachableAlphaDeg = 120.0;
+
+// All three chains; a pose is unreachable when the plate is not below the base plane (z < 0, SPEC)
+// or a chain's angle falls outside [kMinReachableAlphaDeg, kMaxReachableAlphaDeg].
 IkSolution inverse_kinematics(const Geometry& geometry, const Vec3& position_m);
 
 // Lower intersection (plate below the elbows) of the three spheres of radius L_B centred on the

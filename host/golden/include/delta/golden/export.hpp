@@ -17,8 +17,12 @@ struct ExportFile {
 // Every file of the export, in a fixed order: the .mem files, then fixed_network_weights.hpp.
 std::vector<ExportFile> export_files(const QuantisedNetwork& q);
 
-// Writes export_files(q) into `directory` (which must exist), each file atomically.
+// Writes export_files(q) into `directory` (which must exist): all files appear, or none.
 void write_export(const QuantisedNetwork& q, const std::string& directory);
+
+// Writes `files` into `directory`: every file is complete before the first one is put in place,
+// so an error, a full disk or SIGINT leaves none of them.
+void write_export_files(const std::vector<ExportFile>& files, const std::string& directory);
 
 // One word as ceil(bits/4) hex digits of its two's complement masked to `bits`.
 std::string hex_word(std::int64_t value, int bits);

@@ -31,6 +31,8 @@
 namespace delta::nn {
 
 constexpr int kWeightsFileVersion = 1;
+// Most hidden neurons a weights file may have: checked when reading, writing and importing.
+constexpr long long kMaxHiddenNeurons = 10000;
 
 struct WeightsFile {
   std::string model = "network";  // "network" or "hybrid"
@@ -52,7 +54,8 @@ WeightsFile parse_weights_file(const std::string& text, const std::string& path)
 // Deterministic text of the layout above.
 std::string weights_file_text(const WeightsFile& weights);
 
-// Writes atomically (delta::OutputFile): no partial file on failure.
+// Writes atomically (delta::OutputFile): no partial file on failure. Throws InputError naming the
+// path for a network larger than kMaxHiddenNeurons, which no reader would accept.
 void write_weights_file(const std::string& path, const WeightsFile& weights);
 
 }  // namespace delta::nn
