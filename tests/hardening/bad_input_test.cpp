@@ -8,6 +8,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 
@@ -246,6 +247,34 @@ TEST(Defect06, DiagnoseWritesJsonAndPredictionsTogetherOrNeither) {
                                            " --predictions " + predictions, 64);
   expect_bad_input(result, predictions, "diagnose on a full disk");
   EXPECT_TRUE(listing(where).empty()) << "left: " << (listing(where).empty() ? "" : listing(where).front());
+}
+
+// SIGINT through the command line: each long command is interrupted a second in, while it
+// computes or writes; it must exit non-zero and leave nothing in its output folder (no output, no
+// temporary, no plot folder).
+TEST(Defect06, SigintDuringALongCommandLeavesNoFile) {
+  const std::string check = temp("d6_sigint_check.csv");
+  ASSERT_EQ(run_deltactl("simulate --experiment sweep --seed 3 --out " + check).exit_code, 0);
+  const std::vector<std::pair<std::string, std::string>> commands = {
+      {"train", "train --data " + good_recording() + " --out {}/w.json"},
+      {"diagnose", "diagnose --data " + good_recording() + " --holdout " + check +
+                       " --json {}/d.json --predictions {}/p.csv --report {}/r.md"},
+      {"accuracy", "accuracy --weights " + kWeights + " --plot {}/a.png"},
+  };
+  for (const auto& [name, pattern] : commands) {
+    const fs::path where = folder() / ("d6_sigint_" + name);
+    fs::create_directories(where);
+    std::string arguments = pattern;
+    for (std::size_t at = arguments.find("{}"); at != std::string::npos; at = arguments.find("{}")) {
+      arguments.replace(at, 2, where.string());
+    }
+    const std::string status_file = temp("d6_sigint_" + name + ".status");
+    const std::string script = std::string(DELTACTL_PATH) + " " + arguments + " >/dev/null 2>&1 & pid=$!; sleep 1; kill -INT $pid; wait $pid; echo $? > " + status_file;
+    ASSERT_EQ(std::system(("bash -c '" + script + "'").c_str()), 0) << name;
+    const std::string status = read_text(status_file);
+    EXPECT_NE(status, "0\n") << name << " finished within a second: the test did not interrupt it";
+    EXPECT_TRUE(listing(where).empty()) << name << " left " << (listing(where).empty() ? "" : listing(where).front());
+  }
 }
 
 // ---- Defect 7: an output that is an input (or another output) is refused.

@@ -182,7 +182,11 @@ bool run_sweep(const AccuracyOptions& options, const nn::Network& network, const
   PlotPanel panel{"max |fixed - float| against word length (one field varied, others chosen)",
                   "bits relative to the chosen format", "max |error| [deg]", {}, true};
   bool all_minimal = true;
-  for (const SweepField& field : sweep_fields()) {
+  const std::vector<SweepField> fields = sweep_fields();
+  for (std::size_t f = 0; f < fields.size(); ++f) {
+    const SweepField& field = fields[f];
+    // Progress on stderr (the tables go to stdout): the sweep is the long part.
+    std::cerr << "accuracy: word-length sweep, field " << f + 1 << " of " << fields.size() << " (" << field.name << ")\n";
     const int chosen_value = field.get(chosen);
     PlotSeries series{field.name, {}, {}, false};
     int smallest = -1;
@@ -268,7 +272,9 @@ void run_accuracy(const AccuracyOptions& options) {
             << network.input_min[0] * 1e3 << ", " << network.input_max[0] * 1e3 << "], y [" << network.input_min[1] * 1e3
             << ", " << network.input_max[1] * 1e3 << "], z [" << network.input_min[2] * 1e3 << ", "
             << network.input_max[2] * 1e3 << "] mm.\n\n";
+  std::cerr << "accuracy: grid of " << poses << " poses\n";
   const GridStats grid = grid_accuracy(network, q, low, high, options.grid_points);
+  std::cerr << "accuracy: trajectories\n";
   ErrorStats all = grid.inside;
   all.merge(grid.outside);
   std::vector<std::pair<std::string, ErrorStats>> rows = {
