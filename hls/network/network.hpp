@@ -13,12 +13,12 @@ namespace delta_hls {
 // Every constant of one quantised network (the content of the exported .mem files, as values).
 template <class C>
 struct NetworkWeights {
-  typename C::input_t input_centre[C::inputs];       // metres
-  typename C::input_gain_t input_gain[C::inputs];    // 2^-e_j: u_j = (x_j - centre_j) 2^-e_j
+  typename C::input_t input_centre[C::inputs];     // metres
+  typename C::input_gain_t input_gain[C::inputs];  // 2^-e_j: u_j = (x_j - centre_j) 2^-e_j
   typename C::input_weight_t input_weights[C::hidden][C::inputs];
   typename C::hidden_bias_t hidden_bias[C::hidden];
-  typename C::tanh_entry_t tanh_table[C::tanh_segments];  // T[i]
-  typename C::tanh_entry_t tanh_slope[C::tanh_segments];  // D[i] = T[i+1] - T[i] >= 0
+  typename C::tanh_entry_t tanh_table[C::tanh_segments];              // T[i]
+  typename C::tanh_entry_t tanh_slope[C::tanh_segments];              // D[i] = T[i+1] - T[i] >= 0
   typename C::output_weight_t output_weights[C::outputs][C::hidden];  // degrees per unit h
   typename C::output_bias_t output_bias[C::outputs];                  // degrees
 };
@@ -30,7 +30,8 @@ enum SaturationBit { kScaledInputSaturated = 1, kTanhInputSaturated = 2, kOutput
 template <class C>
 void scale_input(const typename C::input_t x[C::inputs], const NetworkWeights<C>& weights,
                  typename C::scaled_input_t u[C::inputs], bool& saturated) {
-  typedef fixed_exact<C::offset_bits + C::input_gain_bits + 1, (C::offset_bits - C::input_fraction) + C::input_gain_integer + 1>
+  typedef fixed_exact<C::offset_bits + C::input_gain_bits + 1,
+                      (C::offset_bits - C::input_fraction) + C::input_gain_integer + 1>
       scaled_exact_t;
   typedef fixed_round_sat<(C::offset_bits - C::input_fraction) + C::input_gain_integer + 1 + (C::scaled_input_bits - 1),
                           (C::offset_bits - C::input_fraction) + C::input_gain_integer + 1>
@@ -115,11 +116,12 @@ template <class C>
 void network_core(const typename C::input_t x[C::inputs], const NetworkWeights<C>& weights,
                   typename C::output_t alpha[C::outputs], typename C::saturation_t& saturation) {
   // hls4ml's resource model: each multiplier serves reuse_factor products per inference.
-  constexpr int multiplier_limit = (C::inputs * C::hidden + C::hidden * C::outputs + C::reuse_factor - 1) / C::reuse_factor;
+  constexpr int multiplier_limit =
+      (C::inputs * C::hidden + C::hidden * C::outputs + C::reuse_factor - 1) / C::reuse_factor;
   (void)multiplier_limit;
-  DELTA_HLS_PRAGMA(HLS ALLOCATION operation instances=mul limit=multiplier_limit)
+  DELTA_HLS_PRAGMA(HLS ALLOCATION operation instances = mul limit = multiplier_limit)
   typename C::scaled_input_t u[C::inputs];
-  DELTA_HLS_PRAGMA(HLS ARRAY_PARTITION variable=u type=complete)
+  DELTA_HLS_PRAGMA(HLS ARRAY_PARTITION variable = u type = complete)
   typename C::hidden_t h[C::hidden];
   bool scaled_input_saturated = false;
   bool tanh_input_saturated = false;

@@ -15,15 +15,15 @@ struct DefaultNetworkConfig {
   static constexpr int reuse_factor = 75;  // multiplications per multiplier per inference (hls4ml's meaning)
 
   // Chosen formats: total bits and fraction bits.
-  static constexpr int input_bits = 32, input_fraction = 28;              // metres
-  static constexpr int scaled_input_bits = 16;                             // Q1.15
-  static constexpr int input_weight_bits = 24, input_weight_fraction = 19; // IW'
-  static constexpr int tanh_input_bits = 21, tanh_input_fraction = 17;     // n in [-8, 8)
-  static constexpr int tanh_segments_per_unit_log2 = 7;                    // table step 2^-7
+  static constexpr int input_bits = 32, input_fraction = 28;                // metres
+  static constexpr int scaled_input_bits = 16;                              // Q1.15
+  static constexpr int input_weight_bits = 24, input_weight_fraction = 19;  // IW'
+  static constexpr int tanh_input_bits = 21, tanh_input_fraction = 17;      // n in [-8, 8)
+  static constexpr int tanh_segments_per_unit_log2 = 7;                     // table step 2^-7
   static constexpr int tanh_guard_bits = 3;
-  static constexpr int hidden_fraction = 17;                               // h: Q1.17
+  static constexpr int hidden_fraction = 17;                                  // h: Q1.17
   static constexpr int output_weight_bits = 24, output_weight_fraction = 17;  // LW', degrees
-  static constexpr int output_bits = 24, output_fraction = 14;             // alpha, degrees
+  static constexpr int output_bits = 24, output_fraction = 14;                // alpha, degrees
   // Input gains 2^-e_j are powers of two in [2^-3, 2^12] (half ranges from 0.17 mm to 5.3 m).
   static constexpr int input_gain_bits = 16, input_gain_integer = 13;
 
@@ -64,7 +64,7 @@ struct DefaultNetworkConfig {
   typedef ufixed_trunc_sat<tanh_input_bits - 1, tanh_range_log2> tanh_magnitude_t;  // [0, 2^range)
   typedef ufixed_exact<tanh_index_bits, tanh_index_bits> tanh_index_t;
   typedef ufixed_exact<tanh_fraction_bits, 0> tanh_fraction_t;  // position inside a segment, [0, 1)
-  typedef ufixed_exact<tanh_entry_fraction, 0> tanh_entry_t;     // T[i] and D[i] (D >= 0)
+  typedef ufixed_exact<tanh_entry_fraction, 0> tanh_entry_t;    // T[i] and D[i] (D >= 0)
   typedef ufixed_exact<tanh_entry_fraction + tanh_fraction_bits, 1> tanh_interpolation_t;
   typedef ufixed_round_sat<hidden_fraction, 0> hidden_magnitude_t;
   typedef fixed_exact<hidden_bits, 1> hidden_t;

@@ -66,10 +66,11 @@ void run_compare(const CompareOptions& options) {
 const RegisterCommand command("compare", 20, [](CLI::App& root) {
   auto options = std::make_shared<CompareOptions>();
   CLI::App* sub = root.add_subcommand("compare", "Math model against a recording: Table 1 errors and FK error ranges");
-  sub->footer("\nPrints RMSE and MAE per joint of measured angles against the nominal inverse kinematics of the\n"
-              "measured positions (the paper's Table 1, math-model column), and the range per axis of the\n"
-              "forward kinematics of the measured angles against the measured positions (the paper's Fig. 4/5).\n"
-              "Example: deltactl compare --data rec.csv --plot rec_errors.png");
+  sub->footer(
+      "\nPrints RMSE and MAE per joint of measured angles against the nominal inverse kinematics of the\n"
+      "measured positions (the paper's Table 1, math-model column), and the range per axis of the\n"
+      "forward kinematics of the measured angles against the measured positions (the paper's Fig. 4/5).\n"
+      "Example: deltactl compare --data rec.csv --plot rec_errors.png");
   sub->add_option("--data", options->data, "recording (SPEC CSV)")->required();
   sub->add_option("--plot", options->plot, "PNG of the errors along the trajectory");
   sub->callback([options] { run_compare(*options); });

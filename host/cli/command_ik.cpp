@@ -22,8 +22,10 @@ class NominalIkBackend : public IkBackend {
     const Geometry geometry = Geometry::nominal();
     for (std::size_t i = 0; i < positions_m.size(); ++i) {
       const IkSolution solution = inverse_kinematics(geometry, positions_m[i]);
-      if (solution.ok()) rows[i].alpha_deg = solution.alpha_deg;
-      else rows[i].error = solution.reason();
+      if (solution.ok())
+        rows[i].alpha_deg = solution.alpha_deg;
+      else
+        rows[i].error = solution.reason();
     }
     return rows;
   }
@@ -86,7 +88,9 @@ const RegisterCommand command("ik", 30, [](CLI::App& root) {
               "Example: deltactl ik --model nominal --in poses.csv --out angles.csv");
   sub->add_option("--model", options->model, "math model: 'nominal'");
   sub->add_option("--weights", options->weights, "network weights (W.json from 'deltactl train')");
-  sub->add_option("--backend", options->backend, "network back end (with --weights)")->capture_default_str()->excludes("--model");
+  sub->add_option("--backend", options->backend, "network back end (with --weights)")
+      ->capture_default_str()
+      ->excludes("--model");
   sub->add_option("--in", options->in, "CSV of plate positions (x_m,y_m,z_m)")->required();
   sub->add_option("--out", options->out, "CSV of joint angles to write")->required();
   sub->callback([options] { run_ik(*options); });

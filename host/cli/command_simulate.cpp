@@ -6,9 +6,9 @@
 
 #include "delta/command.hpp"
 #include "delta/effect_file.hpp"
+#include "delta/options.hpp"
 #include "delta/recording.hpp"
 #include "delta/virtual_robot.hpp"
-#include "delta/options.hpp"
 
 namespace delta {
 namespace {
@@ -45,8 +45,8 @@ void run_simulate(const SimulateOptions& options) {
                   {"deltactl simulate --experiment " + options.experiment + " --seed " + std::to_string(options.seed),
                    "effects: " + (effect_names.empty() ? std::string("none") : effect_names) +
                        (options.effects.empty() ? "" : " (" + options.effects + ")")});
-  std::cerr << "simulate: " << report.samples.size() << " samples of '" << options.experiment << "' -> "
-            << options.out << '\n';
+  std::cerr << "simulate: " << report.samples.size() << " samples of '" << options.experiment << "' -> " << options.out
+            << '\n';
 }
 
 const RegisterCommand command("simulate", 10, [](CLI::App& root) {
@@ -60,11 +60,17 @@ const RegisterCommand command("simulate", 10, [](CLI::App& root) {
               "Example: deltactl simulate --experiment validation --effects sim/paper_like_effects.json --out rec.csv");
   sub->add_option("--experiment", options->experiment, "trajectory to run")->capture_default_str();
   sub->add_option("--effects", options->effects, "effect file (JSON); none: the nominal robot");
-  sub->add_option("--seed", options->seed, "seed for the sweep trajectory and angle noise")->capture_default_str()->check(options::seed());
+  sub->add_option("--seed", options->seed, "seed for the sweep trajectory and angle noise")
+      ->capture_default_str()
+      ->check(options::seed());
   sub->add_option("--out", options->out, "recording to write")->required();
-  sub->add_option("--samples", options->samples, "number of samples (0: the experiment's default)")->check(options::whole_number(0, 1000000));
-  sub->add_option("--rate", options->rate_hz, "sampling rate in Hz (0: the experiment's default)")->check(options::real_number(0, 1e6));
-  sub->add_option("--noise-deg", options->noise_deg, "extra white angle noise, standard deviation in deg")->capture_default_str()->check(options::real_number(0, 10));
+  sub->add_option("--samples", options->samples, "number of samples (0: the experiment's default)")
+      ->check(options::whole_number(0, 1000000));
+  sub->add_option("--rate", options->rate_hz, "sampling rate in Hz (0: the experiment's default)")
+      ->check(options::real_number(0, 1e6));
+  sub->add_option("--noise-deg", options->noise_deg, "extra white angle noise, standard deviation in deg")
+      ->capture_default_str()
+      ->check(options::real_number(0, 10));
   sub->callback([options] { run_simulate(*options); });
 });
 

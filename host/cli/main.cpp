@@ -30,8 +30,7 @@ int main(int argc, char** argv) {
       "Run 'deltactl COMMAND --help' for the options of each command.\n"
       "Exit codes: 0 success, 1 failure, 2 bad input (FILE:LINE: reason printed, no output written).");
   auto& commands = delta::command_registry();
-  std::stable_sort(commands.begin(), commands.end(),
-                   [](const auto& a, const auto& b) { return a.order < b.order; });
+  std::stable_sort(commands.begin(), commands.end(), [](const auto& a, const auto& b) { return a.order < b.order; });
   for (const auto& command : commands) command.setup(app);
   delta::track_run_files(true);  // no output of this run may be one of its inputs or another output
   try {

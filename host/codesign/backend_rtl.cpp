@@ -25,8 +25,8 @@ class RtlIkBackend : public IkBackend {
  public:
   explicit RtlIkBackend(const std::string& weights_path) : weights_(nn::read_weights_file(weights_path)) {
     if (weights_.network.hidden() != 25) {
-      throw InputError(weights_path, 0, "has " + std::to_string(weights_.network.hidden()) +
-                                            " hidden neurons; the RTL is built for 25");
+      throw InputError(weights_path, 0,
+                       "has " + std::to_string(weights_.network.hidden()) + " hidden neurons; the RTL is built for 25");
     }
     try {
       quantised_ = golden::quantise(weights_.network);
@@ -35,7 +35,7 @@ class RtlIkBackend : public IkBackend {
     }
     golden::write_export(quantised_, directory_.path());
     network_ = std::make_unique<NetworkHarness<Vdelta_network>>(quantised_.formats.input_bits,
-                                                                 quantised_.formats.output_bits, directory_.path());
+                                                                quantised_.formats.output_bits, directory_.path());
   }
 
   bool has_raw_codes() const override { return true; }

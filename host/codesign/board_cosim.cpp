@@ -56,7 +56,8 @@ CosimResult run_cosim(const CosimOptions& options) {
   Vec3 network_deg = Vec3::Constant(kHomeCount * kCountDeg);
 
   const auto total_cycles = static_cast<std::uint64_t>(std::llround(options.duration_s * kBoardClockHz));
-  const auto record_every = static_cast<std::uint64_t>(std::max(1.0, std::round(kBoardClockHz / options.record_rate_hz)));
+  const auto record_every =
+      static_cast<std::uint64_t>(std::max(1.0, std::round(kBoardClockHz / options.record_rate_hz)));
   const auto progress_every = static_cast<std::uint64_t>(0.1 * kBoardClockHz);
 
   for (std::uint64_t cycle = 0; cycle < total_cycles; ++cycle) {
@@ -92,7 +93,8 @@ CosimResult run_cosim(const CosimOptions& options) {
       // The ideal joints read their target through the backlash's present play.
       sample.network_ideal_m = world.plate_for_readings(network_deg);
       const IkSolution textbook = inverse_kinematics(options.nominal, sent_reference);
-      if (!textbook.ok()) throw std::runtime_error("cosim: textbook IK at t = " + std::to_string(t) + " s: " + textbook.reason());
+      if (!textbook.ok())
+        throw std::runtime_error("cosim: textbook IK at t = " + std::to_string(t) + " s: " + textbook.reason());
       sample.textbook_ideal_m = world.plate_for_readings(textbook.alpha_deg);
       sample.t_s = t;
       sample.reference_m = sent_reference;
@@ -128,9 +130,7 @@ TrackingSummary summarise(const CosimResult& result, double from_s) {
       distance_sq += error.squaredNorm();
       max_distance = std::max(max_distance, error.norm());
     }
-    ErrorStats stats(double n) const {
-      return {(sum_sq / n).cwiseSqrt(), std::sqrt(distance_sq / n), max_distance};
-    }
+    ErrorStats stats(double n) const { return {(sum_sq / n).cwiseSqrt(), std::sqrt(distance_sq / n), max_distance}; }
   } closed_loop, network_ideal, textbook_ideal;
   for (const CosimSample& sample : result.samples) {
     if (sample.t_s < from_s) continue;

@@ -16,12 +16,12 @@
 #include "delta/input_error.hpp"
 #include "delta/kinematics.hpp"
 #include "delta/nn/weights_file.hpp"
+#include "delta/options.hpp"
 #include "delta/output_file.hpp"
 #include "delta/plot.hpp"
 #include "delta/table.hpp"
 #include "delta/temporary_directory.hpp"
 #include "delta/trajectory.hpp"
-#include "delta/options.hpp"
 
 namespace delta::cosim {
 namespace {
@@ -97,8 +97,8 @@ void run_cosim_command(const CosimCommandOptions& options, const std::string& co
     throw InputError(options.weights, 0, "is a hybrid model; the board runs the network alone (train --model network)");
   }
   if (weights.network.hidden() != 25) {
-    throw InputError(options.weights, 0, "has " + std::to_string(weights.network.hidden()) +
-                                             " hidden neurons; the RTL is built for 25");
+    throw InputError(options.weights, 0,
+                     "has " + std::to_string(weights.network.hidden()) + " hidden neurons; the RTL is built for 25");
   }
   golden::QuantisedNetwork quantised;
   try {
@@ -135,9 +135,7 @@ void run_cosim_command(const CosimCommandOptions& options, const std::string& co
   };
   cosim.decode_angle_deg = [&quantised](std::int64_t raw) { return golden::decode_angle_deg(quantised.formats, raw); };
   const auto start = std::chrono::steady_clock::now();
-  auto wall_s = [&start] {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  };
+  auto wall_s = [&start] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
   // On a terminal the progress line rewrites itself; in a log, one line per simulated second.
   const bool terminal = ::isatty(2) != 0;
   cosim.progress = [&, terminal](double simulated_s) {
@@ -157,16 +155,16 @@ void run_cosim_command(const CosimCommandOptions& options, const std::string& co
     throw CommandExit{kExitFailure};
   }
   const double wall = wall_s();
-  std::cerr << (terminal ? "\r" : "") << "cosim: " << fixed(options.duration_s, 1) << " s simulated in " << fixed(wall, 1) << " s wall ("
-            << fixed(result.board_cycles / wall / 1e6, 2) << " M board cycles/s)\n";
+  std::cerr << (terminal ? "\r" : "") << "cosim: " << fixed(options.duration_s, 1) << " s simulated in "
+            << fixed(wall, 1) << " s wall (" << fixed(result.board_cycles / wall / 1e6, 2) << " M board cycles/s)\n";
 
   const double from_s = options.blend_s + options.settle_s;
   const TrackingSummary summary = summarise(result, from_s);
   std::cout << "Co-simulation: '" << options.trajectory << "', " << options.duration_s << " s, smooth start over "
             << options.blend_s << " s; statistics from t = " << from_s << " s (" << summary.samples
             << " samples at 1 kHz)\n\n";
-  Table plate({"plate error (measured - reference)", "rms x [um]", "rms y [um]", "rms z [um]",
-               "rms distance [um]", "max distance [um]"});
+  Table plate({"plate error (measured - reference)", "rms x [um]", "rms y [um]", "rms z [um]", "rms distance [um]",
+               "max distance [um]"});
   auto add = [&plate](const std::string& label, const ErrorStats& e) {
     plate.add_row({label, micrometres(e.rms_m.x()), micrometres(e.rms_m.y()), micrometres(e.rms_m.z()),
                    micrometres(e.rms_distance_m), micrometres(e.max_distance_m)});
@@ -187,7 +185,8 @@ void run_cosim_command(const CosimCommandOptions& options, const std::string& co
                 result.round_trips ? fixed(1e6 * options.duration_s / result.round_trips, 1) : std::string("-")});
   link.add_row({"NAKs", std::to_string(result.naks)});
   link.add_row({"references clamped to the input code", std::to_string(result.clamped_positions)});
-  link.add_row({"drives enabled at [ms]", result.first_answer_s >= 0 ? fixed(1e3 * result.first_answer_s, 3) : "never"});
+  link.add_row(
+      {"drives enabled at [ms]", result.first_answer_s >= 0 ? fixed(1e3 * result.first_answer_s, 3) : "never"});
   link.add_row({"encoder errors (sticky, bit per joint)", std::to_string(result.encoder_error_bits)});
   link.add_row({"joint controller saturations (sticky)", result.joint_limited ? "yes" : "no"});
   link.add_row({"joint fault, torque off (causes: 1 encoder, 2 following, 4 watchdog, 8 travel)",
@@ -233,10 +232,18 @@ const RegisterCommand command("cosim", 70, [](CLI::App& root) {
   sub->add_option("--effects", options->effects, "virtual robot's effects (JSON); none: the nominal robot");
   sub->add_option("--trajectory", options->trajectory, "experiment1, experiment2, validation or sweep")
       ->capture_default_str();
-  sub->add_option("--seed", options->seed, "seed of the sweep trajectory")->capture_default_str()->check(options::seed());
-  sub->add_option("--duration", options->duration_s, "simulated seconds")->capture_default_str()->check(options::real_number(0, 3600, true));
-  sub->add_option("--blend", options->blend_s, "smooth start from the home pose [s]")->capture_default_str()->check(options::real_number(0, 60));
-  sub->add_option("--settle", options->settle_s, "statistics start at blend + settle [s]")->capture_default_str()->check(options::real_number(0, 3600));
+  sub->add_option("--seed", options->seed, "seed of the sweep trajectory")
+      ->capture_default_str()
+      ->check(options::seed());
+  sub->add_option("--duration", options->duration_s, "simulated seconds")
+      ->capture_default_str()
+      ->check(options::real_number(0, 3600, true));
+  sub->add_option("--blend", options->blend_s, "smooth start from the home pose [s]")
+      ->capture_default_str()
+      ->check(options::real_number(0, 60));
+  sub->add_option("--settle", options->settle_s, "statistics start at blend + settle [s]")
+      ->capture_default_str()
+      ->check(options::real_number(0, 3600));
   sub->add_option("--out", options->out, "CSV of the run at 1 kHz");
   sub->add_option("--plot", options->plot, "PNG: plate error, joint tracking, currents");
   sub->callback([options] {

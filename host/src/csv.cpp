@@ -94,15 +94,17 @@ CsvTable parse_csv(std::istream& input, const std::string& path, const std::vect
         if (found == fields.size()) {
           std::string expected;
           for (const std::string& name : required_columns) expected += (expected.empty() ? "" : ",") + name;
-          throw InputError(path, line_number, "missing column '" + required_columns[k] + "' (required: " + expected + ")");
+          throw InputError(path, line_number,
+                           "missing column '" + required_columns[k] + "' (required: " + expected + ")");
         }
         field_index[k] = found;
       }
       continue;
     }
     if (fields.size() != header_fields) {
-      throw InputError(path, line_number, "wrong field count: " + std::to_string(fields.size()) +
-                                              " fields, the header has " + std::to_string(header_fields));
+      throw InputError(path, line_number,
+                       "wrong field count: " + std::to_string(fields.size()) + " fields, the header has " +
+                           std::to_string(header_fields));
     }
     std::vector<double> row(required_columns.size());
     for (std::size_t k = 0; k < required_columns.size(); ++k) {
@@ -110,10 +112,12 @@ CsvTable parse_csv(std::istream& input, const std::string& path, const std::vect
       char* end = nullptr;
       const double value = std::strtod(text.c_str(), &end);
       if (text.empty() || end != text.c_str() + text.size()) {
-        throw InputError(path, line_number, "column '" + required_columns[k] + "': " + quoted_excerpt(text) + " is not a number");
+        throw InputError(path, line_number,
+                         "column '" + required_columns[k] + "': " + quoted_excerpt(text) + " is not a number");
       }
       if (!std::isfinite(value)) {
-        throw InputError(path, line_number, "column '" + required_columns[k] + "': " + quoted_excerpt(text) + " is not finite");
+        throw InputError(path, line_number,
+                         "column '" + required_columns[k] + "': " + quoted_excerpt(text) + " is not finite");
       }
       row[k] = value;
     }

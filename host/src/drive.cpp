@@ -9,16 +9,20 @@ namespace delta {
 
 const char* describe_state(DriveState state) {
   switch (state) {
-    case DriveState::unconfigured: return "unconfigured";
-    case DriveState::configured: return "configured";
-    case DriveState::active: return "active";
-    case DriveState::fault: return "fault";
+    case DriveState::unconfigured:
+      return "unconfigured";
+    case DriveState::configured:
+      return "configured";
+    case DriveState::active:
+      return "active";
+    case DriveState::fault:
+      return "fault";
   }
   return "unknown";
 }
 
 const char* describe_faults(std::uint32_t faults, char* buffer, std::size_t size) {
-  static const char* const names[] = {"angle limit", "velocity limit", "command timeout", "feedback timeout",
+  static const char* const names[] = {"angle limit",  "velocity limit",     "command timeout",     "feedback timeout",
                                       "encoder jump", "command not finite", "feedback not finite", "hardware"};
   if (size == 0) return buffer;
   buffer[0] = '\0';
@@ -59,8 +63,10 @@ std::uint32_t SafeDrive::check_feedback(const DriveFeedback& feedback, bool have
   if (have_previous) {
     const double step = (feedback.angle_deg - feedback_.angle_deg).cwiseAbs().maxCoeff();
     const double dt = feedback.t_s - feedback_.t_s;
-    if (step > limits_.max_encoder_step_deg) faults |= kFaultEncoderJump;
-    else if (dt > 0 && step / dt > limits_.max_velocity_deg_per_s) faults |= kFaultVelocityLimit;
+    if (step > limits_.max_encoder_step_deg)
+      faults |= kFaultEncoderJump;
+    else if (dt > 0 && step / dt > limits_.max_velocity_deg_per_s)
+      faults |= kFaultVelocityLimit;
   }
   return faults;
 }

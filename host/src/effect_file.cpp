@@ -37,10 +37,14 @@ TransmissionError parse_transmission(const json& value, const Context& context) 
   TransmissionError transmission;
   if (value.is_object()) {
     for (const auto& [name, item] : value.items()) {
-      if (name == "amplitude_deg" || name == "A") transmission.amplitude_deg = context.triple(item, key, name);
-      else if (name == "period_deg" || name == "P") transmission.period_deg = context.triple(item, key, name);
-      else if (name == "phase_rad" || name == "phi") transmission.phase_rad = context.triple(item, key, name);
-      else context.fail(key, key + ": unknown field '" + name + "' (expected amplitude_deg, period_deg, phase_rad)");
+      if (name == "amplitude_deg" || name == "A")
+        transmission.amplitude_deg = context.triple(item, key, name);
+      else if (name == "period_deg" || name == "P")
+        transmission.period_deg = context.triple(item, key, name);
+      else if (name == "phase_rad" || name == "phi")
+        transmission.phase_rad = context.triple(item, key, name);
+      else
+        context.fail(key, key + ": unknown field '" + name + "' (expected amplitude_deg, period_deg, phase_rad)");
     }
   } else if (value.is_array() && value.size() == 3 && value[0].is_array()) {
     for (int j = 0; j < 3; ++j) {
@@ -50,7 +54,10 @@ TransmissionError parse_transmission(const json& value, const Context& context) 
       transmission.phase_rad[j] = entry[2];
     }
   } else {
-    context.fail(key, key + ": expected {\"amplitude_deg\":[..],\"period_deg\":[..],\"phase_rad\":[..]} or three [A, P, phi] triples");
+    context.fail(
+        key,
+        key +
+            ": expected {\"amplitude_deg\":[..],\"period_deg\":[..],\"phase_rad\":[..]} or three [A, P, phi] triples");
   }
   for (int j = 0; j < 3; ++j) {
     if (!(std::fabs(transmission.period_deg[j]) > 0.0)) context.fail(key, key + ": period_deg must not be zero");
@@ -68,7 +75,8 @@ FrameMisalignment parse_frame(const json& value, const Context& context) {
       const std::string& name = entry.key();  // a plain name: C++17 lambdas cannot capture a binding
       const json& item = entry.value();
       const auto* found = std::find_if(std::begin(names), std::end(names), [&](const char* n) { return name == n; });
-      if (found == std::end(names)) context.fail(key, key + ": unknown field '" + name + "' (expected rx ry rz [deg], tx ty tz [m])");
+      if (found == std::end(names))
+        context.fail(key, key + ": unknown field '" + name + "' (expected rx ry rz [deg], tx ty tz [m])");
       parameters[found - std::begin(names)] = context.number(item, key, name);
     }
   } else if (value.is_array() && value.size() == 6) {
@@ -89,17 +97,25 @@ EffectSet parse_effects(const std::string& text, const std::string& path) {
   const Context context{text, path};
   EffectSet effects;
   for (const auto& [name, value] : document.items()) {
-    if (name == "joint_offset") effects.joint_offset_deg = context.triple(value, name, "o_j [deg]");
-    else if (name == "upper_arm_length") effects.upper_arm_length_m = context.triple(value, name, "dL_A [m]");
-    else if (name == "lower_arm_length") effects.lower_arm_length_m = context.triple(value, name, "dL_B [m]");
-    else if (name == "radius_offset") effects.radius_offset_m = context.triple(value, name, "dr [m]");
-    else if (name == "chain_angle") effects.chain_angle_deg = context.triple(value, name, "dphi [deg]");
+    if (name == "joint_offset")
+      effects.joint_offset_deg = context.triple(value, name, "o_j [deg]");
+    else if (name == "upper_arm_length")
+      effects.upper_arm_length_m = context.triple(value, name, "dL_A [m]");
+    else if (name == "lower_arm_length")
+      effects.lower_arm_length_m = context.triple(value, name, "dL_B [m]");
+    else if (name == "radius_offset")
+      effects.radius_offset_m = context.triple(value, name, "dr [m]");
+    else if (name == "chain_angle")
+      effects.chain_angle_deg = context.triple(value, name, "dphi [deg]");
     else if (name == "backlash") {
       effects.backlash_deg = context.triple(value, name, "b_j [deg]");
       if ((effects.backlash_deg->array() < 0.0).any()) context.fail(name, "backlash: width must not be negative");
-    } else if (name == "encoder_scale") effects.encoder_scale = context.triple(value, name, "k_j [-]");
-    else if (name == "transmission_error") effects.transmission_error = parse_transmission(value, context);
-    else if (name == "frame_misalignment") effects.frame_misalignment = parse_frame(value, context);
+    } else if (name == "encoder_scale")
+      effects.encoder_scale = context.triple(value, name, "k_j [-]");
+    else if (name == "transmission_error")
+      effects.transmission_error = parse_transmission(value, context);
+    else if (name == "frame_misalignment")
+      effects.frame_misalignment = parse_frame(value, context);
     else {
       std::string known;
       for (const std::string& entry : effect_vocabulary()) known += (known.empty() ? "" : ", ") + entry;
@@ -121,8 +137,9 @@ nlohmann::json effects_to_json(const EffectSet& effects) {
   if (effects.chain_angle_deg) document["chain_angle"] = triple(*effects.chain_angle_deg);
   if (effects.frame_misalignment) {
     const FrameMisalignment& f = *effects.frame_misalignment;
-    document["frame_misalignment"] = {{"rx", f.rotation_deg[0]}, {"ry", f.rotation_deg[1]}, {"rz", f.rotation_deg[2]},
-                                      {"tx", f.translation_m[0]}, {"ty", f.translation_m[1]}, {"tz", f.translation_m[2]}};
+    document["frame_misalignment"] = {{"rx", f.rotation_deg[0]},  {"ry", f.rotation_deg[1]},
+                                      {"rz", f.rotation_deg[2]},  {"tx", f.translation_m[0]},
+                                      {"ty", f.translation_m[1]}, {"tz", f.translation_m[2]}};
   }
   if (effects.backlash_deg) document["backlash"] = triple(*effects.backlash_deg);
   if (effects.transmission_error) {

@@ -13,7 +13,8 @@ namespace delta {
 
 std::ifstream open_input_file(const std::string& path) {
   struct stat status {};
-  if (::stat(path.c_str(), &status) != 0) throw InputError(path, 0, std::string("cannot open file: ") + std::strerror(errno));
+  if (::stat(path.c_str(), &status) != 0)
+    throw InputError(path, 0, std::string("cannot open file: ") + std::strerror(errno));
   if (S_ISDIR(status.st_mode)) throw InputError(path, 0, "is a folder, not a file");
   note_input_file(path);
   std::ifstream input(path, std::ios::binary);

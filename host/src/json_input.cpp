@@ -29,7 +29,8 @@ std::string read_input_text(const std::string& path) {
   while (input.read(chunk, sizeof(chunk)) || input.gcount() > 0) {
     text.append(chunk, static_cast<std::size_t>(input.gcount()));
     if (text.size() > kMaxInputBytes) {
-      throw InputError(path, 0, "larger than " + std::to_string(kMaxInputBytes >> 20) + " MiB, too large for an input file");
+      throw InputError(path, 0,
+                       "larger than " + std::to_string(kMaxInputBytes >> 20) + " MiB, too large for an input file");
     }
   }
   if (text.find_first_not_of(" \t\r\n") == std::string::npos) throw InputError(path, 0, "empty file");
@@ -89,7 +90,8 @@ nlohmann::json parse_json_input(const std::string& text, const std::string& path
     // A number too large for a double (1e999): name the line of the offending text.
     const std::string reason = error.what();
     const std::size_t quote = reason.find('\'');
-    const std::string token = quote == std::string::npos ? "" : reason.substr(quote + 1, reason.rfind('\'') - quote - 1);
+    const std::string token =
+        quote == std::string::npos ? "" : reason.substr(quote + 1, reason.rfind('\'') - quote - 1);
     const std::size_t at = token.empty() ? std::string::npos : text.find(token);
     throw InputError(path, at == std::string::npos ? 0 : line_of_offset(text, at),
                      "a number is not finite (overflows a double): " + token);

@@ -65,7 +65,7 @@ void render_gnuplot_png(const std::string& png_path, const std::string& script) 
     throw std::runtime_error("gnuplot not found (scripts/setup.sh installs gnuplot-nox)");
   }
   const auto previous_pipe_handler = ::signal(SIGPIPE, SIG_IGN);  // gnuplot may stop reading early
-  for (const std::string* text : {&output_line, &script}) {  // no joined copy of a large script
+  for (const std::string* text : {&output_line, &script}) {       // no joined copy of a large script
     for (std::size_t done = 0; done < text->size();) {
       const ssize_t count = ::write(input[1], text->data() + done, text->size() - done);
       if (count < 0 && errno == EINTR) continue;
@@ -110,8 +110,8 @@ void write_plot(const std::string& png_path, const PlotSpec& spec) {
          << "set grid\nset key outside right top\n";
   for (std::size_t p = 0; p < spec.panels.size(); ++p) {
     const PlotPanel& panel = spec.panels[p];
-    script << "set title " << quoted(panel.title) << "\nset xlabel " << quoted(panel.x_label)
-           << "\nset ylabel " << quoted(panel.y_label) << "\n"
+    script << "set title " << quoted(panel.title) << "\nset xlabel " << quoted(panel.x_label) << "\nset ylabel "
+           << quoted(panel.y_label) << "\n"
            << (panel.log_y ? "set logscale y\n" : "unset logscale y\n") << "plot ";
     for (std::size_t s = 0; s < panel.series.size(); ++s) {
       const PlotSeries& series = panel.series[s];

@@ -38,8 +38,9 @@ Recording read_recording(const std::string& path) {
   for (std::size_t i = 0; i < table.rows.size(); ++i) {
     const std::vector<double>& row = table.rows[i];
     if (i > 0 && row[0] < recording.samples.back().t_s) {
-      throw InputError(path, table.line_numbers[i], "time goes backwards (t_s " + format_number(row[0]) +
-                                                        " after " + format_number(recording.samples.back().t_s) + ")");
+      throw InputError(path, table.line_numbers[i],
+                       "time goes backwards (t_s " + format_number(row[0]) + " after " +
+                           format_number(recording.samples.back().t_s) + ")");
     }
     check_plausible(table, i, 1, 3, kMaxPlausibleAngleDeg, "deg");
     check_plausible(table, i, 4, 3, kMaxPlausiblePositionM, "m");

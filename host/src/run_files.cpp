@@ -51,8 +51,9 @@ void note(const std::string& path, Role role) {
     const auto& [previous_role, previous_name] = found->second;
     if (role == Role::input && previous_role == Role::input) return;  // reading a file twice is fine
     const std::string what = previous_role == Role::input ? "an input" : "another output";
-    throw InputError(path, 0, "is the same file as " + what + " of this command (" + previous_name +
-                                  "); refused so that it is not overwritten");
+    throw InputError(path, 0,
+                     "is the same file as " + what + " of this command (" + previous_name +
+                         "); refused so that it is not overwritten");
   }
   files.files.emplace(key, std::make_pair(role, path));
 }

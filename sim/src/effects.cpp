@@ -6,9 +6,9 @@
 namespace delta {
 
 const std::vector<std::string>& effect_vocabulary() {
-  static const std::vector<std::string> names = {
-      "joint_offset", "upper_arm_length", "lower_arm_length", "radius_offset",
-      "chain_angle",  "frame_misalignment", "backlash", "transmission_error", "encoder_scale"};
+  static const std::vector<std::string> names = {"joint_offset",  "upper_arm_length",   "lower_arm_length",
+                                                 "radius_offset", "chain_angle",        "frame_misalignment",
+                                                 "backlash",      "transmission_error", "encoder_scale"};
   return names;
 }
 

@@ -18,9 +18,7 @@ JointPlant::JointPlant(const JointPlantParameters& parameters, double shaft_angl
       inertia_kg_m2_(rotor_side_inertia(parameters)),
       rotor_angle_rad_(shaft_angle_deg * kRadPerDeg * parameters.gear_ratio) {}
 
-double JointPlant::shaft_angle_deg() const {
-  return rotor_angle_rad_ / parameters_.gear_ratio * kDegPerRad;
-}
+double JointPlant::shaft_angle_deg() const { return rotor_angle_rad_ / parameters_.gear_ratio * kDegPerRad; }
 
 std::int32_t JointPlant::encoder_count() const {
   return static_cast<std::int32_t>(std::floor(shaft_angle_deg() / parameters_.encoder_resolution_deg));
@@ -34,11 +32,11 @@ void JointPlant::step(double current_a, double period_s, double extra_load_shaft
     const double shaft_rad = rotor_angle_rad_ / parameters_.gear_ratio;
     const double load_shaft_nm = parameters_.gravity_nm * std::cos(shaft_rad) + extra_load_shaft_nm;
     // Everything except Coulomb friction, referred to the rotor.
-    const double drive_nm = motor_nm - load_shaft_nm / parameters_.gear_ratio -
-                            parameters_.viscous_nm_s_per_rad * rotor_velocity_rad_s_;
+    const double drive_nm =
+        motor_nm - load_shaft_nm / parameters_.gear_ratio - parameters_.viscous_nm_s_per_rad * rotor_velocity_rad_s_;
     if (rotor_velocity_rad_s_ == 0.0 && std::abs(drive_nm) <= parameters_.coulomb_nm) continue;  // stuck
-    const double direction = rotor_velocity_rad_s_ != 0.0 ? std::copysign(1.0, rotor_velocity_rad_s_)
-                                                          : std::copysign(1.0, drive_nm);
+    const double direction =
+        rotor_velocity_rad_s_ != 0.0 ? std::copysign(1.0, rotor_velocity_rad_s_) : std::copysign(1.0, drive_nm);
     const double acceleration = (drive_nm - direction * parameters_.coulomb_nm) / inertia_kg_m2_;
     const double new_velocity = rotor_velocity_rad_s_ + acceleration * dt;
     // Friction cannot reverse the motion within a step: crossing zero means the joint stops there.

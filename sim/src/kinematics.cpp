@@ -7,10 +7,14 @@ namespace delta {
 
 const char* describe(KinematicsError error) {
   switch (error) {
-    case KinematicsError::none: return "ok";
-    case KinematicsError::unreachable: return "pose unreachable: the lower arm cannot reach the plate joint";
-    case KinematicsError::not_finite: return "input is not a finite number";
-    case KinematicsError::no_intersection: return "the three lower-arm spheres do not intersect";
+    case KinematicsError::none:
+      return "ok";
+    case KinematicsError::unreachable:
+      return "pose unreachable: the lower arm cannot reach the plate joint";
+    case KinematicsError::not_finite:
+      return "input is not a finite number";
+    case KinematicsError::no_intersection:
+      return "the three lower-arm spheres do not intersect";
   }
   return "unknown kinematics error";
 }
@@ -31,9 +35,8 @@ IkSolution inverse_kinematics(const Geometry& geometry, const Vec3& position_m) 
   for (int j = 0; j < 3; ++j) {
     const ChainGeometry& chain = geometry.chains[j];
     double alpha = 0.0;
-    if (!chain_inverse_kinematics(chain.upper_arm_m, chain.lower_arm_m, chain.radius_offset_m,
-                                  chain.angle_deg, position_m.x(), position_m.y(),
-                                  position_m.z(), alpha)) {
+    if (!chain_inverse_kinematics(chain.upper_arm_m, chain.lower_arm_m, chain.radius_offset_m, chain.angle_deg,
+                                  position_m.x(), position_m.y(), position_m.z(), alpha)) {
       solution.error = KinematicsError::unreachable;
       solution.chain = j;
       return solution;
@@ -100,8 +103,7 @@ FkSolution forward_kinematics(const Geometry& geometry, const Vec3& alpha_deg) {
   return solution;
 }
 
-Eigen::Matrix3d inverse_jacobian_deg_per_m(const Geometry& geometry, const Vec3& position_m,
-                                           const Vec3& alpha_deg) {
+Eigen::Matrix3d inverse_jacobian_deg_per_m(const Geometry& geometry, const Vec3& position_m, const Vec3& alpha_deg) {
   // Differentiating |e_j(alpha_j) - p|^2 = L_B^2 gives (e_j - p) . (de_j/dalpha dalpha - dp) = 0.
   Eigen::Matrix3d jacobian;
   for (int j = 0; j < 3; ++j) {
@@ -110,8 +112,7 @@ Eigen::Matrix3d inverse_jacobian_deg_per_m(const Geometry& geometry, const Vec3&
     const double alpha = alpha_deg[j] * kRadPerDeg;
     const Vec3 arm = shifted_elbow_m(chain, alpha_deg[j]) - position_m;
     const Vec3 elbow_rate(-chain.upper_arm_m * std::sin(alpha) * std::cos(phi),
-                          -chain.upper_arm_m * std::sin(alpha) * std::sin(phi),
-                          -chain.upper_arm_m * std::cos(alpha));
+                          -chain.upper_arm_m * std::sin(alpha) * std::sin(phi), -chain.upper_arm_m * std::cos(alpha));
     jacobian.row(j) = arm.transpose() / arm.dot(elbow_rate) * kDegPerRad;
   }
   return jacobian;

@@ -10,8 +10,8 @@
 #include <random>
 
 #include "delta/control/closed_loop.hpp"
-#include "delta/golden/joint_fixed.hpp"
 #include "delta/geometry.hpp"
+#include "delta/golden/joint_fixed.hpp"
 #include "delta/joint_plant.hpp"
 
 namespace delta::control {

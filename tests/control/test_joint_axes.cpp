@@ -7,8 +7,8 @@
 
 #include "Vjoint_axes.h"
 #include "delta/board_facts.hpp"
-#include "delta/robot_world.hpp"
 #include "delta/golden/joint_fixed.hpp"
+#include "delta/robot_world.hpp"
 #include "verilated.h"
 
 namespace delta::control {
@@ -54,7 +54,7 @@ TEST(JointAxes, EncoderCountsReferencesAndPwmFollowTheGoldenController) {
   const JointFixedCoefficients coefficients = make_fixed_coefficients(JointControllerParameters{});
   Board board;
   Vjoint_axes& top = board.top();
-  std::array<int, 3> position{0, 0, 0};                    // counts moved since reset
+  std::array<int, 3> position{0, 0, 0};                       // counts moved since reset
   const std::array<double, 3> target_deg{30.5, 29.2, 30.03};  // references sent at period 20
   std::array<JointFixedState, 3> golden;
   bool referenced = false;
@@ -254,7 +254,7 @@ TEST(JointAxesSafety, WatchdogStopsTorqueWhenTheReferencesStop) {
 // One Verilated bench per test: two alive at once in one thread hang in eval().
 TEST(JointAxesSafety, ReferenceOutsideTheTravelStopsTorque) {
   SafetyBench outside;
-  outside.move(0, 9150 - kHomeCount);  // 91.50 deg, inside the travel
+  outside.move(0, 9150 - kHomeCount);           // 91.50 deg, inside the travel
   outside.send_reference({92.15, 30.0, 30.0});  // 9215 counts: the travel's end, allowed
   outside.periods(2);
   EXPECT_EQ(outside.top().fault_o, 0);

@@ -21,9 +21,8 @@ TEST(JointClosedLoop, Experiment1TrackingWithinPaperBoundAndFixedWithinFivePerce
     scenario.reference_shaft_deg = experiment1_joint_reference(joint, 1.0);
     scenario.initial_shaft_deg = scenario.reference_shaft_deg(0.0);
     scenario.duration_s = 11.0;  // 1 s blend, then two periods of 0.2 Hz
-    const TrackingStats reference =
-        tracking_stats(run_loop(ControllerKind::double_precision, controller, default_plant(), scenario), 1.0,
-                       kResolutionDeg);
+    const TrackingStats reference = tracking_stats(
+        run_loop(ControllerKind::double_precision, controller, default_plant(), scenario), 1.0, kResolutionDeg);
     const LoopTrace fixed_trace = run_loop(ControllerKind::fixed_point, controller, default_plant(), scenario);
     const TrackingStats fixed = tracking_stats(fixed_trace, 1.0, kResolutionDeg);
     std::cout << "joint " << joint + 1 << ": p-p " << reference.peak_to_peak_deg << " deg, max error double "

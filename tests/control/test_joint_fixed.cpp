@@ -20,7 +20,8 @@ TEST(JointFixed, CoefficientsAreTheDesignValuesRoundedToTheirFormats) {
   const double kacc = 1.05e-7 * 66.0 * 0.01 * M_PI / 180.0 / (0.0194 * 1e-8);
   EXPECT_NEAR(std::ldexp(c.law_acceleration_gain, -kLawShift), kacc, std::ldexp(0.5, -kLawShift));
   EXPECT_NEAR(std::ldexp(c.law_velocity_gain, -kLawShift), -kacc * 100.0 * 1e-4, std::ldexp(0.5, -kLawShift));
-  EXPECT_NEAR(std::ldexp(c.law_position_gain, -kLawShift - 16), -kacc * 1000.0 * 1e-8, std::ldexp(0.5, -kLawShift - 16));
+  EXPECT_NEAR(std::ldexp(c.law_position_gain, -kLawShift - 16), -kacc * 1000.0 * 1e-8,
+              std::ldexp(0.5, -kLawShift - 16));
   EXPECT_EQ(c.current_limit_code, 16384);
   JointControllerParameters too_fast = p;
   too_fast.velocity_observer_cutoff_rad_s = 20000.0;  // g_v Ts / (1 + g_v Ts) no longer fits Q.25
@@ -98,8 +99,8 @@ TEST(JointFixed, CurrentFollowsTheDoubleControllerOnRandomInputs) {
   auto reference_at = [&](double t) { return 30.0 + amplitude * std::sin(2.0 * M_PI * frequency * t + phase); };
   auto encoder_at = [&](double t) { return std::floor(reference_at(t - 0.002) / 0.01 + 3.0 * std::sin(7.0 * t)); };
   reference_controller.reset({reference_at(0.0), encoder_at(0.0) * 0.01});
-  JointFixedState state = fixed_rest_state({reference_code(reference_at(0.0), 0.01),
-                                            static_cast<std::int16_t>(encoder_at(0.0))});
+  JointFixedState state =
+      fixed_rest_state({reference_code(reference_at(0.0), 0.01), static_cast<std::int16_t>(encoder_at(0.0))});
   double worst = 0.0, largest = 0.0;
   for (int k = 0; k < 50000; ++k) {
     const double t = k * p.period_s;

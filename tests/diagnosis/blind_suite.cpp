@@ -9,8 +9,8 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
-#include <random>
 #include <optional>
+#include <random>
 #include <set>
 
 #include <Eigen/Dense>
@@ -49,11 +49,21 @@ class Draw {
 // Realistic magnitudes for a 40/68 mm Delta built with ordinary tolerances.
 void inject_family(EffectSet& effects, int family, Draw& draw) {
   switch (family) {
-    case 0: effects.joint_offset_deg = draw.joints(0.05, 1.0); break;
-    case 1: effects.upper_arm_length_m = draw.joints(0.05e-3, 0.5e-3); break;
-    case 2: effects.lower_arm_length_m = draw.joints(0.05e-3, 0.5e-3); break;
-    case 3: effects.radius_offset_m = draw.joints(0.05e-3, 0.5e-3); break;
-    case 4: effects.chain_angle_deg = draw.joints(0.05, 0.5); break;
+    case 0:
+      effects.joint_offset_deg = draw.joints(0.05, 1.0);
+      break;
+    case 1:
+      effects.upper_arm_length_m = draw.joints(0.05e-3, 0.5e-3);
+      break;
+    case 2:
+      effects.lower_arm_length_m = draw.joints(0.05e-3, 0.5e-3);
+      break;
+    case 3:
+      effects.radius_offset_m = draw.joints(0.05e-3, 0.5e-3);
+      break;
+    case 4:
+      effects.chain_angle_deg = draw.joints(0.05, 0.5);
+      break;
     case 5: {
       FrameMisalignment frame;
       for (int k = 0; k < 3; ++k) {
@@ -63,7 +73,9 @@ void inject_family(EffectSet& effects, int family, Draw& draw) {
       effects.frame_misalignment = frame;
       break;
     }
-    case 6: effects.backlash_deg = draw.joints(0.02, 0.3, false); break;
+    case 6:
+      effects.backlash_deg = draw.joints(0.02, 0.3, false);
+      break;
     case 7: {
       TransmissionError transmission;
       transmission.amplitude_deg = draw.joints(0.01, 0.05, false);
@@ -74,8 +86,11 @@ void inject_family(EffectSet& effects, int family, Draw& draw) {
       effects.transmission_error = transmission;
       break;
     }
-    case 8: effects.encoder_scale = draw.joints(0.001, 0.01); break;
-    default: break;
+    case 8:
+      effects.encoder_scale = draw.joints(0.001, 0.01);
+      break;
+    default:
+      break;
   }
 }
 
@@ -182,15 +197,24 @@ Eigen::Matrix<double, 6, 1> rod_constraints(const Eigen::Matrix<double, 6, 1>& u
 
 const char* kind_name(CaseKind kind) {
   switch (kind) {
-    case CaseKind::none: return "none";
-    case CaseKind::single: return "single";
-    case CaseKind::pair: return "pair";
-    case CaseKind::outside: return "outside";
-    case CaseKind::trading: return "trading";
-    case CaseKind::triple: return "triple";
-    case CaseKind::small: return "small";
-    case CaseKind::outliers: return "outliers";
-    case CaseKind::stage_scale: return "stage_scale";
+    case CaseKind::none:
+      return "none";
+    case CaseKind::single:
+      return "single";
+    case CaseKind::pair:
+      return "pair";
+    case CaseKind::outside:
+      return "outside";
+    case CaseKind::trading:
+      return "trading";
+    case CaseKind::triple:
+      return "triple";
+    case CaseKind::small:
+      return "small";
+    case CaseKind::outliers:
+      return "outliers";
+    case CaseKind::stage_scale:
+      return "stage_scale";
   }
   return "?";
 }
@@ -312,7 +336,8 @@ CaseRecordings record_case(const BlindCase& blind_case) {
       for (Sample& sample : *rows) {
         for (int axis = 0; axis < 3; ++axis) {
           if (blind_case.stage_axis >= 0 && axis != blind_case.stage_axis) continue;
-          sample.position_m[axis] = quantise((1.0 + blind_case.stage_scale) * sample.position_m[axis], kStageResolutionM);
+          sample.position_m[axis] =
+              quantise((1.0 + blind_case.stage_scale) * sample.position_m[axis], kStageResolutionM);
         }
       }
     }
@@ -390,7 +415,8 @@ CaseScore run_case(const BlindCase& blind_case, const std::string& deltactl, con
       sum[j] += residual * residual;
     }
   }
-  score.rmse_after_over_floor = (sum / static_cast<double>(predictions.rows.size())).cwiseSqrt().maxCoeff() / kNoiseFloorDeg;
+  score.rmse_after_over_floor =
+      (sum / static_cast<double>(predictions.rows.size())).cwiseSqrt().maxCoeff() / kNoiseFloorDeg;
   const std::vector<std::string> injected_names = blind_case.effects.names();
   const std::set<std::string> injected(injected_names.begin(), injected_names.end());
   if (blind_case.kind == CaseKind::outside || blind_case.kind == CaseKind::stage_scale) {
@@ -405,8 +431,8 @@ CaseScore run_case(const BlindCase& blind_case, const std::string& deltactl, con
   } else {
     score.via_alternative =
         reported != injected && std::find(alternatives.begin(), alternatives.end(), injected) != alternatives.end();
-    score.set_ok = (reported == injected || score.via_alternative) &&
-                   score.glitches_found == recordings.glitch_rows.size();
+    score.set_ok =
+        (reported == injected || score.via_alternative) && score.glitches_found == recordings.glitch_rows.size();
     score.rmse_ok = score.rmse_after_over_floor <= 1.5;
   }
   return score;

@@ -17,21 +17,21 @@ const char* kind_name(CaseKind kind);
 struct BlindCase {
   int id = 0;
   CaseKind kind = CaseKind::none;
-  EffectSet effects;                 // injected library effects (empty for none and outside)
-  double unequal_rods_m = 0.0;       // outside: rod length difference in one parallelogram
+  EffectSet effects;            // injected library effects (empty for none and outside)
+  double unequal_rods_m = 0.0;  // outside: rod length difference in one parallelogram
   int unequal_chain = 0;
-  std::string fit_trajectory;        // "validation" or "sweep:<seed>"
+  std::string fit_trajectory;  // "validation" or "sweep:<seed>"
   std::size_t fit_samples = 0;
-  std::uint64_t check_seed = 1;      // CHECK is a sweep with this seed
+  std::uint64_t check_seed = 1;  // CHECK is a sweep with this seed
   std::size_t check_samples = 0;
   // stage_scale: the measuring stage reads (1 + s) x the position along stage_axis (0-2), or along
   // every axis (-1). The vocabulary imitates an all-axes scale exactly (every robot length scaled by
   // 1 / (1 + s)), so there the diagnosis must name the new effect; one axis it cannot imitate.
   double stage_scale = 0.0;
   int stage_axis = -1;
-  std::size_t glitches = 0;          // outliers: FIT rows whose position jumps by 0.05-0.5 mm
-  std::size_t gap_rows = 0;          // FIT rows missing in the middle (a gap in time)
-  std::string description;           // the injected effects, for the score table
+  std::size_t glitches = 0;  // outliers: FIT rows whose position jumps by 0.05-0.5 mm
+  std::size_t gap_rows = 0;  // FIT rows missing in the middle (a gap in time)
+  std::string description;   // the injected effects, for the score table
 };
 
 // Case `id` of the suite (deterministic in id). quick: smaller recordings for CTest.
@@ -62,15 +62,15 @@ struct CaseScore {
   BlindCase blind_case;
   std::vector<std::string> reported;  // significant effect names
   bool explained = false;
-  double rmse_after_over_floor = 0.0;  // worst joint, computed from PRED.csv by the suite
+  double rmse_after_over_floor = 0.0;                  // worst joint, computed from PRED.csv by the suite
   std::vector<std::vector<std::string>> alternatives;  // the equivalent sets the diagnosis listed
-  bool via_alternative = false;        // the injected set is not the chosen one but an alternative
-  std::size_t glitches_found = 0;      // injected glitch rows listed among the outliers
-  bool set_ok = false;                 // reported set (or an alternative) == injected set (outside:
-                                       // explained false or a new name); outliers: every glitch listed
-  bool rmse_ok = false;                // in-library: <= 1.5 floor
+  bool via_alternative = false;                        // the injected set is not the chosen one but an alternative
+  std::size_t glitches_found = 0;                      // injected glitch rows listed among the outliers
+  bool set_ok = false;                                 // reported set (or an alternative) == injected set (outside:
+                                                       // explained false or a new name); outliers: every glitch listed
+  bool rmse_ok = false;                                // in-library: <= 1.5 floor
   double seconds = 0.0;
-  std::string error;                   // non-empty when deltactl failed
+  std::string error;  // non-empty when deltactl failed
   bool pass() const { return error.empty() && set_ok && rmse_ok; }
 };
 

@@ -11,14 +11,15 @@
 namespace {
 
 void usage() {
-  std::cerr << "usage: diagnosis_blind_suite --deltactl PATH --work DIR [--cases N] [--first K] [--extended M] [--quick]\n"
-               "Runs cases K..K+N-1 (default 0..59) of the seeded blind suite and prints one row per case and the\n"
-               "score per kind: significant set equal to the injected set, or the injected set listed among the\n"
-               "equivalent alternatives (outside-library cases: explained false; outlier cases: every glitch row\n"
-               "listed), and held-out RMSE from PRED.csv within 1.5 noise floors. Cases from 100 on are the\n"
-               "extended kinds (trading pairs, three effects, small effects, outliers and a gap, stage scale);\n"
-               "--extended M also runs extended cases 100..100+M-1 after the others.\n"
-               "Exit 1 when the score misses 95 %.\n";
+  std::cerr
+      << "usage: diagnosis_blind_suite --deltactl PATH --work DIR [--cases N] [--first K] [--extended M] [--quick]\n"
+         "Runs cases K..K+N-1 (default 0..59) of the seeded blind suite and prints one row per case and the\n"
+         "score per kind: significant set equal to the injected set, or the injected set listed among the\n"
+         "equivalent alternatives (outside-library cases: explained false; outlier cases: every glitch row\n"
+         "listed), and held-out RMSE from PRED.csv within 1.5 noise floors. Cases from 100 on are the\n"
+         "extended kinds (trading pairs, three effects, small effects, outliers and a gap, stage scale);\n"
+         "--extended M also runs extended cases 100..100+M-1 after the others.\n"
+         "Exit 1 when the score misses 95 %.\n";
 }
 
 }  // namespace
@@ -36,12 +37,18 @@ int main(int argc, char** argv) {
       }
       return argv[++i];
     };
-    if (argument == "--deltactl") deltactl = value();
-    else if (argument == "--work") work = value();
-    else if (argument == "--cases") cases = std::stoi(value());
-    else if (argument == "--first") first = std::stoi(value());
-    else if (argument == "--extended") extended = std::stoi(value());
-    else if (argument == "--quick") quick = true;
+    if (argument == "--deltactl")
+      deltactl = value();
+    else if (argument == "--work")
+      work = value();
+    else if (argument == "--cases")
+      cases = std::stoi(value());
+    else if (argument == "--first")
+      first = std::stoi(value());
+    else if (argument == "--extended")
+      extended = std::stoi(value());
+    else if (argument == "--quick")
+      quick = true;
     else {
       usage();
       return argument == "--help" ? 0 : 2;
@@ -90,19 +97,20 @@ int main(int argc, char** argv) {
     table.add_row({std::to_string(id), delta::blind::kind_name(blind_case.kind), blind_case.description, reported,
                    alternatives, score.explained ? "yes" : "no", delta::fixed(score.rmse_after_over_floor, 3), set_mark,
                    score.rmse_ok ? "ok" : "HIGH", delta::fixed(score.seconds, 1)});
-    std::cerr << "case " << id << ": " << (score.pass() ? "pass" : "FAIL") << " (" << blind_case.description
-              << " -> " << reported << ")\n";
+    std::cerr << "case " << id << ": " << (score.pass() ? "pass" : "FAIL") << " (" << blind_case.description << " -> "
+              << reported << ")\n";
   }
   table.print(std::cout);
   std::cout << "\nscore per kind (cases passing both):";
-  for (const auto& [kind, counts] : per_kind) std::cout << " " << kind << " " << counts.first << "/" << counts.second << ";";
+  for (const auto& [kind, counts] : per_kind)
+    std::cout << " " << kind << " " << counts.first << "/" << counts.second << ";";
   std::cout << "\n";
   const int total = static_cast<int>(ids.size());
   const double set_score = 100.0 * set_passed / std::max(total, 1);
-  std::cout << "\nsignificant set correct or listed as an alternative (outside library: explained false): " << set_passed << " / " << total << " = "
-            << delta::fixed(set_score, 1) << " %\n"
+  std::cout << "\nsignificant set correct or listed as an alternative (outside library: explained false): "
+            << set_passed << " / " << total << " = " << delta::fixed(set_score, 1) << " %\n"
             << "in-library held-out RMSE from PRED.csv <= 1.5 noise floors: " << rmse_passed << " / " << rmse_checked
-            << "\ncases passing both: " << passed << " / " << total << "\nslowest diagnosis: "
-            << delta::fixed(slowest, 1) << " s\n";
+            << "\ncases passing both: " << passed << " / " << total
+            << "\nslowest diagnosis: " << delta::fixed(slowest, 1) << " s\n";
   return set_score >= 95.0 && rmse_passed == rmse_checked ? 0 : 1;
 }

@@ -133,7 +133,8 @@ TEST(DiagnoseCli, NamesEquivalentExplanationsAndIntervals) {
   }
   EXPECT_TRUE(chosen == injected || listed) << document.at("verdict");
   EXPECT_TRUE(document.at("explained").get<bool>()) << document.at("floor_test");
-  EXPECT_LE(document["floor_test"].at("statistic_z").get<double>(), document["floor_test"].at("threshold_z").get<double>());
+  EXPECT_LE(document["floor_test"].at("statistic_z").get<double>(),
+            document["floor_test"].at("threshold_z").get<double>());
   if (chosen != injected) return;
   for (const auto& effect : document.at("effects")) {
     if (!effect.at("significant").get<bool>()) continue;

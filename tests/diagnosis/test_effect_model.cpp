@@ -99,7 +99,8 @@ TEST(DiagnosisModel, AutodiffJacobianMatchesCentralDifferences) {
     std::array<Dual, kLocalCount> local;
     for (int k = 0; k < kLocalCount; ++k) local[k] = Dual(theta[map[k]], kLocalCount, k);
     std::vector<Eigen::Matrix<double, kLocalCount, 1>> derivatives;
-    predict_joint<Dual>(local, families, j, rows, [&](std::size_t, const Dual& p) { derivatives.push_back(p.derivatives()); });
+    predict_joint<Dual>(local, families, j, rows,
+                        [&](std::size_t, const Dual& p) { derivatives.push_back(p.derivatives()); });
     for (int k = 0; k < kLocalCount; ++k) {
       auto predict_with = [&](double delta) {
         std::array<double, kLocalCount> values;
@@ -143,7 +144,8 @@ TEST(DiagnosisModel, FitRecoversInjectedParameters) {
   for (std::size_t a = 0; a < active.size(); ++a) {
     const double standard_error = std::sqrt(covariance(a, a));
     EXPECT_LT(standard_error, 0.02) << parameter_table()[active[a]].name;  // deg or mm: well determined
-    EXPECT_NEAR(fit.theta[active[a]], truth[active[a]], 5.0 * standard_error + 1e-6) << parameter_table()[active[a]].name;
+    EXPECT_NEAR(fit.theta[active[a]], truth[active[a]], 5.0 * standard_error + 1e-6)
+        << parameter_table()[active[a]].name;
   }
   EXPECT_LT(fit.fit_rmse_deg.maxCoeff(), 0.00300);
 }

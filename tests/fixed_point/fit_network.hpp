@@ -57,17 +57,21 @@ inline nn::Network fit_cube_network(std::uint32_t seed, int hidden = 25, int sam
   auto pack = [&](const nn::Network& n) {
     Eigen::VectorXd theta(n_params);
     int i = 0;
-    for (int k = 0; k < hidden; ++k) for (int j = 0; j < 3; ++j) theta[i++] = n.input_weights(k, j);
+    for (int k = 0; k < hidden; ++k)
+      for (int j = 0; j < 3; ++j) theta[i++] = n.input_weights(k, j);
     for (int k = 0; k < hidden; ++k) theta[i++] = n.hidden_bias(k);
-    for (int o = 0; o < 3; ++o) for (int k = 0; k < hidden; ++k) theta[i++] = n.output_weights(o, k);
+    for (int o = 0; o < 3; ++o)
+      for (int k = 0; k < hidden; ++k) theta[i++] = n.output_weights(o, k);
     for (int o = 0; o < 3; ++o) theta[i++] = n.output_bias(o);
     return theta;
   };
   auto unpack = [&](const Eigen::VectorXd& theta, nn::Network& n) {
     int i = 0;
-    for (int k = 0; k < hidden; ++k) for (int j = 0; j < 3; ++j) n.input_weights(k, j) = theta[i++];
+    for (int k = 0; k < hidden; ++k)
+      for (int j = 0; j < 3; ++j) n.input_weights(k, j) = theta[i++];
     for (int k = 0; k < hidden; ++k) n.hidden_bias(k) = theta[i++];
-    for (int o = 0; o < 3; ++o) for (int k = 0; k < hidden; ++k) n.output_weights(o, k) = theta[i++];
+    for (int o = 0; o < 3; ++o)
+      for (int k = 0; k < hidden; ++k) n.output_weights(o, k) = theta[i++];
     for (int o = 0; o < 3; ++o) n.output_bias(o) = theta[i++];
   };
   std::vector<Vec3> scaled_in(samples);

@@ -21,8 +21,9 @@ inline const nn::Network& cube_network() {
     net.hidden_bias.resize(25);
     net.output_weights.resize(3, 25);
     auto fields = [&net](auto&& visit) {
-      for (int j = 0; j < 3; ++j) visit(net.input_min[j]), visit(net.input_max[j]), visit(net.output_min[j]),
-          visit(net.output_max[j]), visit(net.output_bias[j]);
+      for (int j = 0; j < 3; ++j)
+        visit(net.input_min[j]), visit(net.input_max[j]), visit(net.output_min[j]), visit(net.output_max[j]),
+            visit(net.output_bias[j]);
       for (int i = 0; i < net.input_weights.size(); ++i) visit(net.input_weights.data()[i]);
       for (int i = 0; i < net.hidden_bias.size(); ++i) visit(net.hidden_bias.data()[i]);
       for (int i = 0; i < net.output_weights.size(); ++i) visit(net.output_weights.data()[i]);

@@ -15,7 +15,9 @@ namespace {
 
 const std::string kWeights = std::string(DELTA_SOURCE_DIR) + "/weights/paper_like.json";
 
-std::string temp_path(const std::string& name) { return ::testing::TempDir() + "fixed_cli_" + std::to_string(::getpid()) + "_" + name; }
+std::string temp_path(const std::string& name) {
+  return ::testing::TempDir() + "fixed_cli_" + std::to_string(::getpid()) + "_" + name;
+}
 
 // Positions inside the cube, beyond it, and far outside (input saturation).
 std::string write_positions() {
@@ -35,12 +37,15 @@ TEST(FixedCli, FixedAndHlsGiveIdenticalRawCodesEqualToGolden) {
   const std::string in = write_positions();
   const std::string fixed_out = temp_path("fixed.csv");
   const std::string hls_out = temp_path("hls.csv");
-  const CommandResult fixed = run_deltactl("ik --weights " + kWeights + " --backend fixed --in " + in + " --out " + fixed_out);
+  const CommandResult fixed =
+      run_deltactl("ik --weights " + kWeights + " --backend fixed --in " + in + " --out " + fixed_out);
   ASSERT_EQ(fixed.exit_code, 0) << fixed.err;
-  const CommandResult hls = run_deltactl("ik --weights " + kWeights + " --backend hls --in " + in + " --out " + hls_out);
+  const CommandResult hls =
+      run_deltactl("ik --weights " + kWeights + " --backend hls --in " + in + " --out " + hls_out);
   ASSERT_EQ(hls.exit_code, 0) << hls.err;
   EXPECT_NE(hls.err.find("saturations: scaled input 1"), std::string::npos) << hls.err;  // the far position
-  const std::vector<std::string> columns = {"alpha1_deg", "alpha2_deg", "alpha3_deg", "alpha1_raw", "alpha2_raw", "alpha3_raw"};
+  const std::vector<std::string> columns = {"alpha1_deg", "alpha2_deg", "alpha3_deg",
+                                            "alpha1_raw", "alpha2_raw", "alpha3_raw"};
   const CsvTable a = read_csv(fixed_out, columns);
   const CsvTable b = read_csv(hls_out, columns);
   const CsvTable positions = read_csv(in, {"x_m", "y_m", "z_m"});
@@ -49,7 +54,8 @@ TEST(FixedCli, FixedAndHlsGiveIdenticalRawCodesEqualToGolden) {
   const golden::QuantisedNetwork q = golden::quantise(nn::read_weights_file(kWeights).network);
   for (std::size_t i = 0; i < a.rows.size(); ++i) {
     const auto& p = positions.rows[i];
-    const golden::RawOutput golden = golden::evaluate_raw(q, golden::encode_position(q.formats, Vec3(p[0], p[1], p[2])));
+    const golden::RawOutput golden =
+        golden::evaluate_raw(q, golden::encode_position(q.formats, Vec3(p[0], p[1], p[2])));
     for (int o = 0; o < 3; ++o) {
       EXPECT_EQ(static_cast<std::int64_t>(a.rows[i][3 + o]), golden.alpha[o]) << "row " << i;
       EXPECT_EQ(b.rows[i][3 + o], a.rows[i][3 + o]) << "row " << i;
@@ -111,7 +117,8 @@ TEST(FixedCli, AccuracyReportsTheBoundOnASmallGrid) {
   EXPECT_NE(result.out.find("Bound 0.001 deg on the whole grid with no saturation inside the trained range: met"),
             std::string::npos);
   // An impossible bound must fail with exit code 1, so the check above can fail too.
-  const CommandResult strict = run_deltactl("accuracy --weights " + kWeights + " --grid-points 5 --no-sweep --bound-deg 1e-9");
+  const CommandResult strict =
+      run_deltactl("accuracy --weights " + kWeights + " --grid-points 5 --no-sweep --bound-deg 1e-9");
   EXPECT_EQ(strict.exit_code, 1);
 }
 

@@ -41,17 +41,16 @@ TEST(TanhTable, WorstCaseErrorAtMostOneLsb) {
   double worst_lsb = 0.0;
   std::int64_t worst_code = 0;
   for (std::int64_t n = -limit; n < limit; ++n) {
-    const double exact = std::ldexp(std::tanh(std::ldexp(static_cast<double>(n), -f.tanh_input_fraction_bits)),
-                                    f.hidden_fraction_bits);
+    const double exact =
+        std::ldexp(std::tanh(std::ldexp(static_cast<double>(n), -f.tanh_input_fraction_bits)), f.hidden_fraction_bits);
     const double error = std::abs(static_cast<double>(tanh_code(q, n)) - exact);
     if (error > worst_lsb) {
       worst_lsb = error;
       worst_code = n;
     }
   }
-  std::cout << "tanh table: " << f.tanh_segments() << " segments, worst error " << worst_lsb
-            << " LSB of Q1." << f.hidden_fraction_bits << " at n code " << worst_code << " over "
-            << 2 * limit << " codes\n";
+  std::cout << "tanh table: " << f.tanh_segments() << " segments, worst error " << worst_lsb << " LSB of Q1."
+            << f.hidden_fraction_bits << " at n code " << worst_code << " over " << 2 * limit << " codes\n";
   EXPECT_LE(worst_lsb, 1.0);
 }
 
@@ -104,10 +103,12 @@ TEST(GoldenModel, MatchesFloatInsideTheCubeWithoutSaturation) {
   Vec3 worst = Vec3::Zero();
   for (int i = 0; i < 200000; ++i) {
     Vec3 p;
-    for (int j = 0; j < 3; ++j) p[j] = test::cube_min_m()[j] + unit(rng) * (test::cube_max_m()[j] - test::cube_min_m()[j]);
+    for (int j = 0; j < 3; ++j)
+      p[j] = test::cube_min_m()[j] + unit(rng) * (test::cube_max_m()[j] - test::cube_min_m()[j]);
     const RawOutput out = evaluate_raw(q, encode_position(q.formats, p), &counters);
     const Vec3 reference = network.evaluate(p);
-    for (int o = 0; o < 3; ++o) worst[o] = std::max(worst[o], std::abs(decode_angle_deg(q.formats, out.alpha[o]) - reference[o]));
+    for (int o = 0; o < 3; ++o)
+      worst[o] = std::max(worst[o], std::abs(decode_angle_deg(q.formats, out.alpha[o]) - reference[o]));
   }
   std::cout << "max |fixed - float| [deg]: " << worst.transpose() << '\n';
   EXPECT_EQ(counters.errors(), 0u);

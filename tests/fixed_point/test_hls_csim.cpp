@@ -32,7 +32,8 @@ std::size_t vector_count() {
 }
 
 unsigned golden_flags(const delta::golden::RawOutput& out) {
-  return (out.scaled_input_saturated ? unsigned{kScaledInputSaturated} : 0u) | (out.tanh_input_saturated ? unsigned{kTanhInputSaturated} : 0u) |
+  return (out.scaled_input_saturated ? unsigned{kScaledInputSaturated} : 0u) |
+         (out.tanh_input_saturated ? unsigned{kTanhInputSaturated} : 0u) |
          (out.output_saturated ? unsigned{kOutputSaturated} : 0u);
 }
 

@@ -44,7 +44,8 @@ std::string recording_text(int rows) {
   std::string text = kHeader;
   for (int i = 0; i < rows; ++i) {
     const double s = 0.001 * (i % 7), c = 0.001 * (i % 5), z = -0.072 - 0.0005 * (i % 3);
-    text += std::to_string(0.1 * i) + ",30,30,30," + std::to_string(s) + "," + std::to_string(c) + "," + std::to_string(z) + "\n";
+    text += std::to_string(0.1 * i) + ",30,30,30," + std::to_string(s) + "," + std::to_string(c) + "," +
+            std::to_string(z) + "\n";
   }
   return text;
 }
@@ -60,12 +61,14 @@ const std::string& good_recording() {
   return path;
 }
 
-std::size_t lines(const std::string& text) { return static_cast<std::size_t>(std::count(text.begin(), text.end(), '\n')); }
+std::size_t lines(const std::string& text) {
+  return static_cast<std::size_t>(std::count(text.begin(), text.end(), '\n'));
+}
 
 void expect_bad_input(const test::CommandResult& result, const std::string& must_name, const std::string& context) {
   EXPECT_EQ(result.exit_code, 2) << context << "\n" << result.err.substr(0, 500);
-  EXPECT_NE(result.err.find(must_name), std::string::npos) << context << ": message must name '" << must_name
-                                                           << "': " << result.err.substr(0, 500);
+  EXPECT_NE(result.err.find(must_name), std::string::npos)
+      << context << ": message must name '" << must_name << "': " << result.err.substr(0, 500);
   EXPECT_EQ(lines(result.err), 1u) << context << ": " << result.err.substr(0, 500);
   EXPECT_LT(result.err.size(), 400u) << context << ": " << result.err.substr(0, 500);
 }
@@ -93,9 +96,11 @@ TEST(Defect01, DeeplyNestedJsonIsBadInputInEveryReader) {
   write_text(deep, "{\"joint_offset\": " + std::string(100000, '[') + std::string(100000, ']') + "}\n");
   const std::string out = temp("d1_out");
   for (const std::string& command :
-       {"simulate --effects " + deep + " --out " + out, "ik --weights " + deep + " --in " + good_recording() + " --out " + out,
-        "quantise --weights " + deep + " --out-dir " + folder().string(), "export-matlab --weights " + deep + " --out " + out + ".mat",
-        "accuracy --weights " + deep, "table1 --data " + good_recording() + " --holdout " + good_recording() + " --network " + deep}) {
+       {"simulate --effects " + deep + " --out " + out,
+        "ik --weights " + deep + " --in " + good_recording() + " --out " + out,
+        "quantise --weights " + deep + " --out-dir " + folder().string(),
+        "export-matlab --weights " + deep + " --out " + out + ".mat", "accuracy --weights " + deep,
+        "table1 --data " + good_recording() + " --holdout " + good_recording() + " --network " + deep}) {
     const auto result = run_deltactl(command);
     expect_bad_input(result, deep + ":1: JSON nested deeper", command);
   }
@@ -134,7 +139,8 @@ TEST(Defect02, OutputsThatAreNotPlainFilesAreNeverReplaced) {
   const std::string locked = temp("d2_locked.csv");
   write_text(locked, "keep\n");
   ::chmod(locked.c_str(), 0444);
-  expect_bad_input(run_deltactl("ik --model nominal --in " + in + " --out " + locked), locked + ": is read-only", "read-only");
+  expect_bad_input(run_deltactl("ik --model nominal --in " + in + " --out " + locked), locked + ": is read-only",
+                   "read-only");
   EXPECT_EQ(read_text(locked), "keep\n");
 }
 
@@ -147,7 +153,8 @@ TEST(Defect03, AFullDiskIsAnErrorAndLeavesNoFile) {
   const std::string angles = (where / "angles.csv").string();
   expect_bad_input(run_on_full_disk("export-matlab --weights " + kWeights + " --out " + mat, 1), mat, "export-matlab");
   expect_bad_input(run_on_full_disk("compare --data " + good_recording() + " --plot " + png, 8), png, "compare --plot");
-  expect_bad_input(run_on_full_disk("ik --model nominal --in " + good_recording() + " --out " + angles, 16), angles, "ik");
+  expect_bad_input(run_on_full_disk("ik --model nominal --in " + good_recording() + " --out " + angles, 16), angles,
+                   "ik");
   EXPECT_TRUE(listing(where).empty()) << "left: " << (listing(where).empty() ? "" : listing(where).front());
   // With room, the same commands succeed (the limit, not the command, made them fail).
   EXPECT_EQ(run_deltactl("export-matlab --weights " + kWeights + " --out " + mat).exit_code, 0);
@@ -170,7 +177,8 @@ TEST(Defect04And09, NumericOptionsAreRangeChecked) {
       {"accuracy --weights " + kWeights + " --bound-deg 0", "--bound-deg"},
       {"train --data " + rec + " --out " + out + " --validation nan", "--validation"},
       {"train --data " + rec + " --out " + out + " --seed -1", "--seed"},
-      {"diagnose --data " + rec + " --holdout " + rec + " --json " + out + " --predictions " + out + "2 --significance nan",
+      {"diagnose --data " + rec + " --holdout " + rec + " --json " + out + " --predictions " + out +
+           "2 --significance nan",
        "--significance"},
       {"cosim --weights " + kWeights + " --duration inf", "--duration"},
       {"cosim --weights " + kWeights + " --duration 1e12", "--duration"},
@@ -186,8 +194,10 @@ TEST(Defect04And09, NumericOptionsAreRangeChecked) {
 // ---- Defect 5: unbounded reads.
 TEST(Defect05, InputsWithoutLineBreaksOrOfAbsurdSizeFailFast) {
   const std::string out = temp("d5_out.csv");
-  expect_bad_input(run_deltactl("ik --model nominal --in /dev/zero --out " + out, kBounded), "/dev/zero:1: line longer than", "csv");
-  expect_bad_input(run_deltactl("simulate --effects /dev/zero --out " + out, kBounded), "/dev/zero: larger than", "json");
+  expect_bad_input(run_deltactl("ik --model nominal --in /dev/zero --out " + out, kBounded),
+                   "/dev/zero:1: line longer than", "csv");
+  expect_bad_input(run_deltactl("simulate --effects /dev/zero --out " + out, kBounded), "/dev/zero: larger than",
+                   "json");
   EXPECT_FALSE(fs::exists(out));
 }
 
@@ -205,8 +215,8 @@ TEST(Defect05, ACompressedMatBombIsRejectedBeforeItIsInflated) {
     Mat_Close(file);
   }
   ASSERT_LT(fs::file_size(bomb), 2000000u);
-  expect_bad_input(run_deltactl("import-matlab --in " + bomb + " --out " + out, kBounded), bomb + ": a compressed variable inflates beyond",
-                   "bomb");
+  expect_bad_input(run_deltactl("import-matlab --in " + bomb + " --out " + out, kBounded),
+                   bomb + ": a compressed variable inflates beyond", "bomb");
   EXPECT_FALSE(fs::exists(out));
 }
 
@@ -220,8 +230,8 @@ TEST(Defect05, MatFilesFoundByTheFuzzerAreBadInput) {
     ++found;
     const std::string mat = temp("d5_" + entry.path().filename().string() + ".mat");
     fs::copy_file(entry.path(), mat, fs::copy_options::overwrite_existing);
-    expect_bad_input(run_deltactl("import-matlab --in " + mat + " --out " + temp("d5_fuzz.json"), "ulimit -v 400000; "), mat,
-                     entry.path().string());
+    expect_bad_input(run_deltactl("import-matlab --in " + mat + " --out " + temp("d5_fuzz.json"), "ulimit -v 400000; "),
+                     mat, entry.path().string());
   }
   EXPECT_GE(found, 3);
   EXPECT_FALSE(fs::exists(temp("d5_fuzz.json")));
@@ -243,13 +253,14 @@ TEST(Defect06, DiagnoseWritesJsonAndPredictionsTogetherOrNeither) {
   ASSERT_EQ(run_deltactl("simulate --experiment sweep --seed 3 --out " + check).exit_code, 0);
   // Room for the small JSON document, not for the predictions of every CHECK row.
   const std::string json = (where / "diag.json").string(), predictions = (where / "pred.csv").string();
-  const auto result = run_on_full_disk("diagnose --data " + good_recording() + " --holdout " + check + " --json " + json +
-                                           " --predictions " + predictions, 64);
+  const auto result = run_on_full_disk("diagnose --data " + good_recording() + " --holdout " + check + " --json " +
+                                           json + " --predictions " + predictions,
+                                       64);
   expect_bad_input(result, predictions, "diagnose on a full disk");
   EXPECT_TRUE(listing(where).empty()) << "left: " << (listing(where).empty() ? "" : listing(where).front());
 }
 
-// SIGINT through the command line: each long command is interrupted a second in, while it
+// SIGINT through the command line: each long command (train, diagnose, cosim) is interrupted a second in, while it
 // computes or writes; it must exit non-zero and leave nothing in its output folder (no output, no
 // temporary, no plot folder).
 TEST(Defect06, SigintDuringALongCommandLeavesNoFile) {
@@ -259,7 +270,7 @@ TEST(Defect06, SigintDuringALongCommandLeavesNoFile) {
       {"train", "train --data " + good_recording() + " --out {}/w.json"},
       {"diagnose", "diagnose --data " + good_recording() + " --holdout " + check +
                        " --json {}/d.json --predictions {}/p.csv --report {}/r.md"},
-      {"accuracy", "accuracy --weights " + kWeights + " --plot {}/a.png"},
+      {"cosim", "cosim --weights " + kWeights + " --duration 5 --out {}/c.csv --plot {}/c.png"},
   };
   for (const auto& [name, pattern] : commands) {
     const fs::path where = folder() / ("d6_sigint_" + name);
@@ -269,7 +280,9 @@ TEST(Defect06, SigintDuringALongCommandLeavesNoFile) {
       arguments.replace(at, 2, where.string());
     }
     const std::string status_file = temp("d6_sigint_" + name + ".status");
-    const std::string script = std::string(DELTACTL_PATH) + " " + arguments + " >/dev/null 2>&1 & pid=$!; sleep 1; kill -INT $pid; wait $pid; echo $? > " + status_file;
+    const std::string script = std::string(DELTACTL_PATH) + " " + arguments +
+                               " >/dev/null 2>&1 & pid=$!; sleep 1; kill -INT $pid; wait $pid; echo $? > " +
+                               status_file;
     ASSERT_EQ(std::system(("bash -c '" + script + "'").c_str()), 0) << name;
     const std::string status = read_text(status_file);
     EXPECT_NE(status, "0\n") << name << " finished within a second: the test did not interrupt it";
@@ -294,7 +307,8 @@ TEST(Defect07, AnOutputThatIsAnInputIsRefused) {
            " --predictions " + temp("d7_same"),
        temp("d7_same")},
   };
-  for (const auto& [command, name] : cases) expect_bad_input(run_deltactl(command), name + ": is the same file", command);
+  for (const auto& [command, name] : cases)
+    expect_bad_input(run_deltactl(command), name + ": is the same file", command);
   EXPECT_EQ(read_text(data), text);
   EXPECT_EQ(read_text(effects), "{\"joint_offset\": [0.1, 0, 0]}\n");
   EXPECT_FALSE(fs::exists(temp("d7_same")));
@@ -319,8 +333,10 @@ TEST(Defect10, DuplicateColumnsAndKeysAreErrors) {
   const std::string csv = temp("d10.csv"), json = temp("d10.json"), out = temp("d10_out");
   write_text(csv, "x_m,y_m,z_m,x_m\n0,0,-0.07,1\n");
   write_text(json, "{\n\"joint_offset\": [0, 0, 0],\n\"joint_offset\": [1, 1, 1]\n}\n");
-  expect_bad_input(run_deltactl("ik --model nominal --in " + csv + " --out " + out), csv + ":1: column 'x_m' named twice", "csv");
-  expect_bad_input(run_deltactl("simulate --effects " + json + " --out " + out), json + ":3: duplicate key 'joint_offset'", "json");
+  expect_bad_input(run_deltactl("ik --model nominal --in " + csv + " --out " + out),
+                   csv + ":1: column 'x_m' named twice", "csv");
+  expect_bad_input(run_deltactl("simulate --effects " + json + " --out " + out),
+                   json + ":3: duplicate key 'joint_offset'", "json");
   EXPECT_FALSE(fs::exists(out));
 }
 
@@ -343,8 +359,8 @@ TEST(Defect11, ImportRefusesMoreHiddenNeuronsThanTheWeightsFileAllows) {
   variable("output_xmax", 3, 1, 90);
   const std::string in = temp("d11.csv"), out = temp("d11.json");
   write_text(in, text);
-  expect_bad_input(run_deltactl("import-matlab --in " + in + " --out " + out), in + ":1: IW: expected H x 3 with 1 <= H <= 10000",
-                   "import");
+  expect_bad_input(run_deltactl("import-matlab --in " + in + " --out " + out),
+                   in + ":1: IW: expected H x 3 with 1 <= H <= 10000", "import");
   EXPECT_FALSE(fs::exists(out));
 }
 
@@ -360,7 +376,8 @@ TEST(Defect12, APlateAboveTheBaseIsUnreachable) {
 TEST(Defect13, MessagesNameTheFileAndStayReadable) {
   const std::string few = temp("d13_few.csv"), out = temp("d13_out");
   write_text(few, recording_text(5));
-  expect_bad_input(run_deltactl("train --data " + few + " --out " + out), few + ": training needs at least 10 samples", "few");
+  expect_bad_input(run_deltactl("train --data " + few + " --out " + out), few + ": training needs at least 10 samples",
+                   "few");
   const std::string png = temp("no_such_folder/plot.png");
   const auto plot = run_deltactl("compare --data " + good_recording() + " --plot " + png);
   expect_bad_input(plot, png, "plot");
@@ -373,8 +390,8 @@ TEST(Defect13, MessagesNameTheFileAndStayReadable) {
   EXPECT_EQ(loud.err.find('\x1b'), std::string::npos);
   const std::string impossible = temp("d13_impossible.json");
   write_text(impossible, "{\"lower_arm_length\": [-0.06, -0.06, -0.06]}\n");
-  expect_bad_input(run_deltactl("cosim --weights " + kWeights + " --effects " + impossible, kBounded), impossible + ": ",
-                   "impossible robot");
+  expect_bad_input(run_deltactl("cosim --weights " + kWeights + " --effects " + impossible, kBounded),
+                   impossible + ": ", "impossible robot");
   const std::string long_name = temp(std::string(250, 'n'));
   const auto long_out = run_deltactl("ik --model nominal --in " + good_recording() + " --out " + long_name);
   EXPECT_EQ(long_out.exit_code, 0) << long_out.err;
@@ -388,42 +405,59 @@ struct Malformed {
 
 std::string make_input(const Malformed& bad, const std::string& extension) {
   const std::string path = temp("table_" + bad.name + extension);
-  if (bad.text == "<folder>") fs::create_directories(path);
-  else if (bad.text != "<missing>") write_text(path, bad.text);
+  if (bad.text == "<folder>")
+    fs::create_directories(path);
+  else if (bad.text != "<missing>")
+    write_text(path, bad.text);
   return path;
 }
 
 TEST(BadInputTable, EveryCommandRejectsEveryMalformedInputAndTouchesNoOutput) {
   const std::vector<Malformed> csv_inputs = {
-      {"empty", ""}, {"folder", "<folder>"}, {"missing", "<missing>"}, {"header_only", kHeader},
+      {"empty", ""},
+      {"folder", "<folder>"},
+      {"missing", "<missing>"},
+      {"header_only", kHeader},
       {"duplicate_column", "t_s,alpha1_deg,alpha2_deg,alpha3_deg,x_m,y_m,z_m,z_m\n0,30,30,30,0,0,-0.07,0\n"},
-      {"nul", kHeader + "0,30,30,30,0,0,-0.0" + std::string(1, '\0') + "7\n"}, {"long_line", std::string(100000, '1') + "\n"},
-      {"nan", kHeader + "0,30,30,30,nan,0,-0.07\n"}, {"implausible", kHeader + "0,30,30,30,0,0,-1e9\n"},
+      {"nul", kHeader + "0,30,30,30,0,0,-0.0" + std::string(1, '\0') + "7\n"},
+      {"long_line", std::string(100000, '1') + "\n"},
+      {"nan", kHeader + "0,30,30,30,nan,0,-0.07\n"},
+      {"implausible", kHeader + "0,30,30,30,0,0,-1e9\n"},
       {"binary", std::string("\x89PNG\r\n\x1a\n\0\0\0\rIHDR", 16)}};
-  const std::vector<Malformed> json_inputs = {
-      {"empty", ""}, {"folder", "<folder>"}, {"missing", "<missing>"},
-      {"deep", std::string(10000, '[') + std::string(10000, ']')}, {"duplicate", "{\"hidden\": 1, \"hidden\": 2}"},
-      {"truncated", "{\"joint_offset\": [1, 2"}, {"nul", std::string("{\"a\0\": 1}", 9)}, {"array", "[1, 2, 3]"}};
+  const std::vector<Malformed> json_inputs = {{"empty", ""},
+                                              {"folder", "<folder>"},
+                                              {"missing", "<missing>"},
+                                              {"deep", std::string(10000, '[') + std::string(10000, ']')},
+                                              {"duplicate", "{\"hidden\": 1, \"hidden\": 2}"},
+                                              {"truncated", "{\"joint_offset\": [1, 2"},
+                                              {"nul", std::string("{\"a\0\": 1}", 9)},
+                                              {"array", "[1, 2, 3]"}};
   const std::string rec = good_recording();
   const std::string out = temp("table_out.csv"), out2 = temp("table_out2.csv");
   // {IN} is the malformed file; {OUT} and {OUT2} hold sentinel text that must survive.
   const std::vector<std::string> csv_commands = {
-      "compare --data {IN}", "ik --model nominal --in {IN} --out {OUT}", "train --data {IN} --out {OUT}",
+      "compare --data {IN}",
+      "ik --model nominal --in {IN} --out {OUT}",
+      "train --data {IN} --out {OUT}",
       "diagnose --data {IN} --holdout " + rec + " --json {OUT} --predictions {OUT2}",
       "diagnose --data " + rec + " --holdout {IN} --json {OUT} --predictions {OUT2}",
       "table1 --data {IN} --holdout " + rec + " --save-network {OUT}"};
-  const std::vector<std::string> json_commands = {
-      "simulate --effects {IN} --out {OUT}", "ik --weights {IN} --in " + rec + " --out {OUT}",
-      "export-matlab --weights {IN} --out {OUT}", "quantise --weights {IN} --out-dir " + folder().string() + "/table_q",
-      "accuracy --weights {IN}", "cosim --weights {IN} --out {OUT}"};
+  const std::vector<std::string> json_commands = {"simulate --effects {IN} --out {OUT}",
+                                                  "ik --weights {IN} --in " + rec + " --out {OUT}",
+                                                  "export-matlab --weights {IN} --out {OUT}",
+                                                  "quantise --weights {IN} --out-dir " + folder().string() + "/table_q",
+                                                  "accuracy --weights {IN}",
+                                                  "cosim --weights {IN} --out {OUT}"};
   fs::create_directories(folder() / "table_q");
-  auto run_table = [&](const std::vector<Malformed>& inputs, const std::vector<std::string>& commands, const std::string& ext) {
+  auto run_table = [&](const std::vector<Malformed>& inputs, const std::vector<std::string>& commands,
+                       const std::string& ext) {
     for (const Malformed& bad : inputs) {
       const std::string in = make_input(bad, ext);
       for (std::string command : commands) {
         write_text(out, "sentinel\n");
         write_text(out2, "sentinel 2\n");
-        for (const auto& [key, value] : {std::pair<std::string, std::string>{"{IN}", in}, {"{OUT2}", out2}, {"{OUT}", out}}) {
+        for (const auto& [key, value] :
+             {std::pair<std::string, std::string>{"{IN}", in}, {"{OUT2}", out2}, {"{OUT}", out}}) {
           for (std::size_t at; (at = command.find(key)) != std::string::npos;) command.replace(at, key.size(), value);
         }
         expect_bad_input(run_deltactl(command), in, bad.name + ": " + command);

@@ -35,7 +35,8 @@ struct BadRecording {
 // Each SPEC rejection: the message names file and line, the exit code is 2, no output is left.
 TEST(FoundationCli, MalformedRecordingsAreRejectedWithFileLineAndReason) {
   const std::vector<BadRecording> cases = {
-      {"missing_column", "t_s,alpha1_deg,alpha2_deg,x_m,y_m,z_m\n0,30,30,0,0,-0.07\n", ":1:", "missing column 'alpha3_deg'"},
+      {"missing_column", "t_s,alpha1_deg,alpha2_deg,x_m,y_m,z_m\n0,30,30,0,0,-0.07\n",
+       ":1:", "missing column 'alpha3_deg'"},
       {"nan", kHeader + kRow1 + "0.1,nan,30,30,0,0,-0.0713\n", ":3:", "not finite"},
       {"text", kHeader + kRow1 + kRow2 + "0.2,30,thirty,30,0,0,-0.0713\n", ":4:", "'thirty' is not a number"},
       {"time_back", kHeader + kRow2 + kRow1, ":3:", "time goes backwards"},
@@ -49,7 +50,8 @@ TEST(FoundationCli, MalformedRecordingsAreRejectedWithFileLineAndReason) {
     const std::string data = temp(bad.name + ".csv");
     write_text(data, bad.text);
     std::vector<std::string> commands = {"compare --data " + data};
-    if (bad.concerns_positions) commands.push_back("ik --model nominal --in " + data + " --out " + temp(bad.name + "_ik.csv"));
+    if (bad.concerns_positions)
+      commands.push_back("ik --model nominal --in " + data + " --out " + temp(bad.name + "_ik.csv"));
     for (const std::string& command : commands) {
       const auto result = run_deltactl(command);
       EXPECT_EQ(result.exit_code, 2) << bad.name << ": " << command;
@@ -63,7 +65,8 @@ TEST(FoundationCli, MalformedRecordingsAreRejectedWithFileLineAndReason) {
 
 TEST(FoundationCli, MalformedEffectFilesAreRejectedWithFileLineAndReason) {
   const std::vector<BadRecording> cases = {
-      {"unknown", "{\n  \"joint_offset\": [0.5, -0.3, 0.8],\n  \"gear_wear\": [1, 2, 3]\n}\n", ":3:", "unknown effect 'gear_wear'"},
+      {"unknown", "{\n  \"joint_offset\": [0.5, -0.3, 0.8],\n  \"gear_wear\": [1, 2, 3]\n}\n",
+       ":3:", "unknown effect 'gear_wear'"},
       {"json", "{\n  \"backlash\": [0.3, 0, 0],\n  oops\n}\n", ":3:", "invalid JSON"},
       {"shape", "{\"backlash\": [0.3, 0]}", ":1:", "array of 3 numbers"},
       {"text", "{\n\"encoder_scale\": [0.01, \"x\", 0]\n}", ":2:", "must be a number"},
@@ -91,7 +94,8 @@ TEST(FoundationCli, EffectFileRoundTripsThroughJson) {
   EXPECT_DOUBLE_EQ(again.frame_misalignment->rotation_deg.z(), 11.76);
   // The per-joint triple form of transmission_error and the array form of frame_misalignment.
   const EffectSet alternative = parse_effects(
-      R"({"transmission_error": [[0.1, 7.5, 0.3], [0, 360, 0], [0.2, 5, 1]], "frame_misalignment": [0, 0, 1, 0.001, 0, 0]})", "alt");
+      R"({"transmission_error": [[0.1, 7.5, 0.3], [0, 360, 0], [0.2, 5, 1]], "frame_misalignment": [0, 0, 1, 0.001, 0, 0]})",
+      "alt");
   EXPECT_DOUBLE_EQ(alternative.transmission_error->period_deg[2], 5.0);
   EXPECT_DOUBLE_EQ(alternative.frame_misalignment->translation_m.x(), 0.001);
 }
@@ -142,7 +146,9 @@ TEST(FoundationCli, IkRejectsAnUnreachablePoseNamingItsLine) {
 TEST(FoundationCli, PaperLikeRobotMatchesTableOneWithinTwentyFivePercent) {
   const std::string out = temp("paper_like.csv");
   ASSERT_EQ(run_deltactl("simulate --experiment validation --effects " + std::string(DELTA_SOURCE_DIR) +
-                         "/sim/paper_like_effects.json --out " + out).exit_code, 0);
+                         "/sim/paper_like_effects.json --out " + out)
+                .exit_code,
+            0);
   const auto result = run_deltactl("compare --data " + out);
   ASSERT_EQ(result.exit_code, 0) << result.err;
   const double paper_rmse[3] = {0.8270, 0.8845, 0.8083}, paper_mae[3] = {0.6593, 0.7142, 0.6255};

@@ -32,7 +32,8 @@ bool same(const Frame& a, const Frame& b) {
 
 TEST(FrameCodec, CrcIsCcittFalse) {
   const char* check = "123456789";
-  EXPECT_EQ(crc16(reinterpret_cast<const std::uint8_t*>(check), std::strlen(check)), 0x29B1);  // the catalogue's check value
+  EXPECT_EQ(crc16(reinterpret_cast<const std::uint8_t*>(check), std::strlen(check)),
+            0x29B1);  // the catalogue's check value
 }
 
 TEST(FrameCodec, EveryFrameTypeRoundTripsThroughAStreamWithNoiseBetweenFrames) {

@@ -123,7 +123,8 @@ TEST(SerialIo, IndependentPySerialClientTalksThroughTheLink) {
   const std::string out = temp_path("pyserial.out");
   const std::string command = "/usr/bin/python3 -c \"import serial, sys; s = serial.Serial('" + link +
                               "', 1000000, timeout=2); s.write(bytes([0x7e, 0x00, 0xff, 0x10])); "
-                              "sys.stdout.write(s.read(3).hex())\" > " + out + " 2>&1";
+                              "sys.stdout.write(s.read(3).hex())\" > " +
+                              out + " 2>&1";
   std::thread client([&] { std::system(command.c_str()); });
   const std::vector<std::uint8_t> request = read_bytes(pty, 4, 5000);
   const std::vector<std::uint8_t> reply = {0xca, 0xfe, 0x01};
@@ -133,7 +134,8 @@ TEST(SerialIo, IndependentPySerialClientTalksThroughTheLink) {
   std::ifstream in(out);
   std::string answer;
   std::getline(in, answer);
-  EXPECT_EQ(answer, "cafe01") << "python3-serial said: " << answer << " (bash scripts/setup.sh installs python3-serial)";
+  EXPECT_EQ(answer, "cafe01") << "python3-serial said: " << answer
+                              << " (bash scripts/setup.sh installs python3-serial)";
 }
 
 }  // namespace

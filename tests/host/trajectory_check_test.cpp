@@ -62,7 +62,8 @@ TEST(TrajectoryCheck, EachFaultNamesTheFirstOffendingSampleAndItsLine) {
   EXPECT_NE(v->reason.find("trained range"), std::string::npos) << v->reason;
   EXPECT_GE(v->t_s, 0.6 - 1e-9);
   EXPECT_LE(v->t_s, 0.601 + 1e-9);
-  EXPECT_EQ(v->source_line, 2u + static_cast<std::size_t>(std::ceil(v->t_s / 0.01 - 1e-9)));  // the point at or after it
+  EXPECT_EQ(v->source_line,
+            2u + static_cast<std::size_t>(std::ceil(v->t_s / 0.01 - 1e-9)));  // the point at or after it
 
   // Above the base: unreachable (knee-out branch), whatever the trained range says.
   TrajectoryLimits wide = limits;

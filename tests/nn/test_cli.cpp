@@ -25,7 +25,8 @@ TEST(TrainCommand, OneProgressLinePerEpochAndSameSeedSameFile) {
   ASSERT_EQ(first.exit_code, 0) << first.err;
   EXPECT_EQ(std::count(first.err.begin(), first.err.end(), '\n'), 5) << first.err;  // 4 epochs + summary
   EXPECT_NE(first.err.find("epoch    4"), std::string::npos) << first.err;
-  const auto second = run_deltactl("train --data " + data + " --out " + b + " --seed 2 --hidden 6 --max-epochs 4 --threads 1");
+  const auto second =
+      run_deltactl("train --data " + data + " --out " + b + " --seed 2 --hidden 6 --max-epochs 4 --threads 1");
   ASSERT_EQ(second.exit_code, 0) << second.err;
   EXPECT_EQ(delta::test::read_text(a), delta::test::read_text(b));
   const WeightsFile weights = read_weights_file(a);
@@ -35,7 +36,8 @@ TEST(TrainCommand, OneProgressLinePerEpochAndSameSeedSameFile) {
 
 TEST(TrainCommand, BadRecordingExitsWith2AndWritesNothing) {
   const std::string data = ::testing::TempDir() + "nn_cli_bad.csv";
-  delta::test::write_text(data, "t_s,alpha1_deg,alpha2_deg,alpha3_deg,x_m,y_m,z_m\n0,30,30,30,0,0,-0.07\n1,30,nan,30,0,0,-0.07\n");
+  delta::test::write_text(
+      data, "t_s,alpha1_deg,alpha2_deg,alpha3_deg,x_m,y_m,z_m\n0,30,30,30,0,0,-0.07\n1,30,nan,30,0,0,-0.07\n");
   const std::string out = ::testing::TempDir() + "nn_cli_bad.json";
   const auto result = run_deltactl("train --data " + data + " --out " + out);
   EXPECT_EQ(result.exit_code, 2);

@@ -144,7 +144,8 @@ TEST(Training, LevenbergMarquardtReducesTheNetworkErrorManyFold) {
       train_network(set.inputs, set.targets, options, [&](const TrainingEpoch& e) { epochs.push_back(e); });
   ASSERT_EQ(static_cast<int>(epochs.size()), result.epochs);
   ASSERT_GE(epochs.size(), 2u);
-  for (std::size_t i = 1; i < epochs.size(); ++i) EXPECT_LT(epochs[i].training_mse_deg2, epochs[i - 1].training_mse_deg2);
+  for (std::size_t i = 1; i < epochs.size(); ++i)
+    EXPECT_LT(epochs[i].training_mse_deg2, epochs[i - 1].training_mse_deg2);
   // Initial weights are far off (degrees); 20 epochs bring the RMSE to hundredths of a degree.
   EXPECT_LT(std::sqrt(result.training_mse_deg2), 0.05);
   EXPECT_LT(100.0 * result.training_mse_deg2, epochs.front().training_mse_deg2);

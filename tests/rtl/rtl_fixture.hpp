@@ -71,8 +71,9 @@ class InputVectors {
       for (int j = 0; j < 3; ++j) {
         const int c = which(rng_);
         // Beside the centre, or on either side of the scaled input's saturation edge.
-        codes[j] = c < 5 ? corners[c]
-                         : q_.input_centre[j] + (c - 6) + ((c == 5 ? -1 : 1) * (std::int64_t{1} << (q_.input_shift[j] + 15)));
+        codes[j] =
+            c < 5 ? corners[c]
+                  : q_.input_centre[j] + (c - 6) + ((c == 5 ? -1 : 1) * (std::int64_t{1} << (q_.input_shift[j] + 15)));
       }
     }
     return codes;
@@ -85,7 +86,8 @@ class InputVectors {
 
 // A fresh directory under the system's temp dir, unique per process.
 inline std::string fresh_directory(const std::string& name) {
-  const std::string path = (std::filesystem::temp_directory_path() / (name + "_" + std::to_string(::getpid()))).string();
+  const std::string path =
+      (std::filesystem::temp_directory_path() / (name + "_" + std::to_string(::getpid()))).string();
   std::filesystem::remove_all(path);
   std::filesystem::create_directories(path);
   return path;

@@ -36,14 +36,17 @@ TEST(BackendRtl, RawCodesEqualFixedBackend) {
       }
   write_text(poses, text);
   const std::string weights = std::string(DELTA_SOURCE_DIR) + "/weights/paper_like.json";
-  const CommandResult rtl = run_deltactl("ik --weights " + weights + " --backend rtl --in " + poses + " --out " + dir + "_rtl.csv");
+  const CommandResult rtl =
+      run_deltactl("ik --weights " + weights + " --backend rtl --in " + poses + " --out " + dir + "_rtl.csv");
   ASSERT_EQ(rtl.exit_code, 0) << rtl.err;
   const CommandResult fixed =
       run_deltactl("ik --weights " + weights + " --backend fixed --in " + poses + " --out " + dir + "_fixed.csv");
   ASSERT_EQ(fixed.exit_code, 0) << fixed.err;
   const std::string rtl_text = read_text(dir + "_rtl.csv");
-  EXPECT_EQ(rtl_text.substr(0, rtl_text.find('\n')), "alpha1_deg,alpha2_deg,alpha3_deg,alpha1_raw,alpha2_raw,alpha3_raw");
-  const std::vector<std::string> rtl_rows = raw_columns(rtl_text), fixed_rows = raw_columns(read_text(dir + "_fixed.csv"));
+  EXPECT_EQ(rtl_text.substr(0, rtl_text.find('\n')),
+            "alpha1_deg,alpha2_deg,alpha3_deg,alpha1_raw,alpha2_raw,alpha3_raw");
+  const std::vector<std::string> rtl_rows = raw_columns(rtl_text),
+                                 fixed_rows = raw_columns(read_text(dir + "_fixed.csv"));
   ASSERT_EQ(rtl_rows.size(), 126u);
   EXPECT_EQ(rtl_rows, fixed_rows);
   EXPECT_NE(rtl.err.find("latency 92 cycles"), std::string::npos) << rtl.err;
@@ -53,8 +56,8 @@ TEST(BackendRtl, BadWeightsFileIsAnInputError) {
   const std::string path = ::testing::TempDir() + "backend_rtl_bad_" + std::to_string(::getpid());
   write_text(path + ".json", "{ not json");
   write_text(path + "_poses.csv", "x_m,y_m,z_m\n0,0,-0.075\n");
-  const CommandResult result =
-      run_deltactl("ik --weights " + path + ".json --backend rtl --in " + path + "_poses.csv --out " + path + "_out.csv");
+  const CommandResult result = run_deltactl("ik --weights " + path + ".json --backend rtl --in " + path +
+                                            "_poses.csv --out " + path + "_out.csv");
   EXPECT_EQ(result.exit_code, 2) << result.err;
   EXPECT_FALSE(file_exists(path + "_out.csv"));
 }

@@ -14,13 +14,13 @@
 #include <vector>
 
 #include "Vboard_core.h"
-#include "delta/golden/joint_fixed.hpp"
 #include "delta/board_facts.hpp"
+#include "delta/golden/export.hpp"
+#include "delta/golden/fixed_network.hpp"
+#include "delta/golden/joint_fixed.hpp"
 #include "delta/link_v1.hpp"
 #include "delta/robot_world.hpp"
 #include "delta/rtl/board_clock.hpp"
-#include "delta/golden/export.hpp"
-#include "delta/golden/fixed_network.hpp"
 #include "rtl_fixture.hpp"
 
 namespace delta::test {
@@ -66,11 +66,13 @@ class JointMonitor {
     const int cycle = static_cast<int>(edge % kClocksPerPeriod);
     if (cycle == 0) start_period(edge / kClocksPerPeriod);
     if (cycle == 100) {
-      for (int j = 0; j < 3; ++j) position_[j] += (goal_[j] > kHomeCount + position_[j]) - (goal_[j] < kHomeCount + position_[j]);
+      for (int j = 0; j < 3; ++j)
+        position_[j] += (goal_[j] > kHomeCount + position_[j]) - (goal_[j] < kHomeCount + position_[j]);
     }
     if (cycle == kWindowStart) {
       for (int j = 0; j < 3; ++j) {
-        EXPECT_EQ((core.drive_dir_o >> j) & 1, expected_[j] < 0 ? 1 : 0) << "period " << edge / kClocksPerPeriod << " joint " << j;
+        EXPECT_EQ((core.drive_dir_o >> j) & 1, expected_[j] < 0 ? 1 : 0)
+            << "period " << edge / kClocksPerPeriod << " joint " << j;
       }
     }
     if (cycle >= kWindowStart && cycle < kWindowStart + kPwmPeriod) {
@@ -79,7 +81,8 @@ class JointMonitor {
     if (cycle == kWindowStart + 1023) {
       for (int j = 0; j < 3; ++j) {
         const int duty = std::abs(static_cast<int>(expected_[j])) >> 4;
-        EXPECT_EQ(high_[j], duty) << "period " << edge / kClocksPerPeriod << " joint " << j << " current " << expected_[j];
+        EXPECT_EQ(high_[j], duty) << "period " << edge / kClocksPerPeriod << " joint " << j << " current "
+                                  << expected_[j];
         largest_duty_ = std::max(largest_duty_, duty);
         partial_duties_ += duty > 0 && duty < kPwmPeriod;
       }

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <iostream>
 
+#include "../support/run_command.hpp"
 #include "delta/cosim/board_cosim.hpp"
 #include "delta/effect_file.hpp"
 #include "delta/golden/export.hpp"
@@ -13,7 +14,6 @@
 #include "delta/nn/weights_file.hpp"
 #include "delta/trajectory.hpp"
 #include "rtl_fixture.hpp"
-#include "../support/run_command.hpp"
 
 namespace delta::test {
 namespace {
@@ -34,13 +34,16 @@ TEST(Cosim, PaperLikeRobotFollowsExperimentOneThroughTheBoardRtl) {
   options.trajectory = make_trajectory("experiment1").position_m;
   options.duration_s = 0.6;
   options.blend_s = 0.3;
-  options.encode_position = [&q](const Vec3& p, bool* clamped) { return golden::encode_position(q.formats, p, clamped); };
+  options.encode_position = [&q](const Vec3& p, bool* clamped) {
+    return golden::encode_position(q.formats, p, clamped);
+  };
   options.decode_angle_deg = [&q](std::int64_t raw) { return golden::decode_angle_deg(q.formats, raw); };
   const cosim::CosimResult result = cosim::run_cosim(options);
   const cosim::TrackingSummary summary = cosim::summarise(result, 0.4);
   std::cout << "round trips " << result.round_trips << ", first answer at " << result.first_answer_s * 1e3
-            << " ms; plate rms " << summary.closed_loop.rms_distance_m * 1e6 << " um, max " << summary.closed_loop.max_distance_m * 1e6
-            << " um; joint rms " << summary.joint_rms_deg.transpose() << " deg\n";
+            << " ms; plate rms " << summary.closed_loop.rms_distance_m * 1e6 << " um, max "
+            << summary.closed_loop.max_distance_m * 1e6 << " um; joint rms " << summary.joint_rms_deg.transpose()
+            << " deg\n";
 
   EXPECT_EQ(result.naks, 0u);
   EXPECT_EQ(result.clamped_positions, 0u);

@@ -41,9 +41,9 @@ Wide answer_of(const Wide& in) {
 }
 
 struct ClockSetup {
-  int board_half;    // half period of clk_i, time units
-  int network_half;  // half period of clk_network_i
-  int network_phase; // offset of clk_network_i
+  int board_half;     // half period of clk_i, time units
+  int network_half;   // half period of clk_network_i
+  int network_phase;  // offset of clk_network_i
 };
 
 // Runs `requests` handshakes; returns the answers checked.
@@ -73,8 +73,12 @@ int run_crossing(const ClockSetup& clocks, std::uint64_t seed, int requests) {
   int countdown = 0;
   Wide captured;
 
-  auto set_inputs = [&](const Wide& x) { for (int i = 0; i < 3; ++i) dut.inputs_i[i] = x.w[i]; };
-  auto set_outputs = [&](const Wide& x) { for (int i = 0; i < 3; ++i) dut.net_outputs_i[i] = x.w[i]; };
+  auto set_inputs = [&](const Wide& x) {
+    for (int i = 0; i < 3; ++i) dut.inputs_i[i] = x.w[i];
+  };
+  auto set_outputs = [&](const Wide& x) {
+    for (int i = 0; i < 3; ++i) dut.net_outputs_i[i] = x.w[i];
+  };
   set_inputs(random_wide(random, 96));
   set_outputs(random_wide(random, 72));
 

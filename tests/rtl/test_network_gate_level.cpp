@@ -32,8 +32,8 @@ TEST(NetworkGateLevel, BitExactOnTenThousandVectors) {
   for (std::size_t v = 0; v < vectors.size(); ++v) {
     const golden::RawOutput expected = golden::evaluate_raw(q, vectors[v], &counters);
     const rtl::NetworkRun run = netlist.run(vectors[v]);
-    ASSERT_EQ(run.outputs, expected.alpha) << "vector " << v << " x = (" << vectors[v][0] << ", " << vectors[v][1]
-                                           << ", " << vectors[v][2] << ")";
+    ASSERT_EQ(run.outputs, expected.alpha)
+        << "vector " << v << " x = (" << vectors[v][0] << ", " << vectors[v][1] << ", " << vectors[v][2] << ")";
     ASSERT_EQ(run.latency_cycles, 92) << "vector " << v;
   }
   std::cout << vectors.size() << " vectors; saturations: scaled input " << counters.scaled_input << ", tanh input "

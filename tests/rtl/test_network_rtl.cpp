@@ -51,9 +51,7 @@ TEST(NetworkRtl, BitExactOnOneMillionVectorsAtReuse75) {
   expect_bit_exact<Vdelta_network>(11, 20260101, 1'000'000, 92);
 }
 
-TEST(NetworkRtl, BitExactAtReuse25) {
-  expect_bit_exact<Vdelta_network_reuse25>(12, 20260102, 100'000, 40);
-}
+TEST(NetworkRtl, BitExactAtReuse25) { expect_bit_exact<Vdelta_network_reuse25>(12, 20260102, 100'000, 40); }
 
 TEST(NetworkRtl, OutputSaturationIsBitExact) {
   // Output half-range 200 deg and |LW| = 0.3 give |LW'| = 60 deg per unit h. With LW(o, k) of

@@ -17,7 +17,7 @@
 
 namespace {
 
-constexpr int kOutputWidth = 24;  // alpha: Q10.14
+constexpr int kOutputWidth = 24;      // alpha: Q10.14
 constexpr int kExpectedLatency = 92;  // cycles at ReuseFactor 75 (delta_network.sv)
 
 std::int64_t sign_extend(std::uint32_t value, int width) {
@@ -54,7 +54,8 @@ SC_MODULE(NetworkDriver) {
       x_1.write(static_cast<std::uint32_t>(x[1]));
       x_2.write(static_cast<std::uint32_t>(x[2]));
       ap_start.write(true);
-      do wait(); while (!ap_ready.read());  // this edge took ap_start
+      do wait();
+      while (!ap_ready.read());  // this edge took ap_start
       ap_start.write(false);
       int cycles = 0;
       do {
@@ -130,8 +131,8 @@ int sc_main(int argc, char* argv[]) {
   std::filesystem::remove_all(mem_dir);
   std::cout << driver.compared << " vectors compared, " << driver.mismatches << " mismatches, latency "
             << driver.latency << " cycles\n";
-  const bool pass = driver.mismatches == 0 && driver.compared == static_cast<long>(vectors.size()) &&
-                    !Verilated::gotError();
+  const bool pass =
+      driver.mismatches == 0 && driver.compared == static_cast<long>(vectors.size()) && !Verilated::gotError();
   std::cout << (pass ? "PASS" : "FAIL") << "\n";
   return pass ? 0 : 1;
 }

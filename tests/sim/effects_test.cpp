@@ -52,8 +52,10 @@ void expect_geometry_effect(const EffectSet& effects, int changed_chain) {
     EXPECT_LT((samples[i].alpha_deg - expected).norm(), 1e-12);
     for (int j = 0; j < 3; ++j) {
       const double change = std::fabs(samples[i].alpha_deg[j] - nominal_recording()[i].alpha_deg[j]);
-      if (j != changed_chain) EXPECT_LT(change, 1e-12);
-      else largest_change = std::max(largest_change, change);
+      if (j != changed_chain)
+        EXPECT_LT(change, 1e-12);
+      else
+        largest_change = std::max(largest_change, change);
     }
   }
   EXPECT_GT(largest_change, 0.05) << "the effect must move its joint visibly (deg)";

@@ -136,7 +136,8 @@ TEST(Kinematics, JacobianMatchesFiniteDifferences) {
   for (int k = 0; k < 3; ++k) {
     Vec3 step = Vec3::Zero();
     step[k] = h;
-    const Vec3 numeric = (inverse_kinematics(geometry, p + step).alpha_deg - inverse_kinematics(geometry, p - step).alpha_deg) / (2 * h);
+    const Vec3 numeric =
+        (inverse_kinematics(geometry, p + step).alpha_deg - inverse_kinematics(geometry, p - step).alpha_deg) / (2 * h);
     EXPECT_LT((jacobian.col(k) - numeric).norm(), 1e-4 * numeric.norm() + 1e-6) << "column " << k;
   }
 }

@@ -29,8 +29,10 @@ inline std::string read_text(const std::string& path) {
 inline CommandResult run_deltactl(const std::string& arguments, const std::string& shell_prefix = "") {
   static int counter = 0;
   // Unique across the test processes CTest runs in parallel.
-  const std::string stem = ::testing::TempDir() + "deltactl_run_" + std::to_string(::getpid()) + "_" + std::to_string(++counter);
-  const std::string command = shell_prefix + std::string(DELTACTL_PATH) + " " + arguments + " >" + stem + ".out 2>" + stem + ".err";
+  const std::string stem =
+      ::testing::TempDir() + "deltactl_run_" + std::to_string(::getpid()) + "_" + std::to_string(++counter);
+  const std::string command =
+      shell_prefix + std::string(DELTACTL_PATH) + " " + arguments + " >" + stem + ".out 2>" + stem + ".err";
   const int status = std::system(command.c_str());
   CommandResult result;
   result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
@@ -39,9 +41,7 @@ inline CommandResult run_deltactl(const std::string& arguments, const std::strin
   return result;
 }
 
-inline void write_text(const std::string& path, const std::string& text) {
-  std::ofstream(path) << text;
-}
+inline void write_text(const std::string& path, const std::string& text) { std::ofstream(path) << text; }
 
 inline bool file_exists(const std::string& path) { return std::ifstream(path).good(); }
 

@@ -9,9 +9,9 @@
 #include "delta/command.hpp"
 #include "delta/control/closed_loop.hpp"
 #include "delta/golden/joint_fixed.hpp"
+#include "delta/options.hpp"
 #include "delta/plot.hpp"
 #include "delta/table.hpp"
-#include "delta/options.hpp"
 
 namespace delta::control {
 namespace {
@@ -24,9 +24,7 @@ struct JointLoopOptions {
 constexpr double kResolutionDeg = 0.01;
 constexpr double kBlendS = 1.0;
 
-const char* kind_name(ControllerKind kind) {
-  return kind == ControllerKind::double_precision ? "double" : "fixed";
-}
+const char* kind_name(ControllerKind kind) { return kind == ControllerKind::double_precision ? "double" : "fixed"; }
 
 std::string percent(double part, double whole) { return fixed(100.0 * part / whole, 3) + " %"; }
 
@@ -85,10 +83,9 @@ void run_joint_loop(const JointLoopOptions& options) {
       const LoopTrace trace = run_loop(kind, controller, default_plant(), scenario);
       stats[kind == ControllerKind::fixed_point] = tracking_stats(trace, kBlendS, kResolutionDeg);
       if (kind == ControllerKind::fixed_point && trace.overflow_count != 0) pass = false;
-      errors.series.push_back(series("alpha" + std::to_string(joint + 1) + " " + kind_name(kind), trace, 0.0,
-                                     [&trace](std::size_t i) {
-                                       return trace.encoder_count[i] * kResolutionDeg - trace.reference_deg[i];
-                                     }));
+      errors.series.push_back(
+          series("alpha" + std::to_string(joint + 1) + " " + kind_name(kind), trace, 0.0,
+                 [&trace](std::size_t i) { return trace.encoder_count[i] * kResolutionDeg - trace.reference_deg[i]; }));
       if (kind == ControllerKind::fixed_point) {
         tracking.add_row({"alpha_" + std::to_string(joint + 1), fixed(stats[0].peak_to_peak_deg, 4),
                           percent(stats[0].max_abs_error_deg, stats[0].peak_to_peak_deg),
@@ -100,7 +97,8 @@ void run_joint_loop(const JointLoopOptions& options) {
       }
     }
     for (const TrackingStats& s : stats) pass = pass && s.max_abs_error_deg <= 0.011 * s.peak_to_peak_deg;
-    pass = pass && std::abs(stats[1].max_abs_error_deg - stats[0].max_abs_error_deg) <= 0.05 * stats[0].max_abs_error_deg;
+    pass =
+        pass && std::abs(stats[1].max_abs_error_deg - stats[0].max_abs_error_deg) <= 0.05 * stats[0].max_abs_error_deg;
   }
   tracking.print(std::cout);
 
@@ -113,8 +111,8 @@ void run_joint_loop(const JointLoopOptions& options) {
       scenario.reference_shaft_deg = [target](double) { return target; };
       scenario.initial_shaft_deg = target - 0.3;
       scenario.duration_s = 3.0;
-      const TrackingStats settled = tracking_stats(run_loop(kind, controller, default_plant(), scenario), 1.0,
-                                                   kResolutionDeg);
+      const TrackingStats settled =
+          tracking_stats(run_loop(kind, controller, default_plant(), scenario), 1.0, kResolutionDeg);
       row.push_back(std::to_string(settled.encoder_span_counts));
       pass = pass && settled.encoder_span_counts <= 1;
     }
@@ -132,10 +130,9 @@ void run_joint_loop(const JointLoopOptions& options) {
       step.add_row({kind_name(kind), dob ? "on" : "off", fixed(result.peak_counts, 1), fixed(result.after_counts, 1)});
       pass = pass && (dob ? result.after_counts <= 2.0 : result.after_counts > 2.0);
       const LoopTrace& trace = result.trace;
-      step_panel.series.push_back(series(std::string(kind_name(kind)) + (dob ? " with DOB" : " without DOB"), trace,
-                                         1.4, [&trace](std::size_t i) {
-                                           return trace.encoder_count[i] - 30.005 / kResolutionDeg;
-                                         }));
+      step_panel.series.push_back(
+          series(std::string(kind_name(kind)) + (dob ? " with DOB" : " without DOB"), trace, 1.4,
+                 [&trace](std::size_t i) { return trace.encoder_count[i] - 30.005 / kResolutionDeg; }));
     }
   }
   step.print(std::cout);
@@ -154,8 +151,8 @@ void run_joint_loop(const JointLoopOptions& options) {
 
 const RegisterCommand command("joint-loop", 60, [](CLI::App& root) {
   auto options = std::make_shared<JointLoopOptions>();
-  CLI::App* sub = root.add_subcommand(
-      "joint-loop", "Joint controller closed loop: double vs fixed point on the single-joint plant");
+  CLI::App* sub = root.add_subcommand("joint-loop",
+                                      "Joint controller closed loop: double vs fixed point on the single-joint plant");
   sub->footer(
       "\nRuns the per-joint acceleration controller (reference filter, VOB, DOB, the paper's eq. 5) in\n"
       "double precision and in the fixed-point golden model (bit-identical to the HLS top and the RTL)\n"
@@ -165,7 +162,8 @@ const RegisterCommand command("joint-loop", 60, [](CLI::App& root) {
       "fails. Plant and design figures: hls/README.md, \"Joint controller fixed-point formats\".\n"
       "Example: deltactl joint-loop --plot joint_loop.png");
   sub->add_option("--plot", options->plot, "PNG of the tracking errors and the load-step responses");
-  sub->add_option("--load-step", options->load_step_nm, "load-torque step on the shaft [N m]; the DOB-step bound (<= 2 counts) holds up to 0.03")
+  sub->add_option("--load-step", options->load_step_nm,
+                  "load-torque step on the shaft [N m]; the DOB-step bound (<= 2 counts) holds up to 0.03")
       ->capture_default_str()
       ->check(options::real_number(0.01, 0.03));
   sub->callback([options] { run_joint_loop(*options); });

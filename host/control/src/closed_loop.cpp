@@ -15,7 +15,7 @@ namespace delta::control {
 JointPlantParameters default_plant() {
   JointPlantParameters plant;
   plant.torque_constant_nm_per_a = 0.0194 * 0.95;  // K_T 5 % below the nominal value
-  plant.rotor_inertia_kg_m2 = 1.1e-7;             // inertia 10 % above the nominal value
+  plant.rotor_inertia_kg_m2 = 1.1e-7;              // inertia 10 % above the nominal value
   return plant;
 }
 

@@ -9,9 +9,7 @@ namespace delta::control {
 
 JointController::JointController(const JointControllerParameters& parameters) : parameters_(parameters) {}
 
-double JointController::rotor_rad(double shaft_deg) const {
-  return shaft_deg * kRadPerDeg * parameters_.gear_ratio;
-}
+double JointController::rotor_rad(double shaft_deg) const { return shaft_deg * kRadPerDeg * parameters_.gear_ratio; }
 
 void JointController::reset(const JointInput& input) {
   previous_reference_ = rotor_rad(input.reference_shaft_deg);
@@ -31,8 +29,7 @@ JointOutput JointController::update(const JointInput& input) {
   const double beta_ref = p.reference_cutoff_rad_s * ts / (1.0 + p.reference_cutoff_rad_s * ts);
   const double new_reference_velocity =
       reference_velocity_ + beta_ref * ((reference - previous_reference_) / ts - reference_velocity_);
-  reference_acceleration_ +=
-      beta_ref * ((new_reference_velocity - reference_velocity_) / ts - reference_acceleration_);
+  reference_acceleration_ += beta_ref * ((new_reference_velocity - reference_velocity_) / ts - reference_acceleration_);
   reference_velocity_ = new_reference_velocity;
 
   // VOB: v = (g_v s theta + a_nom) / (s + g_v), a_nom = (i - i_dis_hat) / (m/K): the encoder
@@ -46,9 +43,9 @@ JointOutput JointController::update(const JointInput& input) {
   // DOB: i_dis = g_d / (s + g_d) (i - (m/K) s v_hat), fed the current applied over the last period.
   const double gd_ts = p.disturbance_observer_cutoff_rad_s * ts;
   if (p.disturbance_observer) {
-    disturbance_current_ += gd_ts / (1.0 + gd_ts) *
-                            (applied_current_ - disturbance_current_ -
-                             inertia_per_torque * (new_velocity - velocity_estimate_) / ts);
+    disturbance_current_ +=
+        gd_ts / (1.0 + gd_ts) *
+        (applied_current_ - disturbance_current_ - inertia_per_torque * (new_velocity - velocity_estimate_) / ts);
   }
   velocity_estimate_ = new_velocity;
 

@@ -9,9 +9,9 @@
 #include "delta/diagnosis/report.hpp"
 #include "delta/input_error.hpp"
 #include "delta/kinematics.hpp"
+#include "delta/options.hpp"
 #include "delta/output_file.hpp"
 #include "delta/recording.hpp"
-#include "delta/options.hpp"
 
 namespace delta {
 namespace {
@@ -31,8 +31,9 @@ constexpr std::size_t kMinimumRows = 50;
 // recording of this robot (or a row is corrupt): name the first such line.
 void check_reachable(const Recording& recording) {
   if (recording.samples.size() < kMinimumRows) {
-    throw InputError(recording.path, 0, "has " + std::to_string(recording.samples.size()) +
-                                            " rows; a diagnosis needs at least " + std::to_string(kMinimumRows));
+    throw InputError(recording.path, 0,
+                     "has " + std::to_string(recording.samples.size()) + " rows; a diagnosis needs at least " +
+                         std::to_string(kMinimumRows));
   }
   const Geometry nominal = Geometry::nominal();
   for (std::size_t i = 0; i < recording.samples.size(); ++i) {
@@ -96,7 +97,8 @@ const RegisterCommand command("diagnose", 60, [](CLI::App& root) {
       "                    --report report/diagnosis.md");
   sub->add_option("--data", options->data, "FIT recording (SPEC CSV): the only rows the parameters are fitted on")
       ->required();
-  sub->add_option("--holdout", options->holdout, "CHECK recording (SPEC CSV): judges effects, never fitted")->required();
+  sub->add_option("--holdout", options->holdout, "CHECK recording (SPEC CSV): judges effects, never fitted")
+      ->required();
   sub->add_option("--json", options->json, "result document to write")->required();
   sub->add_option("--predictions", options->predictions, "predicted angles for every CHECK row")->required();
   sub->add_option("--report", options->report, "Markdown report to write (PNG plots go beside it)");

@@ -58,7 +58,8 @@ std::vector<Alternative> find_alternatives(const PipelineData& data, FamilySet c
   const std::vector<Candidate> results = run_parallel(jobs, data.options.threads);
   const double chosen_mse = [&] {
     double sum = 0.0;
-    for (std::size_t i = 0; i < data.check.size(); ++i) sum += (data.check[i].alpha_deg - chosen[i]).squaredNorm() / 3.0;
+    for (std::size_t i = 0; i < data.check.size(); ++i)
+      sum += (data.check[i].alpha_deg - chosen[i]).squaredNorm() / 3.0;
     return sum / std::max<std::size_t>(data.check.size(), 1);
   }();
   std::vector<Alternative> alternatives;
@@ -79,9 +80,8 @@ std::vector<Alternative> find_alternatives(const PipelineData& data, FamilySet c
     alternative.at_floor = test.at_floor;
     alternatives.push_back(alternative);
   }
-  std::sort(alternatives.begin(), alternatives.end(), [](const Alternative& a, const Alternative& b) {
-    return a.mse_difference_deg2 < b.mse_difference_deg2;
-  });
+  std::sort(alternatives.begin(), alternatives.end(),
+            [](const Alternative& a, const Alternative& b) { return a.mse_difference_deg2 < b.mse_difference_deg2; });
   if (alternatives.size() > 5) alternatives.resize(5);
   for (Alternative& alternative : alternatives) {
     alternative.separate_by = separation(data, chosen_families, chosen_theta, alternative);

@@ -99,7 +99,8 @@ std::vector<std::pair<std::string, Vec3>> subsystem_errors(const std::vector<Sam
 }
 
 int octant_of(const Vec3& position, const Vec3& middle) {
-  return (position.x() > middle.x() ? 1 : 0) | (position.y() > middle.y() ? 2 : 0) | (position.z() > middle.z() ? 4 : 0);
+  return (position.x() > middle.x() ? 1 : 0) | (position.y() > middle.y() ? 2 : 0) |
+         (position.z() > middle.z() ? 4 : 0);
 }
 
 std::string octant_label(int octant) {

@@ -17,7 +17,7 @@ struct PipelineData {
   std::vector<Sample> thinned_fit;  // every options.screening_stride-th of them
   std::vector<Sample> check;        // every CHECK row kept
   DiagnosisOptions options;
-  double threshold_deg2 = 0.0;      // the stopping rule's minimum held-out MSE gain
+  double threshold_deg2 = 0.0;  // the stopping rule's minimum held-out MSE gain
 };
 
 struct Candidate {

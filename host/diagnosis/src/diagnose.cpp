@@ -70,22 +70,23 @@ FinalModel finish_model(const PipelineData& data, FamilySet families, const Para
   model.check_prediction = predict_recording(diagnosis.fitted_effects, data.check).alpha_deg;
   diagnosis.fit_rmse_after_deg = joint_rmse(data.fit, model.fit_prediction);
   diagnosis.holdout_rmse_after_deg = joint_rmse(data.check, model.check_prediction);
-  diagnosis.explained_fraction = explained_fraction(diagnosis.holdout_rmse_nominal_deg,
-                                                    diagnosis.holdout_rmse_after_deg, options.noise_floor_deg);
+  diagnosis.explained_fraction =
+      explained_fraction(diagnosis.holdout_rmse_nominal_deg, diagnosis.holdout_rmse_after_deg, options.noise_floor_deg);
 
   // The floor test decides `explained`; an excess is located.
   const NoiseModel noise = noise_model(data.fit, model.fit_prediction, data.check, options.noise_floor_deg);
   diagnosis.floor_test = floor_test(data.check, model.check_prediction, noise, options);
   diagnosis.explained = diagnosis.floor_test.at_floor;
-  diagnosis.unexplained = diagnosis.explained ? UnexplainedResidual{}
-                                              : locate_unexplained(data.check, model.check_prediction, noise);
+  diagnosis.unexplained =
+      diagnosis.explained ? UnexplainedResidual{} : locate_unexplained(data.check, model.check_prediction, noise);
   // Alternatives only where the floor is in reach: far above it (an effect outside the vocabulary)
   // the search costs seconds and names nothing useful.
   diagnosis.alternatives.clear();
-  const bool near_floor = diagnosis.holdout_rmse_after_deg.maxCoeff() <= options.near_floor_ratio * options.noise_floor_deg;
+  const bool near_floor =
+      diagnosis.holdout_rmse_after_deg.maxCoeff() <= options.near_floor_ratio * options.noise_floor_deg;
   if (diagnosis.floor_test.at_floor || near_floor) {
-    diagnosis.alternatives =
-        find_alternatives(data, families, diagnosis.theta, model.check_prediction, noise, diagnosis.floor_test.at_floor);
+    diagnosis.alternatives = find_alternatives(data, families, diagnosis.theta, model.check_prediction, noise,
+                                               diagnosis.floor_test.at_floor);
   }
   return model;
 }
@@ -127,8 +128,9 @@ void try_measuring_scale(const PipelineData& data, const std::vector<Sample>& al
   vocabulary.mse_difference_deg2 = -difference.mean_deg2;
   vocabulary.paired_z = -difference.z;
   vocabulary.at_floor = diagnosis.floor_test.at_floor;
-  vocabulary.separate_by = "a uniform scale of the measuring stage equals every robot length scaled the other way: "
-                           "measure one arm (calipers) or check the stage against a gauge block";
+  vocabulary.separate_by =
+      "a uniform scale of the measuring stage equals every robot length scaled the other way: "
+      "measure one arm (calipers) or check the stage against a gauge block";
   diagnosis.alternatives.insert(diagnosis.alternatives.begin(), vocabulary);
 
   NewEffect effect;
@@ -154,23 +156,24 @@ void try_measuring_scale(const PipelineData& data, const std::vector<Sample>& al
   diagnosis.check_unreachable = full_check.unreachable;
   diagnosis.fit_rmse_after_deg = joint_rmse(data.fit, model->fit_prediction);
   diagnosis.holdout_rmse_after_deg = model->holdout_rmse;
-  diagnosis.explained_fraction = explained_fraction(diagnosis.holdout_rmse_nominal_deg,
-                                                    diagnosis.holdout_rmse_after_deg, options.noise_floor_deg);
+  diagnosis.explained_fraction =
+      explained_fraction(diagnosis.holdout_rmse_nominal_deg, diagnosis.holdout_rmse_after_deg, options.noise_floor_deg);
   diagnosis.floor_test = test;
   diagnosis.explained = test.at_floor;
   diagnosis.unexplained = UnexplainedResidual{};
   const std::vector<Sample> check_rows = unscaled(data.check, model->scale);
   diagnosis.subsystem_rmse_without_deg = subsystem_errors(check_rows, model->families, diagnosis.theta);
-  diagnosis.regions = region_errors(data.check, predict_recording(EffectSet{}, data.check).alpha_deg,
-                                    model->check_prediction);
+  diagnosis.regions =
+      region_errors(data.check, predict_recording(EffectSet{}, data.check).alpha_deg, model->check_prediction);
 }
 
 // An alternative that reaches the floor when the chosen set does not, or predicts CHECK
 // significantly better, replaces the chosen set (greedy selection can stop one swap short).
 bool adopt_better_alternative(const DiagnosisOptions& options, Selection& selection, Diagnosis& diagnosis) {
-  const auto better = std::find_if(diagnosis.alternatives.begin(), diagnosis.alternatives.end(), [&](const Alternative& a) {
-    return a.paired_z < -options.paired_z || (a.at_floor && !diagnosis.floor_test.at_floor);
-  });
+  const auto better =
+      std::find_if(diagnosis.alternatives.begin(), diagnosis.alternatives.end(), [&](const Alternative& a) {
+        return a.paired_z < -options.paired_z || (a.at_floor && !diagnosis.floor_test.at_floor);
+      });
   if (better == diagnosis.alternatives.end()) return false;
   for (Family family : selection.order) {
     if (!better->families[index_of(family)]) {
@@ -189,7 +192,8 @@ void analyse_final_identifiability(const PipelineData& data, Diagnosis& diagnosi
   diagnosis.final_model = analyse_identifiability(rows, diagnosis.significant, diagnosis.theta);
   FamilySet everything;
   everything.set();
-  if (!diagnosis.significant[index_of(Family::transmission_error)]) everything.reset(index_of(Family::transmission_error));
+  if (!diagnosis.significant[index_of(Family::transmission_error)])
+    everything.reset(index_of(Family::transmission_error));
   Parameters probe = diagnosis.theta;
   // Backlash of exactly zero hides its column's sign; a tiny width makes the direction visible.
   for (int j = 0; j < 3; ++j) probe[slot::backlash + j] = std::max(probe[slot::backlash + j], 0.01);

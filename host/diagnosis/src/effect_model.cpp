@@ -4,9 +4,9 @@
 namespace delta::diagnosis {
 
 const char* family_name(Family family) {
-  static const char* names[kFamilyCount] = {"joint_offset", "upper_arm_length", "lower_arm_length",
-                                            "radius_offset", "chain_angle", "frame_misalignment",
-                                            "backlash", "transmission_error", "encoder_scale"};
+  static const char* names[kFamilyCount] = {"joint_offset",  "upper_arm_length",   "lower_arm_length",
+                                            "radius_offset", "chain_angle",        "frame_misalignment",
+                                            "backlash",      "transmission_error", "encoder_scale"};
   return names[index_of(family)];
 }
 

@@ -50,12 +50,15 @@ NormalEquations evaluate(const Parameters& theta, FamilySet families, const std:
       for (int k = 0; k < kLocalCount; ++k) local[k] = Dual(theta[map[k]], kLocalCount, k);
       Eigen::Matrix<double, kLocalCount, kLocalCount> jtj = Eigen::Matrix<double, kLocalCount, kLocalCount>::Zero();
       Derivatives jtr = Derivatives::Zero();
-      ok = predict_joint<Dual>(local, families, joint, rows, [&](std::size_t i, const Dual& predicted) {
-        const double residual = rows[i].alpha_deg[joint] - predicted.value();
-        sum += residual * residual;
-        jtj.selfadjointView<Eigen::Lower>().rankUpdate(predicted.derivatives());
-        jtr += residual * predicted.derivatives();
-      }, &failed);
+      ok = predict_joint<Dual>(
+          local, families, joint, rows,
+          [&](std::size_t i, const Dual& predicted) {
+            const double residual = rows[i].alpha_deg[joint] - predicted.value();
+            sum += residual * residual;
+            jtj.selfadjointView<Eigen::Lower>().rankUpdate(predicted.derivatives());
+            jtr += residual * predicted.derivatives();
+          },
+          &failed);
       jtj = jtj.selfadjointView<Eigen::Lower>();
       for (int a = 0; a < kLocalCount; ++a) {
         equations.jtr[map[a]] += jtr[a];
@@ -64,10 +67,13 @@ NormalEquations evaluate(const Parameters& theta, FamilySet families, const std:
     } else {
       std::array<double, kLocalCount> local;
       for (int k = 0; k < kLocalCount; ++k) local[k] = theta[map[k]];
-      ok = predict_joint<double>(local, families, joint, rows, [&](std::size_t i, double predicted) {
-        const double residual = rows[i].alpha_deg[joint] - predicted;
-        sum += residual * residual;
-      }, &failed);
+      ok = predict_joint<double>(
+          local, families, joint, rows,
+          [&](std::size_t i, double predicted) {
+            const double residual = rows[i].alpha_deg[joint] - predicted;
+            sum += residual * residual;
+          },
+          &failed);
     }
     if (!ok) {
       equations.failed_row = failed;

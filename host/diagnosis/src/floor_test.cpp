@@ -5,9 +5,9 @@
 #include <algorithm>
 #include <cmath>
 
+#include "attribution.hpp"
 #include "delta/geometry.hpp"
 #include "delta/kinematics.hpp"
-#include "attribution.hpp"
 #include "outliers.hpp"
 
 namespace delta::diagnosis {
@@ -89,7 +89,8 @@ NoiseModel noise_model(const std::vector<Sample>& fit, const std::vector<Vec3>& 
     const Vec3 stage = stage_variance_deg2(fit[i].position_m);
     double sum = 0.0;
     for (int j = 0; j < 3; ++j) {
-      const double d = (fit[i].alpha_deg[j] - fit_prediction[i][j]) - (fit[i - 1].alpha_deg[j] - fit_prediction[i - 1][j]);
+      const double d =
+          (fit[i].alpha_deg[j] - fit_prediction[i][j]) - (fit[i - 1].alpha_deg[j] - fit_prediction[i - 1][j]);
       const double motion = std::abs(fit_prediction[i][j] - fit_prediction[i - 1][j]);
       const double f = std::fmod(motion, step_deg);
       sum += 0.5 * (d * d - f * (step_deg - f) - 2.0 * stage[j]);

@@ -6,8 +6,8 @@
 namespace delta::diagnosis {
 namespace {
 
-const FamilySet kLengths = single(Family::upper_arm_length) | single(Family::lower_arm_length) |
-                           single(Family::radius_offset);
+const FamilySet kLengths =
+    single(Family::upper_arm_length) | single(Family::lower_arm_length) | single(Family::radius_offset);
 
 struct Evaluation {
   double cost = 1e300;  // FIT sum of squares, deg^2

@@ -15,10 +15,10 @@ std::vector<Sample> unscaled(const std::vector<Sample>& rows, double scale);
 
 struct ScaleModel {
   double scale = 0.0;
-  double confidence_95 = 0.0;       // half width of the scale, from the curvature of the FIT cost
-  FamilySet families;               // vocabulary families fitted with it
+  double confidence_95 = 0.0;  // half width of the scale, from the curvature of the FIT cost
+  FamilySet families;          // vocabulary families fitted with it
   Parameters theta;
-  FitResult fit;                    // of the other families, for their intervals (empty without them)
+  FitResult fit;  // of the other families, for their intervals (empty without them)
   std::vector<Vec3> fit_prediction, check_prediction;  // kept rows
   Vec3 holdout_rmse = Vec3::Zero();
 };

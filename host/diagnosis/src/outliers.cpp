@@ -55,10 +55,13 @@ std::vector<Outlier> find_outliers(const std::vector<Sample>& rows, const std::s
   if (rows.size() < 5) return outliers;
   const double usual = usual_interval_s(rows);
   std::vector<bool> judged(rows.size(), false);
-  for (std::size_t i = 1; i + 1 < rows.size(); ++i) judged[i] = regular_step(rows, i, usual) && regular_step(rows, i + 1, usual);
+  for (std::size_t i = 1; i + 1 < rows.size(); ++i)
+    judged[i] = regular_step(rows, i, usual) && regular_step(rows, i + 1, usual);
   std::vector<double> position_spike(rows.size(), 0.0), angle_spike(rows.size(), 0.0);
-  flag_spikes(rows, judged, 2e-6, [](const Sample& s) { return s.position_m; }, position_spike);
-  flag_spikes(rows, judged, 3.0 * encoder_step_deg, [](const Sample& s) { return s.alpha_deg; }, angle_spike);
+  flag_spikes(
+      rows, judged, 2e-6, [](const Sample& s) { return s.position_m; }, position_spike);
+  flag_spikes(
+      rows, judged, 3.0 * encoder_step_deg, [](const Sample& s) { return s.alpha_deg; }, angle_spike);
   for (std::size_t i = 0; i < rows.size(); ++i) {
     if (position_spike[i] == 0.0 && angle_spike[i] == 0.0) continue;
     Outlier outlier;

@@ -41,8 +41,8 @@ json identifiability_json(const Identifiability& identifiability) {
   for (const WeakDirection& direction : identifiability.weak) {
     json components = json::object();
     for (const auto& [k, w] : direction.components) components[parameter_label(k)] = w;
-    weak.push_back({{"singular_value", direction.singular_value}, {"combination", components},
-                    {"separate_by", direction.advice}});
+    weak.push_back(
+        {{"singular_value", direction.singular_value}, {"combination", components}, {"separate_by", direction.advice}});
   }
   document["weak_directions"] = weak;
   json correlations = json::array();
@@ -70,7 +70,6 @@ std::string joined_parameters(Family family, const Parameters& theta) {
   return text.str();
 }
 
-
 // Error map: the CHECK positions binned on an 8 x 8 grid in x-y, RMS over joints and rows per
 // cell, nominal and after side by side (each with its own colour scale, degrees). gnuplot directly: plot.hpp
 // draws line series only.
@@ -81,7 +80,8 @@ void write_error_map(const std::string& png_path, const std::vector<Sample>& che
     low = low.cwiseMin(sample.position_m);
     high = high.cwiseMax(sample.position_m);
   }
-  const double width_x = std::max(high.x() - low.x(), 1e-9) / kCells, width_y = std::max(high.y() - low.y(), 1e-9) / kCells;
+  const double width_x = std::max(high.x() - low.x(), 1e-9) / kCells,
+               width_y = std::max(high.y() - low.y(), 1e-9) / kCells;
   std::array<std::array<double, kCells * kCells>, 2> sum{};
   std::array<int, kCells * kCells> count{};
   for (std::size_t i = 0; i < check.size(); ++i) {
@@ -108,7 +108,8 @@ void write_error_map(const std::string& png_path, const std::vector<Sample>& che
     script << "EOD\n";
   }
   script << "set terminal pngcairo size 1300,560 font 'sans,10'\n"
-         << "set multiplot layout 1,2 title 'Held-out RMSE over the three joints per x-y cell of the CHECK workspace [deg]'\n"
+         << "set multiplot layout 1,2 title 'Held-out RMSE over the three joints per x-y cell of the CHECK workspace "
+            "[deg]'\n"
          << "set format cb '%.2g'\nset xlabel 'x [mm]'\nset ylabel 'y [mm]'\nset size ratio -1\n"
          << "set palette rgbformulae 22,13,-31\n";
   for (int panel = 0; panel < 2; ++panel) {
@@ -153,14 +154,14 @@ std::string verdict(const Diagnosis& diagnosis) {
   std::ostringstream text;
   text << model_name(diagnosis);
   for (const Alternative& alternative : diagnosis.alternatives) {
-    text << ", or equivalently " << describe(alternative.families) << " (to tell them apart: " << alternative.separate_by
-         << ")";
+    text << ", or equivalently " << describe(alternative.families)
+         << " (to tell them apart: " << alternative.separate_by << ")";
   }
   const FloorTest& test = diagnosis.floor_test;
   if (diagnosis.explained) {
     text << (diagnosis.alternatives.empty() ? " explains" : " explain")
-         << " the recording down to the noise floor (floor test z = " << fixed(test.z, 2) << " <= " << fixed(test.threshold, 1)
-         << ", held-out r^2 / noise model = " << fixed(test.ratio, 4) << ")";
+         << " the recording down to the noise floor (floor test z = " << fixed(test.z, 2)
+         << " <= " << fixed(test.threshold, 1) << ", held-out r^2 / noise model = " << fixed(test.ratio, 4) << ")";
   } else {
     const UnexplainedResidual& where = diagnosis.unexplained;
     text << " leaves a residual significantly above the noise floor (floor test z = " << fixed(test.z, 2) << " > "
@@ -209,7 +210,8 @@ json diagnosis_json(const Diagnosis& diagnosis) {
     if (finding.significant) {
       // The final model's values and their 95 % intervals (value +- half width).
       effect["final_parameters"] = family_parameters_json(finding.family, diagnosis.theta);
-      effect["confidence_95_half_width"] = family_parameters_json(finding.family, confidence_theta(finding.family, diagnosis.confidence_95));
+      effect["confidence_95_half_width"] =
+          family_parameters_json(finding.family, confidence_theta(finding.family, diagnosis.confidence_95));
     }
     effects.push_back(effect);
   }
@@ -273,7 +275,8 @@ json diagnosis_json(const Diagnosis& diagnosis) {
   document["holdout_rmse_without_subsystem_deg"] = subsystems;
   json regions = json::array();
   for (const RegionError& region : diagnosis.regions) {
-    regions.push_back({{"octant", region.label}, {"samples", region.samples},
+    regions.push_back({{"octant", region.label},
+                       {"samples", region.samples},
                        {"rmse_nominal_deg", triple(region.nominal_rmse_deg)},
                        {"rmse_after_deg", triple(region.after_rmse_deg)}});
   }
@@ -310,8 +313,9 @@ void print_summary(std::ostream& out, const Diagnosis& diagnosis) {
   }
   table.print(out);
   out << "\nnoise floor " << fixed(floor, 5) << " deg; explained: " << (diagnosis.explained ? "yes" : "no")
-      << " (floor test z " << fixed(diagnosis.floor_test.z, 2) << ", threshold " << fixed(diagnosis.floor_test.threshold, 1)
-      << "; " << fixed(100.0 * diagnosis.explained_fraction, 1) << " % of the held-out excess removed); "
+      << " (floor test z " << fixed(diagnosis.floor_test.z, 2) << ", threshold "
+      << fixed(diagnosis.floor_test.threshold, 1) << "; " << fixed(100.0 * diagnosis.explained_fraction, 1)
+      << " % of the held-out excess removed); "
       << "significant: " << model_name(diagnosis) << "; " << fixed(diagnosis.seconds, 1) << " s\n"
       << "verdict: " << verdict(diagnosis) << "\n";
   if (!diagnosis.outliers.empty()) out << diagnosis.outliers.size() << " outlier rows left out (listed in the JSON)\n";
@@ -354,8 +358,8 @@ void write_report(const std::string& markdown_path, const ReportInputs& inputs, 
   {
     PlotSpec spec;
     spec.title = "Effect ranking on held-out data";
-    PlotPanel path{"held-out RMSE (mean over joints) after each added effect; step 0 = nominal", "step",
-                   "RMSE [deg]", {}, true};
+    PlotPanel path{
+        "held-out RMSE (mean over joints) after each added effect; step 0 = nominal", "step", "RMSE [deg]", {}, true};
     PlotSeries model{"model", {0.0}, {rms(diagnosis.holdout_rmse_nominal_deg)}, true};
     PlotSeries floor_line{"noise floor 0.01/sqrt(12) deg", {}, {}, false};
     int step = 0;
@@ -367,8 +371,11 @@ void write_report(const std::string& markdown_path, const ReportInputs& inputs, 
     floor_line.x = {0.0, static_cast<double>(std::max(step, 1))};
     floor_line.y = {floor, floor};
     path.series = {model, floor_line};
-    PlotPanel gains{"held-out MSE gain of each family at its rank (ranked order; significant first)", "rank",
-                    "gain [deg^2]", {}, true};
+    PlotPanel gains{"held-out MSE gain of each family at its rank (ranked order; significant first)",
+                    "rank",
+                    "gain [deg^2]",
+                    {},
+                    true};
     PlotSeries gain{"gain", {}, {}, true};
     PlotSeries threshold{"significance threshold", {}, {}, false};
     for (std::size_t r = 0; r < diagnosis.findings.size(); ++r) {
@@ -387,8 +394,8 @@ void write_report(const std::string& markdown_path, const ReportInputs& inputs, 
   std::ostream& out = file.stream();
   out << "# Sim-to-real diagnosis\n\n"
       << "Fitted on `" << inputs.fit_path << "` (" << inputs.fit_rows << " rows), judged on the held-out `"
-      << inputs.check_path << "` (" << check.size() << " rows). Noise floor (encoder quantisation 0.01 deg / sqrt(12)): "
-      << fixed(floor, 5) << " deg.\n\n"
+      << inputs.check_path << "` (" << check.size()
+      << " rows). Noise floor (encoder quantisation 0.01 deg / sqrt(12)): " << fixed(floor, 5) << " deg.\n\n"
       << "**Verdict:** " << verdict(diagnosis) << "; " << fixed(100.0 * diagnosis.explained_fraction, 1)
       << " % of the held-out mean-square error above the floor removed.\n\n";
   if (!diagnosis.alternatives.empty()) {
@@ -413,14 +420,16 @@ void write_report(const std::string& markdown_path, const ReportInputs& inputs, 
     out << "## Floor test\n\nNoise model per joint: encoder quantisation 0.01/sqrt(12) deg, stage quantisation "
            "6.87 nm/sqrt(12) per axis through the kinematics ("
         << format_number(test.stage_sigma_deg) << " deg RMS) and an extra white noise estimated from the FIT "
-        << "residual differences (" << format_number(test.extra_noise_deg) << " deg, z = " << fixed(test.extra_noise_z, 2)
+        << "residual differences (" << format_number(test.extra_noise_deg)
+        << " deg, z = " << fixed(test.extra_noise_z, 2)
         << "; counted only above z = 4). Statistic: mean of r^2 / sigma^2 over the " << test.rows
-        << " held-out rows against 1, standard error by batch means over " << test.blocks
-        << " blocks; ratio " << fixed(test.ratio, 4) << " (joints " << fixed(test.joint_ratio[0], 4) << " / "
+        << " held-out rows against 1, standard error by batch means over " << test.blocks << " blocks; ratio "
+        << fixed(test.ratio, 4) << " (joints " << fixed(test.joint_ratio[0], 4) << " / "
         << fixed(test.joint_ratio[1], 4) << " / " << fixed(test.joint_ratio[2], 4) << "), z = " << fixed(test.z, 2)
         << " (joints " << fixed(test.joint_z[0], 2) << " / " << fixed(test.joint_z[1], 2) << " / "
         << fixed(test.joint_z[2], 2) << "); at the floor when z <= " << fixed(test.threshold, 1)
-        << " and every joint's z <= " << fixed(test.threshold + 0.5, 1) << ": " << (test.at_floor ? "yes" : "no") << ".\n\n";
+        << " and every joint's z <= " << fixed(test.threshold + 0.5, 1) << ": " << (test.at_floor ? "yes" : "no")
+        << ".\n\n";
   }
   if (!diagnosis.outliers.empty()) {
     out << "## Outlier rows (left out of the fit and the scores)\n\n";
@@ -449,8 +458,9 @@ void write_report(const std::string& markdown_path, const ReportInputs& inputs, 
     gain << finding.holdout_gain_deg2;
     ranking.add_row({std::to_string(r + 1), family_name(finding.family), subsystem_of(finding.family),
                      finding.significant ? "yes" : "no", gain.str(), joined_parameters(finding.family, finding.theta),
-                     finding.significant ? joined_parameters(finding.family, confidence_theta(finding.family, diagnosis.confidence_95))
-                                         : std::string("")});
+                     finding.significant
+                         ? joined_parameters(finding.family, confidence_theta(finding.family, diagnosis.confidence_95))
+                         : std::string("")});
   }
   ranking.print(out);
   out << "\n![effect ranking](" << ranking_png << ")\n";
@@ -474,11 +484,12 @@ void write_report(const std::string& markdown_path, const ReportInputs& inputs, 
   Table regions({"octant", "rows", "nominal RMSE a1/a2/a3 [deg]", "after RMSE a1/a2/a3 [deg]"});
   for (const RegionError& region : diagnosis.regions) {
     auto three = [](const Vec3& v) { return fixed(v[0], 4) + " / " + fixed(v[1], 4) + " / " + fixed(v[2], 4); };
-    regions.add_row({region.label, std::to_string(region.samples), three(region.nominal_rmse_deg),
-                     three(region.after_rmse_deg)});
+    regions.add_row(
+        {region.label, std::to_string(region.samples), three(region.nominal_rmse_deg), three(region.after_rmse_deg)});
   }
   regions.print(out);
-  out << "\n![error map before and after](" << map_png << ")\n\n![residual along the trajectory](" << residual_png << ")\n";
+  out << "\n![error map before and after](" << map_png << ")\n\n![residual along the trajectory](" << residual_png
+      << ")\n";
 
   out << "\n## Selection trace (held-out RMSE, mean over joints, of each candidate)\n\n";
   for (const SelectionStep& step : diagnosis.steps) {
@@ -504,14 +515,16 @@ void write_report(const std::string& markdown_path, const ReportInputs& inputs, 
       out << "- singular value " << format_number(direction.singular_value) << ": ";
       for (std::size_t c = 0; c < direction.components.size() && c < 6; ++c) {
         out << (c ? " " : "") << (direction.components[c].second >= 0 ? "+" : "-")
-            << fixed(std::abs(direction.components[c].second), 2) << " " << parameter_table()[direction.components[c].first].name;
+            << fixed(std::abs(direction.components[c].second), 2) << " "
+            << parameter_table()[direction.components[c].first].name;
       }
       out << ". Separate by: " << direction.advice << ".\n";
     }
     if (!identifiability.correlations.empty()) {
       out << "\nStrongest parameter correlations:";
       for (const Correlation& c : identifiability.correlations) {
-        out << " " << parameter_table()[c.a].name << "~" << parameter_table()[c.b].name << " " << fixed(c.value, 3) << ";";
+        out << " " << parameter_table()[c.a].name << "~" << parameter_table()[c.b].name << " " << fixed(c.value, 3)
+            << ";";
       }
       out << "\n\n";
     }

@@ -46,9 +46,11 @@ void forward_selection(const PipelineData& data, Selection& selection) {
         best = static_cast<int>(c);
       }
     }
-    const double gain = best >= 0 ? mean_square(selection.model.holdout_rmse) - mean_square(results[best].holdout_rmse) : 0.0;
+    const double gain =
+        best >= 0 ? mean_square(selection.model.holdout_rmse) - mean_square(results[best].holdout_rmse) : 0.0;
     const double z = best >= 0 ? paired_difference(data.check, selection.model.check_prediction,
-                                                   results[best].check_prediction, data.options.batch_rows).z
+                                                   results[best].check_prediction, data.options.batch_rows)
+                                     .z
                                : 0.0;
     if (best < 0 || gain <= data.threshold_deg2 || z <= data.options.paired_z) {
       step.note = "stop: best held-out gain " + std::to_string(gain / data.threshold_deg2) +
@@ -131,7 +133,8 @@ void backward_elimination(const PipelineData& data, Selection& selection) {
 // smaller model that does as well on CHECK (within the threshold). Limited to three or four
 // families: the search grows as k^2 (9 - k) fits.
 void swap_search(const PipelineData& data, Selection& selection) {
-  while (selection.families.count() >= 3 && selection.families.count() <= 4 && near_floor(selection.model, data.options)) {
+  while (selection.families.count() >= 3 && selection.families.count() <= 4 &&
+         near_floor(selection.model, data.options)) {
     std::vector<FamilySet> sets;
     std::vector<Job> jobs;
     const std::vector<Family>& order = selection.order;
@@ -154,17 +157,21 @@ void swap_search(const PipelineData& data, Selection& selection) {
     const std::vector<Candidate> results = run_parallel(jobs, data.options.threads);
     int best = -1;
     for (std::size_t r = 0; r < results.size(); ++r) {
-      if (results[r].ok && (best < 0 || mean_square(results[r].holdout_rmse) < mean_square(results[best].holdout_rmse))) {
+      if (results[r].ok &&
+          (best < 0 || mean_square(results[r].holdout_rmse) < mean_square(results[best].holdout_rmse))) {
         best = static_cast<int>(r);
       }
     }
-    if (best < 0 || mean_square(results[best].holdout_rmse) > mean_square(selection.model.holdout_rmse) + data.threshold_deg2) {
+    if (best < 0 ||
+        mean_square(results[best].holdout_rmse) > mean_square(selection.model.holdout_rmse) + data.threshold_deg2) {
       break;
     }
     std::vector<Family> kept;
     for (Family family : order) {
-      if (sets[best][index_of(family)]) kept.push_back(family);
-      else selection.eliminated.push_back(std::string(family_name(family)) + " (swapped out)");
+      if (sets[best][index_of(family)])
+        kept.push_back(family);
+      else
+        selection.eliminated.push_back(std::string(family_name(family)) + " (swapped out)");
     }
     for (int f = 0; f < kFamilyCount; ++f) {
       if (sets[best][f] && !selection.families[f]) kept.push_back(family_at(f));

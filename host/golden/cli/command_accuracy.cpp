@@ -13,17 +13,17 @@
 #include "delta/golden/fixed_network.hpp"
 #include "delta/input_error.hpp"
 #include "delta/nn/weights_file.hpp"
+#include "delta/options.hpp"
 #include "delta/plot.hpp"
 #include "delta/table.hpp"
 #include "delta/trajectory.hpp"
-#include "delta/options.hpp"
 
 namespace delta::golden {
 namespace {
 
 struct AccuracyOptions {
   std::string weights;
-  int grid_points = 101;       // per axis: 101^3 = 1030301 poses
+  int grid_points = 101;  // per axis: 101^3 = 1030301 poses
   double margin_mm = 1.0;
   int sweep_grid_points = 41;  // per axis for each sweep point: 68921 poses
   double bound_deg = 0.001;
@@ -61,7 +61,8 @@ struct GridStats {
 
 Vec3 grid_point(const Vec3& low, const Vec3& high, int points, std::size_t index) {
   const std::size_t n = static_cast<std::size_t>(points);
-  const Vec3 t(static_cast<double>(index / (n * n)), static_cast<double>((index / n) % n), static_cast<double>(index % n));
+  const Vec3 t(static_cast<double>(index / (n * n)), static_cast<double>((index / n) % n),
+               static_cast<double>(index % n));
   return low + (high - low).cwiseProduct(t / (points - 1));
 }
 
@@ -118,9 +119,15 @@ std::vector<SweepField> sweep_fields() {
       {"scaled input u bits (Q1.x)", [](const Formats& f) { return f.scaled_input_bits; },
        [](Formats& f, int v) { f.scaled_input_bits = v; }},
       {"IW' fraction bits", [](const Formats& f) { return f.input_weight_fraction_bits; },
-       [](Formats& f, int v) { f.input_weight_bits += v - f.input_weight_fraction_bits; f.input_weight_fraction_bits = v; }},
+       [](Formats& f, int v) {
+         f.input_weight_bits += v - f.input_weight_fraction_bits;
+         f.input_weight_fraction_bits = v;
+       }},
       {"tanh input n fraction bits", [](const Formats& f) { return f.tanh_input_fraction_bits; },
-       [](Formats& f, int v) { f.tanh_input_bits += v - f.tanh_input_fraction_bits; f.tanh_input_fraction_bits = v; }},
+       [](Formats& f, int v) {
+         f.tanh_input_bits += v - f.tanh_input_fraction_bits;
+         f.tanh_input_fraction_bits = v;
+       }},
       {"tanh segments per unit (log2)", [](const Formats& f) { return f.tanh_segments_per_unit_log2; },
        [](Formats& f, int v) { f.tanh_segments_per_unit_log2 = v; }},
       {"tanh guard bits", [](const Formats& f) { return f.tanh_guard_bits; },
@@ -128,9 +135,15 @@ std::vector<SweepField> sweep_fields() {
       {"hidden h fraction bits", [](const Formats& f) { return f.hidden_fraction_bits; },
        [](Formats& f, int v) { f.hidden_fraction_bits = v; }},
       {"LW' fraction bits", [](const Formats& f) { return f.output_weight_fraction_bits; },
-       [](Formats& f, int v) { f.output_weight_bits += v - f.output_weight_fraction_bits; f.output_weight_fraction_bits = v; }},
+       [](Formats& f, int v) {
+         f.output_weight_bits += v - f.output_weight_fraction_bits;
+         f.output_weight_fraction_bits = v;
+       }},
       {"output alpha fraction bits", [](const Formats& f) { return f.output_fraction_bits; },
-       [](Formats& f, int v) { f.output_bits += v - f.output_fraction_bits; f.output_fraction_bits = v; }},
+       [](Formats& f, int v) {
+         f.output_bits += v - f.output_fraction_bits;
+         f.output_fraction_bits = v;
+       }},
   };
 }
 
@@ -140,8 +153,8 @@ double tanh_worst_lsb(const QuantisedNetwork& q) {
   const std::int64_t limit = std::int64_t{1} << (f.tanh_input_bits - 1);
   double worst = 0.0;
   for (std::int64_t n = 0; n < limit; ++n) {  // odd symmetry: n >= 0 covers -n too, n = -limit clamps to the end
-    const double exact = std::ldexp(std::tanh(std::ldexp(static_cast<double>(n), -f.tanh_input_fraction_bits)),
-                                    f.hidden_fraction_bits);
+    const double exact =
+        std::ldexp(std::tanh(std::ldexp(static_cast<double>(n), -f.tanh_input_fraction_bits)), f.hidden_fraction_bits);
     worst = std::max(worst, std::abs(static_cast<double>(tanh_code(q, n)) - exact));
   }
   const double end = std::ldexp(1.0, f.hidden_fraction_bits);  // tanh(-2^range) ~ -1
@@ -175,18 +188,23 @@ bool run_sweep(const AccuracyOptions& options, const nn::Network& network, const
     references[i] = network.evaluate(positions[i]);
   }
   std::cout << "Word-length sweep: one field at a time, the others at the chosen formats; max |fixed - float| over\n"
-               "all joints on a " << points << "^3 grid (" << count << " poses) of the same region; bound "
-            << options.bound_deg << " deg.\n\n";
+               "all joints on a "
+            << points << "^3 grid (" << count << " poses) of the same region; bound " << options.bound_deg
+            << " deg.\n\n";
   Table table({"field", "bits", "vs chosen", "max |err| [deg]", "sat. u inside", "tanh worst [LSB]", "meets bound"});
   Table summary({"field", "chosen", "smallest meeting the bound", "max |err| at chosen - 1 [deg]"});
   PlotPanel panel{"max |fixed - float| against word length (one field varied, others chosen)",
-                  "bits relative to the chosen format", "max |error| [deg]", {}, true};
+                  "bits relative to the chosen format",
+                  "max |error| [deg]",
+                  {},
+                  true};
   bool all_minimal = true;
   const std::vector<SweepField> fields = sweep_fields();
   for (std::size_t f = 0; f < fields.size(); ++f) {
     const SweepField& field = fields[f];
     // Progress on stderr (the tables go to stdout): the sweep is the long part.
-    std::cerr << "accuracy: word-length sweep, field " << f + 1 << " of " << fields.size() << " (" << field.name << ")\n";
+    std::cerr << "accuracy: word-length sweep, field " << f + 1 << " of " << fields.size() << " (" << field.name
+              << ")\n";
     const int chosen_value = field.get(chosen);
     PlotSeries series{field.name, {}, {}, false};
     int smallest = -1;
@@ -239,7 +257,8 @@ bool run_sweep(const AccuracyOptions& options, const nn::Network& network, const
   summary.print(std::cout);
   std::cout << '\n';
   if (!options.plot.empty()) {
-    PlotSeries bound{"bound " + fixed(options.bound_deg, 4) + " deg", {-4.0, 2.0}, {options.bound_deg, options.bound_deg}, false};
+    PlotSeries bound{
+        "bound " + fixed(options.bound_deg, 4) + " deg", {-4.0, 2.0}, {options.bound_deg, options.bound_deg}, false};
     panel.series.push_back(bound);
     PlotSpec spec;
     spec.title = "Fixed-point network: word-length sweep";
@@ -251,7 +270,8 @@ bool run_sweep(const AccuracyOptions& options, const nn::Network& network, const
 }
 
 void run_accuracy(const AccuracyOptions& options) {
-  if (options.grid_points < 2 || options.sweep_grid_points < 2) throw std::invalid_argument("grid needs >= 2 points per axis");
+  if (options.grid_points < 2 || options.sweep_grid_points < 2)
+    throw std::invalid_argument("grid needs >= 2 points per axis");
   const nn::WeightsFile weights = nn::read_weights_file(options.weights);
   const nn::Network& network = weights.network;
   QuantisedNetwork q;
@@ -268,9 +288,9 @@ void run_accuracy(const AccuracyOptions& options) {
             << (weights.hybrid() ? " (network part of a hybrid model)" : "") << "\n"
             << "Grid: " << options.grid_points << "^3 = " << poses << " poses over the 10 mm cube plus "
             << options.margin_mm << " mm: x, y in [" << low[0] * 1e3 << ", " << high[0] * 1e3 << "] mm, z in ["
-            << low[2] * 1e3 << ", " << high[2] * 1e3 << "] mm. Trained input range: x ["
-            << network.input_min[0] * 1e3 << ", " << network.input_max[0] * 1e3 << "], y [" << network.input_min[1] * 1e3
-            << ", " << network.input_max[1] * 1e3 << "], z [" << network.input_min[2] * 1e3 << ", "
+            << low[2] * 1e3 << ", " << high[2] * 1e3 << "] mm. Trained input range: x [" << network.input_min[0] * 1e3
+            << ", " << network.input_max[0] * 1e3 << "], y [" << network.input_min[1] * 1e3 << ", "
+            << network.input_max[1] * 1e3 << "], z [" << network.input_min[2] * 1e3 << ", "
             << network.input_max[2] * 1e3 << "] mm.\n\n";
   std::cerr << "accuracy: grid of " << poses << " poses\n";
   const GridStats grid = grid_accuracy(network, q, low, high, options.grid_points);
@@ -290,29 +310,41 @@ void run_accuracy(const AccuracyOptions& options) {
   }
   print_stats_table("Accuracy of the chosen formats (|fixed - float| per joint):", rows);
   const bool meets = all.max_abs.maxCoeff() <= options.bound_deg && grid.inside.saturations.errors() == 0;
-  std::cout << "Bound " << options.bound_deg << " deg on the whole grid with no saturation inside the trained range: "
-            << (meets ? "met" : "NOT met") << "\n\n";
+  std::cout << "Bound " << options.bound_deg
+            << " deg on the whole grid with no saturation inside the trained range: " << (meets ? "met" : "NOT met")
+            << "\n\n";
   bool minimal = true;
   if (options.sweep) minimal = run_sweep(options, network, low, high);
-  if (options.sweep) std::cout << "Chosen formats are the smallest meeting the bound in every field: " << (minimal ? "yes" : "no") << '\n';
+  if (options.sweep)
+    std::cout << "Chosen formats are the smallest meeting the bound in every field: " << (minimal ? "yes" : "no")
+              << '\n';
   if (!meets) throw CommandExit{kExitFailure};
 }
 
 const RegisterCommand command("accuracy", 46, [](CLI::App& root) {
   auto options = std::make_shared<AccuracyOptions>();
-  CLI::App* sub = root.add_subcommand("accuracy", "Fixed-point network against float: grid, trajectories, word-length sweep");
-  sub->footer("\nEvaluates the golden fixed-point model (the formats of hls/README.md) and the float network of\n"
-              "W.json on a grid of the paper's 10 mm cube plus a margin and along the validation, experiment1\n"
-              "and experiment2 trajectories: max and RMS |fixed - float| per joint and saturation counts, inside\n"
-              "and outside the trained input range. Then varies each format one at a time (word-length sweep)\n"
-              "and reports the smallest width that still meets the bound. Exit 1 if the chosen formats miss it.\n"
-              "Example: deltactl accuracy --weights weights/paper_like.json --plot sweep.png");
+  CLI::App* sub =
+      root.add_subcommand("accuracy", "Fixed-point network against float: grid, trajectories, word-length sweep");
+  sub->footer(
+      "\nEvaluates the golden fixed-point model (the formats of hls/README.md) and the float network of\n"
+      "W.json on a grid of the paper's 10 mm cube plus a margin and along the validation, experiment1\n"
+      "and experiment2 trajectories: max and RMS |fixed - float| per joint and saturation counts, inside\n"
+      "and outside the trained input range. Then varies each format one at a time (word-length sweep)\n"
+      "and reports the smallest width that still meets the bound. Exit 1 if the chosen formats miss it.\n"
+      "Example: deltactl accuracy --weights weights/paper_like.json --plot sweep.png");
   sub->add_option("--weights", options->weights, "network weights (W.json)")->required();
-  sub->add_option("--grid-points", options->grid_points, "grid points per axis")->capture_default_str()->check(options::whole_number(2, 301));
-  sub->add_option("--margin-mm", options->margin_mm, "margin around the 10 mm cube [mm]")->capture_default_str()->check(options::real_number(0, 20));
+  sub->add_option("--grid-points", options->grid_points, "grid points per axis")
+      ->capture_default_str()
+      ->check(options::whole_number(2, 301));
+  sub->add_option("--margin-mm", options->margin_mm, "margin around the 10 mm cube [mm]")
+      ->capture_default_str()
+      ->check(options::real_number(0, 20));
   sub->add_option("--sweep-grid-points", options->sweep_grid_points, "grid points per axis for each sweep point")
-      ->capture_default_str()->check(options::whole_number(2, 201));
-  sub->add_option("--bound-deg", options->bound_deg, "accuracy bound [deg]")->capture_default_str()->check(options::real_number(0, 10, true));
+      ->capture_default_str()
+      ->check(options::whole_number(2, 201));
+  sub->add_option("--bound-deg", options->bound_deg, "accuracy bound [deg]")
+      ->capture_default_str()
+      ->check(options::real_number(0, 10, true));
   sub->add_option("--plot", options->plot, "PNG of the word-length sweep");
   sub->add_flag("!--no-sweep", options->sweep, "skip the word-length sweep");
   sub->callback([options] { run_accuracy(*options); });

@@ -26,7 +26,8 @@ struct QuantiseOptions {
 std::string golden_vectors_text(const QuantisedNetwork& q, const nn::Network& network, std::size_t count) {
   std::ostringstream out;
   out << "# Golden vectors of the fixed-point network (hls/README.md): x_0 x_1 x_2 (raw input codes,\n"
-         "# metres * 2^" << q.formats.input_fraction_bits << ") y_0 y_1 y_2 (raw output codes, degrees * 2^"
+         "# metres * 2^"
+      << q.formats.input_fraction_bits << ") y_0 y_1 y_2 (raw output codes, degrees * 2^"
       << q.formats.output_fraction_bits << "), decimal; saturation corners, grid, random (seed 1).\n";
   for (const RawInput& x : csim_vectors(q, network.input_min, network.input_max, count, 1)) {
     const RawOutput y = evaluate_raw(q, x);
@@ -46,7 +47,8 @@ void run_quantise(const QuantiseOptions& options) {
     throw InputError(options.weights, 0, std::string("cannot be quantised: ") + error.what());
   }
   if (!std::filesystem::is_directory(options.out_dir)) throw InputError(options.out_dir, 0, "is not a folder");
-  if (options.vectors > 0) files.push_back({"golden_vectors.txt", golden_vectors_text(q, weights.network, options.vectors)});
+  if (options.vectors > 0)
+    files.push_back({"golden_vectors.txt", golden_vectors_text(q, weights.network, options.vectors)});
   write_export_files(files, options.out_dir);
   for (const ExportFile& file : files) std::cout << options.out_dir << "/" << file.name << '\n';
   std::cerr << "quantise: 3-" << q.hidden << "-3 network, input shifts " << q.input_shift[0] << ' ' << q.input_shift[1]
@@ -57,12 +59,13 @@ void run_quantise(const QuantiseOptions& options) {
 const RegisterCommand command("quantise", 45, [](CLI::App& root) {
   auto options = std::make_shared<QuantiseOptions>();
   CLI::App* sub = root.add_subcommand("quantise", "Quantise W.json for the FPGA: $readmemh files and a C++ header");
-  sub->footer("\nWrites input_centre, input_shift, input_weights, hidden_bias, tanh_table, tanh_slope,\n"
-              "output_weights, output_bias (.mem, one hex word per line, format in each file's header) and\n"
-              "fixed_network_weights.hpp. Formats: hls/README.md. Weights that would saturate a format are\n"
-              "refused (exit 2, nothing written). The output is the same bytes for the same W.json.\n"
-              "--vectors N adds golden_vectors.txt (raw codes in and out) for the HLS and RTL testbenches.\n"
-              "Example: deltactl quantise --weights weights/paper_like.json --out-dir build/network_mem");
+  sub->footer(
+      "\nWrites input_centre, input_shift, input_weights, hidden_bias, tanh_table, tanh_slope,\n"
+      "output_weights, output_bias (.mem, one hex word per line, format in each file's header) and\n"
+      "fixed_network_weights.hpp. Formats: hls/README.md. Weights that would saturate a format are\n"
+      "refused (exit 2, nothing written). The output is the same bytes for the same W.json.\n"
+      "--vectors N adds golden_vectors.txt (raw codes in and out) for the HLS and RTL testbenches.\n"
+      "Example: deltactl quantise --weights weights/paper_like.json --out-dir build/network_mem");
   sub->add_option("--weights", options->weights, "network weights (W.json)")->required();
   sub->add_option("--out-dir", options->out_dir, "existing folder for the files")->required();
   sub->add_option("--vectors", options->vectors, "also write golden_vectors.txt with this many test vectors")

@@ -32,22 +32,26 @@ std::vector<MemSpec> mem_specs(const QuantisedNetwork& q) {
   const std::vector<std::int64_t> shifts(q.input_shift.begin(), q.input_shift.end());
   const std::string h = std::to_string(q.hidden);
   return {
-      {"input_centre.mem", "centre_j of the trained input range, raw input code (metres * 2^" +
-                               std::to_string(f.input_fraction_bits) + "), j = 0..2 (x, y, z)",
+      {"input_centre.mem",
+       "centre_j of the trained input range, raw input code (metres * 2^" + std::to_string(f.input_fraction_bits) +
+           "), j = 0..2 (x, y, z)",
        q_format("signed", f.input_bits, f.input_fraction_bits), f.input_bits,
        std::vector<std::int64_t>(q.input_centre.begin(), q.input_centre.end()), "kInputCentre"},
       {"input_shift.mem", "shift_j: u_j = sat(round_shift(x_j - centre_j, shift_j)), j = 0..2", "unsigned integer", 8,
        shifts, "kInputShift"},
-      {"input_weights.mem", "IW'_kj, " + h + " x 3 neuron-major: word 3k + j", q_format("signed", f.input_weight_bits, f.input_weight_fraction_bits),
-       f.input_weight_bits, q.input_weights, "kInputWeights"},
-      {"hidden_bias.mem", "b1'_k, k = 0.." + std::to_string(q.hidden - 1), q_format("signed", bias1_bits, acc1), bias1_bits,
-       q.hidden_bias, "kHiddenBias"},
-      {"tanh_table.mem", "T[i] = node of tanh at n = i 2^-" + std::to_string(f.tanh_segments_per_unit_log2) + ", i = 0.." +
-                             std::to_string(f.tanh_segments() - 1),
+      {"input_weights.mem", "IW'_kj, " + h + " x 3 neuron-major: word 3k + j",
+       q_format("signed", f.input_weight_bits, f.input_weight_fraction_bits), f.input_weight_bits, q.input_weights,
+       "kInputWeights"},
+      {"hidden_bias.mem", "b1'_k, k = 0.." + std::to_string(q.hidden - 1), q_format("signed", bias1_bits, acc1),
+       bias1_bits, q.hidden_bias, "kHiddenBias"},
+      {"tanh_table.mem",
+       "T[i] = node of tanh at n = i 2^-" + std::to_string(f.tanh_segments_per_unit_log2) + ", i = 0.." +
+           std::to_string(f.tanh_segments() - 1),
        q_format("unsigned", f.tanh_entry_fraction_bits(), f.tanh_entry_fraction_bits()), f.tanh_entry_fraction_bits(),
        q.tanh_table, "kTanhTable"},
       {"tanh_slope.mem", "D[i] = T[i+1] - T[i] (0 <= D <= 2^(20-7)), i = 0.." + std::to_string(f.tanh_segments() - 1),
-       q_format("unsigned", f.tanh_entry_fraction_bits() - f.tanh_segments_per_unit_log2 + 1, f.tanh_entry_fraction_bits()),
+       q_format("unsigned", f.tanh_entry_fraction_bits() - f.tanh_segments_per_unit_log2 + 1,
+                f.tanh_entry_fraction_bits()),
        f.tanh_entry_fraction_bits() - f.tanh_segments_per_unit_log2 + 1, q.tanh_slope, "kTanhSlope"},
       {"output_weights.mem", "LW'_ok (degrees per unit h), 3 x " + h + " output-major: word " + h + " o + k",
        q_format("signed", f.output_weight_bits, f.output_weight_fraction_bits), f.output_weight_bits, q.output_weights,

@@ -75,11 +75,14 @@ QuantisedNetwork quantise(const nn::Network& network, const Formats& formats) {
   for (int j = 0; j < 3; ++j) {
     half_range[j] = (network.input_max[j] - network.input_min[j]) / 2.0;
     const double centre = (network.input_max[j] + network.input_min[j]) / 2.0;
-    if (!(half_range[j] > 0.0)) throw std::invalid_argument("input range of input " + std::to_string(j + 1) + " is empty");
+    if (!(half_range[j] > 0.0))
+      throw std::invalid_argument("input range of input " + std::to_string(j + 1) + " is empty");
     q.input_exponent[j] = static_cast<int>(std::ceil(std::log2(1.25 * half_range[j])));
     q.input_shift[j] = f.input_fraction_bits + q.input_exponent[j] - (f.scaled_input_bits - 1);
-    q.input_centre[j] = quantise_value(centre, f.input_fraction_bits, f.input_bits, "input centre " + std::to_string(j + 1));
-    centre_error[j] = (std::ldexp(static_cast<double>(q.input_centre[j]), -f.input_fraction_bits) - centre) / half_range[j];
+    q.input_centre[j] =
+        quantise_value(centre, f.input_fraction_bits, f.input_bits, "input centre " + std::to_string(j + 1));
+    centre_error[j] =
+        (std::ldexp(static_cast<double>(q.input_centre[j]), -f.input_fraction_bits) - centre) / half_range[j];
   }
   const int acc1_fraction = f.hidden_accumulator_fraction_bits();
   // Biases are limited to the tanh input range (bits of n plus the extra accumulator fraction bits).

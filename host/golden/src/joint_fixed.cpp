@@ -70,8 +70,8 @@ JointFixedCoefficients make_fixed_coefficients(const JointControllerParameters& 
   c.disturbance_velocity_gain = coefficient(-gd / (1.0 + gd) * kacc, kDisturbanceShift, "disturbance_velocity_gain");
   c.law_acceleration_gain = coefficient(kacc, kLawShift, "law_acceleration_gain");
   c.law_velocity_gain = coefficient(-kacc * p.velocity_gain * ts, kLawShift, "law_velocity_gain");
-  c.law_position_gain = coefficient(-kacc * p.position_gain * ts * ts,
-                                    kLawShift + kStateFraction - kReferenceFraction, "law_position_gain");
+  c.law_position_gain = coefficient(-kacc * p.position_gain * ts * ts, kLawShift + kStateFraction - kReferenceFraction,
+                                    "law_position_gain");
   const double limit = std::nearbyint(std::ldexp(p.current_limit_a, kCurrentFraction));
   if (!(limit > 0 && limit < 32768)) throw std::invalid_argument("current limit outside Q1.15");
   c.current_limit_code = static_cast<std::int16_t>(limit);
@@ -88,9 +88,9 @@ JointFixedState fixed_rest_state(const JointFixedInput& input) {
 std::int16_t fixed_update(const JointFixedCoefficients& c, JointFixedState& s, const JointFixedInput& in,
                           JointFixedStatus& status) {
   status = JointFixedStatus{};
-  constexpr int kCountToState = kStateFraction;                       // counts -> Q.24
+  constexpr int kCountToState = kStateFraction;                           // counts -> Q.24
   constexpr int kReferenceToState = kStateFraction - kReferenceFraction;  // Q.8 -> Q.24
-  constexpr int kCurrentToState = kStateFraction - kCurrentFraction;  // Q.15 -> Q.24
+  constexpr int kCurrentToState = kStateFraction - kCurrentFraction;      // Q.15 -> Q.24
   constexpr int kLawResult = kLawShift + kStateFraction - kCurrentFraction;
 
   // Reference filter, twice: y' = y + beta ((x' - x) - y), x' - x per period (Q.24).
@@ -99,7 +99,8 @@ std::int16_t fixed_update(const JointFixedCoefficients& c, JointFixedState& s, c
   const std::int32_t reference_velocity = store_state(acc, kReferenceShift, status);
 
   acc = preload(s.reference_acceleration, kReferenceShift, kReferenceShift);
-  acc += product(c.reference_gain, operand(reference_velocity, s.reference_velocity, 0, s.reference_acceleration, status));
+  acc +=
+      product(c.reference_gain, operand(reference_velocity, s.reference_velocity, 0, s.reference_acceleration, status));
   const std::int32_t reference_acceleration = store_state(acc, kReferenceShift, status);
 
   // VOB: v' = v + beta_v ((theta' - theta) - v) + gamma (i - i_dis).

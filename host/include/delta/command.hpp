@@ -23,7 +23,7 @@ struct CommandExit {
 
 struct CommandSpec {
   std::string name;
-  int order;  // position in `deltactl --help`
+  int order;                                  // position in `deltactl --help`
   std::function<void(CLI::App& root)> setup;  // adds the sub-command, its options and callback
 };
 

@@ -10,9 +10,9 @@ namespace delta {
 
 struct CsvTable {
   std::string path;
-  std::vector<std::string> columns;          // the requested columns, in request order
-  std::vector<std::vector<double>> rows;     // rows[i][k]: requested column k of data row i
-  std::vector<std::size_t> line_numbers;     // file line of each data row, for later errors
+  std::vector<std::string> columns;       // the requested columns, in request order
+  std::vector<std::vector<double>> rows;  // rows[i][k]: requested column k of data row i
+  std::vector<std::size_t> line_numbers;  // file line of each data row, for later errors
 };
 
 // Reads the requested columns; all of them must be present, numeric and finite on every row.

@@ -18,14 +18,14 @@ enum class DriveState { unconfigured, configured, active, fault };
 // Fault causes, as bits: several can latch in the same cycle.
 enum DriveFault : std::uint32_t {
   kFaultNone = 0,
-  kFaultAngleLimit = 1u << 0,        // a joint left [min_angle, max_angle]
-  kFaultVelocityLimit = 1u << 1,     // a joint moved faster than max_velocity
-  kFaultCommandTimeout = 1u << 2,    // the host sent no command within command_timeout (watchdog)
-  kFaultFeedbackTimeout = 1u << 3,   // the drive delivered no fresh feedback within feedback_timeout
-  kFaultEncoderJump = 1u << 4,       // one cycle moved more than max_encoder_step: glitch or slip
-  kFaultCommandNotFinite = 1u << 5,  // the host commanded NaN or infinity
-  kFaultFeedbackNotFinite = 1u << 6, // the drive reported NaN or infinity
-  kFaultHardware = 1u << 7,          // the drive itself reported a fault
+  kFaultAngleLimit = 1u << 0,         // a joint left [min_angle, max_angle]
+  kFaultVelocityLimit = 1u << 1,      // a joint moved faster than max_velocity
+  kFaultCommandTimeout = 1u << 2,     // the host sent no command within command_timeout (watchdog)
+  kFaultFeedbackTimeout = 1u << 3,    // the drive delivered no fresh feedback within feedback_timeout
+  kFaultEncoderJump = 1u << 4,        // one cycle moved more than max_encoder_step: glitch or slip
+  kFaultCommandNotFinite = 1u << 5,   // the host commanded NaN or infinity
+  kFaultFeedbackNotFinite = 1u << 6,  // the drive reported NaN or infinity
+  kFaultHardware = 1u << 7,           // the drive itself reported a fault
 };
 
 const char* describe_state(DriveState state);
@@ -36,16 +36,16 @@ struct DriveLimits {
   Vec3 min_angle_deg = Vec3::Constant(-10.0);
   Vec3 max_angle_deg = Vec3::Constant(75.0);
   double max_velocity_deg_per_s = 360.0;
-  double max_current_a = 1.0;          // clamp of every current command
-  double command_timeout_s = 0.005;    // 50 cycles at 10 kHz
-  double feedback_timeout_s = 0.001;   // 10 cycles at 10 kHz
-  double max_encoder_step_deg = 2.0;   // per update
+  double max_current_a = 1.0;         // clamp of every current command
+  double command_timeout_s = 0.005;   // 50 cycles at 10 kHz
+  double feedback_timeout_s = 0.001;  // 10 cycles at 10 kHz
+  double max_encoder_step_deg = 2.0;  // per update
 };
 
 struct DriveFeedback {
-  double t_s = 0.0;              // time stamp of the measurement
+  double t_s = 0.0;  // time stamp of the measurement
   Vec3 angle_deg = Vec3::Zero();
-  bool hardware_fault = false;   // the drive's own fault line
+  bool hardware_fault = false;  // the drive's own fault line
 };
 
 // What a drive (real, simulated or a test double) must offer. read() returns false when no new

@@ -18,7 +18,8 @@ constexpr std::size_t kMaxJsonDepth = 64;
 // twice in one object; leaves syntax errors to parse_json_input.
 void check_json_structure(const std::string& text, const std::string& path);
 
-// Parses JSON after check_json_structure; syntax errors and numbers that overflow a double become InputError(path, line, reason).
+// Parses JSON after check_json_structure; syntax errors and numbers that overflow a double become InputError(path,
+// line, reason).
 nlohmann::json parse_json_input(const std::string& text, const std::string& path);
 
 // 1-based line of a byte offset, and of the first quoted occurrence of a key (1 if absent).

@@ -39,8 +39,8 @@ inline CLI::Validator real_number(double minimum, double maximum, bool exclude_m
       [minimum, maximum, exclude_minimum, range](std::string& text) -> std::string {
         char* end = nullptr;
         const double value = std::strtod(text.c_str(), &end);
-        const bool inside = std::isfinite(value) && value <= maximum &&
-                            (exclude_minimum ? value > minimum : value >= minimum);
+        const bool inside =
+            std::isfinite(value) && value <= maximum && (exclude_minimum ? value > minimum : value >= minimum);
         if (text.empty() || *end != '\0' || !inside) {
           return "expected a finite number in " + range + ", got '" + text.substr(0, 40) + "'";
         }

@@ -32,7 +32,7 @@ class OutputFile {
   std::string target_path_;   // links resolved
   std::string writing_path_;  // temporary file, or the target when written directly
   bool direct_ = false;
-  int slot_ = -1;             // entry in the signal clean-up table
+  int slot_ = -1;  // entry in the signal clean-up table
   std::ofstream stream_;
   bool finished_ = false;
   bool committed_ = false;

@@ -15,7 +15,8 @@ class TemporaryDirectory {
  public:
   explicit TemporaryDirectory(const std::string& prefix) {
     std::string pattern = (std::filesystem::temp_directory_path() / (prefix + "_XXXXXX")).string();
-    if (::mkdtemp(pattern.data()) == nullptr) throw std::runtime_error(prefix + ": cannot create a temporary directory");
+    if (::mkdtemp(pattern.data()) == nullptr)
+      throw std::runtime_error(prefix + ": cannot create a temporary directory");
     path_ = pattern;
   }
   ~TemporaryDirectory() {

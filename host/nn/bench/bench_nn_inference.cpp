@@ -42,12 +42,12 @@ int main(int argc, char** argv) {
     for (delta::Vec3& pose : poses) pose = delta::Vec3(xy(generator), xy(generator), z(generator));
     const delta::Geometry nominal = delta::Geometry::nominal();
     double checksum = 0.0;
-    const double ik_ns = best_ns_per_pose(poses, [&](const delta::Vec3& p) {
-      return delta::inverse_kinematics(nominal, p).alpha_deg; }, checksum);
-    const double network_ns = best_ns_per_pose(poses, [&](const delta::Vec3& p) {
-      return weights.network.evaluate(p); }, checksum);
-    const double model_ns = best_ns_per_pose(poses, [&](const delta::Vec3& p) {
-      return delta::nn::evaluate_model(weights, p).alpha_deg; }, checksum);
+    const double ik_ns = best_ns_per_pose(
+        poses, [&](const delta::Vec3& p) { return delta::inverse_kinematics(nominal, p).alpha_deg; }, checksum);
+    const double network_ns = best_ns_per_pose(
+        poses, [&](const delta::Vec3& p) { return weights.network.evaluate(p); }, checksum);
+    const double model_ns = best_ns_per_pose(
+        poses, [&](const delta::Vec3& p) { return delta::nn::evaluate_model(weights, p).alpha_deg; }, checksum);
     std::printf("Inference per pose, %zu random poses in the 10 mm cube, best of 5 runs (checksum %.6g)\n\n", count,
                 checksum);
     std::printf("| evaluation | ns per pose |\n|---|---|\n");

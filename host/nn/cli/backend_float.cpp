@@ -16,8 +16,10 @@ class FloatIkBackend : public IkBackend {
     std::vector<IkRow> rows(positions_m.size());
     for (std::size_t i = 0; i < positions_m.size(); ++i) {
       const IkSolution solution = evaluate_model(weights_, positions_m[i]);
-      if (solution.ok()) rows[i].alpha_deg = solution.alpha_deg;
-      else rows[i].error = solution.reason();
+      if (solution.ok())
+        rows[i].alpha_deg = solution.alpha_deg;
+      else
+        rows[i].error = solution.reason();
       // Positions outside the training range make the network extrapolate: count them.
       const Network& network = weights_.network;
       if ((positions_m[i].array() < network.input_min.array()).any() ||
@@ -39,9 +41,11 @@ class FloatIkBackend : public IkBackend {
   std::size_t outside_training_range_ = 0;
 };
 
-const RegisterIkBackend float_backend(
-    "float", "the network of W.json in double precision (pure network or hybrid); the default",
-    [](const std::string& weights_path) { return std::make_unique<FloatIkBackend>(read_weights_file(weights_path)); });
+const RegisterIkBackend float_backend("float",
+                                      "the network of W.json in double precision (pure network or hybrid); the default",
+                                      [](const std::string& weights_path) {
+                                        return std::make_unique<FloatIkBackend>(read_weights_file(weights_path));
+                                      });
 
 }  // namespace
 }  // namespace delta::nn

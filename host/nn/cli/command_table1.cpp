@@ -91,26 +91,31 @@ void run_table1(const Table1Options& options) {
   const WeightsFile hybrid = obtain(options.hybrid_weights, "hybrid", data, options.training, save_hybrid);
   const std::string hidden = std::to_string(network.network.hidden());
   std::cout << "Table 1: joint-angle error (measured - model) in degrees. Paper: its robot, over the whole\n"
-               "recorded set. Ours: models fitted on " << options.data << " only.\n";
+               "recorded set. Ours: models fitted on "
+            << options.data << " only.\n";
   std::vector<const Recording*> recordings{&data};
   for (const Recording& holdout : holdouts) recordings.push_back(&holdout);
   for (const Recording* recording : recordings) {
     const bool fit = recording == &data;
-    std::cout << "\n" << (fit ? "Fit recording (seen in training): " : "Held-out recording (never seen): ")
-              << recording->path << ", " << recording->samples.size() << " samples\n\n";
+    std::cout << "\n"
+              << (fit ? "Fit recording (seen in training): " : "Held-out recording (never seen): ") << recording->path
+              << ", " << recording->samples.size() << " samples\n\n";
     Table table({"model", "RMSE alpha_1", "RMSE alpha_2", "RMSE alpha_3", "MAE alpha_1", "MAE alpha_2", "MAE alpha_3"});
     add_row(table, "paper: math model", paper_math_model());
     add_row(table, "paper: NN 3-25-3", paper_network());
     const std::vector<std::pair<std::string, PoseModel>> models = {
         {"ours: math model (nominal)", [](const Vec3& p) { return math_model_angles(EffectSet{}, p); }},
-        {"ours: math model + identified effects", [&hybrid](const Vec3& p) { return math_model_angles(hybrid.effects, p); }},
+        {"ours: math model + identified effects",
+         [&hybrid](const Vec3& p) { return math_model_angles(hybrid.effects, p); }},
         {"ours: network 3-" + hidden + "-3", [&network](const Vec3& p) { return evaluate_model(network, p); }},
         {"ours: hybrid (identified model + network)", [&hybrid](const Vec3& p) { return evaluate_model(hybrid, p); }}};
     for (const auto& [name, model] : models) add_row(table, name, model_stats(*recording, name, model));
     table.print(std::cout);
   }
-  for (auto* save : {&save_network, &save_hybrid}) if (*save) (*save)->finish();
-  for (auto* save : {&save_network, &save_hybrid}) if (*save) (*save)->commit();
+  for (auto* save : {&save_network, &save_hybrid})
+    if (*save) (*save)->finish();
+  for (auto* save : {&save_network, &save_hybrid})
+    if (*save) (*save)->commit();
 }
 
 const RegisterCommand command("table1", 45, [](CLI::App& root) {

@@ -7,9 +7,9 @@
 
 #include "delta/command.hpp"
 #include "delta/nn/model_training.hpp"
+#include "delta/options.hpp"
 #include "delta/output_file.hpp"
 #include "delta/table.hpp"
-#include "delta/options.hpp"
 #include "training_options.hpp"
 
 namespace delta::nn {
@@ -63,11 +63,14 @@ const RegisterCommand command("train", 40, [](CLI::App& root) {
   sub->add_option("--out", options->out, "weights file to write (W.json)")->required();
   add_training_options(sub, options->training);
   sub->add_option("--model", options->model, "network (the paper's) or hybrid (math model + network)")
-      ->capture_default_str()->check(CLI::IsMember({"network", "hybrid"}));
+      ->capture_default_str()
+      ->check(CLI::IsMember({"network", "hybrid"}));
   sub->add_option("--validation", options->training.validation_fraction, "share of samples held out for early stopping")
-      ->capture_default_str()->check(options::real_number(0, 0.5));
+      ->capture_default_str()
+      ->check(options::real_number(0, 0.5));
   sub->add_option("--threads", options->training.threads, "worker threads (0: all cores; same result for any)")
-      ->capture_default_str()->check(options::whole_number(0, 256));
+      ->capture_default_str()
+      ->check(options::whole_number(0, 256));
   sub->callback([options] { run_train(*options); });
 });
 

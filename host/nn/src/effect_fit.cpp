@@ -76,8 +76,8 @@ class EffectProblem : public LeastSquaresProblem {
       shifted[p] = x[p] - kStep;
       const bool minus_ok = residuals(shifted, minus);
       // Residual = measured - model, so d model / dx = -(d residual / dx).
-      jacobian.col(p) = plus_ok && minus_ok ? Eigen::VectorXd((minus - plus) / (2.0 * kStep))
-                                            : Eigen::VectorXd::Zero(errors.size());
+      jacobian.col(p) =
+          plus_ok && minus_ok ? Eigen::VectorXd((minus - plus) / (2.0 * kStep)) : Eigen::VectorXd::Zero(errors.size());
     }
     // Coefficient-based products: a summation order independent of the CPU's cache sizes.
     return {jacobian.transpose().lazyProduct(jacobian), jacobian.transpose().lazyProduct(errors)};

@@ -19,8 +19,8 @@
 
 #include "delta/input_error.hpp"
 #include "delta/input_file.hpp"
-#include "delta/output_file.hpp"
 #include "delta/nn/weights_file.hpp"
+#include "delta/output_file.hpp"
 
 namespace delta::nn {
 namespace {
@@ -36,10 +36,10 @@ bool ends_with(const std::string& text, const std::string& suffix) {
 }
 
 Variables variables_of(const Network& network) {
-  return {{"IW", {network.input_weights}},        {"b1", {network.hidden_bias}},
-          {"LW", {network.output_weights}},       {"b2", {network.output_bias}},
-          {"input_xmin", {network.input_min}},    {"input_xmax", {network.input_max}},
-          {"output_xmin", {network.output_min}},  {"output_xmax", {network.output_max}}};
+  return {{"IW", {network.input_weights}},       {"b1", {network.hidden_bias}},
+          {"LW", {network.output_weights}},      {"b2", {network.output_bias}},
+          {"input_xmin", {network.input_min}},   {"input_xmax", {network.input_max}},
+          {"output_xmin", {network.output_min}}, {"output_xmax", {network.output_max}}};
 }
 
 Variables read_mat(const std::string& path);
@@ -142,7 +142,8 @@ class Mat5Layout {
       if (count > to - data) fail("a matrix sub-element claims more bytes than the matrix holds");
       if (index == 0 && (count < 8 || (word(bytes, data) & 0xff) != 6)) fail("a variable is not a real double matrix");
       if (index == 1) {
-        for (std::size_t d = 0; d + 4 <= count; d += 4) elements *= std::min<std::size_t>(word(bytes, data + d), kMaxMatElements + 1);
+        for (std::size_t d = 0; d + 4 <= count; d += 4)
+          elements *= std::min<std::size_t>(word(bytes, data + d), kMaxMatElements + 1);
         if (elements > kMaxMatElements) {
           fail("a variable of more than " + std::to_string(kMaxMatElements) + " values (at most 10000 hidden neurons)");
         }
@@ -162,7 +163,8 @@ class Mat5Layout {
     const int status = ::inflate(&stream, Z_FINISH);
     const std::size_t produced = stream.total_out;
     inflateEnd(&stream);
-    if (produced > kMaxInflatedBytes) fail("a compressed variable inflates beyond " + std::to_string(kMaxInflatedBytes) + " bytes");
+    if (produced > kMaxInflatedBytes)
+      fail("a compressed variable inflates beyond " + std::to_string(kMaxInflatedBytes) + " bytes");
     if (status != Z_STREAM_END) fail("a compressed variable is damaged");
     out.resize(produced);
     return out;
@@ -198,8 +200,9 @@ Variables read_mat(const std::string& path) {
     for (int d = 0; d < info->rank; ++d) elements *= std::min<std::size_t>(info->dims[d], kMaxMatElements + 1);
     Mat_VarFree(info);
     if (elements > kMaxMatElements) {
-      throw InputError(path, 0, std::string(name) + ": more than " + std::to_string(kMaxMatElements) +
-                                    " values (a network of at most 10000 hidden neurons)");
+      throw InputError(path, 0,
+                       std::string(name) + ": more than " + std::to_string(kMaxMatElements) +
+                           " values (a network of at most 10000 hidden neurons)");
     }
     matvar_t* variable = Mat_VarRead(file, name);
     if (!variable) continue;
@@ -209,7 +212,8 @@ Variables read_mat(const std::string& path) {
     }
     const auto rows = static_cast<Eigen::Index>(variable->dims[0]);
     const auto columns = static_cast<Eigen::Index>(variable->dims[1]);
-    variables[name].value = Eigen::Map<const Eigen::MatrixXd>(static_cast<const double*>(variable->data), rows, columns);
+    variables[name].value =
+        Eigen::Map<const Eigen::MatrixXd>(static_cast<const double*>(variable->data), rows, columns);
   }
   return variables;
 }
@@ -243,16 +247,17 @@ Variables read_csv_variables(const std::string& path) {
     const Eigen::Index rows = count(fields[1], "rows");
     const Eigen::Index columns = count(fields[2], "columns");
     if (static_cast<Eigen::Index>(fields.size()) != 3 + rows * columns) {
-      throw InputError(path, line_number, fields[0] + ": " + std::to_string(rows) + " x " + std::to_string(columns) +
-                                              " needs " + std::to_string(rows * columns) + " values, got " +
-                                              std::to_string(fields.size() - 3));
+      throw InputError(path, line_number,
+                       fields[0] + ": " + std::to_string(rows) + " x " + std::to_string(columns) + " needs " +
+                           std::to_string(rows * columns) + " values, got " + std::to_string(fields.size() - 3));
     }
     Variable variable{Eigen::MatrixXd(rows, columns), line_number};
     for (Eigen::Index i = 0; i < rows * columns; ++i) {
       const std::string& text = fields[static_cast<std::size_t>(3 + i)];
       char* end = nullptr;
       const double value = std::strtod(text.c_str(), &end);
-      if (text.empty() || *end != '\0') throw InputError(path, line_number, fields[0] + ": '" + text + "' is not a number");
+      if (text.empty() || *end != '\0')
+        throw InputError(path, line_number, fields[0] + ": '" + text + "' is not a number");
       variable.value.data()[i] = value;
     }
     variables[fields[0]] = variable;
@@ -263,34 +268,43 @@ Variables read_csv_variables(const std::string& path) {
 }  // namespace
 
 void export_matlab(const std::string& path, const Network& network) {
-  if (ends_with(path, ".mat")) write_mat(path, variables_of(network));
-  else if (ends_with(path, ".csv")) write_csv(path, variables_of(network));
-  else throw std::invalid_argument("'" + path + "': the MATLAB export is a .mat or a .csv file");
+  if (ends_with(path, ".mat"))
+    write_mat(path, variables_of(network));
+  else if (ends_with(path, ".csv"))
+    write_csv(path, variables_of(network));
+  else
+    throw std::invalid_argument("'" + path + "': the MATLAB export is a .mat or a .csv file");
 }
 
 Network import_matlab(const std::string& path) {
   Variables variables;
-  if (ends_with(path, ".mat")) variables = read_mat(path);
-  else if (ends_with(path, ".csv")) variables = read_csv_variables(path);
-  else throw std::invalid_argument("'" + path + "': the MATLAB import reads a .mat or a .csv file");
+  if (ends_with(path, ".mat"))
+    variables = read_mat(path);
+  else if (ends_with(path, ".csv"))
+    variables = read_csv_variables(path);
+  else
+    throw std::invalid_argument("'" + path + "': the MATLAB import reads a .mat or a .csv file");
   auto get = [&](const char* name, Eigen::Index rows, Eigen::Index columns) {
     const auto found = variables.find(name);
     if (found == variables.end()) throw InputError(path, 0, std::string("missing variable ") + name);
     const Variable& variable = found->second;
     if (variable.value.rows() != rows || variable.value.cols() != columns) {
-      throw InputError(path, variable.line, std::string(name) + ": expected " + std::to_string(rows) + " x " +
-                                                std::to_string(columns) + ", got " + std::to_string(variable.value.rows()) +
-                                                " x " + std::to_string(variable.value.cols()));
+      throw InputError(path, variable.line,
+                       std::string(name) + ": expected " + std::to_string(rows) + " x " + std::to_string(columns) +
+                           ", got " + std::to_string(variable.value.rows()) + " x " +
+                           std::to_string(variable.value.cols()));
     }
-    if (!variable.value.allFinite()) throw InputError(path, variable.line, std::string(name) + ": a value is not finite");
+    if (!variable.value.allFinite())
+      throw InputError(path, variable.line, std::string(name) + ": a value is not finite");
     return variable.value;
   };
   const auto iw = variables.find("IW");
   if (iw == variables.end()) throw InputError(path, 0, "missing variable IW");
   const Eigen::Index hidden = iw->second.value.rows();
   if (hidden < 1 || hidden > kMaxHiddenNeurons) {
-    throw InputError(path, iw->second.line, "IW: expected H x 3 with 1 <= H <= " + std::to_string(kMaxHiddenNeurons) +
-                                                " (the weights file limit), got H = " + std::to_string(hidden));
+    throw InputError(path, iw->second.line,
+                     "IW: expected H x 3 with 1 <= H <= " + std::to_string(kMaxHiddenNeurons) +
+                         " (the weights file limit), got H = " + std::to_string(hidden));
   }
   Network network;
   network.input_weights = get("IW", hidden, 3);

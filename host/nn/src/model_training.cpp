@@ -69,7 +69,8 @@ ModelTraining train_model(const Recording& recording, const std::string& model, 
 
 std::string describe_epoch(const TrainingEpoch& epoch) {
   char line[200];
-  std::snprintf(line, sizeof line, "epoch %4d  mse %.4e deg^2 (rmse %.5f deg)  validation %.4e (rmse %.5f)  mu %.1e  |J'e| %.3e",
+  std::snprintf(line, sizeof line,
+                "epoch %4d  mse %.4e deg^2 (rmse %.5f deg)  validation %.4e (rmse %.5f)  mu %.1e  |J'e| %.3e",
                 epoch.epoch, epoch.training_mse_deg2, std::sqrt(epoch.training_mse_deg2), epoch.validation_mse_deg2,
                 std::sqrt(epoch.validation_mse_deg2), epoch.mu, epoch.gradient_norm);
   return line;

@@ -9,7 +9,8 @@ IkSolution math_model_angles(const EffectSet& effects, const Vec3& measured_posi
   Vec3 true_position_m = measured_position_m;
   if (effects.frame_misalignment) {
     const FrameMisalignment& frame = *effects.frame_misalignment;
-    true_position_m = misalignment_rotation(frame.rotation_deg).transpose() * (measured_position_m - frame.translation_m);
+    true_position_m =
+        misalignment_rotation(frame.rotation_deg).transpose() * (measured_position_m - frame.translation_m);
   }
   IkSolution solution = inverse_kinematics(apply_geometry_effects(Geometry::nominal(), effects), true_position_m);
   if (!solution.ok()) return solution;
@@ -40,8 +41,10 @@ IkSolution evaluate_model(const WeightsFile& weights, const Vec3& measured_posit
 void add_hybrid_math_model(const WeightsFile& weights, const Vec3& measured_position_m, IkRow& row) {
   if (!weights.hybrid()) return;
   const IkSolution model = math_model_angles(weights.effects, measured_position_m);
-  if (model.ok()) row.alpha_deg += model.alpha_deg;
-  else row.error = model.reason();
+  if (model.ok())
+    row.alpha_deg += model.alpha_deg;
+  else
+    row.error = model.reason();
 }
 
 }  // namespace delta::nn

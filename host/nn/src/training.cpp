@@ -55,7 +55,8 @@ class NetworkProblem : public LeastSquaresProblem {
   // Predicted angles (3 x n, degrees) for scaled inputs (3 x n); the hidden outputs on request.
   // Products are coefficient-based (lazyProduct): their summation order is fixed by the code, not
   // by the cache-size-dependent blocking of Eigen's matrix product, so results do not depend on the CPU.
-  Eigen::MatrixXd predict(const Layers& layers, const Eigen::MatrixXd& inputs, Eigen::MatrixXd* hidden = nullptr) const {
+  Eigen::MatrixXd predict(const Layers& layers, const Eigen::MatrixXd& inputs,
+                          Eigen::MatrixXd* hidden = nullptr) const {
     const Eigen::MatrixXd hidden_out =
         (layers.input_weights.lazyProduct(inputs).colwise() + layers.hidden_bias).array().tanh().matrix();
     Eigen::MatrixXd out = layers.output_weights.lazyProduct(hidden_out).colwise() + layers.output_bias;
@@ -103,7 +104,8 @@ class NetworkProblem : public LeastSquaresProblem {
     const Eigen::Index parameters = x.size();
     NormalEquations result{Eigen::MatrixXd::Zero(parameters, parameters), Eigen::VectorXd::Zero(parameters)};
     const Eigen::Vector3d s2 = half_range_.cwiseAbs2();
-    const Eigen::MatrixXd lw_weighted = layers.output_weights.transpose().lazyProduct(s2.asDiagonal() * layers.output_weights);
+    const Eigen::MatrixXd lw_weighted =
+        layers.output_weights.transpose().lazyProduct(s2.asDiagonal() * layers.output_weights);
     for (Eigen::Index m = 0; m < 4; ++m) {
       for (Eigen::Index m2 = m; m2 < 4; ++m2) {
         const Eigen::MatrixXd block = lw_weighted.cwiseProduct(total.hidden_hidden[pair_index(m, m2)]);
@@ -139,11 +141,11 @@ class NetworkProblem : public LeastSquaresProblem {
   }
 
   struct BlockSums {
-    std::array<Eigen::MatrixXd, 10> hidden_hidden;  // W_m W_m'^T, m <= m'
-    std::array<Eigen::MatrixXd, 4> hidden_output;   // W_m Hb^T: H x (H + 1)
-    Eigen::MatrixXd output_output;                  // Hb Hb^T: (H + 1) x (H + 1)
-    std::array<Eigen::VectorXd, 4> hidden_gradient; // sum_n u~_nm tanh'(z_n) .* (LW^T S e_n)
-    Eigen::MatrixXd output_gradient;                // Hb E^T: (H + 1) x 3
+    std::array<Eigen::MatrixXd, 10> hidden_hidden;   // W_m W_m'^T, m <= m'
+    std::array<Eigen::MatrixXd, 4> hidden_output;    // W_m Hb^T: H x (H + 1)
+    Eigen::MatrixXd output_output;                   // Hb Hb^T: (H + 1) x (H + 1)
+    std::array<Eigen::VectorXd, 4> hidden_gradient;  // sum_n u~_nm tanh'(z_n) .* (LW^T S e_n)
+    Eigen::MatrixXd output_gradient;                 // Hb E^T: (H + 1) x 3
     void add(const BlockSums& other) {
       for (std::size_t p = 0; p < hidden_hidden.size(); ++p) hidden_hidden[p] += other.hidden_hidden[p];
       for (std::size_t m = 0; m < 4; ++m) {
@@ -161,8 +163,8 @@ class NetworkProblem : public LeastSquaresProblem {
     const Eigen::MatrixXd inputs = inputs_.middleCols(begin, count);
     Eigen::MatrixXd hidden_out;
     const Eigen::MatrixXd errors = targets_.middleCols(begin, count) - predict(layers, inputs, &hidden_out);  // degrees
-    const Eigen::ArrayXXd slope = 1.0 - hidden_out.array().square();        // tanh', H x n
-    std::array<Eigen::MatrixXd, 4> weighted;  // W_m = tanh' .* u~_m
+    const Eigen::ArrayXXd slope = 1.0 - hidden_out.array().square();  // tanh', H x n
+    std::array<Eigen::MatrixXd, 4> weighted;                          // W_m = tanh' .* u~_m
     weighted[0] = slope.matrix();
     for (Eigen::Index m = 1; m < 4; ++m) weighted[m] = (slope.rowwise() * inputs.row(m - 1).array()).matrix();
     Eigen::MatrixXd augmented(h + 1, count);  // Hb = [1; h]
@@ -284,7 +286,8 @@ Network initial_network(const std::vector<Vec3>& inputs_m, const std::vector<Vec
 }
 
 TrainingResult train_network(const std::vector<Vec3>& inputs_m, const std::vector<Vec3>& targets_deg,
-                             const TrainingOptions& options, const std::function<void(const TrainingEpoch&)>& progress) {
+                             const TrainingOptions& options,
+                             const std::function<void(const TrainingEpoch&)>& progress) {
   if (inputs_m.size() != targets_deg.size()) throw std::invalid_argument("inputs and targets differ in count");
   if (inputs_m.size() < 10) throw std::invalid_argument("training needs at least 10 samples");
   TrainingResult result;
@@ -305,7 +308,8 @@ TrainingResult train_network(const std::vector<Vec3>& inputs_m, const std::vecto
 
   std::vector<Vec3> scaled(inputs_m.size());
   for (std::size_t i = 0; i < inputs_m.size(); ++i) scaled[i] = result.network.scale_input(inputs_m[i]);
-  const int threads = options.threads > 0 ? options.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  const int threads =
+      options.threads > 0 ? options.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   NetworkProblem problem(columns_of(scaled, training), columns_of(targets_deg, training), result.network, threads);
   const Eigen::MatrixXd validation_inputs = columns_of(scaled, validation);
   const Eigen::MatrixXd validation_targets = columns_of(targets_deg, validation);

@@ -87,7 +87,8 @@ WeightsFile parse_weights_file(const std::string& text, const std::string& path)
   if (!document.is_object()) throw InputError(path, 1, "a weights file must be a JSON object");
   const Reader reader{text, path, document};
   const json& format = reader.field("format");
-  if (format != kFormatName) reader.fail("format", "format must be \"" + std::string(kFormatName) + "\", got " + format.dump());
+  if (format != kFormatName)
+    reader.fail("format", "format must be \"" + std::string(kFormatName) + "\", got " + format.dump());
   const json& version = reader.field("version");
   if (!version.is_number_integer() || version.get<int>() != kWeightsFileVersion) {
     reader.fail("version", "unsupported weights file version " + version.dump() + " (this build reads version " +
@@ -100,9 +101,10 @@ WeightsFile parse_weights_file(const std::string& text, const std::string& path)
   }
   weights.model = model.get<std::string>();
   const json& hidden_value = reader.field("hidden");
-  if (!hidden_value.is_number_integer() || hidden_value.get<long long>() < 1 || hidden_value.get<long long>() > kMaxHiddenNeurons) {
-    reader.fail("hidden", "hidden must be a whole number of neurons between 1 and " + std::to_string(kMaxHiddenNeurons) +
-                              ", got " + quoted_excerpt(hidden_value.dump()));
+  if (!hidden_value.is_number_integer() || hidden_value.get<long long>() < 1 ||
+      hidden_value.get<long long>() > kMaxHiddenNeurons) {
+    reader.fail("hidden", "hidden must be a whole number of neurons between 1 and " +
+                              std::to_string(kMaxHiddenNeurons) + ", got " + quoted_excerpt(hidden_value.dump()));
   }
   const Eigen::Index hidden = hidden_value.get<Eigen::Index>();
   Network& network = weights.network;
@@ -169,8 +171,9 @@ std::string weights_file_text(const WeightsFile& weights) {
 
 void write_weights_file(const std::string& path, const WeightsFile& weights) {
   if (weights.network.hidden_bias.size() > kMaxHiddenNeurons) {
-    throw InputError(path, 0, "a network of " + std::to_string(weights.network.hidden_bias.size()) +
-                                  " hidden neurons; a weights file holds at most " + std::to_string(kMaxHiddenNeurons));
+    throw InputError(path, 0,
+                     "a network of " + std::to_string(weights.network.hidden_bias.size()) +
+                         " hidden neurons; a weights file holds at most " + std::to_string(kMaxHiddenNeurons));
   }
   OutputFile file(path);
   file.stream() << weights_file_text(weights);

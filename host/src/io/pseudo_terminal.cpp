@@ -32,7 +32,8 @@ void make_raw(int fd) {
   termios tio{};
   if (::tcgetattr(fd, &tio) != 0) throw std::system_error(errno, std::generic_category(), "tcgetattr on a pty");
   ::cfmakeraw(&tio);
-  if (::tcsetattr(fd, TCSANOW, &tio) != 0) throw std::system_error(errno, std::generic_category(), "tcsetattr on a pty");
+  if (::tcsetattr(fd, TCSANOW, &tio) != 0)
+    throw std::system_error(errno, std::generic_category(), "tcsetattr on a pty");
 }
 
 }  // namespace

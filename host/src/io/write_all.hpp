@@ -26,7 +26,8 @@ inline void write_all_to(int fd, const std::string& name, const std::uint8_t* da
     if (written < 0 && errno != EAGAIN && errno != EWOULDBLOCK) {
       throw std::system_error(errno, std::generic_category(), name + ": write");
     }
-    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+    const auto left =
+        std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
     if (left.count() <= 0) throw std::system_error(ETIMEDOUT, std::generic_category(), name + ": write");
     pollfd p{fd, POLLOUT, 0};
     ::poll(&p, 1, static_cast<int>(left.count()));

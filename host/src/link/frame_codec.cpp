@@ -8,12 +8,18 @@ namespace delta::link {
 
 std::optional<std::size_t> payload_bytes(std::uint8_t type) {
   switch (type) {
-    case board::kFrameTypeIdentifyRequest: return 0;
-    case board::kFrameTypeSetpoint: return board::kSetpointPayloadBytes;
-    case board::kFrameTypeCommand: return board::kCommandPayloadBytes;
-    case board::kFrameTypeIdentify: return board::kIdentifyPayloadBytes;
-    case board::kFrameTypeTelemetry: return board::kTelemetryPayloadBytes;
-    default: return std::nullopt;
+    case board::kFrameTypeIdentifyRequest:
+      return 0;
+    case board::kFrameTypeSetpoint:
+      return board::kSetpointPayloadBytes;
+    case board::kFrameTypeCommand:
+      return board::kCommandPayloadBytes;
+    case board::kFrameTypeIdentify:
+      return board::kIdentifyPayloadBytes;
+    case board::kFrameTypeTelemetry:
+      return board::kTelemetryPayloadBytes;
+    default:
+      return std::nullopt;
   }
 }
 
@@ -74,7 +80,8 @@ void FrameDecoder::accept_byte(std::uint8_t byte, std::vector<Frame>& frames) {
   Frame frame;
   frame.sequence = buffer_[2];
   frame.type = static_cast<FrameType>(buffer_[3]);
-  frame.payload.assign(buffer_.begin() + kHeaderBytes, buffer_.begin() + static_cast<std::ptrdiff_t>(expected_ - kCrcBytes));
+  frame.payload.assign(buffer_.begin() + kHeaderBytes,
+                       buffer_.begin() + static_cast<std::ptrdiff_t>(expected_ - kCrcBytes));
   buffer_.clear();
   expected_ = 0;
   ++counters_.frames;

@@ -21,7 +21,8 @@ PathState advance(const PathState& s, double jerk, double dt) {
 }  // namespace
 
 JerkLimitedProfile::JerkLimitedProfile(double distance, const MotionLimits& limits) : distance_(distance) {
-  if (!std::isfinite(distance) || distance < 0.0) throw std::invalid_argument("motion: distance must be finite and >= 0");
+  if (!std::isfinite(distance) || distance < 0.0)
+    throw std::invalid_argument("motion: distance must be finite and >= 0");
   if (!(limits.velocity > 0.0) || !(limits.acceleration > 0.0) || !(limits.jerk > 0.0) ||
       !std::isfinite(limits.velocity + limits.acceleration + limits.jerk)) {
     throw std::invalid_argument("motion: velocity, acceleration and jerk limits must be finite and > 0");

@@ -100,8 +100,8 @@ std::optional<TrajectoryViolation> first_violation(const std::vector<TrajectoryP
       const Vec3 value = difference * std::pow(rate_hz, d.order);
       for (int j = 0; j < 3; ++j) {
         if (std::abs(value[j]) > d.limit) {
-          return violation(k, "joint " + std::to_string(j + 1) + " " + d.name + " " + fixed(std::abs(value[j]), 1) + " " +
-                                  d.unit + " above the limit " + fixed(d.limit, 1) + " " + d.unit);
+          return violation(k, "joint " + std::to_string(j + 1) + " " + d.name + " " + fixed(std::abs(value[j]), 1) +
+                                  " " + d.unit + " above the limit " + fixed(d.limit, 1) + " " + d.unit);
         }
       }
     }

@@ -17,9 +17,9 @@
 namespace delta {
 
 struct TransmissionError {
-  Vec3 amplitude_deg = Vec3::Zero();  // A_j
+  Vec3 amplitude_deg = Vec3::Zero();        // A_j
   Vec3 period_deg = Vec3::Constant(360.0);  // P_j: shaft angle per ripple period
-  Vec3 phase_rad = Vec3::Zero();      // phi_j
+  Vec3 phase_rad = Vec3::Zero();            // phi_j
 };
 
 struct FrameMisalignment {
@@ -30,14 +30,14 @@ struct FrameMisalignment {
 // Every field is optional: an absent effect is not part of the robot (or of the model).
 struct EffectSet {
   std::optional<Vec3> joint_offset_deg;
-  std::optional<Vec3> upper_arm_length_m;   // dL_A per chain
-  std::optional<Vec3> lower_arm_length_m;   // dL_B per chain
-  std::optional<Vec3> radius_offset_m;      // d(R_A - R_B) per chain
-  std::optional<Vec3> chain_angle_deg;      // dphi per chain
+  std::optional<Vec3> upper_arm_length_m;  // dL_A per chain
+  std::optional<Vec3> lower_arm_length_m;  // dL_B per chain
+  std::optional<Vec3> radius_offset_m;     // d(R_A - R_B) per chain
+  std::optional<Vec3> chain_angle_deg;     // dphi per chain
   std::optional<FrameMisalignment> frame_misalignment;
-  std::optional<Vec3> backlash_deg;         // play width b_j
+  std::optional<Vec3> backlash_deg;  // play width b_j
   std::optional<TransmissionError> transmission_error;
-  std::optional<Vec3> encoder_scale;        // k_j
+  std::optional<Vec3> encoder_scale;  // k_j
 
   bool empty() const;
   std::vector<std::string> names() const;  // the effects present, in vocabulary order
@@ -58,8 +58,8 @@ Vec3 apply_frame_misalignment(const EffectSet& effects, const Vec3& true_positio
 // Memoryless part of the joint sensor chain before backlash: encoder_scale then
 // transmission_error, for one joint. Templated for automatic differentiation.
 template <typename Scalar>
-Scalar scale_and_transmission(const Scalar& true_alpha_deg, double scale,
-                              double amplitude_deg, double period_deg, double phase_rad) {
+Scalar scale_and_transmission(const Scalar& true_alpha_deg, double scale, double amplitude_deg, double period_deg,
+                              double phase_rad) {
   using std::sin;
   Scalar alpha = (Scalar(1) + Scalar(scale)) * true_alpha_deg;
   if (amplitude_deg != 0.0) {
@@ -110,8 +110,6 @@ class JointSensorChain {
 };
 
 // Round to the nearest multiple of a resolution (encoder counts, stage counts).
-inline double quantise(double value, double resolution) {
-  return std::round(value / resolution) * resolution;
-}
+inline double quantise(double value, double resolution) { return std::round(value / resolution) * resolution; }
 
 }  // namespace delta

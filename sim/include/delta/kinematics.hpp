@@ -43,9 +43,8 @@ struct FkSolution {
 // reduces to a cos(alpha) + z sin(alpha) = C with C = (L_B^2 - L_A^2 - a^2 - y^2 - z^2) / (2 L_A),
 // so alpha = atan2(z, a) + acos(C / sqrt(a^2 + z^2)); the + branch is the knee-out assembly.
 template <typename Scalar>
-bool chain_inverse_kinematics(const Scalar& upper_arm_m, const Scalar& lower_arm_m,
-                              const Scalar& radius_offset_m, const Scalar& chain_angle_deg,
-                              const Scalar& x_m, const Scalar& y_m, const Scalar& z_m,
+bool chain_inverse_kinematics(const Scalar& upper_arm_m, const Scalar& lower_arm_m, const Scalar& radius_offset_m,
+                              const Scalar& chain_angle_deg, const Scalar& x_m, const Scalar& y_m, const Scalar& z_m,
                               Scalar& alpha_deg) {
   using std::acos;
   using std::atan2;
@@ -56,8 +55,7 @@ bool chain_inverse_kinematics(const Scalar& upper_arm_m, const Scalar& lower_arm
   const Scalar x_local = cos(phi) * x_m + sin(phi) * y_m;
   const Scalar y_local = -sin(phi) * x_m + cos(phi) * y_m;
   const Scalar a = radius_offset_m - x_local;
-  const Scalar c = (lower_arm_m * lower_arm_m - upper_arm_m * upper_arm_m - a * a -
-                    y_local * y_local - z_m * z_m) /
+  const Scalar c = (lower_arm_m * lower_arm_m - upper_arm_m * upper_arm_m - a * a - y_local * y_local - z_m * z_m) /
                    (Scalar(2) * upper_arm_m);
   const Scalar r = sqrt(a * a + z_m * z_m);
   if (!(r > Scalar(0))) return false;
@@ -84,7 +82,6 @@ Vec3 shifted_elbow_m(const ChainGeometry& chain, double alpha_deg);
 
 // d(alpha)/d(position) at a consistent (position, alpha) pair, degrees per metre; row j is chain j.
 // The forward Jacobian d(position)/d(alpha) is its inverse.
-Eigen::Matrix3d inverse_jacobian_deg_per_m(const Geometry& geometry, const Vec3& position_m,
-                                           const Vec3& alpha_deg);
+Eigen::Matrix3d inverse_jacobian_deg_per_m(const Geometry& geometry, const Vec3& position_m, const Vec3& alpha_deg);
 
 }  // namespace delta

@@ -34,8 +34,8 @@ struct BoardInterface {
 
 // The board's drive outputs during one board cycle.
 struct DrivePins {
-  int pwm = 0;       // bit j: joint j's PWM level
-  int direction = 0; // bit j: 1 = negative current
+  int pwm = 0;        // bit j: joint j's PWM level
+  int direction = 0;  // bit j: 1 = negative current
   bool enable = false;
 };
 

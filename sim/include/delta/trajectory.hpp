@@ -12,8 +12,8 @@ namespace delta {
 
 struct Trajectory {
   std::string name;
-  double rate_hz = 10.0;      // default sampling rate of a recording along it
-  std::size_t samples = 0;    // default number of samples
+  double rate_hz = 10.0;    // default sampling rate of a recording along it
+  std::size_t samples = 0;  // default number of samples
   std::function<Vec3(double t_s)> position_m;
 };
 

@@ -19,16 +19,16 @@ struct Sample {
 };
 
 struct RecordingOptions {
-  std::size_t samples = 0;     // 0: the trajectory's default
-  double rate_hz = 0.0;        // 0: the trajectory's default
+  std::size_t samples = 0;       // 0: the trajectory's default
+  double rate_hz = 0.0;          // 0: the trajectory's default
   double angle_noise_deg = 0.0;  // extra white noise on the angles before quantisation (seeded)
   std::uint64_t seed = 1;
-  bool quantise = true;        // encoder counts of 0.01 deg and stage counts of 6.87 nm
+  bool quantise = true;  // encoder counts of 0.01 deg and stage counts of 6.87 nm
 };
 
 struct SimulationReport {
   std::vector<Sample> samples;
-  std::size_t unreachable = 0;  // poses the true robot cannot reach (skipped, counted)
+  std::size_t unreachable = 0;    // poses the true robot cannot reach (skipped, counted)
   std::string first_unreachable;  // reason for the first one, for the error message
 };
 

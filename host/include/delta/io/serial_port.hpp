@@ -12,9 +12,9 @@
 namespace delta::io {
 
 struct SerialPortInfo {
-  bool low_latency = false;     // ASYNC_LOW_LATENCY set (false: the device has no such flag)
-  bool rate_applied = false;    // the device accepted the rate (a pty accepts and ignores it)
-  std::string notes;            // what was tolerated, one line, e.g. "TIOCGSERIAL: not a serial driver"
+  bool low_latency = false;   // ASYNC_LOW_LATENCY set (false: the device has no such flag)
+  bool rate_applied = false;  // the device accepted the rate (a pty accepts and ignores it)
+  std::string notes;          // what was tolerated, one line, e.g. "TIOCGSERIAL: not a serial driver"
 };
 
 class SerialPort : public ByteStream {

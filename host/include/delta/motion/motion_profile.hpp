@@ -46,8 +46,8 @@ class JerkLimitedProfile : public MotionProfile {
   double distance_;
   double peak_velocity_ = 0.0;
   double peak_acceleration_ = 0.0;
-  std::array<double, 7> jerk_{};   // constant jerk of each phase
-  std::array<double, 7> end_{};    // end time of each phase
+  std::array<double, 7> jerk_{};      // constant jerk of each phase
+  std::array<double, 7> end_{};       // end time of each phase
   std::array<PathState, 7> start_{};  // state at the start of each phase
 };
 

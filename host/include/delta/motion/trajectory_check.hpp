@@ -31,7 +31,7 @@ struct TrajectoryLimits {
 };
 
 struct TrajectoryViolation {
-  std::size_t sample = 0;       // index in the resampled trajectory
+  std::size_t sample = 0;  // index in the resampled trajectory
   double t_s = 0.0;
   std::size_t source_line = 0;  // the source point at or after the sample
   std::string reason;

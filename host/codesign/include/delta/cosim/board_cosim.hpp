@@ -42,12 +42,12 @@ constexpr double kCurrentFullScaleA = board::kCurrentFullScaleMilliamp / 1000.0;
 constexpr double kCountDeg = board::kEncoderCountMicrodeg * 1e-6;
 
 struct CosimOptions {
-  std::string mem_dir;                          // the network's .mem files (golden::write_export)
-  EffectSet effects;                            // the virtual robot
+  std::string mem_dir;  // the network's .mem files (golden::write_export)
+  EffectSet effects;    // the virtual robot
   Geometry nominal = Geometry::nominal();
-  std::function<Vec3(double t_s)> trajectory;   // reference plate position, measured frame [m]
+  std::function<Vec3(double t_s)> trajectory;  // reference plate position, measured frame [m]
   double duration_s = 1.0;
-  double blend_s = 0.3;                         // smooth start from the home pose
+  double blend_s = 0.3;  // smooth start from the home pose
   double record_rate_hz = 1000.0;
   JointPlantParameters plant;
   // Formats of the network (input codes): encode a position for the UART request.
@@ -58,12 +58,12 @@ struct CosimOptions {
 
 struct CosimSample {
   double t_s = 0.0;
-  Vec3 reference_m = Vec3::Zero();    // what the host sent (blended trajectory)
-  Vec3 position_m = Vec3::Zero();     // measured plate position (frame_misalignment applied)
-  Vec3 true_alpha_deg = Vec3::Zero(); // plant angles
-  Vec3 encoder_deg = Vec3::Zero();    // what the board counts (0.01 deg)
-  Vec3 network_deg = Vec3::Zero();    // the last network answer (joint references)
-  Vec3 current_a = Vec3::Zero();      // drive currents (PWM decoded)
+  Vec3 reference_m = Vec3::Zero();     // what the host sent (blended trajectory)
+  Vec3 position_m = Vec3::Zero();      // measured plate position (frame_misalignment applied)
+  Vec3 true_alpha_deg = Vec3::Zero();  // plant angles
+  Vec3 encoder_deg = Vec3::Zero();     // what the board counts (0.01 deg)
+  Vec3 network_deg = Vec3::Zero();     // the last network answer (joint references)
+  Vec3 current_a = Vec3::Zero();       // drive currents (PWM decoded)
   bool drives_enabled = false;
   // Where the plate would be if the encoders read exactly (through the backlash's present play)
   // the network's answer (the network's own error), or the textbook model's inverse kinematics
@@ -77,11 +77,11 @@ struct CosimResult {
   Vec3 home_true_alpha_deg = Vec3::Zero();  // plant angles at which the encoders read 30.00 deg
   std::size_t round_trips = 0;              // UART request/answer pairs
   std::size_t naks = 0;
-  std::size_t clamped_positions = 0;        // references outside the 32-bit input code
+  std::size_t clamped_positions = 0;  // references outside the 32-bit input code
   double first_answer_s = -1.0;
-  int encoder_error_bits = 0;               // board's sticky flags (bit j: joint j)
-  bool joint_limited = false;               // a joint controller saturated an operand or state
-  int fault_cause_bits = 0;                 // joint_axes' latched fault causes (0: no fault, torque on)
+  int encoder_error_bits = 0;                  // board's sticky flags (bit j: joint j)
+  bool joint_limited = false;                  // a joint controller saturated an operand or state
+  int fault_cause_bits = 0;                    // joint_axes' latched fault causes (0: no fault, torque on)
   std::size_t full_scale_current_samples = 0;  // recorded samples with some |current| at 0.5 A
   std::uint64_t board_cycles = 0;
 };
@@ -96,9 +96,9 @@ struct ErrorStats {
   double max_distance_m = 0.0;
 };
 struct TrackingSummary {
-  ErrorStats closed_loop;     // position_m - reference
-  ErrorStats network_ideal;   // network_ideal_m - reference
-  ErrorStats textbook_ideal;  // textbook_ideal_m - reference
+  ErrorStats closed_loop;             // position_m - reference
+  ErrorStats network_ideal;           // network_ideal_m - reference
+  ErrorStats textbook_ideal;          // textbook_ideal_m - reference
   Vec3 joint_rms_deg = Vec3::Zero();  // encoder - network reference
   std::size_t samples = 0;
 };

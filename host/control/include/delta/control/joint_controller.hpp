@@ -44,7 +44,7 @@ class JointController {
   double reference_acceleration_ = 0.0;
   double velocity_estimate_ = 0.0;
   double disturbance_current_ = 0.0;
-  double applied_current_ = 0.0;     // applied over the period that just ended
+  double applied_current_ = 0.0;  // applied over the period that just ended
 };
 
 }  // namespace delta::control

@@ -37,61 +37,61 @@ struct DiagnosisOptions {
 struct EffectFinding {
   Family family;
   bool significant = false;
-  Parameters theta;                 // parameters of the model this finding was measured with
+  Parameters theta;                      // parameters of the model this finding was measured with
   Vec3 holdout_rmse_deg = Vec3::Zero();  // significant: after adding it (cumulative, in rank order);
                                          // not significant: the final model plus this family
-  double holdout_gain_deg2 = 0.0;   // drop of held-out MSE (mean over joints) it brought
+  double holdout_gain_deg2 = 0.0;        // drop of held-out MSE (mean over joints) it brought
 };
 
 // One forward-selection step: every candidate tried and the one kept.
 struct SelectionStep {
   FamilySet base;
   std::vector<std::pair<Family, double>> candidate_mse;  // held-out MSE (mean over joints, deg^2)
-  int chosen = -1;                  // family index kept, -1 if none passed the stopping rule
-  double seconds = 0.0;             // time the round took
+  int chosen = -1;                                       // family index kept, -1 if none passed the stopping rule
+  double seconds = 0.0;                                  // time the round took
   std::string note;
 };
 
 // A direction in parameter space the data barely sees.
 struct WeakDirection {
-  double singular_value = 0.0;      // of the column-normalised Jacobian (1 = fully independent)
+  double singular_value = 0.0;                     // of the column-normalised Jacobian (1 = fully independent)
   std::vector<std::pair<int, double>> components;  // (parameter index, weight), largest first
-  std::string advice;               // the extra measurement that would separate them
+  std::string advice;                              // the extra measurement that would separate them
 };
 
 struct Correlation {
-  int a = 0, b = 0;                 // parameter indices
+  int a = 0, b = 0;  // parameter indices
   double value = 0.0;
 };
 
 struct Identifiability {
-  std::string model;                // the family set it was computed for
+  std::string model;  // the family set it was computed for
   std::vector<int> parameters;
-  std::vector<double> singular_values;  // normalised, descending
-  std::vector<WeakDirection> weak;      // singular value below 1e-2
+  std::vector<double> singular_values;    // normalised, descending
+  std::vector<WeakDirection> weak;        // singular value below 1e-2
   std::vector<Correlation> correlations;  // |correlation| above 0.95, strongest first
 };
 
 // The noise model and the test of a held-out residual against it.
 struct FloorTest {
-  Vec3 sigma_deg = Vec3::Zero();    // noise model per joint: encoder + stage quantisation + extra (RMS)
-  double stage_sigma_deg = 0.0;     // stage quantisation seen through the kinematics (RMS over rows and joints)
-  double extra_noise_deg = 0.0;     // extra white noise per joint estimated from FIT (0 unless significant)
-  double extra_noise_z = 0.0;       // its significance (estimate / standard error)
-  double ratio = 0.0;               // held-out mean of r^2 / sigma^2 (1 at the floor)
+  Vec3 sigma_deg = Vec3::Zero();  // noise model per joint: encoder + stage quantisation + extra (RMS)
+  double stage_sigma_deg = 0.0;   // stage quantisation seen through the kinematics (RMS over rows and joints)
+  double extra_noise_deg = 0.0;   // extra white noise per joint estimated from FIT (0 unless significant)
+  double extra_noise_z = 0.0;     // its significance (estimate / standard error)
+  double ratio = 0.0;             // held-out mean of r^2 / sigma^2 (1 at the floor)
   Vec3 joint_ratio = Vec3::Zero();
-  double z = 0.0;                   // (ratio - 1) / standard error (batch means)
+  double z = 0.0;  // (ratio - 1) / standard error (batch means)
   Vec3 joint_z = Vec3::Zero();
-  double threshold = 0.0;           // z above this: significantly above the floor
+  double threshold = 0.0;  // z above this: significantly above the floor
   std::size_t rows = 0, blocks = 0;
   bool at_floor = false;
 };
 
 // Where a residual significantly above the floor lives.
 struct UnexplainedResidual {
-  int joint = -1;                   // 0-based joint with the largest excess
-  double excess_rms_deg = 0.0;      // sqrt(mean r^2 - sigma^2) over every joint and row
-  std::string region;               // octant with the largest excess
+  int joint = -1;               // 0-based joint with the largest excess
+  double excess_rms_deg = 0.0;  // sqrt(mean r^2 - sigma^2) over every joint and row
+  std::string region;           // octant with the largest excess
   double region_excess_rms_deg = 0.0;
   double t_from_s = 0.0, t_to_s = 0.0;  // tenth of the CHECK time with the largest excess
   double time_excess_rms_deg = 0.0;
@@ -102,34 +102,34 @@ struct Alternative {
   FamilySet families;
   Parameters theta;
   Vec3 holdout_rmse_deg = Vec3::Zero();
-  double mse_difference_deg2 = 0.0; // held-out MSE of this set minus the chosen set's
-  double paired_z = 0.0;            // of that difference
+  double mse_difference_deg2 = 0.0;  // held-out MSE of this set minus the chosen set's
+  double paired_z = 0.0;             // of that difference
   bool at_floor = false;
-  std::string separate_by;          // the measurement that would tell the two apart
+  std::string separate_by;  // the measurement that would tell the two apart
 };
 
 // A row judged a glitch (isolated spike in position or angle) and left out of the fit and scores.
 struct Outlier {
-  std::string recording;            // "FIT" or "CHECK"
-  std::size_t row = 0;              // 1-based data row
+  std::string recording;  // "FIT" or "CHECK"
+  std::size_t row = 0;    // 1-based data row
   double t_s = 0.0;
-  double position_spike_mm = 0.0;   // size of the spike in the measured position
-  double angle_spike_deg = 0.0;     // largest spike over the joints
+  double position_spike_mm = 0.0;  // size of the spike in the measured position
+  double angle_spike_deg = 0.0;    // largest spike over the joints
 };
 
 // An effect outside the SPEC vocabulary, reported under its own name. The one tried: a uniform
 // scale of the measuring stage, p_measured = (1 + s) p_true, which the vocabulary can only imitate
 // by scaling every robot length (upper and lower arms, radius offset) by 1 / (1 + s).
 struct NewEffect {
-  std::string name;                 // "measuring_scale"
-  std::string subsystem;            // "measuring frame"
-  double scale = 0.0;               // s [-]
-  double confidence_95 = 0.0;       // half width of s
+  std::string name;                      // "measuring_scale"
+  std::string subsystem;                 // "measuring frame"
+  double scale = 0.0;                    // s [-]
+  double confidence_95 = 0.0;            // half width of s
   Vec3 holdout_rmse_deg = Vec3::Zero();  // the final model with it
 };
 
 struct RegionError {
-  std::string label;                // e.g. "x- y+ z-" (octant of the trajectory's bounding box)
+  std::string label;  // e.g. "x- y+ z-" (octant of the trajectory's bounding box)
   std::size_t samples = 0;
   Vec3 nominal_rmse_deg = Vec3::Zero();
   Vec3 after_rmse_deg = Vec3::Zero();
@@ -140,14 +140,14 @@ struct Diagnosis {
   double significance_threshold_deg2 = 0.0;  // the stopping rule's minimum held-out MSE gain
   bool explained = false;
   FamilySet significant;
-  Parameters theta;                 // final model
-  EffectSet fitted_effects;         // final model in SPEC units
+  Parameters theta;                     // final model
+  EffectSet fitted_effects;             // final model in SPEC units
   std::vector<EffectFinding> findings;  // ranked, most important first
   std::vector<SelectionStep> steps;
   std::vector<std::string> eliminated;  // families dropped again by backward elimination
   Vec3 fit_rmse_nominal_deg = Vec3::Zero(), fit_rmse_after_deg = Vec3::Zero();
   Vec3 holdout_rmse_nominal_deg = Vec3::Zero(), holdout_rmse_after_deg = Vec3::Zero();
-  double explained_fraction = 0.0;  // of the held-out MSE above the floor, the part removed
+  double explained_fraction = 0.0;                       // of the held-out MSE above the floor, the part removed
   std::vector<Vec3> check_nominal_deg, check_after_deg;  // predictions per CHECK row
   std::size_t check_unreachable = 0;
   std::vector<RegionError> regions;
@@ -155,12 +155,12 @@ struct Diagnosis {
   // removed (how much of the gap lives there).
   std::vector<std::pair<std::string, Vec3>> subsystem_rmse_without_deg;
   Identifiability final_model, all_families;
-  FloorTest floor_test;             // of the final model on CHECK; decides `explained`
-  UnexplainedResidual unexplained;  // filled when the floor test fails
+  FloorTest floor_test;                   // of the final model on CHECK; decides `explained`
+  UnexplainedResidual unexplained;        // filled when the floor test fails
   std::vector<Alternative> alternatives;  // statistically indistinguishable sets, best first
   std::vector<Outlier> outliers;
   std::vector<NewEffect> new_effects;  // significant effects outside the vocabulary (final model)
-  double measuring_scale = 0.0;     // s of a measuring_scale new effect; PRED uses p / (1 + s)
+  double measuring_scale = 0.0;        // s of a measuring_scale new effect; PRED uses p / (1 + s)
   // 1.96 standard errors of each fitted parameter (internal units), from the covariance of the
   // final fit: residual variance on FIT times the inverse of J^T J (with the weak prior).
   Parameters confidence_95 = Parameters::Zero();

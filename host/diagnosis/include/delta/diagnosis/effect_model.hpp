@@ -47,25 +47,25 @@ std::string describe(FamilySet families);  // "backlash + joint_offset", or "nom
 constexpr int kParameterCount = 36;
 using Parameters = Eigen::Matrix<double, kParameterCount, 1>;
 namespace slot {
-constexpr int joint_offset = 0;       // o_j [deg], 3
-constexpr int upper_arm = 3;          // dL_A,j [mm], 3
-constexpr int lower_arm = 6;          // dL_B,j [mm], 3
-constexpr int radius = 9;             // dr_j [mm], 3
-constexpr int chain_angle = 12;       // dphi_j [deg], 3
-constexpr int frame_rotation = 15;    // rx, ry, rz [deg]
-constexpr int frame_translation = 18; // tx, ty, tz [mm]
-constexpr int backlash = 21;          // b_j [deg], 3
-constexpr int amplitude = 24;         // A_j [deg], 3
-constexpr int period = 27;            // P_j [deg], 3
-constexpr int phase = 30;             // phi_j [rad], 3
-constexpr int encoder_scale = 33;     // k_j [-], 3
+constexpr int joint_offset = 0;        // o_j [deg], 3
+constexpr int upper_arm = 3;           // dL_A,j [mm], 3
+constexpr int lower_arm = 6;           // dL_B,j [mm], 3
+constexpr int radius = 9;              // dr_j [mm], 3
+constexpr int chain_angle = 12;        // dphi_j [deg], 3
+constexpr int frame_rotation = 15;     // rx, ry, rz [deg]
+constexpr int frame_translation = 18;  // tx, ty, tz [mm]
+constexpr int backlash = 21;           // b_j [deg], 3
+constexpr int amplitude = 24;          // A_j [deg], 3
+constexpr int period = 27;             // P_j [deg], 3
+constexpr int phase = 30;              // phi_j [rad], 3
+constexpr int encoder_scale = 33;      // k_j [-], 3
 }  // namespace slot
 
 struct ParameterInfo {
-  std::string name;    // e.g. "dL_A,2"
-  std::string unit;    // internal unit
+  std::string name;  // e.g. "dL_A,2"
+  std::string unit;  // internal unit
   Family family;
-  double typical;      // a realistic magnitude in the internal unit (column scaling, weak prior)
+  double typical;  // a realistic magnitude in the internal unit (column scaling, weak prior)
 };
 const std::array<ParameterInfo, kParameterCount>& parameter_table();
 std::vector<int> parameter_indices(FamilySet families);  // sorted global indices
@@ -146,11 +146,12 @@ bool predict_joint(const std::array<Scalar, kLocalCount>& local, FamilySet famil
     const Vec3& p = rows[i].position_m;
     Scalar x(p.x()), y(p.y()), z(p.z());
     if (frame) {
-      const Scalar qx = x - local[8] * Scalar(1e-3), qy = y - local[9] * Scalar(1e-3), qz = z - local[10] * Scalar(1e-3);
-      const Scalar ux = cz * qx + sz * qy, uy = -sz * qx + cz * qy, uz = qz;      // Rz^T
-      const Scalar vx = cy * ux - sy * uz, vy = uy, vz = sy * ux + cy * uz;       // Ry^T
+      const Scalar qx = x - local[8] * Scalar(1e-3), qy = y - local[9] * Scalar(1e-3),
+                   qz = z - local[10] * Scalar(1e-3);
+      const Scalar ux = cz * qx + sz * qy, uy = -sz * qx + cz * qy, uz = qz;  // Rz^T
+      const Scalar vx = cy * ux - sy * uz, vy = uy, vz = sy * ux + cy * uz;   // Ry^T
       x = vx;
-      y = cx * vy + sx * vz;                                                      // Rx^T
+      y = cx * vy + sx * vz;  // Rx^T
       z = -sx * vy + cx * vz;
     }
     Scalar alpha;
@@ -168,7 +169,7 @@ bool predict_joint(const std::array<Scalar, kLocalCount>& local, FamilySet famil
 
 struct Prediction {
   std::vector<Vec3> alpha_deg;
-  std::size_t unreachable = 0;      // rows the model cannot reach (their true angle is held)
+  std::size_t unreachable = 0;  // rows the model cannot reach (their true angle is held)
   std::size_t first_unreachable = 0;
 };
 

@@ -15,7 +15,7 @@ using NormalMatrix = Eigen::Matrix<double, kParameterCount, kParameterCount>;
 // Sum of squared residuals (measured - predicted, deg^2) and, when asked, J^T J and J^T r where
 // J = d predicted / d theta (all 36 columns; those of absent families are zero).
 struct NormalEquations {
-  bool ok = false;              // false: some row is unreachable for this theta
+  bool ok = false;  // false: some row is unreachable for this theta
   std::size_t failed_row = 0;
   double sum_squares = 0.0;
   Eigen::Vector3d joint_sum_squares = Eigen::Vector3d::Zero();
@@ -28,7 +28,7 @@ NormalEquations evaluate(const Parameters& theta, FamilySet families, const std:
 struct FitResult {
   Parameters theta;
   FamilySet families;
-  bool ok = false;              // every FIT row reachable at the solution
+  bool ok = false;  // every FIT row reachable at the solution
   int iterations = 0;
   Eigen::Vector3d fit_rmse_deg = Eigen::Vector3d::Zero();
   NormalMatrix jtj = NormalMatrix::Zero();  // at the solution, for identifiability
@@ -36,7 +36,7 @@ struct FitResult {
 
 struct FitOptions {
   int max_iterations = 40;
-  double tolerance = 1e-7;  // stop when one step lowers the cost by less than this fraction
+  double tolerance = 1e-7;                             // stop when one step lowers the cost by less than this fraction
   double noise_floor_deg = 0.01 / 3.4641016151377544;  // sets the weight of the weak prior
 };
 

@@ -63,9 +63,9 @@ struct QuantisedNetwork {
 
 // Counts of casts that clamped. Inside the trained range all of them must stay zero.
 struct SaturationCounters {
-  std::uint64_t scaled_input = 0;   // u left [-1, 1): position beyond the representable margin
-  std::uint64_t tanh_input = 0;     // n left the tanh input format (harmless past |n| = 8: tanh is flat)
-  std::uint64_t output = 0;         // alpha left the output format
+  std::uint64_t scaled_input = 0;  // u left [-1, 1): position beyond the representable margin
+  std::uint64_t tanh_input = 0;    // n left the tanh input format (harmless past |n| = 8: tanh is flat)
+  std::uint64_t output = 0;        // alpha left the output format
   std::uint64_t evaluations = 0;
   void add(const SaturationCounters& other);
   std::uint64_t errors() const { return scaled_input + output; }  // casts that change the result

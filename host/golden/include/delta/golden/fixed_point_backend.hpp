@@ -30,7 +30,9 @@ inline QuantisedNetwork quantise_file(const std::string& weights_path, const nn:
 class FixedPointIkBackend : public IkBackend {
  public:
   FixedPointIkBackend(std::string name, nn::WeightsFile weights, QuantisedNetwork quantised, RawEvaluator evaluator)
-      : name_(std::move(name)), weights_(std::move(weights)), quantised_(std::move(quantised)),
+      : name_(std::move(name)),
+        weights_(std::move(weights)),
+        quantised_(std::move(quantised)),
         evaluator_(std::move(evaluator)) {}
 
   bool has_raw_codes() const override { return true; }

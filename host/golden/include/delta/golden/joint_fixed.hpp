@@ -31,15 +31,15 @@ constexpr int kDisturbanceShift = 22;
 constexpr int kLawShift = 20;  // coefficients of eq. 5; the sum is then at Q.44, the output Q.15
 
 struct JointFixedCoefficients {
-  std::int32_t reference_gain;                 // g_ref Ts / (1 + g_ref Ts)                << 26
-  std::int32_t velocity_encoder_gain;          // g_v Ts / (1 + g_v Ts)                    << 25
-  std::int32_t velocity_current_gain;          // 1 / (Kacc (1 + g_v Ts)), counts/period/A << 25
-  std::int32_t disturbance_gain;               // g_d Ts / (1 + g_d Ts)                    << 22
-  std::int32_t disturbance_velocity_gain;      // -(g_d Ts / (1 + g_d Ts)) Kacc            << 22
-  std::int32_t law_acceleration_gain;          // Kacc = m g_r q / (K Ts^2), A per count/period^2 << 20
-  std::int32_t law_velocity_gain;              // -Kacc k_v Ts                             << 20
-  std::int32_t law_position_gain;              // -Kacc k_p Ts^2 (A per count)             << 36
-  std::int16_t current_limit_code;             // limit in Q1.15
+  std::int32_t reference_gain;             // g_ref Ts / (1 + g_ref Ts)                << 26
+  std::int32_t velocity_encoder_gain;      // g_v Ts / (1 + g_v Ts)                    << 25
+  std::int32_t velocity_current_gain;      // 1 / (Kacc (1 + g_v Ts)), counts/period/A << 25
+  std::int32_t disturbance_gain;           // g_d Ts / (1 + g_d Ts)                    << 22
+  std::int32_t disturbance_velocity_gain;  // -(g_d Ts / (1 + g_d Ts)) Kacc            << 22
+  std::int32_t law_acceleration_gain;      // Kacc = m g_r q / (K Ts^2), A per count/period^2 << 20
+  std::int32_t law_velocity_gain;          // -Kacc k_v Ts                             << 20
+  std::int32_t law_position_gain;          // -Kacc k_p Ts^2 (A per count)             << 36
+  std::int16_t current_limit_code;         // limit in Q1.15
 };
 
 // Rounds every coefficient to nearest. Throws std::invalid_argument if one does not fit 24 bits.
@@ -62,8 +62,8 @@ struct JointFixedState {
 };
 
 struct JointFixedStatus {
-  bool limited = false;          // the current limit clipped the command
-  int overflow_count = 0;        // operands and states saturated this period
+  bool limited = false;    // the current limit clipped the command
+  int overflow_count = 0;  // operands and states saturated this period
 };
 
 // At rest at the given input: previous input = input, everything else zero.

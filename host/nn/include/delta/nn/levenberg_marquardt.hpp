@@ -24,7 +24,7 @@ class LeastSquaresProblem {
 
 struct LmOptions {
   int max_epochs = 1000;
-  double mu_initial = 1e-3;   // MATLAB trainlm defaults
+  double mu_initial = 1e-3;  // MATLAB trainlm defaults
   double mu_decrease = 0.1;
   double mu_increase = 10.0;
   double mu_max = 1e10;
@@ -36,9 +36,9 @@ struct LmOptions {
 };
 
 struct LmEpoch {
-  int epoch = 0;           // 1-based
-  double sse = 0.0;        // after the epoch's step
-  double mu = 0.0;         // damping used by the accepted step
+  int epoch = 0;               // 1-based
+  double sse = 0.0;            // after the epoch's step
+  double mu = 0.0;             // damping used by the accepted step
   double gradient_norm = 0.0;  // |J^T e| before the step
 };
 

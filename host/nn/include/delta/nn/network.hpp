@@ -19,10 +19,10 @@ struct Network {
   Eigen::Vector3d input_max = Eigen::Vector3d::Constant(1.0);    // metres
   Eigen::Vector3d output_min = Eigen::Vector3d::Constant(-1.0);  // degrees
   Eigen::Vector3d output_max = Eigen::Vector3d::Constant(1.0);   // degrees
-  Eigen::MatrixXd input_weights;   // IW{1,1}: hidden x 3
-  Eigen::VectorXd hidden_bias;     // b{1}: hidden
-  Eigen::MatrixXd output_weights;  // LW{2,1}: 3 x hidden
-  Eigen::Vector3d output_bias = Eigen::Vector3d::Zero();  // b{2}
+  Eigen::MatrixXd input_weights;                                 // IW{1,1}: hidden x 3
+  Eigen::VectorXd hidden_bias;                                   // b{1}: hidden
+  Eigen::MatrixXd output_weights;                                // LW{2,1}: 3 x hidden
+  Eigen::Vector3d output_bias = Eigen::Vector3d::Zero();         // b{2}
 
   int hidden() const { return static_cast<int>(hidden_bias.size()); }
   Eigen::Vector3d scale_input(const Eigen::Vector3d& position_m) const;

@@ -17,28 +17,28 @@ namespace delta::nn {
 
 struct TrainingOptions {
   int hidden = 25;
-  std::uint64_t seed = 1;            // initial weights (Nguyen-Widrow) and the validation split
-  int max_epochs = 1000;            // MATLAB trainlm default
-  double validation_fraction = 0.15; // share of samples held out of the fit for early stopping
-  int max_validation_failures = 6;   // MATLAB's max_fail: epochs in a row without a better validation error
-  int plateau_epochs = 25;           // converged: training SSE fell by < plateau_fraction over this many epochs
+  std::uint64_t seed = 1;             // initial weights (Nguyen-Widrow) and the validation split
+  int max_epochs = 1000;              // MATLAB trainlm default
+  double validation_fraction = 0.15;  // share of samples held out of the fit for early stopping
+  int max_validation_failures = 6;    // MATLAB's max_fail: epochs in a row without a better validation error
+  int plateau_epochs = 25;            // converged: training SSE fell by < plateau_fraction over this many epochs
   double plateau_fraction = 0.01;
-  int threads = 0;                   // 0: all cores. The result does not depend on it.
+  int threads = 0;  // 0: all cores. The result does not depend on it.
 };
 
 struct TrainingEpoch {
   int epoch = 0;
-  double training_mse_deg2 = 0.0;    // mean over samples and joints
+  double training_mse_deg2 = 0.0;  // mean over samples and joints
   double validation_mse_deg2 = 0.0;
   double mu = 0.0;
   double gradient_norm = 0.0;
 };
 
 struct TrainingResult {
-  Network network;               // the weights with the best validation error
-  int epochs = 0;                // epochs run
-  int best_epoch = 0;            // epoch of the returned weights
-  std::string stop_reason;       // max_epochs, plateau, validation (early stop), mu_max, min_gradient
+  Network network;                   // the weights with the best validation error
+  int epochs = 0;                    // epochs run
+  int best_epoch = 0;                // epoch of the returned weights
+  std::string stop_reason;           // max_epochs, plateau, validation (early stop), mu_max, min_gradient
   double training_mse_deg2 = 0.0;    // of the returned weights
   double validation_mse_deg2 = 0.0;  // of the returned weights
   std::size_t training_samples = 0;

@@ -28,8 +28,7 @@ class NetworkHarness {
  public:
   // mem_dir: directory of the .mem files (passed as +delta_mem_dir; ignored by a netlist, whose
   // memories were filled at synthesis). fst_path: empty for no waveform.
-  NetworkHarness(int input_width, int output_width, const std::string& mem_dir,
-                 const std::string& fst_path = "")
+  NetworkHarness(int input_width, int output_width, const std::string& mem_dir, const std::string& fst_path = "")
       : input_width_(input_width), output_width_(output_width), context_(new VerilatedContext) {
     const std::string plusarg = "+delta_mem_dir=" + mem_dir;
     const char* argv[] = {"network_harness", plusarg.c_str()};
