@@ -37,3 +37,7 @@ delta_add_gtest(rtl_cosim_tests
   LIBRARIES delta::board_cosim delta::golden delta::nn delta::host
   LABELS rtl cosim)
 target_include_directories(rtl_cosim_tests PRIVATE ${CMAKE_CURRENT_LIST_DIR}/rtl)
+delta_add_gtest(rtl_link_tests
+  SOURCES ${CMAKE_CURRENT_LIST_DIR}/rtl/test_link_crc16.cpp
+  LIBRARIES delta_link_crc16_model delta::host
+  LABELS rtl)
