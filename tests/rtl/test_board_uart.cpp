@@ -21,6 +21,7 @@
 #include "delta/link_v1.hpp"
 #include "delta/robot_world.hpp"
 #include "delta/rtl/board_clock.hpp"
+#include "delta/rtl/uart_line.hpp"
 #include "rtl_fixture.hpp"
 
 namespace delta::test {
@@ -155,11 +156,8 @@ class BoardUart {
   // Sends the bytes (8N1, LSB first) while decoding what the board transmits; returns the bytes
   // received until the line has been idle for 40 bit times after the last one.
   std::vector<std::uint8_t> exchange(const std::vector<std::uint8_t>& request) {
-    for (std::uint8_t byte : request) {
-      send_bit(0);
-      for (int b = 0; b < 8; ++b) send_bit((byte >> b) & 1);
-      send_bit(1);
-    }
+    line_.send(request);
+    while (line_.sending()) tick();
     int idle = 0;
     while (idle < 40 * kClocksPerBit * 10 && context_->time() < 100'000'000) {
       idle = received_.size() > received_before_idle_ ? 0 : idle + 1;
@@ -173,34 +171,17 @@ class BoardUart {
   }
 
  private:
-  void send_bit(int bit) {
-    core_->uart_rx_i = bit;
-    for (int i = 0; i < kClocksPerBit; ++i) tick();
-  }
-
-  // One board clock = two network clocks, rising together (the PLL's GENCLK and GENCLK_HALF);
-  // the receiver samples tx_o mid-bit after a falling edge (a start bit).
+  // One board clock = two network clocks, rising together (the PLL's GENCLK and GENCLK_HALF); the
+  // serial line drives rx_i and decodes tx_o (rtl/board/sim/uart_line.hpp).
   void tick() {
+    core_->uart_rx_i = line_.rx_pin();
     if (listening_) joints_.drive(*core_);
     rtl::clock_board(*core_);
     context_->timeInc(1);
     const int tx = core_->uart_tx_o;
     if (!listening_) return;
     joints_.after_edge(*core_, edge_++);
-    if (rx_phase_ < 0) {
-      if (tx == 0) rx_phase_ = 0;  // start bit
-    } else {
-      ++rx_phase_;
-      const int bit_index = (rx_phase_ - kClocksPerBit / 2) / kClocksPerBit;  // 0: start, 1..8: data, 9: stop
-      if ((rx_phase_ - kClocksPerBit / 2) % kClocksPerBit == 0 && bit_index >= 1 && bit_index <= 8) {
-        rx_byte_ |= tx << (bit_index - 1);
-      }
-      if (bit_index == 9 && (rx_phase_ - kClocksPerBit / 2) % kClocksPerBit == 0) {
-        received_.push_back(static_cast<std::uint8_t>(rx_byte_));
-        rx_byte_ = 0;
-        rx_phase_ = -1;
-      }
-    }
+    if (line_.sample_tx_pin(tx)) received_.push_back(line_.byte());
   }
 
   std::unique_ptr<VerilatedContext> context_;
@@ -210,8 +191,7 @@ class BoardUart {
   std::vector<std::uint8_t> received_;
   std::size_t received_before_idle_ = 0;
   bool listening_ = false;
-  int rx_phase_ = -1;
-  int rx_byte_ = 0;
+  rtl::UartLine line_{kClocksPerBit};
 };
 
 // The answer's three codes, after its framing and checksum are checked.
