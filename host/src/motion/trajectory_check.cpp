@@ -61,6 +61,16 @@ std::optional<TrajectoryViolation> first_violation(const std::vector<TrajectoryP
     return TrajectoryViolation{k, samples[k].t_s, samples[k].source_line, reason};
   };
   const char* axis = "xyz";
+  // Backward differences at the rate: velocity from k-1, acceleration from k-2, jerk from k-3.
+  struct Derivative {
+    int order;
+    double limit;
+    const char* name;
+    const char* unit;
+  };
+  const Derivative derivatives[] = {{1, limits.joint_velocity_deg_s, "velocity", "deg/s"},
+                                    {2, limits.joint_acceleration_deg_s2, "acceleration", "deg/s^2"},
+                                    {3, limits.joint_jerk_deg_s3, "jerk", "deg/s^3"}};
   for (std::size_t k = 0; k < samples.size(); ++k) {
     const Vec3& p = samples[k].position_m;
     if (!p.allFinite()) return violation(k, "not a finite position");
@@ -81,16 +91,6 @@ std::optional<TrajectoryViolation> first_violation(const std::vector<TrajectoryP
       }
     }
     alpha[k] = ik.alpha_deg;
-    // Backward differences at the rate: velocity from k-1, acceleration from k-2, jerk from k-3.
-    struct Derivative {
-      int order;
-      double limit;
-      const char* name;
-      const char* unit;
-    };
-    const Derivative derivatives[] = {{1, limits.joint_velocity_deg_s, "velocity", "deg/s"},
-                                      {2, limits.joint_acceleration_deg_s2, "acceleration", "deg/s^2"},
-                                      {3, limits.joint_jerk_deg_s3, "jerk", "deg/s^3"}};
     for (const Derivative& d : derivatives) {
       if (k < static_cast<std::size_t>(d.order)) continue;
       Vec3 difference = alpha[k];
