@@ -26,10 +26,13 @@ package delta_board_pkg;
   localparam int LinkRequestCodeBytes /*verilator public*/ = 4;  // per input code (32-bit raw position)
   localparam int LinkAnswerCodeBytes /*verilator public*/ = 3;  // per output code (24-bit raw angle)
 
-  // Frames of the next link (link v2, issue 12; C++ codec host/include/delta/link/frame_codec.hpp,
-  // layout in docs/board_link.md; the RTL side is not written yet). A frame is
-  // sync, length (payload bytes), sequence, type, payload, CRC-16 (high byte first) over
+  // ---- link v2 (issue 12): the one description of the frames is docs/board_link.md; every number
+  // it uses is here. RTL: rtl/board/link_*.sv; C++ codec: host/include/delta/link/*.hpp.
+  // A frame is sync, length (payload bytes), sequence, type, payload, CRC-16 (high byte first) over
   // length..payload; CRC-16/CCITT-FALSE: polynomial 0x1021, initial value 0xFFFF.
+  localparam int LinkBaud /*verilator public*/ = 1_000_000;  // FT2232H: 3 MHz / 3, exact
+  localparam int LinkClocksPerBit /*verilator public*/ = 23;  // BoardClockHz / 23 = 1,010,870 baud, +1.09 %
+  localparam int ProtocolVersion /*verilator public*/ = 2;
   localparam int FrameSync /*verilator public*/ = 32'h7E;
   localparam int FrameHeaderBytes /*verilator public*/ = 4;  // sync, length, sequence, type
   localparam int FrameCrcBytes /*verilator public*/ = 2;
@@ -39,12 +42,61 @@ package delta_board_pkg;
   localparam int FrameTypeIdentifyRequest /*verilator public*/ = 32'h01;  // host -> board, no payload
   localparam int FrameTypeSetpoint /*verilator public*/ = 32'h02;  // host -> board: sample index, 3 position codes
   localparam int FrameTypeCommand /*verilator public*/ = 32'h03;  // host -> board: one command byte
-  localparam int FrameTypeIdentify /*verilator public*/ = 32'h81;  // board -> host
+  localparam int FrameTypeIdentify /*verilator public*/ = 32'h81;  // board -> host, answers 0x01 (same sequence)
   localparam int FrameTypeTelemetry /*verilator public*/ = 32'h82;  // board -> host, 1 kHz
-  localparam int SetpointPayloadBytes /*verilator public*/ = 16;  // u32 sample index, 3 x i32 position codes
+  localparam int SetpointPayloadBytes /*verilator public*/ = 16;
   localparam int CommandPayloadBytes /*verilator public*/ = 1;
   localparam int IdentifyPayloadBytes /*verilator public*/ = 24;
   localparam int TelemetryPayloadBytes /*verilator public*/ = 44;
+  localparam int RxRingBytes /*verilator public*/ = 512;  // received bytes kept for the rescan after a drop
+
+  // Setpoints: 1 kHz, addressed by sample index, into a buffer of SetpointDepth entries.
+  localparam int SetpointRateHz /*verilator public*/ = 1_000;
+  localparam int PeriodsPerSetpoint /*verilator public*/ = 10;  // ControlRateHz / SetpointRateHz
+  localparam int SetpointDepth /*verilator public*/ = 64;  // entries (64 ms)
+  localparam int SetpointIndexOffset /*verilator public*/ = 0;  // u32 sample index
+  localparam int SetpointPositionOffset /*verilator public*/ = 4;  // 3 x i32 network input codes x, y, z
+
+  // Interpolation: reference r(k) = B + round(D * K(k) / 2^InterpolationShift), K(k) = round(k 2^14 / 10).
+  localparam int InterpolationShift /*verilator public*/ = 14;
+  localparam int SegmentDeltaBits /*verilator public*/ = 16;  // D: reference change per setpoint, Q.8 counts, saturated
+
+  // Command byte values (payload of a command frame).
+  localparam int CommandEnable /*verilator public*/ = 1;  // drives on (homed, no fault); resumes after hold
+  localparam int CommandDisable /*verilator public*/ = 2;  // drives off, buffer flushed
+  localparam int CommandHold /*verilator public*/ = 3;  // stop taking setpoints, hold the reference
+  localparam int CommandClearFault /*verilator public*/ = 4;  // refused while a cause persists
+  localparam int CommandSetHome /*verilator public*/ = 5;  // counts := HomeCount (drives off only)
+
+  // Identify payload (u16/u32 little-endian).
+  localparam int IdentifyProtocolOffset /*verilator public*/ = 0;  // u16 ProtocolVersion
+  localparam int IdentifyDepthOffset /*verilator public*/ = 2;  // u16 SetpointDepth
+  localparam int IdentifyBuildIdOffset /*verilator public*/ = 4;  // u32 gateware build id
+  localparam int IdentifyWeightsCrcOffset /*verilator public*/ = 8;  // u32 CRC-32 of the network's ROM codes
+  localparam int IdentifyNetworkClockOffset /*verilator public*/ = 12;  // u32 NetworkClockHz
+  localparam int IdentifyBoardClockOffset /*verilator public*/ = 16;  // u32 BoardClockHz
+  localparam int IdentifyControlRateOffset /*verilator public*/ = 20;  // u16 ControlRateHz
+  localparam int IdentifySetpointRateOffset /*verilator public*/ = 22;  // u16 SetpointRateHz
+
+  // Telemetry payload, one frame per setpoint period (snapshot at the middle of sub-period 0).
+  localparam int TelemetrySampleIndexOffset /*verilator public*/ = 0;  // u32 next sample index to play
+  localparam int TelemetryTickOffset /*verilator public*/ = 4;  // u32 control periods since reset
+  localparam int TelemetryCountsOffset /*verilator public*/ = 8;  // 3 x i16 encoder counts
+  localparam int TelemetryReferencesOffset /*verilator public*/ = 14;  // 3 x i32 network output codes (last answer)
+  localparam int TelemetryCurrentsOffset /*verilator public*/ = 26;  // 3 x i16 current commands, Q1.15 A
+  localparam int TelemetryFaultOffset /*verilator public*/ = 32;  // u8 fault cause bits (Fault*)
+  localparam int TelemetryFlagsOffset /*verilator public*/ = 33;  // u8 flags (Flag*)
+  localparam int TelemetryFillOffset /*verilator public*/ = 34;  // u16 setpoints buffered
+  localparam int TelemetryBadFramesOffset /*verilator public*/ = 36;  // u16 dropped frames (saturating)
+  localparam int TelemetryUnderrunsOffset /*verilator public*/ = 38;  // u16 setpoint periods with an empty buffer
+  localparam int TelemetrySaturationsOffset /*verilator public*/ = 40;  // u16 controller saturations (saturating)
+  localparam int TelemetrySequenceOffset /*verilator public*/ = 42;  // u8 sequence of the last accepted frame
+  localparam int TelemetryRejectedOffset /*verilator public*/ = 43;  // u8 refused commands and setpoints (saturating)
+  localparam int FlagDriveEnable /*verilator public*/ = 0;
+  localparam int FlagHomed /*verilator public*/ = 1;
+  localparam int FlagHolding /*verilator public*/ = 2;
+  localparam int FlagFault /*verilator public*/ = 3;
+  localparam int FlagEncoderError /*verilator public*/ = 4;
 
   // ---- joints ----
   localparam int HomeCount /*verilator public*/ = 3_000;  // encoder count at reset: 30.00 deg (0.01 deg per count)
@@ -56,14 +108,14 @@ package delta_board_pkg;
 
   // ---- joint safety (joint_axes.sv, "Safety") ----
   localparam int FollowingBits /*verilator public*/ = 9;  // following error limit: -512 .. 511 counts (5.12 deg)
-  localparam int WatchdogPeriods /*verilator public*/ = 500;  // no new reference for 500 periods (50 ms): fault
+  localparam int WatchdogPeriods /*verilator public*/ = 500;  // drives on and no valid frame for 500 periods (50 ms): fault
   localparam int MinTravelBlock /*verilator public*/ = -1;  // reference travel in 1024-count blocks:
   localparam int MaxTravelBlock /*verilator public*/ = 8;  //   -1024 .. 9215 counts (-10.24 .. 92.15 deg)
 
   // Fault cause bits (fault_cause_o of joint_axes, joint_fault_cause_o of board_core).
   localparam int FaultEncoderSkip /*verilator public*/ = 0;  // an encoder skipped a quadrature state
   localparam int FaultFollowing /*verilator public*/ = 1;  // reference - encoder outside the following limit
-  localparam int FaultWatchdog /*verilator public*/ = 2;  // the reference stream stopped
+  localparam int FaultWatchdog /*verilator public*/ = 2;  // no valid frame for 50 ms with the drives on
   localparam int FaultTravel /*verilator public*/ = 3;  // a reference outside the travel
   localparam int FaultCauseBits /*verilator public*/ = 4;
 
