@@ -23,6 +23,20 @@ std::optional<std::size_t> payload_bytes(std::uint8_t type) {
   }
 }
 
+std::optional<std::size_t> payload_bytes(Receiver receiver, std::uint8_t type) {
+  switch (type) {
+    case board::kFrameTypeIdentifyRequest:
+    case board::kFrameTypeSetpoint:
+    case board::kFrameTypeCommand:
+      return receiver == Receiver::kBoard ? payload_bytes(type) : std::nullopt;
+    case board::kFrameTypeIdentify:
+    case board::kFrameTypeTelemetry:
+      return receiver == Receiver::kHost ? payload_bytes(type) : std::nullopt;
+    default:
+      return std::nullopt;
+  }
+}
+
 std::uint16_t crc16(const std::uint8_t* data, std::size_t size, std::uint16_t crc) {
   for (std::size_t i = 0; i < size; ++i) {
     crc ^= static_cast<std::uint16_t>(data[i]) << 8;
@@ -68,7 +82,7 @@ void FrameDecoder::accept_byte(std::uint8_t byte, std::vector<Frame>& frames) {
   buffer_.push_back(byte);
   if (buffer_.size() == kHeaderBytes) {
     const std::size_t length = buffer_[1];
-    const auto size = payload_bytes(buffer_[3]);
+    const auto size = payload_bytes(receiver_, buffer_[3]);
     if (!size) return drop_and_rescan(&DecoderCounters::unknown_type, frames);
     if (length != *size || length > kMaxPayloadBytes) return drop_and_rescan(&DecoderCounters::bad_length, frames);
     expected_ = kHeaderBytes + length + kCrcBytes;
