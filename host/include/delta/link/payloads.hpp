@@ -1,0 +1,193 @@
+// The payloads of the board link v2 (docs/board_link.md, "Payloads"): setpoint, command, identify,
+// telemetry, as value structs with encode and decode. Little-endian; every offset comes from
+// rtl/board/delta_board_pkg.sv through delta/board_facts.hpp, every field width from the struct's
+// C++ type, and static_asserts below check that the fields tile each payload exactly (no gap, no
+// overlap, the package's payload size), so the package cannot drift from this codec.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "delta/board_facts.hpp"
+#include "delta/link/frame_codec.hpp"
+
+namespace delta::link {
+
+// Setpoint (host -> board): the sample index and the three network input codes (raw positions,
+// metres * 2^28, the format of `deltactl quantise`).
+struct SetpointPayload {
+  std::uint32_t sample_index = 0;
+  std::array<std::int32_t, 3> position_code{};
+};
+
+// Command byte (host -> board).
+enum class Command : std::uint8_t {
+  kEnable = board::kCommandEnable,
+  kDisable = board::kCommandDisable,
+  kHold = board::kCommandHold,
+  kClearFault = board::kCommandClearFault,
+  kSetHome = board::kCommandSetHome,
+};
+
+// Identify (board -> host), the answer to an identify request.
+struct IdentifyPayload {
+  std::uint16_t protocol_version = 0;  // board::kProtocolVersion
+  std::uint16_t setpoint_depth = 0;    // board::kSetpointDepth, entries
+  std::uint32_t build_id = 0;          // gateware build id: first 32 bits of SHA-256 of rtl/**/*.sv
+  std::uint32_t weights_crc = 0;       // delta::weights_crc of the network's ROM codes
+  std::uint32_t network_clock_hz = 0;
+  std::uint32_t board_clock_hz = 0;
+  std::uint16_t control_rate_hz = 0;
+  std::uint16_t setpoint_rate_hz = 0;
+};
+
+// The identify payload of a board built from this checkout's package: every field a board fact
+// except the two given.
+IdentifyPayload board_identify(std::uint32_t build_id, std::uint32_t weights_crc);
+
+// Bits of TelemetryPayload::flags.
+enum class TelemetryFlag : std::uint8_t {
+  kDriveEnable = board::kFlagDriveEnable,
+  kHomed = board::kFlagHomed,
+  kHolding = board::kFlagHolding,
+  kFault = board::kFlagFault,  // a fault cause is latched
+  kEncoderError = board::kFlagEncoderError,
+};
+
+// Bits of TelemetryPayload::fault_cause.
+enum class FaultCause : std::uint8_t {
+  kEncoderSkip = board::kFaultEncoderSkip,
+  kFollowing = board::kFaultFollowing,
+  kWatchdog = board::kFaultWatchdog,
+  kTravel = board::kFaultTravel,
+};
+
+constexpr std::uint8_t mask(TelemetryFlag flag) { return static_cast<std::uint8_t>(1u << static_cast<int>(flag)); }
+constexpr std::uint8_t mask(FaultCause cause) { return static_cast<std::uint8_t>(1u << static_cast<int>(cause)); }
+
+// Telemetry (board -> host, one frame per setpoint period).
+struct TelemetryPayload {
+  std::uint32_t sample_index = 0;            // the next setpoint to play
+  std::uint32_t tick = 0;                    // control periods since reset
+  std::array<std::int16_t, 3> counts{};      // encoder counts, 0.01 deg
+  std::array<std::int32_t, 3> references{};  // the last answer: raw output codes, Q10.14 deg
+  std::array<std::int16_t, 3> currents{};    // current commands, Q1.15 A
+  std::uint8_t fault_cause = 0;              // FaultCause bits
+  std::uint8_t flags = 0;                    // TelemetryFlag bits
+  std::uint16_t fill = 0;                    // setpoints waiting in the buffer
+  std::uint16_t bad_frames = 0;              // saturating
+  std::uint16_t underruns = 0;               // saturating
+  std::uint16_t saturations = 0;             // saturating
+  std::uint8_t sequence = 0;                 // of the last accepted frame
+  std::uint8_t rejected = 0;                 // refused commands and setpoints, saturating
+
+  bool has(TelemetryFlag flag) const { return (flags & mask(flag)) != 0; }
+  bool has(FaultCause cause) const { return (fault_cause & mask(cause)) != 0; }
+  void set(TelemetryFlag flag, bool on) {
+    flags = static_cast<std::uint8_t>(on ? flags | mask(flag) : flags & ~mask(flag));
+  }
+  void set(FaultCause cause, bool on) {
+    fault_cause = static_cast<std::uint8_t>(on ? fault_cause | mask(cause) : fault_cause & ~mask(cause));
+  }
+};
+
+// Encoding: exactly the type's payload size (board::k*PayloadBytes).
+std::vector<std::uint8_t> encode(const SetpointPayload& payload);
+std::vector<std::uint8_t> encode(Command command);
+std::vector<std::uint8_t> encode(const IdentifyPayload& payload);
+std::vector<std::uint8_t> encode(const TelemetryPayload& payload);
+
+// Decoding: each throws std::invalid_argument naming the payload and both sizes when `payload`
+// is not the type's size. decode_command returns nothing for a byte that is no Command (the board
+// refuses it and counts it in `rejected`).
+SetpointPayload decode_setpoint(const std::vector<std::uint8_t>& payload);
+std::optional<Command> decode_command(const std::vector<std::uint8_t>& payload);
+IdentifyPayload decode_identify(const std::vector<std::uint8_t>& payload);
+TelemetryPayload decode_telemetry(const std::vector<std::uint8_t>& payload);
+
+// Whole frames of a payload, ready for encode_frame.
+Frame make_frame(std::uint8_t sequence, const SetpointPayload& payload);
+Frame make_frame(std::uint8_t sequence, Command command);
+Frame make_frame(std::uint8_t sequence, const IdentifyPayload& payload);
+Frame make_frame(std::uint8_t sequence, const TelemetryPayload& payload);
+Frame make_identify_request(std::uint8_t sequence);
+
+// ---- layout: the one table the codec reads and writes by, checked against the package ----
+namespace layout {
+
+struct Field {
+  std::size_t offset;         // from the package
+  std::size_t element_bytes;  // sizeof the C++ element type
+  std::size_t count;          // elements (3 for the per-joint arrays)
+  constexpr std::size_t end() const { return offset + element_bytes * count; }
+};
+
+template <typename Element>
+constexpr Field field(long long offset, std::size_t count = 1) {
+  return Field{static_cast<std::size_t>(offset), sizeof(Element), count};
+}
+
+constexpr Field kSetpointIndex = field<std::uint32_t>(board::kSetpointIndexOffset);
+constexpr Field kSetpointPosition = field<std::int32_t>(board::kSetpointPositionOffset, 3);
+constexpr Field kSetpoint[] = {kSetpointIndex, kSetpointPosition};
+
+constexpr Field kCommandByte = field<std::uint8_t>(0);
+constexpr Field kCommand[] = {kCommandByte};
+
+constexpr Field kIdentifyProtocol = field<std::uint16_t>(board::kIdentifyProtocolOffset);
+constexpr Field kIdentifyDepth = field<std::uint16_t>(board::kIdentifyDepthOffset);
+constexpr Field kIdentifyBuildId = field<std::uint32_t>(board::kIdentifyBuildIdOffset);
+constexpr Field kIdentifyWeightsCrc = field<std::uint32_t>(board::kIdentifyWeightsCrcOffset);
+constexpr Field kIdentifyNetworkClock = field<std::uint32_t>(board::kIdentifyNetworkClockOffset);
+constexpr Field kIdentifyBoardClock = field<std::uint32_t>(board::kIdentifyBoardClockOffset);
+constexpr Field kIdentifyControlRate = field<std::uint16_t>(board::kIdentifyControlRateOffset);
+constexpr Field kIdentifySetpointRate = field<std::uint16_t>(board::kIdentifySetpointRateOffset);
+constexpr Field kIdentify[] = {kIdentifyProtocol,     kIdentifyDepth,      kIdentifyBuildId,     kIdentifyWeightsCrc,
+                               kIdentifyNetworkClock, kIdentifyBoardClock, kIdentifyControlRate, kIdentifySetpointRate};
+
+constexpr Field kTelemetrySampleIndex = field<std::uint32_t>(board::kTelemetrySampleIndexOffset);
+constexpr Field kTelemetryTick = field<std::uint32_t>(board::kTelemetryTickOffset);
+constexpr Field kTelemetryCounts = field<std::int16_t>(board::kTelemetryCountsOffset, 3);
+constexpr Field kTelemetryReferences = field<std::int32_t>(board::kTelemetryReferencesOffset, 3);
+constexpr Field kTelemetryCurrents = field<std::int16_t>(board::kTelemetryCurrentsOffset, 3);
+constexpr Field kTelemetryFault = field<std::uint8_t>(board::kTelemetryFaultOffset);
+constexpr Field kTelemetryFlags = field<std::uint8_t>(board::kTelemetryFlagsOffset);
+constexpr Field kTelemetryFill = field<std::uint16_t>(board::kTelemetryFillOffset);
+constexpr Field kTelemetryBadFrames = field<std::uint16_t>(board::kTelemetryBadFramesOffset);
+constexpr Field kTelemetryUnderruns = field<std::uint16_t>(board::kTelemetryUnderrunsOffset);
+constexpr Field kTelemetrySaturations = field<std::uint16_t>(board::kTelemetrySaturationsOffset);
+constexpr Field kTelemetrySequence = field<std::uint8_t>(board::kTelemetrySequenceOffset);
+constexpr Field kTelemetryRejected = field<std::uint8_t>(board::kTelemetryRejectedOffset);
+constexpr Field kTelemetry[] = {kTelemetrySampleIndex, kTelemetryTick,      kTelemetryCounts,      kTelemetryReferences,
+                                kTelemetryCurrents,    kTelemetryFault,     kTelemetryFlags,       kTelemetryFill,
+                                kTelemetryBadFrames,   kTelemetryUnderruns, kTelemetrySaturations, kTelemetrySequence,
+                                kTelemetryRejected};
+
+// True when the fields, in the order listed, start at 0, each begins where the previous ends, and
+// the last ends at `payload_bytes`: an exact tiling.
+template <std::size_t N>
+constexpr bool tiles(const Field (&fields)[N], long long payload_bytes) {
+  std::size_t at = 0;
+  for (std::size_t i = 0; i < N; ++i) {
+    if (fields[i].offset != at) return false;
+    at = fields[i].end();
+  }
+  return static_cast<long long>(at) == payload_bytes;
+}
+
+static_assert(tiles(kSetpoint, board::kSetpointPayloadBytes), "setpoint payload: package offsets and fields differ");
+static_assert(tiles(kCommand, board::kCommandPayloadBytes), "command payload: package and codec differ");
+static_assert(tiles(kIdentify, board::kIdentifyPayloadBytes), "identify payload: package offsets and fields differ");
+static_assert(tiles(kTelemetry, board::kTelemetryPayloadBytes), "telemetry payload: package offsets and fields differ");
+static_assert(board::kSetpointPayloadBytes <= board::kFrameMaxPayloadBytes &&
+                  board::kCommandPayloadBytes <= board::kFrameMaxPayloadBytes &&
+                  board::kIdentifyPayloadBytes <= board::kFrameMaxPayloadBytes &&
+                  board::kTelemetryPayloadBytes <= board::kFrameMaxPayloadBytes,
+              "a payload larger than a frame holds");
+
+}  // namespace layout
+}  // namespace delta::link
