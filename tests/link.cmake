@@ -4,5 +4,8 @@
 delta_add_gtest(link_tests
   SOURCES
     ${CMAKE_CURRENT_LIST_DIR}/link/payloads_test.cpp
-  LIBRARIES delta::host
+    ${CMAKE_CURRENT_LIST_DIR}/link/crc32_test.cpp
+    ${CMAKE_CURRENT_LIST_DIR}/link/identify_test.cpp
+  LIBRARIES delta::host delta::golden delta::gateware
   LABELS link)
+target_include_directories(link_tests PRIVATE ${CMAKE_CURRENT_LIST_DIR})  # support/run_command.hpp

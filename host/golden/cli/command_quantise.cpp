@@ -7,6 +7,7 @@
 #include <CLI/CLI.hpp>
 
 #include "delta/command.hpp"
+#include "delta/gateware.hpp"
 #include "delta/golden/export.hpp"
 #include "delta/golden/test_vectors.hpp"
 #include "delta/input_error.hpp"
@@ -47,12 +48,15 @@ void run_quantise(const QuantiseOptions& options) {
     throw InputError(options.weights, 0, std::string("cannot be quantised: ") + error.what());
   }
   if (!std::filesystem::is_directory(options.out_dir)) throw InputError(options.out_dir, 0, "is not a folder");
+  const std::uint32_t crc = weights_crc(q);
+  files.push_back(identify_mem_file(link::board_identify(kGatewareBuildId, crc)));
   if (options.vectors > 0)
     files.push_back({"golden_vectors.txt", golden_vectors_text(q, weights.network, options.vectors)});
   write_export_files(files, options.out_dir);
   for (const ExportFile& file : files) std::cout << options.out_dir << "/" << file.name << '\n';
   std::cerr << "quantise: 3-" << q.hidden << "-3 network, input shifts " << q.input_shift[0] << ' ' << q.input_shift[1]
             << ' ' << q.input_shift[2] << (weights.hybrid() ? "; hybrid model: the network part (residual)" : "")
+            << "; weights CRC-32 " << hex_word(crc, 32) << ", gateware build id " << hex_word(kGatewareBuildId, 32)
             << '\n';
 }
 
@@ -61,9 +65,11 @@ const RegisterCommand command("quantise", 45, [](CLI::App& root) {
   CLI::App* sub = root.add_subcommand("quantise", "Quantise W.json for the FPGA: $readmemh files and a C++ header");
   sub->footer(
       "\nWrites input_centre, input_shift, input_weights, hidden_bias, tanh_table, tanh_slope,\n"
-      "output_weights, output_bias (.mem, one hex word per line, format in each file's header) and\n"
-      "fixed_network_weights.hpp. Formats: hls/README.md. Weights that would saturate a format are\n"
-      "refused (exit 2, nothing written). The output is the same bytes for the same W.json.\n"
+      "output_weights, output_bias (.mem, one hex word per line, format in each file's header),\n"
+      "fixed_network_weights.hpp, and identify.mem: the board link's identify payload (docs/board_link.md:\n"
+      "protocol, gateware build id, CRC-32 of the codes above, clocks, rates) as 16-bit words for the\n"
+      "board's block RAM. Formats: hls/README.md. Weights that would saturate a format are refused\n"
+      "(exit 2, nothing written). The output is the same bytes for the same W.json and RTL sources.\n"
       "--vectors N adds golden_vectors.txt (raw codes in and out) for the HLS and RTL testbenches.\n"
       "Example: deltactl quantise --weights weights/paper_like.json --out-dir build/network_mem");
   sub->add_option("--weights", options->weights, "network weights (W.json)")->required();

@@ -5,6 +5,7 @@
 #include <memory>
 #include <sstream>
 
+#include "delta/crc32.hpp"
 #include "delta/output_file.hpp"
 
 namespace delta::golden {
@@ -156,6 +157,38 @@ std::vector<ExportFile> export_files(const QuantisedNetwork& q) {
   return files;
 }
 
+std::vector<std::uint8_t> weights_crc_bytes(const QuantisedNetwork& q) {
+  std::vector<std::uint8_t> bytes;
+  for (const MemSpec& spec : mem_specs(q)) {
+    const std::uint64_t mask = spec.bits >= 64 ? ~std::uint64_t{0} : (std::uint64_t{1} << spec.bits) - 1;
+    const int word_bytes = (spec.bits + 7) / 8;
+    for (std::int64_t code : spec.words) {
+      const std::uint64_t word = static_cast<std::uint64_t>(code) & mask;  // as hex_word writes it
+      for (int i = 0; i < word_bytes; ++i) bytes.push_back(static_cast<std::uint8_t>(word >> (8 * i)));
+    }
+  }
+  return bytes;
+}
+
+ExportFile identify_mem_file(const link::IdentifyPayload& identify) {
+  static_assert(board::kIdentifyPayloadBytes % 2 == 0, "identify.mem holds 16-bit words");
+  const std::vector<std::uint8_t> payload = link::encode(identify);
+  std::ostringstream mem;
+  mem << "// delta board link v2 (docs/board_link.md): identify.mem, the identify payload ("
+      << board::kIdentifyPayloadBytes << " bytes)\n"
+      << "// protocol " << identify.protocol_version << ", setpoint depth " << identify.setpoint_depth
+      << ", gateware build id " << hex_word(identify.build_id, 32) << ", weights CRC-32 "
+      << hex_word(identify.weights_crc, 32) << ",\n"
+      << "// network clock " << identify.network_clock_hz << " Hz, board clock " << identify.board_clock_hz
+      << " Hz, control rate " << identify.control_rate_hz << " Hz, setpoint rate " << identify.setpoint_rate_hz
+      << " Hz\n"
+      << "// " << payload.size() / 2
+      << " words, unsigned in 16 bits, 4 hex digits per word; word w = byte 2w | byte 2w+1 << 8\n";
+  for (std::size_t w = 0; w < payload.size() / 2; ++w)
+    mem << hex_word(payload[2 * w] | payload[2 * w + 1] << 8, 16) << '\n';
+  return {"identify.mem", mem.str()};
+}
+
 void write_export_files(const std::vector<ExportFile>& files, const std::string& directory) {
   std::vector<std::unique_ptr<OutputFile>> outputs;
   for (const ExportFile& file : files) {
@@ -171,3 +204,9 @@ void write_export(const QuantisedNetwork& q, const std::string& directory) {
 }
 
 }  // namespace delta::golden
+
+namespace delta {
+
+std::uint32_t weights_crc(const golden::QuantisedNetwork& q) { return crc32(golden::weights_crc_bytes(q)); }
+
+}  // namespace delta

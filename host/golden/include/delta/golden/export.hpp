@@ -2,10 +2,12 @@
 // (formats in hls/README.md, "Export for RTL ($readmemh) and C++").
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
 #include "delta/golden/fixed_network.hpp"
+#include "delta/link/payloads.hpp"
 
 namespace delta::golden {
 
@@ -27,4 +29,23 @@ void write_export_files(const std::vector<ExportFile>& files, const std::string&
 // One word as ceil(bits/4) hex digits of its two's complement masked to `bits`.
 std::string hex_word(std::int64_t value, int bits);
 
+// The bytes the weights CRC covers, in its canonical order: the network's ROM files in the order
+// export_files writes them (input_centre, input_shift, input_weights, hidden_bias, tanh_table,
+// tanh_slope, output_weights, output_bias), each file's words in file order, each word exactly as
+// its .mem line holds it (two's complement masked to the file's width) as ceil(width/8)
+// little-endian bytes, zero above the width. No headers, names or lengths: the codes alone.
+std::vector<std::uint8_t> weights_crc_bytes(const QuantisedNetwork& q);
+
+// identify.mem: the identify payload for the board's 256 x 16 block RAM ($readmemh): comment
+// lines, then one 4-digit hex word per line, word w = payload byte 2w (low) | byte 2w+1 (high).
+ExportFile identify_mem_file(const link::IdentifyPayload& identify);
+
 }  // namespace delta::golden
+
+namespace delta {
+
+// CRC-32/ISO-HDLC (delta::crc32) of golden::weights_crc_bytes(q): the weights CRC of the identify
+// payload, so the host can tell which network a board holds.
+std::uint32_t weights_crc(const golden::QuantisedNetwork& q);
+
+}  // namespace delta
