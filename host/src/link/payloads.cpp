@@ -29,7 +29,7 @@ void check_width(const layout::Field& field) {
 
 // Element `index` of `field`, little-endian.
 template <typename T>
-void put(std::vector<std::uint8_t>& bytes, const layout::Field& field, T value, std::size_t index = 0) {
+void write(std::vector<std::uint8_t>& bytes, const layout::Field& field, T value, std::size_t index = 0) {
   check_width<T>(field);
   const auto word = static_cast<std::make_unsigned_t<T>>(value);
   const std::size_t at = field.offset + index * sizeof(T);
@@ -37,24 +37,63 @@ void put(std::vector<std::uint8_t>& bytes, const layout::Field& field, T value, 
 }
 
 template <typename T>
-T get(const std::vector<std::uint8_t>& bytes, const layout::Field& field, std::size_t index = 0) {
+void read(const std::vector<std::uint8_t>& bytes, const layout::Field& field, T& value, std::size_t index = 0) {
   check_width<T>(field);
   std::make_unsigned_t<T> word = 0;
   const std::size_t at = field.offset + index * sizeof(T);
   for (std::size_t i = 0; i < sizeof(T); ++i) {
     word = static_cast<std::make_unsigned_t<T>>(word | static_cast<std::make_unsigned_t<T>>(bytes[at + i]) << (8 * i));
   }
-  return static_cast<T>(word);  // two's complement for the signed fields
+  value = static_cast<T>(word);  // two's complement for the signed fields
 }
 
 template <typename T, std::size_t N>
-void put_all(std::vector<std::uint8_t>& bytes, const layout::Field& field, const std::array<T, N>& values) {
-  for (std::size_t i = 0; i < N; ++i) put(bytes, field, values[i], i);
+void write(std::vector<std::uint8_t>& bytes, const layout::Field& field, const std::array<T, N>& values) {
+  if (field.count != N) throw std::logic_error("link payload: an array field of the wrong length");
+  for (std::size_t i = 0; i < N; ++i) write(bytes, field, values[i], i);
 }
 
 template <typename T, std::size_t N>
-void get_all(const std::vector<std::uint8_t>& bytes, const layout::Field& field, std::array<T, N>& values) {
-  for (std::size_t i = 0; i < N; ++i) values[i] = get<T>(bytes, field, i);
+void read(const std::vector<std::uint8_t>& bytes, const layout::Field& field, std::array<T, N>& values) {
+  if (field.count != N) throw std::logic_error("link payload: an array field of the wrong length");
+  for (std::size_t i = 0; i < N; ++i) read(bytes, field, values[i], i);
+}
+
+// Each payload's members paired with their layout fields, once for encode and decode alike:
+// visit(field, member) for every member (Payload may be const).
+template <typename Payload, typename Visit>
+void visit_setpoint(Payload& p, Visit&& visit) {
+  visit(layout::kSetpointIndex, p.sample_index);
+  visit(layout::kSetpointPosition, p.position_code);
+}
+
+template <typename Payload, typename Visit>
+void visit_identify(Payload& p, Visit&& visit) {
+  visit(layout::kIdentifyProtocol, p.protocol_version);
+  visit(layout::kIdentifyDepth, p.setpoint_depth);
+  visit(layout::kIdentifyBuildId, p.build_id);
+  visit(layout::kIdentifyWeightsCrc, p.weights_crc);
+  visit(layout::kIdentifyNetworkClock, p.network_clock_hz);
+  visit(layout::kIdentifyBoardClock, p.board_clock_hz);
+  visit(layout::kIdentifyControlRate, p.control_rate_hz);
+  visit(layout::kIdentifySetpointRate, p.setpoint_rate_hz);
+}
+
+template <typename Payload, typename Visit>
+void visit_telemetry(Payload& p, Visit&& visit) {
+  visit(layout::kTelemetrySampleIndex, p.sample_index);
+  visit(layout::kTelemetryTick, p.tick);
+  visit(layout::kTelemetryCounts, p.counts);
+  visit(layout::kTelemetryReferences, p.references);
+  visit(layout::kTelemetryCurrents, p.currents);
+  visit(layout::kTelemetryFault, p.fault_cause);
+  visit(layout::kTelemetryFlags, p.flags);
+  visit(layout::kTelemetryFill, p.fill);
+  visit(layout::kTelemetryBadFrames, p.bad_frames);
+  visit(layout::kTelemetryUnderruns, p.underruns);
+  visit(layout::kTelemetrySaturations, p.saturations);
+  visit(layout::kTelemetrySequence, p.sequence);
+  visit(layout::kTelemetryRejected, p.rejected);
 }
 
 void check_size(const char* what, const std::vector<std::uint8_t>& payload, long long expected) {
@@ -89,59 +128,39 @@ IdentifyPayload board_identify(std::uint32_t build_id, std::uint32_t weights_crc
 
 std::vector<std::uint8_t> encode(const SetpointPayload& payload) {
   std::vector<std::uint8_t> bytes(board::kSetpointPayloadBytes);
-  put(bytes, layout::kSetpointIndex, payload.sample_index);
-  put_all(bytes, layout::kSetpointPosition, payload.position_code);
+  visit_setpoint(payload, [&bytes](const layout::Field& field, const auto& value) { write(bytes, field, value); });
   return bytes;
 }
 
 std::vector<std::uint8_t> encode(Command command) {
   std::vector<std::uint8_t> bytes(board::kCommandPayloadBytes);
-  put(bytes, layout::kCommandByte, static_cast<std::uint8_t>(command));
+  write(bytes, layout::kCommandByte, static_cast<std::uint8_t>(command));
   return bytes;
 }
 
 std::vector<std::uint8_t> encode(const IdentifyPayload& payload) {
   std::vector<std::uint8_t> bytes(board::kIdentifyPayloadBytes);
-  put(bytes, layout::kIdentifyProtocol, payload.protocol_version);
-  put(bytes, layout::kIdentifyDepth, payload.setpoint_depth);
-  put(bytes, layout::kIdentifyBuildId, payload.build_id);
-  put(bytes, layout::kIdentifyWeightsCrc, payload.weights_crc);
-  put(bytes, layout::kIdentifyNetworkClock, payload.network_clock_hz);
-  put(bytes, layout::kIdentifyBoardClock, payload.board_clock_hz);
-  put(bytes, layout::kIdentifyControlRate, payload.control_rate_hz);
-  put(bytes, layout::kIdentifySetpointRate, payload.setpoint_rate_hz);
+  visit_identify(payload, [&bytes](const layout::Field& field, const auto& value) { write(bytes, field, value); });
   return bytes;
 }
 
 std::vector<std::uint8_t> encode(const TelemetryPayload& payload) {
   std::vector<std::uint8_t> bytes(board::kTelemetryPayloadBytes);
-  put(bytes, layout::kTelemetrySampleIndex, payload.sample_index);
-  put(bytes, layout::kTelemetryTick, payload.tick);
-  put_all(bytes, layout::kTelemetryCounts, payload.counts);
-  put_all(bytes, layout::kTelemetryReferences, payload.references);
-  put_all(bytes, layout::kTelemetryCurrents, payload.currents);
-  put(bytes, layout::kTelemetryFault, payload.fault_cause);
-  put(bytes, layout::kTelemetryFlags, payload.flags);
-  put(bytes, layout::kTelemetryFill, payload.fill);
-  put(bytes, layout::kTelemetryBadFrames, payload.bad_frames);
-  put(bytes, layout::kTelemetryUnderruns, payload.underruns);
-  put(bytes, layout::kTelemetrySaturations, payload.saturations);
-  put(bytes, layout::kTelemetrySequence, payload.sequence);
-  put(bytes, layout::kTelemetryRejected, payload.rejected);
+  visit_telemetry(payload, [&bytes](const layout::Field& field, const auto& value) { write(bytes, field, value); });
   return bytes;
 }
 
 SetpointPayload decode_setpoint(const std::vector<std::uint8_t>& payload) {
   check_size("setpoint", payload, board::kSetpointPayloadBytes);
   SetpointPayload setpoint;
-  setpoint.sample_index = get<std::uint32_t>(payload, layout::kSetpointIndex);
-  get_all(payload, layout::kSetpointPosition, setpoint.position_code);
+  visit_setpoint(setpoint, [&payload](const layout::Field& field, auto& value) { read(payload, field, value); });
   return setpoint;
 }
 
 std::optional<Command> decode_command(const std::vector<std::uint8_t>& payload) {
   check_size("command", payload, board::kCommandPayloadBytes);
-  const auto byte = get<std::uint8_t>(payload, layout::kCommandByte);
+  std::uint8_t byte = 0;
+  read(payload, layout::kCommandByte, byte);
   switch (byte) {
     case board::kCommandEnable:
     case board::kCommandDisable:
@@ -157,33 +176,14 @@ std::optional<Command> decode_command(const std::vector<std::uint8_t>& payload) 
 IdentifyPayload decode_identify(const std::vector<std::uint8_t>& payload) {
   check_size("identify", payload, board::kIdentifyPayloadBytes);
   IdentifyPayload identify;
-  identify.protocol_version = get<std::uint16_t>(payload, layout::kIdentifyProtocol);
-  identify.setpoint_depth = get<std::uint16_t>(payload, layout::kIdentifyDepth);
-  identify.build_id = get<std::uint32_t>(payload, layout::kIdentifyBuildId);
-  identify.weights_crc = get<std::uint32_t>(payload, layout::kIdentifyWeightsCrc);
-  identify.network_clock_hz = get<std::uint32_t>(payload, layout::kIdentifyNetworkClock);
-  identify.board_clock_hz = get<std::uint32_t>(payload, layout::kIdentifyBoardClock);
-  identify.control_rate_hz = get<std::uint16_t>(payload, layout::kIdentifyControlRate);
-  identify.setpoint_rate_hz = get<std::uint16_t>(payload, layout::kIdentifySetpointRate);
+  visit_identify(identify, [&payload](const layout::Field& field, auto& value) { read(payload, field, value); });
   return identify;
 }
 
 TelemetryPayload decode_telemetry(const std::vector<std::uint8_t>& payload) {
   check_size("telemetry", payload, board::kTelemetryPayloadBytes);
   TelemetryPayload telemetry;
-  telemetry.sample_index = get<std::uint32_t>(payload, layout::kTelemetrySampleIndex);
-  telemetry.tick = get<std::uint32_t>(payload, layout::kTelemetryTick);
-  get_all(payload, layout::kTelemetryCounts, telemetry.counts);
-  get_all(payload, layout::kTelemetryReferences, telemetry.references);
-  get_all(payload, layout::kTelemetryCurrents, telemetry.currents);
-  telemetry.fault_cause = get<std::uint8_t>(payload, layout::kTelemetryFault);
-  telemetry.flags = get<std::uint8_t>(payload, layout::kTelemetryFlags);
-  telemetry.fill = get<std::uint16_t>(payload, layout::kTelemetryFill);
-  telemetry.bad_frames = get<std::uint16_t>(payload, layout::kTelemetryBadFrames);
-  telemetry.underruns = get<std::uint16_t>(payload, layout::kTelemetryUnderruns);
-  telemetry.saturations = get<std::uint16_t>(payload, layout::kTelemetrySaturations);
-  telemetry.sequence = get<std::uint8_t>(payload, layout::kTelemetrySequence);
-  telemetry.rejected = get<std::uint8_t>(payload, layout::kTelemetryRejected);
+  visit_telemetry(telemetry, [&payload](const layout::Field& field, auto& value) { read(payload, field, value); });
   return telemetry;
 }
 
