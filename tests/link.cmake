@@ -6,6 +6,7 @@ delta_add_gtest(link_tests
     ${CMAKE_CURRENT_LIST_DIR}/link/payloads_test.cpp
     ${CMAKE_CURRENT_LIST_DIR}/link/crc32_test.cpp
     ${CMAKE_CURRENT_LIST_DIR}/link/identify_test.cpp
+    ${CMAKE_CURRENT_LIST_DIR}/link/setpoint_interpolation_test.cpp
   LIBRARIES delta::host delta::golden delta::gateware
   LABELS link)
 target_include_directories(link_tests PRIVATE ${CMAKE_CURRENT_LIST_DIR})  # support/run_command.hpp

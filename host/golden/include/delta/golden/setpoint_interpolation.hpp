@@ -1,0 +1,167 @@
+// Golden model of the board's setpoint interpolation (docs/board_link.md, "Setpoints, the network
+// and the joints"): the network's answer y per joint becomes a reference in Q24.8 encoder counts
+// that the joints reach linearly over one setpoint period of PeriodsPerSetpoint (10) control
+// periods. Integer arithmetic only, bit for bit what the RTL must compute:
+//
+//   C   = round_shift(25 * y, 4)                 y: raw output code (Q10.14 deg) -> Q24.8 counts, exact
+//   D   = saturate_16(C - B)                     B: the reference at the segment start
+//   r_k = B + round_shift(D * K_k, 14)           K_k = round(k 2^14 / 10), k = 0 .. 9
+//   B'  = B + D                                  the next segment's start
+//
+// round_shift(v, s) = floor((v + 2^(s-1)) / 2^s), an arithmetic shift (golden::round_shift).
+// Hold or underrun: D = 0. Drives off: the reference is the encoder count << 8.
+#pragma once
+
+#include <array>
+#include <cstdint>
+
+#include "delta/board_facts.hpp"
+#include "delta/golden/fixed_network.hpp"
+
+namespace delta::golden {
+
+namespace interpolation {
+
+constexpr int kPeriods = board::kPeriodsPerSetpoint;                 // control periods per setpoint (segment)
+constexpr int kWeightShift = board::kInterpolationShift;             // K_k in units of 2^-14
+constexpr int kDeltaBits = board::kSegmentDeltaBits;                 // D: signed, saturated
+constexpr int kReferenceFractionBits = 8;                            // references: Q24.8 encoder counts (int32)
+constexpr int kAnswerFractionBits = Formats().output_fraction_bits;  // y: Q10.14 degrees
+static_assert(board::kControlRateHz == board::kSetpointRateHz * kPeriods,
+              "PeriodsPerSetpoint disagrees with the rates");
+
+// Q10.14 degrees -> Q24.8 counts is a multiplication by (counts per degree) 2^8 / 2^14 = 25600 / 2^14,
+// reduced to the smallest integer pair: 25 / 2^4 (the same result bit for bit: 25600 y + 2^13 is
+// 2^10 (25 y + 2^3)).
+constexpr std::int64_t kCountsPerDegree = 1'000'000 / board::kEncoderCountMicrodeg;  // 100
+static_assert(1'000'000 % board::kEncoderCountMicrodeg == 0, "an encoder count is not a whole fraction of a degree");
+struct AnswerScale {
+  std::int64_t factor;
+  int shift;
+};
+constexpr AnswerScale reduced_answer_scale() {
+  AnswerScale scale{kCountsPerDegree << kReferenceFractionBits, kAnswerFractionBits};
+  while (scale.shift > 0 && scale.factor % 2 == 0) {
+    scale.factor /= 2;
+    --scale.shift;
+  }
+  return scale;
+}
+constexpr AnswerScale kAnswerScale = reduced_answer_scale();
+static_assert(kAnswerScale.factor == 25 && kAnswerScale.shift == 4, "docs/board_link.md writes round_shift(25 y, 4)");
+
+// K_k = round(k 2^14 / 10), rounded half up in integers: (2 k 2^14 + 10) / 20.
+constexpr std::int32_t weight(int k) {
+  return static_cast<std::int32_t>((2 * (std::int64_t{k} << kWeightShift) + kPeriods) / (2 * kPeriods));
+}
+constexpr std::array<std::int32_t, kPeriods> make_weights() {
+  std::array<std::int32_t, kPeriods> weights{};
+  for (int k = 0; k < kPeriods; ++k) weights[k] = weight(k);
+  return weights;
+}
+constexpr std::array<std::int32_t, kPeriods> kWeights = make_weights();
+static_assert(kWeights[0] == 0 && kWeights[1] == 1638 && kWeights[9] == 14746, "K_k = (k 16384 + 5) / 10");
+
+constexpr std::int32_t kDeltaMax = (std::int32_t{1} << (kDeltaBits - 1)) - 1;  // 32767
+constexpr std::int32_t kDeltaMin = -(std::int32_t{1} << (kDeltaBits - 1));     // -32768
+
+// C: a network output code (24-bit signed, Q10.14 degrees) as a reference in Q24.8 counts.
+inline std::int32_t reference_counts(std::int32_t answer_code) {
+  return static_cast<std::int32_t>(round_shift(kAnswerScale.factor * answer_code, kAnswerScale.shift));
+}
+
+// An encoder count (0.01 deg) as a reference in Q24.8 counts: the reference with the drives off.
+inline std::int32_t encoder_reference(std::int16_t count) {
+  return static_cast<std::int32_t>(std::int64_t{count} * (std::int64_t{1} << kReferenceFractionBits));
+}
+
+struct SegmentDelta {
+  std::int32_t value = 0;  // D, Q.8 counts, in [kDeltaMin, kDeltaMax]
+  bool saturated = false;  // C - B did not fit
+};
+
+// D = saturate_16(C - B).
+inline SegmentDelta segment_delta(std::int32_t target, std::int32_t start) {
+  const std::int64_t change = std::int64_t{target} - start;
+  SegmentDelta delta;
+  delta.saturated = change > kDeltaMax || change < kDeltaMin;
+  delta.value = static_cast<std::int32_t>(change > kDeltaMax ? kDeltaMax : change < kDeltaMin ? kDeltaMin : change);
+  return delta;
+}
+
+// r_k = B + round_shift(D K_k, 14), k = 0 .. kPeriods - 1. (B + D: the next segment's start.)
+// The sum wraps like a 32-bit register; the travel keeps references far inside it.
+inline std::int32_t interpolated(std::int32_t start, std::int32_t delta, int k) {
+  return static_cast<std::int32_t>(start + round_shift(std::int64_t{delta} * kWeights.at(k), kWeightShift));
+}
+
+// B' = B + D.
+inline std::int32_t next_start(std::int32_t start, std::int32_t delta) {
+  return static_cast<std::int32_t>(std::int64_t{start} + delta);
+}
+
+}  // namespace interpolation
+
+// The three joints' interpolators, segment by segment, as the board runs them:
+//   follow_encoders(counts)   drives off: r = count << 8 (and a later segment starts there);
+//   begin_segment(answer)     a setpoint played: B := B + D of the segment that ended, D from y;
+//   begin_hold_segment()      hold or underrun: B := B + D, then D = 0;
+//   reference(k)              r_k of the current segment, k = 0 .. 9.
+class SetpointInterpolator {
+ public:
+  static constexpr int kJoints = 3;
+  using References = std::array<std::int32_t, kJoints>;  // Q24.8 counts
+
+  void follow_encoders(const std::array<std::int16_t, kJoints>& counts) {
+    for (int j = 0; j < kJoints; ++j) {
+      start_[j] = interpolation::encoder_reference(counts[j]);
+      delta_[j] = 0;
+    }
+    enabled_ = false;
+  }
+
+  // `answer`: the network's raw output codes (Q10.14 deg), 24-bit signed.
+  void begin_segment(const std::array<std::int32_t, kJoints>& answer) {
+    for (int j = 0; j < kJoints; ++j) {
+      start_[j] = interpolation::next_start(start_[j], delta_[j]);
+      const interpolation::SegmentDelta delta =
+          interpolation::segment_delta(interpolation::reference_counts(answer[j]), start_[j]);
+      delta_[j] = delta.value;
+      if (delta.saturated) ++saturations_[j];
+    }
+    enabled_ = true;
+  }
+
+  void begin_hold_segment() {
+    for (int j = 0; j < kJoints; ++j) {
+      start_[j] = interpolation::next_start(start_[j], delta_[j]);
+      delta_[j] = 0;
+    }
+    enabled_ = true;
+  }
+
+  References reference(int k) const {
+    References r{};
+    for (int j = 0; j < kJoints; ++j) r[j] = interpolation::interpolated(start_[j], delta_[j], k);
+    return r;
+  }
+  std::array<References, interpolation::kPeriods> segment() const {
+    std::array<References, interpolation::kPeriods> periods{};
+    for (int k = 0; k < interpolation::kPeriods; ++k) periods[k] = reference(k);
+    return periods;
+  }
+
+  const References& start() const { return start_; }  // B
+  const References& delta() const { return delta_; }  // D
+  bool enabled() const { return enabled_; }           // false while following the encoders
+  // Segments whose D saturated, per joint (the reference catches up in the next segments).
+  const std::array<std::uint64_t, kJoints>& saturations() const { return saturations_; }
+
+ private:
+  References start_{};
+  References delta_{};
+  std::array<std::uint64_t, kJoints> saturations_{};
+  bool enabled_ = false;
+};
+
+}  // namespace delta::golden
