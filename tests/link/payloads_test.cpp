@@ -78,7 +78,9 @@ TEST(LinkPayloads, TelemetryRoundTripsOnRandomValues) {
     sent.sample_index = random_value<std::uint32_t>(random);
     sent.tick = random_value<std::uint32_t>(random);
     fill(random, sent.counts);
-    fill(random, sent.references);
+    for (std::int32_t& reference : sent.references) {  // i24 on the wire: every 24-bit code
+      reference = static_cast<std::int32_t>(random() % (1u << 24)) - (1 << 23);
+    }
     fill(random, sent.currents);
     sent.fault_cause = random_value<std::uint8_t>(random);
     sent.flags = random_value<std::uint8_t>(random);
@@ -86,8 +88,9 @@ TEST(LinkPayloads, TelemetryRoundTripsOnRandomValues) {
     sent.bad_frames = random_value<std::uint16_t>(random);
     sent.underruns = random_value<std::uint16_t>(random);
     sent.saturations = random_value<std::uint16_t>(random);
+    sent.slew_limits = random_value<std::uint16_t>(random);
     sent.sequence = random_value<std::uint8_t>(random);
-    sent.rejected = random_value<std::uint8_t>(random);
+    sent.rejected = random_value<std::uint16_t>(random);
     const std::vector<std::uint8_t> bytes = encode(sent);
     ASSERT_EQ(bytes.size(), static_cast<std::size_t>(board::kTelemetryPayloadBytes));
     const TelemetryPayload received = decode_telemetry(bytes);
@@ -102,6 +105,7 @@ TEST(LinkPayloads, TelemetryRoundTripsOnRandomValues) {
     ASSERT_EQ(received.bad_frames, sent.bad_frames);
     ASSERT_EQ(received.underruns, sent.underruns);
     ASSERT_EQ(received.saturations, sent.saturations);
+    ASSERT_EQ(received.slew_limits, sent.slew_limits);
     ASSERT_EQ(received.sequence, sent.sequence);
     ASSERT_EQ(received.rejected, sent.rejected);
     ASSERT_EQ(encode(received), bytes) << "trial " << trial;
@@ -124,19 +128,29 @@ TEST(LinkPayloads, EveryCommandRoundTripsAndOtherBytesAreNoCommand) {
 TEST(LinkPayloads, FieldsAreLittleEndianAtThePackagesOffsets) {
   TelemetryPayload telemetry;
   telemetry.tick = 0x04030201u;
-  telemetry.counts[1] = -2;  // 0xFFFE
+  telemetry.counts[1] = -2;      // 0xFFFE
+  telemetry.references[0] = -2;  // i24: 0xFFFFFE
   telemetry.references[2] = 0x00123456;
-  telemetry.rejected = 0xAB;
+  telemetry.slew_limits = 0x1234;
+  telemetry.rejected = 0xABCD;
   const std::vector<std::uint8_t> bytes = encode(telemetry);
   const std::size_t tick = board::kTelemetryTickOffset;
   EXPECT_EQ(std::vector<std::uint8_t>(bytes.begin() + tick, bytes.begin() + tick + 4),
             (std::vector<std::uint8_t>{0x01, 0x02, 0x03, 0x04}));
   EXPECT_EQ(bytes[board::kTelemetryCountsOffset + 2], 0xFE);
   EXPECT_EQ(bytes[board::kTelemetryCountsOffset + 3], 0xFF);
-  EXPECT_EQ(bytes[board::kTelemetryReferencesOffset + 8], 0x56);
-  EXPECT_EQ(bytes[board::kTelemetryReferencesOffset + 9], 0x34);
-  EXPECT_EQ(bytes[board::kTelemetryReferencesOffset + 10], 0x12);
-  EXPECT_EQ(bytes[board::kTelemetryRejectedOffset], 0xAB);
+  EXPECT_EQ(bytes[board::kTelemetryReferencesOffset + 0], 0xFE);
+  EXPECT_EQ(bytes[board::kTelemetryReferencesOffset + 1], 0xFF);
+  EXPECT_EQ(bytes[board::kTelemetryReferencesOffset + 2], 0xFF);
+  EXPECT_EQ(bytes[board::kTelemetryReferencesOffset + 3], 0x00);  // references[1] = 0
+  EXPECT_EQ(bytes[board::kTelemetryReferencesOffset + 6], 0x56);
+  EXPECT_EQ(bytes[board::kTelemetryReferencesOffset + 7], 0x34);
+  EXPECT_EQ(bytes[board::kTelemetryReferencesOffset + 8], 0x12);
+  EXPECT_EQ(bytes[board::kTelemetrySlewLimitsOffset], 0x34);
+  EXPECT_EQ(bytes[board::kTelemetrySlewLimitsOffset + 1], 0x12);
+  EXPECT_EQ(bytes[board::kTelemetryRejectedOffset], 0xCD);
+  EXPECT_EQ(bytes[board::kTelemetryRejectedOffset + 1], 0xAB);
+  EXPECT_EQ(decode_telemetry(bytes).references, telemetry.references);  // sign-extended back
   SetpointPayload setpoint;
   setpoint.position_code = {-1, 0, 0x7F000000};
   const std::vector<std::uint8_t> position = encode(setpoint);
@@ -158,6 +172,16 @@ TEST(LinkPayloads, FlagAndFaultHelpersUseThePackagesBits) {
   EXPECT_TRUE(telemetry.has(FaultCause::kWatchdog));
   EXPECT_FALSE(telemetry.has(FaultCause::kTravel));
   EXPECT_EQ(mask(TelemetryFlag::kEncoderError), 1u << board::kFlagEncoderError);
+}
+
+TEST(LinkPayloads, ReferencesOutsideTwentyFourBitsAreRefused) {
+  TelemetryPayload telemetry;
+  telemetry.references = {(1 << 23) - 1, -(1 << 23), 0};
+  EXPECT_NO_THROW(encode(telemetry));
+  telemetry.references[2] = 1 << 23;
+  EXPECT_THROW(encode(telemetry), std::invalid_argument);
+  telemetry.references[2] = -(1 << 23) - 1;
+  EXPECT_THROW(encode(telemetry), std::invalid_argument);
 }
 
 TEST(LinkPayloads, WrongSizesAreRefusedWithBothSizesNamed) {

@@ -24,25 +24,42 @@ static_assert(board::kFlagDriveEnable < 8 && board::kFlagHomed < 8 && board::kFl
 template <typename T>
 void check_width(const layout::Field& field) {
   static_assert(std::is_integral_v<T>);
-  if (sizeof(T) != field.element_bytes) throw std::logic_error("link payload: a field read with the wrong width");
+  if (field.element_bytes == 0 || field.element_bytes > sizeof(T)) {
+    throw std::logic_error("link payload: a field wider than its C++ type");
+  }
 }
 
-// Element `index` of `field`, little-endian.
+// Element `index` of `field`, little-endian, in field.element_bytes bytes (two's complement).
 template <typename T>
 void write(std::vector<std::uint8_t>& bytes, const layout::Field& field, T value, std::size_t index = 0) {
   check_width<T>(field);
+  const int bits = static_cast<int>(8 * field.element_bytes);
+  if (field.element_bytes < sizeof(T)) {  // a narrower wire field: the value must fit it
+    const auto wide = static_cast<long long>(value);
+    const long long low = std::is_signed_v<T> ? -(1LL << (bits - 1)) : 0;
+    const long long high = std::is_signed_v<T> ? (1LL << (bits - 1)) - 1 : (1LL << bits) - 1;
+    if (wide < low || wide > high) {
+      throw std::invalid_argument("link payload: " + std::to_string(wide) + " does not fit a " + std::to_string(bits) +
+                                  "-bit field at byte " + std::to_string(field.offset));
+    }
+  }
   const auto word = static_cast<std::make_unsigned_t<T>>(value);
-  const std::size_t at = field.offset + index * sizeof(T);
-  for (std::size_t i = 0; i < sizeof(T); ++i) bytes[at + i] = static_cast<std::uint8_t>(word >> (8 * i));
+  const std::size_t at = field.offset + index * field.element_bytes;
+  for (std::size_t i = 0; i < field.element_bytes; ++i) bytes[at + i] = static_cast<std::uint8_t>(word >> (8 * i));
 }
 
 template <typename T>
 void read(const std::vector<std::uint8_t>& bytes, const layout::Field& field, T& value, std::size_t index = 0) {
   check_width<T>(field);
-  std::make_unsigned_t<T> word = 0;
-  const std::size_t at = field.offset + index * sizeof(T);
-  for (std::size_t i = 0; i < sizeof(T); ++i) {
-    word = static_cast<std::make_unsigned_t<T>>(word | static_cast<std::make_unsigned_t<T>>(bytes[at + i]) << (8 * i));
+  using Word = std::make_unsigned_t<T>;
+  Word word = 0;
+  const std::size_t at = field.offset + index * field.element_bytes;
+  for (std::size_t i = 0; i < field.element_bytes; ++i) {
+    word = static_cast<Word>(word | static_cast<Word>(bytes[at + i]) << (8 * i));
+  }
+  const std::size_t bits = 8 * field.element_bytes;
+  if (std::is_signed_v<T> && bits < 8 * sizeof(T) && ((word >> (bits - 1)) & 1u)) {
+    word = static_cast<Word>(word | static_cast<Word>(~std::uint64_t{0} << bits));  // sign extension
   }
   value = static_cast<T>(word);  // two's complement for the signed fields
 }
@@ -92,6 +109,7 @@ void visit_telemetry(Payload& p, Visit&& visit) {
   visit(layout::kTelemetryBadFrames, p.bad_frames);
   visit(layout::kTelemetryUnderruns, p.underruns);
   visit(layout::kTelemetrySaturations, p.saturations);
+  visit(layout::kTelemetrySlewLimits, p.slew_limits);
   visit(layout::kTelemetrySequence, p.sequence);
   visit(layout::kTelemetryRejected, p.rejected);
 }

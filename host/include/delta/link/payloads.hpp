@@ -74,16 +74,17 @@ struct TelemetryPayload {
   std::uint32_t sample_index = 0;            // the next setpoint to play
   std::uint32_t tick = 0;                    // control periods since reset
   std::array<std::int16_t, 3> counts{};      // encoder counts, 0.01 deg
-  std::array<std::int32_t, 3> references{};  // the last answer: raw output codes, Q10.14 deg
+  std::array<std::int32_t, 3> references{};  // the last answer: raw output codes, Q10.14 deg, i24 on the wire
   std::array<std::int16_t, 3> currents{};    // current commands, Q1.15 A
   std::uint8_t fault_cause = 0;              // FaultCause bits
   std::uint8_t flags = 0;                    // TelemetryFlag bits
   std::uint16_t fill = 0;                    // setpoints waiting in the buffer
   std::uint16_t bad_frames = 0;              // saturating
   std::uint16_t underruns = 0;               // saturating
-  std::uint16_t saturations = 0;             // saturating
+  std::uint16_t saturations = 0;             // controller saturations, saturating
+  std::uint16_t slew_limits = 0;             // segments whose reference change was saturated, saturating
   std::uint8_t sequence = 0;                 // of the last accepted frame
-  std::uint8_t rejected = 0;                 // refused commands and setpoints, saturating
+  std::uint16_t rejected = 0;                // refused commands and setpoints, saturating
 
   bool has(TelemetryFlag flag) const { return (flags & mask(flag)) != 0; }
   bool has(FaultCause cause) const { return (fault_cause & mask(cause)) != 0; }
@@ -95,7 +96,8 @@ struct TelemetryPayload {
   }
 };
 
-// Encoding: exactly the type's payload size (board::k*PayloadBytes).
+// Encoding: exactly the type's payload size (board::k*PayloadBytes). A value that does not fit a
+// field narrower than its C++ type (the telemetry references, i24) throws std::invalid_argument.
 std::vector<std::uint8_t> encode(const SetpointPayload& payload);
 std::vector<std::uint8_t> encode(Command command);
 std::vector<std::uint8_t> encode(const IdentifyPayload& payload);
@@ -121,14 +123,14 @@ namespace layout {
 
 struct Field {
   std::size_t offset;         // from the package
-  std::size_t element_bytes;  // sizeof the C++ element type
+  std::size_t element_bytes;  // on the wire: sizeof the C++ element type, or fewer (i24 in an int32_t)
   std::size_t count;          // elements (3 for the per-joint arrays)
   constexpr std::size_t end() const { return offset + element_bytes * count; }
 };
 
 template <typename Element>
-constexpr Field field(long long offset, std::size_t count = 1) {
-  return Field{static_cast<std::size_t>(offset), sizeof(Element), count};
+constexpr Field field(long long offset, std::size_t count = 1, long long element_bytes = sizeof(Element)) {
+  return Field{static_cast<std::size_t>(offset), static_cast<std::size_t>(element_bytes), count};
 }
 
 constexpr Field kSetpointIndex = field<std::uint32_t>(board::kSetpointIndexOffset);
@@ -152,7 +154,9 @@ constexpr Field kIdentify[] = {kIdentifyProtocol,     kIdentifyDepth,      kIden
 constexpr Field kTelemetrySampleIndex = field<std::uint32_t>(board::kTelemetrySampleIndexOffset);
 constexpr Field kTelemetryTick = field<std::uint32_t>(board::kTelemetryTickOffset);
 constexpr Field kTelemetryCounts = field<std::int16_t>(board::kTelemetryCountsOffset, 3);
-constexpr Field kTelemetryReferences = field<std::int32_t>(board::kTelemetryReferencesOffset, 3);
+// The network's 24-bit output codes: as many bytes as the present link's answer codes.
+constexpr Field kTelemetryReferences =
+    field<std::int32_t>(board::kTelemetryReferencesOffset, 3, board::kLinkAnswerCodeBytes);
 constexpr Field kTelemetryCurrents = field<std::int16_t>(board::kTelemetryCurrentsOffset, 3);
 constexpr Field kTelemetryFault = field<std::uint8_t>(board::kTelemetryFaultOffset);
 constexpr Field kTelemetryFlags = field<std::uint8_t>(board::kTelemetryFlagsOffset);
@@ -160,12 +164,13 @@ constexpr Field kTelemetryFill = field<std::uint16_t>(board::kTelemetryFillOffse
 constexpr Field kTelemetryBadFrames = field<std::uint16_t>(board::kTelemetryBadFramesOffset);
 constexpr Field kTelemetryUnderruns = field<std::uint16_t>(board::kTelemetryUnderrunsOffset);
 constexpr Field kTelemetrySaturations = field<std::uint16_t>(board::kTelemetrySaturationsOffset);
+constexpr Field kTelemetrySlewLimits = field<std::uint16_t>(board::kTelemetrySlewLimitsOffset);
 constexpr Field kTelemetrySequence = field<std::uint8_t>(board::kTelemetrySequenceOffset);
-constexpr Field kTelemetryRejected = field<std::uint8_t>(board::kTelemetryRejectedOffset);
+constexpr Field kTelemetryRejected = field<std::uint16_t>(board::kTelemetryRejectedOffset);
 constexpr Field kTelemetry[] = {kTelemetrySampleIndex, kTelemetryTick,      kTelemetryCounts,      kTelemetryReferences,
                                 kTelemetryCurrents,    kTelemetryFault,     kTelemetryFlags,       kTelemetryFill,
-                                kTelemetryBadFrames,   kTelemetryUnderruns, kTelemetrySaturations, kTelemetrySequence,
-                                kTelemetryRejected};
+                                kTelemetryBadFrames,   kTelemetryUnderruns, kTelemetrySaturations, kTelemetrySlewLimits,
+                                kTelemetrySequence,    kTelemetryRejected};
 
 // True when the fields, in the order listed, start at 0, each begins where the previous ends, and
 // the last ends at `payload_bytes`: an exact tiling.
