@@ -44,8 +44,15 @@ mkdir -p "$out"
 # -defer elaborates only after chparam, so $readmemh sees the final paths.
 chparams=""
 for param in "${params[@]}"; do chparams+="chparam -set ${param%%=*} ${param#*=} $top; "; done
+# Every source's directory is an include directory of every source (rtl/board includes the
+# network's readmemh_load.svh).
+includes=""
+for source in "${sources[@]}"; do
+  dir="-I$(dirname "$(realpath "$source")")"
+  [[ " $includes " == *" $dir "* ]] || includes+=" $dir"
+done
 read_sources=""
-for source in "${sources[@]}"; do read_sources+="read_verilog -defer -sv -I$(dirname "$(realpath "$source")") $(realpath "$source"); "; done
+for source in "${sources[@]}"; do read_sources+="read_verilog -defer -sv$includes $(realpath "$source"); "; done
 echo "fpga_flow: yosys synth_ice40 -dsp ($top)" >&2
 yosys -q -l "$out/yosys.log" -p "$read_sources $chparams synth_ice40 -dsp -top $top -json $out/$top.json" >/dev/null
 

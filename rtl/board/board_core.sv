@@ -1,49 +1,58 @@
-// Everything on the iCEBreaker except the PLL and the pads: UART link to the host, the network,
-// and the three joint controllers (quadrature encoders in, drive current commands out).
+// Everything on the iCEBreaker except the PLL and the pads: the link v2 to the host
+// (docs/board_link.md), the setpoint buffer, the network, the reference interpolation and the
+// three joint controllers (quadrature encoders in, drive current commands out).
 //
-// Data path: host UART request (positions as raw input codes) -> network_uart_link ->
-// network_crossing -> network (ap_ctrl_hs) -> back: response (joint references as raw output
-// codes) to the host, and the same references to joint_axes (10 kHz controllers, PWM +
-// direction). See network_uart_link.sv for the frame format and README.md for the host side.
+// Data path: host frames (uart_rx -> link_rx) -> setpoint_buffer (1 kHz setpoints by sample
+// index) -> network_crossing -> network (ap_ctrl_hs) -> reference_interpolator (10 kHz
+// references between answers) -> joint_axes (controllers, PWM + direction, safety). Telemetry
+// (link_tx) reports the state once per setpoint period; commands (enable, disable, hold, clear
+// fault, set home) change it.
+//
+// Period schedule (tick of joint_axes; phase k = 0..9 within the 1 kHz segment): tick 0 the
+// controllers start on the references; tick 1 of k = 0 a setpoint is played (network started);
+// tick ClocksPerPeriod/2 of k = 0 the telemetry snapshot; tick ClocksPerPeriod - 100 the
+// references of the next period are computed.
+//
+// Safety: the drives run only after an accepted enable (homed, no fault); a fault (encoder skip,
+// following error, travel, watchdog: no valid frame for 50 ms with the drives on) stops the
+// torque, turns the enable off and flushes the buffer; clear fault is refused while a cause
+// persists and never re-enables.
 //
 // Two clocks from one PLL. clk_network_i (46.5 MHz) runs the network alone: its 92-cycle latency
-// is 1.98 us there. clk_i (half of it, 23.25 MHz) runs everything else: UART, link, LEDs,
-// encoders, joint controllers (their datapath routes at about 24 MHz, rtl/joint/README.md) and
-// PWM. network_crossing is the only place where signals cross (a toggle handshake each way).
+// is 1.98 us there. clk_i (half of it, 23.25 MHz) runs everything else. network_crossing is the
+// only place where signals cross (a toggle handshake each way).
 module board_core #(
-  // Defaults: the board's facts (delta_board_pkg.sv); the Verilated test build overrides the
-  // first two with SimClocksPerBit and SimClocksPerPeriod.
-  parameter int unsigned ClocksPerBit    = delta_board_pkg::ClocksPerBit,     // clk_i / UART baud rate
-  parameter int unsigned ClocksPerPeriod = delta_board_pkg::ClocksPerPeriod,  // clk_i / 10 kHz
-  parameter int unsigned LedHoldBits     = delta_board_pkg::LedHoldBits,      // LED pulses: 2^LedHoldBits cycles
-  parameter logic [15:0] HomeCount       = 16'(delta_board_pkg::HomeCount),   // encoder counts at reset
-  parameter              MemDir          = "."  // directory of the network's .mem files (synthesis)
+  parameter int unsigned ClocksPerBit    = delta_board_pkg::LinkClocksPerBit,  // clk_i / link baud rate
+  parameter int unsigned ClocksPerPeriod = delta_board_pkg::ClocksPerPeriod,   // clk_i / 10 kHz
+  parameter int unsigned LedWindowBits   = delta_board_pkg::LedWindowBits,     // LED windows: 2^LedWindowBits periods
+  parameter logic [15:0] HomeCount       = 16'(delta_board_pkg::HomeCount),    // encoder counts at reset and set home
+  parameter              MemDir          = "."  // directory of the network's .mem files and identify.mem
 ) (
-  input  logic       clk_i,           // board clock: UART, link, joints
+  input  logic       clk_i,           // board clock: link, joints
   input  logic       rst_ni,          // asynchronous assertion, synchronous release in clk_i
   input  logic       clk_network_i,   // the network's clock
   input  logic       rst_network_ni,  // asynchronous assertion, synchronous release in clk_network_i
   input  logic       uart_rx_i,
   output logic       uart_tx_o,
-  output logic       led_red_o,       // a request was rejected (checksum or range), held ~0.36 s
-  output logic       led_green_o,     // a request was answered, held ~0.36 s
+  output logic       led_red_o,       // a frame was dropped in the last LED window (~0.2 s)
+  output logic       led_green_o,     // a frame was accepted in the last LED window
   input  logic [2:0] encoder_a_i,     // quadrature encoders, asynchronous
   input  logic [2:0] encoder_b_i,
   output logic [2:0] drive_pwm_o,     // drive current command: PWM duty = |current| / 0.5 A
   output logic [2:0] drive_dir_o,     // drive current command: sign (1 = negative)
-  output logic       drive_enable_o,  // low until the first network answer
+  output logic       drive_enable_o,  // enabled and no fault
   output logic [2:0] encoder_error_o, // sticky: encoder j skipped a quadrature state
   output logic       joint_limited_o, // sticky: a joint controller saturated an operand or state
-  output logic       joint_fault_o,   // latched until reset: torque off (joint_axes.sv, "Safety")
+  output logic       joint_fault_o,   // latched until an accepted clear fault: torque off
   output logic [delta_board_pkg::FaultCauseBits-1:0] joint_fault_cause_o  // bits: delta_board_pkg::Fault*
 );
-  // Network formats (yosys 0.23 reads no `import`: qualified names only).
   localparam int unsigned NumInputs   = delta_network_pkg::NumInputs;
   localparam int unsigned NumOutputs  = delta_network_pkg::NumOutputs;
   localparam int unsigned InputWidth  = delta_network_pkg::InputWidth;
   localparam int unsigned OutputWidth = delta_network_pkg::OutputWidth;
+  localparam int unsigned TickWidth   = $clog2(ClocksPerPeriod);
 
-  // ---- UART and framing -------------------------------------------------------------------
+  // ---- UART ---------------------------------------------------------------------------------------
   logic [7:0] rx_data, tx_data;
   logic       rx_valid, rx_frame_error, tx_valid, tx_ready;
 
@@ -65,34 +74,133 @@ module board_core #(
     .tx_o        (uart_tx_o)
   );
 
-  logic                                 net_start, net_done, net_ready;
-  logic [NumInputs*InputWidth-1:0]      net_inputs;
-  logic [NumOutputs*OutputWidth-1:0]    net_outputs;  // the last answer, held
-  logic                                 answered, rejected;
+  // ---- frames in ----------------------------------------------------------------------------------
+  logic       frame_start, payload_valid, frame_ok, frame_bad;
+  logic [7:0] frame_type, frame_sequence, payload_byte;
+  logic [5:0] payload_index;
 
-  network_uart_link #(
-    .Inputs     (NumInputs),
-    .Outputs    (NumOutputs),
-    .InputWidth (InputWidth),
-    .OutputWidth(OutputWidth)
-  ) u_link (
+  link_rx u_link_rx (
     .clk_i,
     .rst_ni,
-    .rx_data_i (rx_data),
-    .rx_valid_i(rx_valid),
-    .tx_data_o (tx_data),
-    .tx_valid_o(tx_valid),
-    .tx_ready_i(tx_ready),
-    .start_o   (net_start),
-    .ready_i   (net_ready),
-    .done_i    (net_done),
-    .inputs_o  (net_inputs),
-    .outputs_i (net_outputs),
-    .answered_o(answered),
-    .rejected_o(rejected)
+    .rx_data_i      (rx_data),
+    .rx_valid_i     (rx_valid),
+    .start_o        (frame_start),
+    .type_o         (frame_type),
+    .sequence_o     (frame_sequence),
+    .payload_valid_o(payload_valid),
+    .payload_index_o(payload_index),
+    .payload_byte_o (payload_byte),
+    .ok_o           (frame_ok),
+    .bad_o          (frame_bad)
   );
 
-  // ---- the network, on its own clock behind the crossing ----------------------------------------
+  logic is_setpoint, is_command, is_identify_request;
+  assign is_setpoint         = frame_type == 8'(delta_board_pkg::FrameTypeSetpoint);
+  assign is_command          = frame_type == 8'(delta_board_pkg::FrameTypeCommand);
+  assign is_identify_request = frame_type == 8'(delta_board_pkg::FrameTypeIdentifyRequest);
+
+  // ---- commands and the drive state ------------------------------------------------------------------
+  logic       enabled_q, holding_q, homed_q, flush, home, clear_fault, command_refused;
+  logic [7:0] command_q;
+  logic       fault, fault_active;
+  logic       command_ok;
+  assign command_ok = frame_ok && is_command;
+
+  always_comb begin
+    flush           = fault && enabled_q;  // a fault empties the buffer once, as it turns the drives off
+    home            = 1'b0;
+    clear_fault     = 1'b0;
+    command_refused = 1'b0;
+    if (command_ok) begin
+      unique case (command_q)
+        8'(delta_board_pkg::CommandEnable):     command_refused = fault || !homed_q || (enabled_q && !holding_q);
+        8'(delta_board_pkg::CommandDisable):    flush = 1'b1;
+        8'(delta_board_pkg::CommandHold):       command_refused = !enabled_q;
+        8'(delta_board_pkg::CommandClearFault): begin
+          command_refused = fault_active;
+          clear_fault     = !fault_active;
+        end
+        8'(delta_board_pkg::CommandSetHome): begin
+          command_refused = enabled_q;
+          home            = !enabled_q;
+        end
+        default: command_refused = 1'b1;
+      endcase
+    end
+  end
+
+  always_ff @(posedge clk_i or negedge rst_ni) begin
+    if (!rst_ni) begin
+      command_q <= '0;
+      enabled_q <= 1'b0;
+      holding_q <= 1'b0;
+      homed_q   <= 1'b0;
+    end else begin
+      if (payload_valid && is_command) command_q <= payload_byte;
+      if (command_ok && !command_refused) begin
+        if (command_q == 8'(delta_board_pkg::CommandEnable)) begin
+          enabled_q <= 1'b1;
+          holding_q <= 1'b0;
+        end
+        if (command_q == 8'(delta_board_pkg::CommandDisable)) begin
+          enabled_q <= 1'b0;
+          holding_q <= 1'b0;
+        end
+        if (command_q == 8'(delta_board_pkg::CommandHold)) holding_q <= 1'b1;
+      end
+      if (home) homed_q <= 1'b1;
+      if (fault) begin
+        enabled_q <= 1'b0;
+        holding_q <= 1'b0;
+      end
+    end
+  end
+
+  // ---- period schedule ---------------------------------------------------------------------------------
+  logic [TickWidth-1:0] tick;
+  logic [3:0]           phase_q;        // k of the running period (from tick 1 on)
+  logic [31:0]          period_count_q; // control periods since reset
+  logic                 play, update, snapshot;
+  always_ff @(posedge clk_i or negedge rst_ni) begin
+    if (!rst_ni) begin
+      phase_q        <= 4'd9;
+      period_count_q <= '0;
+    end else if (tick == '0) begin
+      phase_q        <= (phase_q == 4'd9) ? 4'd0 : phase_q + 1'b1;
+      period_count_q <= period_count_q + 1'b1;
+    end
+  end
+  assign play     = tick == TickWidth'(1) && phase_q == 4'd0 && enabled_q && !holding_q && !fault;
+  assign snapshot = tick == TickWidth'(ClocksPerPeriod / 2) && phase_q == 4'd0;
+  assign update   = tick == TickWidth'(ClocksPerPeriod - 100);
+
+  // ---- setpoints and the network --------------------------------------------------------------------
+  logic                              net_start, net_done, net_ready, underrun, setpoint_refused;
+  logic [NumInputs*InputWidth-1:0]   net_inputs;
+  logic [NumOutputs*OutputWidth-1:0] net_outputs;  // the last answer, held
+  logic [31:0]                       sample_index;
+  logic [15:0]                       fill;
+
+  setpoint_buffer u_setpoints (
+    .clk_i,
+    .rst_ni,
+    .frame_start_i  (frame_start),
+    .is_setpoint_i  (is_setpoint),
+    .payload_valid_i(payload_valid),
+    .payload_index_i(payload_index),
+    .payload_byte_i (payload_byte),
+    .frame_ok_i     (frame_ok),
+    .refused_o      (setpoint_refused),
+    .flush_i        (flush),
+    .play_i         (play),
+    .underrun_o     (underrun),
+    .start_o        (net_start),
+    .ready_i        (net_ready),
+    .inputs_o       (net_inputs),
+    .sample_index_o (sample_index),
+    .fill_o         (fill)
+  );
+
   logic                              net_clk_start, net_clk_ready, net_clk_done;
   logic [NumInputs*InputWidth-1:0]   net_clk_inputs;
   logic [NumOutputs*OutputWidth-1:0] net_clk_outputs;
@@ -100,8 +208,10 @@ module board_core #(
   logic [NumOutputs-1:0]             net_output_valid;
 
   network_crossing #(
-    .InputBits (NumInputs * InputWidth),
-    .OutputBits(NumOutputs * OutputWidth)
+    .InputBits    (NumInputs * InputWidth),
+    .OutputBits   (NumOutputs * OutputWidth),
+    .CaptureInputs (1'b0),
+    .CaptureOutputs(1'b0)
   ) u_crossing (
     .clk_i,
     .rst_ni,
@@ -136,7 +246,24 @@ module board_core #(
     .y_2_ap_vld  (net_output_valid[2])
   );
 
-  // ---- joint I/O ------------------------------------------------------------------------------
+  // ---- joint references ------------------------------------------------------------------------------
+  logic [95:0] references;
+  logic [47:0] counts;
+  logic        slew_limited;
+  reference_interpolator u_interpolator (
+    .clk_i,
+    .rst_ni,
+    .update_i      (update),
+    .phase_i       (phase_q),
+    .enabled_i     (enabled_q && !fault),
+    .answer_i      (net_done),
+    .outputs_i     (net_outputs),
+    .counts_i      (counts),
+    .references_o  (references),
+    .slew_limited_o(slew_limited)
+  );
+
+  // ---- joint I/O ---------------------------------------------------------------------------------------
   // Two-flip-flop synchronisers for the asynchronous encoder inputs.
   logic [2:0] encoder_a_meta_q, encoder_a_q, encoder_b_meta_q, encoder_b_q;
   always_ff @(posedge clk_i or negedge rst_ni) begin
@@ -153,7 +280,6 @@ module board_core #(
     end
   end
 
-  // ---- the three joint controllers: references = the network's last answer ---------------------
   logic [15:0] joint_overflow_count;
   joint_axes #(
     .ClocksPerPeriod(ClocksPerPeriod),
@@ -161,43 +287,145 @@ module board_core #(
   ) u_joint_axes (
     .clk_i,
     .rst_ni,
-    .encoder_a_i      (encoder_a_q),
-    .encoder_b_i      (encoder_b_q),
-    .references_i     (net_outputs),
-    .reference_valid_i(net_done),
+    .encoder_a_i     (encoder_a_q),
+    .encoder_b_i     (encoder_b_q),
+    .home_i          (home),
+    .references_i    (references),
+    .enabled_i       (enabled_q),
+    .frame_valid_i   (frame_ok),
+    .clear_fault_i   (clear_fault),
+    .tick_o          (tick),
+    .counts_o        (counts),
+    .peek_address_i  ({peek_joint, peek_slot}),
+    .peek_data_o     (peek_data),
     .drive_pwm_o,
     .drive_dir_o,
     .drive_enable_o,
     .encoder_error_o,
-    .overflow_count_o (joint_overflow_count),
-    .fault_o          (joint_fault_o),
-    .fault_cause_o    (joint_fault_cause_o)
+    .overflow_count_o(joint_overflow_count),
+    .fault_o         (fault),
+    .fault_cause_o   (joint_fault_cause_o),
+    .fault_active_o  (fault_active)
   );
   assign joint_limited_o = joint_overflow_count != '0;
+  assign joint_fault_o   = fault;
+
+  // ---- counters (saturating: a count never wraps back to small) ----------------------------------------
+  logic [15:0] bad_frames_q, underruns_q, slew_limits_q, refused_q;
+  logic [7:0]  last_sequence_q;
+  function automatic logic [15:0] saturating_increment(logic [15:0] value);
+    saturating_increment = (value == '1) ? value : value + 1'b1;
+  endfunction
+  always_ff @(posedge clk_i or negedge rst_ni) begin
+    if (!rst_ni) begin
+      bad_frames_q    <= '0;
+      underruns_q     <= '0;
+      slew_limits_q   <= '0;
+      refused_q       <= '0;
+      last_sequence_q <= '0;
+    end else begin
+      if (frame_bad) bad_frames_q <= saturating_increment(bad_frames_q);
+      if (underrun) underruns_q <= saturating_increment(underruns_q);
+      if (slew_limited) slew_limits_q <= saturating_increment(slew_limits_q);
+      if (command_refused || setpoint_refused) refused_q <= saturating_increment(refused_q);
+      if (frame_ok) last_sequence_q <= frame_sequence;
+    end
+  end
+
+  // ---- frames out: identify and telemetry --------------------------------------------------------------
+  // link_tx asks for telemetry word w (payload bytes 2w, 2w+1) and takes it one cycle later: the
+  // joint words are read from the controllers' state memory (peek, one cycle), the rest are
+  // registers chosen by the word index of the previous cycle. Offsets: delta_board_pkg Telemetry*.
+  localparam int unsigned ReferenceWord = delta_board_pkg::TelemetryReferencesOffset / 2;
+  localparam int unsigned CountWord     = delta_board_pkg::TelemetryCountsOffset / 2;
+  localparam int unsigned CurrentWord   = delta_board_pkg::TelemetryCurrentsOffset / 2;
+  logic [4:0]  telemetry_word_index, word_index_q;
+  logic [15:0] telemetry_word;
+  logic [7:0]  flags;
+  logic [1:0]  peek_joint;
+  logic [2:0]  peek_slot;
+  logic [31:0] peek_data;
+
+  always_comb begin  // which state word the asked-for telemetry word comes from
+    peek_joint = 2'd0;
+    peek_slot  = delta_joint_pkg::SlotReference;
+    if (telemetry_word_index >= 5'(CurrentWord)) begin
+      peek_joint = 2'(telemetry_word_index - 5'(CurrentWord));
+      peek_slot  = delta_joint_pkg::SlotCurrent;
+    end else if (telemetry_word_index >= 5'(CountWord)) begin
+      peek_joint = 2'(telemetry_word_index - 5'(CountWord));
+      peek_slot  = delta_joint_pkg::SlotEncoder;
+    end else if (telemetry_word_index >= 5'(ReferenceWord)) begin
+      peek_joint = 2'((telemetry_word_index - 5'(ReferenceWord)) >> 1);
+    end
+  end
+
+  always_ff @(posedge clk_i) word_index_q <= telemetry_word_index;
+
+  always_comb begin
+    flags = '0;
+    flags[delta_board_pkg::FlagDriveEnable]  = enabled_q && !fault;
+    flags[delta_board_pkg::FlagHomed]        = homed_q;
+    flags[delta_board_pkg::FlagHolding]      = holding_q;
+    flags[delta_board_pkg::FlagFault]        = fault;
+    flags[delta_board_pkg::FlagEncoderError] = encoder_error_o != '0;
+    unique case (5'(word_index_q))
+      5'(delta_board_pkg::TelemetrySampleIndexOffset / 2):     telemetry_word = sample_index[15:0];
+      5'(delta_board_pkg::TelemetrySampleIndexOffset / 2 + 1): telemetry_word = sample_index[31:16];
+      5'(delta_board_pkg::TelemetryTickOffset / 2):            telemetry_word = period_count_q[15:0];
+      5'(delta_board_pkg::TelemetryTickOffset / 2 + 1):        telemetry_word = period_count_q[31:16];
+      5'(delta_board_pkg::TelemetryFaultOffset / 2):           telemetry_word = {flags, 8'(joint_fault_cause_o)};
+      5'(delta_board_pkg::TelemetryFillOffset / 2):            telemetry_word = fill;
+      5'(delta_board_pkg::TelemetryBadFramesOffset / 2):       telemetry_word = bad_frames_q;
+      5'(delta_board_pkg::TelemetryUnderrunsOffset / 2):       telemetry_word = underruns_q;
+      5'(delta_board_pkg::TelemetrySaturationsOffset / 2):     telemetry_word = joint_overflow_count;
+      5'(delta_board_pkg::TelemetrySlewLimitsOffset / 2):      telemetry_word = slew_limits_q;
+      5'(delta_board_pkg::TelemetryRejectedOffset / 2):        telemetry_word = refused_q;
+      5'(delta_board_pkg::TelemetrySequenceOffset / 2):        telemetry_word = {8'd0, last_sequence_q};
+      default: begin  // references (low, high half), counts and currents (low half)
+        telemetry_word = (word_index_q >= 5'(ReferenceWord) && word_index_q < 5'(CountWord) && word_index_q[0] != 1'(ReferenceWord))
+                             ? peek_data[31:16] : peek_data[15:0];
+      end
+    endcase
+  end
+
+  link_tx #(.MemDir(MemDir)) u_link_tx (
+    .clk_i,
+    .rst_ni,
+    .snapshot_i         (snapshot),
+    .word_index_o       (telemetry_word_index),
+    .word_i             (telemetry_word),
+    .identify_i         (frame_ok && is_identify_request),
+    .identify_sequence_i(frame_sequence),
+    .tx_data_o          (tx_data),
+    .tx_valid_o         (tx_valid),
+    .tx_ready_i         (tx_ready)
+  );
 
   logic unused_status;
   assign unused_status = ^{net_idle, net_output_valid, rx_frame_error};
 
-  // ---- status LEDs --------------------------------------------------------------------------
-  // Pulse stretchers: 2^LedHoldBits cycles, about 0.36 s at 23.25 MHz. The pulses are registered first: the
-  // link's decision logic and the counters' carry chains stay in separate cycles.
-  logic [LedHoldBits-1:0] green_count_q, red_count_q;
-  logic        answered_q, rejected_q;
+  // ---- status LEDs -------------------------------------------------------------------------------------
+  // On for the window of 2^LedWindowBits control periods (0.2 s) after one in which a frame was
+  // accepted (green) or dropped (red): a blink at 5 Hz while frames flow.
+  logic green_seen_q, red_seen_q, green_q, red_q, window_end;
+  assign window_end = tick == '0 && period_count_q[LedWindowBits-1:0] == '0;
   always_ff @(posedge clk_i or negedge rst_ni) begin
     if (!rst_ni) begin
-      answered_q    <= 1'b0;
-      rejected_q    <= 1'b0;
-      green_count_q <= '0;
-      red_count_q   <= '0;
+      green_seen_q <= 1'b0;
+      red_seen_q   <= 1'b0;
+      green_q      <= 1'b0;
+      red_q        <= 1'b0;
+    end else if (window_end) begin
+      green_q      <= green_seen_q || frame_ok;
+      red_q        <= red_seen_q || frame_bad;
+      green_seen_q <= 1'b0;
+      red_seen_q   <= 1'b0;
     end else begin
-      answered_q <= answered;
-      rejected_q <= rejected;
-      if (answered_q) green_count_q <= '1;
-      else if (green_count_q != '0) green_count_q <= green_count_q - 1'b1;
-      if (rejected_q) red_count_q <= '1;
-      else if (red_count_q != '0) red_count_q <= red_count_q - 1'b1;
+      if (frame_ok) green_seen_q <= 1'b1;
+      if (frame_bad) red_seen_q <= 1'b1;
     end
   end
-  assign led_green_o = (green_count_q != '0);
-  assign led_red_o   = (red_count_q != '0);
+  assign led_green_o = green_q;
+  assign led_red_o   = red_q;
 endmodule

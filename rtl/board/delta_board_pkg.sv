@@ -47,7 +47,7 @@ package delta_board_pkg;
   localparam int SetpointPayloadBytes /*verilator public*/ = 16;
   localparam int CommandPayloadBytes /*verilator public*/ = 1;
   localparam int IdentifyPayloadBytes /*verilator public*/ = 24;
-  localparam int TelemetryPayloadBytes /*verilator public*/ = 44;
+  localparam int TelemetryPayloadBytes /*verilator public*/ = 48;
   localparam int RxRingBytes /*verilator public*/ = 512;  // received bytes kept for the rescan after a drop
 
   // Setpoints: 1 kHz, addressed by sample index, into a buffer of SetpointDepth entries.
@@ -78,21 +78,24 @@ package delta_board_pkg;
   localparam int IdentifyControlRateOffset /*verilator public*/ = 20;  // u16 ControlRateHz
   localparam int IdentifySetpointRateOffset /*verilator public*/ = 22;  // u16 SetpointRateHz
 
-  // Telemetry payload, one frame per setpoint period (snapshot at the middle of sub-period 0).
+  // Telemetry payload, one frame per setpoint period (snapshot at the middle of sub-period 0;
+  // references, counts and currents are those of that control period, from the controller's state
+  // memory). Every field starts on a 16-bit word.
   localparam int TelemetrySampleIndexOffset /*verilator public*/ = 0;  // u32 next sample index to play
   localparam int TelemetryTickOffset /*verilator public*/ = 4;  // u32 control periods since reset
-  localparam int TelemetryCountsOffset /*verilator public*/ = 8;  // 3 x i16 encoder counts
-  localparam int TelemetryReferencesOffset /*verilator public*/ = 14;  // 3 x i24 network output codes (last answer)
-  localparam int TelemetryCurrentsOffset /*verilator public*/ = 23;  // 3 x i16 current commands, Q1.15 A
-  localparam int TelemetryFaultOffset /*verilator public*/ = 29;  // u8 fault cause bits (Fault*)
-  localparam int TelemetryFlagsOffset /*verilator public*/ = 30;  // u8 flags (Flag*)
-  localparam int TelemetryFillOffset /*verilator public*/ = 31;  // u16 setpoints buffered
-  localparam int TelemetryBadFramesOffset /*verilator public*/ = 33;  // u16 dropped frames (saturating)
-  localparam int TelemetryUnderrunsOffset /*verilator public*/ = 35;  // u16 setpoint periods with an empty buffer
-  localparam int TelemetrySaturationsOffset /*verilator public*/ = 37;  // u16 controller saturations (saturating)
-  localparam int TelemetrySlewLimitsOffset /*verilator public*/ = 39;  // u16 reference changes limited (saturating)
-  localparam int TelemetrySequenceOffset /*verilator public*/ = 41;  // u8 sequence of the last accepted frame
-  localparam int TelemetryRejectedOffset /*verilator public*/ = 42;  // u16 refused commands and setpoints (saturating)
+  localparam int TelemetryReferencesOffset /*verilator public*/ = 8;  // 3 x i32 joint references, Q24.8 counts
+  localparam int TelemetryCountsOffset /*verilator public*/ = 20;  // 3 x i16 encoder counts
+  localparam int TelemetryCurrentsOffset /*verilator public*/ = 26;  // 3 x i16 applied currents, Q1.15 A
+  localparam int TelemetryFaultOffset /*verilator public*/ = 32;  // u8 fault cause bits (Fault*)
+  localparam int TelemetryFlagsOffset /*verilator public*/ = 33;  // u8 flags (Flag*)
+  localparam int TelemetryFillOffset /*verilator public*/ = 34;  // u16 setpoints buffered
+  localparam int TelemetryBadFramesOffset /*verilator public*/ = 36;  // u16 dropped frames (saturating)
+  localparam int TelemetryUnderrunsOffset /*verilator public*/ = 38;  // u16 setpoint periods with an empty buffer
+  localparam int TelemetrySaturationsOffset /*verilator public*/ = 40;  // u16 controller saturations (saturating)
+  localparam int TelemetrySlewLimitsOffset /*verilator public*/ = 42;  // u16 reference changes limited (saturating)
+  localparam int TelemetryRejectedOffset /*verilator public*/ = 44;  // u16 refused commands and setpoints (saturating)
+  localparam int TelemetrySequenceOffset /*verilator public*/ = 46;  // u8 sequence of the last accepted frame
+  localparam int TelemetryReservedOffset /*verilator public*/ = 47;  // u8 zero
   localparam int FlagDriveEnable /*verilator public*/ = 0;
   localparam int FlagHomed /*verilator public*/ = 1;
   localparam int FlagHolding /*verilator public*/ = 2;
@@ -121,7 +124,7 @@ package delta_board_pkg;
   localparam int FaultCauseBits /*verilator public*/ = 4;
 
   // ---- status LEDs ----
-  localparam int LedHoldBits /*verilator public*/ = 23;  // pulses held 2^23 board cycles (0.36 s)
+  localparam int LedWindowBits /*verilator public*/ = 11;  // LED windows: 2^11 control periods (0.2 s)
 
   // ---- the Verilated test build (rtl/CMakeLists.txt: Vboard_core for tests and deltactl cosim) ----
   // A 20 MHz board clock in simulated time and a 5 Mbaud link, so tests run fast.

@@ -13,7 +13,7 @@ module icebreaker_top #(
   parameter logic [2:0]  DivQ        = 3'd4,
   parameter logic [2:0]  FilterRange = 3'd1,
   parameter int unsigned NetworkClockHz = delta_board_pkg::NetworkClockHz,  // what the PLL settings above make
-  parameter int unsigned BaudRate      = delta_board_pkg::UartBaud
+  parameter int unsigned BaudRate      = delta_board_pkg::LinkBaud
 ) (
   input  logic       clk_12mhz_i,   // pin 35, 12 MHz oscillator
   input  logic       button_ni,     // pin 10, user button, low when pressed: reset

@@ -13,9 +13,17 @@
 // captured word holds until the other side has acknowledged it (the next request waits for the
 // answer), so no bit is ever sampled while it changes, whatever the phase between the clocks.
 // Cost: 2-3 cycles of each clock per direction on top of the network's own latency.
+//
+// CaptureInputs = 0 (the board: setpoint_buffer holds its inputs until the answer) drops the
+// input capture register: inputs_i must then hold from start_i until done_o. CaptureOutputs = 0
+// (the board) drops both output registers: outputs_o is then the network's own output register,
+// which holds from its ap_done until the next one, and the next request waits for this answer's
+// done_o; the board reads it only between done_o and its next start_i.
 module network_crossing #(
-  parameter int unsigned InputBits  = 96,
-  parameter int unsigned OutputBits = 72
+  parameter int unsigned InputBits     = 96,
+  parameter int unsigned OutputBits    = 72,
+  parameter bit          CaptureInputs  = 1'b1,
+  parameter bit          CaptureOutputs = 1'b1
 ) (
   // board side
   input  logic                  clk_i,
@@ -70,7 +78,7 @@ module network_crossing #(
     end
   end
   assign done_o    = done_q;
-  assign outputs_o = outputs_q;
+  assign outputs_o = CaptureOutputs ? outputs_q : net_outputs_i;
 
   // ---- network side (clk_network_i) -------------------------------------------------------------
   logic [1:0]            request_sync_q;
@@ -97,5 +105,5 @@ module network_crossing #(
     end
   end
   assign net_start_o  = start_q;
-  assign net_inputs_o = inputs_q;
+  assign net_inputs_o = CaptureInputs ? inputs_q : inputs_i;
 endmodule

@@ -1,13 +1,13 @@
 // The three joints on the board: encoder counters, the 10 kHz control tick, joint_controller,
 // the fault latch (joint_safety.sv) and the drive current commands (joint_pwm.sv).
 //
-// references_i are the network's outputs (degrees, Q10.14, 24 bits each, joint j at [24j +: 24]),
-// held by the caller and refreshed with reference_valid_i. Until the first reference arrives the
-// controller holds each joint where its encoder is and drive_enable_o stays low. Every
-// ClocksPerPeriod cycles (10 kHz) the encoder counts and references are latched and the
-// controller started (892-cycle latency, see joint_controller.sv); each current command updates
-// its PWM as soon as it is stored (joint_pwm.sv). A fault (joint_safety.sv) stops the torque and
-// stays latched until reset. Board facts (clock, home count, limits, cause bits): delta_board_pkg.
+// references_i are the joint references in Q24.8 encoder counts (reference_interpolator.sv),
+// stable from each period start until the controller has copied them (6 cycles). Every
+// ClocksPerPeriod cycles (10 kHz, tick_o == 0) the encoder counts are latched and the controller
+// started (892-cycle latency, see joint_controller.sv); each current command updates its PWM as
+// soon as it is stored (joint_pwm.sv). The drives are on while enabled_i and no fault; a fault
+// (joint_safety.sv) stops the torque and stays latched until clear_fault_i. home_i sets every
+// encoder count to HomeCount. Board facts (clock, home count, limits, cause bits): delta_board_pkg.
 module joint_axes #(
   parameter int unsigned ClocksPerPeriod = delta_board_pkg::ClocksPerPeriod,  // clk_i / 10 kHz
   parameter logic [15:0] HomeCount       = 16'(delta_board_pkg::HomeCount),   // encoder count at reset
@@ -20,15 +20,23 @@ module joint_axes #(
   input  logic        rst_ni,
   input  logic [2:0]  encoder_a_i,        // synchronised to clk_i
   input  logic [2:0]  encoder_b_i,
-  input  logic [71:0] references_i,       // degrees, Q10.14
-  input  logic        reference_valid_i,
+  input  logic        home_i,             // set home: counts := HomeCount
+  input  logic [95:0] references_i,       // Q24.8 counts, joint j at [32j +: 32]
+  input  logic        enabled_i,          // drives on (the board's enable state)
+  input  logic        frame_valid_i,      // a valid link frame arrived (watchdog)
+  input  logic        clear_fault_i,      // clear the latched causes
+  output logic [$clog2(ClocksPerPeriod)-1:0] tick_o,  // cycle within the control period
+  output logic [47:0] counts_o,           // live encoder counts, joint j at [16j +: 16]
+  input  logic [4:0]  peek_address_i,     // {joint, slot}: the controller's state of the last period
+  output logic [31:0] peek_data_o,        //   one cycle later, while it is idle (board telemetry)
   output logic [2:0]  drive_pwm_o,
   output logic [2:0]  drive_dir_o,
   output logic        drive_enable_o,
   output logic [2:0]  encoder_error_o,    // sticky: a quadrature state was skipped
   output logic [15:0] overflow_count_o,   // the controller's saturation counter
   output logic        fault_o,            // latched: torque off
-  output logic [delta_board_pkg::FaultCauseBits-1:0] fault_cause_o  // latched causes (joint_safety.sv)
+  output logic [delta_board_pkg::FaultCauseBits-1:0] fault_cause_o,  // latched causes (joint_safety.sv)
+  output logic        fault_active_o      // a following or travel condition persists
 );
   localparam int unsigned TickWidth = $clog2(ClocksPerPeriod);
 
@@ -41,6 +49,7 @@ module joint_axes #(
       .rst_ni,
       .a_i    (encoder_a_i[j]),
       .b_i    (encoder_b_i[j]),
+      .home_i,
       .count_o(counts[16 * j +: 16]),
       .error_o(step_error[j])
     );
@@ -48,9 +57,8 @@ module joint_axes #(
 
   // ---- control tick and latched inputs --------------------------------------------------------
   logic [TickWidth-1:0] tick_q;
-  logic        start_q, referenced_q, reference_latched_q;
+  logic        start_q;
   logic [47:0] counts_q;
-  logic [71:0] references_q;
   logic [2:0]  encoder_error_q;
   logic        ap_done, ap_idle, ap_ready;
 
@@ -58,42 +66,24 @@ module joint_axes #(
     if (!rst_ni) begin
       tick_q          <= '0;
       start_q         <= 1'b0;
-      referenced_q    <= 1'b0;
-      reference_latched_q <= 1'b0;
       counts_q        <= '0;
-      references_q    <= '0;
       encoder_error_q <= '0;
     end else begin
       tick_q          <= tick_q == TickWidth'(ClocksPerPeriod - 1) ? '0 : tick_q + 1'b1;
       encoder_error_q <= encoder_error_q | step_error;
-      if (reference_valid_i) referenced_q <= 1'b1;
-      // ap_start stays high until ap_ready; the inputs are latched at the tick and held.
+      // ap_start stays high until ap_ready; the counts are latched at the tick and held.
       if (ap_ready) start_q <= 1'b0;
-      // Whether this period uses the network's reference is latched with the reference itself:
-      // a reference_valid_i arriving while the controller copies its inputs must not pair the
-      // new flag with the old (zero) reference (that would command 0 deg for one period).
       if (tick_q == '0 && ap_idle) begin
-        start_q             <= 1'b1;
-        counts_q            <= counts;
-        references_q        <= references_i;
-        reference_latched_q <= referenced_q;
+        start_q  <= 1'b1;
+        counts_q <= counts;
       end
     end
   end
-
-  // Reference in Q24.8 encoder counts: degrees x 25600 = raw x 2^14 x 25 / 16, exact after the
-  // rounding: round_shift(25 * raw, 4). Before the first reference: the encoder count itself.
-  function automatic logic [31:0] reference_code(logic [23:0] raw);
-    logic [28:0] rounded;
-    rounded = {{5{raw[23]}}, raw} + {{2{raw[23]}}, raw, 3'b000} + {{1{raw[23]}}, raw, 4'b0000} + 29'd8;
-    reference_code = 32'($signed({{3{rounded[28]}}, rounded}) >>> 4);
-  endfunction
+  assign tick_o   = tick_q;
+  assign counts_o = counts;
 
   logic [95:0] references;
-  for (genvar j = 0; j < 3; j++) begin : g_reference
-    assign references[32 * j +: 32] = reference_latched_q ? reference_code(references_q[24 * j +: 24])
-                                                   : {{8{counts_q[16 * j + 15]}}, counts_q[16 * j +: 16], 8'd0};
-  end
+  assign references = references_i;
 
   // ---- faults ------------------------------------------------------------------------------------
   logic fault;
@@ -108,13 +98,14 @@ module joint_axes #(
     .tick_i             (tick_q == '0),
     .period_start_i     (tick_q == '0 && ap_idle),
     .step_error_i       (step_error),
-    .reference_valid_i,
-    .referenced_i       (referenced_q),
-    .reference_latched_i(reference_latched_q),
+    .frame_valid_i,
+    .enabled_i,
+    .clear_i            (clear_fault_i),
     .references_i       (references),
     .counts_i           (counts_q),
     .fault_o            (fault),
-    .fault_cause_o
+    .fault_cause_o,
+    .active_o           (fault_active_o)
   );
 
   // ---- controller -----------------------------------------------------------------------------
@@ -141,7 +132,9 @@ module joint_axes #(
     .current_2       (currents[47:32]),
     .current_2_ap_vld(current_valid[2]),
     .limited,
-    .overflow_count  (overflow_count_o)
+    .overflow_count  (overflow_count_o),
+    .peek_address    (peek_address_i),
+    .peek_data       (peek_data_o)
   );
 
   // ---- PWM and drive enable ----------------------------------------------------------------------
@@ -150,7 +143,7 @@ module joint_axes #(
     .rst_ni,
     .currents_i     (currents),
     .current_valid_i(current_valid),
-    .referenced_i   (referenced_q),
+    .enabled_i,
     .fault_i        (fault),
     .drive_pwm_o,
     .drive_dir_o,

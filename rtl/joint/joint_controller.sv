@@ -37,7 +37,11 @@ module joint_controller (
   output logic [15:0] current_2,
   output logic        current_2_ap_vld,
   output logic [2:0]  limited,           // bit j: the current limit clipped joint j's command
-  output logic [15:0] overflow_count     // saturated operands and states since reset (sticks at max)
+  output logic [15:0] overflow_count,    // saturated operands and states since reset (sticks at max)
+  // Not part of the HLS export: while idle, the state memory answers {joint, slot} of the last
+  // period (its reference, encoder count, applied current...) one cycle later (board telemetry).
+  input  logic [4:0]  peek_address,
+  output logic [31:0] peek_data
 );
   localparam int unsigned AccWidth = delta_joint_pkg::AccumulatorWidth;
 
@@ -179,7 +183,10 @@ module joint_controller (
       default: issue_source = source_c;
     endcase
     read_address = {joint_q, reads_new_bank(issue_source, primed_q) ? bank_q : !bank_q, issue_source[2:0]};
+    // Idle: the bank the last period wrote (bank_q has toggled since).
+    if (state_q == StateIdle) read_address = {peek_address[4:3], !bank_q, peek_address[2:0]};
   end
+  assign peek_data = read_data;
 
   always_comb begin
     state_d        = state_q;

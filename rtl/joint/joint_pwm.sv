@@ -3,8 +3,9 @@
 // Each current (Q1.15 A, |current| <= CurrentLimitCode = 0.5 A) updates its joint's duty as soon
 // as it is stored (current_valid_i); PWM period 2^PwmBits board cycles, duty = |current| / 0.5 A,
 // direction = sign (1 = negative). A fault stops the torque: every PWM output low and the enable
-// low, registered with the outputs (glitch-free pins). The drives are enabled once a reference has
-// arrived (referenced_i) and while there is no fault.
+// low, registered with the outputs (glitch-free pins). The drives are on while the board enables
+// them (enabled_i: an accepted enable command, docs/board_link.md) and there is no fault; off,
+// every PWM output is low too.
 module joint_pwm #(
   parameter int unsigned PwmBits = delta_board_pkg::PwmBits
 ) (
@@ -12,7 +13,7 @@ module joint_pwm #(
   input  logic        rst_ni,
   input  logic [47:0] currents_i,       // joint j at [16j +: 16], Q1.15 A
   input  logic [2:0]  current_valid_i,  // joint j's current is stored this cycle
-  input  logic        referenced_i,
+  input  logic        enabled_i,
   input  logic        fault_i,
   output logic [2:0]  drive_pwm_o,
   output logic [2:0]  drive_dir_o,
@@ -44,7 +45,7 @@ module joint_pwm #(
   logic       enable_q;
   always_comb begin
     for (int j = 0; j < 3; j++) begin
-      pwm_d[j] = !fault_i && ({1'b0, pwm_phase_q} < duty_q[DutyBits * j +: DutyBits]);
+      pwm_d[j] = enabled_i && !fault_i && ({1'b0, pwm_phase_q} < duty_q[DutyBits * j +: DutyBits]);
     end
   end
 
@@ -60,7 +61,7 @@ module joint_pwm #(
       duty_q      <= duty_d;
       direction_q <= direction_d;
       pwm_q       <= pwm_d;
-      enable_q    <= referenced_i && !fault_i;
+      enable_q    <= enabled_i && !fault_i;
     end
   end
 

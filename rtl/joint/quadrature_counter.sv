@@ -10,6 +10,7 @@ module quadrature_counter #(
   input  logic        rst_ni,
   input  logic        a_i,
   input  logic        b_i,
+  input  logic        home_i,   // set home: the count becomes HomeCount (wins over a step)
   output logic [15:0] count_o,  // two's complement counts, wraps at +-32768 (+-327 deg)
   output logic        error_o
 );
@@ -32,13 +33,17 @@ module quadrature_counter #(
   always_ff @(posedge clk_i or negedge rst_ni) begin
     if (!rst_ni) begin
       previous_q <= 2'b00;
-      count_q    <= HomeCount;
       error_q    <= 1'b0;
     end else begin
       previous_q <= {a_i, b_i};
-      count_q    <= count_d;
       error_q    <= error_d;
     end
+  end
+  // The count loads HomeCount synchronously, at reset (released synchronously by the top) and on
+  // home_i: the iCE40 flip-flops' synchronous set/reset do it, no logic cell per bit.
+  always_ff @(posedge clk_i) begin
+    if (!rst_ni || home_i) count_q <= HomeCount;
+    else count_q <= count_d;
   end
 
   assign count_o = count_q;

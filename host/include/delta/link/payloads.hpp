@@ -74,7 +74,7 @@ struct TelemetryPayload {
   std::uint32_t sample_index = 0;            // the next setpoint to play
   std::uint32_t tick = 0;                    // control periods since reset
   std::array<std::int16_t, 3> counts{};      // encoder counts, 0.01 deg
-  std::array<std::int32_t, 3> references{};  // the last answer: raw output codes, Q10.14 deg, i24 on the wire
+  std::array<std::int32_t, 3> references{};  // joint references, Q24.8 encoder counts (converted, interpolated answers)
   std::array<std::int16_t, 3> currents{};    // current commands, Q1.15 A
   std::uint8_t fault_cause = 0;              // FaultCause bits
   std::uint8_t flags = 0;                    // TelemetryFlag bits
@@ -154,9 +154,7 @@ constexpr Field kIdentify[] = {kIdentifyProtocol,     kIdentifyDepth,      kIden
 constexpr Field kTelemetrySampleIndex = field<std::uint32_t>(board::kTelemetrySampleIndexOffset);
 constexpr Field kTelemetryTick = field<std::uint32_t>(board::kTelemetryTickOffset);
 constexpr Field kTelemetryCounts = field<std::int16_t>(board::kTelemetryCountsOffset, 3);
-// The network's 24-bit output codes: as many bytes as the present link's answer codes.
-constexpr Field kTelemetryReferences =
-    field<std::int32_t>(board::kTelemetryReferencesOffset, 3, board::kLinkAnswerCodeBytes);
+constexpr Field kTelemetryReferences = field<std::int32_t>(board::kTelemetryReferencesOffset, 3);
 constexpr Field kTelemetryCurrents = field<std::int16_t>(board::kTelemetryCurrentsOffset, 3);
 constexpr Field kTelemetryFault = field<std::uint8_t>(board::kTelemetryFaultOffset);
 constexpr Field kTelemetryFlags = field<std::uint8_t>(board::kTelemetryFlagsOffset);
@@ -167,10 +165,11 @@ constexpr Field kTelemetrySaturations = field<std::uint16_t>(board::kTelemetrySa
 constexpr Field kTelemetrySlewLimits = field<std::uint16_t>(board::kTelemetrySlewLimitsOffset);
 constexpr Field kTelemetrySequence = field<std::uint8_t>(board::kTelemetrySequenceOffset);
 constexpr Field kTelemetryRejected = field<std::uint16_t>(board::kTelemetryRejectedOffset);
-constexpr Field kTelemetry[] = {kTelemetrySampleIndex, kTelemetryTick,      kTelemetryCounts,      kTelemetryReferences,
-                                kTelemetryCurrents,    kTelemetryFault,     kTelemetryFlags,       kTelemetryFill,
-                                kTelemetryBadFrames,   kTelemetryUnderruns, kTelemetrySaturations, kTelemetrySlewLimits,
-                                kTelemetrySequence,    kTelemetryRejected};
+constexpr Field kTelemetryReserved = field<std::uint8_t>(board::kTelemetryReservedOffset);
+constexpr Field kTelemetry[] = {kTelemetrySampleIndex, kTelemetryTick,        kTelemetryReferences, kTelemetryCounts,
+                                kTelemetryCurrents,    kTelemetryFault,       kTelemetryFlags,      kTelemetryFill,
+                                kTelemetryBadFrames,   kTelemetryUnderruns,   kTelemetrySaturations, kTelemetrySlewLimits,
+                                kTelemetryRejected,    kTelemetrySequence,    kTelemetryReserved};
 
 // True when the fields, in the order listed, start at 0, each begins where the previous ends, and
 // the last ends at `payload_bytes`: an exact tiling.

@@ -1,0 +1,177 @@
+// Link v2 receiver (docs/board_link.md): finds, checks and delivers the host's frames.
+//
+// Every received byte goes into a ring of RingBytes (one block RAM). A parser reads the ring one
+// byte every two cycles: it hunts for the sync byte, reads length, sequence and type, takes the
+// frame only if the type is one the board receives (identify request, setpoint, command) and the
+// length is that type's payload size, then runs the CRC-16 over length..payload and compares it
+// with the two CRC bytes. A frame that fails any check is dropped (bad_o pulses) and the parser
+// rescans from the byte after the dropped frame's sync, so a frame that began inside it is still
+// found: the same rule as the host's FrameDecoder (host/include/delta/link/frame_codec.hpp), and
+// BoardLink.* requires both to accept the same frames.
+//
+// Delivery: start_o pulses when a header passes (type_o, sequence_o hold from then to the end),
+// payload_valid_o presents each payload byte once (tentatively: the frame is not checked yet),
+// then ok_o pulses if the CRC matches (act on the frame) or bad_o if not. Consumers keep what the
+// payload says and act only on ok_o. The parser is far faster than the line (2 cycles per byte
+// against ClocksPerBit * 10), so the ring never fills.
+module link_rx #(
+  parameter int unsigned RingBytes = delta_board_pkg::RxRingBytes
+) (
+  input  logic       clk_i,
+  input  logic       rst_ni,
+  input  logic [7:0] rx_data_i,        // from uart_rx
+  input  logic       rx_valid_i,
+  output logic       start_o,          // a header passed: a frame of type_o begins
+  output logic [7:0] type_o,
+  output logic [7:0] sequence_o,
+  output logic       payload_valid_o,  // payload byte payload_index_o (tentative)
+  output logic [5:0] payload_index_o,
+  output logic [7:0] payload_byte_o,
+  output logic       ok_o,             // the frame's CRC matched: act on it
+  output logic       bad_o             // a frame was dropped (type, length or CRC)
+);
+  localparam int unsigned PointerWidth = $clog2(RingBytes);
+  localparam logic [7:0] Sync = 8'(delta_board_pkg::FrameSync);
+
+  // ---- ring -------------------------------------------------------------------------------------
+  // no_rw_check: no read-during-write logic; a byte is read only once written (read_q != write_q).
+  (* no_rw_check *) logic [7:0] ring_q [RingBytes];
+  logic [7:0]              ring_data_q;
+  logic [PointerWidth-1:0] write_q, read_q;
+
+  always_ff @(posedge clk_i) begin
+    if (rx_valid_i) ring_q[write_q] <= rx_data_i;
+    ring_data_q <= ring_q[read_q];
+  end
+  always_ff @(posedge clk_i or negedge rst_ni) begin
+    if (!rst_ni) write_q <= '0;
+    else if (rx_valid_i) write_q <= write_q + 1'b1;
+  end
+
+  // ---- parser -----------------------------------------------------------------------------------
+  // index_q: position of the byte in the frame (0 sync, 1 length, 2 sequence, 3 type, 4.. payload,
+  // then the two CRC bytes). end_q: index of the CRC's high byte (4 + length).
+  logic                    fetched_d, fetched_q;  // ring_data_q holds the byte at read_q
+  logic [PointerWidth-1:0] read_d, start_d, start_q;
+  logic [5:0]              index_d, index_q, end_d, end_q;
+  logic [7:0]              length_d, length_q, type_d, type_q, sequence_d, sequence_q;
+  logic                    crc_high_ok_d, crc_high_ok_q;
+  logic                    crc_clear, crc_valid;
+  logic [15:0]             crc;
+
+  link_crc16 u_crc (
+    .clk_i,
+    .rst_ni,
+    .clear_i(crc_clear),
+    .valid_i(crc_valid),
+    .data_i (ring_data_q),
+    .crc_o  (crc)
+  );
+
+  // The payload size of a type the board receives; known = 0 for any other type.
+  logic       known;
+  logic [7:0] size;
+  always_comb begin
+    known = 1'b1;
+    unique case (ring_data_q)
+      8'(delta_board_pkg::FrameTypeIdentifyRequest): size = 8'd0;
+      8'(delta_board_pkg::FrameTypeSetpoint):        size = 8'(delta_board_pkg::SetpointPayloadBytes);
+      8'(delta_board_pkg::FrameTypeCommand):         size = 8'(delta_board_pkg::CommandPayloadBytes);
+      default: begin
+        known = 1'b0;
+        size  = 8'd0;
+      end
+    endcase
+  end
+
+  always_comb begin
+    fetched_d       = 1'b0;
+    read_d          = read_q;
+    start_d         = start_q;
+    index_d         = index_q;
+    end_d           = end_q;
+    length_d        = length_q;
+    type_d          = type_q;
+    sequence_d      = sequence_q;
+    crc_high_ok_d   = crc_high_ok_q;
+    crc_clear       = 1'b0;
+    crc_valid       = 1'b0;
+    start_o         = 1'b0;
+    payload_valid_o = 1'b0;
+    ok_o            = 1'b0;
+    bad_o           = 1'b0;
+    if (!fetched_q) begin
+      // Wait for a byte: the ring reads read_q in this cycle, the byte is there in the next.
+      fetched_d = read_q != write_q;
+    end else begin
+      read_d = read_q + 1'b1;
+      if (index_q == 6'd0) begin
+        if (ring_data_q == Sync) begin
+          start_d   = read_q;
+          index_d   = 6'd1;
+          crc_clear = 1'b1;
+        end
+      end else if (index_q < 6'd4) begin
+        crc_valid = 1'b1;
+        index_d   = index_q + 1'b1;
+        if (index_q == 6'd1) length_d = ring_data_q;
+        if (index_q == 6'd2) sequence_d = ring_data_q;
+        if (index_q == 6'd3) begin
+          type_d = ring_data_q;
+          end_d  = 6'(size) + 6'd4;
+          if (known && length_q == size) begin
+            start_o = 1'b1;
+          end else begin
+            bad_o   = 1'b1;
+            index_d = 6'd0;
+            read_d  = start_q + 1'b1;
+          end
+        end
+      end else if (index_q < end_q) begin
+        crc_valid       = 1'b1;
+        payload_valid_o = 1'b1;
+        index_d         = index_q + 1'b1;
+      end else if (index_q == end_q) begin
+        crc_high_ok_d = ring_data_q == crc[15:8];
+        index_d       = index_q + 1'b1;
+      end else begin
+        index_d = 6'd0;
+        if (crc_high_ok_q && ring_data_q == crc[7:0]) begin
+          ok_o = 1'b1;
+        end else begin
+          bad_o  = 1'b1;
+          read_d = start_q + 1'b1;
+        end
+      end
+    end
+  end
+
+  always_ff @(posedge clk_i or negedge rst_ni) begin
+    if (!rst_ni) begin
+      fetched_q     <= 1'b0;
+      read_q        <= '0;
+      start_q       <= '0;
+      index_q       <= '0;
+      end_q         <= '0;
+      length_q      <= '0;
+      type_q        <= '0;
+      sequence_q    <= '0;
+      crc_high_ok_q <= 1'b0;
+    end else begin
+      fetched_q     <= fetched_d;
+      read_q        <= read_d;
+      start_q       <= start_d;
+      index_q       <= index_d;
+      end_q         <= end_d;
+      length_q      <= length_d;
+      type_q        <= type_d;
+      sequence_q    <= sequence_d;
+      crc_high_ok_q <= crc_high_ok_d;
+    end
+  end
+
+  assign type_o          = type_q;
+  assign sequence_o      = sequence_q;
+  assign payload_index_o = index_q - 6'd4;
+  assign payload_byte_o  = ring_data_q;
+endmodule

@@ -1,0 +1,162 @@
+// The joint references between network answers: 10 kHz references interpolated between 1 kHz
+// answers, in Q24.8 encoder counts (docs/board_link.md; golden model
+// host/golden/include/delta/golden/setpoint_interpolation.hpp, bit-exact).
+//
+// Segment s (10 control periods, k = 0..9): r_k = B + round_shift(D * K_k, 14), K_k = round(k
+// 2^14 / 10), B' = B + D. Only r and D are stored; an update moves r from period k to k + 1 as
+//   r' = r - round_shift(D * K_k, 14) + round_shift(D * K_(k+1), 14),   K_10 = 2^14,
+// so after k = 9 it lands exactly on B + D. A network answer y (answer_i, in the first period of a
+// segment) sets D = saturate_16(round_shift(25 y, 4) - r) at the next update (r = B then);
+// slew_limited_o pulses when it saturates. A new segment starts with D = 0: without an answer
+// (underrun, hold) the reference holds. With enabled_i low the reference is the encoder count.
+//
+// update_i (once per period, after the controller has copied its inputs and well before the next
+// period starts) runs the three joints through one shared datapath, one after the other (7 cycles
+// each); r and D rotate through it, so no joint needs a multiplexer. One multiplier (an iCE40
+// DSP), used twice per joint.
+module reference_interpolator (
+  input  logic        clk_i,
+  input  logic        rst_ni,
+  input  logic        update_i,       // pulse: compute the references of the next period
+  input  logic [3:0]  phase_i,        // k of the period now running (0..9)
+  input  logic        enabled_i,      // drives on: interpolate; off: follow the encoders
+  input  logic        answer_i,       // pulse: outputs_i holds a new network answer
+  input  logic [71:0] outputs_i,      // y_j at [24j +: 24], Q10.14 degrees, held
+  input  logic [47:0] counts_i,       // encoder counts, joint j at [16j +: 16]
+  output logic [95:0] references_o,   // r_j at [32j +: 32], Q24.8 counts, stable between updates
+  output logic        slew_limited_o  // pulse: a segment's change was saturated
+);
+  localparam int unsigned Shift = delta_board_pkg::InterpolationShift;
+  localparam int unsigned DeltaBits = delta_board_pkg::SegmentDeltaBits;
+
+  // K_k = round(k 2^14 / 10) for k = 0..10, a table (a divider would cost hundreds of cells).
+  function automatic logic [15:0] k_weight(logic [3:0] k);
+    unique case (k)
+      4'd0: k_weight = 16'd0;
+      4'd1: k_weight = 16'd1638;
+      4'd2: k_weight = 16'd3277;
+      4'd3: k_weight = 16'd4915;
+      4'd4: k_weight = 16'd6554;
+      4'd5: k_weight = 16'd8192;
+      4'd6: k_weight = 16'd9830;
+      4'd7: k_weight = 16'd11469;
+      4'd8: k_weight = 16'd13107;
+      4'd9: k_weight = 16'd14746;
+      default: k_weight = 16'd16384;
+    endcase
+  endfunction
+
+  logic [31:0]          r_q [3];
+  logic [DeltaBits-1:0] d_q [3];
+  logic                 answer_pending_q;
+
+  // ---- one joint per 7 steps; position 0 of the rotation is the joint being computed ----------
+  logic        busy_q;
+  logic [3:0]  step_q;
+  logic [1:0]  joint_q;
+  logic [3:0]  k_next;
+  logic signed [28:0] y25_q;   // 9 y
+  logic signed [32:0] diff_q;  // c - r
+  logic signed [DeltaBits-1:0] delta_q;
+  logic signed [31:0] product_q;
+  logic signed [16:0] rounded_now_q;
+  logic signed [23:0] y;
+  logic [15:0]        count;
+
+  assign k_next = (phase_i == 4'd9) ? 4'd10 : phase_i + 4'd1;
+  always_comb begin
+    unique case (joint_q)
+      2'd1: begin
+        y     = outputs_i[24 +: 24];
+        count = counts_i[16 +: 16];
+      end
+      2'd2: begin
+        y     = outputs_i[48 +: 24];
+        count = counts_i[32 +: 16];
+      end
+      default: begin
+        y     = outputs_i[0 +: 24];
+        count = counts_i[0 +: 16];
+      end
+    endcase
+  end
+
+  // saturate_16(c - r): the difference fits when its bits 32..15 all equal the sign.
+  logic signed [DeltaBits-1:0] delta_saturated;
+  logic                        saturated;
+  always_comb begin
+    saturated       = diff_q[32:DeltaBits-1] != '0 && diff_q[32:DeltaBits-1] != '1;
+    delta_saturated = !saturated ? DeltaBits'(diff_q)
+                    : diff_q[32] ? {1'b1, {(DeltaBits - 1){1'b0}}} : {1'b0, {(DeltaBits - 1){1'b1}}};
+  end
+
+  // round_shift(p, 14) = (p >> 14) + p[13]; |D K| < 2^29, so 17 bits above the shift suffice.
+  logic        take_answer;
+  logic [15:0] k_multiplier;
+  logic signed [16:0] rounded, step;
+  logic signed [31:0] r_new;
+  assign take_answer  = answer_pending_q && phase_i == 4'd0;
+  assign k_multiplier = (step_q == 4'd4) ? k_weight(phase_i) : k_weight(k_next);
+  assign rounded      = 17'(product_q[31:Shift]) + 17'(product_q[Shift-1]);
+  assign step         = rounded - rounded_now_q;
+  assign r_new        = enabled_i ? $signed(r_q[0]) + 32'(step) : {{8{count[15]}}, count, 8'd0};
+
+  // 25 y + 8 = y + 8 y + (16 y | 8): the rounding constant fills bit 3 of 16 y for free.
+  logic signed [28:0] y25_rounded;
+  logic signed [24:0] c;  // round_shift(25 y, 4)
+  assign c = y25_rounded[28:4];
+  logic unused_bits;
+  assign unused_bits = ^{y25_rounded[3:0], product_q[Shift-2:0]};
+
+  always_ff @(posedge clk_i) begin  // datapath pipeline (read only under busy_q's schedule)
+    y25_q       <= 29'(y) + (29'(y) <<< 3);
+    y25_rounded <= y25_q + ((29'(y) <<< 4) | 29'sd8);
+    diff_q      <= 33'(c) - 33'($signed(r_q[0]));
+    delta_q     <= take_answer ? delta_saturated : $signed(d_q[0]);
+    product_q   <= $signed(delta_q) * $signed(k_multiplier);
+    if (step_q == 4'd5) rounded_now_q <= rounded;
+  end
+
+  always_ff @(posedge clk_i or negedge rst_ni) begin
+    if (!rst_ni) begin
+      busy_q           <= 1'b0;
+      step_q           <= '0;
+      joint_q          <= '0;
+      answer_pending_q <= 1'b0;
+      slew_limited_o   <= 1'b0;
+      for (int j = 0; j < 3; j++) begin
+        r_q[j] <= '0;
+        d_q[j] <= '0;
+      end
+    end else begin
+      slew_limited_o <= 1'b0;
+      if (answer_i) answer_pending_q <= 1'b1;
+      if (update_i && !busy_q) begin
+        busy_q  <= 1'b1;
+        step_q  <= '0;
+        joint_q <= '0;
+      end else if (busy_q) begin
+        // step 0: 9 y; 1: 25 y + 8; 2: c - r; 3: D; 4: D K_k; 5: its rounding held, D K_(k+1);
+        // 6: r' and rotate.
+        step_q <= step_q + 1'b1;
+        if (step_q == 4'd3 && take_answer && saturated && enabled_i) slew_limited_o <= 1'b1;
+        if (step_q == 4'd6) begin
+          step_q  <= '0;
+          joint_q <= joint_q + 1'b1;
+          r_q[0]  <= r_q[1];
+          r_q[1]  <= r_q[2];
+          r_q[2]  <= r_new;
+          d_q[0]  <= d_q[1];
+          d_q[1]  <= d_q[2];
+          d_q[2]  <= (!enabled_i || k_next == 4'd10) ? '0 : delta_q;
+          if (joint_q == 2'd2) begin
+            busy_q <= 1'b0;
+            if (take_answer) answer_pending_q <= 1'b0;
+          end
+        end
+      end
+    end
+  end
+
+  assign references_o = {r_q[2], r_q[1], r_q[0]};
+endmodule

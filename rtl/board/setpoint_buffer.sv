@@ -1,0 +1,123 @@
+// The setpoint buffer (docs/board_link.md, "Setpoints"): Depth entries of three 32-bit position
+// codes in block RAM, addressed by sample index, and their playback into the network.
+//
+// Filling: link_rx presents a setpoint frame's payload byte by byte; the sample index (bytes 0..3)
+// is compared with the next free index (sample_index_o + fill_o) as it passes, and the position
+// codes (bytes 4..15) are written into the next free slot (not yet part of the buffer, so the
+// reader never sees them). On frame_ok_i the entry is committed if the index matched and the
+// buffer was not full when the frame began; otherwise refused_o pulses. flush_i empties the
+// buffer (the sample index stays) and vetoes the commit of a frame in flight.
+//
+// Playback: play_i (the first period of a segment, drives on, not holding) pops the entry at
+// sample_index_o: the RAM reads it into inputs_o (held until the next pop, long after done) and
+// the network is started (start_o until ready_i); sample_index_o advances. With the buffer empty,
+// underrun_o pulses instead and nothing is started.
+module setpoint_buffer #(
+  parameter int unsigned Depth = delta_board_pkg::SetpointDepth
+) (
+  input  logic        clk_i,
+  input  logic        rst_ni,
+  // from link_rx
+  input  logic        frame_start_i,
+  input  logic        is_setpoint_i,    // the frame in flight is a setpoint (valid with payload and ok)
+  input  logic        payload_valid_i,
+  input  logic [5:0]  payload_index_i,
+  input  logic [7:0]  payload_byte_i,
+  input  logic        frame_ok_i,
+  output logic        refused_o,        // pulse: a checked setpoint frame was not taken
+  input  logic        flush_i,
+  // playback into the network (ap_ctrl_hs through network_crossing)
+  input  logic        play_i,
+  output logic        underrun_o,       // pulse: play_i with the buffer empty
+  output logic        start_o,
+  input  logic        ready_i,
+  output logic [95:0] inputs_o,         // x, y, z codes at [32k +: 32]
+  output logic [31:0] sample_index_o,
+  output logic [15:0] fill_o
+);
+  localparam int unsigned SlotWidth = $clog2(Depth);
+  localparam int unsigned FillWidth = $clog2(Depth + 1);
+
+  // ---- RAM: one 96-bit entry per slot (six block RAMs side by side), written a byte at a time;
+  // its output register holds the popped entry for the network (no flip-flops of ours).
+  logic [95:0]          entry_q;
+  logic [SlotWidth-1:0] write_slot;
+  logic [3:0]           write_lane;
+  logic                 write_enable, pop;
+  logic [15:0] write_mask;  // one write port with a bit mask per RAM: the high or the low byte
+  assign write_mask = write_lane[0] ? 16'hFF00 : 16'h00FF;
+  for (genvar w = 0; w < 6; w++) begin : g_ram  // bytes 2w and 2w+1 of every entry
+    // no_rw_check: no read-during-write logic; the slot written (next free) is never the slot read
+    // (the oldest entry) because a full buffer takes no write.
+    (* no_rw_check *) logic [15:0] ram_q [Depth];
+    always_ff @(posedge clk_i) begin
+      if (write_enable && write_lane[3:1] == 3'(w)) begin
+        for (int b = 0; b < 16; b++) begin
+          if (write_mask[b]) ram_q[write_slot][b] <= payload_byte_i[b % 8];
+        end
+      end
+    end
+    always_ff @(posedge clk_i) begin
+      if (pop) entry_q[16 * w +: 16] <= ram_q[sample_index_q[SlotWidth-1:0]];
+    end
+  end
+
+  logic [31:0]          sample_index_q, next_index;
+  logic [FillWidth-1:0] fill_q;
+  logic                 full_at_start_q, index_match_q, vetoed_q;
+  assign next_index = sample_index_q + 32'(fill_q);
+
+  // ---- filling ----------------------------------------------------------------------------------
+  logic [1:0] index_byte;
+  logic [7:0] expected_byte;
+  assign index_byte    = payload_index_i[1:0];
+  assign expected_byte = next_index[8 * index_byte +: 8];
+  assign write_enable  = is_setpoint_i && payload_valid_i && payload_index_i >= 6'd4 && !full_at_start_q;
+  assign write_slot    = next_index[SlotWidth-1:0];
+  assign write_lane    = 4'(payload_index_i - 6'd4);
+
+  logic commit;
+  assign commit    = frame_ok_i && is_setpoint_i && index_match_q && !full_at_start_q && !vetoed_q && !flush_i;
+  assign refused_o = frame_ok_i && is_setpoint_i && !commit;
+
+  // ---- playback ---------------------------------------------------------------------------------
+  logic starting_q;
+  assign pop        = play_i && !starting_q && fill_q != '0;
+  assign underrun_o = play_i && fill_q == '0;
+
+  always_ff @(posedge clk_i or negedge rst_ni) begin
+    if (!rst_ni) begin
+      sample_index_q  <= '0;
+      fill_q          <= '0;
+      full_at_start_q <= 1'b0;
+      index_match_q   <= 1'b0;
+      vetoed_q        <= 1'b0;
+      starting_q      <= 1'b0;
+    end else begin
+      if (frame_start_i) begin
+        full_at_start_q <= fill_q == FillWidth'(Depth);
+        index_match_q   <= 1'b1;
+        vetoed_q        <= 1'b0;
+      end
+      if (flush_i) vetoed_q <= 1'b1;
+      if (is_setpoint_i && payload_valid_i && payload_index_i < 6'd4 && payload_byte_i != expected_byte) begin
+        index_match_q <= 1'b0;
+      end
+      // fill: +1 on a commit, -1 on a pop, 0 on a flush (a pop and a flush together: the pop wins
+      // the entry, the rest goes).
+      if (flush_i) fill_q <= '0;
+      else if (commit && !pop) fill_q <= fill_q + 1'b1;
+      else if (pop && !commit) fill_q <= fill_q - 1'b1;
+      if (pop) begin
+        sample_index_q <= sample_index_q + 1'b1;
+        starting_q     <= 1'b1;
+      end
+      if (ready_i) starting_q <= 1'b0;
+    end
+  end
+
+  assign inputs_o       = entry_q;
+  assign start_o        = starting_q;
+  assign sample_index_o = sample_index_q;
+  assign fill_o         = 16'(fill_q);
+endmodule
