@@ -1,5 +1,6 @@
-// joint_axes (the board block): quadrature counting, the 10 kHz tick, reference conversion and
-// PWM output against the golden controller, period by period.
+// joint_axes (the board block): quadrature counting, the 10 kHz tick, the controller on the
+// references it is given (Q24.8 counts, from reference_interpolator.sv on the board) and PWM
+// output against the golden controller, period by period; the safety latch and its clear.
 #include <gtest/gtest.h>
 
 #include <array>
@@ -25,7 +26,11 @@ class Board {
     top_.rst_ni = 0;
     top_.encoder_a_i = top_.encoder_b_i = 0;
     top_.references_i[0] = top_.references_i[1] = top_.references_i[2] = 0;
-    top_.reference_valid_i = 0;
+    top_.enabled_i = 0;
+    top_.frame_valid_i = 0;
+    top_.clear_fault_i = 0;
+    top_.home_i = 0;
+    top_.peek_address_i = 0;
     top_.eval();
     for (int i = 0; i < 3; ++i) tick();
     top_.rst_ni = 1;
@@ -47,6 +52,13 @@ class Board {
 // {A, B} Gray sequence counting up: 00 -> 10 -> 11 -> 01 (the world's encoder lines, sim/).
 int quadrature_bits(int position) { return quadrature_a(position) << 1 | quadrature_b(position); }
 
+// A reference in degrees as the board's interpolator delivers it: Q24.8 encoder counts of the
+// network's Q10.14 code, round_shift(25 raw, 4).
+std::int32_t reference_code(double deg) {
+  const std::int64_t raw = std::llround(deg * 16384.0);
+  return static_cast<std::int32_t>((25 * raw + 8) >> 4);
+}
+
 TEST(JointAxes, EncoderCountsReferencesAndPwmFollowTheGoldenController) {
   const std::uint64_t seed = 11;
   std::cout << "seed " << seed << "\n";
@@ -57,7 +69,7 @@ TEST(JointAxes, EncoderCountsReferencesAndPwmFollowTheGoldenController) {
   std::array<int, 3> position{0, 0, 0};                       // counts moved since reset
   const std::array<double, 3> target_deg{30.5, 29.2, 30.03};  // references sent at period 20
   std::array<JointFixedState, 3> golden;
-  bool referenced = false;
+  bool referenced = false;  // the drives are enabled from period 20 on
   int largest_duty = 0;
   for (int period = 0; period < 300; ++period) {
     std::array<int, 3> moves;
@@ -67,29 +79,18 @@ TEST(JointAxes, EncoderCountsReferencesAndPwmFollowTheGoldenController) {
     for (int j = 0; j < 3; ++j) {
       JointFixedInput input;
       input.encoder = static_cast<std::int16_t>(kHomeCount + position[j]);
-      const std::int64_t raw = std::llround(target_deg[j] * 16384.0);
-      input.reference = referenced ? static_cast<std::int32_t>((25 * raw + 8) >> 4) : input.encoder * 256;
+      input.reference = referenced ? reference_code(target_deg[j]) : input.encoder * 256;
+      // What the board's interpolator presents for this period: the reference, or with the
+      // drives off the encoder count.
+      top.references_i[j] = static_cast<std::uint32_t>(input.reference);
       if (period == 0) golden[j] = fixed_rest_state(input);
       JointFixedStatus status;
       expected_current[j] = fixed_update(coefficients, golden[j], input, status);
     }
     std::array<int, 3> high{0, 0, 0};
+    top.enabled_i = referenced ? 1 : 0;
     for (int cycle = 0; cycle < kClocksPerPeriod; ++cycle) {
       board.tick();
-      // The reference arrives at the first cycle of period 20, while the controller copies its
-      // inputs: period 20 must still hold the encoder position (no zero reference for a period).
-      if (period == 20 && cycle == 0) {
-        for (int j = 0; j < 3; ++j) {
-          const std::uint32_t raw = static_cast<std::uint32_t>(std::llround(target_deg[j] * 16384.0)) & 0xFFFFFFu;
-          // 72-bit port: joint j at bits [24j +: 24] over three 32-bit words.
-          const int bit = 24 * j;
-          top.references_i[bit / 32] |= raw << (bit % 32);
-          if (bit % 32 > 8) top.references_i[bit / 32 + 1] |= raw >> (32 - bit % 32);
-        }
-        top.reference_valid_i = 1;
-      } else {
-        top.reference_valid_i = 0;
-      }
       if (cycle >= 1000 && cycle < 2000 && cycle % 50 == 0) {
         int a = 0, b = 0;
         for (int j = 0; j < 3; ++j) {
@@ -109,15 +110,16 @@ TEST(JointAxes, EncoderCountsReferencesAndPwmFollowTheGoldenController) {
         for (int j = 0; j < 3; ++j) {
           ASSERT_EQ((top.drive_dir_o >> j) & 1, expected_current[j] < 0 ? 1 : 0) << "period " << period;
         }
-        ASSERT_EQ(top.drive_enable_o, referenced || period == 20 ? 1 : 0) << "period " << period;  // valid at 0
+        ASSERT_EQ(top.drive_enable_o, referenced ? 1 : 0) << "period " << period;
       }
     }
     for (int j = 0; j < 3; ++j) {
-      const int duty = std::abs(static_cast<int>(expected_current[j])) >> 4;
+      // The controller runs with the drives off too (on the encoder position); its PWM stays low.
+      const int duty = referenced ? std::abs(static_cast<int>(expected_current[j])) >> 4 : 0;
       ASSERT_EQ(high[j], duty) << "period " << period << " joint " << j << " current " << expected_current[j];
       largest_duty = std::max(largest_duty, duty);
     }
-    if (period == 20) referenced = true;
+    if (period == 19) referenced = true;
     ASSERT_EQ(top.encoder_error_o, 0);
     ASSERT_EQ(top.overflow_count_o, 0);
   }
@@ -129,21 +131,19 @@ TEST(JointAxes, EncoderCountsReferencesAndPwmFollowTheGoldenController) {
 
 // joint_axes with its default safety parameters (following error -512..511 counts, WatchdogPeriods
 // 500, reference travel -1024..9215 counts), encoders driven by position, references in degrees.
+// Each reference comes with a valid link frame (the watchdog's kick) and the drives enabled.
 class SafetyBench {
  public:
   void send_reference(const std::array<double, 3>& deg) {
     Vjoint_axes& top = board_.top();
-    top.references_i[0] = top.references_i[1] = top.references_i[2] = 0;
-    for (int j = 0; j < 3; ++j) {
-      const std::uint32_t raw = static_cast<std::uint32_t>(std::llround(deg[j] * 16384.0)) & 0xFFFFFFu;
-      const int bit = 24 * j;
-      top.references_i[bit / 32] |= raw << (bit % 32);
-      if (bit % 32 > 8) top.references_i[bit / 32 + 1] |= raw >> (32 - bit % 32);
-    }
-    top.reference_valid_i = 1;
-    cycle();
-    top.reference_valid_i = 0;
+    for (int j = 0; j < 3; ++j) top.references_i[j] = static_cast<std::uint32_t>(reference_code(deg[j]));
+    top.enabled_i = 1;
+    pulse(top.frame_valid_i);
   }
+  void frame() { pulse(board_.top().frame_valid_i); }
+  void clear_fault() { pulse(board_.top().clear_fault_i); }
+  void set_home() { pulse(board_.top().home_i); }
+  void set_enabled(bool on) { board_.top().enabled_i = on ? 1 : 0; }
   // Moves joint j's encoder by `counts`, one quadrature state every 3 cycles.
   void move(int joint, int counts) {
     for (int k = 0; k < std::abs(counts); ++k) {
@@ -164,9 +164,15 @@ class SafetyBench {
   }
   Vjoint_axes& top() { return board_.top(); }
   int pwm_high_cycles() const { return pwm_high_; }
+  int count(int joint) { return static_cast<std::int16_t>(static_cast<std::uint16_t>(top().counts_o >> (16 * joint))); }
   void clear_pwm_count() { pwm_high_ = 0; }
 
  private:
+  void pulse(CData& signal) {
+    signal = 1;
+    cycle();
+    signal = 0;
+  }
   void cycle() {
     board_.tick();
     pwm_high_ += __builtin_popcount(board_.top().drive_pwm_o);
@@ -236,9 +242,9 @@ TEST(JointAxesSafety, FollowingErrorBeyondTheLimitStopsTorque) {
   expect_torque_off(beyond, kFollowing);
 }
 
-TEST(JointAxesSafety, WatchdogStopsTorqueWhenTheReferencesStop) {
+TEST(JointAxesSafety, WatchdogStopsTorqueWhenTheFramesStop) {
   SafetyBench bench;
-  for (int i = 0; i < 3; ++i) {  // refreshed every 400 periods: no fault
+  for (int i = 0; i < 3; ++i) {  // a valid frame every 400 periods: no fault
     bench.send_reference({30.0, 30.0, 30.0});
     bench.periods(400);
   }
@@ -262,6 +268,56 @@ TEST(JointAxesSafety, ReferenceOutsideTheTravelStopsTorque) {
   outside.periods(1);
   outside.cycles(3);  // decided two cycles after the period's tick
   expect_torque_off(outside, kTravel);
+}
+
+TEST(JointAxesSafety, ClearFaultWorksOnlyOnceTheCauseIsGoneAndDoesNotEnable) {
+  SafetyBench bench;
+  bench.send_reference({30.0, 30.0, 36.0});  // 600 counts ahead of the encoder: following error
+  bench.periods(1);
+  bench.cycles(3);
+  EXPECT_EQ(bench.top().fault_o, 1);
+  EXPECT_EQ(bench.top().fault_active_o, 1);  // the condition persists: the board refuses a clear
+  bench.send_reference({30.0, 30.0, 30.0});  // back on the encoder
+  bench.periods(1);
+  bench.cycles(3);
+  EXPECT_EQ(bench.top().fault_active_o, 0);
+  EXPECT_EQ(bench.top().fault_o, 1);  // still latched: nothing clears it but a clear
+  bench.set_enabled(false);           // the board drops its enable on a fault
+  bench.clear_fault();
+  EXPECT_EQ(bench.top().fault_o, 0);
+  EXPECT_EQ(bench.top().fault_cause_o, 0);
+  bench.clear_pwm_count();
+  bench.periods(3);
+  EXPECT_EQ(bench.top().drive_enable_o, 0);  // cleared, not enabled
+  EXPECT_EQ(bench.pwm_high_cycles(), 0);
+  bench.send_reference({30.0, 30.0, 30.0});  // an explicit enable brings the torque back
+  bench.periods(2);
+  EXPECT_EQ(bench.top().drive_enable_o, 1);
+}
+
+TEST(JointAxesSafety, SetHomeLoadsTheHomeCountAndTheEncodersKeepCounting) {
+  SafetyBench bench;
+  bench.move(0, 37);
+  bench.move(2, -12);
+  EXPECT_EQ(bench.count(0), kHomeCount + 37);
+  EXPECT_EQ(bench.count(2), kHomeCount - 12);
+  bench.set_home();
+  EXPECT_EQ(bench.count(0), kHomeCount);
+  EXPECT_EQ(bench.count(1), kHomeCount);
+  EXPECT_EQ(bench.count(2), kHomeCount);
+  bench.move(1, 5);  // counting goes on from the home count, drives off
+  EXPECT_EQ(bench.count(1), kHomeCount + 5);
+  EXPECT_EQ(bench.top().drive_enable_o, 0);
+}
+
+TEST(JointAxesSafety, WatchdogIsDisarmedWithTheDrivesOff) {
+  SafetyBench bench;
+  bench.periods(1000);  // no frame for 100 ms, drives never enabled
+  EXPECT_EQ(bench.top().fault_o, 0);
+  bench.send_reference({30.0, 30.0, 30.0});
+  bench.set_enabled(false);
+  bench.periods(1000);
+  EXPECT_EQ(bench.top().fault_o, 0);
 }
 
 }  // namespace
