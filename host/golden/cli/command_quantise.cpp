@@ -49,7 +49,7 @@ void run_quantise(const QuantiseOptions& options) {
   }
   if (!std::filesystem::is_directory(options.out_dir)) throw InputError(options.out_dir, 0, "is not a folder");
   const std::uint32_t crc = weights_crc(q);
-  files.push_back(identify_mem_file(link::board_identify(kGatewareBuildId, crc)));
+  files.push_back(board_identify_file(q));
   if (options.vectors > 0)
     files.push_back({"golden_vectors.txt", golden_vectors_text(q, weights.network, options.vectors)});
   write_export_files(files, options.out_dir);

@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "delta/crc32.hpp"
+#include "delta/gateware.hpp"
 #include "delta/output_file.hpp"
 
 namespace delta::golden {
@@ -200,7 +201,13 @@ void write_export_files(const std::vector<ExportFile>& files, const std::string&
 }
 
 void write_export(const QuantisedNetwork& q, const std::string& directory) {
-  write_export_files(export_files(q), directory);  // all checks before the first file is written
+  std::vector<ExportFile> files = export_files(q);
+  files.push_back(board_identify_file(q));
+  write_export_files(files, directory);  // all checks before the first file is written
+}
+
+ExportFile board_identify_file(const QuantisedNetwork& q) {
+  return identify_mem_file(link::board_identify(kGatewareBuildId, weights_crc(q)));
 }
 
 }  // namespace delta::golden

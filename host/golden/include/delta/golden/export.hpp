@@ -19,7 +19,8 @@ struct ExportFile {
 // Every file of the export, in a fixed order: the .mem files, then fixed_network_weights.hpp.
 std::vector<ExportFile> export_files(const QuantisedNetwork& q);
 
-// Writes export_files(q) into `directory` (which must exist): all files appear, or none.
+// Writes export_files(q) and board_identify_file(q) into `directory` (which must exist): all
+// files appear, or none. What a Verilated network or board core loads (+delta_mem_dir).
 void write_export(const QuantisedNetwork& q, const std::string& directory);
 
 // Writes `files` into `directory`: every file is complete before the first one is put in place,
@@ -39,6 +40,9 @@ std::vector<std::uint8_t> weights_crc_bytes(const QuantisedNetwork& q);
 // identify.mem: the identify payload for the board's 256 x 16 block RAM ($readmemh): comment
 // lines, then one 4-digit hex word per line, word w = payload byte 2w (low) | byte 2w+1 (high).
 ExportFile identify_mem_file(const link::IdentifyPayload& identify);
+
+// identify.mem of a board built from this tree (kGatewareBuildId) holding network q.
+ExportFile board_identify_file(const QuantisedNetwork& q);
 
 }  // namespace delta::golden
 
