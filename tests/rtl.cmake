@@ -32,6 +32,13 @@ delta_add_gtest(rtl_board_tests
   LABELS rtl)
 target_include_directories(rtl_board_tests PRIVATE ${CMAKE_CURRENT_LIST_DIR}/rtl)
 
+# The link v2 through the board core's pins (docs/board_link.md).
+delta_add_gtest(rtl_board_link_tests
+  SOURCES ${CMAKE_CURRENT_LIST_DIR}/rtl/test_board_link.cpp
+  LIBRARIES delta::rtl_board delta::golden delta::host delta::gateware
+  LABELS rtl link)
+target_include_directories(rtl_board_link_tests PRIVATE ${CMAKE_CURRENT_LIST_DIR}/rtl)
+
 delta_add_gtest(rtl_cosim_tests
   SOURCES ${CMAKE_CURRENT_LIST_DIR}/rtl/test_cosim.cpp
   LIBRARIES delta::board_cosim delta::golden delta::nn delta::host

@@ -75,9 +75,15 @@ module board_core #(
   );
 
   // ---- frames in ----------------------------------------------------------------------------------
-  logic       frame_start, payload_valid, frame_ok, frame_bad;
-  logic [7:0] frame_type, frame_sequence, payload_byte;
-  logic [5:0] payload_index;
+  // public: the link tests watch what the receiver delivers (tests/rtl/test_board_link.cpp).
+  logic       frame_start;
+  logic       payload_valid /*verilator public_flat_rd*/;
+  logic       frame_ok /*verilator public_flat_rd*/;
+  logic       frame_bad /*verilator public_flat_rd*/;
+  logic [7:0] frame_type /*verilator public_flat_rd*/;
+  logic [7:0] frame_sequence /*verilator public_flat_rd*/;
+  logic [7:0] payload_byte /*verilator public_flat_rd*/;
+  logic [5:0] payload_index /*verilator public_flat_rd*/;
 
   link_rx u_link_rx (
     .clk_i,
@@ -157,8 +163,8 @@ module board_core #(
   end
 
   // ---- period schedule ---------------------------------------------------------------------------------
-  logic [TickWidth-1:0] tick;
-  logic [3:0]           phase_q;        // k of the running period (from tick 1 on)
+  logic [TickWidth-1:0] tick /*verilator public_flat_rd*/;
+  logic [3:0]           phase_q /*verilator public_flat_rd*/;  // k of the running period (from tick 1 on)
   logic [31:0]          period_count_q; // control periods since reset
   logic                 play, update, snapshot;
   always_ff @(posedge clk_i or negedge rst_ni) begin
@@ -178,8 +184,8 @@ module board_core #(
   logic                              net_start, net_done, net_ready, underrun, setpoint_refused;
   logic [NumInputs*InputWidth-1:0]   net_inputs;
   logic [NumOutputs*OutputWidth-1:0] net_outputs;  // the last answer, held
-  logic [31:0]                       sample_index;
-  logic [15:0]                       fill;
+  logic [31:0]                       sample_index /*verilator public_flat_rd*/;
+  logic [15:0]                       fill /*verilator public_flat_rd*/;
 
   setpoint_buffer u_setpoints (
     .clk_i,
@@ -247,7 +253,7 @@ module board_core #(
   );
 
   // ---- joint references ------------------------------------------------------------------------------
-  logic [95:0] references;
+  logic [95:0] references /*verilator public_flat_rd*/;  // the joints' references this period
   logic [47:0] counts;
   logic        slew_limited;
   reference_interpolator u_interpolator (
