@@ -1,127 +1,154 @@
-// Whole-robot co-simulation around the Verilated board core (see board_cosim.hpp).
+// Whole-robot co-simulation over the link v2 with the virtual board (see board_cosim.hpp).
 #include "delta/cosim/board_cosim.hpp"
 
 #include <algorithm>
 #include <cmath>
-#include <memory>
 #include <stdexcept>
 
-#include "Vboard_core.h"
-#include "delta/board_facts.hpp"
+#include <Eigen/Dense>
+
+#include "delta/gateware.hpp"
+#include "delta/golden/export.hpp"
 #include "delta/kinematics.hpp"
-#include "delta/link_v1.hpp"
-#include "delta/robot_world.hpp"
-#include "delta/rtl/board_clock.hpp"
-#include "delta/rtl/uart_line.hpp"
 #include "delta/trajectory.hpp"
-#include "verilated.h"
 
 namespace delta::cosim {
+namespace {
+
+Vec3 answer_deg(const golden::QuantisedNetwork& network, const Vec3& position_m, bool* clamped = nullptr) {
+  const golden::RawOutput raw =
+      golden::evaluate_raw(network, golden::encode_position(network.formats, position_m, clamped));
+  Vec3 deg;
+  for (int j = 0; j < 3; ++j) deg[j] = golden::decode_angle_deg(network.formats, raw.alpha[j]);
+  return deg;
+}
+
+std::string hex(std::uint32_t value) { return golden::hex_word(value, 32); }
+
+}  // namespace
+
+Vec3 locate_plate(const golden::QuantisedNetwork& network, const Geometry& nominal, const Vec3& alpha_deg) {
+  const FkSolution start = forward_kinematics(nominal, alpha_deg);
+  if (!start.ok()) throw std::runtime_error("locate the plate: nominal FK: " + start.reason());
+  Vec3 p = start.position_m;
+  for (int iteration = 0; iteration < 12; ++iteration) {
+    const Vec3 residual = answer_deg(network, p) - alpha_deg;
+    const IkSolution ik = inverse_kinematics(nominal, p);
+    if (!ik.ok()) throw std::runtime_error("locate the plate: nominal IK: " + ik.reason());
+    const Vec3 step = inverse_jacobian_deg_per_m(nominal, p, ik.alpha_deg).inverse() * residual;
+    p -= step;
+    if (step.norm() < 1e-8) break;
+  }
+  return p;
+}
 
 CosimResult run_cosim(const CosimOptions& options) {
+  if (options.network == nullptr || !options.trajectory)
+    throw std::invalid_argument("run_cosim: network and trajectory");
+  const golden::QuantisedNetwork& network = *options.network;
   CosimResult result;
-  // The world: plants, sensor effects, encoders, PWM averaging, with the board's facts.
-  BoardInterface board_interface;
-  board_interface.board_clock_hz = kBoardClockHz;
-  board_interface.pwm_period_cycles = static_cast<int>(board::kPwmPeriodCycles);
-  board_interface.current_full_scale_a = kCurrentFullScaleA;
-  board_interface.home_count = kHomeCount;
-  board_interface.count_deg = kCountDeg;
-  RobotWorld world(board_interface, options.effects, options.nominal, options.plant);
-  result.home_true_alpha_deg = world.home_true_alpha_deg();
 
-  // The board: the Verilated board core behind its UART pins.
-  auto context = std::make_unique<VerilatedContext>();
-  const std::string plusarg = "+delta_mem_dir=" + options.mem_dir;
-  const char* argv[] = {"cosim", plusarg.c_str()};
-  context->commandArgs(2, argv);
-  auto core = std::make_unique<Vboard_core>(context.get(), "board");
-  core->uart_rx_i = 1;
-  core->encoder_a_i = 0;
-  core->encoder_b_i = 0;
-  core->rst_ni = 0;
-  core->rst_network_ni = 0;
-  for (int i = 0; i < 4; ++i) rtl::clock_board(*core);
-  core->rst_ni = 1;
-  core->rst_network_ni = 1;
-  rtl::UartLine line(kClocksPerBit);
+  // ---- the board (world and RTL) ----
+  VirtualBoardOptions board_options;
+  board_options.mem_dir = options.mem_dir;
+  board_options.effects = options.effects;
+  board_options.nominal = options.nominal;
+  board_options.plant = options.plant;
+  VirtualBoard board(board_options);
+  result.home_true_alpha_deg = board.world().home_true_alpha_deg();
+  VirtualBoardStream stream(board);
 
-  // The host: streams the reference, one request in flight, knowing only the bytes it gets.
-  auto reference_at = [&](double t) -> Vec3 {
-    const double s = options.blend_s > 0.0 ? quintic_blend(t / options.blend_s) : 1.0;
-    return (1.0 - s) * world.home_measured_m() + s * options.trajectory(t);
-  };
-  link_v1::LinkV1Client host(kClocksPerBit);
-  Vec3 sent_reference = world.home_measured_m();
-  Vec3 network_deg = Vec3::Constant(kHomeCount * kCountDeg);
-
-  const auto total_cycles = static_cast<std::uint64_t>(std::llround(options.duration_s * kBoardClockHz));
-  const auto record_every =
-      static_cast<std::uint64_t>(std::max(1.0, std::round(kBoardClockHz / options.record_rate_hz)));
-  const auto progress_every = static_cast<std::uint64_t>(0.1 * kBoardClockHz);
-
-  for (std::uint64_t cycle = 0; cycle < total_cycles; ++cycle) {
-    const double t = static_cast<double>(cycle) / kBoardClockHz;
-    // Host: the next request as soon as the previous answer is in.
-    if (host.idle()) {
-      bool clamped = false;
-      sent_reference = reference_at(t);
-      line.send(host.request(options.encode_position(sent_reference, &clamped)));
-      if (clamped) ++result.clamped_positions;
-    }
-    core->uart_rx_i = line.rx_pin();
-    core->encoder_a_i = world.encoder_a();
-    core->encoder_b_i = world.encoder_b();
-
-    rtl::clock_board(*core);
-
-    if (line.sample_tx_pin(core->uart_tx_o)) host.receive(line.byte());
-    if (!line.sending() && host.elapse()) {
-      if (const auto codes = link_v1::parse_answer(host.answer())) {
-        ++result.round_trips;
-        if (result.first_answer_s < 0.0) result.first_answer_s = t;
-        for (int o = 0; o < 3; ++o) network_deg[o] = options.decode_angle_deg((*codes)[o]);
-      } else {
-        ++result.naks;
-      }
-    }
-
-    world.step({core->drive_pwm_o, core->drive_dir_o, static_cast<bool>(core->drive_enable_o)});
-
-    if (cycle % record_every == 0) {
-      CosimSample sample;
-      // The ideal joints read their target through the backlash's present play.
-      sample.network_ideal_m = world.plate_for_readings(network_deg);
-      const IkSolution textbook = inverse_kinematics(options.nominal, sent_reference);
-      if (!textbook.ok())
-        throw std::runtime_error("cosim: textbook IK at t = " + std::to_string(t) + " s: " + textbook.reason());
-      sample.textbook_ideal_m = world.plate_for_readings(textbook.alpha_deg);
-      sample.t_s = t;
-      sample.reference_m = sent_reference;
-      sample.position_m = world.measured_position_m();
-      sample.true_alpha_deg = world.true_alpha_deg();
-      sample.encoder_deg = world.encoder_deg();
-      sample.network_deg = network_deg;
-      sample.current_a = world.current_a();
-      sample.drives_enabled = core->drive_enable_o;
-      for (int j = 0; j < 3; ++j) {
-        if (std::abs(sample.current_a[j]) >= kCurrentFullScaleA) ++result.full_scale_current_samples;
-      }
-      result.samples.push_back(sample);
-    }
-    if (options.progress && cycle % progress_every == 0 && cycle > 0) options.progress(t);
+  // ---- the host: only the link, its weights and the trajectory ----
+  link::LinkSession session(stream, options.session);
+  result.identify = session.identify();
+  const std::uint32_t crc = weights_crc(network);
+  if (result.identify.weights_crc != crc) {
+    throw std::runtime_error("cosim: the board's weights CRC " + hex(result.identify.weights_crc) +
+                             " differs from the host's " + hex(crc));
   }
-  result.encoder_error_bits = core->encoder_error_o;
-  result.joint_limited = core->joint_limited_o;
-  result.fault_cause_bits = core->joint_fault_cause_o;
-  result.board_cycles = total_cycles;
-  core->final();
+  if (result.identify.build_id != kGatewareBuildId) {
+    throw std::runtime_error("cosim: the board's gateware build id " + hex(result.identify.build_id) +
+                             " differs from this checkout's " + hex(kGatewareBuildId));
+  }
+  session.set_home();
+  const link::TelemetryPayload enabled = session.enable();
+  Vec3 counts_deg;
+  for (int j = 0; j < 3; ++j) counts_deg[j] = enabled.counts[j] * kCountDeg;
+  result.start_position_m = locate_plate(network, options.nominal, counts_deg);
+  // The stream's first sample reaches the joints at tick T + 20 of the frame it is sent after.
+  const std::int64_t first_reach_tick = static_cast<std::int64_t>(enabled.tick) + 2 * link::kTicksPerSetpoint;
+  result.t0_s = first_reach_tick * link::kTickSeconds;
+  const Vec3 start = result.start_position_m;
+  auto reference_at = [&](double tau) -> Vec3 {
+    tau = std::max(tau, 0.0);
+    const double s = options.blend_s > 0.0 ? quintic_blend(tau / options.blend_s) : 1.0;
+    return (1.0 - s) * start + s * options.trajectory(tau);
+  };
+  const std::size_t samples = static_cast<std::size_t>(std::llround(options.duration_s * 1000.0)) + 1;
+  auto source = [&](std::size_t /*k*/, std::int64_t reach_tick) {
+    bool clamped = false;
+    const auto codes =
+        golden::encode_position(network.formats, reference_at(reach_tick * link::kTickSeconds - result.t0_s), &clamped);
+    if (clamped) ++result.clamped_positions;
+    return std::array<std::int32_t, 3>{static_cast<std::int32_t>(codes[0]), static_cast<std::int32_t>(codes[1]),
+                                       static_cast<std::int32_t>(codes[2])};
+  };
+  double next_progress = 0.1;
+  auto observer = [&](const link::TelemetryPayload& t) {
+    const double tau = t.tick * link::kTickSeconds - result.t0_s;
+    if (options.progress && tau >= next_progress) {
+      options.progress(tau);
+      next_progress += 0.1;
+    }
+    return true;
+  };
+
+  // ---- the truth, every 1 ms of board time from t0 (the evaluation, not the host) ----
+  board.observe_truth([&](const TruthSample& truth, const RobotWorld& world) {
+    const double tau = truth.t_s - result.t0_s;
+    if (tau < -1e-9 || tau >= options.duration_s - 1e-9) return;
+    CosimSample sample;
+    sample.t_s = tau;
+    sample.reference_m = reference_at(tau);
+    sample.position_m = truth.position_m;
+    sample.true_alpha_deg = truth.true_alpha_deg;
+    sample.encoder_deg = truth.encoder_deg;
+    sample.current_a = truth.current_a;
+    sample.drives_enabled = truth.drives_enabled;
+    sample.network_deg = answer_deg(network, sample.reference_m);
+    // The ideal joints read their target through the backlash's present play.
+    sample.network_ideal_m = world.plate_for_readings(sample.network_deg);
+    const IkSolution textbook = inverse_kinematics(options.nominal, sample.reference_m);
+    if (!textbook.ok()) {
+      throw std::runtime_error("cosim: textbook IK at tau = " + std::to_string(tau) + " s: " + textbook.reason());
+    }
+    sample.textbook_ideal_m = world.plate_for_readings(textbook.alpha_deg);
+    for (int j = 0; j < 3; ++j) {
+      if (std::abs(sample.current_a[j]) >= kCurrentFullScaleA) ++result.full_scale_current_samples;
+    }
+    result.samples.push_back(sample);
+  });
+
+  result.stream = session.stream(samples, source, observer);
+  if (result.stream.outcome == link::StreamReport::Outcome::kCompleted) {
+    session.hold();
+    session.disable();
+  }
+  board.observe_truth({});
+  result.telemetry = session.telemetry();
+  result.link = session.statistics();
+  const link::TelemetryPayload& last = *session.last_telemetry();
+  result.bad_frames = last.bad_frames;
+  result.rejected = last.rejected;
+  result.slew_limits = last.slew_limits;
+  result.saturations = last.saturations;
+  result.pins = board.pins();
+  result.board_cycles = board.clocks();
   return result;
 }
 
 TrackingSummary summarise(const CosimResult& result, double from_s) {
   TrackingSummary summary;
-  Vec3 joint_sq = Vec3::Zero();
   struct Accumulator {
     Vec3 sum_sq = Vec3::Zero();
     double distance_sq = 0.0, max_distance = 0.0;
@@ -132,6 +159,7 @@ TrackingSummary summarise(const CosimResult& result, double from_s) {
     }
     ErrorStats stats(double n) const { return {(sum_sq / n).cwiseSqrt(), std::sqrt(distance_sq / n), max_distance}; }
   } closed_loop, network_ideal, textbook_ideal;
+  Vec3 joint_sq = Vec3::Zero();
   for (const CosimSample& sample : result.samples) {
     if (sample.t_s < from_s) continue;
     closed_loop.add(sample.position_m - sample.reference_m);
@@ -140,6 +168,21 @@ TrackingSummary summarise(const CosimResult& result, double from_s) {
     const Vec3 joint_error = sample.encoder_deg - sample.network_deg;
     joint_sq += joint_error.cwiseProduct(joint_error);
     ++summary.samples;
+  }
+  // The board's own tracking, from telemetry in the same window: count - reference (Q24.8 counts).
+  const double end_s = result.samples.empty() ? 0.0 : result.samples.back().t_s;
+  Vec3 board_sq = Vec3::Zero();
+  for (const link::TelemetryPayload& t : result.telemetry) {
+    const double tau = t.tick * link::kTickSeconds - result.t0_s;
+    if (tau < from_s || tau > end_s) continue;
+    for (int j = 0; j < 3; ++j) {
+      const double error_deg = (t.counts[j] - t.references[j] / 256.0) * kCountDeg;
+      board_sq[j] += error_deg * error_deg;
+    }
+    ++summary.telemetry_frames;
+  }
+  if (summary.telemetry_frames > 0) {
+    summary.board_joint_rms_deg = (board_sq / static_cast<double>(summary.telemetry_frames)).cwiseSqrt();
   }
   if (summary.samples == 0) return summary;
   const double n = static_cast<double>(summary.samples);

@@ -34,6 +34,7 @@ struct CosimCommandOptions {
   double duration_s = 2.0;
   double blend_s = 0.3;
   double settle_s = 0.1;
+  std::uint32_t target_fill = 20;
   std::string out;
   std::string plot;
 };
@@ -45,7 +46,8 @@ void write_samples(const std::string& path, const CosimResult& result, const std
   std::ostream& out = file.stream();
   out << "# " << command_line << "\n"
       << "# alpha*_deg: encoder readings; x/y/z_m: measured plate position; ref_*: the host's reference;\n"
-      << "# net*_deg: the network's joint references; true*_deg: plant angles; current*_a: drive currents;\n"
+      << "# net*_deg: the network's answer for the reference (the joint reference due); true*_deg: plant angles; "
+         "current*_a: drive currents;\n"
       << "# netideal_*, bookideal_*: the plate if the encoders read the network's answer or the textbook IK\n"
       << "t_s,alpha1_deg,alpha2_deg,alpha3_deg,x_m,y_m,z_m,ref_x_m,ref_y_m,ref_z_m,net1_deg,net2_deg,net3_deg,"
          "true1_deg,true2_deg,true3_deg,current1_a,current2_a,current3_a,"
@@ -122,18 +124,16 @@ void run_cosim_command(const CosimCommandOptions& options, const std::string& co
   if (!options.out.empty()) OutputFile probe(options.out);
   if (!options.plot.empty()) OutputFile probe(options.plot);
 
-  const TemporaryDirectory mem("deltactl_cosim");  // the network's .mem files
+  const TemporaryDirectory mem("deltactl_cosim");  // the network's .mem files and identify.mem
   golden::write_export(quantised, mem.path());
   CosimOptions cosim;
   cosim.mem_dir = mem.path();
+  cosim.network = &quantised;
   cosim.effects = effects;
   cosim.trajectory = trajectory.position_m;
   cosim.duration_s = options.duration_s;
   cosim.blend_s = options.blend_s;
-  cosim.encode_position = [&quantised](const Vec3& p, bool* clamped) {
-    return golden::encode_position(quantised.formats, p, clamped);
-  };
-  cosim.decode_angle_deg = [&quantised](std::int64_t raw) { return golden::decode_angle_deg(quantised.formats, raw); };
+  cosim.session.target_fill = options.target_fill;
   const auto start = std::chrono::steady_clock::now();
   auto wall_s = [&start] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
   // On a terminal the progress line rewrites itself; in a log, one line per simulated second.
@@ -144,9 +144,10 @@ void run_cosim_command(const CosimCommandOptions& options, const std::string& co
     std::cerr << (terminal ? "\r" : "") << "cosim: " << fixed(simulated_s, 1) << " / " << fixed(options.duration_s, 1)
               << " s simulated, " << fixed(wall_s(), 0) << " s wall" << (terminal ? "" : "\n") << std::flush;
   };
-  std::cerr << "cosim: board core RTL (Verilator) + 3 joint plants + virtual robot ("
-            << (options.effects.empty() ? std::string("nominal") : options.effects) << "), '" << options.trajectory
-            << "' for " << options.duration_s << " s\n";
+  std::cerr
+      << "cosim: host over link v2 -> virtual board (board core RTL, Verilator) + 3 joint plants + virtual robot ("
+      << (options.effects.empty() ? std::string("nominal") : options.effects) << "), '" << options.trajectory
+      << "' for " << options.duration_s << " s\n";
   CosimResult result;
   try {
     result = run_cosim(cosim);
@@ -156,7 +157,8 @@ void run_cosim_command(const CosimCommandOptions& options, const std::string& co
   }
   const double wall = wall_s();
   std::cerr << (terminal ? "\r" : "") << "cosim: " << fixed(options.duration_s, 1) << " s simulated in "
-            << fixed(wall, 1) << " s wall (" << fixed(result.board_cycles / wall / 1e6, 2) << " M board cycles/s)\n";
+            << fixed(wall, 1) << " s wall (" << fixed(result.board_cycles / kBoardClockHz, 3) << " s of board time, "
+            << fixed(result.board_cycles / wall / 1e6, 2) << " M board cycles/s)\n";
 
   const double from_s = options.blend_s + options.settle_s;
   const TrackingSummary summary = summarise(result, from_s);
@@ -174,23 +176,48 @@ void run_cosim_command(const CosimCommandOptions& options, const std::string& co
   add("textbook IK, joints exact", summary.textbook_ideal);
   plate.print(std::cout);
   std::cout << '\n';
-  Table joints({"joint tracking (encoder - network reference)", "alpha_1", "alpha_2", "alpha_3"});
-  joints.add_row({"rms [deg]", fixed(summary.joint_rms_deg[0], 4), fixed(summary.joint_rms_deg[1], 4),
-                  fixed(summary.joint_rms_deg[2], 4)});
+  Table joints({"joint tracking", "alpha_1", "alpha_2", "alpha_3"});
+  joints.add_row({"encoder - network answer due [deg rms] (truth, 1 kHz)", fixed(summary.joint_rms_deg[0], 4),
+                  fixed(summary.joint_rms_deg[1], 4), fixed(summary.joint_rms_deg[2], 4)});
+  joints.add_row({"count - joint reference [deg rms] (telemetry)", fixed(summary.board_joint_rms_deg[0], 4),
+                  fixed(summary.board_joint_rms_deg[1], 4), fixed(summary.board_joint_rms_deg[2], 4)});
   joints.print(std::cout);
   std::cout << '\n';
-  Table link({"board", "value"});
-  link.add_row({"UART round trips (5 Mbaud sim link)", std::to_string(result.round_trips)});
-  link.add_row({"mean reference update [us]",
-                result.round_trips ? fixed(1e6 * options.duration_s / result.round_trips, 1) : std::string("-")});
-  link.add_row({"NAKs", std::to_string(result.naks)});
-  link.add_row({"references clamped to the input code", std::to_string(result.clamped_positions)});
+  const link::LinkStatistics& s = result.link;
+  const link::StreamReport& r = result.stream;
+  Table link({"link v2 and board", "value"});
+  link.add_row({"identify: protocol, build id, weights CRC", std::to_string(result.identify.protocol_version) + ", " +
+                                                                 golden::hex_word(result.identify.build_id, 32) + ", " +
+                                                                 golden::hex_word(result.identify.weights_crc, 32) +
+                                                                 " (match the host's)"});
+  link.add_row({"setpoints played / streamed", std::to_string(r.played) + " / " + std::to_string(r.samples)});
+  link.add_row({"setpoint frames sent (resent)",
+                std::to_string(s.setpoints_sent) + " (" + std::to_string(s.setpoints_resent) + ")"});
+  link.add_row({"telemetry frames received (lost, skipped)", std::to_string(s.telemetry_frames) + " (" +
+                                                                 std::to_string(s.lost_telemetry) + ", " +
+                                                                 std::to_string(s.skipped_telemetry) + ")"});
+  link.add_row({"host decoder drops / skipped bytes",
+                std::to_string(s.decoder.bad_crc + s.decoder.bad_length + s.decoder.unknown_type) + " / " +
+                    std::to_string(s.decoder.skipped_bytes)});
   link.add_row(
-      {"drives enabled at [ms]", result.first_answer_s >= 0 ? fixed(1e3 * result.first_answer_s, 3) : "never"});
-  link.add_row({"encoder errors (sticky, bit per joint)", std::to_string(result.encoder_error_bits)});
-  link.add_row({"joint controller saturations (sticky)", result.joint_limited ? "yes" : "no"});
+      {"board: bad frames, refused", std::to_string(result.bad_frames) + ", " + std::to_string(result.rejected)});
+  link.add_row({"board: underruns before the first sample / while streaming",
+                std::to_string(r.underruns_at_first_play) + " / " +
+                    std::to_string(r.underruns_at_last_play - r.underruns_at_first_play)});
+  link.add_row({"board: slew limits, controller saturations",
+                std::to_string(result.slew_limits) + ", " + std::to_string(result.saturations)});
+  link.add_row(
+      {"latency compensated: setpoint sent for its reach time [ms]",
+       "1 (network, interpolation) + buffer wait (target fill " + std::to_string(cosim.session.target_fill) + ")"});
+  link.add_row({"references clamped to the input code", std::to_string(result.clamped_positions)});
+  link.add_row({"trajectory starts at board time [ms]", fixed(1e3 * result.t0_s, 1)});
+  link.add_row({"start pose found by the host (network inverted at the home count) [mm]",
+                fixed(result.start_position_m.x() * 1e3, 4) + ", " + fixed(result.start_position_m.y() * 1e3, 4) +
+                    ", " + fixed(result.start_position_m.z() * 1e3, 4)});
+  link.add_row({"encoder errors (sticky, bit per joint)", std::to_string(result.pins.encoder_error_bits)});
+  link.add_row({"joint controller saturations (sticky)", result.pins.joint_limited ? "yes" : "no"});
   link.add_row({"joint fault, torque off (causes: 1 encoder, 2 following, 4 watchdog, 8 travel)",
-                result.fault_cause_bits ? std::to_string(result.fault_cause_bits) : "none"});
+                result.pins.fault_cause_bits ? std::to_string(result.pins.fault_cause_bits) : "none"});
   link.add_row({"samples with a current at the 0.5 A limit", std::to_string(result.full_scale_current_samples)});
   link.print(std::cout);
 
@@ -202,8 +229,10 @@ void run_cosim_command(const CosimCommandOptions& options, const std::string& co
     write_cosim_plot(options.plot, result, "Co-simulation: board RTL + plants + virtual robot, " + options.trajectory);
     std::cout << "plot: " << options.plot << '\n';
   }
-  if (result.round_trips == 0 || result.naks != 0 || result.encoder_error_bits != 0 || result.fault_cause_bits != 0) {
-    std::cerr << "deltactl: cosim: the link, the encoders or the joint safety faulted (see the table)\n";
+  if (r.outcome != link::StreamReport::Outcome::kCompleted || r.played != r.samples ||
+      result.pins.encoder_error_bits != 0 || result.pins.fault_cause_bits != 0) {
+    std::cerr << "deltactl: cosim: the stream did not complete, or the encoders or the joint safety faulted (see the "
+                 "table)\n";
     throw CommandExit{kExitFailure};
   }
 }
@@ -213,19 +242,23 @@ const RegisterCommand command("cosim", 70, [](CLI::App& root) {
   CLI::App* sub = root.add_subcommand(
       "cosim", "Co-simulate the whole robot: the board RTL (network, joint controllers) with plants and effects");
   sub->footer(
-      "\nThe host streams the trajectory's plate positions over the board's UART (one request per answer);\n"
-      "the Verilated board core (rtl/board/board_core.sv: network, clock-domain crossing, three joint\n"
-      "controllers, PWM) drives three joint plants (sim/joint_plant: motor, 66:1 gearbox, friction,\n"
-      "gravity); their angles pass the virtual robot's sensor effects into quadrature encoder signals,\n"
-      "and the plate position is the true geometry's forward kinematics seen through the frame\n"
-      "misalignment. The board runs at 20 MHz simulated (2000 cycles per 10 kHz period), the link at\n"
-      "5 Mbaud; about 8 s of wall time per simulated second.\n"
-      "The plate starts at rest where the encoders read 30.00 deg (the board's home count) and blends\n"
-      "into the trajectory over --blend seconds.\n"
+      "\nA host streams the trajectory's plate positions as 1 kHz setpoints over the board link v2\n"
+      "(docs/board_link.md) to the virtual board: the Verilated board core as built for the iCEBreaker\n"
+      "(23.25 MHz board clock, 46.5 MHz network clock, 1 Mbaud link; rtl/board/board_core.sv: link,\n"
+      "setpoint buffer, network, 10 kHz interpolation, three joint controllers, PWM) driving three joint\n"
+      "plants (sim/joint_plant: motor, 66:1 gearbox, friction, gravity); their angles pass the virtual\n"
+      "robot's sensor effects into quadrature encoder signals, and the plate position is the true\n"
+      "geometry's forward kinematics seen through the frame misalignment. About 10 s of wall time per\n"
+      "simulated second.\n"
+      "The host knows only the link: it identifies the board (weights CRC and build id must match),\n"
+      "sets home, enables, finds the plate by inverting its network at the encoder counts, and paces\n"
+      "the setpoints by telemetry (--fill ahead). Each sample carries the position for the time its\n"
+      "answer becomes the joint reference (1 ms after the board plays it). The trajectory blends from\n"
+      "that start pose over --blend seconds; t = 0 is when the first sample reaches the joints.\n"
       "Output: tables on stdout; --out: a CSV with the SPEC recording columns (t_s, alpha*_deg = encoder\n"
       "readings, x/y/z_m = measured plate) plus references, network answers, plant angles, currents.\n"
-      "Exit 1 when the link NAKs, no answer arrives, an encoder skips a state or the board's joint\n"
-      "safety stops the torque (following error, reference watchdog, travel limits).\n"
+      "Exit 1 when the stream does not complete, an encoder skips a state or the board's joint safety\n"
+      "stops the torque (following error, watchdog, travel limits).\n"
       "Example: deltactl cosim --weights weights/paper_like.json --effects sim/paper_like_effects.json \\\n"
       "           --duration 2 --out cosim.csv --plot cosim.png");
   sub->add_option("--weights", options->weights, "network weights (W.json, model 'network', 25 hidden)")->required();
@@ -244,6 +277,9 @@ const RegisterCommand command("cosim", 70, [](CLI::App& root) {
   sub->add_option("--settle", options->settle_s, "statistics start at blend + settle [s]")
       ->capture_default_str()
       ->check(options::real_number(0, 3600));
+  sub->add_option("--fill", options->target_fill, "setpoints the host keeps ahead of the board (1 .. 64)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 64));
   sub->add_option("--out", options->out, "CSV of the run at 1 kHz");
   sub->add_option("--plot", options->plot, "PNG: plate error, joint tracking, currents");
   sub->callback([options] {

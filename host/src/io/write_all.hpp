@@ -39,7 +39,15 @@ inline std::size_t read_some_from(int fd, const std::string& name, std::uint8_t*
   for (;;) {
     const ssize_t got = ::read(fd, data, capacity);
     if (got > 0) return static_cast<std::size_t>(got);
-    if (got == 0) throw std::system_error(EPIPE, std::generic_category(), name + ": the other side hung up");
+    if (got == 0) {
+      // A terminal in raw mode with VMIN = VTIME = 0 (serial port, pty slave) reads 0 for "nothing
+      // there" even when non-blocking; only with a hang-up pending does 0 mean the other side left.
+      pollfd p{fd, POLLIN, 0};
+      if (::poll(&p, 1, 0) > 0 && (p.revents & (POLLHUP | POLLERR)) != 0) {
+        throw std::system_error(EPIPE, std::generic_category(), name + ": the other side hung up");
+      }
+      return 0;
+    }
     if (errno == EINTR) continue;
     if (errno == EAGAIN || errno == EWOULDBLOCK) return 0;
     if (errno == EIO) throw std::system_error(EIO, std::generic_category(), name + ": the other side hung up");

@@ -19,7 +19,11 @@ class ByteStream {
   // Writes all `size` bytes (waiting for room at most timeout_ms in all); throws std::system_error
   // on failure or time-out.
   virtual void write_all(const std::uint8_t* data, std::size_t size, int timeout_ms = 100) = 0;
-  virtual int fd() const = 0;  // for poll()
+  virtual int fd() const = 0;  // for poll(); -1 for a stream without a descriptor (in process)
+  // Waits until read_some has bytes or timeout_ms passed; true when readable. The default polls
+  // fd(); a stream without a descriptor overrides it (the in-process virtual board advances its
+  // simulated time here, so its timeout is in board time).
+  virtual bool wait_readable(int timeout_ms);
   virtual const std::string& name() const = 0;
 };
 

@@ -1,68 +1,61 @@
-// Whole-robot co-simulation: the Verilated board core (UART link, network RTL, clock-domain
-// crossing, three joint controllers, PWM) in closed loop with three joint plants and the virtual
-// robot's unmodelled effects, driven by a host that streams Cartesian references over the UART.
+// Whole-robot co-simulation: a host streams a Cartesian trajectory over the board link v2 to the
+// virtual board at RTL fidelity (virtual_board.hpp: the Verilated board core as built, the robot
+// world, the serial line), and the world's ground truth is compared with the trajectory.
 //
-//   host: p_ref(t) -> raw input codes -> UART request --> board_core (RTL)
-//     network -> joint references -> joint controllers -> PWM + direction
-//   drives: PWM duty -> current (0.5 A full scale, averaged over one PWM period)
-//   plants: current -> true joint angle a_j (sim/joint_plant: motor, gearbox, friction, gravity)
-//   sensors: a -> encoder reading (encoder_scale, transmission_error, backlash, joint_offset,
-//     0.01 deg counts) -> quadrature A/B --> board_core
-//   plate: true geometry FK(a) -> frame_misalignment -> measured position p (compared with p_ref)
+//   host (link::LinkSession over VirtualBoardStream): identify, set home, enable,
+//     1 kHz setpoints paced by telemetry, hold, disable  --bytes-->  virtual board
+//   truth (every 1 ms of board time): plate as the measuring stage sees it, plant angles
 //
-// Parts: the world (sim/robot_world.hpp: plants, sensors, encoders, PWM averaging), the board
-// (the Verilated board core and its serial line, rtl/board/sim) and the host side (link_v1.hpp:
-// frames and one request in flight, bytes only).
+// The host side knows only what the link tells it and what it owns (its weights, the trajectory):
+// it checks the identify reply against its weights, learns the board's tick and sample index from
+// telemetry, and finds where the plate starts by inverting its own network at the encoder counts
+// telemetry reports (the home count). Latency compensated: the board plays a sample at the next
+// 1 ms segment after the telemetry that names it and its answer is the joint reference one
+// segment later, so sample n is sent the trajectory position at its predicted reach time
+// (link/session.hpp, "Timing"): 1 ms network and interpolation plus the time it waits in the
+// buffer (target fill, 20 ms).
 //
-// Time base: the board core is the Verilated test build (rtl/CMakeLists.txt): SimClocksPerPeriod
-// board cycles per 100 us control period, i.e. a 20 MHz board clock, and a UART of
-// SimClocksPerBit board cycles per bit (5 Mbaud). The plants are integrated every 20 board
-// cycles (1 us).
+// Time: board time since reset (t = ticks / 10 kHz); trajectory time tau = t - t0, where t0 is the
+// reach time of the first streamed sample. The reference is the trajectory blended from the start
+// pose over blend_s.
 #pragma once
 
-#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
 #include <string>
 #include <vector>
 
-#include "delta/board_facts.hpp"
+#include "delta/cosim/virtual_board.hpp"
 #include "delta/effects.hpp"
 #include "delta/geometry.hpp"
+#include "delta/golden/fixed_network.hpp"
 #include "delta/joint_plant.hpp"
+#include "delta/link/payloads.hpp"
+#include "delta/link/session.hpp"
 
 namespace delta::cosim {
 
-// The Verilated test build's clock and link (rtl/board/delta_board_pkg.sv, Sim*), and the board's home.
-constexpr double kBoardClockHz = static_cast<double>(board::kSimClocksPerPeriod * board::kControlRateHz);
-constexpr int kClocksPerBit = static_cast<int>(board::kSimClocksPerBit);
-constexpr int kHomeCount = static_cast<int>(board::kHomeCount);
-constexpr double kCurrentFullScaleA = board::kCurrentFullScaleMilliamp / 1000.0;
-constexpr double kCountDeg = board::kEncoderCountMicrodeg * 1e-6;
-
 struct CosimOptions {
-  std::string mem_dir;  // the network's .mem files (golden::write_export)
-  EffectSet effects;    // the virtual robot
+  std::string mem_dir;  // the network's .mem files and identify.mem (golden::write_export)
+  const golden::QuantisedNetwork* network = nullptr;  // the host's weights (the same as in mem_dir)
+  EffectSet effects;                                  // the virtual robot
   Geometry nominal = Geometry::nominal();
-  std::function<Vec3(double t_s)> trajectory;  // reference plate position, measured frame [m]
-  double duration_s = 1.0;
-  double blend_s = 0.3;  // smooth start from the home pose
-  double record_rate_hz = 1000.0;
+  std::function<Vec3(double tau_s)> trajectory;  // reference plate position, measured frame [m]
+  double duration_s = 1.0;                       // of trajectory time
+  double blend_s = 0.3;                          // smooth start from the start pose
   JointPlantParameters plant;
-  // Formats of the network (input codes): encode a position for the UART request.
-  std::function<std::array<std::int64_t, 3>(const Vec3& position_m, bool* clamped)> encode_position;
-  std::function<double(std::int64_t raw)> decode_angle_deg;
-  std::function<void(double simulated_s)> progress;  // called every 0.1 s of simulated time
+  link::SessionOptions session;
+  std::function<void(double tau_s)> progress;  // called every 0.1 s of trajectory time
 };
 
-struct CosimSample {
-  double t_s = 0.0;
-  Vec3 reference_m = Vec3::Zero();     // what the host sent (blended trajectory)
+struct CosimSample {                   // every 1 ms of board time, tau in [0, duration)
+  double t_s = 0.0;                    // trajectory time tau
+  Vec3 reference_m = Vec3::Zero();     // the blended trajectory at tau
   Vec3 position_m = Vec3::Zero();      // measured plate position (frame_misalignment applied)
   Vec3 true_alpha_deg = Vec3::Zero();  // plant angles
   Vec3 encoder_deg = Vec3::Zero();     // what the board counts (0.01 deg)
-  Vec3 network_deg = Vec3::Zero();     // the last network answer (joint references)
+  Vec3 network_deg = Vec3::Zero();     // the network's answer for the reference at tau (the joint reference due now)
   Vec3 current_a = Vec3::Zero();       // drive currents (PWM decoded)
   bool drives_enabled = false;
   // Where the plate would be if the encoders read exactly (through the backlash's present play)
@@ -74,33 +67,45 @@ struct CosimSample {
 
 struct CosimResult {
   std::vector<CosimSample> samples;
+  std::vector<link::TelemetryPayload> telemetry;  // every frame the host received
+  link::IdentifyPayload identify;
+  link::LinkStatistics link;
+  link::StreamReport stream;
+  double t0_s = 0.0;                        // board time of tau = 0
+  Vec3 start_position_m = Vec3::Zero();     // where the host found the plate (its network inverted at the home count)
   Vec3 home_true_alpha_deg = Vec3::Zero();  // plant angles at which the encoders read 30.00 deg
-  std::size_t round_trips = 0;              // UART request/answer pairs
-  std::size_t naks = 0;
-  std::size_t clamped_positions = 0;  // references outside the 32-bit input code
-  double first_answer_s = -1.0;
-  int encoder_error_bits = 0;                  // board's sticky flags (bit j: joint j)
-  bool joint_limited = false;                  // a joint controller saturated an operand or state
-  int fault_cause_bits = 0;                    // joint_axes' latched fault causes (0: no fault, torque on)
+  std::size_t clamped_positions = 0;        // references outside the 32-bit input code
   std::size_t full_scale_current_samples = 0;  // recorded samples with some |current| at 0.5 A
+  BoardPins pins;                              // sticky flags at the end (after disable)
+  std::uint16_t bad_frames = 0;                // board counters at the end (last telemetry)
+  std::uint16_t rejected = 0;
+  std::uint16_t slew_limits = 0;
+  std::uint16_t saturations = 0;
   std::uint64_t board_cycles = 0;
 };
 
-// Throws std::runtime_error if the home pose cannot be found or a pose is unreachable.
+// Throws std::runtime_error if the home pose cannot be found, a pose is unreachable, the board's
+// identify differs from the host's weights, or the link fails (link::LinkError).
 CosimResult run_cosim(const CosimOptions& options);
 
-// Plate tracking statistics over t >= from_s: per-axis RMS and the largest distance [m].
+// Where the host's network answers `alpha_deg`: Newton's method on the golden network with the
+// nominal model's Jacobian, from the nominal forward kinematics (to ~0.1 um).
+Vec3 locate_plate(const golden::QuantisedNetwork& network, const Geometry& nominal, const Vec3& alpha_deg);
+
+// Plate tracking statistics over tau >= from_s: per-axis RMS and the largest distance [m].
 struct ErrorStats {
   Vec3 rms_m = Vec3::Zero();
   double rms_distance_m = 0.0;
   double max_distance_m = 0.0;
 };
 struct TrackingSummary {
-  ErrorStats closed_loop;             // position_m - reference
-  ErrorStats network_ideal;           // network_ideal_m - reference
-  ErrorStats textbook_ideal;          // textbook_ideal_m - reference
-  Vec3 joint_rms_deg = Vec3::Zero();  // encoder - network reference
+  ErrorStats closed_loop;                   // position_m - reference
+  ErrorStats network_ideal;                 // network_ideal_m - reference
+  ErrorStats textbook_ideal;                // textbook_ideal_m - reference
+  Vec3 joint_rms_deg = Vec3::Zero();        // encoder - network answer due (truth, 1 kHz)
+  Vec3 board_joint_rms_deg = Vec3::Zero();  // telemetry: encoder count - joint reference (the board's own)
   std::size_t samples = 0;
+  std::size_t telemetry_frames = 0;
 };
 TrackingSummary summarise(const CosimResult& result, double from_s);
 

@@ -1,0 +1,200 @@
+// deltactl virtual-board: the virtual robot with its board behind a pseudo-terminal (SPEC.md, "The
+// board and the lab PC"), so any program that opens PATH as a serial port talks to it as to the
+// iCEBreaker. RTL fidelity: delta/cosim/virtual_board.hpp.
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <chrono>
+#include <csignal>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <system_error>
+
+#include <CLI/CLI.hpp>
+
+#include "delta/command.hpp"
+#include "delta/cosim/virtual_board.hpp"
+#include "delta/effect_file.hpp"
+#include "delta/gateware.hpp"
+#include "delta/golden/export.hpp"
+#include "delta/golden/fixed_network.hpp"
+#include "delta/input_error.hpp"
+#include "delta/io/pseudo_terminal.hpp"
+#include "delta/kinematics.hpp"
+#include "delta/nn/weights_file.hpp"
+#include "delta/output_file.hpp"
+#include "delta/table.hpp"
+#include "delta/temporary_directory.hpp"
+
+namespace delta::cosim {
+namespace {
+
+volatile std::sig_atomic_t stop_requested = 0;
+void request_stop(int) { stop_requested = 1; }
+
+struct VirtualBoardCommandOptions {
+  std::string link;
+  std::string effects = DELTA_SHIPPED_EFFECTS;
+  std::string weights = DELTA_SHIPPED_WEIGHTS;
+  std::string truth;
+  std::string fidelity = "rtl";
+};
+
+// Writes what fits into the pty without waiting: with no program reading PATH the board's bytes
+// are dropped, as an FTDI chip drops them with no host attached.
+std::size_t write_what_fits(int fd, const std::uint8_t* data, std::size_t size) {
+  std::size_t written = 0;
+  while (written < size) {
+    const ssize_t n = ::write(fd, data + written, size - written);
+    if (n > 0) {
+      written += static_cast<std::size_t>(n);
+    } else if (n < 0 && errno == EINTR) {
+      continue;
+    } else {
+      break;  // EAGAIN: the pty's buffer is full
+    }
+  }
+  return written;
+}
+
+void run_virtual_board(const VirtualBoardCommandOptions& options) {
+  if (options.fidelity == "model") {
+    std::cerr << "deltactl: error: --fidelity model: the fast C++ board model (issue 16) does not exist yet; use "
+                 "--fidelity rtl\n";
+    throw CommandExit{kExitBadInput};
+  }
+  // Everything is checked before PATH or TRUTH appear.
+  const nn::WeightsFile weights = nn::read_weights_file(options.weights);
+  if (weights.hybrid()) {
+    throw InputError(options.weights, 0, "is a hybrid model; the board runs the network alone (train --model network)");
+  }
+  if (weights.network.hidden() != 25) {
+    throw InputError(options.weights, 0,
+                     "has " + std::to_string(weights.network.hidden()) + " hidden neurons; the RTL is built for 25");
+  }
+  golden::QuantisedNetwork quantised;
+  try {
+    quantised = golden::quantise(weights.network);
+  } catch (const std::invalid_argument& error) {
+    throw InputError(options.weights, 0, std::string("cannot be quantised: ") + error.what());
+  }
+  const EffectSet effects = options.effects.empty() ? EffectSet{} : read_effect_file(options.effects);
+  if (!forward_kinematics(apply_geometry_effects(Geometry::nominal(), effects), Vec3::Constant(30.0)).ok()) {
+    throw InputError(options.effects, 0, "the robot of these effects cannot be assembled at its home pose (30 deg)");
+  }
+
+  const TemporaryDirectory mem("deltactl_virtual_board");  // the network's .mem files and identify.mem
+  golden::write_export(quantised, mem.path());
+  VirtualBoardOptions board_options;
+  board_options.mem_dir = mem.path();
+  board_options.effects = effects;
+  VirtualBoard board(board_options);
+
+  std::ofstream truth;
+  if (!options.truth.empty()) {
+    truth.open(options.truth, std::ios::trunc);
+    if (!truth) throw InputError(options.truth, 0, "cannot be written");
+    truth << "t_s,x_m,y_m,z_m,true_alpha1_deg,true_alpha2_deg,true_alpha3_deg,drives_enabled,"
+             "encoder1_deg,encoder2_deg,encoder3_deg,current1_a,current2_a,current3_a\n";
+    board.observe_truth([&truth](const TruthSample& s, const RobotWorld&) {
+      truth << format_number(s.t_s);
+      for (int k = 0; k < 3; ++k) truth << ',' << format_number(s.position_m[k]);
+      for (int k = 0; k < 3; ++k) truth << ',' << format_number(s.true_alpha_deg[k]);
+      truth << ',' << (s.drives_enabled ? 1 : 0);
+      for (int k = 0; k < 3; ++k) truth << ',' << format_number(s.encoder_deg[k]);
+      for (int k = 0; k < 3; ++k) truth << ',' << format_number(s.current_a[k]);
+      truth << '\n';
+    });
+  }
+
+  std::unique_ptr<io::PseudoTerminal> pty;
+  try {
+    pty = std::make_unique<io::PseudoTerminal>(options.link);
+  } catch (const std::system_error& error) {
+    std::cerr << "deltactl: error: --link " << error.what() << '\n';
+    throw CommandExit{kExitBadInput};
+  }
+  struct sigaction action {};
+  action.sa_handler = request_stop;
+  sigemptyset(&action.sa_mask);
+  for (int signal_number : {SIGINT, SIGTERM, SIGHUP}) ::sigaction(signal_number, &action, nullptr);
+
+  std::cout << "virtual-board: ready on " << options.link << " (" << pty->slave_path()
+            << "), RTL fidelity, weights CRC " << golden::hex_word(weights_crc(quantised), 32) << ", gateware "
+            << golden::hex_word(kGatewareBuildId, 32) << std::endl;
+
+  // One control period of board time per turn (100 us, about 1 ms of wall time): the pty's bytes
+  // join the line at the board's bit timing, the board's bytes go out as they complete.
+  const auto start = std::chrono::steady_clock::now();
+  auto last_flush = start;
+  std::uint64_t bytes_in = 0, bytes_out = 0, bytes_dropped = 0;
+  std::uint8_t buffer[4096];
+  const int fd = pty->fd();
+  while (!stop_requested) {
+    const ssize_t got = ::read(fd, buffer, sizeof buffer);
+    if (got > 0) {
+      board.write(buffer, static_cast<std::size_t>(got));
+      bytes_in += static_cast<std::uint64_t>(got);
+    }
+    board.step(kClocksPerTick);
+    const std::size_t out = board.read(buffer, sizeof buffer);
+    if (out > 0) {
+      const std::size_t written = write_what_fits(fd, buffer, out);
+      bytes_out += written;
+      bytes_dropped += out - written;
+    }
+    const auto now = std::chrono::steady_clock::now();
+    if (truth.is_open() && now - last_flush >= std::chrono::milliseconds(500)) {
+      truth.flush();
+      last_flush = now;
+    }
+  }
+  if (truth.is_open()) {
+    truth.close();
+    if (!truth) std::cerr << "deltactl: error: " << options.truth << ": write failed\n";
+  }
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  std::cerr << "virtual-board: stopped after " << fixed(board.time_s(), 3) << " s of board time in " << fixed(wall, 1)
+            << " s wall; " << bytes_in << " bytes from the host, " << bytes_out << " to it, " << bytes_dropped
+            << " dropped (nobody reading)\n";
+  pty.reset();  // removes PATH
+}
+
+const RegisterCommand command("virtual-board", 72, [](CLI::App& root) {
+  auto options = std::make_shared<VirtualBoardCommandOptions>();
+  CLI::App* sub = root.add_subcommand(
+      "virtual-board", "The virtual robot and its board behind a pseudo-terminal at PATH (talk to it as to the board)");
+  sub->footer(
+      "\nCreates a pseudo-terminal (raw, no echo) whose slave is linked at PATH; any program that opens\n"
+      "PATH as a serial port talks the board link v2 (docs/board_link.md) to the virtual board: the\n"
+      "Verilated board core as built for the iCEBreaker (23.25 MHz board clock, 46.5 MHz network\n"
+      "clock, 23 clocks per bit at 1 Mbaud) with the robot world (three joint plants, the effects'\n"
+      "sensor chain, quadrature encoders, PWM averaging). Bytes from PATH enter the board's UART at its\n"
+      "bit timing; the board's bytes come back as they leave its TX pin. The simulation runs as fast as\n"
+      "it can, about a tenth of real time: a host paces itself by the board's telemetry, never by its\n"
+      "own clock. Bytes the board sends while nobody reads PATH are dropped once the pty is full.\n"
+      "Prints one line naming PATH when ready; runs until SIGINT or SIGTERM, then removes PATH.\n"
+      "--truth: CSV at 1 kHz of board time, written as it runs (flushed twice a second, complete on\n"
+      "exit): t_s (board time since reset), x/y/z_m (the plate as the measuring stage sees it),\n"
+      "true_alpha*_deg (plant angles), drives_enabled, encoder*_deg, current*_a.\n"
+      "Defaults: the shipped weights (weights/paper_like.json) and the paper-like robot\n"
+      "(sim/paper_like_effects.json); --effects '' is the nominal robot.\n"
+      "--fidelity model (the fast C++ board model, issue 16) is not there yet: refused, exit 2.\n"
+      "Example: deltactl virtual-board --link /tmp/delta-tty --truth truth.csv &\n"
+      "         deltactl host status --port /tmp/delta-tty");
+  sub->add_option("--link", options->link, "path at which to link the pseudo-terminal (a serial port to open)")
+      ->required();
+  sub->add_option("--effects", options->effects, "virtual robot's effects (JSON)")->capture_default_str();
+  sub->add_option("--weights", options->weights, "network weights the board runs (W.json, model 'network', 25 hidden)")
+      ->capture_default_str();
+  sub->add_option("--truth", options->truth, "CSV of the ground truth at 1 kHz of board time");
+  sub->add_option("--fidelity", options->fidelity, "rtl: the Verilated board core; model: issue 16 (not yet)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"rtl", "model"}));
+  sub->callback([options] { run_virtual_board(*options); });
+});
+
+}  // namespace
+}  // namespace delta::cosim

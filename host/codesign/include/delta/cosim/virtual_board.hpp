@@ -1,0 +1,126 @@
+// The virtual board at RTL fidelity: the Verilated board core as built for the iCEBreaker (link v2
+// at 23 board clocks per bit, 2325 board clocks per 10 kHz control period, the network on its own
+// clock at twice the board's) in closed loop with the robot world (sim/robot_world.hpp: PWM
+// averaging, three joint plants, the virtual robot's sensor effects, quadrature encoders, the
+// plate), behind a serial line: bytes from the host go onto the board's RX pin at the board's bit
+// timing, the bytes on its TX pin come back. Time is simulated and advances only when asked.
+//
+//   host bytes -> UART line (8N1, 23 clocks/bit) -> board_core (RTL) -> PWM + direction + enable
+//     -> robot world (currents, plants, sensors) -> quadrature A/B -> board_core -> UART line -> bytes
+//
+// One board clock (43 ns) is one step: both clocks in their true ratio (rtl/board/sim
+// board_clock.hpp), the world integrated every 20 board clocks (0.86 us). The truth (true joint
+// angles, the plate as the measuring stage sees it, drive enable) is offered every 1 ms of board
+// time to an observer. VirtualBoardStream makes it an io::ByteStream for a host in the same
+// process (the co-simulation); `deltactl virtual-board` puts it behind a pseudo-terminal.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <memory>
+#include <string>
+
+#include "delta/board_facts.hpp"
+#include "delta/effects.hpp"
+#include "delta/geometry.hpp"
+#include "delta/io/byte_stream.hpp"
+#include "delta/joint_plant.hpp"
+#include "delta/robot_world.hpp"
+
+namespace delta::cosim {
+
+constexpr double kBoardClockHz = static_cast<double>(board::kBoardClockHz);
+constexpr int kClocksPerBit = static_cast<int>(board::kLinkClocksPerBit);
+constexpr std::uint64_t kClocksPerTick = static_cast<std::uint64_t>(board::kClocksPerPeriod);  // 100 us
+constexpr std::uint64_t kClocksPerMillisecond = kClocksPerTick * board::kPeriodsPerSetpoint;
+constexpr int kHomeCount = static_cast<int>(board::kHomeCount);
+constexpr double kCurrentFullScaleA = board::kCurrentFullScaleMilliamp / 1000.0;
+constexpr double kCountDeg = board::kEncoderCountMicrodeg * 1e-6;
+
+struct VirtualBoardOptions {
+  std::string mem_dir;  // the network's .mem files and identify.mem (deltactl quantise, golden::write_export)
+  EffectSet effects;    // the virtual robot
+  Geometry nominal = Geometry::nominal();
+  JointPlantParameters plant;
+};
+
+// What the world is, every 1 ms of board time (ground truth: no sensor saw it).
+struct TruthSample {
+  double t_s = 0.0;                    // board time since reset
+  Vec3 position_m = Vec3::Zero();      // plate centre as the measuring stage sees it (frame misalignment applied)
+  Vec3 true_alpha_deg = Vec3::Zero();  // plant angles
+  Vec3 encoder_deg = Vec3::Zero();     // what the encoder lines show (0.01 deg counts)
+  Vec3 current_a = Vec3::Zero();       // drive currents (PWM averaged)
+  bool drives_enabled = false;         // the board's drive enable pin
+};
+
+// The board's status pins (sticky flags), for diagnostics beside the link.
+struct BoardPins {
+  int encoder_error_bits = 0;  // bit j: encoder j skipped a quadrature state
+  bool joint_limited = false;  // a joint controller saturated an operand or state
+  int fault_cause_bits = 0;    // delta_board_pkg Fault* bits, latched
+  bool drive_enable = false;
+};
+
+class VirtualBoard {
+ public:
+  // Loads the network and identify.mem from options.mem_dir (through the model's plusarg
+  // +delta_mem_dir), resets the board, places the robot at rest where the encoders read the home
+  // count. Throws std::runtime_error if the robot has no such pose.
+  explicit VirtualBoard(const VirtualBoardOptions& options);
+  ~VirtualBoard();
+  VirtualBoard(const VirtualBoard&) = delete;
+  VirtualBoard& operator=(const VirtualBoard&) = delete;
+
+  // Host -> board: queued behind what is still on the line (10 bits of 23 board clocks a byte).
+  void write(const std::uint8_t* data, std::size_t size);
+  std::size_t bytes_to_board() const;  // queued or on the line
+  // Board -> host: bytes the line has received so far, oldest first.
+  std::size_t read(std::uint8_t* data, std::size_t capacity);
+  std::size_t bytes_from_board() const { return from_board_.size(); }
+
+  void step(std::uint64_t board_clocks);
+  // Steps until a byte from the board is waiting or `board_clocks` have passed; true if one is.
+  bool step_until_byte(std::uint64_t board_clocks);
+  std::uint64_t clocks() const { return clocks_; }
+  double time_s() const { return static_cast<double>(clocks_) / kBoardClockHz; }
+
+  // Called at every 1 ms of board time (t = 0, 1 ms, ...) with the truth and the world.
+  using TruthObserver = std::function<void(const TruthSample&, const RobotWorld&)>;
+  void observe_truth(TruthObserver observer) { truth_observer_ = std::move(observer); }
+
+  const RobotWorld& world() const;
+  BoardPins pins() const;
+
+ private:
+  class Core;
+  void clock();
+
+  std::unique_ptr<Core> core_;
+  std::unique_ptr<RobotWorld> world_;
+  std::deque<std::uint8_t> from_board_;
+  TruthObserver truth_observer_;
+  std::uint64_t clocks_ = 0;
+};
+
+// The virtual board as a byte stream for a host in the same process: write_all queues onto the
+// line, read_some takes what the board sent, and wait_readable advances the board (its timeout is
+// board time). No descriptor: fd() is -1.
+class VirtualBoardStream : public io::ByteStream {
+ public:
+  explicit VirtualBoardStream(VirtualBoard& board, std::string name = "virtual board")
+      : board_(board), name_(std::move(name)) {}
+  std::size_t read_some(std::uint8_t* data, std::size_t capacity) override { return board_.read(data, capacity); }
+  void write_all(const std::uint8_t* data, std::size_t size, int /*timeout_ms*/) override { board_.write(data, size); }
+  bool wait_readable(int timeout_ms) override;
+  int fd() const override { return -1; }
+  const std::string& name() const override { return name_; }
+
+ private:
+  VirtualBoard& board_;
+  std::string name_;
+};
+
+}  // namespace delta::cosim

@@ -1,0 +1,117 @@
+// The virtual board at RTL fidelity: Verilated board core + robot world + UART line (see virtual_board.hpp).
+#include "delta/cosim/virtual_board.hpp"
+
+#include <algorithm>
+#include <vector>
+
+#include "Vboard_core.h"
+#include "delta/rtl/board_clock.hpp"
+#include "delta/rtl/uart_line.hpp"
+#include "verilated.h"
+
+namespace delta::cosim {
+
+// The Verilated model, its context (one per board: the plusarg names this board's .mem files)
+// and the serial line at its pins.
+class VirtualBoard::Core {
+ public:
+  explicit Core(const std::string& mem_dir) : context(std::make_unique<VerilatedContext>()), line(kClocksPerBit) {
+    const std::string plusarg = "+delta_mem_dir=" + mem_dir;
+    const char* argv[] = {"virtual_board", plusarg.c_str()};
+    context->commandArgs(2, argv);
+    model = std::make_unique<Vboard_core>(context.get(), "board");
+  }
+  ~Core() { model->final(); }
+  std::unique_ptr<VerilatedContext> context;
+  std::unique_ptr<Vboard_core> model;
+  rtl::UartLine line;
+  std::size_t bytes_on_line = 0;  // written and not yet fully sent
+  std::uint64_t bits_sent = 0;
+};
+
+VirtualBoard::VirtualBoard(const VirtualBoardOptions& options) : core_(std::make_unique<Core>(options.mem_dir)) {
+  BoardInterface board_interface;
+  board_interface.board_clock_hz = kBoardClockHz;
+  board_interface.pwm_period_cycles = static_cast<int>(board::kPwmPeriodCycles);
+  board_interface.current_full_scale_a = kCurrentFullScaleA;
+  board_interface.home_count = kHomeCount;
+  board_interface.count_deg = kCountDeg;
+  world_ = std::make_unique<RobotWorld>(board_interface, options.effects, options.nominal, options.plant);
+
+  Vboard_core& core = *core_->model;
+  core.uart_rx_i = 1;
+  core.encoder_a_i = 0;
+  core.encoder_b_i = 0;
+  core.rst_ni = 0;
+  core.rst_network_ni = 0;
+  for (int i = 0; i < 4; ++i) rtl::clock_board(core);
+  core.rst_ni = 1;
+  core.rst_network_ni = 1;
+}
+
+VirtualBoard::~VirtualBoard() = default;
+
+const RobotWorld& VirtualBoard::world() const { return *world_; }
+
+void VirtualBoard::write(const std::uint8_t* data, std::size_t size) {
+  core_->line.send(std::vector<std::uint8_t>(data, data + size));
+  core_->bytes_on_line += size;
+}
+
+std::size_t VirtualBoard::bytes_to_board() const { return core_->bytes_on_line; }
+
+std::size_t VirtualBoard::read(std::uint8_t* data, std::size_t capacity) {
+  const std::size_t n = std::min(capacity, from_board_.size());
+  std::copy_n(from_board_.begin(), n, data);
+  from_board_.erase(from_board_.begin(), from_board_.begin() + static_cast<std::ptrdiff_t>(n));
+  return n;
+}
+
+void VirtualBoard::clock() {
+  Vboard_core& core = *core_->model;
+  if (truth_observer_ && clocks_ % kClocksPerMillisecond == 0) {
+    TruthSample truth;
+    truth.t_s = time_s();
+    truth.position_m = world_->measured_position_m();
+    truth.true_alpha_deg = world_->true_alpha_deg();
+    truth.encoder_deg = world_->encoder_deg();
+    truth.current_a = world_->current_a();
+    truth.drives_enabled = core.drive_enable_o;
+    truth_observer_(truth, *world_);
+  }
+  const bool sending = core_->line.sending();
+  core.uart_rx_i = core_->line.rx_pin();
+  if (sending && ++core_->bits_sent % (10 * kClocksPerBit) == 0) --core_->bytes_on_line;
+  core.encoder_a_i = world_->encoder_a();
+  core.encoder_b_i = world_->encoder_b();
+  rtl::clock_board(core);
+  if (core_->line.sample_tx_pin(core.uart_tx_o)) from_board_.push_back(core_->line.byte());
+  world_->step({core.drive_pwm_o, core.drive_dir_o, static_cast<bool>(core.drive_enable_o)});
+  ++clocks_;
+}
+
+void VirtualBoard::step(std::uint64_t board_clocks) {
+  for (std::uint64_t i = 0; i < board_clocks; ++i) clock();
+}
+
+bool VirtualBoard::step_until_byte(std::uint64_t board_clocks) {
+  for (std::uint64_t i = 0; i < board_clocks && from_board_.empty(); ++i) clock();
+  return !from_board_.empty();
+}
+
+BoardPins VirtualBoard::pins() const {
+  const Vboard_core& core = *core_->model;
+  BoardPins pins;
+  pins.encoder_error_bits = core.encoder_error_o;
+  pins.joint_limited = core.joint_limited_o;
+  pins.fault_cause_bits = core.joint_fault_cause_o;
+  pins.drive_enable = core.drive_enable_o;
+  return pins;
+}
+
+bool VirtualBoardStream::wait_readable(int timeout_ms) {
+  const auto clocks = static_cast<std::uint64_t>(std::max(timeout_ms, 0)) * kClocksPerMillisecond;
+  return board_.step_until_byte(std::max<std::uint64_t>(clocks, 1));
+}
+
+}  // namespace delta::cosim

@@ -1,0 +1,154 @@
+// A host's session with a board over the link v2 (docs/board_link.md): identify, set home, enable,
+// stream 1 kHz setpoints paced by the board's telemetry, hold and disable, while collecting every
+// telemetry frame and the link's statistics. It speaks through any io::ByteStream (the serial
+// port, the virtual board's pseudo-terminal, or the virtual board in process) and knows only what
+// the frames tell: no device, no simulator, no wall-clock pacing.
+//
+// Pacing (docs/board_link.md, "Setpoints"): each telemetry frame gives the next sample index the
+// board plays (s) and its buffer fill; the session keeps `target_fill` samples sent ahead of s
+// (sent - s, which counts those still on the line) and never more than `max_setpoints_per_frame`
+// per telemetry frame (the line's budget: 100 bytes per ms, 22 per setpoint). A setpoint the board
+// did not take (corrupted on the line, refused) shows as the board's next free index (s + fill)
+// staying below one sent `resend_after_frames` telemetry frames ago: the session sends again from
+// the board's next free index.
+//
+// Timing: the board plays sample s at the first control period of the next 1 ms segment after the
+// telemetry snapshot that names it (tick T + 10) and its network answer is the joint reference one
+// segment later (tick T + 20). A sample n places after s reaches its reference at T + 20 + 10 n if
+// the board plays on without underrun; the session hands that tick to the setpoint source, so the
+// host sends each sample the position for the time the board will reach it (latency compensated:
+// 1 ms of network and interpolation plus the wait in the buffer).
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "delta/io/byte_stream.hpp"
+#include "delta/link/frame_codec.hpp"
+#include "delta/link/payloads.hpp"
+
+namespace delta::link {
+
+// Board control periods (telemetry tick) per setpoint and per second.
+constexpr std::int64_t kTicksPerSetpoint = board::kPeriodsPerSetpoint;
+constexpr double kTickSeconds = 1.0 / static_cast<double>(board::kControlRateHz);
+
+class LinkError : public std::runtime_error {
+ public:
+  enum class Kind {
+    kLinkLost,  // no frame within the timeout (or the stream failed)
+    kProtocol,  // an identify reply of another protocol version
+    kRefused,   // the board refused a command (its `rejected` counter rose)
+    kFault,     // the board latched a fault
+  };
+  LinkError(Kind kind, const std::string& what) : std::runtime_error(what), kind_(kind) {}
+  Kind kind() const { return kind_; }
+
+ private:
+  Kind kind_;
+};
+
+struct SessionOptions {
+  int frame_timeout_ms = 1000;      // no frame for this long (the stream's clock): link lost
+  int command_timeout_frames = 20;  // telemetry frames to wait for a command's effect
+  std::uint32_t target_fill = 20;   // samples kept sent ahead of the board's next sample
+  std::uint32_t max_setpoints_per_frame = 4;
+  std::uint32_t resend_after_frames = 3;
+  bool keep_telemetry = true;  // collect every telemetry frame (telemetry())
+};
+
+// What the link did, host side; the board's own counters are in the last telemetry frame.
+struct LinkStatistics {
+  std::uint64_t telemetry_frames = 0;
+  std::uint64_t identify_frames = 0;
+  std::uint64_t lost_telemetry = 0;     // gaps in the telemetry sequence numbers: frames lost on the line
+  std::uint64_t skipped_telemetry = 0;  // 1 ms periods without a telemetry frame beyond the lost ones
+  DecoderCounters decoder;              // host-side decoder: accepted, dropped, skipped bytes
+  std::uint64_t frames_sent = 0;
+  std::uint64_t setpoints_sent = 0;    // setpoint frames, resent ones included
+  std::uint64_t setpoints_resent = 0;  // sent again after the board did not take them
+  std::uint64_t commands_sent = 0;
+  std::uint64_t bytes_sent = 0;
+  std::uint64_t bytes_received = 0;
+};
+
+// The position codes (network input codes, `deltactl quantise` format) of stream sample k
+// (0-based); reach_tick: the board tick at which its answer becomes the joint reference if the
+// board plays on without underrun. Asked once per send (again for a resend).
+using SetpointSource = std::function<std::array<std::int32_t, 3>(std::size_t k, std::int64_t reach_tick)>;
+// Sees every telemetry frame while streaming; returning false stops the stream (hold, disable).
+using TelemetryObserver = std::function<bool(const TelemetryPayload&)>;
+
+struct StreamReport {
+  enum class Outcome { kCompleted, kStopped, kFault };
+  Outcome outcome = Outcome::kCompleted;
+  std::uint32_t first_index = 0;              // board sample index of stream sample 0
+  std::size_t samples = 0;                    // asked for
+  std::size_t played = 0;                     // played by the board (telemetry sample index)
+  std::int64_t first_reach_tick = -1;         // predicted at the first send
+  std::uint16_t underruns_at_first_play = 0;  // board counter when sample 0 had been played
+  std::uint16_t underruns_at_last_play = 0;   // when the last sample had been played
+  std::uint8_t fault_cause = 0;               // when the outcome is kFault
+  std::size_t telemetry_frames = 0;           // received during the stream
+};
+
+class LinkSession {
+ public:
+  explicit LinkSession(io::ByteStream& stream, SessionOptions options = {});
+
+  // Asks the board who it is; throws LinkError (kProtocol) unless it speaks board::kProtocolVersion,
+  // (kLinkLost) when no reply comes.
+  IdentifyPayload identify();
+
+  // The next telemetry frame (identify replies on the way are taken too); throws kLinkLost.
+  TelemetryPayload next_telemetry();
+
+  // Sends one command frame and waits until a telemetry frame satisfies `done`; throws kRefused
+  // when the board's refused counter rises first, kFault when `done` needs the drives and a fault
+  // is latched, kLinkLost after command_timeout_frames frames.
+  TelemetryPayload command(Command command, const std::function<bool(const TelemetryPayload&)>& done);
+  TelemetryPayload set_home();  // drives off: encoders := home count, homed
+  TelemetryPayload enable();    // homed, no fault: drives on
+  TelemetryPayload hold();      // drives on: the reference stops at the end of the segment
+  TelemetryPayload disable();   // drives off, buffer flushed
+  TelemetryPayload clear_fault();
+
+  // Streams `samples` setpoints from the board's next free index, paced by telemetry, until the
+  // board has played them all (or the observer stops it, or a fault). Does not enable, hold or
+  // disable: the caller does (usually identify, set_home, enable, stream, hold, disable).
+  StreamReport stream(std::size_t samples, const SetpointSource& source, const TelemetryObserver& observer = {});
+
+  const LinkStatistics& statistics() const { return statistics_; }
+  const std::optional<TelemetryPayload>& last_telemetry() const { return last_telemetry_; }
+  const std::vector<TelemetryPayload>& telemetry() const { return telemetry_; }
+  const SessionOptions& options() const { return options_; }
+
+ private:
+  void send_frame(const Frame& frame);
+  // Reads and decodes until at least one frame arrived; throws kLinkLost after frame_timeout_ms.
+  void receive_frames();
+  void take(const Frame& frame);
+
+  io::ByteStream& stream_;
+  SessionOptions options_;
+  FrameDecoder decoder_{Receiver::kHost};
+  std::uint8_t sequence_ = 0;
+  LinkStatistics statistics_;
+  std::optional<TelemetryPayload> last_telemetry_;
+  std::optional<std::uint8_t> last_telemetry_sequence_;
+  std::vector<TelemetryPayload> telemetry_;
+  std::vector<TelemetryPayload> unread_telemetry_;
+  std::vector<IdentifyPayload> unread_identify_;
+};
+
+// One line of what the flags and fault cause say, e.g. "drives on, homed; fault: watchdog".
+std::string describe_state(const TelemetryPayload& telemetry);
+std::string describe_fault(std::uint8_t fault_cause);
+
+}  // namespace delta::link

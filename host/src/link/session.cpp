@@ -1,0 +1,244 @@
+// A host's session with a board over the link v2 (see session.hpp).
+#include "delta/link/session.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <system_error>
+
+namespace delta::link {
+namespace {
+
+bool drives_on(const TelemetryPayload& t) { return t.has(TelemetryFlag::kDriveEnable); }
+
+}  // namespace
+
+LinkSession::LinkSession(io::ByteStream& stream, SessionOptions options) : stream_(stream), options_(options) {}
+
+void LinkSession::send_frame(const Frame& frame) {
+  const std::vector<std::uint8_t> bytes = encode_frame(frame);
+  try {
+    stream_.write_all(bytes.data(), bytes.size(), options_.frame_timeout_ms);
+  } catch (const std::system_error& error) {
+    throw LinkError(LinkError::Kind::kLinkLost, std::string("link: ") + error.what());
+  }
+  ++statistics_.frames_sent;
+  statistics_.bytes_sent += bytes.size();
+}
+
+void LinkSession::take(const Frame& frame) {
+  if (frame.type == FrameType::kIdentify) {
+    ++statistics_.identify_frames;
+    unread_identify_.push_back(decode_identify(frame.payload));
+    return;
+  }
+  if (frame.type != FrameType::kTelemetry) return;  // the decoder takes nothing else
+  const TelemetryPayload telemetry = decode_telemetry(frame.payload);
+  ++statistics_.telemetry_frames;
+  if (last_telemetry_sequence_) {
+    const int lost = static_cast<std::uint8_t>(frame.sequence - *last_telemetry_sequence_ - 1);
+    statistics_.lost_telemetry += static_cast<std::uint64_t>(lost);
+    const std::int64_t periods =
+        (static_cast<std::int64_t>(telemetry.tick) - static_cast<std::int64_t>(last_telemetry_->tick)) /
+        kTicksPerSetpoint;
+    if (periods > 1 + lost) statistics_.skipped_telemetry += static_cast<std::uint64_t>(periods - 1 - lost);
+  }
+  last_telemetry_sequence_ = frame.sequence;
+  last_telemetry_ = telemetry;
+  if (options_.keep_telemetry) telemetry_.push_back(telemetry);
+  unread_telemetry_.push_back(telemetry);
+}
+
+void LinkSession::receive_frames() {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(options_.frame_timeout_ms);
+  std::uint8_t buffer[512];
+  for (;;) {
+    std::size_t got = 0;
+    try {
+      got = stream_.read_some(buffer, sizeof buffer);
+    } catch (const std::system_error& error) {
+      throw LinkError(LinkError::Kind::kLinkLost, std::string("link: ") + error.what());
+    }
+    if (got > 0) {
+      statistics_.bytes_received += got;
+      const std::vector<Frame> frames = decoder_.feed(buffer, got);
+      statistics_.decoder = decoder_.counters();
+      for (const Frame& frame : frames) take(frame);
+      if (!frames.empty()) return;
+      continue;
+    }
+    const auto left =
+        std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now()).count();
+    if (left <= 0) {
+      throw LinkError(LinkError::Kind::kLinkLost, stream_.name() + ": no frame from the board for " +
+                                                      std::to_string(options_.frame_timeout_ms) + " ms");
+    }
+    try {
+      stream_.wait_readable(static_cast<int>(std::min<long long>(left, 100)));
+    } catch (const std::system_error& error) {
+      throw LinkError(LinkError::Kind::kLinkLost, std::string("link: ") + error.what());
+    }
+  }
+}
+
+TelemetryPayload LinkSession::next_telemetry() {
+  while (unread_telemetry_.empty()) receive_frames();
+  const TelemetryPayload telemetry = unread_telemetry_.front();
+  unread_telemetry_.erase(unread_telemetry_.begin());
+  return telemetry;
+}
+
+IdentifyPayload LinkSession::identify() {
+  unread_identify_.clear();
+  send_frame(make_identify_request(sequence_++));
+  // The reply comes within a frame time after the telemetry frame on the line; allow a few.
+  for (int frames = 0; unread_identify_.empty(); ++frames) {
+    if (frames > options_.command_timeout_frames) {
+      throw LinkError(LinkError::Kind::kLinkLost, stream_.name() + ": no identify reply from the board");
+    }
+    receive_frames();
+  }
+  const IdentifyPayload identify = unread_identify_.front();
+  unread_identify_.clear();
+  if (identify.protocol_version != board::kProtocolVersion) {
+    throw LinkError(LinkError::Kind::kProtocol, stream_.name() + ": the board speaks link protocol " +
+                                                    std::to_string(identify.protocol_version) + ", this host " +
+                                                    std::to_string(board::kProtocolVersion));
+  }
+  return identify;
+}
+
+TelemetryPayload LinkSession::command(Command command, const std::function<bool(const TelemetryPayload&)>& done) {
+  // The baseline: the newest frame the board sent before this command.
+  while (!unread_telemetry_.empty()) next_telemetry();
+  if (!last_telemetry_) next_telemetry();
+  const TelemetryPayload before = *last_telemetry_;
+  send_frame(make_frame(sequence_++, command));
+  ++statistics_.commands_sent;
+  for (int frames = 0; frames < options_.command_timeout_frames; ++frames) {
+    const TelemetryPayload t = next_telemetry();
+    if (done(t)) return t;
+    if (t.rejected != before.rejected) {
+      throw LinkError(LinkError::Kind::kRefused, stream_.name() + ": the board refused command " +
+                                                     std::to_string(static_cast<int>(command)) + " (" +
+                                                     describe_state(t) + ")");
+    }
+  }
+  throw LinkError(LinkError::Kind::kLinkLost,
+                  stream_.name() + ": command " + std::to_string(static_cast<int>(command)) + " had no effect in " +
+                      std::to_string(options_.command_timeout_frames) + " telemetry frames");
+}
+
+TelemetryPayload LinkSession::set_home() {
+  return command(Command::kSetHome, [](const TelemetryPayload& t) { return t.has(TelemetryFlag::kHomed); });
+}
+
+TelemetryPayload LinkSession::enable() {
+  const TelemetryPayload t = command(Command::kEnable, [this](const TelemetryPayload& frame) {
+    if (frame.has(TelemetryFlag::kFault)) {
+      throw LinkError(LinkError::Kind::kFault, stream_.name() + ": enable: " + describe_state(frame));
+    }
+    return drives_on(frame) && !frame.has(TelemetryFlag::kHolding);
+  });
+  return t;
+}
+
+TelemetryPayload LinkSession::hold() {
+  return command(Command::kHold, [](const TelemetryPayload& t) { return t.has(TelemetryFlag::kHolding); });
+}
+
+TelemetryPayload LinkSession::disable() {
+  return command(Command::kDisable, [](const TelemetryPayload& t) { return !drives_on(t); });
+}
+
+TelemetryPayload LinkSession::clear_fault() {
+  return command(Command::kClearFault, [](const TelemetryPayload& t) { return !t.has(TelemetryFlag::kFault); });
+}
+
+StreamReport LinkSession::stream(std::size_t samples, const SetpointSource& source, const TelemetryObserver& observer) {
+  StreamReport report;
+  report.samples = samples;
+  while (!unread_telemetry_.empty()) next_telemetry();
+  if (!last_telemetry_) next_telemetry();
+  TelemetryPayload t = *last_telemetry_;
+  const std::int64_t first = static_cast<std::int64_t>(t.sample_index) + t.fill;
+  const std::int64_t end = first + static_cast<std::int64_t>(samples);
+  report.first_index = static_cast<std::uint32_t>(first);
+  std::int64_t next = first;  // the next sample index to send
+  std::vector<std::uint64_t> sent_at_frame(samples, 0);
+  std::uint64_t frame = 0;
+  bool first_played = false;
+
+  auto send_some = [&](const TelemetryPayload& now) {
+    const std::int64_t playing = now.sample_index;
+    const std::int64_t board_next = playing + now.fill;
+    // A sample sent long enough ago that the board still has not taken: lost; send again from there.
+    if (board_next < next && board_next >= first && board_next < end &&
+        frame - sent_at_frame[static_cast<std::size_t>(board_next - first)] >= options_.resend_after_frames) {
+      statistics_.setpoints_resent += static_cast<std::uint64_t>(next - board_next);
+      next = board_next;
+    }
+    for (std::uint32_t budget = options_.max_setpoints_per_frame;
+         budget > 0 && next < end && next - playing < static_cast<std::int64_t>(options_.target_fill); --budget) {
+      const std::size_t k = static_cast<std::size_t>(next - first);
+      const std::int64_t reach_tick = static_cast<std::int64_t>(now.tick) + kTicksPerSetpoint * (next - playing + 2);
+      if (report.first_reach_tick < 0) report.first_reach_tick = reach_tick;
+      SetpointPayload setpoint;
+      setpoint.sample_index = static_cast<std::uint32_t>(next);
+      setpoint.position_code = source(k, reach_tick);
+      send_frame(make_frame(sequence_++, setpoint));
+      ++statistics_.setpoints_sent;
+      sent_at_frame[k] = frame;
+      ++next;
+    }
+  };
+
+  if (samples == 0) return report;
+  send_some(t);
+  for (;;) {
+    t = next_telemetry();
+    ++frame;
+    ++report.telemetry_frames;
+    const std::int64_t played = std::clamp<std::int64_t>(static_cast<std::int64_t>(t.sample_index) - first, 0,
+                                                         static_cast<std::int64_t>(samples));
+    report.played = static_cast<std::size_t>(played);
+    if (!first_played && played > 0) {
+      first_played = true;
+      report.underruns_at_first_play = t.underruns;
+    }
+    if (t.has(TelemetryFlag::kFault)) {
+      report.outcome = StreamReport::Outcome::kFault;
+      report.fault_cause = t.fault_cause;
+      return report;
+    }
+    if (observer && !observer(t)) {
+      report.outcome = StreamReport::Outcome::kStopped;
+      return report;
+    }
+    if (played == static_cast<std::int64_t>(samples)) {
+      report.underruns_at_last_play = t.underruns;
+      return report;
+    }
+    send_some(t);
+  }
+}
+
+std::string describe_fault(std::uint8_t fault_cause) {
+  std::string out;
+  auto add = [&out](const char* what) { out += (out.empty() ? "" : ", ") + std::string(what); };
+  if (fault_cause & mask(FaultCause::kEncoderSkip)) add("encoder skipped a state");
+  if (fault_cause & mask(FaultCause::kFollowing)) add("following error");
+  if (fault_cause & mask(FaultCause::kWatchdog)) add("watchdog (no valid frame for 50 ms)");
+  if (fault_cause & mask(FaultCause::kTravel)) add("reference outside the travel");
+  return out.empty() ? "none" : out;
+}
+
+std::string describe_state(const TelemetryPayload& t) {
+  std::string out = t.has(TelemetryFlag::kDriveEnable) ? "drives on" : "drives off";
+  out += t.has(TelemetryFlag::kHomed) ? ", homed" : ", not homed";
+  if (t.has(TelemetryFlag::kHolding)) out += ", holding";
+  if (t.has(TelemetryFlag::kEncoderError)) out += ", encoder error seen";
+  if (t.has(TelemetryFlag::kFault)) out += "; fault: " + describe_fault(t.fault_cause);
+  return out;
+}
+
+}  // namespace delta::link

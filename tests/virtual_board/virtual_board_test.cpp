@@ -1,0 +1,189 @@
+// `deltactl virtual-board` with the host's link session over its pseudo-terminal: the session
+// opens PATH as a serial port (io::SerialPort), identifies the board, homes, enables, streams a
+// short trajectory paced by telemetry, holds and disables; and the command's refusals.
+#include <gtest/gtest.h>
+#include <poll.h>
+#include <signal.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <iostream>
+#include <string>
+
+#include "../support/run_command.hpp"
+#include "delta/board_facts.hpp"
+#include "delta/cosim/board_cosim.hpp"
+#include "delta/gateware.hpp"
+#include "delta/golden/export.hpp"
+#include "delta/golden/fixed_network.hpp"
+#include "delta/io/serial_port.hpp"
+#include "delta/link/session.hpp"
+#include "delta/nn/weights_file.hpp"
+
+namespace delta::test {
+namespace {
+
+const std::string kWeights = std::string(DELTA_SOURCE_DIR) + "/weights/paper_like.json";
+
+// deltactl virtual-board as a child process; its first stdout line is the ready line.
+class VirtualBoardProcess {
+ public:
+  explicit VirtualBoardProcess(const std::string& link) {
+    int out[2];
+    if (::pipe(out) != 0) throw std::runtime_error("pipe");
+    pid_ = ::fork();
+    if (pid_ == 0) {
+      ::dup2(out[1], 1);
+      ::close(out[0]);
+      ::close(out[1]);
+      ::execl(DELTACTL_PATH, DELTACTL_PATH, "virtual-board", "--link", link.c_str(), "--weights", kWeights.c_str(),
+              static_cast<char*>(nullptr));
+      ::_exit(127);
+    }
+    ::close(out[1]);
+    out_ = out[0];
+  }
+  ~VirtualBoardProcess() {
+    if (pid_ > 0 && !exited_) {
+      ::kill(pid_, SIGKILL);
+      ::waitpid(pid_, nullptr, 0);
+    }
+    ::close(out_);
+  }
+  // The first line on stdout, within timeout_ms ("" if none).
+  std::string ready_line(int timeout_ms) {
+    std::string line;
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(timeout_ms);
+    while (std::chrono::steady_clock::now() < deadline) {
+      pollfd p{out_, POLLIN, 0};
+      if (::poll(&p, 1, 100) <= 0) continue;
+      char c = 0;
+      if (::read(out_, &c, 1) != 1) break;
+      if (c == '\n') return line;
+      line += c;
+    }
+    return "";
+  }
+  // SIGTERM, then the exit code (-1: killed by a signal or no exit within 30 s).
+  int terminate() {
+    ::kill(pid_, SIGTERM);
+    for (int i = 0; i < 300; ++i) {
+      int status = 0;
+      if (::waitpid(pid_, &status, WNOHANG) == pid_) {
+        exited_ = true;
+        return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+      }
+      ::usleep(100'000);
+    }
+    return -1;
+  }
+
+ private:
+  pid_t pid_ = -1;
+  int out_ = -1;
+  bool exited_ = false;
+};
+
+// 0.2 s of a 2 mm circle around where the plate starts, streamed over the pty: every sample is
+// played, no underrun once playing, no frame lost or bad on the clean line, drives off at the end.
+TEST(VirtualBoard, SessionOverThePseudoTerminalStreamsAShortTrajectory) {
+  const std::string dir = ::testing::TempDir() + "virtual_board_session_" + std::to_string(::getpid());
+  std::filesystem::create_directories(dir);
+  const std::string link = dir + "/tty";
+  VirtualBoardProcess board(link);
+  const std::string ready = board.ready_line(60'000);
+  ASSERT_NE(ready.find(link), std::string::npos) << "ready line: '" << ready << "'";
+
+  const golden::QuantisedNetwork network = golden::quantise(nn::read_weights_file(kWeights).network);
+  const auto start = std::chrono::steady_clock::now();
+  {
+    io::SerialPort port(link, static_cast<int>(board::kLinkBaud));
+    link::SessionOptions options;
+    options.frame_timeout_ms = 5000;  // the simulation runs at about a tenth of real time
+    link::LinkSession session(port, options);
+    const link::IdentifyPayload identify = session.identify();
+    EXPECT_EQ(identify.protocol_version, board::kProtocolVersion);
+    EXPECT_EQ(identify.setpoint_depth, board::kSetpointDepth);
+    EXPECT_EQ(identify.build_id, kGatewareBuildId);
+    EXPECT_EQ(identify.weights_crc, weights_crc(network));
+
+    EXPECT_TRUE(session.set_home().has(link::TelemetryFlag::kHomed));
+    const link::TelemetryPayload enabled = session.enable();
+    ASSERT_TRUE(enabled.has(link::TelemetryFlag::kDriveEnable));
+    Vec3 counts_deg;
+    for (int j = 0; j < 3; ++j) counts_deg[j] = enabled.counts[j] * 0.01;
+    const Vec3 centre = cosim::locate_plate(network, Geometry::nominal(), counts_deg);
+    const std::int64_t t0_tick = static_cast<std::int64_t>(enabled.tick) + 2 * link::kTicksPerSetpoint;
+
+    constexpr std::size_t kSamples = 200;
+    std::size_t asked = 0;
+    const link::StreamReport report = session.stream(kSamples, [&](std::size_t, std::int64_t reach_tick) {
+      ++asked;
+      const double tau = (reach_tick - t0_tick) * link::kTickSeconds;
+      const double s = tau / 0.2;  // one turn, radius growing from 0 to 1 mm
+      const Vec3 p = centre + Vec3(1e-3 * s * std::cos(2 * M_PI * s), 1e-3 * s * std::sin(2 * M_PI * s), 0.0);
+      const auto codes = golden::encode_position(network.formats, p);
+      return std::array<std::int32_t, 3>{static_cast<std::int32_t>(codes[0]), static_cast<std::int32_t>(codes[1]),
+                                         static_cast<std::int32_t>(codes[2])};
+    });
+    const link::TelemetryPayload held = session.hold();
+    const link::TelemetryPayload disabled = session.disable();
+    const link::LinkStatistics& stats = session.statistics();
+    std::cout << "played " << report.played << " of " << kSamples << " from index " << report.first_index
+              << "; underruns " << report.underruns_at_first_play << " at the first play, "
+              << report.underruns_at_last_play << " at the last; telemetry " << stats.telemetry_frames << " (lost "
+              << stats.lost_telemetry << ", skipped " << stats.skipped_telemetry << "); setpoints sent "
+              << stats.setpoints_sent << " (resent " << stats.setpoints_resent << "); "
+              << link::describe_state(disabled) << '\n';
+
+    EXPECT_EQ(report.outcome, link::StreamReport::Outcome::kCompleted);
+    EXPECT_EQ(report.played, kSamples);
+    EXPECT_EQ(asked, kSamples);
+    EXPECT_EQ(held.sample_index, report.first_index + kSamples);               // the board played them all
+    EXPECT_EQ(report.underruns_at_last_play, report.underruns_at_first_play);  // none once playing
+    EXPECT_TRUE(held.has(link::TelemetryFlag::kHolding));
+    EXPECT_FALSE(disabled.has(link::TelemetryFlag::kDriveEnable));
+    EXPECT_EQ(disabled.fault_cause, 0);
+    EXPECT_EQ(disabled.bad_frames, 0);
+    EXPECT_EQ(disabled.rejected, 0);
+    EXPECT_EQ(stats.setpoints_resent, 0u);
+    EXPECT_EQ(stats.lost_telemetry, 0u);
+    EXPECT_EQ(stats.decoder.bad_crc + stats.decoder.bad_length + stats.decoder.unknown_type, 0u);
+    EXPECT_GE(stats.telemetry_frames, kSamples);
+  }
+  std::cout << "session over the pty: "
+            << std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() << " s wall\n";
+  EXPECT_EQ(board.terminate(), 0);
+  EXPECT_FALSE(std::filesystem::exists(std::filesystem::symlink_status(link)));
+  std::filesystem::remove_all(dir);
+}
+
+TEST(VirtualBoard, RefusesTheModelFidelityAndAPathThatIsNotALink) {
+  const std::string dir = ::testing::TempDir() + "virtual_board_refuse_" + std::to_string(::getpid());
+  std::filesystem::create_directories(dir);
+  const CommandResult model = run_deltactl("virtual-board --link " + dir + "/tty --fidelity model");
+  EXPECT_EQ(model.exit_code, 2) << model.err;
+  EXPECT_NE(model.err.find("issue 16"), std::string::npos) << model.err;
+  EXPECT_EQ(std::count(model.err.begin(), model.err.end(), '\n'), 1) << model.err;
+  EXPECT_FALSE(std::filesystem::exists(std::filesystem::symlink_status(dir + "/tty")));
+
+  const std::string file = dir + "/file";
+  write_text(file, "keep me\n");
+  const CommandResult taken = run_deltactl("virtual-board --link " + file);
+  EXPECT_EQ(taken.exit_code, 2) << taken.err;
+  EXPECT_NE(taken.err.find(file), std::string::npos) << taken.err;
+  EXPECT_EQ(read_text(file), "keep me\n");
+
+  const CommandResult effects = run_deltactl("virtual-board --link " + dir + "/tty --effects " + dir + "/none.json");
+  EXPECT_EQ(effects.exit_code, 2) << effects.err;
+  EXPECT_NE(effects.err.find("none.json"), std::string::npos) << effects.err;
+  EXPECT_FALSE(std::filesystem::exists(std::filesystem::symlink_status(dir + "/tty")));
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace delta::test
