@@ -26,8 +26,7 @@ add_test(NAME rtl_network_systemc COMMAND rtl_network_systemc_test)
 set_tests_properties(rtl_network_systemc PROPERTIES LABELS rtl PASS_REGULAR_EXPRESSION "PASS")
 
 delta_add_gtest(rtl_board_tests
-  SOURCES ${CMAKE_CURRENT_LIST_DIR}/rtl/test_board_uart.cpp ${CMAKE_CURRENT_LIST_DIR}/rtl/test_network_crossing.cpp
-          ${CMAKE_CURRENT_LIST_DIR}/rtl/test_board_facts.cpp
+  SOURCES ${CMAKE_CURRENT_LIST_DIR}/rtl/test_network_crossing.cpp ${CMAKE_CURRENT_LIST_DIR}/rtl/test_board_facts.cpp
   LIBRARIES delta::rtl_board delta::golden delta::control
   LABELS rtl)
 target_include_directories(rtl_board_tests PRIVATE ${CMAKE_CURRENT_LIST_DIR}/rtl)

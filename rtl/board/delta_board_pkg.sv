@@ -126,9 +126,4 @@ package delta_board_pkg;
   // ---- status LEDs ----
   localparam int LedWindowBits /*verilator public*/ = 11;  // LED windows: 2^11 control periods (0.2 s)
 
-  // ---- the Verilated test build (rtl/CMakeLists.txt: Vboard_core for tests and deltactl cosim) ----
-  // A 20 MHz board clock in simulated time and a 5 Mbaud link, so tests run fast.
-  localparam int SimClocksPerPeriod /*verilator public*/ = 2_000;
-  localparam int SimClocksPerBit /*verilator public*/ = 4;
-
 endpackage
