@@ -10,8 +10,10 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <sstream>
 #include <string>
 
 #include "../support/run_command.hpp"
@@ -32,7 +34,7 @@ const std::string kWeights = std::string(DELTA_SOURCE_DIR) + "/weights/paper_lik
 // deltactl virtual-board as a child process; its first stdout line is the ready line.
 class VirtualBoardProcess {
  public:
-  explicit VirtualBoardProcess(const std::string& link) {
+  VirtualBoardProcess(const std::string& link, const std::string& truth) {
     int out[2];
     if (::pipe(out) != 0) throw std::runtime_error("pipe");
     pid_ = ::fork();
@@ -41,7 +43,7 @@ class VirtualBoardProcess {
       ::close(out[0]);
       ::close(out[1]);
       ::execl(DELTACTL_PATH, DELTACTL_PATH, "virtual-board", "--link", link.c_str(), "--weights", kWeights.c_str(),
-              static_cast<char*>(nullptr));
+              "--truth", truth.c_str(), static_cast<char*>(nullptr));
       ::_exit(127);
     }
     ::close(out[1]);
@@ -94,7 +96,8 @@ TEST(VirtualBoard, SessionOverThePseudoTerminalStreamsAShortTrajectory) {
   const std::string dir = ::testing::TempDir() + "virtual_board_session_" + std::to_string(::getpid());
   std::filesystem::create_directories(dir);
   const std::string link = dir + "/tty";
-  VirtualBoardProcess board(link);
+  const std::string truth = dir + "/truth.csv";
+  VirtualBoardProcess board(link, truth);
   const std::string ready = board.ready_line(60'000);
   ASSERT_NE(ready.find(link), std::string::npos) << "ready line: '" << ready << "'";
 
@@ -159,6 +162,33 @@ TEST(VirtualBoard, SessionOverThePseudoTerminalStreamsAShortTrajectory) {
             << std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() << " s wall\n";
   EXPECT_EQ(board.terminate(), 0);
   EXPECT_FALSE(std::filesystem::exists(std::filesystem::symlink_status(link)));
+
+  // TRUTH.csv, complete on exit: the SPEC columns at 1 kHz of board time, the drives on while
+  // streaming and off at the end, the plate near the nominal home (71.3 mm below the base).
+  std::istringstream rows(read_text(truth));
+  std::string line;
+  ASSERT_TRUE(std::getline(rows, line));
+  EXPECT_EQ(line.rfind("t_s,x_m,y_m,z_m,true_alpha1_deg,true_alpha2_deg,true_alpha3_deg,drives_enabled", 0), 0u)
+      << line;
+  std::size_t count = 0, enabled = 0;
+  double last_t = -1.0, z = 0.0;
+  bool last_enabled = true;
+  while (std::getline(rows, line)) {
+    double t = 0, x = 0, y = 0, a1 = 0, a2 = 0, a3 = 0;
+    int on = 0;
+    ASSERT_EQ(std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf,%lf,%lf,%lf,%d", &t, &x, &y, &z, &a1, &a2, &a3, &on), 8)
+        << line;
+    if (count > 0) EXPECT_NEAR(t - last_t, 1e-3, 1e-9) << line;
+    last_t = t;
+    last_enabled = on != 0;
+    enabled += on;
+    ++count;
+  }
+  std::cout << "truth: " << count << " rows, drives on in " << enabled << "\n";
+  EXPECT_GE(enabled, 200u);
+  EXPECT_GT(count, enabled);
+  EXPECT_FALSE(last_enabled);
+  EXPECT_NEAR(z, -71.3e-3, 2e-3);
   std::filesystem::remove_all(dir);
 }
 
