@@ -166,10 +166,10 @@ constexpr Field kTelemetrySlewLimits = field<std::uint16_t>(board::kTelemetrySle
 constexpr Field kTelemetrySequence = field<std::uint8_t>(board::kTelemetrySequenceOffset);
 constexpr Field kTelemetryRejected = field<std::uint16_t>(board::kTelemetryRejectedOffset);
 constexpr Field kTelemetryReserved = field<std::uint8_t>(board::kTelemetryReservedOffset);
-constexpr Field kTelemetry[] = {kTelemetrySampleIndex, kTelemetryTick,        kTelemetryReferences, kTelemetryCounts,
-                                kTelemetryCurrents,    kTelemetryFault,       kTelemetryFlags,      kTelemetryFill,
-                                kTelemetryBadFrames,   kTelemetryUnderruns,   kTelemetrySaturations, kTelemetrySlewLimits,
-                                kTelemetryRejected,    kTelemetrySequence,    kTelemetryReserved};
+constexpr Field kTelemetry[] = {kTelemetrySampleIndex, kTelemetryTick,      kTelemetryReferences,  kTelemetryCounts,
+                                kTelemetryCurrents,    kTelemetryFault,     kTelemetryFlags,       kTelemetryFill,
+                                kTelemetryBadFrames,   kTelemetryUnderruns, kTelemetrySaturations, kTelemetrySlewLimits,
+                                kTelemetryRejected,    kTelemetrySequence,  kTelemetryReserved};
 
 // True when the fields, in the order listed, start at 0, each begins where the previous ends, and
 // the last ends at `payload_bytes`: an exact tiling.
