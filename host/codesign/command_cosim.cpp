@@ -10,12 +10,9 @@
 
 #include "delta/command.hpp"
 #include "delta/cosim/board_cosim.hpp"
-#include "delta/effect_file.hpp"
+#include "delta/cosim/board_inputs.hpp"
 #include "delta/golden/export.hpp"
 #include "delta/golden/fixed_network.hpp"
-#include "delta/input_error.hpp"
-#include "delta/kinematics.hpp"
-#include "delta/nn/weights_file.hpp"
 #include "delta/options.hpp"
 #include "delta/output_file.hpp"
 #include "delta/plot.hpp"
@@ -94,25 +91,8 @@ void run_cosim_command(const CosimCommandOptions& options, const std::string& co
     std::cerr << "deltactl: error: --duration must be > 0, --blend and --settle >= 0\n";
     throw CommandExit{kExitBadInput};
   }
-  const nn::WeightsFile weights = nn::read_weights_file(options.weights);
-  if (weights.hybrid()) {
-    throw InputError(options.weights, 0, "is a hybrid model; the board runs the network alone (train --model network)");
-  }
-  if (weights.network.hidden() != 25) {
-    throw InputError(options.weights, 0,
-                     "has " + std::to_string(weights.network.hidden()) + " hidden neurons; the RTL is built for 25");
-  }
-  golden::QuantisedNetwork quantised;
-  try {
-    quantised = golden::quantise(weights.network);
-  } catch (const std::invalid_argument& error) {
-    throw InputError(options.weights, 0, std::string("cannot be quantised: ") + error.what());
-  }
-  const EffectSet effects = options.effects.empty() ? EffectSet{} : read_effect_file(options.effects);
-  if (!options.effects.empty() &&
-      !forward_kinematics(apply_geometry_effects(Geometry::nominal(), effects), Vec3::Constant(30.0)).ok()) {
-    throw InputError(options.effects, 0, "the robot of these effects cannot be assembled at its home pose (30 deg)");
-  }
+  const golden::QuantisedNetwork quantised = read_board_network(options.weights);
+  const EffectSet effects = read_board_effects(options.effects);
   Trajectory trajectory;
   try {
     trajectory = make_trajectory(options.trajectory, options.seed);

@@ -15,15 +15,13 @@
 #include <CLI/CLI.hpp>
 
 #include "delta/command.hpp"
+#include "delta/cosim/board_inputs.hpp"
 #include "delta/cosim/virtual_board.hpp"
-#include "delta/effect_file.hpp"
 #include "delta/gateware.hpp"
 #include "delta/golden/export.hpp"
 #include "delta/golden/fixed_network.hpp"
 #include "delta/input_error.hpp"
 #include "delta/io/pseudo_terminal.hpp"
-#include "delta/kinematics.hpp"
-#include "delta/nn/weights_file.hpp"
 #include "delta/output_file.hpp"
 #include "delta/table.hpp"
 #include "delta/temporary_directory.hpp"
@@ -66,24 +64,8 @@ void run_virtual_board(const VirtualBoardCommandOptions& options) {
     throw CommandExit{kExitBadInput};
   }
   // Everything is checked before PATH or TRUTH appear.
-  const nn::WeightsFile weights = nn::read_weights_file(options.weights);
-  if (weights.hybrid()) {
-    throw InputError(options.weights, 0, "is a hybrid model; the board runs the network alone (train --model network)");
-  }
-  if (weights.network.hidden() != 25) {
-    throw InputError(options.weights, 0,
-                     "has " + std::to_string(weights.network.hidden()) + " hidden neurons; the RTL is built for 25");
-  }
-  golden::QuantisedNetwork quantised;
-  try {
-    quantised = golden::quantise(weights.network);
-  } catch (const std::invalid_argument& error) {
-    throw InputError(options.weights, 0, std::string("cannot be quantised: ") + error.what());
-  }
-  const EffectSet effects = options.effects.empty() ? EffectSet{} : read_effect_file(options.effects);
-  if (!forward_kinematics(apply_geometry_effects(Geometry::nominal(), effects), Vec3::Constant(30.0)).ok()) {
-    throw InputError(options.effects, 0, "the robot of these effects cannot be assembled at its home pose (30 deg)");
-  }
+  const golden::QuantisedNetwork quantised = read_board_network(options.weights);
+  const EffectSet effects = read_board_effects(options.effects);
 
   const TemporaryDirectory mem("deltactl_virtual_board");  // the network's .mem files and identify.mem
   golden::write_export(quantised, mem.path());
