@@ -15,18 +15,7 @@ package delta_board_pkg;
   localparam int ControlRateHz /*verilator public*/ = 10_000;  // joint control period: 100 us
   localparam int ClocksPerPeriod /*verilator public*/ = 2_325;  // BoardClockHz / ControlRateHz
 
-  // ---- host link (8N1 UART) ----
-  localparam int UartBaud /*verilator public*/ = 115_200;
-  localparam int ClocksPerBit /*verilator public*/ = 202;  // round(BoardClockHz / UartBaud): 115,099 baud, -0.09 %
-
-  // Frames of the present link (network_uart_link.sv; host side: host/include/delta/link_v1.hpp).
-  localparam int LinkRequestSync /*verilator public*/ = 32'hA5;  // host -> board: sync, 3 x 4 code bytes, checksum
-  localparam int LinkAnswerSync /*verilator public*/ = 32'h5A;  // board -> host: sync, 3 x 3 code bytes, checksum
-  localparam int LinkNak /*verilator public*/ = 32'h15;  // board -> host: bad checksum or a code that does not fit
-  localparam int LinkRequestCodeBytes /*verilator public*/ = 4;  // per input code (32-bit raw position)
-  localparam int LinkAnswerCodeBytes /*verilator public*/ = 3;  // per output code (24-bit raw angle)
-
-  // ---- link v2 (issue 12): the one description of the frames is docs/board_link.md; every number
+  // ---- host link v2, 8N1 UART (issue 12): the one description of the frames is docs/board_link.md; every number
   // it uses is here. RTL: rtl/board/link_*.sv; C++ codec: host/include/delta/link/*.hpp.
   // A frame is sync, length (payload bytes), sequence, type, payload, CRC-16 (high byte first) over
   // length..payload; CRC-16/CCITT-FALSE: polynomial 0x1021, initial value 0xFFFF.

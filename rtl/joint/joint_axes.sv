@@ -109,12 +109,19 @@ module joint_axes #(
   );
 
   // ---- controller -----------------------------------------------------------------------------
+  // With the drives off the controller still runs (the telemetry reads its reference, count and
+  // current) but restarts from rest every period: a one-cycle reset in the period's last cycle
+  // (it is idle then). No state winds up while no current flows, and the period the drives come
+  // on starts from rest at its own input (reference = encoder): no jump at enable.
+  logic controller_reset;
+  assign controller_reset = !rst_ni || (!enabled_i && tick_q == TickWidth'(ClocksPerPeriod - 1));
+
   logic [47:0] currents;
   logic [2:0]  current_valid, limited;
 
   joint_controller u_controller (
     .ap_clk          (clk_i),
-    .ap_rst          (!rst_ni),
+    .ap_rst          (controller_reset),
     .ap_start        (start_q),
     .ap_done,
     .ap_idle,

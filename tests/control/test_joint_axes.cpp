@@ -70,6 +70,7 @@ TEST(JointAxes, EncoderCountsReferencesAndPwmFollowTheGoldenController) {
   const std::array<double, 3> target_deg{30.5, 29.2, 30.03};  // references sent at period 20
   std::array<JointFixedState, 3> golden;
   bool referenced = false;  // the drives are enabled from period 20 on
+  bool enabled_before = false;  // in the period before this one
   int largest_duty = 0;
   for (int period = 0; period < 300; ++period) {
     std::array<int, 3> moves;
@@ -83,7 +84,8 @@ TEST(JointAxes, EncoderCountsReferencesAndPwmFollowTheGoldenController) {
       // What the board's interpolator presents for this period: the reference, or with the
       // drives off the encoder count.
       top.references_i[j] = static_cast<std::uint32_t>(input.reference);
-      if (period == 0) golden[j] = fixed_rest_state(input);
+      // With the drives off the controller restarts from rest every period (joint_axes.sv).
+      if (period == 0 || !enabled_before) golden[j] = fixed_rest_state(input);
       JointFixedStatus status;
       expected_current[j] = fixed_update(coefficients, golden[j], input, status);
     }
@@ -119,6 +121,7 @@ TEST(JointAxes, EncoderCountsReferencesAndPwmFollowTheGoldenController) {
       ASSERT_EQ(high[j], duty) << "period " << period << " joint " << j << " current " << expected_current[j];
       largest_duty = std::max(largest_duty, duty);
     }
+    enabled_before = referenced;
     if (period == 19) referenced = true;
     ASSERT_EQ(top.encoder_error_o, 0);
     ASSERT_EQ(top.overflow_count_o, 0);

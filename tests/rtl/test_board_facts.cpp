@@ -61,9 +61,12 @@ TEST(BoardFacts, DerivedFactsAreConsistent) {
   EXPECT_EQ(kBoardClockHz * 2, kNetworkClockHz) << "the board clock is the PLL's GENCLK_HALF";
   EXPECT_EQ(kClocksPerPeriod, kBoardClockHz / kControlRateHz);
   EXPECT_EQ(kBoardClockHz % kControlRateHz, 0) << "the control period must be a whole number of cycles";
-  EXPECT_EQ(kClocksPerBit, std::llround(static_cast<double>(kBoardClockHz) / kUartBaud));
-  EXPECT_LT(std::abs(static_cast<double>(kBoardClockHz) / kClocksPerBit / kUartBaud - 1.0), 0.015)
+  EXPECT_EQ(kLinkClocksPerBit, std::llround(static_cast<double>(kBoardClockHz) / kLinkBaud));
+  EXPECT_LT(std::abs(static_cast<double>(kBoardClockHz) / kLinkClocksPerBit / kLinkBaud - 1.0), 0.015)
       << "UART rate error above 1.5 %";
+  EXPECT_GE(kLinkBaud, 1'000'000) << "issue 12: 1 Mbaud or more";
+  EXPECT_EQ(3'000'000 % kLinkBaud, 0) << "the FT2232H makes 3 MHz / n exactly";
+  EXPECT_EQ(kControlRateHz, kSetpointRateHz * kPeriodsPerSetpoint);
   EXPECT_EQ(kPwmPeriodCycles, 1LL << kPwmBits);
   EXPECT_EQ(kFaultCauseBits, 4);
   for (long long bit : {kFaultEncoderSkip, kFaultFollowing, kFaultWatchdog, kFaultTravel}) {

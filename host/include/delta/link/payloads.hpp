@@ -97,7 +97,7 @@ struct TelemetryPayload {
 };
 
 // Encoding: exactly the type's payload size (board::k*PayloadBytes). A value that does not fit a
-// field narrower than its C++ type (the telemetry references, i24) throws std::invalid_argument.
+// field narrower than its C++ type throws std::invalid_argument (no field is narrower today).
 std::vector<std::uint8_t> encode(const SetpointPayload& payload);
 std::vector<std::uint8_t> encode(Command command);
 std::vector<std::uint8_t> encode(const IdentifyPayload& payload);
@@ -123,7 +123,7 @@ namespace layout {
 
 struct Field {
   std::size_t offset;         // from the package
-  std::size_t element_bytes;  // on the wire: sizeof the C++ element type, or fewer (i24 in an int32_t)
+  std::size_t element_bytes;  // on the wire: sizeof the C++ element type, or fewer (a narrower integer)
   std::size_t count;          // elements (3 for the per-joint arrays)
   constexpr std::size_t end() const { return offset + element_bytes * count; }
 };
