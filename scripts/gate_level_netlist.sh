@@ -21,8 +21,15 @@ while (($#)); do
 done
 [[ -n $top && -n $out && ${#sources[@]} -gt 0 ]] || { echo "gate_level_netlist: need --top, --out and sources" >&2; exit 2; }
 
+# Every source's directory is an include directory of every source (rtl/board includes the
+# network's readmemh_load.svh).
+includes=""
+for source in "${sources[@]}"; do
+  dir="-I$(dirname "$(realpath "$source")")"
+  [[ " $includes " == *" $dir "* ]] || includes+=" $dir"
+done
 script=""
-for source in "${sources[@]}"; do script+="read_verilog -defer -sv -I$(dirname "$(realpath "$source")") $(realpath "$source"); "; done
+for source in "${sources[@]}"; do script+="read_verilog -defer -sv$includes $(realpath "$source"); "; done
 for param in "${params[@]}"; do script+="chparam -set ${param%%=*} ${param#*=} $top; "; done
 script+="synth_ice40 -dsp -top $top; write_verilog -noattr $out.tmp"
 log="$out.yosys.log"

@@ -38,6 +38,13 @@ delta_add_gtest(rtl_board_link_tests
   LABELS rtl link)
 target_include_directories(rtl_board_link_tests PRIVATE ${CMAKE_CURRENT_LIST_DIR}/rtl)
 
+# The board core's gate-level netlist in lockstep with its RTL over the link.
+delta_add_gtest(rtl_board_gate_tests
+  SOURCES ${CMAKE_CURRENT_LIST_DIR}/rtl/test_board_gate_level.cpp
+  LIBRARIES delta::rtl_board delta_board_gate_model delta::golden delta::host delta::gateware
+  LABELS rtl gate link)
+target_include_directories(rtl_board_gate_tests PRIVATE ${CMAKE_CURRENT_LIST_DIR}/rtl)
+
 delta_add_gtest(rtl_cosim_tests
   SOURCES ${CMAKE_CURRENT_LIST_DIR}/rtl/test_cosim.cpp
   LIBRARIES delta::board_cosim delta::golden delta::nn delta::host
