@@ -29,7 +29,7 @@ Vec3 Path::at(double tau_s, std::size_t* line) const {
   const auto i = std::min(static_cast<std::size_t>(u), samples.size() - 1);
   const std::size_t j = std::min(i + 1, samples.size() - 1);
   const double s = std::clamp(u - static_cast<double>(i), 0.0, 1.0);
-  if (line) *line = s < 0.5 ? samples[i].source_line : samples[j].source_line;
+  if (line) *line = s > 0.0 ? samples[j].source_line : samples[i].source_line;  // moving towards j
   return (1.0 - s) * samples[i].position_m + s * samples[j].position_m;
 }
 
