@@ -373,7 +373,7 @@ TEST(HostRun, OnePercentOfTheBytesCorruptedCompletesAndNoCorruptedReferenceReach
   EXPECT_EQ(reference_mismatches(out, network, &checked), 0u);
   std::cout << checked << " telemetry frames: the board's joint references equal the golden answers to the "
             << "positions sent\n";
-  EXPECT_GT(checked, 500u);
+  EXPECT_GT(checked, 300u);  // 42 % of the 54-byte telemetry frames are lost at 1 % per byte
   std::filesystem::remove_all(bench.dir);
 }
 
@@ -381,10 +381,13 @@ TEST(HostRun, EncoderSkipExitsThreeNamingTheCause) {
   Bench bench("skip", {"--inject-encoder-skip-at", "0.7"});
   HostProcess host(bench.run_arguments(bench.link, 3.0), bench.dir + "/host");
   const int code = host.wait(600);
-  std::cout << host.out() << host.err();
+  const std::string err = host.err();
+  std::cout << host.out() << err;
   EXPECT_EQ(code, 3);
-  EXPECT_NE(host.err().find("encoder skipped a state"), std::string::npos);
-  EXPECT_EQ(std::count(host.err().begin(), host.err().end(), '\n') >= 1, true);
+  const std::size_t at = err.find("deltactl: error: ");
+  ASSERT_NE(at, std::string::npos) << err;
+  const std::string line = err.substr(at, err.find('\n', at) - at);
+  EXPECT_NE(line.find("the board faulted: encoder skipped a state"), std::string::npos) << line;
   std::filesystem::remove_all(bench.dir);
 }
 

@@ -135,15 +135,22 @@ TelemetryPayload LinkSession::command(Command command, const std::function<bool(
   while (!unread_telemetry_.empty()) next_telemetry();
   if (!last_telemetry_) next_telemetry();
   const TelemetryPayload before = *last_telemetry_;
+  // A command frame corrupted on the line is dropped, not refused: without its effect after
+  // kCommandResendFrames frames it is sent again (every command is idempotent once done() holds).
+  // The refused counter also counts setpoints still in flight after a stream, so a refusal is
+  // only concluded when the command never took effect.
+  constexpr int kCommandResendFrames = 4;
   send_command(command);
-  for (int frames = 0; frames < options_.command_timeout_frames; ++frames) {
+  for (int frames = 1; frames <= options_.command_timeout_frames; ++frames) {
     const TelemetryPayload t = next_telemetry();
     if (done(t)) return t;
-    if (t.rejected != before.rejected) {
-      throw LinkError(LinkError::Kind::kRefused, stream_.name() + ": the board refused command " +
-                                                     std::to_string(static_cast<int>(command)) + " (" +
-                                                     describe_state(t) + ")");
-    }
+    if (frames % kCommandResendFrames == 0 && frames < options_.command_timeout_frames) send_command(command);
+  }
+  const TelemetryPayload& last = *last_telemetry_;
+  if (last.rejected != before.rejected) {
+    throw LinkError(LinkError::Kind::kRefused, stream_.name() + ": the board refused command " +
+                                                   std::to_string(static_cast<int>(command)) + " (" +
+                                                   describe_state(last) + ")");
   }
   throw LinkError(LinkError::Kind::kLinkLost,
                   stream_.name() + ": command " + std::to_string(static_cast<int>(command)) + " had no effect in " +

@@ -61,7 +61,7 @@ struct SessionOptions {
   int command_timeout_frames = 20;  // telemetry frames to wait for a command's effect
   std::uint32_t target_fill = 20;   // samples kept sent ahead of the board's next sample
   std::uint32_t max_setpoints_per_frame = 4;
-  std::uint32_t resend_after_frames = 3;
+  std::uint32_t resend_after_frames = 2;
   bool keep_telemetry = true;  // collect every telemetry frame (telemetry())
 };
 
@@ -176,9 +176,10 @@ class LinkSession {
   // The next telemetry frame (identify replies on the way are taken too); throws kLinkLost.
   TelemetryPayload next_telemetry();
 
-  // Sends one command frame and waits until a telemetry frame satisfies `done`; throws kRefused
-  // when the board's refused counter rises first, kFault when `done` needs the drives and a fault
-  // is latched, kLinkLost after command_timeout_frames frames.
+  // Sends one command frame and waits until a telemetry frame satisfies `done`, sending it again
+  // every 4 frames (a frame corrupted on the line is dropped silently); after
+  // command_timeout_frames frames throws kRefused if the board's refused counter rose meanwhile,
+  // else kLinkLost; kFault when `done` needs the drives and a fault is latched.
   TelemetryPayload command(Command command, const std::function<bool(const TelemetryPayload&)>& done);
   TelemetryPayload set_home();  // drives off: encoders := home count, homed
   TelemetryPayload enable();    // homed, no fault: drives on
