@@ -61,7 +61,7 @@ struct SessionOptions {
   int command_timeout_frames = 20;  // telemetry frames to wait for a command's effect
   std::uint32_t target_fill = 20;   // samples kept sent ahead of the board's next sample
   std::uint32_t max_setpoints_per_frame = 4;
-  std::uint32_t resend_after_frames = 2;
+  std::uint32_t resend_after_frames = 3;
   bool keep_telemetry = true;  // collect every telemetry frame (telemetry())
 };
 
