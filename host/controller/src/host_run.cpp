@@ -132,7 +132,7 @@ void StreamingLoop::run() {
         break;
       }
       session_.poll_frames();
-      bool finished = false;
+      bool finished = false, fresh = false;
       while (auto frame = session_.take_telemetry()) {
         t = *frame;
         result_.longest_telemetry_gap_ms =
@@ -158,11 +158,16 @@ void StreamingLoop::run() {
           finished = true;
           break;
         }
+        fresh = true;
+      }
+      if (finished) break;
+      // Paced by the newest frame only: after a late wake, the frames that piled up are stale (the
+      // setpoints sent on them would look lost to the resend rule and go out twice).
+      if (fresh) {
         const std::uint64_t resent = pacer.resent();
         pacer.update(t, send);
         session_.count_resent(pacer.resent() - resent);
       }
-      if (finished) break;
     }
   } catch (const link::LinkError& error) {
     result_.outcome = StreamingResult::Outcome::kLinkLost;
