@@ -69,7 +69,7 @@ TEST(JointAxes, EncoderCountsReferencesAndPwmFollowTheGoldenController) {
   std::array<int, 3> position{0, 0, 0};                       // counts moved since reset
   const std::array<double, 3> target_deg{30.5, 29.2, 30.03};  // references sent at period 20
   std::array<JointFixedState, 3> golden;
-  bool referenced = false;  // the drives are enabled from period 20 on
+  bool referenced = false;      // the drives are enabled from period 20 on
   bool enabled_before = false;  // in the period before this one
   int largest_duty = 0;
   for (int period = 0; period < 300; ++period) {
