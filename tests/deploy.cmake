@@ -22,5 +22,9 @@ else()
   add_test(NAME Deploy.DoctorVirtualBoard
     COMMAND ${PROJECT_SOURCE_DIR}/scripts/deploy/doctor_virtual_board.sh $<TARGET_FILE:deltactl>
             ${PROJECT_SOURCE_DIR}/weights/paper_like.json)
-  set_tests_properties(Deploy.DoctorVirtualBoard PROPERTIES LABELS "deploy;virtual_board;cosim" TIMEOUT 180)
+  add_test(NAME Deploy.FlashVirtualBoard
+    COMMAND ${PROJECT_SOURCE_DIR}/scripts/deploy/flash_virtual_board.sh $<TARGET_FILE:deltactl>
+            ${PROJECT_SOURCE_DIR}/weights/paper_like.json)
+  set_tests_properties(Deploy.DoctorVirtualBoard Deploy.FlashVirtualBoard PROPERTIES
+    LABELS "deploy;virtual_board;cosim" TIMEOUT 180)
 endif()

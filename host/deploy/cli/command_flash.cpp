@@ -98,6 +98,7 @@ void flash(const FlashOptions& options) {
     std::cout << "dry run: nothing written\n";
     return;
   }
+  std::cout.flush();  // before the programmer's own output
   const int status = run_program(command);
   if (status != 0) throw std::runtime_error(command[0] + " exited with " + std::to_string(status));
   // The FT2232H re-enumerates after the programmer releases it: the port vanishes and comes back.
