@@ -13,12 +13,16 @@ add_test(NAME Deploy.SystemdUnit
           $<TARGET_FILE:deltactl>)
 set_tests_properties(Deploy.UdevRules Deploy.SystemdUnit PROPERTIES LABELS "deploy;host" SKIP_RETURN_CODE 77)
 
-# The package is the host-only build's (the lab PC's); in the full build the test packages the
-# HostOnlyBuild test's tree, so it runs in the host-only build only.
+# The package is the host-only build's (the lab PC's): this build's in the host-only build; in the
+# full build (CI) the tree HostOnlyBuild.* builds into build/host-only (fixture host_only_tree).
 if(DELTA_HOST_ONLY)
   add_test(NAME Deploy.Package COMMAND ${PROJECT_SOURCE_DIR}/scripts/deploy/package_test.sh ${PROJECT_BINARY_DIR})
   set_tests_properties(Deploy.Package PROPERTIES LABELS "deploy;host" SKIP_RETURN_CODE 77 TIMEOUT 600)
 else()
+  add_test(NAME Deploy.Package
+    COMMAND ${PROJECT_SOURCE_DIR}/scripts/deploy/package_test.sh ${PROJECT_BINARY_DIR}/host-only)
+  set_tests_properties(Deploy.Package PROPERTIES LABELS "deploy;host" SKIP_RETURN_CODE 77 TIMEOUT 600
+                       FIXTURES_REQUIRED host_only_tree)
   add_test(NAME Deploy.DoctorVirtualBoard
     COMMAND ${PROJECT_SOURCE_DIR}/scripts/deploy/doctor_virtual_board.sh $<TARGET_FILE:deltactl>
             ${PROJECT_SOURCE_DIR}/weights/paper_like.json)
