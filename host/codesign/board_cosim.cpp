@@ -7,6 +7,7 @@
 
 #include <Eigen/Dense>
 
+#include "delta/controller/board_network.hpp"
 #include "delta/gateware.hpp"
 #include "delta/golden/export.hpp"
 #include "delta/kinematics.hpp"
@@ -15,32 +16,11 @@
 namespace delta::cosim {
 namespace {
 
-Vec3 answer_deg(const golden::QuantisedNetwork& network, const Vec3& position_m, bool* clamped = nullptr) {
-  const golden::RawOutput raw =
-      golden::evaluate_raw(network, golden::encode_position(network.formats, position_m, clamped));
-  Vec3 deg;
-  for (int j = 0; j < 3; ++j) deg[j] = golden::decode_angle_deg(network.formats, raw.alpha[j]);
-  return deg;
-}
+using controller::answer_deg;
 
 std::string hex(std::uint32_t value) { return golden::hex_word(value, 32); }
 
 }  // namespace
-
-Vec3 locate_plate(const golden::QuantisedNetwork& network, const Geometry& nominal, const Vec3& alpha_deg) {
-  const FkSolution start = forward_kinematics(nominal, alpha_deg);
-  if (!start.ok()) throw std::runtime_error("locate the plate: nominal FK: " + start.reason());
-  Vec3 p = start.position_m;
-  for (int iteration = 0; iteration < 12; ++iteration) {
-    const Vec3 residual = answer_deg(network, p) - alpha_deg;
-    const IkSolution ik = inverse_kinematics(nominal, p);
-    if (!ik.ok()) throw std::runtime_error("locate the plate: nominal IK: " + ik.reason());
-    const Vec3 step = inverse_jacobian_deg_per_m(nominal, p, ik.alpha_deg).inverse() * residual;
-    p -= step;
-    if (step.norm() < 1e-8) break;
-  }
-  return p;
-}
 
 CosimResult run_cosim(const CosimOptions& options) {
   if (options.network == nullptr || !options.trajectory)

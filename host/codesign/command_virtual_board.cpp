@@ -22,6 +22,7 @@
 #include "delta/golden/fixed_network.hpp"
 #include "delta/input_error.hpp"
 #include "delta/io/pseudo_terminal.hpp"
+#include "delta/options.hpp"
 #include "delta/output_file.hpp"
 #include "delta/table.hpp"
 #include "delta/temporary_directory.hpp"
@@ -38,6 +39,7 @@ struct VirtualBoardCommandOptions {
   std::string weights = DELTA_SHIPPED_WEIGHTS;
   std::string truth;
   std::string fidelity = "rtl";
+  double inject_encoder_skip_at_s = -1.0;
 };
 
 // Writes what fits into the pty without waiting: with no program reading PATH the board's bytes
@@ -72,6 +74,7 @@ void run_virtual_board(const VirtualBoardCommandOptions& options) {
   VirtualBoardOptions board_options;
   board_options.mem_dir = mem.path();
   board_options.effects = effects;
+  board_options.inject_encoder_skip_at_s = options.inject_encoder_skip_at_s;
   VirtualBoard board(board_options);
 
   std::ofstream truth;
@@ -164,6 +167,8 @@ const RegisterCommand command("virtual-board", 72, [](CLI::App& root) {
       "Defaults: the shipped weights (weights/paper_like.json) and the paper-like robot\n"
       "(sim/paper_like_effects.json); --effects '' is the nominal robot.\n"
       "--fidelity model (the fast C++ board model, issue 16) is not there yet: refused, exit 2.\n"
+      "--inject-encoder-skip-at S: at board time S joint 1's A and B lines both invert (a skipped\n"
+      "quadrature state: the board latches fault cause 0, encoder skip), for the host's fault tests.\n"
       "Example: deltactl virtual-board --link /tmp/delta-tty --truth truth.csv &\n"
       "         deltactl host status --port /tmp/delta-tty");
   sub->add_option("--link", options->link, "path at which to link the pseudo-terminal (a serial port to open)")
@@ -175,6 +180,9 @@ const RegisterCommand command("virtual-board", 72, [](CLI::App& root) {
   sub->add_option("--fidelity", options->fidelity, "rtl: the Verilated board core; model: issue 16 (not yet)")
       ->capture_default_str()
       ->check(CLI::IsMember({"rtl", "model"}));
+  sub->add_option("--inject-encoder-skip-at", options->inject_encoder_skip_at_s,
+                  "fault injection: from this board time [s] joint 1's encoder skips a quadrature state")
+      ->check(options::real_number(0, 1e6));
   sub->callback([options] { run_virtual_board(*options); });
 });
 

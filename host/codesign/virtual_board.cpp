@@ -36,6 +36,9 @@ VirtualBoard::VirtualBoard(const VirtualBoardOptions& options) : core_(std::make
   board_interface.current_full_scale_a = kCurrentFullScaleA;
   board_interface.home_count = kHomeCount;
   board_interface.count_deg = kCountDeg;
+  if (options.inject_encoder_skip_at_s >= 0.0) {
+    encoder_skip_clock_ = static_cast<std::uint64_t>(options.inject_encoder_skip_at_s * kBoardClockHz);
+  }
   world_ = std::make_unique<RobotWorld>(board_interface, options.effects, options.nominal, options.plant);
 
   Vboard_core& core = *core_->model;
@@ -82,8 +85,9 @@ void VirtualBoard::clock() {
   const bool sending = core_->line.sending();
   core.uart_rx_i = core_->line.rx_pin();
   if (sending && ++core_->bits_sent % (10 * kClocksPerBit) == 0) --core_->bytes_on_line;
-  core.encoder_a_i = world_->encoder_a();
-  core.encoder_b_i = world_->encoder_b();
+  const int skipped = clocks_ >= encoder_skip_clock_ ? 1 : 0;  // joint 1's lines inverted
+  core.encoder_a_i = world_->encoder_a() ^ skipped;
+  core.encoder_b_i = world_->encoder_b() ^ skipped;
   rtl::clock_board(core);
   if (core_->line.sample_tx_pin(core.uart_tx_o)) from_board_.push_back(core_->line.byte());
   world_->step({core.drive_pwm_o, core.drive_dir_o, static_cast<bool>(core.drive_enable_o)});

@@ -17,6 +17,7 @@
 #include <string>
 
 #include "../support/run_command.hpp"
+#include "../support/virtual_board_process.hpp"
 #include "delta/board_facts.hpp"
 #include "delta/cosim/board_cosim.hpp"
 #include "delta/gateware.hpp"
@@ -31,65 +32,6 @@ namespace {
 
 const std::string kWeights = std::string(DELTA_SOURCE_DIR) + "/weights/paper_like.json";
 
-// deltactl virtual-board as a child process; its first stdout line is the ready line.
-class VirtualBoardProcess {
- public:
-  VirtualBoardProcess(const std::string& link, const std::string& truth) {
-    int out[2];
-    if (::pipe(out) != 0) throw std::runtime_error("pipe");
-    pid_ = ::fork();
-    if (pid_ == 0) {
-      ::dup2(out[1], 1);
-      ::close(out[0]);
-      ::close(out[1]);
-      ::execl(DELTACTL_PATH, DELTACTL_PATH, "virtual-board", "--link", link.c_str(), "--weights", kWeights.c_str(),
-              "--truth", truth.c_str(), static_cast<char*>(nullptr));
-      ::_exit(127);
-    }
-    ::close(out[1]);
-    out_ = out[0];
-  }
-  ~VirtualBoardProcess() {
-    if (pid_ > 0 && !exited_) {
-      ::kill(pid_, SIGKILL);
-      ::waitpid(pid_, nullptr, 0);
-    }
-    ::close(out_);
-  }
-  // The first line on stdout, within timeout_ms ("" if none).
-  std::string ready_line(int timeout_ms) {
-    std::string line;
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(timeout_ms);
-    while (std::chrono::steady_clock::now() < deadline) {
-      pollfd p{out_, POLLIN, 0};
-      if (::poll(&p, 1, 100) <= 0) continue;
-      char c = 0;
-      if (::read(out_, &c, 1) != 1) break;
-      if (c == '\n') return line;
-      line += c;
-    }
-    return "";
-  }
-  // SIGTERM, then the exit code (-1: killed by a signal or no exit within 30 s).
-  int terminate() {
-    ::kill(pid_, SIGTERM);
-    for (int i = 0; i < 300; ++i) {
-      int status = 0;
-      if (::waitpid(pid_, &status, WNOHANG) == pid_) {
-        exited_ = true;
-        return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-      }
-      ::usleep(100'000);
-    }
-    return -1;
-  }
-
- private:
-  pid_t pid_ = -1;
-  int out_ = -1;
-  bool exited_ = false;
-};
-
 // 0.2 s of a 2 mm circle around where the plate starts, streamed over the pty: every sample is
 // played, no underrun once playing, no frame lost or bad on the clean line, drives off at the end.
 TEST(VirtualBoard, SessionOverThePseudoTerminalStreamsAShortTrajectory) {
@@ -97,7 +39,7 @@ TEST(VirtualBoard, SessionOverThePseudoTerminalStreamsAShortTrajectory) {
   std::filesystem::create_directories(dir);
   const std::string link = dir + "/tty";
   const std::string truth = dir + "/truth.csv";
-  VirtualBoardProcess board(link, truth);
+  VirtualBoardProcess board(link, {"--weights", kWeights, "--truth", truth});
   const std::string ready = board.ready_line(60'000);
   ASSERT_NE(ready.find(link), std::string::npos) << "ready line: '" << ready << "'";
 

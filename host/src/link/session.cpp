@@ -48,9 +48,9 @@ void LinkSession::take(const Frame& frame) {
   unread_telemetry_.push_back(telemetry);
 }
 
-void LinkSession::receive_frames() {
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(options_.frame_timeout_ms);
+std::size_t LinkSession::poll_frames() {
   std::uint8_t buffer[512];
+  std::size_t frames_taken = 0;
   for (;;) {
     std::size_t got = 0;
     try {
@@ -58,14 +58,19 @@ void LinkSession::receive_frames() {
     } catch (const std::system_error& error) {
       throw LinkError(LinkError::Kind::kLinkLost, std::string("link: ") + error.what());
     }
-    if (got > 0) {
-      statistics_.bytes_received += got;
-      const std::vector<Frame> frames = decoder_.feed(buffer, got);
-      statistics_.decoder = decoder_.counters();
-      for (const Frame& frame : frames) take(frame);
-      if (!frames.empty()) return;
-      continue;
-    }
+    if (got == 0) return frames_taken;
+    statistics_.bytes_received += got;
+    const std::vector<Frame> frames = decoder_.feed(buffer, got);
+    statistics_.decoder = decoder_.counters();
+    for (const Frame& frame : frames) take(frame);
+    frames_taken += frames.size();
+  }
+}
+
+void LinkSession::receive_frames() {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(options_.frame_timeout_ms);
+  for (;;) {
+    if (poll_frames() > 0) return;
     const auto left =
         std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now()).count();
     if (left <= 0) {
@@ -80,11 +85,29 @@ void LinkSession::receive_frames() {
   }
 }
 
+std::optional<TelemetryPayload> LinkSession::take_telemetry() {
+  if (unread_telemetry_.empty()) return std::nullopt;
+  const TelemetryPayload telemetry = unread_telemetry_.front();
+  unread_telemetry_.pop_front();
+  return telemetry;
+}
+
+void LinkSession::send_setpoint(std::uint32_t sample_index, const std::array<std::int32_t, 3>& position_code) {
+  SetpointPayload setpoint;
+  setpoint.sample_index = sample_index;
+  setpoint.position_code = position_code;
+  send_frame(make_frame(sequence_++, setpoint));
+  ++statistics_.setpoints_sent;
+}
+
+void LinkSession::send_command(Command command) {
+  send_frame(make_frame(sequence_++, command));
+  ++statistics_.commands_sent;
+}
+
 TelemetryPayload LinkSession::next_telemetry() {
   while (unread_telemetry_.empty()) receive_frames();
-  const TelemetryPayload telemetry = unread_telemetry_.front();
-  unread_telemetry_.erase(unread_telemetry_.begin());
-  return telemetry;
+  return *take_telemetry();
 }
 
 IdentifyPayload LinkSession::identify() {
@@ -112,16 +135,22 @@ TelemetryPayload LinkSession::command(Command command, const std::function<bool(
   while (!unread_telemetry_.empty()) next_telemetry();
   if (!last_telemetry_) next_telemetry();
   const TelemetryPayload before = *last_telemetry_;
-  send_frame(make_frame(sequence_++, command));
-  ++statistics_.commands_sent;
-  for (int frames = 0; frames < options_.command_timeout_frames; ++frames) {
+  // A command frame corrupted on the line is dropped, not refused: without its effect after
+  // kCommandResendFrames frames it is sent again (every command is idempotent once done() holds).
+  // The refused counter also counts setpoints still in flight after a stream, so a refusal is
+  // only concluded when the command never took effect.
+  constexpr int kCommandResendFrames = 4;
+  send_command(command);
+  for (int frames = 1; frames <= options_.command_timeout_frames; ++frames) {
     const TelemetryPayload t = next_telemetry();
     if (done(t)) return t;
-    if (t.rejected != before.rejected) {
-      throw LinkError(LinkError::Kind::kRefused, stream_.name() + ": the board refused command " +
-                                                     std::to_string(static_cast<int>(command)) + " (" +
-                                                     describe_state(t) + ")");
-    }
+    if (frames % kCommandResendFrames == 0 && frames < options_.command_timeout_frames) send_command(command);
+  }
+  const TelemetryPayload& last = *last_telemetry_;
+  if (last.rejected != before.rejected) {
+    throw LinkError(LinkError::Kind::kRefused, stream_.name() + ": the board refused command " +
+                                                   std::to_string(static_cast<int>(command)) + " (" +
+                                                   describe_state(last) + ")");
   }
   throw LinkError(LinkError::Kind::kLinkLost,
                   stream_.name() + ": command " + std::to_string(static_cast<int>(command)) + " had no effect in " +
@@ -160,48 +189,25 @@ StreamReport LinkSession::stream(std::size_t samples, const SetpointSource& sour
   while (!unread_telemetry_.empty()) next_telemetry();
   if (!last_telemetry_) next_telemetry();
   TelemetryPayload t = *last_telemetry_;
-  const std::int64_t first = static_cast<std::int64_t>(t.sample_index) + t.fill;
-  const std::int64_t end = first + static_cast<std::int64_t>(samples);
-  report.first_index = static_cast<std::uint32_t>(first);
-  std::int64_t next = first;  // the next sample index to send
-  std::vector<std::uint64_t> sent_at_frame(samples, 0);
-  std::uint64_t frame = 0;
+  SetpointPacer pacer(options_, t.sample_index + t.fill, samples);
+  report.first_index = pacer.first_index();
   bool first_played = false;
-
   auto send_some = [&](const TelemetryPayload& now) {
-    const std::int64_t playing = now.sample_index;
-    const std::int64_t board_next = playing + now.fill;
-    // A sample sent long enough ago that the board still has not taken: lost; send again from there.
-    if (board_next < next && board_next >= first && board_next < end &&
-        frame - sent_at_frame[static_cast<std::size_t>(board_next - first)] >= options_.resend_after_frames) {
-      statistics_.setpoints_resent += static_cast<std::uint64_t>(next - board_next);
-      next = board_next;
-    }
-    for (std::uint32_t budget = options_.max_setpoints_per_frame;
-         budget > 0 && next < end && next - playing < static_cast<std::int64_t>(options_.target_fill); --budget) {
-      const std::size_t k = static_cast<std::size_t>(next - first);
-      const std::int64_t reach_tick = static_cast<std::int64_t>(now.tick) + kTicksPerSetpoint * (next - playing + 2);
+    const std::uint64_t resent_before = pacer.resent();
+    pacer.update(now, [&](std::size_t k, std::uint32_t index, std::int64_t reach_tick) {
       if (report.first_reach_tick < 0) report.first_reach_tick = reach_tick;
-      SetpointPayload setpoint;
-      setpoint.sample_index = static_cast<std::uint32_t>(next);
-      setpoint.position_code = source(k, reach_tick);
-      send_frame(make_frame(sequence_++, setpoint));
-      ++statistics_.setpoints_sent;
-      sent_at_frame[k] = frame;
-      ++next;
-    }
+      send_setpoint(index, source(k, reach_tick));
+    });
+    count_resent(pacer.resent() - resent_before);
   };
 
   if (samples == 0) return report;
   send_some(t);
   for (;;) {
     t = next_telemetry();
-    ++frame;
     ++report.telemetry_frames;
-    const std::int64_t played = std::clamp<std::int64_t>(static_cast<std::int64_t>(t.sample_index) - first, 0,
-                                                         static_cast<std::int64_t>(samples));
-    report.played = static_cast<std::size_t>(played);
-    if (!first_played && played > 0) {
+    report.played = pacer.played(t);
+    if (!first_played && report.played > 0) {
       first_played = true;
       report.underruns_at_first_play = t.underruns;
     }
@@ -214,7 +220,7 @@ StreamReport LinkSession::stream(std::size_t samples, const SetpointSource& sour
       report.outcome = StreamReport::Outcome::kStopped;
       return report;
     }
-    if (played == static_cast<std::int64_t>(samples)) {
+    if (report.played == samples) {
       report.underruns_at_last_play = t.underruns;
       return report;
     }

@@ -74,6 +74,8 @@ std::optional<TrajectoryViolation> first_violation(const std::vector<TrajectoryP
   for (std::size_t k = 0; k < samples.size(); ++k) {
     const Vec3& p = samples[k].position_m;
     if (!p.allFinite()) return violation(k, "not a finite position");
+    const IkSolution ik = inverse_kinematics(geometry, p);
+    if (!ik.ok()) return violation(k, "unreachable: " + ik.reason());
     for (int i = 0; i < 3; ++i) {
       if (p[i] < limits.trained_min_m[i] || p[i] > limits.trained_max_m[i]) {
         return violation(k, std::string("outside the network's trained range: ") + axis[i] + " = " +
@@ -81,8 +83,6 @@ std::optional<TrajectoryViolation> first_violation(const std::vector<TrajectoryP
                                 " .. " + fixed(limits.trained_max_m[i] * 1e3, 3) + " mm");
       }
     }
-    const IkSolution ik = inverse_kinematics(geometry, p);
-    if (!ik.ok()) return violation(k, "unreachable: " + ik.reason());
     for (int j = 0; j < 3; ++j) {
       if (ik.alpha_deg[j] < limits.joint_min_deg || ik.alpha_deg[j] > limits.joint_max_deg) {
         return violation(k, "joint " + std::to_string(j + 1) + " at " + fixed(ik.alpha_deg[j], 3) +

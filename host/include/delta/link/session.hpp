@@ -20,9 +20,11 @@
 // 1 ms of network and interpolation plus the wait in the buffer).
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <deque>
 #include <functional>
 #include <optional>
 #include <stdexcept>
@@ -98,6 +100,71 @@ struct StreamReport {
   std::size_t telemetry_frames = 0;           // received during the stream
 };
 
+// The pacing rule of LinkSession::stream as a value type, for a loop that owns its own timing (the
+// host controller's streaming thread): given each telemetry frame, it says which stream samples to
+// send now. The end may be moved earlier while streaming (a controlled stop). No allocation after
+// construction.
+class SetpointPacer {
+ public:
+  SetpointPacer(const SessionOptions& options, std::uint32_t first_index, std::size_t samples)
+      : options_(options),
+        first_(first_index),
+        end_(static_cast<std::int64_t>(first_index) + static_cast<std::int64_t>(samples)),
+        next_(first_index),
+        sent_at_frame_(samples, 0) {}
+
+  // Calls send(k, sample_index, reach_tick) for each stream sample k to send now (resends
+  // included, with the same k); `now` is the newest telemetry frame. Returns the samples sent.
+  template <typename Send>
+  std::size_t update(const TelemetryPayload& now, Send&& send) {
+    const std::int64_t playing = now.sample_index;
+    const std::int64_t board_next = playing + now.fill;
+    // A sample sent long enough ago that the board still has not taken: lost; send again from there.
+    if (board_next < next_ && board_next >= first_ && board_next < end_ &&
+        frame_ - sent_at_frame_[static_cast<std::size_t>(board_next - first_)] >= options_.resend_after_frames) {
+      resent_ += static_cast<std::uint64_t>(next_ - board_next);
+      next_ = board_next;
+    }
+    std::size_t sent = 0;
+    for (std::uint32_t budget = options_.max_setpoints_per_frame;
+         budget > 0 && next_ < end_ && next_ - playing < static_cast<std::int64_t>(options_.target_fill); --budget) {
+      const std::size_t k = static_cast<std::size_t>(next_ - first_);
+      const std::int64_t reach_tick = static_cast<std::int64_t>(now.tick) + kTicksPerSetpoint * (next_ - playing + 2);
+      send(k, static_cast<std::uint32_t>(next_), reach_tick);
+      sent_at_frame_[k] = frame_;
+      ++next_;
+      ++sent;
+    }
+    ++frame_;
+    return sent;
+  }
+
+  // Stream samples the board has played, per `now`: 0 .. samples().
+  std::size_t played(const TelemetryPayload& now) const {
+    return static_cast<std::size_t>(
+        std::clamp<std::int64_t>(static_cast<std::int64_t>(now.sample_index) - first_, 0, end_ - first_));
+  }
+  bool done(const TelemetryPayload& now) const { return static_cast<std::int64_t>(now.sample_index) >= end_; }
+  std::size_t samples() const { return static_cast<std::size_t>(end_ - first_); }
+  // Ends the stream after `samples` samples (at least those already sent; never beyond the start's count).
+  void set_samples(std::size_t samples) {
+    const std::int64_t end = first_ + static_cast<std::int64_t>(std::min(samples, sent_at_frame_.size()));
+    end_ = std::max(end, next_);
+  }
+  std::uint32_t first_index() const { return first_; }
+  std::size_t next() const { return static_cast<std::size_t>(next_ - first_); }  // the next stream sample to send
+  std::uint64_t resent() const { return resent_; }
+
+ private:
+  SessionOptions options_;
+  std::int64_t first_;
+  std::int64_t end_;
+  std::int64_t next_;  // the next sample index to send
+  std::vector<std::uint64_t> sent_at_frame_;
+  std::uint64_t frame_ = 0;
+  std::uint64_t resent_ = 0;
+};
+
 class LinkSession {
  public:
   explicit LinkSession(io::ByteStream& stream, SessionOptions options = {});
@@ -109,9 +176,10 @@ class LinkSession {
   // The next telemetry frame (identify replies on the way are taken too); throws kLinkLost.
   TelemetryPayload next_telemetry();
 
-  // Sends one command frame and waits until a telemetry frame satisfies `done`; throws kRefused
-  // when the board's refused counter rises first, kFault when `done` needs the drives and a fault
-  // is latched, kLinkLost after command_timeout_frames frames.
+  // Sends one command frame and waits until a telemetry frame satisfies `done`, sending it again
+  // every 4 frames (a frame corrupted on the line is dropped silently); after
+  // command_timeout_frames frames throws kRefused if the board's refused counter rose meanwhile,
+  // else kLinkLost; kFault when `done` needs the drives and a fault is latched.
   TelemetryPayload command(Command command, const std::function<bool(const TelemetryPayload&)>& done);
   TelemetryPayload set_home();  // drives off: encoders := home count, homed
   TelemetryPayload enable();    // homed, no fault: drives on
@@ -123,6 +191,15 @@ class LinkSession {
   // board has played them all (or the observer stops it, or a fault). Does not enable, hold or
   // disable: the caller does (usually identify, set_home, enable, stream, hold, disable).
   StreamReport stream(std::size_t samples, const SetpointSource& source, const TelemetryObserver& observer = {});
+
+  // Non-blocking primitives for a loop with its own timing (the host controller's streaming
+  // thread): reads and decodes what the stream has (throws kLinkLost when it failed or hung up),
+  // returns the frames taken; the oldest unread telemetry frame; one setpoint or command frame.
+  std::size_t poll_frames();
+  std::optional<TelemetryPayload> take_telemetry();
+  void send_setpoint(std::uint32_t sample_index, const std::array<std::int32_t, 3>& position_code);
+  void send_command(Command command);
+  void count_resent(std::uint64_t setpoints) { statistics_.setpoints_resent += setpoints; }
 
   const LinkStatistics& statistics() const { return statistics_; }
   const std::optional<TelemetryPayload>& last_telemetry() const { return last_telemetry_; }
@@ -143,7 +220,7 @@ class LinkSession {
   std::optional<TelemetryPayload> last_telemetry_;
   std::optional<std::uint8_t> last_telemetry_sequence_;
   std::vector<TelemetryPayload> telemetry_;
-  std::vector<TelemetryPayload> unread_telemetry_;
+  std::deque<TelemetryPayload> unread_telemetry_;
   std::vector<IdentifyPayload> unread_identify_;
 };
 

@@ -26,6 +26,7 @@
 #include <string>
 #include <vector>
 
+#include "delta/controller/board_network.hpp"
 #include "delta/cosim/virtual_board.hpp"
 #include "delta/effects.hpp"
 #include "delta/geometry.hpp"
@@ -88,9 +89,8 @@ struct CosimResult {
 // identify differs from the host's weights, or the link fails (link::LinkError).
 CosimResult run_cosim(const CosimOptions& options);
 
-// Where the host's network answers `alpha_deg`: Newton's method on the golden network with the
-// nominal model's Jacobian, from the nominal forward kinematics (to ~0.1 um).
-Vec3 locate_plate(const golden::QuantisedNetwork& network, const Geometry& nominal, const Vec3& alpha_deg);
+// Where the host's network answers `alpha_deg` (the host controller's, delta/controller/board_network.hpp).
+using controller::locate_plate;
 
 // Plate tracking statistics over tau >= from_s: per-axis RMS and the largest distance [m].
 struct ErrorStats {

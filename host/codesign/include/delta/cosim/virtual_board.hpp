@@ -44,6 +44,10 @@ struct VirtualBoardOptions {
   EffectSet effects;    // the virtual robot
   Geometry nominal = Geometry::nominal();
   JointPlantParameters plant;
+  // From this board time on, joint 1's encoder lines A and B are both inverted: the board sees its
+  // quadrature state jump by two (a skipped state, fault cause 0) once, then counts on, 2 counts
+  // off. Negative: never (a test's fault injection).
+  double inject_encoder_skip_at_s = -1.0;
 };
 
 // What the world is, every 1 ms of board time (ground truth: no sensor saw it).
@@ -103,6 +107,7 @@ class VirtualBoard {
   std::deque<std::uint8_t> from_board_;
   TruthObserver truth_observer_;
   std::uint64_t clocks_ = 0;
+  std::uint64_t encoder_skip_clock_ = ~std::uint64_t{0};
 };
 
 // The virtual board as a byte stream for a host in the same process: write_all queues onto the

@@ -1,0 +1,116 @@
+// The host controller's run (deltactl host run): the session's explicit states, the streaming
+// thread with absolute 1 ms deadlines that reads telemetry, supervises the board and the link and
+// sends setpoints paced by the telemetry (link::SetpointPacer), and the recording, written by
+// another thread from a lock-free queue (no file output, lock or allocation in the loop's steady
+// state: the decoder's frame vectors aside).
+//
+//   disconnected -> idle (identified) -> homed -> running -> (holding) -> homed (drives off)
+//                                          any -> fault (latched by the board; never re-enabled here)
+//
+// Supervision in every cycle: no telemetry for link_timeout_ms of wall time (or the device hung
+// up) is link loss: the loop ends and nothing is enabled again (the board's 50 ms watchdog stops
+// the torque). A telemetry frame with the fault flag ends the loop with the board's cause. A stop
+// request (SIGINT, SIGTERM) ends the plan by a ramp of the path's rate to 0 (StreamPlan::stop_from).
+#pragma once
+
+#include <atomic>
+#include <csignal>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "delta/controller/realtime.hpp"
+#include "delta/controller/stream_plan.hpp"
+#include "delta/golden/fixed_network.hpp"
+#include "delta/link/session.hpp"
+
+namespace delta::controller {
+
+enum class HostState { kDisconnected, kIdle, kHomed, kRunning, kHolding, kFault };
+const char* state_name(HostState state);
+// The state the telemetry shows (idle: not homed).
+HostState state_of(const link::TelemetryPayload& telemetry);
+
+// One telemetry frame as the recording keeps it, with the reference the host sent for the sample
+// whose answer is the joint reference at that tick (stream sample s - 2: docs/board_link.md).
+struct TelemetryRecord {
+  link::TelemetryPayload telemetry;
+  Vec3 reference_m = Vec3::Zero();  // as sent: the position codes decoded (-1: none yet, the start pose)
+  double tau_s = -1.0;              // path time of that sample (-1: the approach or before)
+  std::int64_t stream_sample = -1;  // its stream index (-1: before the stream)
+};
+
+// Single producer (the streaming thread), single consumer (the writer): a fixed ring.
+class RecordQueue {
+ public:
+  explicit RecordQueue(std::size_t capacity) : ring_(capacity) {}
+  bool push(const TelemetryRecord& record);  // false when full (counted in dropped())
+  bool pop(TelemetryRecord& record);
+  std::uint64_t dropped() const { return dropped_.load(); }
+
+ private:
+  std::vector<TelemetryRecord> ring_;
+  std::atomic<std::size_t> head_{0}, tail_{0};
+  std::atomic<std::uint64_t> dropped_{0};
+};
+
+struct StreamingOptions {
+  int link_timeout_ms = 100;  // wall time without telemetry: link lost
+  int period_us = 1000;       // the loop's period (absolute deadlines)
+  int priority = 80;          // SCHED_FIFO priority when permitted
+  link::SessionOptions session;
+};
+
+struct StreamingResult {
+  enum class Outcome { kCompleted, kStopped, kFault, kLinkLost };
+  Outcome outcome = Outcome::kCompleted;
+  std::string cause;          // fault or link loss, one line
+  std::string realtime_note;  // "" or why SCHED_FIFO was not granted
+  WakeLatency latency;        // wake time - deadline, every cycle
+  std::uint64_t cycles = 0;
+  std::uint64_t overruns = 0;  // periods missed entirely (woke more than one period late)
+  std::uint64_t telemetry_frames = 0;
+  double longest_telemetry_gap_ms = 0.0;  // wall time between telemetry frames
+  std::size_t played = 0;                 // stream samples the board played
+  std::size_t planned = 0;                // of a plan of (after a stop: the shortened plan)
+  std::uint32_t first_index = 0;          // board sample index of stream sample 0
+  link::TelemetryPayload first, last;     // telemetry at the start and the end of the stream
+  std::uint64_t setpoints_resent = 0;
+};
+
+// The loop; run() in the streaming thread. `stop_request` (a signal number, 0: none) is polled.
+class StreamingLoop {
+ public:
+  StreamingLoop(link::LinkSession& session, StreamPlan& plan, const golden::QuantisedNetwork& network,
+                const Vec3& start_m, RecordQueue& queue, const StreamingOptions& options,
+                const volatile std::sig_atomic_t& stop_request);
+  void run();
+  const StreamingResult& result() const { return result_; }
+  // Progress for another thread.
+  std::size_t played() const { return played_.load(); }
+  bool stopping() const { return stopping_.load(); }
+
+ private:
+  link::LinkSession& session_;
+  StreamPlan& plan_;
+  const golden::QuantisedNetwork& network_;
+  Vec3 start_m_;
+  RecordQueue& queue_;
+  StreamingOptions options_;
+  const volatile std::sig_atomic_t& stop_request_;
+  StreamingResult result_;
+  std::atomic<std::size_t> played_{0};
+  std::atomic<bool> stopping_{false};
+};
+
+// Tracking of a run from its telemetry (encoder count - joint reference, degrees), off the loop.
+struct TrackingStatistics {
+  std::uint64_t frames = 0;
+  Vec3 sum_sq_deg2 = Vec3::Zero();
+  Vec3 max_abs_deg = Vec3::Zero();
+  void add(const link::TelemetryPayload& telemetry);
+  Vec3 rms_deg() const;
+};
+
+}  // namespace delta::controller

@@ -1,0 +1,194 @@
+// The host controller's streaming loop (see host_run.hpp).
+#include "delta/controller/host_run.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "delta/board_facts.hpp"
+
+namespace delta::controller {
+namespace {
+
+constexpr double kCountDeg = board::kEncoderCountMicrodeg * 1e-6;
+
+}  // namespace
+
+const char* state_name(HostState state) {
+  switch (state) {
+    case HostState::kDisconnected:
+      return "disconnected";
+    case HostState::kIdle:
+      return "idle";
+    case HostState::kHomed:
+      return "homed";
+    case HostState::kRunning:
+      return "running";
+    case HostState::kHolding:
+      return "holding";
+    case HostState::kFault:
+      return "fault";
+  }
+  return "?";
+}
+
+HostState state_of(const link::TelemetryPayload& t) {
+  if (t.has(link::TelemetryFlag::kFault)) return HostState::kFault;
+  if (t.has(link::TelemetryFlag::kDriveEnable)) {
+    return t.has(link::TelemetryFlag::kHolding) ? HostState::kHolding : HostState::kRunning;
+  }
+  return t.has(link::TelemetryFlag::kHomed) ? HostState::kHomed : HostState::kIdle;
+}
+
+bool RecordQueue::push(const TelemetryRecord& record) {
+  const std::size_t head = head_.load(std::memory_order_relaxed);
+  const std::size_t next = (head + 1) % ring_.size();
+  if (next == tail_.load(std::memory_order_acquire)) {
+    dropped_.fetch_add(1, std::memory_order_relaxed);
+    return false;
+  }
+  ring_[head] = record;
+  head_.store(next, std::memory_order_release);
+  return true;
+}
+
+bool RecordQueue::pop(TelemetryRecord& record) {
+  const std::size_t tail = tail_.load(std::memory_order_relaxed);
+  if (tail == head_.load(std::memory_order_acquire)) return false;
+  record = ring_[tail];
+  tail_.store((tail + 1) % ring_.size(), std::memory_order_release);
+  return true;
+}
+
+StreamingLoop::StreamingLoop(link::LinkSession& session, StreamPlan& plan, const golden::QuantisedNetwork& network,
+                             const Vec3& start_m, RecordQueue& queue, const StreamingOptions& options,
+                             const volatile std::sig_atomic_t& stop_request)
+    : session_(session),
+      plan_(plan),
+      network_(network),
+      start_m_(start_m),
+      queue_(queue),
+      options_(options),
+      stop_request_(stop_request) {}
+
+void StreamingLoop::run() {
+  result_.realtime_note = make_thread_realtime(options_.priority);
+  const double code_m = std::ldexp(1.0, -network_.formats.input_fraction_bits);
+  link::TelemetryPayload t = *session_.last_telemetry();
+  link::SetpointPacer pacer(options_.session, t.sample_index + t.fill, plan_.size());
+  result_.first_index = pacer.first_index();
+  result_.first = t;
+  result_.planned = plan_.size();
+  std::vector<std::array<std::int32_t, 3>> codes(plan_.size());  // as sent (resends send the same)
+  auto send = [&](std::size_t k, std::uint32_t index, std::int64_t /*reach_tick*/) {
+    const auto code = golden::encode_position(network_.formats, plan_.position(k));
+    codes[k] = {static_cast<std::int32_t>(code[0]), static_cast<std::int32_t>(code[1]),
+                static_cast<std::int32_t>(code[2])};
+    session_.send_setpoint(index, codes[k]);
+  };
+  auto record = [&](const link::TelemetryPayload& frame) {
+    TelemetryRecord r;
+    r.telemetry = frame;
+    r.reference_m = start_m_;
+    const std::int64_t k = static_cast<std::int64_t>(frame.sample_index) - 2 - pacer.first_index();
+    if (k >= 0 && k < static_cast<std::int64_t>(plan_.size())) {
+      const auto& c = codes[static_cast<std::size_t>(k)];
+      r.reference_m = Vec3(c[0] * code_m, c[1] * code_m, c[2] * code_m);
+      r.tau_s = plan_.tau(static_cast<std::size_t>(k));
+      r.stream_sample = k;
+    } else if (k >= static_cast<std::int64_t>(plan_.size()) && plan_.size() > 0) {
+      const auto& c = codes[plan_.size() - 1];
+      r.reference_m = Vec3(c[0] * code_m, c[1] * code_m, c[2] * code_m);
+      r.tau_s = plan_.tau(plan_.size() - 1);
+      r.stream_sample = static_cast<std::int64_t>(plan_.size()) - 1;
+    }
+    queue_.push(r);
+  };
+
+  const std::int64_t period = static_cast<std::int64_t>(options_.period_us) * 1000;
+  const std::int64_t timeout = static_cast<std::int64_t>(options_.link_timeout_ms) * 1'000'000;
+  std::int64_t deadline = to_ns(monotonic_now());
+  std::int64_t last_frame = deadline;
+  try {
+    const std::uint64_t resent_before = pacer.resent();
+    pacer.update(t, send);
+    session_.count_resent(pacer.resent() - resent_before);
+    for (;;) {
+      deadline += period;
+      sleep_until(deadline);
+      const std::int64_t now = to_ns(monotonic_now());
+      result_.latency.record(now - deadline);
+      ++result_.cycles;
+      if (now - deadline >= period) {  // keep the grid: skip the periods already gone
+        const std::int64_t missed = (now - deadline) / period;
+        result_.overruns += static_cast<std::uint64_t>(missed);
+        deadline += missed * period;
+      }
+      // Before reading: a host that could not run (stopped, starved) for the bound has not
+      // supervised the board meanwhile, whatever arrived since.
+      if (now - last_frame > timeout) {
+        result_.outcome = StreamingResult::Outcome::kLinkLost;
+        result_.cause = "no telemetry from the board for " + std::to_string((now - last_frame) / 1'000'000) +
+                        " ms (bound " + std::to_string(options_.link_timeout_ms) + " ms)";
+        break;
+      }
+      session_.poll_frames();
+      bool finished = false, fresh = false;
+      while (auto frame = session_.take_telemetry()) {
+        t = *frame;
+        result_.longest_telemetry_gap_ms =
+            std::max(result_.longest_telemetry_gap_ms, static_cast<double>(now - last_frame) / 1e6);
+        last_frame = now;
+        ++result_.telemetry_frames;
+        record(t);
+        played_.store(pacer.played(t));
+        if (t.has(link::TelemetryFlag::kFault)) {
+          result_.outcome = StreamingResult::Outcome::kFault;
+          result_.cause = link::describe_fault(t.fault_cause);
+          finished = true;
+          break;
+        }
+        if (stop_request_ != 0 && !stopping_.load()) {
+          stopping_.store(true);
+          pacer.set_samples(plan_.stop_from(pacer.next()));
+          result_.planned = pacer.samples();
+        }
+        if (pacer.done(t)) {
+          result_.outcome =
+              stopping_.load() ? StreamingResult::Outcome::kStopped : StreamingResult::Outcome::kCompleted;
+          finished = true;
+          break;
+        }
+        fresh = true;
+      }
+      if (finished) break;
+      // Paced by the newest frame only: after a late wake, the frames that piled up are stale (the
+      // setpoints sent on them would look lost to the resend rule and go out twice).
+      if (fresh) {
+        const std::uint64_t resent = pacer.resent();
+        pacer.update(t, send);
+        session_.count_resent(pacer.resent() - resent);
+      }
+    }
+  } catch (const link::LinkError& error) {
+    result_.outcome = StreamingResult::Outcome::kLinkLost;
+    result_.cause = error.what();
+  }
+  result_.played = pacer.played(t);
+  result_.last = t;
+  result_.setpoints_resent = pacer.resent();
+}
+
+void TrackingStatistics::add(const link::TelemetryPayload& t) {
+  for (int j = 0; j < 3; ++j) {
+    const double error = (t.counts[j] - t.references[j] / 256.0) * kCountDeg;
+    sum_sq_deg2[j] += error * error;
+    max_abs_deg[j] = std::max(max_abs_deg[j], std::abs(error));
+  }
+  ++frames;
+}
+
+Vec3 TrackingStatistics::rms_deg() const {
+  return frames ? Vec3((sum_sq_deg2 / static_cast<double>(frames)).cwiseSqrt()) : Vec3(Vec3::Zero());
+}
+
+}  // namespace delta::controller

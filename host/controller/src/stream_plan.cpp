@@ -1,0 +1,210 @@
+// What host run streams, planned and checked whole (see stream_plan.hpp).
+#include "delta/controller/stream_plan.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "delta/board_facts.hpp"
+#include "delta/csv.hpp"
+#include "delta/input_error.hpp"
+#include "delta/trajectory.hpp"
+
+namespace delta::controller {
+namespace {
+
+constexpr double kDt = 1.0 / kStreamRateHz;
+
+bool is_named(const std::string& name) {
+  for (const auto& entry : trajectory_catalogue()) {
+    if (entry.first == name) return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+Vec3 Path::at(double tau_s, std::size_t* line) const {
+  const double u = std::clamp(tau_s, 0.0, duration_s()) * kStreamRateHz;
+  const auto i = std::min(static_cast<std::size_t>(u), samples.size() - 1);
+  const std::size_t j = std::min(i + 1, samples.size() - 1);
+  const double s = std::clamp(u - static_cast<double>(i), 0.0, 1.0);
+  if (line) *line = s > 0.0 ? samples[j].source_line : samples[i].source_line;  // moving towards j
+  return (1.0 - s) * samples[i].position_m + s * samples[j].position_m;
+}
+
+Path load_path(const std::string& name_or_file, double duration_s) {
+  Path path;
+  path.source = name_or_file;
+  if (is_named(name_or_file)) {
+    const Trajectory trajectory = make_trajectory(name_or_file);
+    const double length = duration_s > 0.0 ? duration_s : trajectory.samples / trajectory.rate_hz;
+    const auto count = static_cast<std::size_t>(std::llround(length * kStreamRateHz)) + 1;
+    path.samples.resize(count);
+    for (std::size_t k = 0; k < count; ++k) {
+      path.samples[k].t_s = static_cast<double>(k) * kDt;
+      path.samples[k].position_m = trajectory.position_m(path.samples[k].t_s);
+    }
+    return path;
+  }
+  const CsvTable table = read_csv(name_or_file, {"t_s", "x_m", "y_m", "z_m"});
+  std::vector<motion::TrajectoryPoint> points;
+  const double t0 = table.rows.front()[0];
+  for (std::size_t i = 0; i < table.rows.size(); ++i) {
+    const auto& row = table.rows[i];
+    if (i > 0 && row[0] < table.rows[i - 1][0]) {
+      throw InputError(name_or_file, table.line_numbers[i],
+                       "time goes backwards (" + std::to_string(row[0]) + " s after " +
+                           std::to_string(table.rows[i - 1][0]) + " s)");
+    }
+    if (duration_s > 0.0 && row[0] - t0 > duration_s + 1e-9) break;
+    points.push_back({row[0] - t0, Vec3(row[1], row[2], row[3]), table.line_numbers[i]});
+  }
+  if (points.size() < 2 || points.back().t_s <= 0.0) {
+    throw InputError(name_or_file, 0, "a trajectory needs at least two points spanning some time");
+  }
+  try {
+    path.samples = motion::resample(points, kStreamRateHz);
+  } catch (const std::invalid_argument& error) {
+    throw InputError(name_or_file, 0, error.what());
+  }
+  return path;
+}
+
+void TimeScaling::ramp_to(double rate) {
+  from_ = rate_;
+  to_ = rate;
+  elapsed_ = 0.0;
+  if (std::abs(to_ - from_) < 1e-12) {
+    ramp_.reset();
+    return;
+  }
+  ramp_.emplace(std::abs(to_ - from_), limits_);
+}
+
+double TimeScaling::step(double dt_s) {
+  const double used = rate_;
+  if (ramp_) {
+    elapsed_ += dt_s;
+    const double s = ramp_->at(elapsed_).position / ramp_->distance();
+    rate_ = from_ + (to_ - from_) * s;
+    if (elapsed_ >= ramp_->duration()) {
+      rate_ = to_;
+      ramp_.reset();
+    }
+  }
+  return 0.5 * (used + rate_);  // the trapezoid over the step
+}
+
+double TimeScaling::stopping_distance(double rate) const {
+  if (rate <= 0.0) return 0.0;
+  const motion::JerkLimitedProfile ramp(rate, limits_);
+  // Symmetric rest-to-rest profile: the rate falls along rate - s(t); its integral is rate * T / 2.
+  return rate * ramp.duration() / 2.0;
+}
+
+StreamPlan::StreamPlan(const Path& path, const Vec3& start_m, const StreamLimits& limits)
+    : path_(path), limits_(limits) {
+  if (path.samples.empty()) throw std::invalid_argument("an empty path");
+  // The straight move to the path's first point, rest to rest.
+  const Vec3 first = path.samples.front().position_m;
+  const Vec3 delta = first - start_m;
+  const double distance = delta.norm();
+  if (distance > 1e-9) {
+    const motion::JerkLimitedProfile move(distance, limits.approach);
+    const auto count = static_cast<std::size_t>(std::ceil(move.duration() * kStreamRateHz));
+    for (std::size_t k = 1; k <= count; ++k) {
+      const double s = move.at(static_cast<double>(k) * kDt).position / distance;
+      position_.push_back(start_m + s * delta);
+      tau_.push_back(-1.0);
+      rate_.push_back(0.0);
+      line_.push_back(path.samples.front().source_line);
+    }
+  }
+  approach_samples_ = position_.size();
+  // The path, the rate ramping in at the start and out so that it ends at rest at the end.
+  TimeScaling scaling(limits.rate);
+  scaling.ramp_to(1.0);
+  const double end = path.duration_s();
+  const double stop_at = end - scaling.stopping_distance(1.0);
+  double tau = 0.0;
+  bool stopping = false;
+  for (;;) {
+    std::size_t line = 0;
+    position_.push_back(path.at(tau, &line));
+    tau_.push_back(tau);
+    rate_.push_back(scaling.rate());
+    line_.push_back(line);
+    if (stopping && !scaling.ramping()) break;
+    if (!stopping && tau >= stop_at && !scaling.ramping()) {
+      final_ramp_ = position_.size();
+      scaling.ramp_to(0.0);
+      stopping = true;
+    }
+    tau = std::min(tau + scaling.step(kDt) * kDt, end);
+    if (position_.size() > 100'000'000) throw std::invalid_argument("a plan beyond 1e8 samples");
+  }
+}
+
+std::size_t StreamPlan::stop_from(std::size_t k) {
+  if (k >= position_.size()) return position_.size();
+  if (k < approach_samples_) {
+    // In the straight move: finish it (rest to rest, already checked) and end there.
+    position_.resize(approach_samples_);  // shrinking: no allocation
+    return position_.size();
+  }
+  if (k >= final_ramp_) return position_.size();  // already slowing down to the end
+  // From the rate at k (a stop during the ramp in restarts the ramp from rest in its slope).
+  TimeScaling scaling(limits_.rate);
+  scaling.set_rate(rate_[k]);
+  scaling.ramp_to(0.0);
+  double tau = tau_[k];
+  std::size_t i = k;
+  const double end = path_.duration_s();
+  while (i < position_.size()) {
+    std::size_t line = 0;
+    position_[i] = path_.at(tau, &line);
+    tau_[i] = tau;
+    rate_[i] = scaling.rate();
+    line_[i] = line;
+    ++i;
+    if (!scaling.ramping()) break;
+    tau = std::min(tau + scaling.step(kDt) * kDt, end);
+  }
+  position_.resize(i);
+  tau_.resize(i);
+  rate_.resize(i);
+  line_.resize(i);
+  return i;
+}
+
+std::vector<motion::TrajectoryPoint> StreamPlan::points() const {
+  std::vector<motion::TrajectoryPoint> points(position_.size());
+  for (std::size_t k = 0; k < position_.size(); ++k) {
+    points[k] = {static_cast<double>(k) * kDt, position_[k], line_[k]};
+  }
+  return points;
+}
+
+std::optional<std::string> check_plan(const StreamPlan& plan, const std::string& source, const Vec3& trained_min_m,
+                                      const Vec3& trained_max_m, const StreamLimits& limits) {
+  motion::TrajectoryLimits check;
+  check.trained_min_m = trained_min_m;
+  check.trained_max_m = trained_max_m;
+  const double count_deg = board::kEncoderCountMicrodeg * 1e-6;
+  check.joint_min_deg = static_cast<double>(board::kMinTravelBlock * 1024) * count_deg;
+  check.joint_max_deg = static_cast<double>((board::kMaxTravelBlock + 1) * 1024 - 1) * count_deg;
+  check.joint_velocity_deg_s = limits.joint_velocity_deg_s;
+  check.joint_acceleration_deg_s2 = limits.joint_acceleration_deg_s2;
+  check.joint_jerk_deg_s3 = limits.joint_jerk_deg_s3;
+  const auto violation = motion::first_violation(plan.points(), kStreamRateHz, Geometry::nominal(), check);
+  if (!violation) return std::nullopt;
+  const std::size_t k = violation->sample;
+  std::string where = source + (violation->source_line ? ":" + std::to_string(violation->source_line) : "") + ": ";
+  std::string when = k < plan.approach_samples()
+                         ? " (the move from the present pose to the start, sample " + std::to_string(k) + ")"
+                         : " (path time " + std::to_string(plan.tau(k)) + " s, sample " + std::to_string(k) + ")";
+  return where + violation->reason + when;
+}
+
+}  // namespace delta::controller

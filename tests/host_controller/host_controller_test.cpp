@@ -1,0 +1,445 @@
+// `deltactl host` against `deltactl virtual-board` through a pseudo-terminal, the acceptance of
+// issue 13: experiment 1 streamed and followed (joints and plate), the host stopped (SIGSTOP: the
+// board's watchdog, then exit 4 without re-enabling), 1 % of the bytes corrupted by a tap, an
+// encoder skip (exit 3), the board killed (exit 4 within 100 ms), and bad trajectories refused
+// before any byte is sent (exit 2). The virtual board runs at ~0.04-0.12 x real time: the host is
+// paced by telemetry; time bounds on the board are read from its truth (board time).
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <poll.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <random>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "../support/run_command.hpp"
+#include "../support/virtual_board_process.hpp"
+#include "delta/board_facts.hpp"
+#include "delta/golden/fixed_network.hpp"
+#include "delta/io/pseudo_terminal.hpp"
+#include "delta/io/serial_port.hpp"
+#include "delta/nn/weights_file.hpp"
+
+namespace delta::test {
+namespace {
+
+const std::string kWeights = std::string(DELTA_SOURCE_DIR) + "/weights/paper_like.json";
+// The co-simulation's plate error for experiment 1 (README.md, "Whole-robot co-simulation":
+// paper-like robot, shipped weights, RMS distance from t = 0.4 s): the bound is 1.1 x this.
+constexpr double kCosimPlateRmsM = 89.57e-6;
+
+std::string temp_dir(const std::string& name) {
+  const std::string dir = ::testing::TempDir() + "host_" + name + "_" + std::to_string(::getpid());
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+// A CSV with a header (comment lines skipped) as columns of numbers.
+struct Table {
+  std::map<std::string, std::size_t> column;
+  std::vector<std::vector<double>> rows;
+  double at(std::size_t row, const std::string& name) const { return rows[row][column.at(name)]; }
+};
+Table read_table(const std::string& path) {
+  Table table;
+  std::istringstream lines(read_text(path));
+  std::string line;
+  bool header = true;
+  while (std::getline(lines, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream fields(line);
+    std::string field;
+    std::vector<double> row;
+    for (std::size_t k = 0; std::getline(fields, field, ','); ++k) {
+      if (header) {
+        table.column[field] = k;
+      } else {
+        row.push_back(std::strtod(field.c_str(), nullptr));
+      }
+    }
+    if (!header) table.rows.push_back(row);
+    header = false;
+  }
+  return table;
+}
+
+// deltactl with stdout and stderr to files; waits with a wall-clock bound.
+class HostProcess {
+ public:
+  HostProcess(const std::vector<std::string>& arguments, const std::string& stem) : stem_(stem) {
+    std::vector<std::string> words = {DELTACTL_PATH};
+    words.insert(words.end(), arguments.begin(), arguments.end());
+    pid_ = ::fork();
+    if (pid_ == 0) {
+      const int out = ::open((stem + ".out").c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+      const int err = ::open((stem + ".err").c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+      ::dup2(out, 1);
+      ::dup2(err, 2);
+      std::vector<char*> argv;
+      for (std::string& word : words) argv.push_back(word.data());
+      argv.push_back(nullptr);
+      ::execv(DELTACTL_PATH, argv.data());
+      ::_exit(127);
+    }
+  }
+  ~HostProcess() {
+    if (!exited_) {
+      ::kill(pid_, SIGKILL);
+      ::waitpid(pid_, nullptr, 0);
+    }
+  }
+  pid_t pid() const { return pid_; }
+  // The exit code (128 + N for signal N; -1: still running after timeout_s).
+  int wait(double timeout_s) {
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+    while (std::chrono::steady_clock::now() < deadline) {
+      int status = 0;
+      if (::waitpid(pid_, &status, WNOHANG) == pid_) {
+        exited_ = true;
+        return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+      }
+      ::usleep(1000);
+    }
+    return -1;
+  }
+  std::string out() const { return read_text(stem_ + ".out"); }
+  std::string err() const { return read_text(stem_ + ".err"); }
+
+ private:
+  std::string stem_;
+  pid_t pid_ = -1;
+  bool exited_ = false;
+};
+
+// A virtual board, homed through `deltactl host home`.
+struct Bench {
+  std::string dir, link, truth;
+  std::unique_ptr<VirtualBoardProcess> board;
+  Bench(const std::string& name, std::vector<std::string> extra = {}) : dir(temp_dir(name)) {
+    link = dir + "/tty";
+    truth = dir + "/truth.csv";
+    std::vector<std::string> arguments = {"--weights", kWeights, "--truth", truth};
+    arguments.insert(arguments.end(), extra.begin(), extra.end());
+    board = std::make_unique<VirtualBoardProcess>(link, arguments);
+    const std::string ready = board->ready_line(60'000);
+    if (ready.find(link) == std::string::npos) throw std::runtime_error("virtual board not ready: " + ready);
+    const CommandResult home = run_deltactl("host home --port " + link + " --link-timeout-ms 2000");
+    if (home.exit_code != 0) throw std::runtime_error("host home: " + home.err);
+  }
+  std::vector<std::string> run_arguments(const std::string& port, double duration_s) const {
+    return {"host",
+            "run",
+            "--port",
+            port,
+            "--weights",
+            kWeights,
+            "--trajectory",
+            "experiment1",
+            "--duration",
+            std::to_string(duration_s),
+            "--record",
+            dir + "/out.csv",
+            "--link-timeout-ms",
+            "1000"};
+  }
+};
+
+// The golden joint reference (degrees, Q24.8 counts converted) the board plays for a position
+// code: the network's answer y, then round_shift(25 y, 4) (docs/board_link.md).
+double golden_reference_deg(const golden::QuantisedNetwork& network, const Vec3& position_m, int joint) {
+  const golden::RawOutput raw = golden::evaluate_raw(network, golden::encode_position(network.formats, position_m));
+  const std::int64_t counts_q8 = (25 * raw.alpha[joint] + 8) >> 4;
+  return counts_q8 / 256.0 * 0.01;
+}
+
+// Rows of the recording where the board's joint reference is not the golden answer for the
+// position the host sent (stream samples only, the drives on, no underrun or lost frame near).
+std::size_t reference_mismatches(const Table& out, const golden::QuantisedNetwork& network, std::size_t* checked) {
+  std::size_t mismatches = 0;
+  *checked = 0;
+  for (std::size_t i = 3; i < out.rows.size(); ++i) {
+    if (out.at(i, "stream_sample") < 0 || out.at(i, "drives_enabled") == 0) continue;
+    if (out.at(i, "underruns") != out.at(i - 3, "underruns")) continue;
+    if (std::lround((out.at(i, "t_s") - out.at(i - 1, "t_s")) * 1e3) != 1) continue;  // a frame lost before
+    const Vec3 p(out.at(i, "x_ref_m"), out.at(i, "y_ref_m"), out.at(i, "z_ref_m"));
+    ++*checked;
+    for (int j = 0; j < 3; ++j) {
+      const double board = out.at(i, "alpha" + std::to_string(j + 1) + "_ref_deg");
+      if (std::abs(board - golden_reference_deg(network, p, j)) > 1e-9) {
+        if (mismatches < 5) std::cout << "mismatch at t = " << out.at(i, "t_s") << " joint " << j + 1 << "\n";
+        ++mismatches;
+        break;
+      }
+    }
+  }
+  return mismatches;
+}
+
+// ---------------------------------------------------------------------------------------------
+
+TEST(HostRun, ExperimentOneFollowsTheNetworkReferencesAndThePlateTheCosimulation) {
+  Bench bench("experiment1");
+  const auto start = std::chrono::steady_clock::now();
+  HostProcess host(bench.run_arguments(bench.link, 5.0), bench.dir + "/host");
+  const int code = host.wait(600);
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  std::cout << host.out() << host.err() << "wall " << wall << " s\n";
+  ASSERT_EQ(code, 0);
+  ASSERT_EQ(bench.board->terminate(), 0);
+
+  const Table out = read_table(bench.dir + "/out.csv");
+  const Table truth = read_table(bench.truth);
+  ASSERT_GT(out.rows.size(), 5000u);
+  // Joints: encoder - the board's joint reference, over the path (tau >= 0, drives on).
+  Vec3 sum_sq = Vec3::Zero();
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < out.rows.size(); ++i) {
+    if (out.at(i, "tau_s") < 0.0 || out.at(i, "drives_enabled") == 0) continue;
+    for (int j = 0; j < 3; ++j) {
+      const std::string k = std::to_string(j + 1);
+      const double e = out.at(i, "alpha" + k + "_deg") - out.at(i, "alpha" + k + "_ref_deg");
+      sum_sq[j] += e * e;
+    }
+    ++n;
+  }
+  const Vec3 joint_rms = (sum_sq / static_cast<double>(n)).cwiseSqrt();
+  std::cout << "joint rms over the path (" << n << " frames): " << joint_rms.transpose() << " deg\n";
+  for (int j = 0; j < 3; ++j) EXPECT_LT(joint_rms[j], 0.01) << "joint " << j + 1;
+
+  // The board's references are the golden answers to the positions sent, frame for frame.
+  const golden::QuantisedNetwork network = golden::quantise(nn::read_weights_file(kWeights).network);
+  std::size_t checked = 0;
+  EXPECT_EQ(reference_mismatches(out, network, &checked), 0u);
+  EXPECT_GT(checked, 5000u);
+
+  // Plate: the truth (board time, 1 ms) against the reference due at the same tick, path time
+  // 0.4 s .. 5 s (the co-simulation's window starts at 0.4 s too).
+  std::map<long, std::size_t> truth_at;
+  for (std::size_t i = 0; i < truth.rows.size(); ++i) truth_at[std::lround(truth.at(i, "t_s") * 1e3)] = i;
+  double distance_sq = 0.0, max_distance = 0.0;
+  std::size_t m = 0;
+  for (std::size_t i = 0; i < out.rows.size(); ++i) {
+    if (out.at(i, "tau_s") < 0.4) continue;
+    const auto found = truth_at.find(std::lround(out.at(i, "t_s") * 1e3));
+    if (found == truth_at.end()) continue;
+    const std::size_t r = found->second;
+    const Vec3 measured(truth.at(r, "x_m"), truth.at(r, "y_m"), truth.at(r, "z_m"));
+    const Vec3 reference(out.at(i, "x_ref_m"), out.at(i, "y_ref_m"), out.at(i, "z_ref_m"));
+    distance_sq += (measured - reference).squaredNorm();
+    max_distance = std::max(max_distance, (measured - reference).norm());
+    ++m;
+  }
+  const double plate_rms = std::sqrt(distance_sq / static_cast<double>(m));
+  std::cout << "plate error over path time 0.4..5 s (" << m << " ms): rms " << plate_rms * 1e6 << " um, max "
+            << max_distance * 1e6 << " um (cosim " << kCosimPlateRmsM * 1e6 << " um; bound "
+            << 1.1 * kCosimPlateRmsM * 1e6 << ")\n";
+  EXPECT_GT(m, 4000u);
+  EXPECT_LT(plate_rms, 1.1 * kCosimPlateRmsM);
+  std::filesystem::remove_all(bench.dir);
+}
+
+TEST(HostRun, StoppedHostLetsTheWatchdogDisableTheDrivesAndExitsFourWithoutReEnabling) {
+  Bench bench("sigstop");
+  HostProcess host(bench.run_arguments(bench.link, 3.0), bench.dir + "/host");
+  std::this_thread::sleep_for(std::chrono::seconds(8));  // into the stream (about 0.3-1 s of board time)
+  ASSERT_EQ(host.wait(0), -1) << host.err();
+  ::kill(host.pid(), SIGSTOP);
+  std::this_thread::sleep_for(std::chrono::seconds(5));  // >= 0.15 s of board time
+  ::kill(host.pid(), SIGCONT);
+  const int code = host.wait(60);
+  std::cout << host.out() << host.err();
+  EXPECT_EQ(code, 4);
+  EXPECT_NE(host.err().find("link lost"), std::string::npos);
+  std::this_thread::sleep_for(std::chrono::seconds(2));  // the board runs on: nothing re-enables
+  ASSERT_EQ(bench.board->terminate(), 0);
+
+  const Table out = read_table(bench.dir + "/out.csv");
+  const Table truth = read_table(bench.truth);
+  ASSERT_FALSE(out.rows.empty());
+  const double last_telemetry = out.at(out.rows.size() - 1, "t_s");
+  double off = -1.0;
+  std::size_t enabled_after = 0;
+  for (std::size_t i = 0; i < truth.rows.size(); ++i) {
+    const double t = truth.at(i, "t_s");
+    if (t < last_telemetry) continue;
+    if (off < 0.0 && truth.at(i, "drives_enabled") == 0) off = t;
+    if (off >= 0.0 && truth.at(i, "drives_enabled") != 0) ++enabled_after;
+  }
+  std::cout << "last telemetry the host read at " << last_telemetry << " s; drives off at " << off
+            << " s: " << (off - last_telemetry) * 1e3 << " ms later (bound 50 ms + 1 ms period + the last frame's "
+            << "transit)\n";
+  ASSERT_GE(off, 0.0);
+  EXPECT_GE(off - last_telemetry, 0.050);
+  EXPECT_LE(off - last_telemetry, 0.050 + 0.001 + 0.0015);
+  EXPECT_EQ(enabled_after, 0u);
+  EXPECT_GT(truth.at(truth.rows.size() - 1, "t_s") - off, 0.02);  // the truth goes on past it
+  std::filesystem::remove_all(bench.dir);
+}
+
+// Relays bytes between the host's port (a pty the test owns) and the virtual board's, corrupting
+// each byte with probability `rate` (XOR with a random non-zero byte).
+class CorruptingTap {
+ public:
+  CorruptingTap(const std::string& host_side, const std::string& board_side, double rate, unsigned seed)
+      : host_(host_side), board_(board_side, static_cast<int>(board::kLinkBaud)), rate_(rate), random_(seed) {
+    thread_ = std::thread([this] { relay(); });
+  }
+  ~CorruptingTap() {
+    stop_ = true;
+    thread_.join();
+  }
+  std::uint64_t corrupted(int direction) const { return corrupted_[direction].load(); }
+  std::uint64_t bytes(int direction) const { return bytes_[direction].load(); }
+
+ private:
+  void relay() {
+    std::uint8_t buffer[4096];
+    std::uniform_real_distribution<double> draw(0.0, 1.0);
+    std::uniform_int_distribution<int> flip(1, 255);
+    while (!stop_) {
+      pollfd p[2] = {{host_.fd(), POLLIN, 0}, {board_.fd(), POLLIN, 0}};
+      ::poll(p, 2, 10);
+      io::ByteStream* from[2] = {&host_, &board_};
+      io::ByteStream* to[2] = {&board_, &host_};
+      for (int d = 0; d < 2; ++d) {
+        std::size_t n = 0;
+        try {
+          n = from[d]->read_some(buffer, sizeof buffer);
+        } catch (const std::exception&) {
+          continue;  // the host's side not open yet, or closed
+        }
+        for (std::size_t i = 0; i < n; ++i) {
+          if (draw(random_) < rate_) {
+            buffer[i] ^= static_cast<std::uint8_t>(flip(random_));
+            ++corrupted_[d];
+          }
+        }
+        bytes_[d] += n;
+        try {
+          if (n > 0) to[d]->write_all(buffer, n, 100);
+        } catch (const std::exception&) {
+        }
+      }
+    }
+  }
+  io::PseudoTerminal host_;
+  io::SerialPort board_;
+  double rate_;
+  std::mt19937 random_;
+  std::atomic<bool> stop_{false};
+  std::atomic<std::uint64_t> corrupted_[2] = {}, bytes_[2] = {};
+  std::thread thread_;
+};
+
+TEST(HostRun, OnePercentOfTheBytesCorruptedCompletesAndNoCorruptedReferenceReachesTheJoints) {
+  Bench bench("corrupt");
+  const unsigned seed = 1301;
+  std::cout << "seed " << seed << "\n";
+  const std::string tap_path = bench.dir + "/tap";
+  int code = -1;
+  std::string summary;
+  {
+    CorruptingTap tap(tap_path, bench.link, 0.01, seed);
+    HostProcess host(bench.run_arguments(tap_path, 0.8), bench.dir + "/host");
+    code = host.wait(600);
+    summary = host.out() + host.err();
+    std::cout << summary << "tap: host -> board " << tap.bytes(0) << " bytes, " << tap.corrupted(0)
+              << " corrupted; board -> host " << tap.bytes(1) << " bytes, " << tap.corrupted(1) << " corrupted\n";
+    EXPECT_GT(tap.corrupted(0), 0u);
+    EXPECT_GT(tap.corrupted(1), 0u);
+  }
+  ASSERT_EQ(code, 0);
+  ASSERT_EQ(bench.board->terminate(), 0);
+  // Bad frames counted on both sides.
+  EXPECT_EQ(summary.find("bad frames: board 0,"), std::string::npos) << summary;
+  EXPECT_EQ(summary.find(", host 0 (crc"), std::string::npos) << summary;
+  const Table out = read_table(bench.dir + "/out.csv");
+  const golden::QuantisedNetwork network = golden::quantise(nn::read_weights_file(kWeights).network);
+  std::size_t checked = 0;
+  EXPECT_EQ(reference_mismatches(out, network, &checked), 0u);
+  std::cout << checked << " telemetry frames: the board's joint references equal the golden answers to the "
+            << "positions sent\n";
+  EXPECT_GT(checked, 300u);  // 42 % of the 54-byte telemetry frames are lost at 1 % per byte
+  std::filesystem::remove_all(bench.dir);
+}
+
+TEST(HostRun, EncoderSkipExitsThreeNamingTheCause) {
+  Bench bench("skip", {"--inject-encoder-skip-at", "0.7"});
+  HostProcess host(bench.run_arguments(bench.link, 3.0), bench.dir + "/host");
+  const int code = host.wait(600);
+  const std::string err = host.err();
+  std::cout << host.out() << err;
+  EXPECT_EQ(code, 3);
+  const std::size_t at = err.find("deltactl: error: ");
+  ASSERT_NE(at, std::string::npos) << err;
+  const std::string line = err.substr(at, err.find('\n', at) - at);
+  EXPECT_NE(line.find("the board faulted: encoder skipped a state"), std::string::npos) << line;
+  std::filesystem::remove_all(bench.dir);
+}
+
+TEST(HostRun, VirtualBoardKilledMidRunExitsFourWithinOneHundredMilliseconds) {
+  Bench bench("kill");
+  HostProcess host(bench.run_arguments(bench.link, 3.0), bench.dir + "/host");
+  std::this_thread::sleep_for(std::chrono::seconds(6));
+  ASSERT_EQ(host.wait(0), -1) << host.err();
+  const auto killed = std::chrono::steady_clock::now();
+  bench.board->kill_now();
+  const int code = host.wait(10);
+  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - killed).count();
+  std::cout << host.out() << host.err() << "host exited " << ms << " ms after the board was killed\n";
+  EXPECT_EQ(code, 4);
+  EXPECT_LT(ms, 100.0);
+  EXPECT_NE(host.err().find("link lost"), std::string::npos);
+  std::filesystem::remove_all(bench.dir);
+}
+
+// Bad trajectories: exit 2, one line naming FILE:LINE and the reason, nothing sent to the port
+// (a pty the test holds), no recording.
+TEST(HostRun, BadTrajectoriesAreRefusedBeforeAnyByteIsSent) {
+  const std::string dir = temp_dir("bad");
+  io::PseudoTerminal port(dir + "/tty");
+  struct Case {
+    std::string name, rows, line, reason;
+  };
+  // At rest, then one more line; slow moves (linear interpolation turns a corner into jerk).
+  const std::string head = "t_s,x_m,y_m,z_m\n0,0,0,-0.075\n0.1,0,0,-0.075\n";
+  const std::vector<Case> cases = {
+      {"unreachable", head + "0.101,0,0,-0.2\n", ":4:", "unreachable"},
+      {"untrained", head + "100,0.008,0,-0.075\n", ":4:", "trained range"},
+      {"too_fast", head + "0.105,0.005,0,-0.075\n", ":4:", "velocity"},
+      {"nan", head + "0.2,nan,0,-0.075\n", ":4:", "not finite"},
+      {"backwards", head + "0.05,0,0,-0.075\n", ":4:", "time goes backwards"},
+  };
+  for (const Case& c : cases) {
+    const std::string file = dir + "/" + c.name + ".csv";
+    std::ofstream(file) << c.rows;
+    const CommandResult result = run_deltactl("host run --port " + dir + "/tty --weights " + kWeights +
+                                              " --trajectory " + file + " --record " + dir + "/out.csv");
+    std::cout << c.name << ": " << result.err;
+    EXPECT_EQ(result.exit_code, 2) << c.name;
+    EXPECT_NE(result.err.find(file + c.line), std::string::npos) << c.name << ": " << result.err;
+    EXPECT_NE(result.err.find(c.reason), std::string::npos) << c.name << ": " << result.err;
+    EXPECT_EQ(std::count(result.err.begin(), result.err.end(), '\n'), 1) << result.err;
+    EXPECT_FALSE(std::filesystem::exists(dir + "/out.csv")) << c.name;
+    std::uint8_t byte = 0;
+    EXPECT_EQ(port.read_some(&byte, 1), 0u) << c.name << ": a byte reached the port";
+  }
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace delta::test
