@@ -10,6 +10,7 @@ packages=(
   gnuplot-nox                              # PNG plots
   clang-format                             # C++ layout (.clang-format; CTest Format.*)
   python3-serial socat                     # independent serial clients for the link tests
+  lintian systemd                          # the Debian package: lintian, systemd-analyze verify of the unit
   clang-14 libclang-rt-14-dev              # libFuzzer harnesses of the readers (scripts/fuzz.sh)
 )
 

@@ -1,0 +1,34 @@
+# Deployment to the lab PC (host/deploy, docs/lab_setup.md): the configuration file, config check,
+# flash --dry-run, doctor; the udev rules, the systemd unit, the Debian package (cpack, lintian,
+# installed into a scratch root), and doctor against the virtual board (full build only).
+delta_add_gtest(deploy_tests
+  SOURCES ${CMAKE_CURRENT_LIST_DIR}/deploy/deploy_test.cpp
+  LIBRARIES delta::deploy delta::host
+  LABELS deploy host)
+
+add_test(NAME Deploy.UdevRules
+  COMMAND ${PROJECT_SOURCE_DIR}/scripts/deploy/check_udev_rules.sh ${PROJECT_SOURCE_DIR}/host/deploy/udev/70-delta-board.rules)
+add_test(NAME Deploy.SystemdUnit
+  COMMAND ${PROJECT_SOURCE_DIR}/scripts/deploy/verify_unit.sh ${PROJECT_SOURCE_DIR}/host/deploy/systemd/deltactl.service
+          $<TARGET_FILE:deltactl>)
+set_tests_properties(Deploy.UdevRules Deploy.SystemdUnit PROPERTIES LABELS "deploy;host" SKIP_RETURN_CODE 77)
+
+# The package is the host-only build's (the lab PC's): this build's in the host-only build; in the
+# full build (CI) the tree HostOnlyBuild.* builds into build/host-only (fixture host_only_tree).
+if(DELTA_HOST_ONLY)
+  add_test(NAME Deploy.Package COMMAND ${PROJECT_SOURCE_DIR}/scripts/deploy/package_test.sh ${PROJECT_BINARY_DIR})
+  set_tests_properties(Deploy.Package PROPERTIES LABELS "deploy;host" SKIP_RETURN_CODE 77 TIMEOUT 600)
+else()
+  add_test(NAME Deploy.Package
+    COMMAND ${PROJECT_SOURCE_DIR}/scripts/deploy/package_test.sh ${PROJECT_BINARY_DIR}/host-only)
+  set_tests_properties(Deploy.Package PROPERTIES LABELS "deploy;host" SKIP_RETURN_CODE 77 TIMEOUT 600
+                       FIXTURES_REQUIRED host_only_tree)
+  add_test(NAME Deploy.DoctorVirtualBoard
+    COMMAND ${PROJECT_SOURCE_DIR}/scripts/deploy/doctor_virtual_board.sh $<TARGET_FILE:deltactl>
+            ${PROJECT_SOURCE_DIR}/weights/paper_like.json)
+  add_test(NAME Deploy.FlashVirtualBoard
+    COMMAND ${PROJECT_SOURCE_DIR}/scripts/deploy/flash_virtual_board.sh $<TARGET_FILE:deltactl>
+            ${PROJECT_SOURCE_DIR}/weights/paper_like.json)
+  set_tests_properties(Deploy.DoctorVirtualBoard Deploy.FlashVirtualBoard PROPERTIES
+    LABELS "deploy;virtual_board;cosim" TIMEOUT 180)
+endif()
