@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cmath>
 #include <cstdint>
 #include <iostream>
 #include <string>
@@ -104,6 +105,90 @@ TEST(ModelBoard, EqualsTheRtlBoardFrameForFrameAndPeriodForPeriodOverExperimentO
     ASSERT_EQ(b.pins.fault_cause_bits, a.pins.fault_cause_bits) << "period " << i;
     ASSERT_EQ(b.pins.encoder_error_bits, a.pins.encoder_error_bits) << "period " << i;
     ASSERT_EQ(b.pins.joint_limited, a.pins.joint_limited) << "period " << i;
+  }
+}
+
+// A host session with a fault and a recovery, on either board: identify, set home, enable, stream
+// 300 setpoints circling 2 mm around where the plate starts; from board time 0.25 s joint 1's
+// encoder skips a quadrature state (the virtual board's fault injection): the board latches fault
+// cause 0 and stops the torque; the host clears the fault, enables again, streams 300 more, disables.
+struct FaultRun {
+  std::vector<link::TelemetryPayload> telemetry;
+  std::vector<PeriodRecord> periods;
+  link::StreamReport first, second;
+  link::TelemetryPayload cleared, reenabled;
+};
+
+FaultRun run_fault_session(cosim::BoardFidelity fidelity, const golden::QuantisedNetwork& q,
+                           const std::string& mem_dir) {
+  FaultRun out;
+  cosim::VirtualBoardOptions options;
+  options.fidelity = fidelity;
+  options.network = &q;
+  options.mem_dir = mem_dir;
+  options.effects = read_effect_file(kEffects);
+  options.inject_encoder_skip_at_s = 0.25;
+  cosim::VirtualBoard board(options);
+  board.observe_periods([&out](std::uint64_t clocks, const cosim::BoardPins& pins, const RobotWorld& world) {
+    out.periods.push_back({clocks, world.current_a(), world.encoder_deg(), world.true_alpha_deg(), pins});
+  });
+  cosim::VirtualBoardStream stream(board);
+  link::LinkSession session(stream);
+  session.identify();
+  session.set_home();
+  const link::TelemetryPayload enabled = session.enable();
+  Vec3 counts_deg;
+  for (int j = 0; j < 3; ++j) counts_deg[j] = enabled.counts[j] * cosim::kCountDeg;
+  const Vec3 start = cosim::locate_plate(q, Geometry::nominal(), counts_deg);
+  auto circle = [&q, &start](std::size_t k, std::int64_t) {
+    const double phase = 2.0 * M_PI * static_cast<double>(k) / 300.0;
+    const Vec3 p = start + 2e-3 * Vec3(std::sin(phase), std::cos(phase) - 1.0, 0.0) * std::min(1.0, k / 100.0);
+    const std::array<std::int64_t, 3> code = golden::encode_position(q.formats, p);
+    return std::array<std::int32_t, 3>{static_cast<std::int32_t>(code[0]), static_cast<std::int32_t>(code[1]),
+                                       static_cast<std::int32_t>(code[2])};
+  };
+  out.first = session.stream(300, circle);
+  out.cleared = session.clear_fault();
+  out.reenabled = session.enable();
+  out.second = session.stream(300, circle);
+  session.disable();
+  out.telemetry = session.telemetry();
+  return out;
+}
+
+TEST(ModelBoard, EqualsTheRtlBoardThroughAnEncoderSkipFaultAndItsRecovery) {
+  const golden::QuantisedNetwork q = golden::quantise(nn::read_weights_file(kWeights).network);
+  const std::string mem_dir = fresh_directory("model_board_fault_mem");
+  golden::write_export(q, mem_dir);
+  const FaultRun rtl = run_fault_session(cosim::BoardFidelity::kRtl, q, mem_dir);
+  const FaultRun model = run_fault_session(cosim::BoardFidelity::kModel, q, mem_dir);
+  std::cout << "RTL: " << rtl.telemetry.size() << " telemetry frames, " << rtl.periods.size() << " periods\n";
+
+  // The scenario happened: the skip faulted the first stream, the clear and the enable were taken,
+  // the second stream completed.
+  EXPECT_EQ(rtl.first.outcome, link::StreamReport::Outcome::kFault);
+  EXPECT_TRUE(rtl.first.fault_cause & (1 << board::kFaultEncoderSkip));
+  EXPECT_EQ(rtl.cleared.fault_cause, 0);
+  EXPECT_TRUE(rtl.reenabled.has(link::TelemetryFlag::kDriveEnable));
+  EXPECT_EQ(rtl.second.outcome, link::StreamReport::Outcome::kCompleted);
+  EXPECT_EQ(model.first.outcome, rtl.first.outcome);
+  EXPECT_EQ(model.second.outcome, rtl.second.outcome);
+
+  ASSERT_EQ(model.telemetry.size(), rtl.telemetry.size());
+  for (std::size_t i = 0; i < rtl.telemetry.size(); ++i) {
+    ASSERT_EQ(link::encode(model.telemetry[i]), link::encode(rtl.telemetry[i]))
+        << "telemetry frame " << i << " (tick " << rtl.telemetry[i].tick << ")";
+  }
+  ASSERT_EQ(model.periods.size(), rtl.periods.size());
+  for (std::size_t i = 0; i < rtl.periods.size(); ++i) {
+    const PeriodRecord& a = rtl.periods[i];
+    const PeriodRecord& b = model.periods[i];
+    ASSERT_EQ(b.current_a, a.current_a) << "period " << i;
+    ASSERT_EQ(b.encoder_deg, a.encoder_deg) << "period " << i;
+    ASSERT_EQ(b.true_alpha_deg, a.true_alpha_deg) << "period " << i;
+    ASSERT_EQ(b.pins.drive_enable, a.pins.drive_enable) << "period " << i;
+    ASSERT_EQ(b.pins.fault_cause_bits, a.pins.fault_cause_bits) << "period " << i;
+    ASSERT_EQ(b.pins.encoder_error_bits, a.pins.encoder_error_bits) << "period " << i;
   }
 }
 
