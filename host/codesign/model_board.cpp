@@ -158,7 +158,132 @@ ModelBoard::ModelBoard(const golden::QuantisedNetwork& network, const std::strin
 
 ModelBoard::~ModelBoard() = default;
 
+// Most clocks change only free-running counters: the UARTs counting out a bit, the PWM phase,
+// the tick, the encoder synchronisers. Such a clock is taken here, in place, with exactly the next
+// values the full clock below would compute; any clock where something else could change (a bit
+// boundary, a byte, a frame, a command, the period's events, the controller's stores, a capture,
+// an encoder error, a fault turning the drives off) returns false untouched and goes the full way.
+bool ModelBoard::quiet_clock(int uart_rx, int encoder_a, int encoder_b) {
+  State& s = *state_;
+  const Memories& m = *memories_;
+  const int tick = s.tick;
+  if (tick == 0 || tick == 1 || tick == kClocksPerPeriod / 2 || tick == kClocksPerPeriod - 100 ||
+      tick == kClocksPerPeriod - 1) {
+    return false;
+  }
+  // uart_rx: idle on a high line (settled), or counting inside a bit.
+  const int rx_level = (s.rx_sync >> 1) & 1;
+  if (s.rx_valid) return false;
+  if (s.rx_state == 0) {
+    if (!rx_level || s.rx_count != kClocksPerBit / 2) return false;
+  } else if (s.rx_count == 0) {
+    return false;
+  }
+  // link_rx idle and settled; nothing pending in the setpoint buffer, interpolator or safety.
+  if (s.fetched || s.read != s.write || s.ring_data != m.ring[s.read]) return false;
+  if (s.starting || s.busy || s.slew_limited || s.check || s.checked || s.current_valid != 0) return false;
+  if (s.step_error[0] || s.step_error[1] || s.step_error[2]) return false;
+  const bool fault = s.fault_cause != 0;
+  if (fault && (s.enabled || s.holding)) return false;
+  if (!s.enabled && s.silent_periods != 0) return false;
+  if (s.enabled && s.silent_periods > board::kWatchdogPeriods) return false;
+  if (s.running) {
+    const std::uint64_t elapsed = s.cycle - s.run_start;
+    if (elapsed == kLoadCycles || elapsed == kRunCycles ||
+        (elapsed > kLoadCycles && (elapsed - kLoadCycles) % kJointCycles == 0)) {
+      return false;
+    }
+  }
+  // link_tx idle or waiting for uart_tx inside a bit; no capture.
+  if (s.capturing || s.writing || s.tx_state == 1) return false;
+  if (s.tx_state == 0 && (s.telemetry_pending || s.identify_pending)) return false;
+  if (s.bits_left == 0) {
+    if (s.tx_state != 0) return false;
+  } else if (s.tx_count == 0) {
+    return false;
+  }
+
+  // ---- the clock ----
+  if (s.rx_state != 0) --s.rx_count;
+  s.rx_sync = ((s.rx_sync << 1) | (uart_rx & 1)) & 3;
+  if (s.bits_left != 0) --s.tx_count;
+  {
+    const int payload = (s.tx_index - 4) & 63;
+    s.read_data = m.words[((s.is_identify ? 0 : 16) + (payload >> 1)) & 255];
+  }
+  {
+    const int reference_word = static_cast<int>(board::kTelemetryReferencesOffset / 2);
+    const int count_word = static_cast<int>(board::kTelemetryCountsOffset / 2);
+    const int current_word = static_cast<int>(board::kTelemetryCurrentsOffset / 2);
+    const int w = s.capture;
+    int peek_joint = 0, peek_slot = 0;
+    if (w >= current_word) {
+      peek_joint = (w - current_word) & 3;
+      peek_slot = 6;
+    } else if (w >= count_word) {
+      peek_joint = (w - count_word) & 3;
+      peek_slot = 3;
+    } else if (w >= reference_word) {
+      peek_joint = ((w - reference_word) >> 1) & 3;
+    }
+    s.peek_data = peek_joint < 3 ? s.peek_memory[peek_joint][peek_slot] : 0;
+    s.word_index = s.capture;
+  }
+  for (int j = 0; j < 3; ++j) {
+    const int ab = (((s.enc_a >> j) & 1) << 1) | ((s.enc_b >> j) & 1);
+    switch ((s.previous[j] << 2) | ab) {
+      case 0b0010:
+      case 0b1011:
+      case 0b1101:
+      case 0b0100:
+        ++s.count[j];
+        break;
+      case 0b0001:
+      case 0b0111:
+      case 0b1110:
+      case 0b1000:
+        --s.count[j];
+        break;
+      case 0b0011:
+      case 0b1100:
+      case 0b0110:
+      case 0b1001:
+        s.step_error[j] = true;
+        break;
+      default:
+        break;
+    }
+    s.previous[j] = ab;
+  }
+  s.enc_a = s.enc_a_meta;
+  s.enc_a_meta = encoder_a;
+  s.enc_b = s.enc_b_meta;
+  s.enc_b_meta = encoder_b;
+  for (int j = 0; j < 3; ++j) {
+    const std::int32_t reference_count = s.r[j] >> 8;
+    const std::int32_t reference17 = sign_extend(static_cast<std::uint32_t>(reference_count), 17);
+    s.difference_q[j] =
+        sign_extend(static_cast<std::uint32_t>(reference17 - static_cast<std::int16_t>(s.counts_q[j])), 17);
+    const std::int32_t block = sign_extend(static_cast<std::uint32_t>(reference_count), 24) >> 10;
+    s.outside_q[j] = block < board::kMinTravelBlock || block > board::kMaxTravelBlock;
+  }
+  int pwm = 0;
+  for (int j = 0; j < 3; ++j) {
+    if (s.enabled && !fault && s.pwm_phase < s.duty[j]) pwm |= 1 << j;
+  }
+  s.pwm = pwm;
+  s.enable_out = s.enabled && !fault;
+  s.pwm_phase = (s.pwm_phase + 1) & ((1 << board::kPwmBits) - 1);
+  s.tick = tick + 1;
+  ++s.cycle;
+  pins_.uart_tx = s.frame & 1;
+  pins_.drive_pwm = s.pwm;
+  pins_.drive_enable = s.enable_out;
+  return true;
+}
+
 void ModelBoard::clock(int uart_rx, int encoder_a, int encoder_b) {
+  if (quiet_clock(uart_rx, encoder_a, encoder_b)) return;
   State& s = *state_;
   Memories& m = *memories_;
   State n = s;  // the next values, committed at the end

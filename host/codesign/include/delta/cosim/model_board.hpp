@@ -44,6 +44,8 @@ class ModelBoard {
   const ModelBoardPins& pins() const { return pins_; }
 
  private:
+  bool quiet_clock(int uart_rx, int encoder_a, int encoder_b);
+
   struct Memories;
   struct State;
   golden::QuantisedNetwork network_;
