@@ -84,13 +84,15 @@ std::size_t VirtualBoard::read(std::uint8_t* data, std::size_t capacity) {
 }
 
 void VirtualBoard::clock() {
-  if (period_observer_ && clocks_ % kClocksPerTick == 0) period_observer_(clocks_, pins(), *world_);
+  if (period_observer_ && period_phase_ == 0) period_observer_(clocks_, pins(), *world_);
   if (core_->board) {
     clock_model();
+    if (++period_phase_ == kClocksPerTick) period_phase_ = 0;
+    if (++millisecond_phase_ == kClocksPerMillisecond) millisecond_phase_ = 0;
     return;
   }
   Vboard_core& core = *core_->model;
-  if (truth_observer_ && clocks_ % kClocksPerMillisecond == 0) {
+  if (truth_observer_ && millisecond_phase_ == 0) {
     TruthSample truth;
     truth.t_s = time_s();
     truth.position_m = world_->measured_position_m();
@@ -110,6 +112,8 @@ void VirtualBoard::clock() {
   if (core_->line.sample_tx_pin(core.uart_tx_o)) from_board_.push_back(core_->line.byte());
   world_->step({core.drive_pwm_o, core.drive_dir_o, static_cast<bool>(core.drive_enable_o)});
   ++clocks_;
+  if (++period_phase_ == kClocksPerTick) period_phase_ = 0;
+  if (++millisecond_phase_ == kClocksPerMillisecond) millisecond_phase_ = 0;
 }
 
 void VirtualBoard::observe(bool drives_enabled) {
@@ -125,7 +129,7 @@ void VirtualBoard::observe(bool drives_enabled) {
 
 void VirtualBoard::clock_model() {
   ModelBoard& board = *core_->board;
-  if (truth_observer_ && clocks_ % kClocksPerMillisecond == 0) observe(board.pins().drive_enable);
+  if (truth_observer_ && millisecond_phase_ == 0) observe(board.pins().drive_enable);
   const bool sending = core_->line.sending();
   const int rx = core_->line.rx_pin();
   if (sending && ++core_->bits_sent % (10 * kClocksPerBit) == 0) --core_->bytes_on_line;

@@ -78,13 +78,17 @@ double RobotWorld::true_angle_for_reading(int joint, double reading_deg) const {
 
 void RobotWorld::step(const DrivePins& pins) {
   // Drives: the current follows the PWM duty averaged over one PWM period.
-  const std::size_t slot = cycle_ % static_cast<std::uint64_t>(board_.pwm_period_cycles);
+  // slot = cycle_ mod the PWM period, phase = cycle_ mod the plant divider (counters, not divisions).
+  const std::size_t slot = pwm_slot_;
+  if (++pwm_slot_ == static_cast<std::size_t>(board_.pwm_period_cycles)) pwm_slot_ = 0;
   for (int j = 0; j < 3; ++j) {
     const std::uint8_t high = (pins.pwm >> j) & 1;
     pwm_high_[j] += high - pwm_history_[j][slot];
     pwm_history_[j][slot] = high;
   }
-  if (cycle_ % board_.plant_divider == static_cast<std::uint64_t>(board_.plant_divider - 1)) {
+  const bool plant_step = plant_phase_ == board_.plant_divider - 1;
+  if (++plant_phase_ == board_.plant_divider) plant_phase_ = 0;
+  if (plant_step) {
     for (int j = 0; j < 3; ++j) {
       const double sign = ((pins.direction >> j) & 1) ? -1.0 : 1.0;
       current_a_[j] = pins.enable ? sign * board_.current_full_scale_a * pwm_high_[j] / board_.pwm_period_cycles : 0.0;

@@ -89,6 +89,8 @@ class RobotWorld {
   Vec3 home_true_alpha_deg_ = Vec3::Zero();
   Vec3 home_measured_m_ = Vec3::Zero();
   std::uint64_t cycle_ = 0;
+  std::size_t pwm_slot_ = 0;  // cycle_ mod pwm_period_cycles
+  int plant_phase_ = 0;       // cycle_ mod plant_divider
 };
 
 // Quadrature encoder lines `steps` counts from the start ({A, B} = 00 -> 10 -> 11 -> 01 counting

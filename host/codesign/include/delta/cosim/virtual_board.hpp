@@ -122,6 +122,8 @@ class VirtualBoard {
   TruthObserver truth_observer_;
   PeriodObserver period_observer_;
   std::uint64_t clocks_ = 0;
+  std::uint64_t period_phase_ = 0;       // clocks_ mod kClocksPerTick
+  std::uint64_t millisecond_phase_ = 0;  // clocks_ mod kClocksPerMillisecond
   std::uint64_t encoder_skip_clock_ = ~std::uint64_t{0};
 };
 
