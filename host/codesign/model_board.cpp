@@ -111,6 +111,9 @@ struct ModelBoard::State {
   std::array<bool, 3> outside_q{};
   // joint_controller
   bool running = false, primed = false;
+  // A quiet clock has recomputed the registers that only follow constant inputs in quiet clocks
+  // (link_tx's RAM read, the peek, the safety pipeline): they hold until a full clock.
+  bool settled = false;
   std::uint64_t run_start = 0;  // the cycle it saw ap_start
   std::array<control::JointFixedState, 3> joint_state{};
   std::array<std::int16_t, 3> next_current{};
@@ -207,28 +210,6 @@ bool ModelBoard::quiet_clock(int uart_rx, int encoder_a, int encoder_b) {
   if (s.rx_state != 0) --s.rx_count;
   s.rx_sync = ((s.rx_sync << 1) | (uart_rx & 1)) & 3;
   if (s.bits_left != 0) --s.tx_count;
-  {
-    const int payload = (s.tx_index - 4) & 63;
-    s.read_data = m.words[((s.is_identify ? 0 : 16) + (payload >> 1)) & 255];
-  }
-  {
-    const int reference_word = static_cast<int>(board::kTelemetryReferencesOffset / 2);
-    const int count_word = static_cast<int>(board::kTelemetryCountsOffset / 2);
-    const int current_word = static_cast<int>(board::kTelemetryCurrentsOffset / 2);
-    const int w = s.capture;
-    int peek_joint = 0, peek_slot = 0;
-    if (w >= current_word) {
-      peek_joint = (w - current_word) & 3;
-      peek_slot = 6;
-    } else if (w >= count_word) {
-      peek_joint = (w - count_word) & 3;
-      peek_slot = 3;
-    } else if (w >= reference_word) {
-      peek_joint = ((w - reference_word) >> 1) & 3;
-    }
-    s.peek_data = peek_joint < 3 ? s.peek_memory[peek_joint][peek_slot] : 0;
-    s.word_index = s.capture;
-  }
   for (int j = 0; j < 3; ++j) {
     const int ab = (((s.enc_a >> j) & 1) << 1) | ((s.enc_b >> j) & 1);
     switch ((s.previous[j] << 2) | ab) {
@@ -259,13 +240,38 @@ bool ModelBoard::quiet_clock(int uart_rx, int encoder_a, int encoder_b) {
   s.enc_a_meta = encoder_a;
   s.enc_b = s.enc_b_meta;
   s.enc_b_meta = encoder_b;
-  for (int j = 0; j < 3; ++j) {
-    const std::int32_t reference_count = s.r[j] >> 8;
-    const std::int32_t reference17 = sign_extend(static_cast<std::uint32_t>(reference_count), 17);
-    s.difference_q[j] =
-        sign_extend(static_cast<std::uint32_t>(reference17 - static_cast<std::int16_t>(s.counts_q[j])), 17);
-    const std::int32_t block = sign_extend(static_cast<std::uint32_t>(reference_count), 24) >> 10;
-    s.outside_q[j] = block < board::kMinTravelBlock || block > board::kMaxTravelBlock;
+  if (!s.settled) {
+    {
+      const int payload = (s.tx_index - 4) & 63;
+      s.read_data = m.words[((s.is_identify ? 0 : 16) + (payload >> 1)) & 255];
+    }
+    {
+      const int reference_word = static_cast<int>(board::kTelemetryReferencesOffset / 2);
+      const int count_word = static_cast<int>(board::kTelemetryCountsOffset / 2);
+      const int current_word = static_cast<int>(board::kTelemetryCurrentsOffset / 2);
+      const int w = s.capture;
+      int peek_joint = 0, peek_slot = 0;
+      if (w >= current_word) {
+        peek_joint = (w - current_word) & 3;
+        peek_slot = 6;
+      } else if (w >= count_word) {
+        peek_joint = (w - count_word) & 3;
+        peek_slot = 3;
+      } else if (w >= reference_word) {
+        peek_joint = ((w - reference_word) >> 1) & 3;
+      }
+      s.peek_data = peek_joint < 3 ? s.peek_memory[peek_joint][peek_slot] : 0;
+      s.word_index = s.capture;
+    }
+    for (int j = 0; j < 3; ++j) {
+      const std::int32_t reference_count = s.r[j] >> 8;
+      const std::int32_t reference17 = sign_extend(static_cast<std::uint32_t>(reference_count), 17);
+      s.difference_q[j] =
+          sign_extend(static_cast<std::uint32_t>(reference17 - static_cast<std::int16_t>(s.counts_q[j])), 17);
+      const std::int32_t block = sign_extend(static_cast<std::uint32_t>(reference_count), 24) >> 10;
+      s.outside_q[j] = block < board::kMinTravelBlock || block > board::kMaxTravelBlock;
+    }
+    s.settled = true;
   }
   int pwm = 0;
   for (int j = 0; j < 3; ++j) {
@@ -287,6 +293,7 @@ void ModelBoard::clock(int uart_rx, int encoder_a, int encoder_b) {
   State& s = *state_;
   Memories& m = *memories_;
   State n = s;  // the next values, committed at the end
+  n.settled = false;
   const int rx_level = (s.rx_sync >> 1) & 1;
 
   // ---- uart_rx ----
