@@ -179,8 +179,8 @@ bool ModelBoard::quiet_clock(int uart_rx, int encoder_a, int encoder_b) {
   if (s.rx_valid) return false;
   if (s.rx_state == 0) {
     if (!rx_level || s.rx_count != kClocksPerBit / 2) return false;
-  } else if (s.rx_count == 0) {
-    return false;
+  } else if (s.rx_count == 0 && s.rx_state != 2) {
+    return false;  // a start bit confirmed or a stop bit: the full clock
   }
   // link_rx idle and settled; nothing pending in the setpoint buffer, interpolator or safety.
   if (s.fetched || s.read != s.write || s.ring_data != m.ring[s.read]) return false;
@@ -202,14 +202,31 @@ bool ModelBoard::quiet_clock(int uart_rx, int encoder_a, int encoder_b) {
   if (s.tx_state == 0 && (s.telemetry_pending || s.identify_pending)) return false;
   if (s.bits_left == 0) {
     if (s.tx_state != 0) return false;
-  } else if (s.tx_count == 0) {
-    return false;
+  } else if (s.tx_count == 0 && s.bits_left == 1) {
+    return false;  // the last bit ends: link_tx sees the UART ready
   }
 
   // ---- the clock ----
-  if (s.rx_state != 0) --s.rx_count;
+  if (s.rx_state != 0) {
+    if (s.rx_count != 0) {
+      --s.rx_count;
+    } else {  // a data bit's middle (rx_state 2)
+      s.rx_shift = static_cast<std::uint8_t>((rx_level << 7) | (s.rx_shift >> 1));
+      s.rx_count = kClocksPerBit - 1;
+      if (s.rx_bit_index == 7) s.rx_state = 3;
+      s.rx_bit_index = (s.rx_bit_index + 1) & 7;
+    }
+  }
   s.rx_sync = ((s.rx_sync << 1) | (uart_rx & 1)) & 3;
-  if (s.bits_left != 0) --s.tx_count;
+  if (s.bits_left != 0) {
+    if (s.tx_count != 0) {
+      --s.tx_count;
+    } else {  // the next bit (not the last one's end)
+      s.frame = static_cast<std::uint16_t>(0x200 | (s.frame >> 1));
+      --s.bits_left;
+      s.tx_count = kClocksPerBit - 1;
+    }
+  }
   for (int j = 0; j < 3; ++j) {
     const int ab = (((s.enc_a >> j) & 1) << 1) | ((s.enc_b >> j) & 1);
     switch ((s.previous[j] << 2) | ab) {

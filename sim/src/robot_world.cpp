@@ -14,11 +14,14 @@ class RobotWorld::Quadrature {
  public:
   Quadrature(int count, int home_count, int dwell) : count_(count), target_(count), home_(home_count), dwell_(dwell) {}
   void set_target(int count) { target_ = count; }
-  void step() {
-    if (++waited_ < dwell_ || count_ == target_) return;
+  // True when the count (and so a line) changed.
+  bool step() {
+    if (++waited_ < dwell_ || count_ == target_) return false;
     waited_ = 0;
     count_ += count_ < target_ ? 1 : -1;
+    return true;
   }
+
   int count() const { return count_; }
   int a() const { return quadrature_a(count_ - home_); }
   int b() const { return quadrature_b(count_ - home_); }
@@ -53,6 +56,7 @@ RobotWorld::RobotWorld(const BoardInterface& board, const EffectSet& effects, co
   true_alpha_deg_ = home_true_alpha_deg_;
   reading_deg_ = sensors_.update(true_alpha_deg_);  // the backlash starts centred at home
   for (auto& encoder : encoders_) encoder->step();  // the lines of the first board cycle
+  update_lines();
 }
 
 RobotWorld::~RobotWorld() = default;
@@ -102,19 +106,18 @@ void RobotWorld::step(const DrivePins& pins) {
   }
   ++cycle_;
   // The lines the board samples in its next cycle.
-  for (auto& encoder : encoders_) encoder->step();
+  bool moved = false;
+  for (auto& encoder : encoders_) moved |= encoder->step();
+  if (moved) update_lines();
 }
 
-int RobotWorld::encoder_a() const {
-  int a = 0;
-  for (int j = 0; j < 3; ++j) a |= encoders_[j]->a() << j;
-  return a;
-}
-
-int RobotWorld::encoder_b() const {
-  int b = 0;
-  for (int j = 0; j < 3; ++j) b |= encoders_[j]->b() << j;
-  return b;
+void RobotWorld::update_lines() {
+  lines_a_ = 0;
+  lines_b_ = 0;
+  for (int j = 0; j < 3; ++j) {
+    lines_a_ |= encoders_[j]->a() << j;
+    lines_b_ |= encoders_[j]->b() << j;
+  }
 }
 
 Vec3 RobotWorld::encoder_deg() const {
