@@ -54,3 +54,8 @@ delta_add_gtest(rtl_link_tests
   SOURCES ${CMAKE_CURRENT_LIST_DIR}/rtl/test_link_crc16.cpp
   LIBRARIES delta_link_crc16_model delta::host
   LABELS rtl)
+delta_add_gtest(rtl_model_board_tests
+  SOURCES ${CMAKE_CURRENT_LIST_DIR}/rtl/test_model_board.cpp
+  LIBRARIES delta::board_cosim delta::golden delta::nn delta::host
+  LABELS rtl cosim)
+target_include_directories(rtl_model_board_tests PRIVATE ${CMAKE_CURRENT_LIST_DIR}/rtl)

@@ -30,11 +30,14 @@ CosimResult run_cosim(const CosimOptions& options) {
 
   // ---- the board (world and RTL) ----
   VirtualBoardOptions board_options;
+  board_options.fidelity = options.fidelity;
+  board_options.network = options.network;
   board_options.mem_dir = options.mem_dir;
   board_options.effects = options.effects;
   board_options.nominal = options.nominal;
   board_options.plant = options.plant;
   VirtualBoard board(board_options);
+  if (options.period_observer) board.observe_periods(options.period_observer);
   result.home_true_alpha_deg = board.world().home_true_alpha_deg();
   VirtualBoardStream stream(board);
 

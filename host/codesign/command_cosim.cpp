@@ -34,6 +34,7 @@ struct CosimCommandOptions {
   std::uint32_t target_fill = 20;
   std::string out;
   std::string plot;
+  std::string fidelity = "rtl";
 };
 
 std::string micrometres(double metres) { return fixed(metres * 1e6, 2); }
@@ -107,6 +108,7 @@ void run_cosim_command(const CosimCommandOptions& options, const std::string& co
   const TemporaryDirectory mem("deltactl_cosim");  // the network's .mem files and identify.mem
   golden::write_export(quantised, mem.path());
   CosimOptions cosim;
+  cosim.fidelity = options.fidelity == "model" ? BoardFidelity::kModel : BoardFidelity::kRtl;
   cosim.mem_dir = mem.path();
   cosim.network = &quantised;
   cosim.effects = effects;
@@ -124,10 +126,11 @@ void run_cosim_command(const CosimCommandOptions& options, const std::string& co
     std::cerr << (terminal ? "\r" : "") << "cosim: " << fixed(simulated_s, 1) << " / " << fixed(options.duration_s, 1)
               << " s simulated, " << fixed(wall_s(), 0) << " s wall" << (terminal ? "" : "\n") << std::flush;
   };
-  std::cerr
-      << "cosim: host over link v2 -> virtual board (board core RTL, Verilator) + 3 joint plants + virtual robot ("
-      << (options.effects.empty() ? std::string("nominal") : options.effects) << "), '" << options.trajectory
-      << "' for " << options.duration_s << " s\n";
+  std::cerr << "cosim: host over link v2 -> virtual board ("
+            << (options.fidelity == "model" ? "C++ model board" : "board core RTL, Verilator")
+            << ") + 3 joint plants + virtual robot ("
+            << (options.effects.empty() ? std::string("nominal") : options.effects) << "), '" << options.trajectory
+            << "' for " << options.duration_s << " s\n";
   CosimResult result;
   try {
     result = run_cosim(cosim);
@@ -151,7 +154,9 @@ void run_cosim_command(const CosimCommandOptions& options, const std::string& co
     plate.add_row({label, micrometres(e.rms_m.x()), micrometres(e.rms_m.y()), micrometres(e.rms_m.z()),
                    micrometres(e.rms_distance_m), micrometres(e.max_distance_m)});
   };
-  add("closed loop: board RTL, plants, effects", summary.closed_loop);
+  add(options.fidelity == "model" ? "closed loop: model board, plants, effects"
+                                  : "closed loop: board RTL, plants, effects",
+      summary.closed_loop);
   add("network answers, joints exact", summary.network_ideal);
   add("textbook IK, joints exact", summary.textbook_ideal);
   plate.print(std::cout);
@@ -257,6 +262,10 @@ const RegisterCommand command("cosim", 70, [](CLI::App& root) {
   sub->add_option("--settle", options->settle_s, "statistics start at blend + settle [s]")
       ->capture_default_str()
       ->check(options::real_number(0, 3600));
+  sub->add_option("--fidelity", options->fidelity,
+                  "rtl: the Verilated board core; model: the C++ model board (bit-exact, faster)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"rtl", "model"}));
   sub->add_option("--fill", options->target_fill, "setpoints the host keeps ahead of the board (1 .. 64)")
       ->capture_default_str()
       ->check(CLI::Range(1, 64));

@@ -1,6 +1,7 @@
 // deltactl virtual-board: the virtual robot with its board behind a pseudo-terminal (SPEC.md, "The
 // board and the lab PC"), so any program that opens PATH as a serial port talks to it as to the
-// iCEBreaker. RTL fidelity: delta/cosim/virtual_board.hpp.
+// iCEBreaker. RTL fidelity (the Verilated board) or model fidelity (the C++ model board,
+// bit-exact with it): delta/cosim/virtual_board.hpp, model_board.hpp.
 #include <fcntl.h>
 #include <unistd.h>
 
@@ -11,6 +12,7 @@
 #include <iostream>
 #include <memory>
 #include <system_error>
+#include <thread>
 
 #include <CLI/CLI.hpp>
 
@@ -40,6 +42,7 @@ struct VirtualBoardCommandOptions {
   std::string truth;
   std::string fidelity = "rtl";
   double inject_encoder_skip_at_s = -1.0;
+  bool free_run = false;
 };
 
 // Writes what fits into the pty without waiting: with no program reading PATH the board's bytes
@@ -60,11 +63,9 @@ std::size_t write_what_fits(int fd, const std::uint8_t* data, std::size_t size) 
 }
 
 void run_virtual_board(const VirtualBoardCommandOptions& options) {
-  if (options.fidelity == "model") {
-    std::cerr << "deltactl: error: --fidelity model: the fast C++ board model (issue 16) does not exist yet; use "
-                 "--fidelity rtl\n";
-    throw CommandExit{kExitBadInput};
-  }
+  const bool model = options.fidelity == "model";
+  // The model keeps to wall-clock time unless told to run free; the RTL cannot keep up anyway.
+  const bool paced = model && !options.free_run;
   // Everything is checked before PATH or TRUTH appear.
   const golden::QuantisedNetwork quantised = read_board_network(options.weights);
   const EffectSet effects = read_board_effects(options.effects);
@@ -72,6 +73,8 @@ void run_virtual_board(const VirtualBoardCommandOptions& options) {
   const TemporaryDirectory mem("deltactl_virtual_board");  // the network's .mem files and identify.mem
   golden::write_export(quantised, mem.path());
   VirtualBoardOptions board_options;
+  board_options.fidelity = model ? BoardFidelity::kModel : BoardFidelity::kRtl;
+  board_options.network = &quantised;
   board_options.mem_dir = mem.path();
   board_options.effects = effects;
   board_options.inject_encoder_skip_at_s = options.inject_encoder_skip_at_s;
@@ -106,12 +109,14 @@ void run_virtual_board(const VirtualBoardCommandOptions& options) {
   sigemptyset(&action.sa_mask);
   for (int signal_number : {SIGINT, SIGTERM, SIGHUP}) ::sigaction(signal_number, &action, nullptr);
 
-  std::cout << "virtual-board: ready on " << options.link << " (" << pty->slave_path()
-            << "), RTL fidelity, weights CRC " << golden::hex_word(weights_crc(quantised), 32) << ", gateware "
-            << golden::hex_word(kGatewareBuildId, 32) << std::endl;
+  std::cout << "virtual-board: ready on " << options.link << " (" << pty->slave_path() << "), "
+            << (model ? "model" : "RTL") << " fidelity" << (paced ? " (real time)" : "") << ", weights CRC "
+            << golden::hex_word(weights_crc(quantised), 32) << ", gateware " << golden::hex_word(kGatewareBuildId, 32)
+            << std::endl;
 
-  // One control period of board time per turn (100 us, about 1 ms of wall time): the pty's bytes
-  // join the line at the board's bit timing, the board's bytes go out as they complete.
+  // One control period of board time per turn (100 us): the pty's bytes join the line at the board's
+  // bit timing, the board's bytes go out as they complete. Paced: each turn waits until its board
+  // time is due on the wall clock (a board that behaves like the real one for a host in a dry run).
   const auto start = std::chrono::steady_clock::now();
   auto last_flush = start;
   std::uint64_t bytes_in = 0, bytes_out = 0, bytes_dropped = 0;
@@ -130,7 +135,15 @@ void run_virtual_board(const VirtualBoardCommandOptions& options) {
       bytes_out += written;
       bytes_dropped += out - written;
     }
-    const auto now = std::chrono::steady_clock::now();
+    auto now = std::chrono::steady_clock::now();
+    if (paced) {
+      const auto due = start + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                   std::chrono::duration<double>(board.time_s()));
+      if (due > now) {
+        std::this_thread::sleep_until(due);
+        now = std::chrono::steady_clock::now();
+      }
+    }
     if (truth.is_open() && now - last_flush >= std::chrono::milliseconds(500)) {
       truth.flush();
       last_flush = now;
@@ -159,14 +172,15 @@ const RegisterCommand command("virtual-board", 72, [](CLI::App& root) {
       "sensor chain, quadrature encoders, PWM averaging). Bytes from PATH enter the board's UART at its\n"
       "bit timing; the board's bytes come back as they leave its TX pin. The simulation runs as fast as\n"
       "it can, about a tenth of real time: a host paces itself by the board's telemetry, never by its\n"
-      "own clock. Bytes the board sends while nobody reads PATH are dropped once the pty is full.\n"
+      "own clock. --fidelity model runs the C++ model board instead (bit-exact with the RTL at its\n"
+      "pins: the same bytes, PWM and encoder counts), kept to wall-clock time unless --free-run.\n"
+      "Bytes the board sends while nobody reads PATH are dropped once the pty is full.\n"
       "Prints one line naming PATH when ready; runs until SIGINT or SIGTERM, then removes PATH.\n"
       "--truth: CSV at 1 kHz of board time, written as it runs (flushed twice a second, complete on\n"
       "exit): t_s (board time since reset), x/y/z_m (the plate as the measuring stage sees it),\n"
       "true_alpha*_deg (plant angles), drives_enabled, encoder*_deg, current*_a.\n"
       "Defaults: the shipped weights (weights/paper_like.json) and the paper-like robot\n"
       "(sim/paper_like_effects.json); --effects '' is the nominal robot.\n"
-      "--fidelity model (the fast C++ board model, issue 16) is not there yet: refused, exit 2.\n"
       "--inject-encoder-skip-at S: at board time S joint 1's A and B lines both invert (a skipped\n"
       "quadrature state: the board latches fault cause 0, encoder skip), for the host's fault tests.\n"
       "Example: deltactl virtual-board --link /tmp/delta-tty --truth truth.csv &\n"
@@ -177,9 +191,10 @@ const RegisterCommand command("virtual-board", 72, [](CLI::App& root) {
   sub->add_option("--weights", options->weights, "network weights the board runs (W.json, model 'network', 25 hidden)")
       ->capture_default_str();
   sub->add_option("--truth", options->truth, "CSV of the ground truth at 1 kHz of board time");
-  sub->add_option("--fidelity", options->fidelity, "rtl: the Verilated board core; model: issue 16 (not yet)")
+  sub->add_option("--fidelity", options->fidelity, "rtl: the Verilated board core; model: the C++ model board")
       ->capture_default_str()
       ->check(CLI::IsMember({"rtl", "model"}));
+  sub->add_flag("--free-run", options->free_run, "model fidelity: run as fast as possible, not at real time");
   sub->add_option("--inject-encoder-skip-at", options->inject_encoder_skip_at_s,
                   "fault injection: from this board time [s] joint 1's encoder skips a quadrature state")
       ->check(options::real_number(0, 1e6));

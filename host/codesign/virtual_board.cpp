@@ -2,9 +2,11 @@
 #include "delta/cosim/virtual_board.hpp"
 
 #include <algorithm>
+#include <stdexcept>
 #include <vector>
 
 #include "Vboard_core.h"
+#include "delta/cosim/model_board.hpp"
 #include "delta/rtl/board_clock.hpp"
 #include "delta/rtl/uart_line.hpp"
 #include "verilated.h"
@@ -13,23 +15,33 @@ namespace delta::cosim {
 
 // The Verilated model, its context (one per board: the plusarg names this board's .mem files)
 // and the serial line at its pins.
+// At model fidelity only `board` is set.
 class VirtualBoard::Core {
  public:
-  explicit Core(const std::string& mem_dir) : context(std::make_unique<VerilatedContext>()), line(kClocksPerBit) {
-    const std::string plusarg = "+delta_mem_dir=" + mem_dir;
+  explicit Core(const VirtualBoardOptions& options) : line(kClocksPerBit) {
+    if (options.fidelity == BoardFidelity::kModel) {
+      if (options.network == nullptr) throw std::invalid_argument("the model board needs the network's weights");
+      board = std::make_unique<ModelBoard>(*options.network, options.mem_dir + "/identify.mem");
+      return;
+    }
+    context = std::make_unique<VerilatedContext>();
+    const std::string plusarg = "+delta_mem_dir=" + options.mem_dir;
     const char* argv[] = {"virtual_board", plusarg.c_str()};
     context->commandArgs(2, argv);
     model = std::make_unique<Vboard_core>(context.get(), "board");
   }
-  ~Core() { model->final(); }
+  ~Core() {
+    if (model) model->final();
+  }
   std::unique_ptr<VerilatedContext> context;
   std::unique_ptr<Vboard_core> model;
+  std::unique_ptr<ModelBoard> board;
   rtl::UartLine line;
   std::size_t bytes_on_line = 0;  // written and not yet fully sent
   std::uint64_t bits_sent = 0;
 };
 
-VirtualBoard::VirtualBoard(const VirtualBoardOptions& options) : core_(std::make_unique<Core>(options.mem_dir)) {
+VirtualBoard::VirtualBoard(const VirtualBoardOptions& options) : core_(std::make_unique<Core>(options)) {
   BoardInterface board_interface;
   board_interface.board_clock_hz = kBoardClockHz;
   board_interface.pwm_period_cycles = static_cast<int>(board::kPwmPeriodCycles);
@@ -40,6 +52,7 @@ VirtualBoard::VirtualBoard(const VirtualBoardOptions& options) : core_(std::make
     encoder_skip_clock_ = static_cast<std::uint64_t>(options.inject_encoder_skip_at_s * kBoardClockHz);
   }
   world_ = std::make_unique<RobotWorld>(board_interface, options.effects, options.nominal, options.plant);
+  if (core_->board) return;  // the model starts in its reset state
 
   Vboard_core& core = *core_->model;
   core.uart_rx_i = 1;
@@ -71,8 +84,15 @@ std::size_t VirtualBoard::read(std::uint8_t* data, std::size_t capacity) {
 }
 
 void VirtualBoard::clock() {
+  if (period_observer_ && period_phase_ == 0) period_observer_(clocks_, pins(), *world_);
+  if (core_->board) {
+    clock_model();
+    if (++period_phase_ == kClocksPerTick) period_phase_ = 0;
+    if (++millisecond_phase_ == kClocksPerMillisecond) millisecond_phase_ = 0;
+    return;
+  }
   Vboard_core& core = *core_->model;
-  if (truth_observer_ && clocks_ % kClocksPerMillisecond == 0) {
+  if (truth_observer_ && millisecond_phase_ == 0) {
     TruthSample truth;
     truth.t_s = time_s();
     truth.position_m = world_->measured_position_m();
@@ -92,6 +112,33 @@ void VirtualBoard::clock() {
   if (core_->line.sample_tx_pin(core.uart_tx_o)) from_board_.push_back(core_->line.byte());
   world_->step({core.drive_pwm_o, core.drive_dir_o, static_cast<bool>(core.drive_enable_o)});
   ++clocks_;
+  if (++period_phase_ == kClocksPerTick) period_phase_ = 0;
+  if (++millisecond_phase_ == kClocksPerMillisecond) millisecond_phase_ = 0;
+}
+
+void VirtualBoard::observe(bool drives_enabled) {
+  TruthSample truth;
+  truth.t_s = time_s();
+  truth.position_m = world_->measured_position_m();
+  truth.true_alpha_deg = world_->true_alpha_deg();
+  truth.encoder_deg = world_->encoder_deg();
+  truth.current_a = world_->current_a();
+  truth.drives_enabled = drives_enabled;
+  truth_observer_(truth, *world_);
+}
+
+void VirtualBoard::clock_model() {
+  ModelBoard& board = *core_->board;
+  if (truth_observer_ && millisecond_phase_ == 0) observe(board.pins().drive_enable);
+  const bool sending = core_->line.sending();
+  const int rx = core_->line.rx_pin();
+  if (sending && ++core_->bits_sent % (10 * kClocksPerBit) == 0) --core_->bytes_on_line;
+  const int skipped = clocks_ >= encoder_skip_clock_ ? 1 : 0;
+  board.clock(rx, world_->encoder_a() ^ skipped, world_->encoder_b() ^ skipped);
+  const ModelBoardPins& pins = board.pins();
+  if (core_->line.sample_tx_pin(pins.uart_tx)) from_board_.push_back(core_->line.byte());
+  world_->step({pins.drive_pwm, pins.drive_dir, pins.drive_enable});
+  ++clocks_;
 }
 
 void VirtualBoard::step(std::uint64_t board_clocks) {
@@ -104,6 +151,15 @@ bool VirtualBoard::step_until_byte(std::uint64_t board_clocks) {
 }
 
 BoardPins VirtualBoard::pins() const {
+  if (core_->board) {
+    const ModelBoardPins& model = core_->board->pins();
+    BoardPins pins;
+    pins.encoder_error_bits = model.encoder_error;
+    pins.joint_limited = model.joint_limited;
+    pins.fault_cause_bits = model.fault_cause;
+    pins.drive_enable = model.drive_enable;
+    return pins;
+  }
   const Vboard_core& core = *core_->model;
   BoardPins pins;
   pins.encoder_error_bits = core.encoder_error_o;

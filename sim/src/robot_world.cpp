@@ -14,11 +14,14 @@ class RobotWorld::Quadrature {
  public:
   Quadrature(int count, int home_count, int dwell) : count_(count), target_(count), home_(home_count), dwell_(dwell) {}
   void set_target(int count) { target_ = count; }
-  void step() {
-    if (++waited_ < dwell_ || count_ == target_) return;
+  // True when the count (and so a line) changed.
+  bool step() {
+    if (++waited_ < dwell_ || count_ == target_) return false;
     waited_ = 0;
     count_ += count_ < target_ ? 1 : -1;
+    return true;
   }
+
   int count() const { return count_; }
   int a() const { return quadrature_a(count_ - home_); }
   int b() const { return quadrature_b(count_ - home_); }
@@ -53,6 +56,7 @@ RobotWorld::RobotWorld(const BoardInterface& board, const EffectSet& effects, co
   true_alpha_deg_ = home_true_alpha_deg_;
   reading_deg_ = sensors_.update(true_alpha_deg_);  // the backlash starts centred at home
   for (auto& encoder : encoders_) encoder->step();  // the lines of the first board cycle
+  update_lines();
 }
 
 RobotWorld::~RobotWorld() = default;
@@ -78,13 +82,17 @@ double RobotWorld::true_angle_for_reading(int joint, double reading_deg) const {
 
 void RobotWorld::step(const DrivePins& pins) {
   // Drives: the current follows the PWM duty averaged over one PWM period.
-  const std::size_t slot = cycle_ % static_cast<std::uint64_t>(board_.pwm_period_cycles);
+  // slot = cycle_ mod the PWM period, phase = cycle_ mod the plant divider (counters, not divisions).
+  const std::size_t slot = pwm_slot_;
+  if (++pwm_slot_ == static_cast<std::size_t>(board_.pwm_period_cycles)) pwm_slot_ = 0;
   for (int j = 0; j < 3; ++j) {
     const std::uint8_t high = (pins.pwm >> j) & 1;
     pwm_high_[j] += high - pwm_history_[j][slot];
     pwm_history_[j][slot] = high;
   }
-  if (cycle_ % board_.plant_divider == static_cast<std::uint64_t>(board_.plant_divider - 1)) {
+  const bool plant_step = plant_phase_ == board_.plant_divider - 1;
+  if (++plant_phase_ == board_.plant_divider) plant_phase_ = 0;
+  if (plant_step) {
     for (int j = 0; j < 3; ++j) {
       const double sign = ((pins.direction >> j) & 1) ? -1.0 : 1.0;
       current_a_[j] = pins.enable ? sign * board_.current_full_scale_a * pwm_high_[j] / board_.pwm_period_cycles : 0.0;
@@ -98,19 +106,18 @@ void RobotWorld::step(const DrivePins& pins) {
   }
   ++cycle_;
   // The lines the board samples in its next cycle.
-  for (auto& encoder : encoders_) encoder->step();
+  bool moved = false;
+  for (auto& encoder : encoders_) moved |= encoder->step();
+  if (moved) update_lines();
 }
 
-int RobotWorld::encoder_a() const {
-  int a = 0;
-  for (int j = 0; j < 3; ++j) a |= encoders_[j]->a() << j;
-  return a;
-}
-
-int RobotWorld::encoder_b() const {
-  int b = 0;
-  for (int j = 0; j < 3; ++j) b |= encoders_[j]->b() << j;
-  return b;
+void RobotWorld::update_lines() {
+  lines_a_ = 0;
+  lines_b_ = 0;
+  for (int j = 0; j < 3; ++j) {
+    lines_a_ |= encoders_[j]->a() << j;
+    lines_b_ |= encoders_[j]->b() << j;
+  }
 }
 
 Vec3 RobotWorld::encoder_deg() const {

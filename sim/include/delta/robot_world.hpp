@@ -54,8 +54,8 @@ class RobotWorld {
   // the reading.
   void step(const DrivePins& pins);
 
-  int encoder_a() const;  // bit j: joint j's A line for the next board cycle
-  int encoder_b() const;
+  int encoder_a() const { return lines_a_; }  // bit j: joint j's A line for the next board cycle
+  int encoder_b() const { return lines_b_; }
   std::uint64_t cycle() const { return cycle_; }
   double time_s() const { return static_cast<double>(cycle_) / board_.board_clock_hz; }
 
@@ -74,6 +74,7 @@ class RobotWorld {
  private:
   class Quadrature;
   double true_angle_for_reading(int joint, double reading_deg) const;
+  void update_lines();  // lines_a_, lines_b_ from the encoders
 
   BoardInterface board_;
   EffectSet effects_;
@@ -89,6 +90,10 @@ class RobotWorld {
   Vec3 home_true_alpha_deg_ = Vec3::Zero();
   Vec3 home_measured_m_ = Vec3::Zero();
   std::uint64_t cycle_ = 0;
+  std::size_t pwm_slot_ = 0;  // cycle_ mod pwm_period_cycles
+  int plant_phase_ = 0;       // cycle_ mod plant_divider
+  int lines_a_ = 0;           // encoder_a(), encoder_b()
+  int lines_b_ = 0;
 };
 
 // Quadrature encoder lines `steps` counts from the start ({A, B} = 00 -> 10 -> 11 -> 01 counting

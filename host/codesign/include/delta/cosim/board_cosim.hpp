@@ -38,7 +38,8 @@
 namespace delta::cosim {
 
 struct CosimOptions {
-  std::string mem_dir;  // the network's .mem files and identify.mem (golden::write_export)
+  BoardFidelity fidelity = BoardFidelity::kRtl;  // the Verilated board or the model board
+  std::string mem_dir;                           // the network's .mem files and identify.mem (golden::write_export)
   const golden::QuantisedNetwork* network = nullptr;  // the host's weights (the same as in mem_dir)
   EffectSet effects;                                  // the virtual robot
   Geometry nominal = Geometry::nominal();
@@ -47,7 +48,8 @@ struct CosimOptions {
   double blend_s = 0.3;                          // smooth start from the start pose
   JointPlantParameters plant;
   link::SessionOptions session;
-  std::function<void(double tau_s)> progress;  // called every 0.1 s of trajectory time
+  std::function<void(double tau_s)> progress;    // called every 0.1 s of trajectory time
+  VirtualBoard::PeriodObserver period_observer;  // every 10 kHz control period of board time
 };
 
 struct CosimSample {                   // every 1 ms of board time, tau in [0, duration)

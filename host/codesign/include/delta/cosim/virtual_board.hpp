@@ -25,6 +25,7 @@
 #include "delta/board_facts.hpp"
 #include "delta/effects.hpp"
 #include "delta/geometry.hpp"
+#include "delta/golden/fixed_network.hpp"
 #include "delta/io/byte_stream.hpp"
 #include "delta/joint_plant.hpp"
 #include "delta/robot_world.hpp"
@@ -39,7 +40,13 @@ constexpr int kHomeCount = static_cast<int>(board::kHomeCount);
 constexpr double kCurrentFullScaleA = board::kCurrentFullScaleMilliamp / 1000.0;
 constexpr double kCountDeg = board::kEncoderCountMicrodeg * 1e-6;
 
+// rtl: the Verilated board core; model: the same board in C++ (model_board.hpp), bit-exact at its pins.
+enum class BoardFidelity { kRtl, kModel };
+
 struct VirtualBoardOptions {
+  BoardFidelity fidelity = BoardFidelity::kRtl;
+  // The network's weights (the same as in mem_dir): required at model fidelity.
+  const golden::QuantisedNetwork* network = nullptr;
   std::string mem_dir;  // the network's .mem files and identify.mem (deltactl quantise, golden::write_export)
   EffectSet effects;    // the virtual robot
   Geometry nominal = Geometry::nominal();
@@ -95,18 +102,28 @@ class VirtualBoard {
   using TruthObserver = std::function<void(const TruthSample&, const RobotWorld&)>;
   void observe_truth(TruthObserver observer) { truth_observer_ = std::move(observer); }
 
+  // Called at the start of every control period of board time (t = 0, 100 us, ...) with the board's
+  // clock count, its pins and the world.
+  using PeriodObserver = std::function<void(std::uint64_t clocks, const BoardPins&, const RobotWorld&)>;
+  void observe_periods(PeriodObserver observer) { period_observer_ = std::move(observer); }
+
   const RobotWorld& world() const;
   BoardPins pins() const;
 
  private:
   class Core;
   void clock();
+  void clock_model();
+  void observe(bool drives_enabled);
 
   std::unique_ptr<Core> core_;
   std::unique_ptr<RobotWorld> world_;
   std::deque<std::uint8_t> from_board_;
   TruthObserver truth_observer_;
+  PeriodObserver period_observer_;
   std::uint64_t clocks_ = 0;
+  std::uint64_t period_phase_ = 0;       // clocks_ mod kClocksPerTick
+  std::uint64_t millisecond_phase_ = 0;  // clocks_ mod kClocksPerMillisecond
   std::uint64_t encoder_skip_clock_ = ~std::uint64_t{0};
 };
 

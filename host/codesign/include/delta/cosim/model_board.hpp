@@ -1,0 +1,57 @@
+// The board at model fidelity: board_core's behaviour in C++ without Verilator, one board clock
+// per step with the RTL's event times, for the virtual board (virtual_board.hpp, --fidelity
+// model). The small control logic (uart_rx/tx, link_rx with its ring and rescan, the setpoint
+// buffer, commands, counters, link_tx, quadrature counters, joint_safety, joint_pwm) is stepped
+// per clock as a register-level translation; the arithmetic runs once per event on the golden
+// models, bit for bit what the RTL computes:
+//   network (golden::evaluate_raw) when a setpoint is played (tick 1 of phase 0),
+//   reference interpolation (setpoint_interpolation.hpp's rule) at tick ClocksPerPeriod - 100,
+//     joint j's reference written 7 (j + 1) cycles after the update starts,
+//   joint controllers (control::fixed_update, fixed_rest_state after a period with the drives
+//     off) started at tick 1, joint j's current stored at tick 303 + 295 j (joint_controller.sv's
+//     892-cycle schedule), its PWM duty one cycle later.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "delta/golden/fixed_network.hpp"
+
+namespace delta::cosim {
+
+struct ModelBoardPins {
+  int uart_tx = 1;
+  int drive_pwm = 0;
+  int drive_dir = 0;
+  bool drive_enable = false;
+  int encoder_error = 0;
+  bool joint_limited = false;
+  int fault_cause = 0;
+};
+
+class ModelBoard {
+ public:
+  // identify_mem: the path of identify.mem (12 lines of one 16-bit hex word).
+  ModelBoard(const golden::QuantisedNetwork& network, const std::string& identify_mem);
+  ~ModelBoard();
+  ModelBoard(const ModelBoard&) = delete;
+  ModelBoard& operator=(const ModelBoard&) = delete;
+
+  // One board clock edge with the pins as the board samples them.
+  void clock(int uart_rx, int encoder_a, int encoder_b);
+  const ModelBoardPins& pins() const { return pins_; }
+
+ private:
+  bool quiet_clock(int uart_rx, int encoder_a, int encoder_b);
+
+  struct Memories;
+  struct State;
+  golden::QuantisedNetwork network_;
+  std::unique_ptr<Memories> memories_;
+  std::unique_ptr<State> state_;
+  ModelBoardPins pins_;
+};
+
+}  // namespace delta::cosim

@@ -1,0 +1,865 @@
+// The board at model fidelity (see model_board.hpp): board_core as a register-level C++ model of
+// its control logic with the golden models for the arithmetic. Every register below is named as
+// in the RTL (module prefix where two modules share a name); each clock computes the next values
+// from the present ones, then commits them, as the RTL's always_ff blocks do.
+#include "delta/cosim/model_board.hpp"
+
+#include <fstream>
+#include <stdexcept>
+
+#include "delta/board_facts.hpp"
+#include "delta/golden/joint_fixed.hpp"
+#include "delta/golden/setpoint_interpolation.hpp"
+
+namespace delta::cosim {
+namespace {
+
+constexpr int kClocksPerBit = static_cast<int>(board::kLinkClocksPerBit);
+constexpr int kClocksPerPeriod = static_cast<int>(board::kClocksPerPeriod);
+constexpr int kRingBytes = static_cast<int>(board::kRxRingBytes);
+constexpr int kDepth = static_cast<int>(board::kSetpointDepth);
+constexpr int kTelemetryWords = static_cast<int>(board::kTelemetryPayloadBytes / 2);
+constexpr int kWatchdogMax = 511;  // $clog2(WatchdogPeriods + 2) = 9 bits
+constexpr int kRunCycles = 892;    // joint_controller.sv: ap_start seen (idle) to done
+constexpr int kJointCycles = 295;
+constexpr int kLoadCycles = 6;
+
+std::uint16_t saturating_increment(std::uint16_t value) { return value == 0xFFFF ? value : value + 1; }
+
+std::uint16_t crc_byte(std::uint16_t crc, std::uint8_t data) {
+  std::uint16_t value = crc ^ static_cast<std::uint16_t>(data << 8);
+  for (int b = 0; b < 8; ++b) {
+    value = (value & 0x8000) ? static_cast<std::uint16_t>((value << 1) ^ board::kFrameCrcPolynomial)
+                             : static_cast<std::uint16_t>(value << 1);
+  }
+  return value;
+}
+
+int payload_size(std::uint8_t type, bool* known) {
+  *known = true;
+  if (type == board::kFrameTypeIdentifyRequest) return 0;
+  if (type == board::kFrameTypeSetpoint) return static_cast<int>(board::kSetpointPayloadBytes);
+  if (type == board::kFrameTypeCommand) return static_cast<int>(board::kCommandPayloadBytes);
+  *known = false;
+  return 0;
+}
+
+std::int32_t sign_extend(std::uint32_t value, int bits) {
+  const std::uint32_t m = 1u << (bits - 1);
+  value &= (bits == 32) ? 0xFFFFFFFFu : ((1u << bits) - 1);
+  return static_cast<std::int32_t>((value ^ m) - m);
+}
+
+}  // namespace
+
+// The block RAMs: written in place (never read in the cycle that writes the same word), not
+// copied with the registers every clock.
+struct ModelBoard::Memories {
+  std::array<std::uint8_t, board::kRxRingBytes> ring{};                   // link_rx
+  std::array<std::array<std::uint8_t, 12>, board::kSetpointDepth> ram{};  // setpoint_buffer
+  std::array<std::uint16_t, 256> words{};                                 // link_tx: identify, telemetry
+};
+
+struct ModelBoard::State {
+  const golden::QuantisedNetwork* network = nullptr;
+  control::JointFixedCoefficients coefficients = control::make_fixed_coefficients(control::JointControllerParameters{});
+  std::uint64_t cycle = 0;
+
+  // uart_rx
+  int rx_sync = 3, rx_state = 0, rx_count = 0, rx_bit_index = 0;
+  std::uint8_t rx_shift = 0;
+  bool rx_valid = false;
+  // link_rx
+  std::uint8_t ring_data = 0;
+  int write = 0, read = 0, start = 0, index = 0, end = 0;
+  bool fetched = false, crc_high_ok = false;
+  std::uint8_t length = 0, type = 0, sequence = 0;
+  std::uint16_t rx_crc = 0xFFFF;
+  // commands
+  std::uint8_t command = 0;
+  bool enabled = false, holding = false, homed = false;
+  // schedule
+  int tick = 0, phase = 9;
+  std::uint32_t period_count = 0;
+  // setpoint buffer
+  std::uint32_t sample_index = 0;
+  int fill = 0;
+  bool full_at_start = false, index_match = false, vetoed = false, starting = false;
+  // network (its answer, held) and the interpolator
+  std::array<std::int32_t, 3> net_outputs{};
+  bool answer_pending = false;
+  bool busy = false;
+  int step = 0, joint = 0;
+  std::array<std::int32_t, 3> r{}, d{};
+  std::int32_t delta = 0;
+  bool delta_saturated = false;
+  bool slew_limited = false;
+  // encoders
+  int enc_a_meta = 0, enc_a = 0, enc_b_meta = 0, enc_b = 0;
+  std::array<int, 3> previous{};
+  std::array<std::uint16_t, 3> count{};
+  std::array<bool, 3> step_error{};
+  // joint_axes
+  bool start_q = false;
+  std::array<std::uint16_t, 3> counts_q{};
+  int encoder_error = 0;
+  // joint_safety
+  int silent_periods = 0;
+  bool check = false, checked = false, active = false;
+  int fault_cause = 0;
+  std::array<std::int32_t, 3> difference_q{};
+  std::array<bool, 3> outside_q{};
+  // joint_controller
+  bool running = false, primed = false;
+  // A quiet clock has recomputed the registers that only follow constant inputs in quiet clocks
+  // (link_tx's RAM read, the peek, the safety pipeline): they hold until a full clock.
+  bool settled = false;
+  std::uint64_t run_start = 0;  // the cycle it saw ap_start
+  std::array<control::JointFixedState, 3> joint_state{};
+  std::array<std::int16_t, 3> next_current{};
+  std::array<int, 3> next_overflow{};
+  std::array<std::uint16_t, 3> current{};  // current_q
+  int current_valid = 0;
+  std::uint16_t overflow = 0;
+  std::array<std::array<std::uint32_t, 8>, 3> peek_memory{};  // the last run's slots
+  std::uint32_t peek_data = 0;
+  // joint_pwm
+  int pwm_phase = 0;
+  std::array<int, 3> duty{};
+  int direction = 0, pwm = 0;
+  bool enable_out = false;
+  // counters
+  std::uint16_t bad_frames = 0, underruns = 0, slew_limits = 0, refused = 0;
+  std::uint8_t last_sequence = 0;
+  // link_tx
+  std::uint16_t read_data = 0;
+  bool capturing = false, writing = false, telemetry_pending = false, identify_pending = false;
+  int capture = 0, written = 0, word_index = 0;
+  int tx_state = 0, tx_index = 0, tx_length = 0;
+  bool is_identify = false;
+  std::uint8_t telemetry_sequence = 0, tx_sequence = 0, identify_sequence = 0;
+  std::uint16_t tx_crc = 0xFFFF;
+  // uart_tx
+  std::uint16_t frame = 0x3FF;
+  int bits_left = 0, tx_count = 0;
+};
+
+ModelBoard::ModelBoard(const golden::QuantisedNetwork& network, const std::string& identify_mem)
+    : memories_(std::make_unique<Memories>()), state_(std::make_unique<State>()) {
+  State& s = *state_;
+  network_ = network;
+  s.network = &network_;
+  s.count.fill(static_cast<std::uint16_t>(board::kHomeCount));
+  std::ifstream in(identify_mem);
+  if (!in) throw std::runtime_error("model board: cannot read " + identify_mem);
+  std::string line;
+  for (int w = 0; w < 256 && std::getline(in, line);) {
+    if (line.empty() || line[0] == '/') continue;
+    memories_->words[w++] = static_cast<std::uint16_t>(std::stoul(line, nullptr, 16));
+  }
+}
+
+ModelBoard::~ModelBoard() = default;
+
+// Most clocks change only free-running counters: the UARTs counting out a bit, the PWM phase,
+// the tick, the encoder synchronisers. Such a clock is taken here, in place, with exactly the next
+// values the full clock below would compute; any clock where something else could change (a bit
+// boundary, a byte, a frame, a command, the period's events, the controller's stores, a capture,
+// an encoder error, a fault turning the drives off) returns false untouched and goes the full way.
+bool ModelBoard::quiet_clock(int uart_rx, int encoder_a, int encoder_b) {
+  State& s = *state_;
+  const Memories& m = *memories_;
+  const int tick = s.tick;
+  if (tick == 0 || tick == 1 || tick == kClocksPerPeriod / 2 || tick == kClocksPerPeriod - 100 ||
+      tick == kClocksPerPeriod - 1) {
+    return false;
+  }
+  // uart_rx: idle on a high line (settled), or counting inside a bit.
+  const int rx_level = (s.rx_sync >> 1) & 1;
+  if (s.rx_valid) return false;
+  if (s.rx_state == 0) {
+    if (!rx_level || s.rx_count != kClocksPerBit / 2) return false;
+  } else if (s.rx_count == 0 && s.rx_state != 2) {
+    return false;  // a start bit confirmed or a stop bit: the full clock
+  }
+  // link_rx idle and settled; nothing pending in the setpoint buffer, interpolator or safety.
+  if (s.fetched || s.read != s.write || s.ring_data != m.ring[s.read]) return false;
+  if (s.starting || s.busy || s.slew_limited || s.check || s.checked || s.current_valid != 0) return false;
+  if (s.step_error[0] || s.step_error[1] || s.step_error[2]) return false;
+  const bool fault = s.fault_cause != 0;
+  if (fault && (s.enabled || s.holding)) return false;
+  if (!s.enabled && s.silent_periods != 0) return false;
+  if (s.enabled && s.silent_periods > board::kWatchdogPeriods) return false;
+  if (s.running) {
+    const std::uint64_t elapsed = s.cycle - s.run_start;
+    if (elapsed == kLoadCycles || elapsed == kRunCycles ||
+        (elapsed > kLoadCycles && (elapsed - kLoadCycles) % kJointCycles == 0)) {
+      return false;
+    }
+  }
+  // link_tx idle or waiting for uart_tx inside a bit; no capture.
+  if (s.capturing || s.writing || s.tx_state == 1) return false;
+  if (s.tx_state == 0 && (s.telemetry_pending || s.identify_pending)) return false;
+  if (s.bits_left == 0) {
+    if (s.tx_state != 0) return false;
+  } else if (s.tx_count == 0 && s.bits_left == 1) {
+    return false;  // the last bit ends: link_tx sees the UART ready
+  }
+
+  // ---- the clock ----
+  if (s.rx_state != 0) {
+    if (s.rx_count != 0) {
+      --s.rx_count;
+    } else {  // a data bit's middle (rx_state 2)
+      s.rx_shift = static_cast<std::uint8_t>((rx_level << 7) | (s.rx_shift >> 1));
+      s.rx_count = kClocksPerBit - 1;
+      if (s.rx_bit_index == 7) s.rx_state = 3;
+      s.rx_bit_index = (s.rx_bit_index + 1) & 7;
+    }
+  }
+  s.rx_sync = ((s.rx_sync << 1) | (uart_rx & 1)) & 3;
+  if (s.bits_left != 0) {
+    if (s.tx_count != 0) {
+      --s.tx_count;
+    } else {  // the next bit (not the last one's end)
+      s.frame = static_cast<std::uint16_t>(0x200 | (s.frame >> 1));
+      --s.bits_left;
+      s.tx_count = kClocksPerBit - 1;
+    }
+  }
+  for (int j = 0; j < 3; ++j) {
+    const int ab = (((s.enc_a >> j) & 1) << 1) | ((s.enc_b >> j) & 1);
+    switch ((s.previous[j] << 2) | ab) {
+      case 0b0010:
+      case 0b1011:
+      case 0b1101:
+      case 0b0100:
+        ++s.count[j];
+        break;
+      case 0b0001:
+      case 0b0111:
+      case 0b1110:
+      case 0b1000:
+        --s.count[j];
+        break;
+      case 0b0011:
+      case 0b1100:
+      case 0b0110:
+      case 0b1001:
+        s.step_error[j] = true;
+        break;
+      default:
+        break;
+    }
+    s.previous[j] = ab;
+  }
+  s.enc_a = s.enc_a_meta;
+  s.enc_a_meta = encoder_a;
+  s.enc_b = s.enc_b_meta;
+  s.enc_b_meta = encoder_b;
+  if (!s.settled) {
+    {
+      const int payload = (s.tx_index - 4) & 63;
+      s.read_data = m.words[((s.is_identify ? 0 : 16) + (payload >> 1)) & 255];
+    }
+    {
+      const int reference_word = static_cast<int>(board::kTelemetryReferencesOffset / 2);
+      const int count_word = static_cast<int>(board::kTelemetryCountsOffset / 2);
+      const int current_word = static_cast<int>(board::kTelemetryCurrentsOffset / 2);
+      const int w = s.capture;
+      int peek_joint = 0, peek_slot = 0;
+      if (w >= current_word) {
+        peek_joint = (w - current_word) & 3;
+        peek_slot = 6;
+      } else if (w >= count_word) {
+        peek_joint = (w - count_word) & 3;
+        peek_slot = 3;
+      } else if (w >= reference_word) {
+        peek_joint = ((w - reference_word) >> 1) & 3;
+      }
+      s.peek_data = peek_joint < 3 ? s.peek_memory[peek_joint][peek_slot] : 0;
+      s.word_index = s.capture;
+    }
+    for (int j = 0; j < 3; ++j) {
+      const std::int32_t reference_count = s.r[j] >> 8;
+      const std::int32_t reference17 = sign_extend(static_cast<std::uint32_t>(reference_count), 17);
+      s.difference_q[j] =
+          sign_extend(static_cast<std::uint32_t>(reference17 - static_cast<std::int16_t>(s.counts_q[j])), 17);
+      const std::int32_t block = sign_extend(static_cast<std::uint32_t>(reference_count), 24) >> 10;
+      s.outside_q[j] = block < board::kMinTravelBlock || block > board::kMaxTravelBlock;
+    }
+    s.settled = true;
+  }
+  int pwm = 0;
+  for (int j = 0; j < 3; ++j) {
+    if (s.enabled && !fault && s.pwm_phase < s.duty[j]) pwm |= 1 << j;
+  }
+  s.pwm = pwm;
+  s.enable_out = s.enabled && !fault;
+  s.pwm_phase = (s.pwm_phase + 1) & ((1 << board::kPwmBits) - 1);
+  s.tick = tick + 1;
+  ++s.cycle;
+  pins_.uart_tx = s.frame & 1;
+  pins_.drive_pwm = s.pwm;
+  pins_.drive_enable = s.enable_out;
+  return true;
+}
+
+void ModelBoard::clock(int uart_rx, int encoder_a, int encoder_b) {
+  if (quiet_clock(uart_rx, encoder_a, encoder_b)) return;
+  State& s = *state_;
+  Memories& m = *memories_;
+  State n = s;  // the next values, committed at the end
+  n.settled = false;
+  const int rx_level = (s.rx_sync >> 1) & 1;
+
+  // ---- uart_rx ----
+  n.rx_valid = false;
+  switch (s.rx_state) {
+    case 0:
+      n.rx_count = kClocksPerBit / 2;
+      if (!rx_level) n.rx_state = 1;
+      break;
+    case 1:
+      if (s.rx_count != 0) {
+        n.rx_count = s.rx_count - 1;
+      } else if (rx_level) {
+        n.rx_state = 0;
+      } else {
+        n.rx_state = 2;
+        n.rx_count = kClocksPerBit - 1;
+        n.rx_bit_index = 0;
+      }
+      break;
+    case 2:
+      if (s.rx_count != 0) {
+        n.rx_count = s.rx_count - 1;
+      } else {
+        n.rx_shift = static_cast<std::uint8_t>((rx_level << 7) | (s.rx_shift >> 1));
+        n.rx_count = kClocksPerBit - 1;
+        n.rx_bit_index = (s.rx_bit_index + 1) & 7;
+        if (s.rx_bit_index == 7) n.rx_state = 3;
+      }
+      break;
+    default:
+      if (s.rx_count != 0) {
+        n.rx_count = s.rx_count - 1;
+      } else {
+        n.rx_state = 0;
+        n.rx_valid = rx_level;
+      }
+      break;
+  }
+  n.rx_sync = ((s.rx_sync << 1) | (uart_rx & 1)) & 3;
+
+  // ---- link_rx ----
+  bool frame_start = false, payload_valid = false, frame_ok = false, frame_bad = false;
+  bool crc_clear = false, crc_valid = false;
+  n.fetched = false;
+  if (!s.fetched) {
+    n.fetched = s.read != s.write;
+  } else {
+    n.read = (s.read + 1) % kRingBytes;
+    if (s.index == 0) {
+      if (s.ring_data == board::kFrameSync) {
+        n.start = s.read;
+        n.index = 1;
+        crc_clear = true;
+      }
+    } else if (s.index < 4) {
+      crc_valid = true;
+      n.index = s.index + 1;
+      if (s.index == 1) n.length = s.ring_data;
+      if (s.index == 2) n.sequence = s.ring_data;
+      if (s.index == 3) {
+        n.type = s.ring_data;
+        bool known = false;
+        const int size = payload_size(s.ring_data, &known);
+        n.end = (size + 4) & 63;
+        if (known && s.length == size) {
+          frame_start = true;
+        } else {
+          frame_bad = true;
+          n.index = 0;
+          n.read = (s.start + 1) % kRingBytes;
+        }
+      }
+    } else if (s.index < s.end) {
+      crc_valid = true;
+      payload_valid = true;
+      n.index = s.index + 1;
+    } else if (s.index == s.end) {
+      n.crc_high_ok = s.ring_data == (s.rx_crc >> 8);
+      n.index = s.index + 1;
+    } else {
+      n.index = 0;
+      if (s.crc_high_ok && s.ring_data == (s.rx_crc & 0xFF)) {
+        frame_ok = true;
+      } else {
+        frame_bad = true;
+        n.read = (s.start + 1) % kRingBytes;
+      }
+    }
+  }
+  if (crc_clear) n.rx_crc = 0xFFFF;
+  if (crc_valid) n.rx_crc = crc_byte(crc_clear ? 0xFFFF : s.rx_crc, s.ring_data);
+  n.ring_data = m.ring[s.read];  // read before this edge's write (the RTL never reads the slot written)
+  if (s.rx_valid) {
+    m.ring[s.write] = s.rx_shift;
+    n.write = (s.write + 1) % kRingBytes;
+  }
+  const int payload_index = (s.index - 4) & 63;
+  const std::uint8_t payload_byte = s.ring_data;
+  const bool is_setpoint = s.type == board::kFrameTypeSetpoint;
+  const bool is_command = s.type == board::kFrameTypeCommand;
+  const bool is_identify_request = s.type == board::kFrameTypeIdentifyRequest;
+
+  // ---- joint_axes: fault, commands ----
+  const bool fault = s.fault_cause != 0;
+  const bool command_ok = frame_ok && is_command;
+  bool flush = fault && s.enabled, home = false, clear_fault = false, command_refused = false;
+  if (command_ok) {
+    switch (s.command) {
+      case board::kCommandEnable:
+        command_refused = fault || !s.homed || (s.enabled && !s.holding);
+        break;
+      case board::kCommandDisable:
+        flush = true;
+        break;
+      case board::kCommandHold:
+        command_refused = !s.enabled;
+        break;
+      case board::kCommandClearFault:
+        command_refused = s.active;
+        clear_fault = !s.active;
+        break;
+      case board::kCommandSetHome:
+        command_refused = s.enabled;
+        home = !s.enabled;
+        break;
+      default:
+        command_refused = true;
+    }
+  }
+  if (payload_valid && is_command) n.command = payload_byte;
+  if (command_ok && !command_refused) {
+    if (s.command == board::kCommandEnable) {
+      n.enabled = true;
+      n.holding = false;
+    }
+    if (s.command == board::kCommandDisable) {
+      n.enabled = false;
+      n.holding = false;
+    }
+    if (s.command == board::kCommandHold) n.holding = true;
+  }
+  if (home) n.homed = true;
+  if (fault) {
+    n.enabled = false;
+    n.holding = false;
+  }
+
+  // ---- period schedule ----
+  if (s.tick == 0) {
+    n.phase = s.phase == 9 ? 0 : s.phase + 1;
+    n.period_count = s.period_count + 1;
+  }
+  const bool play = s.tick == 1 && s.phase == 0 && s.enabled && !s.holding && !fault;
+  const bool snapshot = s.tick == kClocksPerPeriod / 2 && s.phase == 0;
+  const bool update = s.tick == kClocksPerPeriod - 100;
+
+  // ---- setpoint buffer ----
+  const std::uint32_t next_index = s.sample_index + static_cast<std::uint32_t>(s.fill);
+  const bool write_enable = is_setpoint && payload_valid && payload_index >= 4 && !s.full_at_start;
+  const bool commit = frame_ok && is_setpoint && s.index_match && !s.full_at_start && !s.vetoed && !flush;
+  const bool setpoint_refused = frame_ok && is_setpoint && !commit;
+  const bool pop = play && !s.starting && s.fill != 0;
+  const bool underrun = play && s.fill == 0;
+  if (frame_start) {
+    n.full_at_start = s.fill == kDepth;
+    n.index_match = true;
+    n.vetoed = false;
+  }
+  if (flush) n.vetoed = true;
+  if (is_setpoint && payload_valid && payload_index < 4 &&
+      payload_byte != ((next_index >> (8 * (payload_index & 3))) & 0xFF)) {
+    n.index_match = false;
+  }
+  if (flush) {
+    n.fill = 0;
+  } else if (commit && !pop) {
+    n.fill = s.fill + 1;
+  } else if (pop && !commit) {
+    n.fill = s.fill - 1;
+  }
+  if (pop) {
+    n.sample_index = s.sample_index + 1;
+    n.starting = true;
+    // The network (golden, bit for bit): its answer arrives long before the update reads it.
+    const auto& entry = m.ram[s.sample_index % kDepth];
+    std::array<std::int64_t, 3> position{};
+    for (int k = 0; k < 3; ++k) {
+      std::uint32_t code = 0;
+      for (int b = 0; b < 4; ++b) code |= static_cast<std::uint32_t>(entry[4 * k + b]) << (8 * b);
+      position[k] = static_cast<std::int32_t>(code);
+    }
+    const golden::RawOutput answer = golden::evaluate_raw(*s.network, position);
+    for (int j = 0; j < 3; ++j) n.net_outputs[j] = sign_extend(static_cast<std::uint32_t>(answer.alpha[j]), 24);
+    n.answer_pending = true;
+  } else if (s.starting) {
+    n.starting = false;  // the network takes it (ready) long before the next play
+  }
+
+  // After the pop's read: a full buffer takes no write, so the slot written is never the one read.
+  if (write_enable) m.ram[next_index % kDepth][(payload_index - 4) % 12] = payload_byte;
+
+  // ---- reference interpolator ----
+  const bool interpolator_enabled = s.enabled && !fault;
+  n.slew_limited = false;
+  const bool take_answer = s.answer_pending && s.phase == 0;
+  const int k_next = s.phase == 9 ? 10 : s.phase + 1;
+  if (update && !s.busy) {
+    n.busy = true;
+    n.step = 0;
+    n.joint = 0;
+  } else if (s.busy) {
+    const int j = s.joint;
+    n.step = s.step + 1;
+    if (s.step == 3) {
+      const std::int64_t c = golden::interpolation::reference_counts(s.net_outputs[j]);
+      const std::int64_t diff = c - s.r[j];
+      const bool saturated = diff > golden::interpolation::kDeltaMax || diff < golden::interpolation::kDeltaMin;
+      n.delta =
+          take_answer
+              ? static_cast<std::int32_t>(
+                    saturated ? (diff < 0 ? golden::interpolation::kDeltaMin : golden::interpolation::kDeltaMax) : diff)
+              : s.d[j];
+      if (take_answer && saturated && interpolator_enabled) n.slew_limited = true;
+    }
+    if (s.step == 6) {
+      const std::int64_t weight_now = golden::interpolation::kWeights[s.phase];
+      const std::int64_t weight_next = k_next == 10 ? (std::int64_t{1} << golden::interpolation::kWeightShift)
+                                                    : golden::interpolation::kWeights[k_next];
+      const std::int64_t step = golden::round_shift(std::int64_t{s.delta} * weight_next, 14) -
+                                golden::round_shift(std::int64_t{s.delta} * weight_now, 14);
+      n.r[j] = interpolator_enabled
+                   ? static_cast<std::int32_t>(static_cast<std::uint32_t>(s.r[j]) + static_cast<std::uint32_t>(step))
+                   : static_cast<std::int32_t>(static_cast<std::int16_t>(s.count[j])) * 256;
+      n.d[j] = (!interpolator_enabled || k_next == 10) ? 0 : s.delta;
+      n.step = 0;
+      n.joint = j + 1;
+      if (j == 2) {
+        n.busy = false;
+        if (take_answer) n.answer_pending = false;
+      }
+    }
+  }
+  if (s.slew_limited) n.slew_limits = saturating_increment(s.slew_limits);
+
+  // ---- encoders (synchronisers, quadrature counters) ----
+  n.enc_a_meta = encoder_a;
+  n.enc_a = s.enc_a_meta;
+  n.enc_b_meta = encoder_b;
+  n.enc_b = s.enc_b_meta;
+  int step_error_bits = 0;
+  for (int j = 0; j < 3; ++j) {
+    const int ab = (((s.enc_a >> j) & 1) << 1) | ((s.enc_b >> j) & 1);
+    const int key = (s.previous[j] << 2) | ab;
+    std::uint16_t count = s.count[j];
+    bool error = false;
+    switch (key) {
+      case 0b0010:
+      case 0b1011:
+      case 0b1101:
+      case 0b0100:
+        ++count;
+        break;
+      case 0b0001:
+      case 0b0111:
+      case 0b1110:
+      case 0b1000:
+        --count;
+        break;
+      case 0b0011:
+      case 0b1100:
+      case 0b0110:
+      case 0b1001:
+        error = true;
+        break;
+      default:
+        break;
+    }
+    n.previous[j] = ab;
+    n.step_error[j] = error;
+    n.count[j] = home ? static_cast<std::uint16_t>(board::kHomeCount) : count;
+    if (s.step_error[j]) step_error_bits |= 1 << j;
+  }
+  n.encoder_error = s.encoder_error | step_error_bits;
+
+  // ---- joint controller ----
+  const bool ap_idle = !s.running;
+  std::array<std::int32_t, 3> references = s.r;
+  if (s.start_q && ap_idle) {
+    n.running = true;
+    n.run_start = s.cycle;
+    for (int j = 0; j < 3; ++j) {
+      control::JointFixedInput input;
+      input.reference = references[j];
+      input.encoder = static_cast<std::int16_t>(s.counts_q[j]);
+      if (!s.primed) n.joint_state[j] = control::fixed_rest_state(input);
+      control::JointFixedStatus status;
+      n.next_current[j] = control::fixed_update(s.coefficients, n.joint_state[j], input, status);
+      n.next_overflow[j] = status.overflow_count;
+      n.peek_memory[j][0] = static_cast<std::uint32_t>(input.reference);
+      n.peek_memory[j][3] = static_cast<std::uint32_t>(static_cast<std::int32_t>(input.encoder));
+    }
+  }
+  n.current_valid = 0;
+  if (s.running) {
+    const std::uint64_t elapsed = s.cycle - s.run_start;  // 1 .. 892
+    for (int j = 0; j < 3; ++j) {
+      if (elapsed == static_cast<std::uint64_t>(kLoadCycles + kJointCycles * (j + 1))) {
+        n.current[j] = static_cast<std::uint16_t>(s.next_current[j]);
+        n.current_valid |= 1 << j;
+        n.peek_memory[j][6] = static_cast<std::uint32_t>(static_cast<std::int32_t>(s.next_current[j]));
+        n.overflow = static_cast<std::uint16_t>(std::min<int>(0xFFFF, s.overflow + s.next_overflow[j]));
+      }
+    }
+    if (elapsed == kRunCycles) {
+      n.running = false;
+      n.primed = true;
+    }
+  }
+  // ap_ready: the last load cycle.
+  if (s.running && s.cycle - s.run_start == kLoadCycles) n.start_q = false;
+  if (s.tick == 0 && ap_idle) {
+    n.start_q = true;
+    n.counts_q = s.count;
+  }
+  // Drives off: the controller restarts from rest (a reset in the period's last cycle).
+  if (!s.enabled && s.tick == kClocksPerPeriod - 1) {
+    n.running = false;
+    n.primed = false;
+    n.current = {0, 0, 0};
+    n.current_valid = 0;
+    n.overflow = 0;
+  }
+
+  // ---- joint_safety ----
+  if (frame_ok || !s.enabled) {
+    n.silent_periods = 0;
+  } else if (s.tick == 0 && s.silent_periods != kWatchdogMax) {
+    n.silent_periods = s.silent_periods + 1;
+  }
+  int following = 0, outside = 0;
+  for (int j = 0; j < 3; ++j) {
+    const std::int32_t reference_count = s.r[j] >> 8;  // bits 31..8 (24-bit signed)
+    const std::int32_t reference17 = sign_extend(static_cast<std::uint32_t>(reference_count), 17);
+    n.difference_q[j] =
+        sign_extend(static_cast<std::uint32_t>(reference17 - static_cast<std::int16_t>(s.counts_q[j])), 17);
+    const std::int32_t block = sign_extend(static_cast<std::uint32_t>(reference_count), 24) >> 10;
+    n.outside_q[j] = block < board::kMinTravelBlock || block > board::kMaxTravelBlock;
+    const std::int32_t high = s.difference_q[j] >> board::kFollowingBits;
+    if (high != 0 && high != -1) following |= 1 << j;
+    if (s.outside_q[j]) outside |= 1 << j;
+  }
+  int cause = clear_fault ? 0 : s.fault_cause;
+  if (step_error_bits != 0) cause |= 1 << board::kFaultEncoderSkip;
+  if (s.checked && s.enabled) {
+    if (following) cause |= 1 << board::kFaultFollowing;
+    if (outside) cause |= 1 << board::kFaultTravel;
+  }
+  if (s.enabled && s.silent_periods > board::kWatchdogPeriods) cause |= 1 << board::kFaultWatchdog;
+  n.fault_cause = cause;
+  n.check = s.tick == 0 && ap_idle;
+  n.checked = s.check;
+  if (s.checked) n.active = following != 0 || outside != 0;
+
+  // ---- joint_pwm ----
+  for (int j = 0; j < 3; ++j) {
+    if ((s.current_valid >> j) & 1) {
+      const std::int16_t c = static_cast<std::int16_t>(s.current[j]);
+      const int magnitude = c < 0 ? static_cast<std::uint16_t>(-c) : c;
+      n.duty[j] = (magnitude >> (14 - board::kPwmBits)) & ((1 << (board::kPwmBits + 1)) - 1);
+      n.direction = (n.direction & ~(1 << j)) | ((c < 0 ? 1 : 0) << j);
+    }
+  }
+  int pwm = 0;
+  for (int j = 0; j < 3; ++j) {
+    if (s.enabled && !fault && s.pwm_phase < s.duty[j]) pwm |= 1 << j;
+  }
+  n.pwm = pwm;
+  n.enable_out = s.enabled && !fault;
+  n.pwm_phase = (s.pwm_phase + 1) & ((1 << board::kPwmBits) - 1);
+
+  // ---- counters ----
+  if (frame_bad) n.bad_frames = saturating_increment(s.bad_frames);
+  if (underrun) n.underruns = saturating_increment(s.underruns);
+  if (command_refused || setpoint_refused) n.refused = saturating_increment(s.refused);
+  if (frame_ok) n.last_sequence = s.sequence;
+
+  // ---- telemetry words and link_tx ----
+  const int reference_word = static_cast<int>(board::kTelemetryReferencesOffset / 2);
+  const int count_word = static_cast<int>(board::kTelemetryCountsOffset / 2);
+  const int current_word = static_cast<int>(board::kTelemetryCurrentsOffset / 2);
+  {
+    // peek: the state word asked for in this cycle, one cycle later (the controller is idle then).
+    const int w = s.capture;
+    int peek_joint = 0, peek_slot = 0;
+    if (w >= current_word) {
+      peek_joint = (w - current_word) & 3;
+      peek_slot = 6;
+    } else if (w >= count_word) {
+      peek_joint = (w - count_word) & 3;
+      peek_slot = 3;
+    } else if (w >= reference_word) {
+      peek_joint = ((w - reference_word) >> 1) & 3;
+    }
+    n.peek_data = peek_joint < 3 ? s.peek_memory[peek_joint][peek_slot] : 0;
+    n.word_index = s.capture;
+  }
+  std::uint16_t telemetry_word = 0;
+  {
+    int flags = 0;
+    if (s.enabled && !fault) flags |= 1 << board::kFlagDriveEnable;
+    if (s.homed) flags |= 1 << board::kFlagHomed;
+    if (s.holding) flags |= 1 << board::kFlagHolding;
+    if (fault) flags |= 1 << board::kFlagFault;
+    if (s.encoder_error != 0) flags |= 1 << board::kFlagEncoderError;
+    const int w = s.word_index;
+    if (w == board::kTelemetrySampleIndexOffset / 2)
+      telemetry_word = s.sample_index & 0xFFFF;
+    else if (w == board::kTelemetrySampleIndexOffset / 2 + 1)
+      telemetry_word = s.sample_index >> 16;
+    else if (w == board::kTelemetryTickOffset / 2)
+      telemetry_word = s.period_count & 0xFFFF;
+    else if (w == board::kTelemetryTickOffset / 2 + 1)
+      telemetry_word = s.period_count >> 16;
+    else if (w == board::kTelemetryFaultOffset / 2)
+      telemetry_word = static_cast<std::uint16_t>((flags << 8) | s.fault_cause);
+    else if (w == board::kTelemetryFillOffset / 2)
+      telemetry_word = static_cast<std::uint16_t>(s.fill);
+    else if (w == board::kTelemetryBadFramesOffset / 2)
+      telemetry_word = s.bad_frames;
+    else if (w == board::kTelemetryUnderrunsOffset / 2)
+      telemetry_word = s.underruns;
+    else if (w == board::kTelemetrySaturationsOffset / 2)
+      telemetry_word = s.overflow;
+    else if (w == board::kTelemetrySlewLimitsOffset / 2)
+      telemetry_word = s.slew_limits;
+    else if (w == board::kTelemetryRejectedOffset / 2)
+      telemetry_word = s.refused;
+    else if (w == board::kTelemetrySequenceOffset / 2)
+      telemetry_word = s.last_sequence;
+    else if (w >= reference_word && w < count_word && (w & 1) != (reference_word & 1))
+      telemetry_word = s.peek_data >> 16;
+    else
+      telemetry_word = s.peek_data & 0xFFFF;
+  }
+  const bool tx_ready = s.bits_left == 0;
+  bool tx_valid = false;
+  std::uint8_t tx_data = 0;
+  {
+    const int payload = (s.tx_index - 4) & 63;
+    const int read_address = (s.is_identify ? 0 : 16) + (payload >> 1);
+    n.read_data = m.words[read_address & 255];
+    if (s.writing) m.words[(16 + s.written) & 255] = telemetry_word;
+    if (s.tx_index == 0)
+      tx_data = static_cast<std::uint8_t>(board::kFrameSync);
+    else if (s.tx_index == 1)
+      tx_data = static_cast<std::uint8_t>(s.tx_length);
+    else if (s.tx_index == 2)
+      tx_data = s.tx_sequence;
+    else if (s.tx_index == 3)
+      tx_data = static_cast<std::uint8_t>(s.is_identify ? board::kFrameTypeIdentify : board::kFrameTypeTelemetry);
+    else if (s.tx_index == s.tx_length + 4)
+      tx_data = static_cast<std::uint8_t>(s.tx_crc >> 8);
+    else if (s.tx_index == s.tx_length + 5)
+      tx_data = static_cast<std::uint8_t>(s.tx_crc & 0xFF);
+    else
+      tx_data = static_cast<std::uint8_t>((payload & 1) ? s.read_data >> 8 : s.read_data & 0xFF);
+    const bool sending_telemetry = s.tx_state != 0 && !s.is_identify;
+    bool clear = false, valid = false, start_identify = false, start_telemetry = false;
+    if (s.tx_state == 0) {
+      if (s.telemetry_pending) {
+        start_telemetry = true;
+        n.is_identify = false;
+        n.tx_length = static_cast<int>(board::kTelemetryPayloadBytes);
+        n.tx_sequence = s.telemetry_sequence;
+      } else if (s.identify_pending) {
+        start_identify = true;
+        n.is_identify = true;
+        n.tx_length = static_cast<int>(board::kIdentifyPayloadBytes);
+        n.tx_sequence = s.identify_sequence;
+      }
+      if (start_telemetry || start_identify) {
+        n.tx_state = 2;
+        n.tx_index = 0;
+        clear = true;
+      }
+    } else if (s.tx_state == 1) {
+      n.tx_state = 2;
+    } else {
+      tx_valid = true;
+      if (tx_ready) {
+        valid = s.tx_index != 0 && s.tx_index < s.tx_length + 4;
+        n.tx_index = (s.tx_index + 1) & 63;
+        if (s.tx_index == s.tx_length + 5)
+          n.tx_state = 0;
+        else if (s.tx_index >= 3)
+          n.tx_state = 1;
+      }
+    }
+    if (clear) n.tx_crc = 0xFFFF;
+    if (valid) n.tx_crc = crc_byte(clear ? 0xFFFF : s.tx_crc, tx_data);
+    n.writing = s.capturing;
+    n.written = s.capture;
+    if (s.writing && !s.capturing) n.telemetry_pending = true;
+    if (frame_ok && is_identify_request) {
+      n.identify_pending = true;
+      n.identify_sequence = s.sequence;
+    } else if (start_identify) {
+      n.identify_pending = false;
+    }
+    if (start_telemetry) {
+      n.telemetry_pending = false;
+      n.telemetry_sequence = static_cast<std::uint8_t>(s.telemetry_sequence + 1);
+    }
+    if (snapshot && !s.capturing && !s.writing && !s.telemetry_pending && !sending_telemetry) {
+      n.capturing = true;
+      n.capture = 0;
+    } else if (s.capturing) {
+      n.capture = (s.capture + 1) & 31;
+      if (s.capture == kTelemetryWords - 1) n.capturing = false;
+    }
+  }
+  // ---- uart_tx ----
+  if (s.bits_left == 0) {
+    if (tx_valid) {
+      n.frame = static_cast<std::uint16_t>(0x200 | (tx_data << 1));
+      n.bits_left = 10;
+      n.tx_count = kClocksPerBit - 1;
+    }
+  } else if (s.tx_count != 0) {
+    n.tx_count = s.tx_count - 1;
+  } else {
+    n.frame = static_cast<std::uint16_t>(0x200 | (s.frame >> 1));
+    n.bits_left = s.bits_left - 1;
+    n.tx_count = kClocksPerBit - 1;
+  }
+
+  n.tick = s.tick == kClocksPerPeriod - 1 ? 0 : s.tick + 1;
+  n.cycle = s.cycle + 1;
+  *state_ = std::move(n);
+
+  const State& q = *state_;
+  pins_.uart_tx = q.frame & 1;
+  pins_.drive_pwm = q.pwm;
+  pins_.drive_dir = q.direction;
+  pins_.drive_enable = q.enable_out;
+  pins_.encoder_error = q.encoder_error;
+  pins_.joint_limited = q.overflow != 0;
+  pins_.fault_cause = q.fault_cause;
+}
+
+}  // namespace delta::cosim

@@ -1,0 +1,43 @@
+#!/usr/bin/env bash
+# Benchmark (not a CTest test): both virtual boards' speed in the same run, on the whole-robot
+# co-simulation (`deltactl cosim`, experiment 1, paper-like robot): the Verilated board core (RTL
+# fidelity) and the C++ model board (model fidelity, bit-exact with it), each as board cycles per
+# second and as a multiple of real time (rtl/board/delta_board_pkg.sv BoardClockHz), median of RUNS
+# runs, then their ratio. The model runs free here (cosim never paces).
+# Usage: scripts/bench_boards.sh [BUILD_DIR] [SECONDS] [RUNS]   (defaults: build, 2, 3)
+set -euo pipefail
+root=$(cd "$(dirname "$0")/.." && pwd)
+build=${1:-$root/build}
+seconds=${2:-2}
+runs=${3:-3}
+deltactl="$build/bin/deltactl"
+[[ -x $deltactl ]] || { echo "bench_boards: $deltactl missing: bash scripts/build.sh" >&2; exit 2; }
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+clock_mhz=$(awk '/localparam int BoardClockHz/ { gsub(/[_;]/, "", $7); print $7 / 1e6 }' "$root/rtl/board/delta_board_pkg.sv")
+
+# median M board cycles/s of `deltactl cosim --fidelity $1`
+measure() {
+  local fidelity=$1 rates=() rate run
+  for ((run = 1; run <= runs; run++)); do
+    "$deltactl" cosim --fidelity "$fidelity" --weights "$root/weights/paper_like.json" \
+      --effects "$root/sim/paper_like_effects.json" --trajectory experiment1 --duration "$seconds" \
+      >/dev/null 2>"$work/err" || true
+    rate=$(sed -n 's/.*[( ]\([0-9.]*\) M board cycles\/s).*/\1/p' "$work/err" | tail -1)
+    [[ -n $rate ]] || { echo "bench_boards: no speed line from --fidelity $fidelity:" >&2; tail -3 "$work/err" >&2; exit 1; }
+    rates+=("$rate")
+  done
+  echo "${rates[*]}"
+}
+median() { printf '%s\n' "$@" | sort -g | awk '{ a[NR] = $1 } END { print a[int((NR + 1) / 2)] }'; }
+
+read -r -a rtl <<<"$(measure rtl)"
+read -r -a model <<<"$(measure model)"
+rtl_median=$(median "${rtl[@]}")
+model_median=$(median "${model[@]}")
+x() { awk -v r="$1" -v c="$clock_mhz" 'BEGIN { printf "%.3f", r / c }'; }
+echo "| board | runs | M board cycles/s (each) | median | x real time (${clock_mhz} MHz board clock) |"
+echo "|---|---|---|---|---|"
+echo "| RTL (Verilated board_core) | $runs | ${rtl[*]} | $rtl_median | $(x "$rtl_median") |"
+echo "| model (C++ model board) | $runs | ${model[*]} | $model_median | $(x "$model_median") |"
+echo "model / RTL: $(awk -v m="$model_median" -v r="$rtl_median" 'BEGIN { printf "%.2f", m / r }') x"

@@ -1,0 +1,196 @@
+// The model board (host/codesign/model_board.hpp) against the RTL board: the same host session
+// (experiment 1 with the paper-like robot over link v2) through both virtual boards must give the
+// same board: every telemetry frame equal in every field, and at every 10 kHz control period the
+// same drive currents the world applies, encoder lines, plant angles and status pins.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include "delta/cosim/board_cosim.hpp"
+#include "delta/effect_file.hpp"
+#include "delta/golden/export.hpp"
+#include "delta/golden/fixed_network.hpp"
+#include "delta/link/payloads.hpp"
+#include "delta/nn/weights_file.hpp"
+#include "delta/trajectory.hpp"
+#include "rtl_fixture.hpp"
+
+namespace delta::test {
+namespace {
+
+const std::string kWeights = std::string(DELTA_SOURCE_DIR) + "/weights/paper_like.json";
+const std::string kEffects = std::string(DELTA_SOURCE_DIR) + "/sim/paper_like_effects.json";
+
+struct PeriodRecord {
+  std::uint64_t clocks = 0;
+  Vec3 current_a = Vec3::Zero();
+  Vec3 encoder_deg = Vec3::Zero();
+  Vec3 true_alpha_deg = Vec3::Zero();
+  cosim::BoardPins pins;
+};
+
+struct BoardRun {
+  cosim::CosimResult result;
+  std::vector<PeriodRecord> periods;
+};
+
+BoardRun run_board(cosim::BoardFidelity fidelity, const golden::QuantisedNetwork& q, const std::string& mem_dir) {
+  BoardRun out;
+  cosim::CosimOptions options;
+  options.fidelity = fidelity;
+  options.mem_dir = mem_dir;
+  options.network = &q;
+  options.effects = read_effect_file(kEffects);
+  options.trajectory = make_trajectory("experiment1").position_m;
+  options.duration_s = 2.0;
+  options.blend_s = 0.3;
+  options.period_observer = [&out](std::uint64_t clocks, const cosim::BoardPins& pins, const RobotWorld& world) {
+    out.periods.push_back({clocks, world.current_a(), world.encoder_deg(), world.true_alpha_deg(), pins});
+  };
+  out.result = cosim::run_cosim(options);
+  return out;
+}
+
+TEST(ModelBoard, EqualsTheRtlBoardFrameForFrameAndPeriodForPeriodOverExperimentOne) {
+  const golden::QuantisedNetwork q = golden::quantise(nn::read_weights_file(kWeights).network);
+  const std::string mem_dir = fresh_directory("model_board_mem");
+  golden::write_export(q, mem_dir);
+  auto seconds_since = [](std::chrono::steady_clock::time_point start) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  };
+  auto start = std::chrono::steady_clock::now();
+  const BoardRun rtl = run_board(cosim::BoardFidelity::kRtl, q, mem_dir);
+  const double rtl_s = seconds_since(start);
+  start = std::chrono::steady_clock::now();
+  const BoardRun model = run_board(cosim::BoardFidelity::kModel, q, mem_dir);
+  const double model_s = seconds_since(start);
+  std::cout << "RTL: " << rtl.result.telemetry.size() << " telemetry frames, " << rtl.periods.size() << " periods in "
+            << rtl_s << " s; model: " << model.result.telemetry.size() << ", " << model.periods.size() << " in "
+            << model_s << " s\n";
+
+  // The session completed on both (a real trajectory: it moved the joints, drew current).
+  ASSERT_EQ(rtl.result.stream.outcome, link::StreamReport::Outcome::kCompleted);
+  ASSERT_GT(rtl.result.telemetry.size(), 2000u);
+  EXPECT_EQ(model.result.identify.weights_crc, rtl.result.identify.weights_crc);
+  EXPECT_EQ(model.result.identify.build_id, rtl.result.identify.build_id);
+
+  ASSERT_EQ(model.result.telemetry.size(), rtl.result.telemetry.size());
+  std::size_t moving = 0;
+  for (std::size_t i = 0; i < rtl.result.telemetry.size(); ++i) {
+    const link::TelemetryPayload& a = rtl.result.telemetry[i];
+    const link::TelemetryPayload& b = model.result.telemetry[i];
+    ASSERT_EQ(link::encode(b), link::encode(a))
+        << "telemetry frame " << i << " (tick " << a.tick << " vs " << b.tick << "): sample " << a.sample_index << "/"
+        << b.sample_index << " counts " << a.counts[0] << "/" << b.counts[0] << " currents " << a.currents[0] << "/"
+        << b.currents[0] << " references " << a.references[0] << "/" << b.references[0] << " flags " << int(a.flags)
+        << "/" << int(b.flags) << " fill " << a.fill << "/" << b.fill;
+    if (a.currents[0] != 0 || a.currents[1] != 0 || a.currents[2] != 0) ++moving;
+  }
+  EXPECT_GT(moving, 1000u);
+
+  ASSERT_EQ(model.periods.size(), rtl.periods.size());
+  for (std::size_t i = 0; i < rtl.periods.size(); ++i) {
+    const PeriodRecord& a = rtl.periods[i];
+    const PeriodRecord& b = model.periods[i];
+    ASSERT_EQ(b.clocks, a.clocks);
+    ASSERT_EQ(b.current_a, a.current_a) << "period " << i;  // the PWM the world averaged, exactly
+    ASSERT_EQ(b.encoder_deg, a.encoder_deg) << "period " << i;
+    ASSERT_EQ(b.true_alpha_deg, a.true_alpha_deg) << "period " << i;
+    ASSERT_EQ(b.pins.drive_enable, a.pins.drive_enable) << "period " << i;
+    ASSERT_EQ(b.pins.fault_cause_bits, a.pins.fault_cause_bits) << "period " << i;
+    ASSERT_EQ(b.pins.encoder_error_bits, a.pins.encoder_error_bits) << "period " << i;
+    ASSERT_EQ(b.pins.joint_limited, a.pins.joint_limited) << "period " << i;
+  }
+}
+
+// A host session with a fault and a recovery, on either board: identify, set home, enable, stream
+// 300 setpoints circling 2 mm around where the plate starts; from board time 0.25 s joint 1's
+// encoder skips a quadrature state (the virtual board's fault injection): the board latches fault
+// cause 0 and stops the torque; the host clears the fault, enables again, streams 300 more, disables.
+struct FaultRun {
+  std::vector<link::TelemetryPayload> telemetry;
+  std::vector<PeriodRecord> periods;
+  link::StreamReport first, second;
+  link::TelemetryPayload cleared, reenabled;
+};
+
+FaultRun run_fault_session(cosim::BoardFidelity fidelity, const golden::QuantisedNetwork& q,
+                           const std::string& mem_dir) {
+  FaultRun out;
+  cosim::VirtualBoardOptions options;
+  options.fidelity = fidelity;
+  options.network = &q;
+  options.mem_dir = mem_dir;
+  options.effects = read_effect_file(kEffects);
+  options.inject_encoder_skip_at_s = 0.25;
+  cosim::VirtualBoard board(options);
+  board.observe_periods([&out](std::uint64_t clocks, const cosim::BoardPins& pins, const RobotWorld& world) {
+    out.periods.push_back({clocks, world.current_a(), world.encoder_deg(), world.true_alpha_deg(), pins});
+  });
+  cosim::VirtualBoardStream stream(board);
+  link::LinkSession session(stream);
+  session.identify();
+  session.set_home();
+  const link::TelemetryPayload enabled = session.enable();
+  Vec3 counts_deg;
+  for (int j = 0; j < 3; ++j) counts_deg[j] = enabled.counts[j] * cosim::kCountDeg;
+  const Vec3 start = cosim::locate_plate(q, Geometry::nominal(), counts_deg);
+  auto circle = [&q, &start](std::size_t k, std::int64_t) {
+    const double phase = 2.0 * M_PI * static_cast<double>(k) / 300.0;
+    const Vec3 p = start + 2e-3 * Vec3(std::sin(phase), std::cos(phase) - 1.0, 0.0) * std::min(1.0, k / 100.0);
+    const std::array<std::int64_t, 3> code = golden::encode_position(q.formats, p);
+    return std::array<std::int32_t, 3>{static_cast<std::int32_t>(code[0]), static_cast<std::int32_t>(code[1]),
+                                       static_cast<std::int32_t>(code[2])};
+  };
+  out.first = session.stream(300, circle);
+  out.cleared = session.clear_fault();
+  out.reenabled = session.enable();
+  out.second = session.stream(300, circle);
+  session.disable();
+  out.telemetry = session.telemetry();
+  return out;
+}
+
+TEST(ModelBoard, EqualsTheRtlBoardThroughAnEncoderSkipFaultAndItsRecovery) {
+  const golden::QuantisedNetwork q = golden::quantise(nn::read_weights_file(kWeights).network);
+  const std::string mem_dir = fresh_directory("model_board_fault_mem");
+  golden::write_export(q, mem_dir);
+  const FaultRun rtl = run_fault_session(cosim::BoardFidelity::kRtl, q, mem_dir);
+  const FaultRun model = run_fault_session(cosim::BoardFidelity::kModel, q, mem_dir);
+  std::cout << "RTL: " << rtl.telemetry.size() << " telemetry frames, " << rtl.periods.size() << " periods\n";
+
+  // The scenario happened: the skip faulted the first stream, the clear and the enable were taken,
+  // the second stream completed.
+  EXPECT_EQ(rtl.first.outcome, link::StreamReport::Outcome::kFault);
+  EXPECT_TRUE(rtl.first.fault_cause & (1 << board::kFaultEncoderSkip));
+  EXPECT_EQ(rtl.cleared.fault_cause, 0);
+  EXPECT_TRUE(rtl.reenabled.has(link::TelemetryFlag::kDriveEnable));
+  EXPECT_EQ(rtl.second.outcome, link::StreamReport::Outcome::kCompleted);
+  EXPECT_EQ(model.first.outcome, rtl.first.outcome);
+  EXPECT_EQ(model.second.outcome, rtl.second.outcome);
+
+  ASSERT_EQ(model.telemetry.size(), rtl.telemetry.size());
+  for (std::size_t i = 0; i < rtl.telemetry.size(); ++i) {
+    ASSERT_EQ(link::encode(model.telemetry[i]), link::encode(rtl.telemetry[i]))
+        << "telemetry frame " << i << " (tick " << rtl.telemetry[i].tick << ")";
+  }
+  ASSERT_EQ(model.periods.size(), rtl.periods.size());
+  for (std::size_t i = 0; i < rtl.periods.size(); ++i) {
+    const PeriodRecord& a = rtl.periods[i];
+    const PeriodRecord& b = model.periods[i];
+    ASSERT_EQ(b.current_a, a.current_a) << "period " << i;
+    ASSERT_EQ(b.encoder_deg, a.encoder_deg) << "period " << i;
+    ASSERT_EQ(b.true_alpha_deg, a.true_alpha_deg) << "period " << i;
+    ASSERT_EQ(b.pins.drive_enable, a.pins.drive_enable) << "period " << i;
+    ASSERT_EQ(b.pins.fault_cause_bits, a.pins.fault_cause_bits) << "period " << i;
+    ASSERT_EQ(b.pins.encoder_error_bits, a.pins.encoder_error_bits) << "period " << i;
+  }
+}
+
+}  // namespace
+}  // namespace delta::test
