@@ -44,6 +44,31 @@ int payload_size(std::uint8_t type, bool* known) {
   return 0;
 }
 
+// Slots of a joint in the controllers' state memory (rtl/joint/delta_joint_pkg.sv, Slot*).
+constexpr int kSlotReference = 0;
+constexpr int kSlotEncoder = 3;
+constexpr int kSlotCurrent = 6;
+using PeekMemory = std::array<std::array<std::uint32_t, 8>, 3>;
+
+// The state word telemetry word w reads from the controllers' memory (board_core.sv's peek
+// decode: references two words each, then counts and currents one word each; 0 past joint 2).
+std::uint32_t peek_word(const PeekMemory& memory, int w) {
+  const int reference_word = static_cast<int>(board::kTelemetryReferencesOffset / 2);
+  const int count_word = static_cast<int>(board::kTelemetryCountsOffset / 2);
+  const int current_word = static_cast<int>(board::kTelemetryCurrentsOffset / 2);
+  int joint = 0, slot = kSlotReference;
+  if (w >= current_word) {
+    joint = (w - current_word) & 3;
+    slot = kSlotCurrent;
+  } else if (w >= count_word) {
+    joint = (w - count_word) & 3;
+    slot = kSlotEncoder;
+  } else if (w >= reference_word) {
+    joint = ((w - reference_word) >> 1) & 3;
+  }
+  return joint < 3 ? memory[joint][slot] : 0;
+}
+
 std::int32_t sign_extend(std::uint32_t value, int bits) {
   const std::uint32_t m = 1u << (bits - 1);
   value &= (bits == 32) ? 0xFFFFFFFFu : ((1u << bits) - 1);
@@ -121,7 +146,7 @@ struct ModelBoard::State {
   std::array<std::uint16_t, 3> current{};  // current_q
   int current_valid = 0;
   std::uint16_t overflow = 0;
-  std::array<std::array<std::uint32_t, 8>, 3> peek_memory{};  // the last run's slots
+  PeekMemory peek_memory{};  // the last run's slots
   std::uint32_t peek_data = 0;
   // joint_pwm
   int pwm_phase = 0;
@@ -262,24 +287,8 @@ bool ModelBoard::quiet_clock(int uart_rx, int encoder_a, int encoder_b) {
       const int payload = (s.tx_index - 4) & 63;
       s.read_data = m.words[((s.is_identify ? 0 : 16) + (payload >> 1)) & 255];
     }
-    {
-      const int reference_word = static_cast<int>(board::kTelemetryReferencesOffset / 2);
-      const int count_word = static_cast<int>(board::kTelemetryCountsOffset / 2);
-      const int current_word = static_cast<int>(board::kTelemetryCurrentsOffset / 2);
-      const int w = s.capture;
-      int peek_joint = 0, peek_slot = 0;
-      if (w >= current_word) {
-        peek_joint = (w - current_word) & 3;
-        peek_slot = 6;
-      } else if (w >= count_word) {
-        peek_joint = (w - count_word) & 3;
-        peek_slot = 3;
-      } else if (w >= reference_word) {
-        peek_joint = ((w - reference_word) >> 1) & 3;
-      }
-      s.peek_data = peek_joint < 3 ? s.peek_memory[peek_joint][peek_slot] : 0;
-      s.word_index = s.capture;
-    }
+    s.peek_data = peek_word(s.peek_memory, s.capture);
+    s.word_index = s.capture;
     for (int j = 0; j < 3; ++j) {
       const std::int32_t reference_count = s.r[j] >> 8;
       const std::int32_t reference17 = sign_extend(static_cast<std::uint32_t>(reference_count), 17);
@@ -610,8 +619,8 @@ void ModelBoard::clock(int uart_rx, int encoder_a, int encoder_b) {
       control::JointFixedStatus status;
       n.next_current[j] = control::fixed_update(s.coefficients, n.joint_state[j], input, status);
       n.next_overflow[j] = status.overflow_count;
-      n.peek_memory[j][0] = static_cast<std::uint32_t>(input.reference);
-      n.peek_memory[j][3] = static_cast<std::uint32_t>(static_cast<std::int32_t>(input.encoder));
+      n.peek_memory[j][kSlotReference] = static_cast<std::uint32_t>(input.reference);
+      n.peek_memory[j][kSlotEncoder] = static_cast<std::uint32_t>(static_cast<std::int32_t>(input.encoder));
     }
   }
   n.current_valid = 0;
@@ -621,7 +630,7 @@ void ModelBoard::clock(int uart_rx, int encoder_a, int encoder_b) {
       if (elapsed == static_cast<std::uint64_t>(kLoadCycles + kJointCycles * (j + 1))) {
         n.current[j] = static_cast<std::uint16_t>(s.next_current[j]);
         n.current_valid |= 1 << j;
-        n.peek_memory[j][6] = static_cast<std::uint32_t>(static_cast<std::int32_t>(s.next_current[j]));
+        n.peek_memory[j][kSlotCurrent] = static_cast<std::uint32_t>(static_cast<std::int32_t>(s.next_current[j]));
         n.overflow = static_cast<std::uint16_t>(std::min<int>(0xFFFF, s.overflow + s.next_overflow[j]));
       }
     }
@@ -701,23 +710,9 @@ void ModelBoard::clock(int uart_rx, int encoder_a, int encoder_b) {
   // ---- telemetry words and link_tx ----
   const int reference_word = static_cast<int>(board::kTelemetryReferencesOffset / 2);
   const int count_word = static_cast<int>(board::kTelemetryCountsOffset / 2);
-  const int current_word = static_cast<int>(board::kTelemetryCurrentsOffset / 2);
-  {
-    // peek: the state word asked for in this cycle, one cycle later (the controller is idle then).
-    const int w = s.capture;
-    int peek_joint = 0, peek_slot = 0;
-    if (w >= current_word) {
-      peek_joint = (w - current_word) & 3;
-      peek_slot = 6;
-    } else if (w >= count_word) {
-      peek_joint = (w - count_word) & 3;
-      peek_slot = 3;
-    } else if (w >= reference_word) {
-      peek_joint = ((w - reference_word) >> 1) & 3;
-    }
-    n.peek_data = peek_joint < 3 ? s.peek_memory[peek_joint][peek_slot] : 0;
-    n.word_index = s.capture;
-  }
+  // peek: the state word asked for in this cycle, one cycle later (the controller is idle then).
+  n.peek_data = peek_word(s.peek_memory, s.capture);
+  n.word_index = s.capture;
   std::uint16_t telemetry_word = 0;
   {
     int flags = 0;
