@@ -3,7 +3,7 @@
 # installed into a scratch root), and doctor against the virtual board (full build only).
 delta_add_gtest(deploy_tests
   SOURCES ${CMAKE_CURRENT_LIST_DIR}/deploy/deploy_test.cpp
-  LIBRARIES delta::deploy delta::host
+  LIBRARIES delta::deploy delta::controller delta::host
   LABELS deploy host)
 
 add_test(NAME Deploy.UdevRules
@@ -20,9 +20,12 @@ if(DELTA_HOST_ONLY)
   set_tests_properties(Deploy.Package PROPERTIES LABELS "deploy;host" SKIP_RETURN_CODE 77 TIMEOUT 600)
 else()
   add_test(NAME Deploy.Package
-    COMMAND ${PROJECT_SOURCE_DIR}/scripts/deploy/package_test.sh ${PROJECT_BINARY_DIR}/host-only)
+    COMMAND ${PROJECT_SOURCE_DIR}/scripts/deploy/package_test.sh ${PROJECT_BINARY_DIR}/host-only $<TARGET_FILE:deltactl>)
   set_tests_properties(Deploy.Package PROPERTIES LABELS "deploy;host" SKIP_RETURN_CODE 77 TIMEOUT 600
                        FIXTURES_REQUIRED host_only_tree)
+  add_test(NAME Deploy.WeightsPipeline
+    COMMAND ${PROJECT_SOURCE_DIR}/scripts/deploy/weights_pipeline_test.sh ${PROJECT_SOURCE_DIR} ${PROJECT_BINARY_DIR})
+  set_tests_properties(Deploy.WeightsPipeline PROPERTIES LABELS "deploy;host" TIMEOUT 300)
   add_test(NAME Deploy.DoctorVirtualBoard
     COMMAND ${PROJECT_SOURCE_DIR}/scripts/deploy/doctor_virtual_board.sh $<TARGET_FILE:deltactl>
             ${PROJECT_SOURCE_DIR}/weights/paper_like.json)

@@ -1,3 +1,9 @@
+# The host controller's plan under feed holds (no board needed).
+delta_add_gtest(stream_plan_tests
+  SOURCES ${CMAKE_CURRENT_LIST_DIR}/host_controller/stream_plan_test.cpp
+  LIBRARIES delta::controller
+  LABELS host host_controller)
+
 # The host controller (`deltactl host`) against the virtual board through a pty: issue 13's
 # acceptance. Needs the virtual board (Verilator), so not in the host-only build.
 if(DELTA_HOST_ONLY)
@@ -9,4 +15,11 @@ delta_add_gtest(host_controller_tests
   LABELS host host_controller virtual_board
   # Alone on the machine: the virtual board and the host's 1 kHz streaming thread each need a core,
   # and a starved host lets the board's 50 ms watchdog fault the run (as it would on the robot).
+  PROPERTIES RUN_SERIAL TRUE)
+
+# `host serve` and `host ctl` against the model-fidelity virtual board (kept to real time).
+delta_add_gtest(host_serve_tests
+  SOURCES ${CMAKE_CURRENT_LIST_DIR}/host_controller/host_serve_test.cpp
+  LIBRARIES delta::host nlohmann_json::nlohmann_json
+  LABELS host host_controller virtual_board
   PROPERTIES RUN_SERIAL TRUE)

@@ -33,8 +33,14 @@ void remove_temporaries_and_die(int signal_number) {
 }
 
 int register_temporary(const std::string& path) {
+  // Only where the program has no handler of its own (the host controller's stop requests).
   static const bool installed = [] {
-    for (int signal_number : {SIGINT, SIGTERM, SIGHUP}) ::signal(signal_number, remove_temporaries_and_die);
+    for (int signal_number : {SIGINT, SIGTERM, SIGHUP}) {
+      struct sigaction present {};
+      if (::sigaction(signal_number, nullptr, &present) == 0 && present.sa_handler == SIG_DFL) {
+        ::signal(signal_number, remove_temporaries_and_die);
+      }
+    }
     return true;
   }();
   (void)installed;

@@ -3,14 +3,27 @@
 # lintian with no errors, the package's contents (deltactl, weights, unit, udev rules, the
 # conffile, maintainer scripts, Depends), then installed into a scratch root with dpkg -x: the
 # installed deltactl runs (--help) and checks the installed configuration (weights path moved into
-# the scratch root).
-# Usage: scripts/deploy/package_test.sh BUILD_DIR
+# the scratch root). Given a full build's deltactl (it has `virtual-board`; the package has not),
+# the installed deltactl then drives the virtual board through its pty: `host home`, a 1 s
+# `host run` of experiment 1 with the installed weights, and `host serve` started as the unit's
+# ExecStart does (the installed config, port and socket moved into the scratch folder) under a
+# NOTIFY_SOCKET that must receive READY=1, answering `host ctl status`, stopped by SIGTERM.
+# Usage: scripts/deploy/package_test.sh BUILD_DIR [FULL_BUILD_DELTACTL]
 set -euo pipefail
-build=${1:?usage: package_test.sh BUILD_DIR}
+build=${1:?usage: package_test.sh BUILD_DIR [FULL_BUILD_DELTACTL]}
+full_deltactl=${2:-}
 fail() { echo "FAIL: $*" >&2; exit 1; }
 command -v lintian >/dev/null || { echo "SKIP: no lintian (scripts/setup.sh installs it)"; exit 77; }
 work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
+board_pid=""
+serve_pid=""
+cleanup() {
+  [[ -n $serve_pid ]] && kill "$serve_pid" 2>/dev/null || true
+  [[ -n $board_pid ]] && kill "$board_pid" 2>/dev/null || true
+  wait 2>/dev/null || true
+  rm -rf "$work"
+}
+trap cleanup EXIT
 (cd "$build" && cpack -G DEB -B "$work/out" >"$work/cpack.log" 2>&1) || { cat "$work/cpack.log" >&2; fail "cpack"; }
 deb=$(ls "$work"/out/deltactl_*.deb) || fail "no deltactl_*.deb"
 # lintian: no errors (warnings and info are printed, not fatal).
@@ -37,4 +50,51 @@ done
 for command in doctor flash config; do grep -q "^  $command" "$work/help" || fail "installed deltactl lacks $command"; done
 sed "s#/usr/share/deltactl#$root/usr/share/deltactl#" "$root/etc/deltactl/deltactl.conf" >"$work/deltactl.conf"
 "$root/usr/bin/deltactl" config check --config "$work/deltactl.conf" >/dev/null || fail "installed config check"
-echo "PASS: $(basename "$deb") ($(du -h "$deb" | cut -f1)): lintian no errors ($(cat "$work/warnings") warnings), installed deltactl runs"
+installed="$root/usr/bin/deltactl"
+run_note="no virtual board (host-only tree): the installed host run is not exercised"
+if [[ -n $full_deltactl ]]; then
+  weights="$root/usr/share/deltactl/weights/paper_like.json"
+  tty="$work/tty"
+  "$full_deltactl" virtual-board --link "$tty" --weights "$weights" --fidelity model --truth "$work/truth.csv" \
+    >"$work/board.log" 2>&1 &
+  board_pid=$!
+  for _ in $(seq 600); do [[ -e $tty ]] && break; sleep 0.1; done
+  [[ -e $tty ]] || { cat "$work/board.log" >&2; fail "virtual board never made $tty"; }
+  "$installed" host home --port "$tty" --link-timeout-ms 2000 >"$work/home.log" 2>&1 || { cat "$work/home.log" >&2; fail "installed host home"; }
+  if ! "$installed" host run --port "$tty" --weights "$weights" --trajectory experiment1 --duration 1 \
+      --record "$work/run.csv" --link-timeout-ms 1000 >"$work/run.log" 2>&1; then
+    cat "$work/run.log" >&2; fail "installed host run of 1 s"
+  fi
+  rows=$(grep -vc '^#' "$work/run.csv")
+  ((rows > 1000)) || fail "installed host run recorded $rows rows"
+  # The service's command line, with the installed configuration pointed at the pty and a socket here.
+  sed -i "s#^port = .*#port = $tty#; s#^socket = .*#socket = $work/ctl.sock#" "$work/deltactl.conf"
+  /usr/bin/python3 - "$work/notify.sock" >"$work/notify.log" 2>&1 <<'PY' &
+import socket, sys
+s = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
+s.bind(sys.argv[1])
+s.settimeout(60)
+while True:
+    message = s.recv(4096).decode()
+    print(message, flush=True)
+    if "READY=1" in message:
+        break
+PY
+  notify_pid=$!
+  for _ in $(seq 100); do [[ -S $work/notify.sock ]] && break; sleep 0.05; done
+  NOTIFY_SOCKET="$work/notify.sock" STATE_DIRECTORY="$work/state" "$installed" host serve --config "$work/deltactl.conf" \
+    >"$work/serve.log" 2>&1 &
+  serve_pid=$!
+  wait "$notify_pid" || { cat "$work/serve.log" >&2; fail "host serve sent no READY=1 to NOTIFY_SOCKET"; }
+  for _ in $(seq 100); do
+    "$installed" host ctl --socket "$work/ctl.sock" status --json >"$work/status.json" 2>/dev/null &&
+      grep -q '"connection":"connected"' "$work/status.json" && break
+    sleep 0.1
+  done
+  grep -q '"state":"homed"' "$work/status.json" || { cat "$work/status.json" "$work/serve.log" >&2; fail "installed host serve: status"; }
+  kill -TERM "$serve_pid"
+  wait "$serve_pid" || fail "installed host serve did not exit 0 on SIGTERM"
+  serve_pid=""
+  run_note="installed host run 1 s: $rows rows; installed host serve (the unit's command line): READY=1, status homed, SIGTERM exit 0"
+fi
+echo "PASS: $(basename "$deb") ($(du -h "$deb" | cut -f1)): lintian no errors ($(cat "$work/warnings") warnings), installed deltactl runs; $run_note"

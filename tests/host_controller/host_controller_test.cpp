@@ -25,138 +25,19 @@
 #include <thread>
 #include <vector>
 
-#include "../support/run_command.hpp"
-#include "../support/virtual_board_process.hpp"
 #include "delta/board_facts.hpp"
 #include "delta/golden/fixed_network.hpp"
 #include "delta/io/pseudo_terminal.hpp"
 #include "delta/io/serial_port.hpp"
 #include "delta/nn/weights_file.hpp"
+#include "host_bench.hpp"
 
 namespace delta::test {
 namespace {
 
-const std::string kWeights = std::string(DELTA_SOURCE_DIR) + "/weights/paper_like.json";
 // The co-simulation's plate error for experiment 1 (README.md, "Whole-robot co-simulation":
 // paper-like robot, shipped weights, RMS distance from t = 0.4 s): the bound is 1.1 x this.
 constexpr double kCosimPlateRmsM = 89.57e-6;
-
-std::string temp_dir(const std::string& name) {
-  const std::string dir = ::testing::TempDir() + "host_" + name + "_" + std::to_string(::getpid());
-  std::filesystem::remove_all(dir);
-  std::filesystem::create_directories(dir);
-  return dir;
-}
-
-// A CSV with a header (comment lines skipped) as columns of numbers.
-struct Table {
-  std::map<std::string, std::size_t> column;
-  std::vector<std::vector<double>> rows;
-  double at(std::size_t row, const std::string& name) const { return rows[row][column.at(name)]; }
-};
-Table read_table(const std::string& path) {
-  Table table;
-  std::istringstream lines(read_text(path));
-  std::string line;
-  bool header = true;
-  while (std::getline(lines, line)) {
-    if (line.empty() || line[0] == '#') continue;
-    std::istringstream fields(line);
-    std::string field;
-    std::vector<double> row;
-    for (std::size_t k = 0; std::getline(fields, field, ','); ++k) {
-      if (header) {
-        table.column[field] = k;
-      } else {
-        row.push_back(std::strtod(field.c_str(), nullptr));
-      }
-    }
-    if (!header) table.rows.push_back(row);
-    header = false;
-  }
-  return table;
-}
-
-// deltactl with stdout and stderr to files; waits with a wall-clock bound.
-class HostProcess {
- public:
-  HostProcess(const std::vector<std::string>& arguments, const std::string& stem) : stem_(stem) {
-    std::vector<std::string> words = {DELTACTL_PATH};
-    words.insert(words.end(), arguments.begin(), arguments.end());
-    pid_ = ::fork();
-    if (pid_ == 0) {
-      const int out = ::open((stem + ".out").c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-      const int err = ::open((stem + ".err").c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-      ::dup2(out, 1);
-      ::dup2(err, 2);
-      std::vector<char*> argv;
-      for (std::string& word : words) argv.push_back(word.data());
-      argv.push_back(nullptr);
-      ::execv(DELTACTL_PATH, argv.data());
-      ::_exit(127);
-    }
-  }
-  ~HostProcess() {
-    if (!exited_) {
-      ::kill(pid_, SIGKILL);
-      ::waitpid(pid_, nullptr, 0);
-    }
-  }
-  pid_t pid() const { return pid_; }
-  // The exit code (128 + N for signal N; -1: still running after timeout_s).
-  int wait(double timeout_s) {
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
-    while (std::chrono::steady_clock::now() < deadline) {
-      int status = 0;
-      if (::waitpid(pid_, &status, WNOHANG) == pid_) {
-        exited_ = true;
-        return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-      }
-      ::usleep(1000);
-    }
-    return -1;
-  }
-  std::string out() const { return read_text(stem_ + ".out"); }
-  std::string err() const { return read_text(stem_ + ".err"); }
-
- private:
-  std::string stem_;
-  pid_t pid_ = -1;
-  bool exited_ = false;
-};
-
-// A virtual board, homed through `deltactl host home`.
-struct Bench {
-  std::string dir, link, truth;
-  std::unique_ptr<VirtualBoardProcess> board;
-  Bench(const std::string& name, std::vector<std::string> extra = {}) : dir(temp_dir(name)) {
-    link = dir + "/tty";
-    truth = dir + "/truth.csv";
-    std::vector<std::string> arguments = {"--weights", kWeights, "--truth", truth};
-    arguments.insert(arguments.end(), extra.begin(), extra.end());
-    board = std::make_unique<VirtualBoardProcess>(link, arguments);
-    const std::string ready = board->ready_line(60'000);
-    if (ready.find(link) == std::string::npos) throw std::runtime_error("virtual board not ready: " + ready);
-    const CommandResult home = run_deltactl("host home --port " + link + " --link-timeout-ms 2000");
-    if (home.exit_code != 0) throw std::runtime_error("host home: " + home.err);
-  }
-  std::vector<std::string> run_arguments(const std::string& port, double duration_s) const {
-    return {"host",
-            "run",
-            "--port",
-            port,
-            "--weights",
-            kWeights,
-            "--trajectory",
-            "experiment1",
-            "--duration",
-            std::to_string(duration_s),
-            "--record",
-            dir + "/out.csv",
-            "--link-timeout-ms",
-            "1000"};
-  }
-};
 
 // The golden joint reference (degrees, Q24.8 counts converted) the board plays for a position
 // code: the network's answer y, then round_shift(25 y, 4) (docs/board_link.md).
@@ -290,6 +171,37 @@ TEST(HostRun, StoppedHostLetsTheWatchdogDisableTheDrivesAndExitsFourWithoutReEna
   std::filesystem::remove_all(bench.dir);
 }
 
+TEST(HostRun, SigintStopsAtRestThenDisablesAndExits130) {
+  Bench bench("sigint", {"--fidelity", "model"});  // kept to real time: the signal lands mid-stream
+  HostProcess host(bench.run_arguments(bench.link, 4.0), bench.dir + "/host");
+  std::this_thread::sleep_for(std::chrono::milliseconds(2500));
+  ASSERT_EQ(host.wait(0), -1) << host.err();
+  ::kill(host.pid(), SIGINT);
+  const int code = host.wait(60);
+  std::cout << host.out() << host.err();
+  EXPECT_EQ(code, 128 + SIGINT);
+  EXPECT_NE(host.err().find("controlled stop, drives off"), std::string::npos);
+  std::this_thread::sleep_for(std::chrono::seconds(1));
+  ASSERT_EQ(bench.board->terminate(), 0);
+  // The recording (the stream's telemetry) ends at rest short of the path's end: the references
+  // still over its last 10 ms; then the truth shows the drives off.
+  const Table out = read_table(bench.dir + "/out.csv");
+  ASSERT_GT(out.rows.size(), 500u);
+  const std::size_t last = out.rows.size() - 1;
+  double change = 0.0, tau = 0.0;
+  for (std::size_t i = 0; i <= last; ++i) tau = std::max(tau, out.at(i, "tau_s"));
+  for (int j = 1; j <= 3; ++j) {
+    const std::string column = "alpha" + std::to_string(j) + "_ref_deg";
+    change = std::max(change, std::abs(out.at(last, column) - out.at(last - 10, column)));
+  }
+  std::cout << "stopped at path time " << tau << " s; reference change over the last 10 ms " << change << " deg\n";
+  EXPECT_LT(tau, 4.0 - 0.1);
+  EXPECT_LT(change, 1e-3);
+  const Table truth = read_table(bench.truth);
+  EXPECT_EQ(truth.at(truth.rows.size() - 1, "drives_enabled"), 0);
+  std::filesystem::remove_all(bench.dir);
+}
+
 // Relays bytes between the host's port (a pty the test owns) and the virtual board's, corrupting
 // each byte with probability `rate` (XOR with a random non-zero byte).
 class CorruptingTap {
@@ -415,14 +327,14 @@ TEST(HostRun, BadTrajectoriesAreRefusedBeforeAnyByteIsSent) {
   struct Case {
     std::string name, rows, line, reason;
   };
-  // At rest, then one more line; slow moves (linear interpolation turns a corner into jerk).
-  const std::string head = "t_s,x_m,y_m,z_m\n0,0,0,-0.075\n0.1,0,0,-0.075\n";
+  // At rest for 1 s, then line 4, then at rest again: at full rate of path time where line 4 begins.
+  const std::string head = "t_s,x_m,y_m,z_m\n0,0,0,-0.075\n1,0,0,-0.075\n";
   const std::vector<Case> cases = {
-      {"unreachable", head + "0.101,0,0,-0.2\n", ":4:", "unreachable"},
+      {"unreachable", head + "1.001,0,0,-0.2\n2,0,0,-0.2\n", ":4:", "unreachable"},
       {"untrained", head + "100,0.008,0,-0.075\n", ":4:", "trained range"},
-      {"too_fast", head + "0.105,0.005,0,-0.075\n", ":4:", "velocity"},
-      {"nan", head + "0.2,nan,0,-0.075\n", ":4:", "not finite"},
-      {"backwards", head + "0.05,0,0,-0.075\n", ":4:", "time goes backwards"},
+      {"too_fast", head + "1.005,0.005,0,-0.075\n2,0.005,0,-0.075\n", ":4:", "velocity"},
+      {"nan", head + "1.1,nan,0,-0.075\n", ":4:", "not finite"},
+      {"backwards", head + "0.5,0,0,-0.075\n", ":4:", "time goes backwards"},
   };
   for (const Case& c : cases) {
     const std::string file = dir + "/" + c.name + ".csv";

@@ -1,9 +1,16 @@
 // deltactl host: the host controller on the lab PC (SPEC.md, "The board and the lab PC"): `status`
 // identifies the board and prints its state, `home` sets the encoders' home with the arms on their
 // fixture, `run` checks a trajectory whole, enables, streams it paced by telemetry, stops and
-// disables, recording every telemetry frame. Read delta/controller/host_run.hpp first.
-#include <dirent.h>
+// disables, recording every telemetry frame (delta/controller/run_job.hpp); `serve` is the
+// long-running controller with its control socket and `ctl` its client (serve.hpp); `latency`
+// measures the 1 kHz loop's wake latency. Read delta/controller/host_run.hpp first.
+#include <sys/socket.h>
+#include <sys/un.h>
 #include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
 
 #include <chrono>
 #include <cmath>
@@ -21,7 +28,10 @@
 #include "delta/command.hpp"
 #include "delta/controller/board_network.hpp"
 #include "delta/controller/host_run.hpp"
+#include "delta/controller/run_job.hpp"
+#include "delta/controller/serve.hpp"
 #include "delta/controller/stream_plan.hpp"
+#include "delta/deploy/config.hpp"
 #include "delta/gateware.hpp"
 #include "delta/golden/export.hpp"
 #include "delta/input_error.hpp"
@@ -33,14 +43,17 @@
 namespace delta::controller {
 namespace {
 
-constexpr int kExitFault = 3;     // the board faulted (cause printed)
-constexpr int kExitLinkLost = 4;  // the link was lost (or the port could not be opened)
-constexpr int kExitMismatch = 5;  // the board's gateware or weights differ from W.json
 constexpr double kCountDeg = board::kEncoderCountMicrodeg * 1e-6;
-constexpr double kCurrentCodeA = board::kCurrentFullScaleMilliamp / 1000.0 / board::kCurrentLimitCode;
 
 volatile std::sig_atomic_t stop_signal = 0;
 void request_stop(int signal_number) { stop_signal = signal_number; }
+// SIGINT and SIGTERM become a stop request (a controlled stop), not the end of the process.
+void install_stop_handlers() {
+  struct sigaction action {};
+  action.sa_handler = request_stop;
+  sigemptyset(&action.sa_mask);
+  for (int signal_number : {SIGINT, SIGTERM}) ::sigaction(signal_number, &action, nullptr);
+}
 
 [[noreturn]] void fail(int code, const std::string& message) {
   std::cerr << "deltactl: error: " << message << '\n';
@@ -49,55 +62,22 @@ void request_stop(int signal_number) { stop_signal = signal_number; }
 
 std::string hex(std::uint32_t value) { return golden::hex_word(value, 32); }
 
-// PATH as given, or NAME under /dev/serial/by-id, or "icebreaker": the iCEBreaker's UART (the
-// FT2232H's second interface, ...-if01-port0).
-std::string resolve_port(const std::string& port) {
-  if (port.find('/') != std::string::npos) return port;
-  const std::string folder = "/dev/serial/by-id/";
-  if (port != "icebreaker") return folder + port;
-  std::string found;
-  if (DIR* dir = ::opendir(folder.c_str())) {
-    while (dirent* entry = ::readdir(dir)) {
-      const std::string name = entry->d_name;
-      if (name.find("iCEBreaker") != std::string::npos && name.find("if01") != std::string::npos) found = folder + name;
-    }
-    ::closedir(dir);
+// The library's failures as the command line's exit.
+template <typename Body>
+auto or_exit(Body&& body) -> decltype(body()) {
+  try {
+    return body();
+  } catch (const HostFailure& error) {
+    fail(error.code(), error.what());
   }
-  if (found.empty())
-    fail(kExitLinkLost, "--port icebreaker: no iCEBreaker UART under " + folder + " (is it plugged in?)");
-  return found;
 }
 
 std::unique_ptr<io::SerialPort> open_port(const std::string& port) {
-  const std::string path = resolve_port(port);
-  try {
-    return std::make_unique<io::SerialPort>(path, static_cast<int>(board::kLinkBaud));
-  } catch (const std::system_error& error) {
-    fail(kExitLinkLost, std::string("--port ") + error.what());
-  }
+  return or_exit([&] { return open_board_port(port); });
 }
-
-link::SessionOptions session_options(int link_timeout_ms) {
-  link::SessionOptions options;
-  options.frame_timeout_ms = link_timeout_ms;
-  options.keep_telemetry = false;
-  return options;
-}
-
-// Identify, then the newest telemetry; link errors end the command with exit 4.
-struct Connected {
-  link::IdentifyPayload identify;
-  link::TelemetryPayload telemetry;
-};
+link::SessionOptions session_options(int link_timeout_ms) { return host_session_options(link_timeout_ms); }
 Connected connect(link::LinkSession& session) {
-  try {
-    Connected c;
-    c.identify = session.identify();
-    c.telemetry = session.next_telemetry();
-    return c;
-  } catch (const link::LinkError& error) {
-    fail(error.kind() == link::LinkError::Kind::kProtocol ? kExitMismatch : kExitLinkLost, error.what());
-  }
+  return or_exit([&] { return connect_board(session); });
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -179,216 +159,220 @@ struct RunOptions {
   double duration_s = 0.0;
   std::string record;
   int link_timeout_ms = 100;
+  double following_error_deg = 2.0;
 };
-
-// The recording's rows, off the streaming thread.
-struct Recorder {
-  OutputFile file;
-  TrackingStatistics tracking;
-  std::uint64_t rows = 0;
-  std::optional<std::uint16_t> underruns_at_first_play;
-  std::uint16_t underruns_at_end = 0;
-
-  explicit Recorder(const std::string& path) : file(path) {
-    file.stream() << "# deltactl host run: one row per board telemetry frame (1 kHz of board time)\n"
-                     "# t_s: board time; *_ref_m: the position sent for the sample whose answer is the joint\n"
-                     "# reference at t_s; alpha*_ref_deg: the board's joint references; alpha*_deg: encoders\n"
-                     "t_s,x_ref_m,y_ref_m,z_ref_m,alpha1_ref_deg,alpha2_ref_deg,alpha3_ref_deg,alpha1_deg,alpha2_deg,"
-                     "alpha3_deg,current1_a,current2_a,current3_a,fault_bits,flags,drives_enabled,sample_index,fill,"
-                     "tau_s,stream_sample,bad_frames,underruns,rejected,slew_limits\n";
-  }
-  void write(const TelemetryRecord& r) {
-    const link::TelemetryPayload& t = r.telemetry;
-    std::ostream& out = file.stream();
-    out << format_number(t.tick / 1e4);
-    for (int k = 0; k < 3; ++k) out << ',' << format_number(r.reference_m[k]);
-    for (int k = 0; k < 3; ++k) out << ',' << format_number(t.references[k] / 256.0 * kCountDeg);
-    for (int k = 0; k < 3; ++k) out << ',' << format_number(t.counts[k] * kCountDeg);
-    for (int k = 0; k < 3; ++k) out << ',' << format_number(t.currents[k] * kCurrentCodeA);
-    out << ',' << int(t.fault_cause) << ',' << int(t.flags) << ',' << (t.has(link::TelemetryFlag::kDriveEnable) ? 1 : 0)
-        << ',' << t.sample_index << ',' << t.fill << ',' << format_number(r.tau_s) << ',' << r.stream_sample << ','
-        << t.bad_frames << ',' << t.underruns << ',' << t.rejected << ',' << t.slew_limits << '\n';
-    ++rows;
-    if (r.stream_sample >= 0 && t.has(link::TelemetryFlag::kDriveEnable)) {
-      tracking.add(t);
-      if (!underruns_at_first_play) underruns_at_first_play = t.underruns;
-      underruns_at_end = t.underruns;
-    }
-  }
-};
-
-void print_summary(const StreamingResult& s, const link::LinkSession& session, const Recorder& recorder,
-                   const std::string& record_path, double wall_s, bool fifo) {
-  const link::LinkStatistics& link = session.statistics();
-  const link::TelemetryPayload& last = *session.last_telemetry();
-  const Vec3 rms = recorder.tracking.rms_deg();
-  const std::uint64_t host_bad = link.decoder.bad_crc + link.decoder.bad_length + link.decoder.unknown_type;
-  std::cout << "stream: " << s.played << " of " << s.planned << " samples played from board index " << s.first_index
-            << " (" << fixed((s.last.tick - s.first.tick) / 1e4, 3) << " s of board time, " << fixed(wall_s, 1)
-            << " s wall)\n"
-            << "link: " << link.telemetry_frames << " telemetry frames (lost " << link.lost_telemetry << ", skipped "
-            << link.skipped_telemetry << "), longest gap " << fixed(s.longest_telemetry_gap_ms, 1)
-            << " ms wall; setpoints sent " << link.setpoints_sent << " (resent " << link.setpoints_resent
-            << "); bad frames: board " << last.bad_frames - s.first.bad_frames << ", host " << host_bad << " (crc "
-            << link.decoder.bad_crc << ", length " << link.decoder.bad_length << ", type " << link.decoder.unknown_type
-            << "); refused " << last.rejected - s.first.rejected << "; underruns while streaming "
-            << (recorder.underruns_at_first_play ? recorder.underruns_at_end - *recorder.underruns_at_first_play : 0)
-            << "; slew limits " << last.slew_limits - s.first.slew_limits << '\n'
-            << "loop (" << (fifo ? "SCHED_FIFO" : "normal scheduling")
-            << ", 1 ms absolute deadlines): wake latency p50 " << fixed(s.latency.percentile_us(50), 0) << " us, p99 "
-            << fixed(s.latency.percentile_us(99), 0) << " us, p99.9 " << fixed(s.latency.percentile_us(99.9), 0)
-            << " us, max " << fixed(s.latency.max_us(), 0) << " us; overruns " << s.overruns << " in " << s.cycles
-            << " cycles\n"
-            << "tracking (encoder - joint reference while streaming, " << recorder.tracking.frames << " frames): rms "
-            << fixed(rms[0], 4) << " / " << fixed(rms[1], 4) << " / " << fixed(rms[2], 4) << " deg, max "
-            << fixed(recorder.tracking.max_abs_deg[0], 3) << " / " << fixed(recorder.tracking.max_abs_deg[1], 3)
-            << " / " << fixed(recorder.tracking.max_abs_deg[2], 3) << " deg\n"
-            << "recording: " << record_path << " (" << recorder.rows << " rows)\n";
-}
 
 void run_run(const RunOptions& options) {
-  // ---- everything checked before the port is opened ----
+  // Everything checked before the port is opened (the trajectory whole, the recording's path).
   const BoardWeights weights = read_board_weights(options.weights);
-  const Path path = load_path(options.trajectory, options.duration_s);
-  const StreamLimits limits;
-  {
-    // The path alone (from its own start): the approach is checked once the pose is known.
-    const StreamPlan plan(path, path.samples.front().position_m, limits);
-    if (auto violation = check_plan(plan, options.trajectory, weights.trained_min_m, weights.trained_max_m, limits)) {
-      fail(kExitBadInput, *violation + "; nothing sent");
-    }
-  }
-  auto recorder = std::make_unique<Recorder>(options.record);  // refuses a bad path before the port
+  RunRequest request;
+  request.trajectory = options.trajectory;
+  request.duration_s = options.duration_s;
+  request.record = options.record;
+  request.link_timeout_ms = options.link_timeout_ms;
+  request.following_error_deg = options.following_error_deg;
+  auto job = or_exit([&] { return std::make_unique<RunJob>(weights, request); });
 
-  // ---- disconnected -> idle: identify, the board must run what W.json quantises to ----
+  // disconnected -> idle: identify; the board must run what W.json quantises to.
   auto port = open_port(options.port);
   link::LinkSession session(*port, session_options(options.link_timeout_ms));
   const Connected c = connect(session);
-  const std::uint32_t crc = weights_crc(weights.network);
-  if (c.identify.build_id != kGatewareBuildId || c.identify.weights_crc != crc) {
-    fail(kExitMismatch, port->name() + ": the board runs gateware " + hex(c.identify.build_id) + " with weights CRC " +
-                            hex(c.identify.weights_crc) + "; this host expects gateware " + hex(kGatewareBuildId) +
-                            " and weights CRC " + hex(crc) + " (" + options.weights + ")");
-  }
-  const link::TelemetryPayload& t0 = c.telemetry;
-  std::cerr << "host: " << state_name(HostState::kDisconnected) << " -> " << state_name(state_of(t0)) << " ("
-            << link::describe_state(t0) << ")\n";
-  if (t0.has(link::TelemetryFlag::kFault)) {
-    fail(kExitFault, port->name() + ": the board has a latched fault: " + link::describe_fault(t0.fault_cause) +
-                         " (clear it deliberately; this host re-enables nothing by itself)");
-  }
-  if (t0.has(link::TelemetryFlag::kDriveEnable)) {
-    fail(kExitFault, port->name() + ": the drives are already on (another controller?); refusing to run");
-  }
-  if (!t0.has(link::TelemetryFlag::kHomed)) {
-    fail(kExitFault, port->name() + ": the board is not homed (put the arms on their fixture: deltactl host home)");
-  }
-
-  // ---- the approach from the pose the encoders report, checked with the rest ----
-  Vec3 counts_deg;
-  for (int j = 0; j < 3; ++j) counts_deg[j] = t0.counts[j] * kCountDeg;
-  Vec3 start;
-  try {
-    start = locate_plate(weights.network, Geometry::nominal(), counts_deg);
-  } catch (const std::runtime_error& error) {
-    fail(kExitFault, port->name() + ": the encoders' pose: " + error.what());
-  }
-  StreamPlan plan(path, start, limits);
-  if (auto violation = check_plan(plan, options.trajectory, weights.trained_min_m, weights.trained_max_m, limits)) {
-    fail(kExitBadInput, *violation + " (from the encoders' pose; no motion)");
-  }
-
-  // ---- homed -> running ----
-  const std::string lock_note = lock_memory();
-  struct sigaction action {};
-  action.sa_handler = request_stop;
-  sigemptyset(&action.sa_mask);
-  for (int signal_number : {SIGINT, SIGTERM}) ::sigaction(signal_number, &action, nullptr);
-  try {
-    session.enable();
-  } catch (const link::LinkError& error) {
-    fail(error.kind() == link::LinkError::Kind::kLinkLost ? kExitLinkLost : kExitFault, error.what());
-  }
-  std::cerr << "host: homed -> running: " << plan.size() << " samples (" << plan.approach_samples()
-            << " to the start, then " << options.trajectory << " for " << fixed(path.duration_s(), 3) << " s)\n";
-
-  RecordQueue queue(1 << 14);
-  StreamingOptions streaming;
-  streaming.link_timeout_ms = options.link_timeout_ms;
-  streaming.session = session.options();
-  StreamingLoop loop(session, plan, weights.network, start, queue, streaming, stop_signal);
-  const auto wall_start = std::chrono::steady_clock::now();
-  std::thread streamer([&loop] { loop.run(); });
-  // This thread: the recording and the progress.
-  std::atomic<bool> streaming_done{false};
-  std::thread waiter([&] {
-    streamer.join();
-    streaming_done.store(true);
+  or_exit([&] {
+    check_board_identity(c.identify, weights, options.weights, port->name());
+    return 0;
   });
-  TelemetryRecord r;
-  auto next_progress = wall_start + std::chrono::seconds(5);
-  bool warned = false;
-  while (!streaming_done.load()) {
-    while (queue.pop(r)) recorder->write(r);
-    if (!warned && !loop.result().realtime_note.empty() && loop.result().cycles > 0) {
-      std::cerr << "host: warning: real-time scheduling not granted (" << loop.result().realtime_note
-                << (lock_note.empty() ? "" : "; " + lock_note) << "): running with normal priority\n";
-      warned = true;
-    }
-    if (std::chrono::steady_clock::now() >= next_progress) {
-      std::cerr << "host: " << loop.played() << " of " << plan.size() << " samples played\n";
-      next_progress += std::chrono::seconds(5);
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  }
-  waiter.join();
-  while (queue.pop(r)) recorder->write(r);
-  const StreamingResult& result = loop.result();
-  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  install_stop_handlers();
+  auto next_print = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  const RunOutcome outcome = or_exit([&] {
+    return job->execute(
+        session, port->name(), c.telemetry, stop_signal,
+        [](const std::string& line) { std::cerr << "host: " << line << '\n'; },
+        [&](const RunProgress& p) {
+          if (std::chrono::steady_clock::now() < next_print) return;
+          std::cerr << "host: " << p.played << " of " << p.planned << " samples played\n";
+          next_print += std::chrono::seconds(5);
+        });
+  });
+  std::cout << outcome.summary;
+  if (!outcome.error.empty()) fail(outcome.code, outcome.error);
+  if (outcome.code != kExitOk) throw CommandExit{outcome.code};
+}
 
-  // ---- stop: hold and disable (nothing is ever re-enabled here) ----
-  int code = kExitOk;
-  std::string error_line;
-  switch (result.outcome) {
-    case StreamingResult::Outcome::kCompleted:
-    case StreamingResult::Outcome::kStopped:
-      try {
-        session.hold();
-        session.disable();
-        std::cerr << "host: running -> homed (drives off)\n";
-      } catch (const link::LinkError& error) {
-        code = error.kind() == link::LinkError::Kind::kLinkLost ? kExitLinkLost : kExitFault;
-        error_line = std::string("stopping: ") + error.what();
-      }
-      if (code == kExitOk && result.outcome == StreamingResult::Outcome::kStopped) {
-        std::cerr << "host: stopped by signal " << stop_signal << " (controlled stop, drives off)\n";
-        code = 128 + static_cast<int>(stop_signal);
-      }
-      break;
-    case StreamingResult::Outcome::kFault:
-      code = kExitFault;
-      error_line = port->name() + ": the board faulted: " + result.cause + " (" + link::describe_state(result.last) +
-                   "); drives off, nothing re-enabled";
-      try {
-        session.send_command(link::Command::kDisable);
-      } catch (const link::LinkError&) {
-      }
-      break;
-    case StreamingResult::Outcome::kLinkLost:
-      code = kExitLinkLost;
-      error_line =
-          port->name() + ": link lost: " + result.cause + "; the board's watchdog stops the torque; nothing re-enabled";
-      try {
-        session.send_command(link::Command::kDisable);  // in case the line is still there
-      } catch (const link::LinkError&) {
-      }
-      break;
+// ---------------------------------------------------------------------------------------------
+struct ServeCliOptions {
+  std::string config;
+  std::string port, weights, socket, record_folder;
+  int link_timeout_ms = 100;
+};
+
+void run_serve(const ServeCliOptions& cli) {
+  ServeOptions options;
+  options.link_timeout_ms = cli.link_timeout_ms;
+  if (!cli.config.empty()) {
+    const deploy::DeployConfig config = deploy::read_config(cli.config);  // bad: exit 2, file, line, reason
+    options.port = config.port;
+    options.weights_path = config.weights;
+    options.socket_path = config.socket;
+    options.following_error_deg = config.following_error_deg;
+    options.limits.joint_velocity_deg_s = config.velocity_deg_s;
   }
-  recorder->file.commit();
-  print_summary(result, session, *recorder, options.record, wall, result.realtime_note.empty());
-  if (queue.dropped() > 0) std::cerr << "host: warning: " << queue.dropped() << " telemetry records not recorded\n";
-  if (!error_line.empty()) fail(code, error_line);
+  if (!cli.port.empty()) options.port = cli.port;
+  if (!cli.weights.empty()) options.weights_path = cli.weights;
+  if (!cli.socket.empty()) options.socket_path = cli.socket;
+  if (options.port.empty() || options.weights_path.empty() || options.socket_path.empty()) {
+    fail(kExitBadInput, "host serve: needs --config FILE, or --port, --weights and --socket");
+  }
+  options.record_folder = cli.record_folder;
+  if (options.record_folder.empty()) {
+    const char* state = std::getenv("STATE_DIRECTORY");  // systemd's StateDirectory=deltactl
+    options.record_folder = std::string(state && *state ? state : ".") + "/runs";
+  }
+  install_stop_handlers();
+  auto server = or_exit([&] { return std::make_unique<HostServer>(options); });
+  std::cerr << "host serve: board " << options.port << ", weights " << options.weights_path << ", control socket "
+            << options.socket_path << ", recordings in " << options.record_folder << '\n';
+  const int code = server->run(stop_signal);
+  std::cerr << "host serve: stopped by signal " << stop_signal << " (drives off)\n";
   if (code != kExitOk) throw CommandExit{code};
+}
+
+// ---------------------------------------------------------------------------------------------
+struct CtlOptions {
+  std::string socket, config = deploy::kDefaultConfigPath;
+  bool json = false;
+  std::string command;
+  std::string trajectory, record;
+  double duration_s = 0.0;
+  bool no_wait = false;
+};
+
+// The socket: --socket, else the config file's [service] socket, else systemd's default.
+std::string control_socket(const CtlOptions& options) {
+  if (!options.socket.empty()) return options.socket;
+  if (::access(options.config.c_str(), R_OK) == 0) return deploy::read_config(options.config).socket;
+  return deploy::DeployConfig{}.socket;
+}
+
+void run_ctl(const CtlOptions& options) {
+  const std::string path = control_socket(options);
+  nlohmann::json request = {{"cmd", options.command}};
+  if (options.command == "run") {
+    // Paths as the controller sees them: absolute (it runs elsewhere, maybe as another user).
+    auto absolute = [](const std::string& file) { return std::filesystem::absolute(file).lexically_normal().string(); };
+    request["trajectory"] =
+        options.trajectory.find('/') != std::string::npos || options.trajectory.find(".csv") != std::string::npos
+            ? absolute(options.trajectory)
+            : options.trajectory;
+    if (options.duration_s > 0.0) request["duration"] = options.duration_s;
+    if (!options.record.empty()) request["record"] = absolute(options.record);
+    request["wait"] = !options.no_wait;
+  }
+  const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  sockaddr_un address{};
+  address.sun_family = AF_UNIX;
+  if (path.size() >= sizeof address.sun_path) fail(kExitBadInput, "--socket '" + path + "': too long");
+  std::copy(path.begin(), path.end(), address.sun_path);
+  if (::connect(fd, reinterpret_cast<const sockaddr*>(&address), sizeof address) != 0) {
+    const std::string why = std::strerror(errno);
+    ::close(fd);
+    fail(kExitLinkLost, path + ": cannot reach the controller (" + why +
+                            "); is it running? systemctl status deltactl, or deltactl host serve");
+  }
+  const std::string line = request.dump() + "\n";
+  if (::send(fd, line.data(), line.size(), MSG_NOSIGNAL) != static_cast<ssize_t>(line.size())) {
+    ::close(fd);
+    fail(kExitLinkLost, path + ": the controller closed the connection");
+  }
+  std::string buffer;
+  char chunk[4096];
+  for (;;) {
+    std::size_t end;
+    while ((end = buffer.find('\n')) == std::string::npos) {
+      const ssize_t n = ::recv(fd, chunk, sizeof chunk, 0);
+      if (n <= 0) {
+        ::close(fd);
+        fail(kExitLinkLost, path + ": the controller closed the connection before answering");
+      }
+      buffer.append(chunk, static_cast<std::size_t>(n));
+    }
+    const nlohmann::json reply = nlohmann::json::parse(buffer.substr(0, end));
+    buffer.erase(0, end + 1);
+    const std::string event = reply.value("event", std::string());
+    if (options.json) std::cout << reply.dump() << '\n' << std::flush;
+    if (event == "started") {
+      if (!options.json)
+        std::cerr << "host ctl: run started, recording " << reply.value("record", std::string()) << '\n';
+      continue;
+    }
+    if (event == "progress") {
+      if (!options.json) {
+        std::cerr << "host ctl: " << reply.value("played", 0) << " of " << reply.value("planned", 0)
+                  << " samples played (" << reply.value("feed", std::string()) << ")\n";
+      }
+      continue;
+    }
+    ::close(fd);
+    const int code = reply.value("exit", reply.value("ok", false) ? 0 : kExitFailure);
+    if (!options.json) {
+      if (options.command == "status" && reply.value("ok", false)) {
+        std::cout << "controller: " << reply.value("state", std::string()) << " ("
+                  << reply.value("connection", std::string()) << ": " << reply.value("note", std::string()) << ")\n"
+                  << "board: " << reply.value("port", std::string());
+        if (reply.contains("description")) std::cout << ", " << reply["description"].get<std::string>();
+        std::cout << "\n";
+        if (reply.contains("run")) {
+          std::cout << "run: " << reply["run"].value("played", 0) << " of " << reply["run"].value("planned", 0)
+                    << " samples played (" << reply["run"].value("feed", std::string()) << ")\n";
+        }
+        if (reply.contains("last_run") && reply["last_run"].is_object()) {
+          std::cout << "last run: " << reply["last_run"].value("outcome", std::string("refused")) << ", exit "
+                    << reply["last_run"].value("exit", 0) << ' ' << reply["last_run"].value("error", std::string())
+                    << '\n';
+        }
+      } else if (reply.contains("summary")) {
+        std::cout << reply["summary"].get<std::string>();
+        if (code == 0) std::cerr << "host ctl: run " << reply.value("outcome", std::string()) << '\n';
+      } else if (code == 0) {
+        std::cout << options.command << ": ok"
+                  << (reply.contains("state") ? " (" + reply["state"].get<std::string>() + ")" : "")
+                  << (reply.contains("record") ? ", recording " + reply["record"].get<std::string>() : "") << '\n';
+      }
+    }
+    if (code != 0) {
+      if (!options.json) std::cerr << "deltactl: error: " << reply.value("error", std::string("refused")) << '\n';
+      throw CommandExit{code};
+    }
+    return;
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+struct LatencyOptions {
+  double seconds = 10.0;
+  bool normal = false;
+  bool json = false;
+};
+
+void run_latency(const LatencyOptions& options) {
+  const std::string lock_note = options.normal ? "" : lock_memory();
+  const WakeLatencyProbe probe = measure_wake_latency(options.seconds, options.normal ? 0 : 80);
+  const WakeLatency& w = probe.latency;
+  const std::string scheduling = probe.realtime_note.empty() ? "SCHED_FIFO 80" : "normal scheduling";
+  if (options.json) {
+    std::cout << nlohmann::json{{"seconds", options.seconds},    {"scheduling", scheduling},
+                                {"note", probe.realtime_note},   {"cycles", w.count()},
+                                {"overruns", probe.overruns},    {"p50_us", w.percentile_us(50)},
+                                {"p99_us", w.percentile_us(99)}, {"p999_us", w.percentile_us(99.9)},
+                                {"max_us", w.max_us()}}
+                     .dump()
+              << '\n';
+    return;
+  }
+  std::cout << "1 kHz loop, " << fixed(options.seconds, 0) << " s, " << scheduling
+            << (probe.realtime_note.empty() || options.normal ? "" : " (" + probe.realtime_note + ")")
+            << ": wake latency p50 " << fixed(w.percentile_us(50), 0) << " us, p99 " << fixed(w.percentile_us(99), 0)
+            << " us, p99.9 " << fixed(w.percentile_us(99.9), 0) << " us, max " << fixed(w.max_us(), 0)
+            << " us; overruns " << probe.overruns << " in " << w.count() << " cycles\n";
 }
 
 const RegisterCommand command("host", 75, [](CLI::App& root) {
@@ -435,7 +419,8 @@ const RegisterCommand command("host", 75, [](CLI::App& root) {
   r->add_option("--weights", run->weights, "W.json the board must run (its CRC and this checkout's gateware)")
       ->required();
   r->add_option("--trajectory", run->trajectory,
-                "a trajectory of 'deltactl simulate' (experiment1, ...) or FILE.csv with t_s,x_m,y_m,z_m")
+                "a trajectory of 'deltactl simulate' (experiment1, ...), FILE.csv with t_s,x_m,y_m,z_m, or "
+                "move:X,Y,Z[;X,Y,Z...] (point-to-point, jerk-limited, metres)")
       ->required();
   r->add_option("--duration", run->duration_s, "seconds of trajectory time (default: all of it)")
       ->check(options::real_number(0, 86400, true));
@@ -443,7 +428,64 @@ const RegisterCommand command("host", 75, [](CLI::App& root) {
   r->add_option("--link-timeout-ms", run->link_timeout_ms, "wall time without telemetry: link lost")
       ->check(options::whole_number(10, 60000))
       ->capture_default_str();
+  r->add_option("--following-error-deg", run->following_error_deg,
+                "the host's own bound on |encoder - joint reference| (the board's is 5.12 deg); 0: off")
+      ->check(options::real_number(0, 45, true))
+      ->capture_default_str();
   r->callback([run] { run_run(*run); });
+
+  auto serve = std::make_shared<ServeCliOptions>();
+  CLI::App* sv = host->add_subcommand("serve", "The long-running controller: owns the port, answers a control socket");
+  sv->footer(
+      "\nOwns the board's port (reconnects every second when it vanishes, e.g. while flashing; never\n"
+      "enables by itself), and answers JSON lines on a local socket: status, run, hold, resume, stop,\n"
+      "home, enable, disable, clear-fault ('deltactl host ctl' is its client; the protocol is in\n"
+      "host/controller/include/delta/controller/serve.hpp). Runs are those of 'host run', recorded\n"
+      "where the request says or in --record-folder. Under systemd (deltactl.service): READY=1, STATUS=\n"
+      "and WATCHDOG=1 by sd_notify. SIGTERM or SIGINT: a run stops at rest, the drives go off, exit 0.");
+  sv->add_option("--config", serve->config, "the lab PC's configuration (port, weights, limits, socket)");
+  sv->add_option("--port", serve->port, "serial port (overrides the config)");
+  sv->add_option("--weights", serve->weights, "W.json the board must run (overrides the config)");
+  sv->add_option("--socket", serve->socket, "control socket path (overrides the config)");
+  sv->add_option("--record-folder", serve->record_folder,
+                 "recordings of runs that name none (default: $STATE_DIRECTORY/runs, else ./runs)");
+  sv->add_option("--link-timeout-ms", serve->link_timeout_ms, "wall time without telemetry: link lost")
+      ->check(options::whole_number(10, 60000))
+      ->capture_default_str();
+  sv->callback([serve] { run_serve(*serve); });
+
+  auto ctl = std::make_shared<CtlOptions>();
+  CLI::App* c = host->add_subcommand("ctl", "Talk to a running 'host serve': status, run, hold, resume, stop, ...");
+  c->footer(
+      "\nCOMMAND: status | run | hold | resume | stop | home | enable | disable | clear-fault.\n"
+      "run streams --trajectory (NAME or FILE.csv) through the controller and prints its progress every\n"
+      "second and its summary; hold and resume are a feed hold (the plate slows to rest on the path,\n"
+      "then comes back to speed); stop ends the run at rest and disables. Exit codes as 'host run'; 4 when\n"
+      "the controller cannot be reached.");
+  c->add_option("command", ctl->command, "what to ask")
+      ->required()
+      ->check(CLI::IsMember({"status", "run", "hold", "resume", "stop", "home", "enable", "disable", "clear-fault"}));
+  c->add_option("--socket", ctl->socket, "control socket (default: the config's [service] socket)");
+  c->add_option("--config", ctl->config, "configuration file naming the socket")->capture_default_str();
+  c->add_flag("--json", ctl->json, "print the controller's JSON replies as they come");
+  c->add_option("--trajectory", ctl->trajectory, "run: NAME, FILE.csv or move:X,Y,Z[;...] (as 'host run')");
+  c->add_option("--duration", ctl->duration_s, "run: seconds of trajectory time")
+      ->check(options::real_number(0, 86400, true));
+  c->add_option("--record", ctl->record, "run: OUT.csv (default: a new file in the controller's recordings folder)");
+  c->add_flag("--no-wait", ctl->no_wait, "run: return once queued");
+  c->callback([ctl] {
+    if (ctl->command == "run" && ctl->trajectory.empty()) fail(kExitBadInput, "host ctl run: needs --trajectory");
+    run_ctl(*ctl);
+  });
+
+  auto latency = std::make_shared<LatencyOptions>();
+  CLI::App* l = host->add_subcommand("latency", "Wake latency of a 1 kHz loop with absolute deadlines (no board)");
+  l->add_option("--seconds", latency->seconds, "how long")
+      ->check(options::real_number(0.1, 3600))
+      ->capture_default_str();
+  l->add_flag("--normal", latency->normal, "normal scheduling (default: SCHED_FIFO and locked memory when permitted)");
+  l->add_flag("--json", latency->json, "one JSON object");
+  l->callback([latency] { run_latency(*latency); });
 });
 
 }  // namespace

@@ -31,6 +31,22 @@ const char* state_name(HostState state) {
   return "?";
 }
 
+const char* feed_name(FeedState state) {
+  switch (state) {
+    case FeedState::kStreaming:
+      return "streaming";
+    case FeedState::kHolding:
+      return "holding (slowing to rest)";
+    case FeedState::kHeld:
+      return "held";
+    case FeedState::kResuming:
+      return "resuming";
+    case FeedState::kStopping:
+      return "stopping";
+  }
+  return "?";
+}
+
 HostState state_of(const link::TelemetryPayload& t) {
   if (t.has(link::TelemetryFlag::kFault)) return HostState::kFault;
   if (t.has(link::TelemetryFlag::kDriveEnable)) {
@@ -74,12 +90,15 @@ void StreamingLoop::run() {
   result_.realtime_note = make_thread_realtime(options_.priority);
   const double code_m = std::ldexp(1.0, -network_.formats.input_fraction_bits);
   link::TelemetryPayload t = *session_.last_telemetry();
-  link::SetpointPacer pacer(options_.session, t.sample_index + t.fill, plan_.size());
+  link::SetpointPacer pacer(options_.session, t.sample_index + t.fill, plan_.size(), plan_.capacity());
   result_.first_index = pacer.first_index();
   result_.first = t;
   result_.planned = plan_.size();
-  std::vector<std::array<std::int32_t, 3>> codes(plan_.size());  // as sent (resends send the same)
+  planned_.store(plan_.size());
+  std::vector<std::array<std::int32_t, 3>> codes(plan_.capacity());  // as sent (resends send the same)
+  std::size_t sent = 0;                                              // samples [0, sent) have codes
   auto send = [&](std::size_t k, std::uint32_t index, std::int64_t /*reach_tick*/) {
+    sent = std::max(sent, k + 1);
     const auto code = golden::encode_position(network_.formats, plan_.position(k));
     codes[k] = {static_cast<std::int32_t>(code[0]), static_cast<std::int32_t>(code[1]),
                 static_cast<std::int32_t>(code[2])};
@@ -90,24 +109,30 @@ void StreamingLoop::run() {
     r.telemetry = frame;
     r.reference_m = start_m_;
     const std::int64_t k = static_cast<std::int64_t>(frame.sample_index) - 2 - pacer.first_index();
-    if (k >= 0 && k < static_cast<std::int64_t>(plan_.size())) {
-      const auto& c = codes[static_cast<std::size_t>(k)];
+    const std::int64_t last = std::min<std::int64_t>(k, static_cast<std::int64_t>(plan_.size()) - 1);
+    if (last >= 0 && static_cast<std::size_t>(last) < sent) {
+      const auto& c = codes[static_cast<std::size_t>(last)];
       r.reference_m = Vec3(c[0] * code_m, c[1] * code_m, c[2] * code_m);
-      r.tau_s = plan_.tau(static_cast<std::size_t>(k));
-      r.stream_sample = k;
-    } else if (k >= static_cast<std::int64_t>(plan_.size()) && plan_.size() > 0) {
-      const auto& c = codes[plan_.size() - 1];
-      r.reference_m = Vec3(c[0] * code_m, c[1] * code_m, c[2] * code_m);
-      r.tau_s = plan_.tau(plan_.size() - 1);
-      r.stream_sample = static_cast<std::int64_t>(plan_.size()) - 1;
+      r.tau_s = plan_.tau(static_cast<std::size_t>(last));
+      r.stream_sample = last;
     }
     queue_.push(r);
   };
+  auto set_plan = [&](std::size_t samples) {
+    pacer.set_samples(samples);
+    result_.planned = pacer.samples();
+    planned_.store(result_.planned);
+  };
+  auto set_feed = [&](FeedState state) { feed_.store(static_cast<int>(state)); };
 
   const std::int64_t period = static_cast<std::int64_t>(options_.period_us) * 1000;
   const std::int64_t timeout = static_cast<std::int64_t>(options_.link_timeout_ms) * 1'000'000;
   std::int64_t deadline = to_ns(monotonic_now());
   std::int64_t last_frame = deadline;
+  FeedState feed = FeedState::kStreaming;
+  bool resume_wanted = false;       // asked while still slowing down: resumed once held
+  std::uint64_t command_frame = 0;  // telemetry frames since the last hold or enable sent
+  std::uint32_t held_since_tick = 0;
   try {
     const std::uint64_t resent_before = pacer.resent();
     pacer.update(t, send);
@@ -139,6 +164,7 @@ void StreamingLoop::run() {
             std::max(result_.longest_telemetry_gap_ms, static_cast<double>(now - last_frame) / 1e6);
         last_frame = now;
         ++result_.telemetry_frames;
+        ++command_frame;
         record(t);
         played_.store(pacer.played(t));
         if (t.has(link::TelemetryFlag::kFault)) {
@@ -147,14 +173,73 @@ void StreamingLoop::run() {
           finished = true;
           break;
         }
-        if (stop_request_ != 0 && !stopping_.load()) {
-          stopping_.store(true);
-          pacer.set_samples(plan_.stop_from(pacer.next()));
-          result_.planned = pacer.samples();
+        if (t.has(link::TelemetryFlag::kDriveEnable) && options_.following_error_deg > 0.0) {
+          for (int j = 0; j < 3 && !finished; ++j) {
+            const double error = (t.counts[j] - t.references[j] / 256.0) * kCountDeg;
+            if (std::abs(error) > options_.following_error_deg) {
+              result_.outcome = StreamingResult::Outcome::kFault;
+              result_.cause = "following error on joint " + std::to_string(j + 1) + ": " + std::to_string(error) +
+                              " deg beyond the host's bound " + std::to_string(options_.following_error_deg) + " deg";
+              finished = true;
+            }
+          }
+          if (finished) break;
         }
-        if (pacer.done(t)) {
+        // Requests: a signal or kStop ends the run at rest; hold and resume change the plan.
+        const auto request = static_cast<FeedRequest>(request_.exchange(static_cast<int>(FeedRequest::kNone)));
+        if ((stop_request_ != 0 || request == FeedRequest::kStop) && feed != FeedState::kStopping) {
+          if (feed == FeedState::kHeld) {
+            set_plan(pacer.next());  // at rest already (the board holds the rest of its buffer)
+            result_.held_s += static_cast<double>(t.tick - held_since_tick) / 1e4;
+          } else {
+            set_plan(plan_.stop_from(pacer.next()));
+          }
+          feed = FeedState::kStopping;
+        } else if (request == FeedRequest::kHold && (feed == FeedState::kStreaming || feed == FeedState::kResuming)) {
+          set_plan(plan_.hold_from(pacer.next()));
+          feed = FeedState::kHolding;
+          resume_wanted = false;
+        } else if (request == FeedRequest::kResume && feed == FeedState::kHolding) {
+          resume_wanted = true;
+        } else if ((request == FeedRequest::kResume || resume_wanted) && feed == FeedState::kHeld) {
+          resume_wanted = false;
+          if (const std::size_t samples = plan_.resume()) {
+            set_plan(samples);
+            pacer.update(t, send);  // the buffer first, then the resume: no underrun
+            session_.send_command(link::Command::kEnable);
+            command_frame = 0;
+            result_.held_s += static_cast<double>(t.tick - held_since_tick) / 1e4;
+            feed = FeedState::kResuming;
+          }
+        }
+        if (feed == FeedState::kStopping && t.has(link::TelemetryFlag::kHolding)) {
+          result_.outcome = StreamingResult::Outcome::kStopped;
+          finished = true;  // stopped while held: at rest, the caller disables
+          break;
+        }
+        if (feed == FeedState::kHolding && pacer.next() >= pacer.samples() && t.fill <= 2) {
+          // The rest point is sent and playing: pause the board (the buffer's last samples, all
+          // at rest, stay for the resume).
+          session_.send_command(link::Command::kHold);
+          command_frame = 0;
+          feed = FeedState::kHeld;
+          held_since_tick = t.tick;
+          ++result_.holds;
+        } else if (feed == FeedState::kHeld && command_frame >= 4) {
+          session_.send_command(link::Command::kHold);  // idempotent; feeds the watchdog
+          command_frame = 0;
+        } else if (feed == FeedState::kResuming) {
+          if (!t.has(link::TelemetryFlag::kHolding)) {
+            feed = FeedState::kStreaming;
+          } else if (command_frame >= 4) {
+            session_.send_command(link::Command::kEnable);  // lost on the line: again
+            command_frame = 0;
+          }
+        }
+        set_feed(feed);
+        if (feed != FeedState::kHeld && feed != FeedState::kHolding && pacer.done(t)) {
           result_.outcome =
-              stopping_.load() ? StreamingResult::Outcome::kStopped : StreamingResult::Outcome::kCompleted;
+              feed == FeedState::kStopping ? StreamingResult::Outcome::kStopped : StreamingResult::Outcome::kCompleted;
           finished = true;
           break;
         }

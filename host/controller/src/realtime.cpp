@@ -64,4 +64,27 @@ double WakeLatency::percentile_us(double p) const {
   return max_us();
 }
 
+WakeLatencyProbe measure_wake_latency(double seconds, int priority) {
+  WakeLatencyProbe probe;
+  int old_policy = 0;
+  sched_param old_param{};
+  ::pthread_getschedparam(::pthread_self(), &old_policy, &old_param);
+  probe.realtime_note = priority > 0 ? make_thread_realtime(priority) : "not asked";
+  constexpr std::int64_t kPeriodNs = 1'000'000;
+  const auto total = std::max<std::int64_t>(1, std::llround(seconds * 1000.0));
+  std::int64_t deadline = to_ns(monotonic_now());
+  for (std::int64_t i = 0; i < total; ++i) {
+    deadline += kPeriodNs;
+    sleep_until(deadline);
+    const std::int64_t late = to_ns(monotonic_now()) - deadline;
+    probe.latency.record(late);
+    if (late >= kPeriodNs) {  // keep the grid, as the streaming loop does
+      probe.overruns += static_cast<std::uint64_t>(late / kPeriodNs);
+      deadline += late / kPeriodNs * kPeriodNs;
+    }
+  }
+  if (probe.realtime_note.empty()) ::pthread_setschedparam(::pthread_self(), old_policy, &old_param);
+  return probe;
+}
+
 }  // namespace delta::controller

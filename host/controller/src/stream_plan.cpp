@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <sstream>
 #include <stdexcept>
 
 #include "delta/board_facts.hpp"
@@ -33,7 +34,50 @@ Vec3 Path::at(double tau_s, std::size_t* line) const {
   return (1.0 - s) * samples[i].position_m + s * samples[j].position_m;
 }
 
+// "move:X,Y,Z[;X,Y,Z...]": rest-to-rest jerk-limited straight moves through the waypoints (metres),
+// the first reached by the plan's approach; waypoint k is "line" k of the source for messages.
+Path load_moves(const std::string& spec, const motion::MotionLimits& limits) {
+  Path path;
+  path.source = spec;
+  std::vector<Vec3> points;
+  std::stringstream list(spec.substr(5));
+  std::string item;
+  while (std::getline(list, item, ';')) {
+    std::stringstream fields(item);
+    std::string field;
+    Vec3 p;
+    int n = 0;
+    while (std::getline(fields, field, ',')) {
+      char* end = nullptr;
+      const double value = std::strtod(field.c_str(), &end);
+      if (n >= 3 || end == field.c_str() || *end != '\0' || !std::isfinite(value)) {
+        throw InputError(spec, points.size() + 1, "a waypoint is X,Y,Z in metres, finite ('" + item + "')");
+      }
+      p[n++] = value;
+    }
+    if (n != 3) throw InputError(spec, points.size() + 1, "a waypoint is X,Y,Z in metres ('" + item + "')");
+    points.push_back(p);
+  }
+  if (points.empty()) throw InputError(spec, 0, "move: needs at least one waypoint X,Y,Z");
+  path.samples.push_back({0.0, points.front(), 1});
+  for (std::size_t w = 1; w < points.size(); ++w) {
+    const Vec3 from = points[w - 1], delta = points[w] - from;
+    const double distance = delta.norm();
+    if (distance < 1e-9) continue;
+    const motion::JerkLimitedProfile move(distance, limits);
+    const auto count = static_cast<std::size_t>(std::ceil(move.duration() * kStreamRateHz));
+    const double t0 = path.samples.back().t_s;
+    for (std::size_t k = 1; k <= count; ++k) {
+      const double s = move.at(static_cast<double>(k) * kDt).position / distance;
+      path.samples.push_back({t0 + static_cast<double>(k) * kDt, from + s * delta, w + 1});
+    }
+  }
+  path.samples.push_back({path.samples.back().t_s + kDt, path.samples.back().position_m, points.size()});
+  return path;
+}
+
 Path load_path(const std::string& name_or_file, double duration_s) {
+  if (name_or_file.rfind("move:", 0) == 0) return load_moves(name_or_file, StreamLimits{}.approach);
   Path path;
   path.source = name_or_file;
   if (is_named(name_or_file)) {
@@ -122,16 +166,29 @@ StreamPlan::StreamPlan(const Path& path, const Vec3& start_m, const StreamLimits
     }
   }
   approach_samples_ = position_.size();
-  // The path, the rate ramping in at the start and out so that it ends at rest at the end.
-  TimeScaling scaling(limits.rate);
-  scaling.ramp_to(1.0);
-  const double end = path.duration_s();
-  const double stop_at = end - scaling.stopping_distance(1.0);
-  double tau = 0.0;
+  append_path(0.0, 0.0);
+  capacity_ = position_.size() + kHoldReserveSamples;
+  position_.reserve(capacity_);
+  tau_.reserve(capacity_);
+  rate_.reserve(capacity_);
+  line_.reserve(capacity_);
+}
+
+void StreamPlan::append_path(double tau, double rate) {
+  // The path, the rate ramping in and out so that it ends at rest at the end.
+  TimeScaling scaling(limits_.rate);
+  const double end = path_.duration_s();
+  // Full speed if the ramps in and out fit in what is left of the path, else a lower top rate.
+  double top = 1.0;
+  while (top > 1e-3 && 2.0 * scaling.stopping_distance(top) > end - tau) top *= 0.8;
+  scaling.set_rate(rate);
+  scaling.ramp_to(top);
+  const double stop_at = end - scaling.stopping_distance(top);
+  final_ramp_ = ~std::size_t{0};
   bool stopping = false;
   for (;;) {
     std::size_t line = 0;
-    position_.push_back(path.at(tau, &line));
+    position_.push_back(path_.at(tau, &line));
     tau_.push_back(tau);
     rate_.push_back(scaling.rate());
     line_.push_back(line);
@@ -146,11 +203,39 @@ StreamPlan::StreamPlan(const Path& path, const Vec3& start_m, const StreamLimits
   }
 }
 
+bool StreamPlan::resumable() const {
+  if (position_.size() <= approach_samples_) return true;  // held at the path's start
+  return rate_.back() == 0.0 && tau_.back() < path_.duration_s() - 1e-9;
+}
+
+std::size_t StreamPlan::resume() {
+  if (!resumable()) return 0;
+  const double tau = position_.size() <= approach_samples_ ? 0.0 : tau_.back();
+  // Worst case: the rest of the path at the rate of the ramps' mean, plus both ramps.
+  const TimeScaling probe(limits_.rate);
+  const double ramp_s = 2.0 * probe.stopping_distance(1.0) + 1.0;
+  const auto needed = static_cast<std::size_t>(std::ceil((path_.duration_s() - tau + 2.0 * ramp_s) * kStreamRateHz));
+  if (position_.size() + needed > capacity_) return 0;
+  if (position_.size() > approach_samples_) {
+    // The last sample is the rest point; the resumed path starts from it (not repeated).
+    position_.pop_back();
+    tau_.pop_back();
+    rate_.pop_back();
+    line_.pop_back();
+  }
+  append_path(tau, 0.0);
+  return position_.size();
+}
+
 std::size_t StreamPlan::stop_from(std::size_t k) {
   if (k >= position_.size()) return position_.size();
   if (k < approach_samples_) {
     // In the straight move: finish it (rest to rest, already checked) and end there.
     position_.resize(approach_samples_);  // shrinking: no allocation
+    tau_.resize(approach_samples_);
+    rate_.resize(approach_samples_);
+    line_.resize(approach_samples_);
+    final_ramp_ = ~std::size_t{0};
     return position_.size();
   }
   if (k >= final_ramp_) return position_.size();  // already slowing down to the end

@@ -21,6 +21,7 @@
 #include <nlohmann/json.hpp>
 
 #include "delta/command.hpp"
+#include "delta/controller/realtime.hpp"
 #include "delta/deploy/board_probe.hpp"
 #include "delta/deploy/config.hpp"
 #include "delta/deploy/doctor.hpp"
@@ -175,13 +176,15 @@ Check check_kernel() {
 
 Check check_wake_latency(double seconds) {
   Check check{"wake latency", Verdict::kOk, "", ""};
-  const deploy::WakeLatency latency = deploy::measure_wake_latency(seconds);
+  const controller::WakeLatencyProbe probe = controller::measure_wake_latency(seconds, 80);
+  const controller::WakeLatency& latency = probe.latency;
   std::ostringstream detail;
-  detail << std::fixed << std::setprecision(1) << latency.samples << " wake-ups at 1 kHz"
-         << (latency.realtime ? " (SCHED_FIFO 80)" : " (SCHED_OTHER: no RT priority)") << ": max " << latency.max_us
-         << " us, mean " << latency.mean_us << " us: " << deploy::latency_band(latency.max_us);
+  detail << std::fixed << std::setprecision(1) << latency.count() << " wake-ups at 1 kHz"
+         << (probe.realtime_note.empty() ? " (SCHED_FIFO 80)" : " (SCHED_OTHER: no RT priority)") << ": p99 "
+         << latency.percentile_us(99) << " us, max " << latency.max_us()
+         << " us: " << deploy::latency_band(latency.max_us());
   check.detail = detail.str();
-  check.verdict = deploy::latency_verdict(latency.max_us);
+  check.verdict = deploy::latency_verdict(latency.max_us());
   if (check.verdict != Verdict::kOk) {
     check.fix = "PREEMPT_RT kernel, RT priority allowed, BIOS: C-states and SMT off; isolcpus for the controller";
   }

@@ -39,37 +39,4 @@ Verdict latency_verdict(double max_us) {
   return Verdict::kFail;
 }
 
-WakeLatency measure_wake_latency(double seconds) {
-  WakeLatency result;
-  sched_param param{};
-  param.sched_priority = 80;
-  int old_policy = 0;
-  sched_param old_param{};
-  pthread_getschedparam(pthread_self(), &old_policy, &old_param);
-  result.realtime = pthread_setschedparam(pthread_self(), SCHED_FIFO, &param) == 0;
-  constexpr long kPeriodNs = 1000000;
-  timespec next{};
-  clock_gettime(CLOCK_MONOTONIC, &next);
-  const long total = std::max(1L, static_cast<long>(seconds * 1000.0));
-  double sum = 0;
-  for (long i = 0; i < total; ++i) {
-    next.tv_nsec += kPeriodNs;
-    if (next.tv_nsec >= 1000000000L) {
-      next.tv_nsec -= 1000000000L;
-      ++next.tv_sec;
-    }
-    while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &next, nullptr) != 0) {
-    }
-    timespec now{};
-    clock_gettime(CLOCK_MONOTONIC, &now);
-    const double late_us = ((now.tv_sec - next.tv_sec) * 1e9 + (now.tv_nsec - next.tv_nsec)) / 1e3;
-    result.max_us = std::max(result.max_us, late_us);
-    sum += late_us;
-    ++result.samples;
-  }
-  result.mean_us = sum / static_cast<double>(result.samples);
-  if (result.realtime) pthread_setschedparam(pthread_self(), old_policy, &old_param);
-  return result;
-}
-
 }  // namespace delta::deploy

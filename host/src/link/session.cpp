@@ -111,12 +111,23 @@ TelemetryPayload LinkSession::next_telemetry() {
 }
 
 IdentifyPayload LinkSession::identify() {
+  // What waited in the device's buffer is older than the request: read first, then not counted.
+  poll_frames();
   unread_identify_.clear();
   send_frame(make_identify_request(sequence_++));
-  // The reply comes within a frame time after the telemetry frame on the line; allow a few.
-  for (int frames = 0; unread_identify_.empty(); ++frames) {
-    if (frames > options_.command_timeout_frames) {
+  // The reply comes within a frame time after the telemetry frame on the line; allow a few, and
+  // ask again every 4 frames (the request or the reply may be corrupted on the line).
+  const std::uint64_t before = statistics_.telemetry_frames;
+  std::uint64_t resend_at = 4;
+  for (int calls = 0; unread_identify_.empty(); ++calls) {
+    const std::uint64_t frames = statistics_.telemetry_frames - before;
+    if (frames > static_cast<std::uint64_t>(options_.command_timeout_frames) ||
+        calls > 4 * options_.command_timeout_frames) {
       throw LinkError(LinkError::Kind::kLinkLost, stream_.name() + ": no identify reply from the board");
+    }
+    if (frames >= resend_at) {
+      send_frame(make_identify_request(sequence_++));
+      resend_at += 4;
     }
     receive_frames();
   }
@@ -131,7 +142,9 @@ IdentifyPayload LinkSession::identify() {
 }
 
 TelemetryPayload LinkSession::command(Command command, const std::function<bool(const TelemetryPayload&)>& done) {
-  // The baseline: the newest frame the board sent before this command.
+  // The baseline: the newest frame the board sent before this command (whatever waits in the
+  // device's buffer read first: counting stale frames as answers would time the command out).
+  poll_frames();
   while (!unread_telemetry_.empty()) next_telemetry();
   if (!last_telemetry_) next_telemetry();
   const TelemetryPayload before = *last_telemetry_;

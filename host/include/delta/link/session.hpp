@@ -106,12 +106,13 @@ struct StreamReport {
 // construction.
 class SetpointPacer {
  public:
-  SetpointPacer(const SessionOptions& options, std::uint32_t first_index, std::size_t samples)
+  // `capacity`: the most samples set_samples may ask for later (a plan that grows by feed holds).
+  SetpointPacer(const SessionOptions& options, std::uint32_t first_index, std::size_t samples, std::size_t capacity = 0)
       : options_(options),
         first_(first_index),
         end_(static_cast<std::int64_t>(first_index) + static_cast<std::int64_t>(samples)),
         next_(first_index),
-        sent_at_frame_(samples, 0) {}
+        sent_at_frame_(std::max(samples, capacity), 0) {}
 
   // Calls send(k, sample_index, reach_tick) for each stream sample k to send now (resends
   // included, with the same k); `now` is the newest telemetry frame. Returns the samples sent.
@@ -146,7 +147,7 @@ class SetpointPacer {
   }
   bool done(const TelemetryPayload& now) const { return static_cast<std::int64_t>(now.sample_index) >= end_; }
   std::size_t samples() const { return static_cast<std::size_t>(end_ - first_); }
-  // Ends the stream after `samples` samples (at least those already sent; never beyond the start's count).
+  // Ends the stream after `samples` samples (at least those already sent; at most the capacity).
   void set_samples(std::size_t samples) {
     const std::int64_t end = first_ + static_cast<std::int64_t>(std::min(samples, sent_at_frame_.size()));
     end_ = std::max(end, next_);

@@ -10,7 +10,16 @@
 // Supervision in every cycle: no telemetry for link_timeout_ms of wall time (or the device hung
 // up) is link loss: the loop ends and nothing is enabled again (the board's 50 ms watchdog stops
 // the torque). A telemetry frame with the fault flag ends the loop with the board's cause. A stop
-// request (SIGINT, SIGTERM) ends the plan by a ramp of the path's rate to 0 (StreamPlan::stop_from).
+// request (SIGINT, SIGTERM, or request(kStop)) ends the plan by a ramp of the path's rate to 0
+// (StreamPlan::stop_from).
+//
+// Feed hold (request(kHold)): the same ramp to rest on the path, then the board's hold command
+// (sent again every 4 frames while held: it is idempotent and keeps the board's watchdog fed);
+// resume (request(kResume)): the plan grows by a ramp back to speed and the rest of the path, its
+// first setpoints are sent, then enable (the board resumes from its buffer: no underrun).
+//
+//   streaming -(hold)-> holding (ramping to rest) -> held (board holding) -(resume)-> resuming
+//   -> streaming; any -(stop)-> stopping -> done
 #pragma once
 
 #include <atomic>
@@ -59,6 +68,9 @@ struct StreamingOptions {
   int link_timeout_ms = 100;  // wall time without telemetry: link lost
   int period_us = 1000;       // the loop's period (absolute deadlines)
   int priority = 80;          // SCHED_FIFO priority when permitted
+  // The host's own following-error bound (|encoder - joint reference|, any joint, drives on),
+  // tighter than the board's 5.12 deg: exceeded, the run ends as a fault and the drives go off.
+  double following_error_deg = 2.0;
   link::SessionOptions session;
 };
 
@@ -77,7 +89,13 @@ struct StreamingResult {
   std::uint32_t first_index = 0;          // board sample index of stream sample 0
   link::TelemetryPayload first, last;     // telemetry at the start and the end of the stream
   std::uint64_t setpoints_resent = 0;
+  std::uint64_t holds = 0;  // feed holds that came to rest
+  double held_s = 0.0;      // board time spent held
 };
+
+enum class FeedRequest : int { kNone, kHold, kResume, kStop };
+enum class FeedState : int { kStreaming, kHolding, kHeld, kResuming, kStopping };
+const char* feed_name(FeedState state);
 
 // The loop; run() in the streaming thread. `stop_request` (a signal number, 0: none) is polled.
 class StreamingLoop {
@@ -89,7 +107,12 @@ class StreamingLoop {
   const StreamingResult& result() const { return result_; }
   // Progress for another thread.
   std::size_t played() const { return played_.load(); }
-  bool stopping() const { return stopping_.load(); }
+  std::size_t planned() const { return planned_.load(); }
+  bool stopping() const { return feed() == FeedState::kStopping; }
+  FeedState feed() const { return static_cast<FeedState>(feed_.load()); }
+  // From another thread; taken at the next telemetry frame. Hold is ignored unless streaming (or
+  // resuming); resume unless holding or held; a stop always ends the run at rest.
+  void request(FeedRequest request) { request_.store(static_cast<int>(request)); }
 
  private:
   link::LinkSession& session_;
@@ -100,8 +123,9 @@ class StreamingLoop {
   StreamingOptions options_;
   const volatile std::sig_atomic_t& stop_request_;
   StreamingResult result_;
-  std::atomic<std::size_t> played_{0};
-  std::atomic<bool> stopping_{false};
+  std::atomic<std::size_t> played_{0}, planned_{0};
+  std::atomic<int> feed_{static_cast<int>(FeedState::kStreaming)};
+  std::atomic<int> request_{static_cast<int>(FeedRequest::kNone)};
 };
 
 // Tracking of a run from its telemetry (encoder count - joint reference, degrees), off the loop.

@@ -36,4 +36,14 @@ class WakeLatency {
   std::int64_t max_ns_ = 0;
 };
 
+// The wake latency of a 1 kHz loop with absolute deadlines run for `seconds` in the calling thread,
+// as SCHED_FIFO at `priority` when permitted (0: normal scheduling); the thread's scheduling is
+// restored after. What `deltactl host latency` and `deltactl doctor` report.
+struct WakeLatencyProbe {
+  WakeLatency latency;
+  std::uint64_t overruns = 0;  // periods missed entirely
+  std::string realtime_note;   // "" when SCHED_FIFO was granted, else why not (or "not asked")
+};
+WakeLatencyProbe measure_wake_latency(double seconds, int priority);
+
 }  // namespace delta::controller

@@ -8,7 +8,10 @@
 //   then: P(tau_k), tau_{k+1} = tau_k + rate_k / 1 kHz, the rate ramping 0 -> 1 -> 0
 //
 // A controlled stop (SIGINT, SIGTERM) replaces the rest of the plan by a ramp of the rate to 0
-// from where the stream is: the plate slows down along the path, within the checked limits.
+// from where the stream is: the plate slows down along the path, within the checked limits. A feed
+// hold is the same ramp, and a resume appends a ramp of the rate from 0 back to 1 from where the
+// hold came to rest, then the rest of the path and its final ramp: the plan grows into capacity
+// reserved at construction (kHoldReserveSamples), so the streaming thread never allocates.
 #pragma once
 
 #include <cstddef>
@@ -23,6 +26,9 @@
 namespace delta::controller {
 
 constexpr double kStreamRateHz = 1000.0;  // one setpoint per board setpoint period
+// Samples reserved for feed holds: each hold and resume lengthens the plan by about the two ramps'
+// extra time (~0.3 s), so a run takes about 200 of them.
+constexpr std::size_t kHoldReserveSamples = 60'000;
 
 // The limits every streamed sample is checked against (joint angles from the nominal model).
 struct StreamLimits {
@@ -46,9 +52,10 @@ struct Path {
 };
 
 // NAME (a trajectory of `deltactl simulate`) sampled at 1 kHz over [0, duration] (duration <= 0:
-// its default length), or FILE.csv read (InputError naming file, line, reason: missing columns,
-// non-numeric or non-finite fields, time going back), shifted to start at tau = 0, cut at
-// `duration_s` (if > 0) and resampled at 1 kHz.
+// its default length), or "move:X,Y,Z[;X,Y,Z...]" (point-to-point: rest-to-rest jerk-limited
+// straight moves through the waypoints, metres, at the approach's limits), or FILE.csv read (InputError naming file,
+// line, reason: missing columns, non-numeric or non-finite fields, time going back), shifted to start at tau = 0, cut
+// at `duration_s` (if > 0) and resampled at 1 kHz.
 Path load_path(const std::string& name_or_file, double duration_s);
 
 // The time scaling of the path: the rate of path time, ramped by a jerk-limited profile.
@@ -90,13 +97,27 @@ class StreamPlan {
   // A controlled stop from sample k on (the samples before k are sent): the rate ramps to 0 from
   // where it is at k and the plan ends there; returns the new size. No allocation.
   std::size_t stop_from(std::size_t k);
+  // A feed hold from sample k on: as stop_from, but the plan can be resumed; returns the new size.
+  std::size_t hold_from(std::size_t k) { return stop_from(k); }
+  // Resumes a plan that ends at rest (after hold_from): the rate ramps from 0 to 1 from the last
+  // sample's path time, then the rest of the path, ending at rest at its end. Returns the new size,
+  // or 0 when the reserve is used up or the plan is not at rest on its path (nothing changed).
+  std::size_t resume();
+  // Samples the plan can hold without allocating (its size after any number of holds is below).
+  std::size_t capacity() const { return capacity_; }
+  // True when the plan ends at rest short of the path's end (after a hold or a stop).
+  bool resumable() const;
 
   // Every sample as the trajectory check sees it.
   std::vector<motion::TrajectoryPoint> points() const;
 
  private:
+  // Appends the path from tau with the rate ramping from `rate` to 1, then out to rest at the end.
+  void append_path(double tau, double rate);
+
   const Path& path_;
   StreamLimits limits_;
+  std::size_t capacity_ = 0;
   std::size_t approach_samples_ = 0;
   std::size_t final_ramp_ = ~std::size_t{0};  // the sample where the ramp to the end starts
   std::vector<Vec3> position_;

@@ -19,7 +19,7 @@ struct DeployConfig {
   std::string weights;               // [network] weights: W.json (required, must exist)
   std::string bitstream;             // [network] bitstream: the .bin for `deltactl flash` (optional)
   double following_error_deg = 2.0;  // [limits] following_error_deg: (0, 45]
-  double velocity_deg_s = 360.0;     // [limits] velocity_deg_s: (0, 3600]
+  double velocity_deg_s = 100.0;     // [limits] velocity_deg_s: (0, 3600], every streamed sample
   std::string socket = "/run/deltactl/deltactl.sock";  // [service] socket: absolute path
 };
 

@@ -21,13 +21,4 @@ const char* verdict_name(Verdict verdict);
 std::string latency_band(double max_us);
 Verdict latency_verdict(double max_us);
 
-struct WakeLatency {
-  double max_us = 0;
-  double mean_us = 0;
-  long samples = 0;
-  bool realtime = false;  // ran as SCHED_FIFO
-};
-// Wakes at 1 kHz (absolute CLOCK_MONOTONIC deadlines) for `seconds`, SCHED_FIFO 80 if allowed.
-WakeLatency measure_wake_latency(double seconds);
-
 }  // namespace delta::deploy

@@ -1,0 +1,146 @@
+// What the host controller's tests share: a temporary folder, a CSV read as columns, deltactl run
+// as a child with a wall-clock bound, and a virtual board homed through `deltactl host home`.
+#pragma once
+
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "../support/run_command.hpp"
+#include "../support/virtual_board_process.hpp"
+
+namespace delta::test {
+
+inline const std::string kWeights = std::string(DELTA_SOURCE_DIR) + "/weights/paper_like.json";
+
+inline std::string temp_dir(const std::string& name) {
+  const std::string dir = ::testing::TempDir() + "host_" + name + "_" + std::to_string(::getpid());
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+// A CSV with a header (comment lines skipped) as columns of numbers.
+struct Table {
+  std::map<std::string, std::size_t> column;
+  std::vector<std::vector<double>> rows;
+  double at(std::size_t row, const std::string& name) const { return rows[row][column.at(name)]; }
+};
+inline Table read_table(const std::string& path) {
+  Table table;
+  std::istringstream lines(read_text(path));
+  std::string line;
+  bool header = true;
+  while (std::getline(lines, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream fields(line);
+    std::string field;
+    std::vector<double> row;
+    for (std::size_t k = 0; std::getline(fields, field, ','); ++k) {
+      if (header) {
+        table.column[field] = k;
+      } else {
+        row.push_back(std::strtod(field.c_str(), nullptr));
+      }
+    }
+    if (!header) table.rows.push_back(row);
+    header = false;
+  }
+  return table;
+}
+
+// deltactl with stdout and stderr to files; waits with a wall-clock bound.
+class HostProcess {
+ public:
+  HostProcess(const std::vector<std::string>& arguments, const std::string& stem) : stem_(stem) {
+    std::vector<std::string> words = {DELTACTL_PATH};
+    words.insert(words.end(), arguments.begin(), arguments.end());
+    pid_ = ::fork();
+    if (pid_ == 0) {
+      const int out = ::open((stem + ".out").c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+      const int err = ::open((stem + ".err").c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+      ::dup2(out, 1);
+      ::dup2(err, 2);
+      std::vector<char*> argv;
+      for (std::string& word : words) argv.push_back(word.data());
+      argv.push_back(nullptr);
+      ::execv(DELTACTL_PATH, argv.data());
+      ::_exit(127);
+    }
+  }
+  ~HostProcess() {
+    if (!exited_) {
+      ::kill(pid_, SIGKILL);
+      ::waitpid(pid_, nullptr, 0);
+    }
+  }
+  pid_t pid() const { return pid_; }
+  // The exit code (128 + N for signal N; -1: still running after timeout_s).
+  int wait(double timeout_s) {
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+    while (std::chrono::steady_clock::now() < deadline) {
+      int status = 0;
+      if (::waitpid(pid_, &status, WNOHANG) == pid_) {
+        exited_ = true;
+        return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+      }
+      ::usleep(1000);
+    }
+    return -1;
+  }
+  std::string out() const { return read_text(stem_ + ".out"); }
+  std::string err() const { return read_text(stem_ + ".err"); }
+
+ private:
+  std::string stem_;
+  pid_t pid_ = -1;
+  bool exited_ = false;
+};
+
+// A virtual board, homed through `deltactl host home` unless told not to.
+struct Bench {
+  std::string dir, link, truth;
+  std::unique_ptr<VirtualBoardProcess> board;
+  Bench(const std::string& name, std::vector<std::string> extra = {}, bool home_it = true) : dir(temp_dir(name)) {
+    link = dir + "/tty";
+    truth = dir + "/truth.csv";
+    std::vector<std::string> arguments = {"--weights", kWeights, "--truth", truth};
+    arguments.insert(arguments.end(), extra.begin(), extra.end());
+    board = std::make_unique<VirtualBoardProcess>(link, arguments);
+    const std::string ready = board->ready_line(60'000);
+    if (ready.find(link) == std::string::npos) throw std::runtime_error("virtual board not ready: " + ready);
+    if (!home_it) return;
+    const CommandResult home = run_deltactl("host home --port " + link + " --link-timeout-ms 2000");
+    if (home.exit_code != 0) throw std::runtime_error("host home: " + home.err);
+  }
+  std::vector<std::string> run_arguments(const std::string& port, double duration_s) const {
+    return {"host",
+            "run",
+            "--port",
+            port,
+            "--weights",
+            kWeights,
+            "--trajectory",
+            "experiment1",
+            "--duration",
+            std::to_string(duration_s),
+            "--record",
+            dir + "/out.csv",
+            "--link-timeout-ms",
+            "1000"};
+  }
+};
+
+}  // namespace delta::test
