@@ -117,7 +117,11 @@ void run_virtual_board(const VirtualBoardCommandOptions& options) {
   // One control period of board time per turn (100 us): the pty's bytes join the line at the board's
   // bit timing, the board's bytes go out as they complete. Paced: each turn waits until its board
   // time is due on the wall clock (a board that behaves like the real one for a host in a dry run).
+  // A paced board that fell behind (this process not scheduled) does not catch up by running fast,
+  // which no real board does: the lag beyond 2 ms is dropped from its clock and counted.
   const auto start = std::chrono::steady_clock::now();
+  auto origin = start;
+  std::chrono::steady_clock::duration dropped_lag{};
   auto last_flush = start;
   std::uint64_t bytes_in = 0, bytes_out = 0, bytes_dropped = 0;
   std::uint8_t buffer[4096];
@@ -137,11 +141,14 @@ void run_virtual_board(const VirtualBoardCommandOptions& options) {
     }
     auto now = std::chrono::steady_clock::now();
     if (paced) {
-      const auto due = start + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                                   std::chrono::duration<double>(board.time_s()));
+      const auto due = origin + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                    std::chrono::duration<double>(board.time_s()));
       if (due > now) {
         std::this_thread::sleep_until(due);
         now = std::chrono::steady_clock::now();
+      } else if (now - due > std::chrono::milliseconds(2)) {
+        dropped_lag += now - due;
+        origin += now - due;
       }
     }
     if (truth.is_open() && now - last_flush >= std::chrono::milliseconds(500)) {
@@ -155,7 +162,11 @@ void run_virtual_board(const VirtualBoardCommandOptions& options) {
   }
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   std::cerr << "virtual-board: stopped after " << fixed(board.time_s(), 3) << " s of board time in " << fixed(wall, 1)
-            << " s wall; " << bytes_in << " bytes from the host, " << bytes_out << " to it, " << bytes_dropped
+            << " s wall"
+            << (paced ? "; behind the wall clock " + fixed(std::chrono::duration<double>(dropped_lag).count(), 3) +
+                            " s (dropped)"
+                      : "")
+            << "; " << bytes_in << " bytes from the host, " << bytes_out << " to it, " << bytes_dropped
             << " dropped (nobody reading)\n";
   pty.reset();  // removes PATH
 }
@@ -173,7 +184,9 @@ const RegisterCommand command("virtual-board", 72, [](CLI::App& root) {
       "bit timing; the board's bytes come back as they leave its TX pin. The simulation runs as fast as\n"
       "it can, about a tenth of real time: a host paces itself by the board's telemetry, never by its\n"
       "own clock. --fidelity model runs the C++ model board instead (bit-exact with the RTL at its\n"
-      "pins: the same bytes, PWM and encoder counts), kept to wall-clock time unless --free-run.\n"
+      "pins: the same bytes, PWM and encoder counts), kept to wall-clock time unless --free-run (a\n"
+      "paced board that falls behind, its process not scheduled, drops the lag rather than catching up\n"
+      "faster than real time, as no real board can; the lag dropped is printed on exit).\n"
       "Bytes the board sends while nobody reads PATH are dropped once the pty is full.\n"
       "Prints one line naming PATH when ready; runs until SIGINT or SIGTERM, then removes PATH.\n"
       "--truth: CSV at 1 kHz of board time, written as it runs (flushed twice a second, complete on\n"

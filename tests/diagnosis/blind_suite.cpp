@@ -152,7 +152,8 @@ void make_extended_case(BlindCase& blind_case, Draw& draw) {
   } else {
     blind_case.kind = CaseKind::stage_scale;
     blind_case.stage_scale = draw.magnitude(0.003, 0.01);
-    // Slot 8: every axis (a new effect, measuring_scale, must be named); slot 9: x or y alone.
+    // Slot 8: every axis (a new effect, measuring_scale, must be named); slot 9: x or y alone
+    // (explained false, or measuring_scale per axis reaching the floor).
     blind_case.stage_axis = slot == 8 ? -1 : (blind_case.id / 10) % 2;
   }
 }

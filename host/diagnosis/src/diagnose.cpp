@@ -106,20 +106,21 @@ void adopt(Selection& selection, FamilySet families, const Parameters& theta) {
   selection.path_changed = true;
 }
 
-// A uniform measuring scale in place of the length families, when it does as well on CHECK with
+// A measuring scale in place of the families that imitate it, when it does as well on CHECK with
 // fewer parameters (or reaches the floor where they do not): the new effect becomes part of the
-// final model, the vocabulary-only set its first alternative.
-void try_measuring_scale(const PipelineData& data, const std::vector<Sample>& all_check, Diagnosis& diagnosis,
-                         const std::vector<Vec3>& chosen_check) {
-  const std::optional<ScaleModel> model = fit_measuring_scale(data, diagnosis.significant, diagnosis.theta);
-  if (!model) return;
+// final model, the vocabulary-only set its first alternative. Returns whether it was adopted.
+bool adopt_measuring_scale(const PipelineData& data, const std::vector<Sample>& all_check, Diagnosis& diagnosis,
+                           const std::vector<Vec3>& chosen_check, const std::optional<ScaleModel>& model) {
+  if (!model) return false;
   const DiagnosisOptions& options = data.options;
   const NoiseModel noise =
       noise_model(unscaled(data.fit, model->scale), model->fit_prediction, data.check, options.noise_floor_deg);
   const FloorTest test = floor_test(data.check, model->check_prediction, noise, options);
   const PairedDifference difference =
       paired_difference(data.check, model->check_prediction, chosen_check, options.batch_rows);
-  if (!test.at_floor || (diagnosis.floor_test.at_floor && difference.z > options.paired_z)) return;
+  if (!test.at_floor || (diagnosis.floor_test.at_floor && difference.z > options.paired_z)) return false;
+  const std::size_t parameters = parameter_indices(model->families).size() + (model->per_axis ? 3 : 1);
+  if (diagnosis.floor_test.at_floor && parameters >= parameter_indices(diagnosis.significant).size()) return false;
 
   Alternative vocabulary;
   vocabulary.families = diagnosis.significant;
@@ -129,13 +130,17 @@ void try_measuring_scale(const PipelineData& data, const std::vector<Sample>& al
   vocabulary.paired_z = -difference.z;
   vocabulary.at_floor = diagnosis.floor_test.at_floor;
   vocabulary.separate_by =
-      "a uniform scale of the measuring stage equals every robot length scaled the other way: "
-      "measure one arm (calipers) or check the stage against a gauge block";
+      model->per_axis
+          ? "a scale of one measuring-stage axis is imitated by encoder scales, the frame and the lengths together: "
+            "check the stage's axes against a gauge block"
+          : "a uniform scale of the measuring stage equals every robot length scaled the other way: "
+            "measure one arm (calipers) or check the stage against a gauge block";
   diagnosis.alternatives.insert(diagnosis.alternatives.begin(), vocabulary);
 
   NewEffect effect;
   effect.name = "measuring_scale";
   effect.subsystem = "measuring frame";
+  effect.per_axis = model->per_axis;
   effect.scale = model->scale;
   effect.confidence_95 = model->confidence_95;
   effect.holdout_rmse_deg = model->holdout_rmse;
@@ -165,6 +170,19 @@ void try_measuring_scale(const PipelineData& data, const std::vector<Sample>& al
   diagnosis.subsystem_rmse_without_deg = subsystem_errors(check_rows, model->families, diagnosis.theta);
   diagnosis.regions =
       region_errors(data.check, predict_recording(EffectSet{}, data.check).alpha_deg, model->check_prediction);
+  return true;
+}
+
+// A uniform scale where the length families look like one; else a scale per axis where the chosen
+// set holds families that imitate one (measuring_scale.hpp).
+void try_measuring_scale(const PipelineData& data, const std::vector<Sample>& all_check, Diagnosis& diagnosis,
+                         const std::vector<Vec3>& chosen_check) {
+  if (adopt_measuring_scale(data, all_check, diagnosis, chosen_check,
+                            fit_measuring_scale(data, diagnosis.significant, diagnosis.theta))) {
+    return;
+  }
+  adopt_measuring_scale(data, all_check, diagnosis, chosen_check,
+                        fit_axis_scale(data, diagnosis.significant, diagnosis.theta));
 }
 
 // An alternative that reaches the floor when the chosen set does not, or predicts CHECK
@@ -244,7 +262,7 @@ Diagnosis diagnose(const std::vector<Sample>& fit, const std::vector<Sample>& ch
   diagnosis.subsystem_rmse_without_deg = subsystem_errors(data.check, selection.families, diagnosis.theta);
   diagnosis.regions = region_errors(data.check, nominal.check_prediction, final_model.check_prediction);
 
-  // 8. An effect outside the vocabulary in place of the length families (measuring_scale.hpp).
+  // 8. An effect outside the vocabulary in place of the families that imitate it (measuring_scale.hpp).
   try_measuring_scale(data, check, diagnosis, final_model.check_prediction);
 
   // 9. What the data cannot tell apart.

@@ -1,7 +1,11 @@
-// Uniform scale of the measuring stage as a new effect: the vocabulary's lengths scaled together.
+// Scale of the measuring stage as a new effect: uniform (the vocabulary's lengths scaled together)
+// or per axis.
 #include "measuring_scale.hpp"
 
 #include <cmath>
+
+#include <Eigen/Cholesky>
+#include <Eigen/LU>
 
 namespace delta::diagnosis {
 namespace {
@@ -18,7 +22,7 @@ struct Evaluation {
 Evaluation evaluate_scale(const PipelineData& data, FamilySet families, const Parameters& start, double scale) {
   Evaluation evaluation;
   const bool hysteresis = families[index_of(Family::backlash)];
-  const std::vector<Sample> rows = unscaled(hysteresis ? data.fit : data.thinned_fit, scale);
+  const std::vector<Sample> rows = unscaled(hysteresis ? data.fit : data.thinned_fit, Vec3::Constant(scale));
   FitOptions options;
   options.noise_floor_deg = data.options.noise_floor_deg;
   evaluation.fit = fit_model(rows, families, start, start, options);
@@ -28,12 +32,107 @@ Evaluation evaluate_scale(const PipelineData& data, FamilySet families, const Pa
   return evaluation;
 }
 
+// Measured minus predicted angles of a model on the rows' positions unscaled; not ok when a row is
+// unreachable.
+struct Residuals {
+  Eigen::VectorXd r;  // measured - predicted, 3 per row
+  bool ok = false;
+};
+Residuals residuals(const EffectSet& effects, const std::vector<Sample>& rows, const Vec3& scale) {
+  Residuals result;
+  const Prediction prediction = predict_recording(effects, unscaled(rows, scale));
+  if (prediction.unreachable > 0) return result;
+  result.r.resize(3 * static_cast<Eigen::Index>(rows.size()));
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    for (int j = 0; j < 3; ++j)
+      result.r[3 * static_cast<Eigen::Index>(i) + j] = rows[i].alpha_deg[j] - prediction.alpha_deg[i][j];
+  }
+  result.ok = true;
+  return result;
+}
+
+// Gauss-Newton on the three scales with the other families held; the Jacobian by central
+// differences. Returns false when a row becomes unreachable.
+bool step_scales(const EffectSet& effects, const std::vector<Sample>& rows, Vec3& scale, Eigen::Matrix3d& jtj) {
+  const double h = 1e-5;
+  Eigen::MatrixXd jacobian(3 * static_cast<Eigen::Index>(rows.size()), 3);
+  for (int axis = 0; axis < 3; ++axis) {
+    Vec3 up = scale, down = scale;
+    up[axis] += h;
+    down[axis] -= h;
+    const Residuals high = residuals(effects, rows, up), low = residuals(effects, rows, down);
+    if (!high.ok || !low.ok) return false;
+    jacobian.col(axis) = (high.r - low.r) / (2.0 * h);
+  }
+  const Residuals here = residuals(effects, rows, scale);
+  if (!here.ok) return false;
+  jtj = jacobian.transpose() * jacobian;
+  const Vec3 delta = jtj.ldlt().solve(-jacobian.transpose() * here.r);
+  if (!delta.allFinite()) return false;
+  scale += delta;
+  return true;
+}
+
 }  // namespace
 
-std::vector<Sample> unscaled(const std::vector<Sample>& rows, double scale) {
+std::vector<Sample> unscaled(const std::vector<Sample>& rows, const Vec3& scale) {
   std::vector<Sample> result = rows;
-  for (Sample& sample : result) sample.position_m /= (1.0 + scale);
+  const Vec3 divisor = Vec3::Ones() + scale;
+  for (Sample& sample : result) sample.position_m = sample.position_m.cwiseQuotient(divisor);
   return result;
+}
+
+FamilySet scale_imitators() { return kLengths | single(Family::encoder_scale) | single(Family::frame_misalignment); }
+
+std::optional<ScaleModel> fit_axis_scale(const PipelineData& data, FamilySet chosen, const Parameters& theta) {
+  if ((chosen & scale_imitators()).none()) return std::nullopt;
+  const FamilySet others = chosen & ~scale_imitators();
+  const Parameters start = without_families(theta, scale_imitators());
+  const bool hysteresis = others[index_of(Family::backlash)];
+  const std::vector<Sample>& screening = hysteresis ? data.fit : data.thinned_fit;
+  FitOptions options;
+  options.noise_floor_deg = data.options.noise_floor_deg;
+  ScaleModel model;
+  model.per_axis = true;
+  model.families = others;
+  model.theta = start;
+  Eigen::Matrix3d jtj = Eigen::Matrix3d::Zero();
+  // Scales and other families alternately: three rounds of two Gauss-Newton steps and a refit.
+  for (int round = 0; round < 3; ++round) {
+    const EffectSet effects = to_effect_set(model.theta, others);
+    for (int step = 0; step < 2; ++step) {
+      if (!step_scales(effects, screening, model.scale, jtj)) return std::nullopt;
+    }
+    if (!(model.scale.cwiseAbs().maxCoeff() < 0.1)) return std::nullopt;  // no stage is 10 % off
+    if (others.any()) {
+      const FitResult refit = fit_model(unscaled(screening, model.scale), others, model.theta, start, options);
+      if (!refit.ok) return std::nullopt;
+      model.theta = refit.theta;
+    }
+  }
+  const std::vector<Sample> fit_rows = unscaled(data.fit, model.scale);
+  if (others.any()) {
+    const FitResult refit = fit_model(fit_rows, others, model.theta, start, options);
+    if (!refit.ok) return std::nullopt;
+    model.theta = refit.theta;
+    model.fit = refit;
+  }
+  const EffectSet effects = to_effect_set(model.theta, others);
+  const Prediction fit_prediction = predict_recording(effects, fit_rows);
+  const Prediction check_prediction = predict_recording(effects, unscaled(data.check, model.scale));
+  if (fit_prediction.unreachable || check_prediction.unreachable) return std::nullopt;
+  model.fit_prediction = fit_prediction.alpha_deg;
+  model.check_prediction = check_prediction.alpha_deg;
+  model.holdout_rmse = joint_rmse(data.check, model.check_prediction);
+  // Covariance of the scales: residual variance on the screening rows times (J^T J)^-1.
+  double sum_squares = 0.0;
+  for (std::size_t i = 0; i < data.fit.size(); ++i)
+    sum_squares += (data.fit[i].alpha_deg - model.fit_prediction[i]).squaredNorm();
+  const double variance = sum_squares / (3.0 * static_cast<double>(data.fit.size()));
+  const double rows_ratio = static_cast<double>(data.fit.size()) / static_cast<double>(screening.size());
+  const Eigen::Matrix3d covariance = variance * (rows_ratio * jtj).inverse();
+  model.confidence_95 = 1.96 * covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
+  return model;
 }
 
 std::optional<ScaleModel> fit_measuring_scale(const PipelineData& data, FamilySet chosen, const Parameters& theta) {
@@ -67,11 +166,11 @@ std::optional<ScaleModel> fit_measuring_scale(const PipelineData& data, FamilySe
   if (!(std::abs(scale - k) <= 4.0 * step)) scale = k;
 
   ScaleModel model;
-  model.scale = scale;
+  model.scale = Vec3::Constant(scale);
   model.families = others;
   FitOptions options;
   options.noise_floor_deg = data.options.noise_floor_deg;
-  const std::vector<Sample> fit_rows = unscaled(data.fit, scale);
+  const std::vector<Sample> fit_rows = unscaled(data.fit, model.scale);
   model.theta = start;
   if (others.any()) {
     const FitResult refit = fit_model(fit_rows, others, middle.fit.theta, start, options);
@@ -81,7 +180,7 @@ std::optional<ScaleModel> fit_measuring_scale(const PipelineData& data, FamilySe
   }
   const EffectSet effects = to_effect_set(model.theta, others);
   const Prediction fit_prediction = predict_recording(effects, fit_rows);
-  const Prediction check_prediction = predict_recording(effects, unscaled(data.check, scale));
+  const Prediction check_prediction = predict_recording(effects, unscaled(data.check, model.scale));
   if (fit_prediction.unreachable || check_prediction.unreachable) return std::nullopt;
   model.fit_prediction = fit_prediction.alpha_deg;
   model.check_prediction = check_prediction.alpha_deg;
@@ -89,7 +188,7 @@ std::optional<ScaleModel> fit_measuring_scale(const PipelineData& data, FamilySe
   // Cost = residual variance x (3 N - p) near the minimum; the curvature gives the variance of s.
   if (curvature > 0.0) {
     const double variance = middle.cost / (3.0 * data.fit.size());
-    model.confidence_95 = 1.96 * std::sqrt(2.0 * variance / curvature);
+    model.confidence_95 = Vec3::Constant(1.96 * std::sqrt(2.0 * variance / curvature));
   }
   return model;
 }

@@ -1,5 +1,6 @@
-// An effect outside the vocabulary: a uniform scale error of the measuring stage, tried when the
-// fitted length families look like one (internal to the diagnosis library).
+// An effect outside the vocabulary: a scale error of the measuring stage, uniform (tried when the
+// fitted length families look like one) or per axis (tried when the chosen set holds families that
+// can imitate one) (internal to the diagnosis library).
 #pragma once
 
 #include <optional>
@@ -10,13 +11,15 @@
 
 namespace delta::diagnosis {
 
-// Positions divided by (1 + scale): what the stage would have read without its scale error.
-std::vector<Sample> unscaled(const std::vector<Sample>& rows, double scale);
+// Positions divided by (1 + scale) axis by axis: what the stage would have read without its scale
+// error.
+std::vector<Sample> unscaled(const std::vector<Sample>& rows, const Vec3& scale);
 
 struct ScaleModel {
-  double scale = 0.0;
-  double confidence_95 = 0.0;  // half width of the scale, from the curvature of the FIT cost
-  FamilySet families;          // vocabulary families fitted with it
+  bool per_axis = false;              // false: one scale s of every axis
+  Vec3 scale = Vec3::Zero();          // s_x, s_y, s_z (all equal when uniform)
+  Vec3 confidence_95 = Vec3::Zero();  // half widths, from the curvature of the FIT cost
+  FamilySet families;                 // vocabulary families fitted with it
   Parameters theta;
   FitResult fit;  // of the other families, for their intervals (empty without them)
   std::vector<Vec3> fit_prediction, check_prediction;  // kept rows
@@ -29,5 +32,14 @@ struct ScaleModel {
 // without the length families on positions divided by (1 + s), s from k and refined by a parabola
 // through three FIT costs. Returns nothing when the lengths do not look like a scale.
 std::optional<ScaleModel> fit_measuring_scale(const PipelineData& data, FamilySet chosen, const Parameters& theta);
+
+// Families with which the vocabulary imitates a scale of one stage axis: the lengths, the encoder
+// scales and the measuring frame.
+FamilySet scale_imitators();
+
+// A scale per stage axis fitted with the chosen set's other families (those not in
+// scale_imitators()): Gauss-Newton steps on the three scales alternating with refits of the other
+// families. Returns nothing when the chosen set holds no imitator or a row becomes unreachable.
+std::optional<ScaleModel> fit_axis_scale(const PipelineData& data, FamilySet chosen, const Parameters& theta);
 
 }  // namespace delta::diagnosis

@@ -190,15 +190,30 @@ json diagnosis_json(const Diagnosis& diagnosis) {
   document["explained_fraction"] = diagnosis.explained_fraction;
   json effects = json::array();
   for (const NewEffect& effect : diagnosis.new_effects) {
-    effects.push_back({{"name", effect.name},
-                       {"significant", true},
-                       {"in_vocabulary", false},
-                       {"subsystem", effect.subsystem},
-                       {"parameters", {{"s", effect.scale}}},
-                       {"final_parameters", {{"s", effect.scale}}},
-                       {"confidence_95_half_width", {{"s", effect.confidence_95}}},
-                       {"holdout_rmse_deg", triple(effect.holdout_rmse_deg)},
-                       {"description", "p_measured = (1 + s) p_true: a uniform scale error of the measuring stage"}});
+    json parameters, half_widths;
+    if (effect.per_axis) {
+      for (int axis = 0; axis < 3; ++axis) {
+        const std::string name = std::string("s_") + "xyz"[axis];
+        parameters[name] = effect.scale[axis];
+        half_widths[name] = effect.confidence_95[axis];
+      }
+    } else {
+      parameters["s"] = effect.scale[0];
+      half_widths["s"] = effect.confidence_95[0];
+    }
+    effects.push_back(
+        {{"name", effect.name},
+         {"significant", true},
+         {"in_vocabulary", false},
+         {"subsystem", effect.subsystem},
+         {"parameters", parameters},
+         {"final_parameters", parameters},
+         {"confidence_95_half_width", half_widths},
+         {"holdout_rmse_deg", triple(effect.holdout_rmse_deg)},
+         {"description", effect.per_axis
+                             ? "p_measured = (1 + s_axis) p_true per axis: a scale error of the "
+                               "measuring stage's axes"
+                             : "p_measured = (1 + s) p_true: a uniform scale error of the measuring stage"}});
   }
   for (const EffectFinding& finding : diagnosis.findings) {
     json effect = {{"name", family_name(finding.family)},
@@ -307,9 +322,12 @@ void print_summary(std::ostream& out, const Diagnosis& diagnosis) {
     if (finding.significant) row(std::string("+ ") + family_name(finding.family), finding.holdout_rmse_deg);
   }
   for (const NewEffect& effect : diagnosis.new_effects) {
-    row("final model with " + effect.name + " (outside the vocabulary), s = " + format_number(effect.scale) + " +- " +
-            format_number(effect.confidence_95),
-        effect.holdout_rmse_deg);
+    std::string values;
+    for (int axis = 0; axis < (effect.per_axis ? 3 : 1); ++axis) {
+      values += (values.empty() ? "" : ", ") + std::string(effect.per_axis ? std::string("s_") + "xyz"[axis] : "s") +
+                " = " + format_number(effect.scale[axis]) + " +- " + format_number(effect.confidence_95[axis]);
+    }
+    row("final model with " + effect.name + " (outside the vocabulary), " + values, effect.holdout_rmse_deg);
   }
   table.print(out);
   out << "\nnoise floor " << fixed(floor, 5) << " deg; explained: " << (diagnosis.explained ? "yes" : "no")

@@ -117,14 +117,16 @@ struct Outlier {
   double angle_spike_deg = 0.0;    // largest spike over the joints
 };
 
-// An effect outside the SPEC vocabulary, reported under its own name. The one tried: a uniform
-// scale of the measuring stage, p_measured = (1 + s) p_true, which the vocabulary can only imitate
-// by scaling every robot length (upper and lower arms, radius offset) by 1 / (1 + s).
+// An effect outside the SPEC vocabulary, reported under its own name. The one tried: a scale of
+// the measuring stage, p_measured = (1 + s) p_true per axis. Uniform (s_x = s_y = s_z = s), the
+// vocabulary can only imitate it by scaling every robot length (upper and lower arms, radius
+// offset) by 1 / (1 + s); one axis alone, by encoder scales, the frame and the lengths together.
 struct NewEffect {
   std::string name;                      // "measuring_scale"
   std::string subsystem;                 // "measuring frame"
-  double scale = 0.0;                    // s [-]
-  double confidence_95 = 0.0;            // half width of s
+  bool per_axis = false;                 // parameters s_x, s_y, s_z; else one s
+  Vec3 scale = Vec3::Zero();             // s per axis [-]
+  Vec3 confidence_95 = Vec3::Zero();     // half widths
   Vec3 holdout_rmse_deg = Vec3::Zero();  // the final model with it
 };
 
@@ -159,8 +161,8 @@ struct Diagnosis {
   UnexplainedResidual unexplained;        // filled when the floor test fails
   std::vector<Alternative> alternatives;  // statistically indistinguishable sets, best first
   std::vector<Outlier> outliers;
-  std::vector<NewEffect> new_effects;  // significant effects outside the vocabulary (final model)
-  double measuring_scale = 0.0;        // s of a measuring_scale new effect; PRED uses p / (1 + s)
+  std::vector<NewEffect> new_effects;   // significant effects outside the vocabulary (final model)
+  Vec3 measuring_scale = Vec3::Zero();  // s per axis of a measuring_scale new effect; PRED uses p / (1 + s)
   // 1.96 standard errors of each fitted parameter (internal units), from the covariance of the
   // final fit: residual variance on FIT times the inverse of J^T J (with the weak prior).
   Parameters confidence_95 = Parameters::Zero();
