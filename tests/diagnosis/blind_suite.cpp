@@ -387,8 +387,23 @@ CaseScore run_case(const BlindCase& blind_case, const std::string& deltactl, con
   std::ifstream(json_path) >> document;
   score.explained = document.at("explained").get<bool>();
   std::set<std::string> reported;
+  std::optional<double> stage_scale_found;  // a measuring_scale's value on the injected axis
   for (const auto& effect : document.at("effects")) {
-    if (effect.at("significant").get<bool>()) reported.insert(effect.at("name").get<std::string>());
+    if (!effect.at("significant").get<bool>()) continue;
+    reported.insert(effect.at("name").get<std::string>());
+    if (effect.at("name") == "measuring_scale") {
+      const nlohmann::json& parameters = effect.at("parameters");
+      const std::string axis = blind_case.stage_axis < 0 ? "s" : std::string("s_") + "xyz"[blind_case.stage_axis];
+      if (parameters.contains(axis)) {
+        stage_scale_found = parameters.at(axis).get<double>();
+      } else if (parameters.contains("s")) {
+        stage_scale_found = parameters.at("s").get<double>();
+      } else if (parameters.contains("s_x")) {  // per axis for an all-axes scale: their mean
+        stage_scale_found = (parameters.at("s_x").get<double>() + parameters.at("s_y").get<double>() +
+                             parameters.at("s_z").get<double>()) /
+                            3.0;
+      }
+    }
   }
   score.reported.assign(reported.begin(), reported.end());
   std::vector<std::set<std::string>> alternatives;
@@ -428,6 +443,11 @@ CaseScore run_case(const BlindCase& blind_case, const std::string& deltactl, con
       if (std::find(vocabulary.begin(), vocabulary.end(), name) == vocabulary.end()) new_name = true;
     }
     score.set_ok = !score.explained || (new_name && score.rmse_after_over_floor <= 1.5);
+    // A stage scale named must be the injected one (within 5 % of its value).
+    if (blind_case.kind == CaseKind::stage_scale && stage_scale_found) {
+      score.set_ok = score.set_ok &&
+                     std::abs(*stage_scale_found - blind_case.stage_scale) <= 0.05 * std::abs(blind_case.stage_scale);
+    }
     score.rmse_ok = true;
   } else {
     score.via_alternative =

@@ -135,7 +135,18 @@ bool adopt_measuring_scale(const PipelineData& data, const std::vector<Sample>& 
             "check the stage's axes against a gauge block"
           : "a uniform scale of the measuring stage equals every robot length scaled the other way: "
             "measure one arm (calipers) or check the stage against a gauge block";
-  diagnosis.alternatives.insert(diagnosis.alternatives.begin(), vocabulary);
+  // The vocabulary-only set stays an alternative where CHECK cannot tell it from the new effect;
+  // where the new effect predicts CHECK significantly better, it and the sets found equivalent to
+  // it go.
+  if (vocabulary.at_floor && std::abs(difference.z) <= options.paired_z) {
+    diagnosis.alternatives.insert(diagnosis.alternatives.begin(), vocabulary);
+  } else {
+    std::string replaced = describe(diagnosis.significant);
+    for (const Alternative& alternative : diagnosis.alternatives) replaced += "; " + describe(alternative.families);
+    diagnosis.eliminated.push_back(replaced +
+                                   " (replaced by measuring_scale, which predicts CHECK significantly better)");
+    diagnosis.alternatives.clear();
+  }
 
   NewEffect effect;
   effect.name = "measuring_scale";
@@ -174,15 +185,23 @@ bool adopt_measuring_scale(const PipelineData& data, const std::vector<Sample>& 
 }
 
 // A uniform scale where the length families look like one; else a scale per axis where the chosen
-// set holds families that imitate one (measuring_scale.hpp).
+// set holds families that imitate one or leaves a residual above the floor, fitted with the chosen
+// set's other families and alone, the better on CHECK (measuring_scale.hpp).
 void try_measuring_scale(const PipelineData& data, const std::vector<Sample>& all_check, Diagnosis& diagnosis,
                          const std::vector<Vec3>& chosen_check) {
   if (adopt_measuring_scale(data, all_check, diagnosis, chosen_check,
                             fit_measuring_scale(data, diagnosis.significant, diagnosis.theta))) {
     return;
   }
-  adopt_measuring_scale(data, all_check, diagnosis, chosen_check,
-                        fit_axis_scale(data, diagnosis.significant, diagnosis.theta));
+  if ((diagnosis.significant & scale_imitators()).none() && diagnosis.floor_test.at_floor) return;
+  std::optional<ScaleModel> best;
+  const FamilySet others = diagnosis.significant & ~scale_imitators();
+  for (const FamilySet families : {others, FamilySet{}}) {
+    if (best && families == others) continue;
+    std::optional<ScaleModel> model = fit_axis_scale(data, families, diagnosis.theta);
+    if (model && (!best || mean_square(model->holdout_rmse) < mean_square(best->holdout_rmse))) best = std::move(model);
+  }
+  adopt_measuring_scale(data, all_check, diagnosis, chosen_check, best);
 }
 
 // An alternative that reaches the floor when the chosen set does not, or predicts CHECK

@@ -84,10 +84,8 @@ std::vector<Sample> unscaled(const std::vector<Sample>& rows, const Vec3& scale)
 
 FamilySet scale_imitators() { return kLengths | single(Family::encoder_scale) | single(Family::frame_misalignment); }
 
-std::optional<ScaleModel> fit_axis_scale(const PipelineData& data, FamilySet chosen, const Parameters& theta) {
-  if ((chosen & scale_imitators()).none()) return std::nullopt;
-  const FamilySet others = chosen & ~scale_imitators();
-  const Parameters start = without_families(theta, scale_imitators());
+std::optional<ScaleModel> fit_axis_scale(const PipelineData& data, FamilySet others, const Parameters& theta) {
+  const Parameters start = without_families(theta, ~others);
   const bool hysteresis = others[index_of(Family::backlash)];
   const std::vector<Sample>& screening = hysteresis ? data.fit : data.thinned_fit;
   FitOptions options;

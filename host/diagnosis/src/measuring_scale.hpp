@@ -37,9 +37,9 @@ std::optional<ScaleModel> fit_measuring_scale(const PipelineData& data, FamilySe
 // scales and the measuring frame.
 FamilySet scale_imitators();
 
-// A scale per stage axis fitted with the chosen set's other families (those not in
-// scale_imitators()): Gauss-Newton steps on the three scales alternating with refits of the other
-// families. Returns nothing when the chosen set holds no imitator or a row becomes unreachable.
-std::optional<ScaleModel> fit_axis_scale(const PipelineData& data, FamilySet chosen, const Parameters& theta);
+// A scale per stage axis fitted with the families `others` (started from theta's values):
+// Gauss-Newton steps on the three scales alternating with refits of the other families. Returns
+// nothing when a row becomes unreachable or a scale leaves +-10 %.
+std::optional<ScaleModel> fit_axis_scale(const PipelineData& data, FamilySet others, const Parameters& theta);
 
 }  // namespace delta::diagnosis
