@@ -33,11 +33,15 @@ void remove_temporaries_and_die(int signal_number) {
 }
 
 int register_temporary(const std::string& path) {
-  // Only where the program has no handler of its own (the host controller's stop requests).
+  // Not over a handler the program installed (the host controller's stop requests). SIGINT and
+  // SIGTERM also where they were inherited ignored (a shell starts `cmd &` with SIGINT ignored; an
+  // interrupt sent to it must still leave no file); SIGHUP only where default (nohup keeps working).
   static const bool installed = [] {
     for (int signal_number : {SIGINT, SIGTERM, SIGHUP}) {
       struct sigaction present {};
-      if (::sigaction(signal_number, nullptr, &present) == 0 && present.sa_handler == SIG_DFL) {
+      if (::sigaction(signal_number, nullptr, &present) != 0 || (present.sa_flags & SA_SIGINFO)) continue;
+      const bool ignored = present.sa_handler == SIG_IGN;
+      if (present.sa_handler == SIG_DFL || (ignored && signal_number != SIGHUP)) {
         ::signal(signal_number, remove_temporaries_and_die);
       }
     }
