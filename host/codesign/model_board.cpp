@@ -4,6 +4,7 @@
 // from the present ones, then commits them, as the RTL's always_ff blocks do.
 #include "delta/cosim/model_board.hpp"
 
+#include <algorithm>
 #include <fstream>
 #include <stdexcept>
 
@@ -186,13 +187,9 @@ ModelBoard::ModelBoard(const golden::QuantisedNetwork& network, const std::strin
 
 ModelBoard::~ModelBoard() = default;
 
-// Most clocks change only free-running counters: the UARTs counting out a bit, the PWM phase,
-// the tick, the encoder synchronisers. Such a clock is taken here, in place, with exactly the next
-// values the full clock below would compute; any clock where something else could change (a bit
-// boundary, a byte, a frame, a command, the period's events, the controller's stores, a capture,
-// an encoder error, a fault turning the drives off) returns false untouched and goes the full way.
-bool ModelBoard::quiet_clock(int uart_rx, int encoder_a, int encoder_b) {
-  State& s = *state_;
+// Whether the next clock is quiet (see quiet_clock), whatever the encoder lines show.
+bool ModelBoard::quiet() const {
+  const State& s = *state_;
   const Memories& m = *memories_;
   const int tick = s.tick;
   if (tick == 0 || tick == 1 || tick == kClocksPerPeriod / 2 || tick == kClocksPerPeriod - 100 ||
@@ -230,6 +227,82 @@ bool ModelBoard::quiet_clock(int uart_rx, int encoder_a, int encoder_b) {
   } else if (s.tx_count == 0 && s.bits_left == 1) {
     return false;  // the last bit ends: link_tx sees the UART ready
   }
+  return true;
+}
+
+std::uint64_t ModelBoard::skip(std::uint64_t limit, int uart_rx, int encoder_a, int encoder_b, DrivePattern* pattern) {
+  State& s = *state_;
+  // Held inputs that the synchronisers have taken: no encoder count moves, no RX edge comes.
+  if (limit == 0 || !s.settled || !quiet()) return 0;
+  if (s.rx_sync != ((uart_rx & 1) ? 3 : 0)) return 0;
+  if (s.enc_a_meta != encoder_a || s.enc_a != encoder_a || s.enc_b_meta != encoder_b || s.enc_b != encoder_b) return 0;
+  for (int j = 0; j < 3; ++j) {
+    if (s.previous[j] != ((((encoder_a >> j) & 1) << 1) | ((encoder_b >> j) & 1))) return 0;
+  }
+  // Up to the next clock that is not quiet: the period's next event, a UART bit's end, the
+  // controller's next store.
+  std::uint64_t clocks = limit;
+  for (int event : {1, kClocksPerPeriod / 2, kClocksPerPeriod - 100, kClocksPerPeriod - 1}) {
+    if (event > s.tick) {
+      clocks = std::min<std::uint64_t>(clocks, static_cast<std::uint64_t>(event - s.tick));
+      break;
+    }
+  }
+  if (s.rx_state != 0) {
+    if (s.rx_count == 0) return 0;  // a data bit's middle: clock() samples it
+    clocks = std::min<std::uint64_t>(clocks, static_cast<std::uint64_t>(s.rx_count));
+  }
+  if (s.bits_left != 0) {
+    if (s.tx_count == 0) return 0;  // the next bit: clock() shifts it out
+    clocks = std::min<std::uint64_t>(clocks, static_cast<std::uint64_t>(s.tx_count));
+  }
+  if (s.running) {
+    const std::uint64_t elapsed = s.cycle - s.run_start;
+    for (std::uint64_t event : {std::uint64_t{kLoadCycles}, std::uint64_t{kLoadCycles + kJointCycles},
+                                std::uint64_t{kLoadCycles + 2 * kJointCycles}, std::uint64_t{kLoadCycles + 3 * kJointCycles},
+                                std::uint64_t{kRunCycles}}) {
+      if (event > elapsed) {
+        clocks = std::min(clocks, event - elapsed);
+        break;
+      }
+    }
+  }
+
+  const bool enabled = s.enabled && s.fault_cause == 0;
+  pattern->phase = s.pwm_phase;
+  for (int j = 0; j < 3; ++j) pattern->duty[j] = s.duty[j];
+  pattern->direction = s.direction;
+  pattern->enable = enabled;
+  const int period = 1 << board::kPwmBits;
+  const int last_phase = static_cast<int>((static_cast<std::uint64_t>(s.pwm_phase) + clocks - 1) % period);
+  int pwm = 0;
+  for (int j = 0; j < 3; ++j) {
+    if (enabled && last_phase < s.duty[j]) pwm |= 1 << j;
+  }
+  if (s.rx_state != 0) s.rx_count -= static_cast<int>(clocks);
+  if (s.bits_left != 0) s.tx_count -= static_cast<int>(clocks);
+  s.pwm = pwm;
+  s.enable_out = enabled;
+  s.pwm_phase = (last_phase + 1) % period;
+  s.tick += static_cast<int>(clocks);
+  s.cycle += clocks;
+  pins_.drive_pwm = s.pwm;
+  pins_.drive_enable = s.enable_out;
+  return clocks;
+}
+
+// Most clocks change only free-running counters: the UARTs counting out a bit, the PWM phase,
+// the tick, the encoder synchronisers. Such a clock is taken here, in place, with exactly the next
+// values the full clock below would compute; any clock where something else could change (a bit
+// boundary, a byte, a frame, a command, the period's events, the controller's stores, a capture,
+// an encoder error, a fault turning the drives off) returns false untouched and goes the full way.
+bool ModelBoard::quiet_clock(int uart_rx, int encoder_a, int encoder_b) {
+  if (!quiet()) return false;
+  State& s = *state_;
+  const Memories& m = *memories_;
+  const int tick = s.tick;
+  const int rx_level = (s.rx_sync >> 1) & 1;
+  const bool fault = s.fault_cause != 0;
 
   // ---- the clock ----
   if (s.rx_state != 0) {

@@ -1,6 +1,7 @@
 // The robot around a board, one board clock at a time (see robot_world.hpp).
 #include "delta/robot_world.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -14,12 +15,22 @@ class RobotWorld::Quadrature {
  public:
   Quadrature(int count, int home_count, int dwell) : count_(count), target_(count), home_(home_count), dwell_(dwell) {}
   void set_target(int count) { target_ = count; }
-  // True when the count (and so a line) changed.
+  // True when the count (and so a line) changed. The wait saturates at the dwell (a joint at rest
+  // for hours must not wrap it).
   bool step() {
-    if (++waited_ < dwell_ || count_ == target_) return false;
+    if (waited_ < dwell_) ++waited_;
+    if (waited_ < dwell_ || count_ == target_) return false;
     waited_ = 0;
     count_ += count_ < target_ ? 1 : -1;
     return true;
+  }
+  // Steps up to and including the next one that moves the count (none: `never`).
+  std::uint64_t steps_to_move(std::uint64_t never) const {
+    return count_ == target_ ? never : static_cast<std::uint64_t>(std::max(1, dwell_ - waited_));
+  }
+  // `steps` steps that do not move the count (fewer than steps_to_move()).
+  void wait(std::uint64_t steps) {
+    waited_ = static_cast<int>(std::min<std::uint64_t>(static_cast<std::uint64_t>(dwell_), waited_ + steps));
   }
 
   int count() const { return count_; }
@@ -109,6 +120,49 @@ void RobotWorld::step(const DrivePins& pins) {
   bool moved = false;
   for (auto& encoder : encoders_) moved |= encoder->step();
   if (moved) update_lines();
+}
+
+std::uint64_t RobotWorld::cycles_to_event() const {
+  std::uint64_t cycles = static_cast<std::uint64_t>(board_.plant_divider - plant_phase_);
+  for (const auto& encoder : encoders_) cycles = encoder->steps_to_move(cycles);
+  return cycles;
+}
+
+void RobotWorld::advance(std::uint64_t cycles, const DrivePattern& pattern) {
+  const int period = board_.pwm_period_cycles;
+  // The cycles before the last: the PWM history and the counters only.
+  const std::uint64_t quiet = cycles - 1;
+  for (int j = 0; j < 3; ++j) {
+    std::vector<std::uint8_t>& history = pwm_history_[j];
+    const int duty = pattern.enable ? pattern.duty[j] : 0;
+    std::size_t slot = pwm_slot_;
+    int phase = pattern.phase;
+    int high = pwm_high_[j];
+    for (std::uint64_t i = 0; i < quiet; ++i) {
+      const std::uint8_t level = phase < duty ? 1 : 0;
+      high += level - history[slot];
+      history[slot] = level;
+      if (++slot == static_cast<std::size_t>(period)) slot = 0;
+      if (++phase == period) phase = 0;
+    }
+    pwm_high_[j] = high;
+  }
+  pwm_slot_ = (pwm_slot_ + quiet) % static_cast<std::size_t>(period);
+  plant_phase_ += static_cast<int>(quiet);
+  cycle_ += quiet;
+  for (auto& encoder : encoders_) encoder->wait(quiet);
+  step(pattern.pins(quiet, period));
+}
+
+DrivePins DrivePattern::pins(std::uint64_t cycle, int pwm_period_cycles) const {
+  const int level_phase = static_cast<int>((static_cast<std::uint64_t>(phase) + cycle) % pwm_period_cycles);
+  DrivePins out;
+  for (int j = 0; j < 3; ++j) {
+    if (enable && level_phase < duty[j]) out.pwm |= 1 << j;
+  }
+  out.direction = direction;
+  out.enable = enable;
+  return out;
 }
 
 void RobotWorld::update_lines() {
