@@ -45,6 +45,46 @@ class RobotWorld::Quadrature {
   int waited_ = 0;
 };
 
+// One joint's PWM levels over the last PWM period, a bit per board cycle (slot = cycle mod the
+// period), and how many of them are high.
+class RobotWorld::PwmHistory {
+ public:
+  explicit PwmHistory(int period) : period_(period), words_(static_cast<std::size_t>((period + 63) / 64), 0) {}
+  int high() const { return high_; }
+  void set(int slot, int level) {
+    std::uint64_t& word = words_[static_cast<std::size_t>(slot >> 6)];
+    const std::uint64_t bit = std::uint64_t{1} << (slot & 63);
+    high_ += level - ((word & bit) ? 1 : 0);
+    word = level ? word | bit : word & ~bit;
+  }
+  // `cycles` cycles from `slot` whose levels are (phase + i) mod period < duty, in pieces that
+  // stay inside one word and wrap neither the slot nor the phase: each piece is a run of ones
+  // then zeros.
+  void fill(int slot, int phase, int duty, std::uint64_t cycles) {
+    while (cycles > 0) {
+      const int bit = slot & 63;
+      const int length = static_cast<int>(
+          std::min<std::uint64_t>(cycles, static_cast<std::uint64_t>(std::min({64 - bit, period_ - slot, period_ - phase}))));
+      const int ones = std::clamp(duty - phase, 0, length);
+      const std::uint64_t range = (length == 64 ? ~std::uint64_t{0} : (std::uint64_t{1} << length) - 1) << bit;
+      const std::uint64_t levels = (ones == 64 ? ~std::uint64_t{0} : (std::uint64_t{1} << ones) - 1) << bit;
+      std::uint64_t& word = words_[static_cast<std::size_t>(slot >> 6)];
+      high_ += ones - __builtin_popcountll(word & range);
+      word = (word & ~range) | levels;
+      cycles -= static_cast<std::uint64_t>(length);
+      slot += length;
+      if (slot == period_) slot = 0;
+      phase += length;
+      if (phase == period_) phase = 0;
+    }
+  }
+
+ private:
+  int period_;
+  std::vector<std::uint64_t> words_;
+  int high_ = 0;
+};
+
 RobotWorld::RobotWorld(const BoardInterface& board, const EffectSet& effects, const Geometry& nominal,
                        const JointPlantParameters& plant)
     : board_(board), effects_(effects), true_geometry_(apply_geometry_effects(nominal, effects)), sensors_(effects) {
@@ -62,7 +102,7 @@ RobotWorld::RobotWorld(const BoardInterface& board, const EffectSet& effects, co
   for (int j = 0; j < 3; ++j) {
     plants_[j] = std::make_unique<JointPlant>(plant_parameters, home_true_alpha_deg_[j]);
     encoders_[j] = std::make_unique<Quadrature>(board.home_count, board.home_count, board.quadrature_dwell);
-    pwm_history_[j].assign(static_cast<std::size_t>(board.pwm_period_cycles), 0);
+    pwm_history_[j] = std::make_unique<PwmHistory>(board.pwm_period_cycles);
   }
   true_alpha_deg_ = home_true_alpha_deg_;
   reading_deg_ = sensors_.update(true_alpha_deg_);  // the backlash starts centred at home
@@ -96,17 +136,13 @@ void RobotWorld::step(const DrivePins& pins) {
   // slot = cycle_ mod the PWM period, phase = cycle_ mod the plant divider (counters, not divisions).
   const std::size_t slot = pwm_slot_;
   if (++pwm_slot_ == static_cast<std::size_t>(board_.pwm_period_cycles)) pwm_slot_ = 0;
-  for (int j = 0; j < 3; ++j) {
-    const std::uint8_t high = (pins.pwm >> j) & 1;
-    pwm_high_[j] += high - pwm_history_[j][slot];
-    pwm_history_[j][slot] = high;
-  }
+  for (int j = 0; j < 3; ++j) pwm_history_[j]->set(static_cast<int>(slot), (pins.pwm >> j) & 1);
   const bool plant_step = plant_phase_ == board_.plant_divider - 1;
   if (++plant_phase_ == board_.plant_divider) plant_phase_ = 0;
   if (plant_step) {
     for (int j = 0; j < 3; ++j) {
       const double sign = ((pins.direction >> j) & 1) ? -1.0 : 1.0;
-      current_a_[j] = pins.enable ? sign * board_.current_full_scale_a * pwm_high_[j] / board_.pwm_period_cycles : 0.0;
+      current_a_[j] = pins.enable ? sign * board_.current_full_scale_a * pwm_history_[j]->high() / board_.pwm_period_cycles : 0.0;
       plants_[j]->step(current_a_[j], board_.plant_divider / board_.board_clock_hz);
       true_alpha_deg_[j] = plants_[j]->shaft_angle_deg();
     }
@@ -133,19 +169,7 @@ void RobotWorld::advance(std::uint64_t cycles, const DrivePattern& pattern) {
   // The cycles before the last: the PWM history and the counters only.
   const std::uint64_t quiet = cycles - 1;
   for (int j = 0; j < 3; ++j) {
-    std::vector<std::uint8_t>& history = pwm_history_[j];
-    const int duty = pattern.enable ? pattern.duty[j] : 0;
-    std::size_t slot = pwm_slot_;
-    int phase = pattern.phase;
-    int high = pwm_high_[j];
-    for (std::uint64_t i = 0; i < quiet; ++i) {
-      const std::uint8_t level = phase < duty ? 1 : 0;
-      high += level - history[slot];
-      history[slot] = level;
-      if (++slot == static_cast<std::size_t>(period)) slot = 0;
-      if (++phase == period) phase = 0;
-    }
-    pwm_high_[j] = high;
+    pwm_history_[j]->fill(static_cast<int>(pwm_slot_), pattern.phase, pattern.enable ? pattern.duty[j] : 0, quiet);
   }
   pwm_slot_ = (pwm_slot_ + quiet) % static_cast<std::size_t>(period);
   plant_phase_ += static_cast<int>(quiet);

@@ -101,8 +101,8 @@ class RobotWorld {
   JointSensorChain sensors_;
   std::array<std::unique_ptr<JointPlant>, 3> plants_;
   std::array<std::unique_ptr<Quadrature>, 3> encoders_;
-  std::array<std::vector<std::uint8_t>, 3> pwm_history_;
-  std::array<int, 3> pwm_high_{0, 0, 0};
+  class PwmHistory;
+  std::array<std::unique_ptr<PwmHistory>, 3> pwm_history_;
   Vec3 true_alpha_deg_ = Vec3::Zero();
   Vec3 reading_deg_ = Vec3::Zero();
   Vec3 current_a_ = Vec3::Zero();
