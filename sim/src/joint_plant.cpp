@@ -30,7 +30,12 @@ void JointPlant::step(double current_a, double period_s, double extra_load_shaft
   const double dt = period_s / parameters_.substeps;
   for (int n = 0; n < parameters_.substeps; ++n) {
     const double shaft_rad = rotor_angle_rad_ / parameters_.gear_ratio;
-    const double load_shaft_nm = parameters_.gravity_nm * std::cos(shaft_rad) + extra_load_shaft_nm;
+    // A joint at rest keeps its angle: its cosine is the last one (the same bits, without libm).
+    if (shaft_rad != cos_shaft_rad_) {
+      cos_shaft_rad_ = shaft_rad;
+      cos_shaft_ = std::cos(shaft_rad);
+    }
+    const double load_shaft_nm = parameters_.gravity_nm * cos_shaft_ + extra_load_shaft_nm;
     // Everything except Coulomb friction, referred to the rotor.
     const double drive_nm =
         motor_nm - load_shaft_nm / parameters_.gear_ratio - parameters_.viscous_nm_s_per_rad * rotor_velocity_rad_s_;

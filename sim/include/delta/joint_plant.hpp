@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 
 namespace delta {
 
@@ -46,6 +47,8 @@ class JointPlant {
   double inertia_kg_m2_;
   double rotor_angle_rad_;
   double rotor_velocity_rad_s_ = 0.0;
+  double cos_shaft_rad_ = std::numeric_limits<double>::quiet_NaN();  // the last cosine's argument (NaN: none)
+  double cos_shaft_ = 0.0;
 };
 
 }  // namespace delta
