@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <fstream>
 #include <stdexcept>
+#include <utility>
 
 #include "delta/board_facts.hpp"
 #include "delta/golden/joint_fixed.hpp"
@@ -68,6 +69,65 @@ std::uint32_t peek_word(const PeekMemory& memory, int w) {
     joint = ((w - reference_word) >> 1) & 3;
   }
   return joint < 3 ? memory[joint][slot] : 0;
+}
+
+// quadrature_counter.sv: the move from the last {A, B} to this one (+1, -1, 0), or a skipped state.
+constexpr int kSkippedState = 2;
+int quadrature_move(int previous, int ab) {
+  switch ((previous << 2) | ab) {
+    case 0b0010:
+    case 0b1011:
+    case 0b1101:
+    case 0b0100:
+      return 1;
+    case 0b0001:
+    case 0b0111:
+    case 0b1110:
+    case 0b1000:
+      return -1;
+    case 0b0011:
+    case 0b1100:
+    case 0b0110:
+    case 0b1001:
+      return kSkippedState;
+    default:
+      return 0;
+  }
+}
+
+// One quiet clock (no set-home) of the encoder synchronisers and quadrature counters, in place.
+// True if a joint skipped a state (its step error is set).
+template <typename Registers>
+bool count_encoders(Registers& s, int encoder_a, int encoder_b) {
+  bool skipped = false;
+  for (int j = 0; j < 3; ++j) {
+    const int ab = (((s.enc_a >> j) & 1) << 1) | ((s.enc_b >> j) & 1);
+    const int move = quadrature_move(s.previous[j], ab);
+    if (move == kSkippedState) {
+      s.step_error[j] = true;
+      skipped = true;
+    } else {
+      s.count[j] = static_cast<std::uint16_t>(s.count[j] + move);
+    }
+    s.previous[j] = ab;
+  }
+  s.enc_a = s.enc_a_meta;
+  s.enc_a_meta = encoder_a;
+  s.enc_b = s.enc_b_meta;
+  s.enc_b_meta = encoder_b;
+  return skipped;
+}
+
+// The synchronisers and counters hold these pins: a clock with them changes nothing.
+template <typename Registers>
+bool encoders_settled(const Registers& s, int encoder_a, int encoder_b) {
+  if (s.enc_a_meta != encoder_a || s.enc_a != encoder_a || s.enc_b_meta != encoder_b || s.enc_b != encoder_b) {
+    return false;
+  }
+  for (int j = 0; j < 3; ++j) {
+    if (s.previous[j] != ((((encoder_a >> j) & 1) << 1) | ((encoder_b >> j) & 1))) return false;
+  }
+  return true;
 }
 
 std::int32_t sign_extend(std::uint32_t value, int bits) {
@@ -171,7 +231,8 @@ struct ModelBoard::State {
 };
 
 ModelBoard::ModelBoard(const golden::QuantisedNetwork& network, const std::string& identify_mem)
-    : memories_(std::make_unique<Memories>()), state_(std::make_unique<State>()) {
+    : memories_(std::make_unique<Memories>()), state_(std::make_unique<State>()),
+      next_state_(std::make_unique<State>()) {
   State& s = *state_;
   network_ = network;
   s.network = &network_;
@@ -232,13 +293,9 @@ bool ModelBoard::quiet() const {
 
 std::uint64_t ModelBoard::skip(std::uint64_t limit, int uart_rx, int encoder_a, int encoder_b, DrivePattern* pattern) {
   State& s = *state_;
-  // Held inputs that the synchronisers have taken: no encoder count moves, no RX edge comes.
   if (limit == 0 || !s.settled || !quiet()) return 0;
-  if (s.rx_sync != ((uart_rx & 1) ? 3 : 0)) return 0;
-  if (s.enc_a_meta != encoder_a || s.enc_a != encoder_a || s.enc_b_meta != encoder_b || s.enc_b != encoder_b) return 0;
-  for (int j = 0; j < 3; ++j) {
-    if (s.previous[j] != ((((encoder_a >> j) & 1) << 1) | ((encoder_b >> j) & 1))) return 0;
-  }
+  // Idle, uart_rx must stay high; inside a byte its level counts only at a bit's middle.
+  if (s.rx_state == 0 && (s.rx_sync != 3 || !(uart_rx & 1))) return 0;
   // Up to the next clock that is not quiet: the period's next event, a UART bit's end, the
   // controller's next store.
   std::uint64_t clocks = limit;
@@ -268,6 +325,13 @@ std::uint64_t ModelBoard::skip(std::uint64_t limit, int uart_rx, int encoder_a, 
     }
   }
 
+  // The synchronisers take the held encoder lines in three clocks, counting as they go; a clock
+  // that meets a skipped state ends the run (the next one latches the error).
+  for (std::uint64_t counted = 0; counted < clocks && !encoders_settled(s, encoder_a, encoder_b);) {
+    ++counted;
+    if (count_encoders(s, encoder_a, encoder_b)) clocks = counted;
+  }
+
   const bool enabled = s.enabled && s.fault_cause == 0;
   pattern->phase = s.pwm_phase;
   for (int j = 0; j < 3; ++j) pattern->duty[j] = s.duty[j];
@@ -279,7 +343,10 @@ std::uint64_t ModelBoard::skip(std::uint64_t limit, int uart_rx, int encoder_a, 
   for (int j = 0; j < 3; ++j) {
     if (enabled && last_phase < s.duty[j]) pwm |= 1 << j;
   }
-  if (s.rx_state != 0) s.rx_count -= static_cast<int>(clocks);
+  if (s.rx_state != 0) {
+    s.rx_count -= static_cast<int>(clocks);
+    s.rx_sync = clocks == 1 ? ((s.rx_sync << 1) | (uart_rx & 1)) & 3 : ((uart_rx & 1) ? 3 : 0);
+  }
   if (s.bits_left != 0) s.tx_count -= static_cast<int>(clocks);
   s.pwm = pwm;
   s.enable_out = enabled;
@@ -325,36 +392,7 @@ bool ModelBoard::quiet_clock(int uart_rx, int encoder_a, int encoder_b) {
       s.tx_count = kClocksPerBit - 1;
     }
   }
-  for (int j = 0; j < 3; ++j) {
-    const int ab = (((s.enc_a >> j) & 1) << 1) | ((s.enc_b >> j) & 1);
-    switch ((s.previous[j] << 2) | ab) {
-      case 0b0010:
-      case 0b1011:
-      case 0b1101:
-      case 0b0100:
-        ++s.count[j];
-        break;
-      case 0b0001:
-      case 0b0111:
-      case 0b1110:
-      case 0b1000:
-        --s.count[j];
-        break;
-      case 0b0011:
-      case 0b1100:
-      case 0b0110:
-      case 0b1001:
-        s.step_error[j] = true;
-        break;
-      default:
-        break;
-    }
-    s.previous[j] = ab;
-  }
-  s.enc_a = s.enc_a_meta;
-  s.enc_a_meta = encoder_a;
-  s.enc_b = s.enc_b_meta;
-  s.enc_b_meta = encoder_b;
+  count_encoders(s, encoder_a, encoder_b);
   if (!s.settled) {
     {
       const int payload = (s.tx_index - 4) & 63;
@@ -391,7 +429,8 @@ void ModelBoard::clock(int uart_rx, int encoder_a, int encoder_b) {
   if (quiet_clock(uart_rx, encoder_a, encoder_b)) return;
   State& s = *state_;
   Memories& m = *memories_;
-  State n = s;  // the next values, committed at the end
+  State& n = *next_state_;  // the next values, committed at the end (the buffers swap)
+  n = s;
   n.settled = false;
   const int rx_level = (s.rx_sync >> 1) & 1;
 
@@ -646,31 +685,9 @@ void ModelBoard::clock(int uart_rx, int encoder_a, int encoder_b) {
   int step_error_bits = 0;
   for (int j = 0; j < 3; ++j) {
     const int ab = (((s.enc_a >> j) & 1) << 1) | ((s.enc_b >> j) & 1);
-    const int key = (s.previous[j] << 2) | ab;
-    std::uint16_t count = s.count[j];
-    bool error = false;
-    switch (key) {
-      case 0b0010:
-      case 0b1011:
-      case 0b1101:
-      case 0b0100:
-        ++count;
-        break;
-      case 0b0001:
-      case 0b0111:
-      case 0b1110:
-      case 0b1000:
-        --count;
-        break;
-      case 0b0011:
-      case 0b1100:
-      case 0b0110:
-      case 0b1001:
-        error = true;
-        break;
-      default:
-        break;
-    }
+    const int move = quadrature_move(s.previous[j], ab);
+    const bool error = move == kSkippedState;
+    const std::uint16_t count = static_cast<std::uint16_t>(s.count[j] + (error ? 0 : move));
     n.previous[j] = ab;
     n.step_error[j] = error;
     n.count[j] = home ? static_cast<std::uint16_t>(board::kHomeCount) : count;
@@ -918,7 +935,7 @@ void ModelBoard::clock(int uart_rx, int encoder_a, int encoder_b) {
 
   n.tick = s.tick == kClocksPerPeriod - 1 ? 0 : s.tick + 1;
   n.cycle = s.cycle + 1;
-  *state_ = std::move(n);
+  std::swap(state_, next_state_);
 
   const State& q = *state_;
   pins_.uart_tx = q.frame & 1;

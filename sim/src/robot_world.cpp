@@ -122,11 +122,13 @@ double RobotWorld::true_angle_for_reading(int joint, double reading_deg) const {
   }
   for (int i = 0; i < 80; ++i) {
     const double mid = 0.5 * (low + high);
+    const double last_low = low, last_high = high;
     if (error(mid) * error(low) <= 0) {
       high = mid;
     } else {
       low = mid;
     }
+    if (low == last_low && high == last_high) break;  // converged: every further step repeats this one
   }
   return 0.5 * (low + high);
 }

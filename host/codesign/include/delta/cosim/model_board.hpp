@@ -46,7 +46,8 @@ class ModelBoard {
 
   // Up to `limit` clocks at once with the pins held, if they are clocks that only count: the
   // UARTs inside a bit, the tick between the period's events, the controller between its stores,
-  // the PWM phase, with the synchronisers already holding these pins. Returns how many it took
+  // the PWM phase, the synchronisers taking the held pins (the quadrature counters counting a
+  // change of the encoder lines; a skipped state ends the run). Returns how many it took
   // (0: none, clock() the next one) and the drive pins it showed in them (`pattern`); the state
   // after them is exactly what as many clock() calls leave.
   std::uint64_t skip(std::uint64_t limit, int uart_rx, int encoder_a, int encoder_b, DrivePattern* pattern);
@@ -60,6 +61,7 @@ class ModelBoard {
   golden::QuantisedNetwork network_;
   std::unique_ptr<Memories> memories_;
   std::unique_ptr<State> state_;
+  std::unique_ptr<State> next_state_;  // clock()'s next values
   ModelBoardPins pins_;
 };
 
