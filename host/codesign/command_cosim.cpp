@@ -211,7 +211,9 @@ void run_cosim_command(const CosimCommandOptions& options, const std::string& co
     std::cout << "\nrecording: " << options.out << '\n';
   }
   if (!options.plot.empty()) {
-    write_cosim_plot(options.plot, result, "Co-simulation: board RTL + plants + virtual robot, " + options.trajectory);
+    write_cosim_plot(options.plot, result,
+                     std::string("Co-simulation: ") + (options.fidelity == "model" ? "model board" : "board RTL") +
+                         " + plants + virtual robot, " + options.trajectory);
     std::cout << "plot: " << options.plot << '\n';
   }
   if (r.outcome != link::StreamReport::Outcome::kCompleted || r.played != r.samples ||
