@@ -248,6 +248,25 @@ ModelBoard::ModelBoard(const golden::QuantisedNetwork& network, const std::strin
 
 ModelBoard::~ModelBoard() = default;
 
+// The registers that only follow inputs constant in quiet clocks (link_tx's RAM read, the peek,
+// the safety pipeline), as the first quiet clock after a full one computes them; they hold then.
+void ModelBoard::settle() {
+  State& s = *state_;
+  const int payload = (s.tx_index - 4) & 63;
+  s.read_data = memories_->words[((s.is_identify ? 0 : 16) + (payload >> 1)) & 255];
+  s.peek_data = peek_word(s.peek_memory, s.capture);
+  s.word_index = s.capture;
+  for (int j = 0; j < 3; ++j) {
+    const std::int32_t reference_count = s.r[j] >> 8;
+    const std::int32_t reference17 = sign_extend(static_cast<std::uint32_t>(reference_count), 17);
+    s.difference_q[j] =
+        sign_extend(static_cast<std::uint32_t>(reference17 - static_cast<std::int16_t>(s.counts_q[j])), 17);
+    const std::int32_t block = sign_extend(static_cast<std::uint32_t>(reference_count), 24) >> 10;
+    s.outside_q[j] = block < board::kMinTravelBlock || block > board::kMaxTravelBlock;
+  }
+  s.settled = true;
+}
+
 // Whether the next clock is quiet (see quiet_clock), whatever the encoder lines show.
 bool ModelBoard::quiet() const {
   const State& s = *state_;
@@ -293,9 +312,7 @@ bool ModelBoard::quiet() const {
 
 std::uint64_t ModelBoard::skip(std::uint64_t limit, int uart_rx, int encoder_a, int encoder_b, DrivePattern* pattern) {
   State& s = *state_;
-  if (limit == 0 || !s.settled || !quiet()) return 0;
-  // Idle, uart_rx must stay high; inside a byte its level counts only at a bit's middle.
-  if (s.rx_state == 0 && (s.rx_sync != 3 || !(uart_rx & 1))) return 0;
+  if (limit == 0 || !quiet()) return 0;
   // Up to the next clock that is not quiet: the period's next event, a UART bit's end, the
   // controller's next store.
   std::uint64_t clocks = limit;
@@ -305,13 +322,15 @@ std::uint64_t ModelBoard::skip(std::uint64_t limit, int uart_rx, int encoder_a, 
       break;
     }
   }
+  // Idle, uart_rx must stay high (an edge: one clock, the synchroniser takes it); inside a byte
+  // its level counts only at a bit's middle. A data bit's middle (uart_rx) or the next bit out
+  // (uart_tx) only in the run's first clock.
+  if (s.rx_state == 0 && (s.rx_sync != 3 || !(uart_rx & 1))) clocks = 1;
   if (s.rx_state != 0) {
-    if (s.rx_count == 0) return 0;  // a data bit's middle: clock() samples it
-    clocks = std::min<std::uint64_t>(clocks, static_cast<std::uint64_t>(s.rx_count));
+    clocks = std::min<std::uint64_t>(clocks, static_cast<std::uint64_t>(s.rx_count == 0 ? kClocksPerBit : s.rx_count));
   }
   if (s.bits_left != 0) {
-    if (s.tx_count == 0) return 0;  // the next bit: clock() shifts it out
-    clocks = std::min<std::uint64_t>(clocks, static_cast<std::uint64_t>(s.tx_count));
+    clocks = std::min<std::uint64_t>(clocks, static_cast<std::uint64_t>(s.tx_count == 0 ? kClocksPerBit : s.tx_count));
   }
   if (s.running) {
     const std::uint64_t elapsed = s.cycle - s.run_start;
@@ -325,6 +344,7 @@ std::uint64_t ModelBoard::skip(std::uint64_t limit, int uart_rx, int encoder_a, 
     }
   }
 
+  if (!s.settled) settle();
   // The synchronisers take the held encoder lines in three clocks, counting as they go; a clock
   // that meets a skipped state ends the run (the next one latches the error).
   for (std::uint64_t counted = 0; counted < clocks && !encoders_settled(s, encoder_a, encoder_b);) {
@@ -343,86 +363,44 @@ std::uint64_t ModelBoard::skip(std::uint64_t limit, int uart_rx, int encoder_a, 
   for (int j = 0; j < 3; ++j) {
     if (enabled && last_phase < s.duty[j]) pwm |= 1 << j;
   }
+  const int counted = static_cast<int>(clocks);
   if (s.rx_state != 0) {
-    s.rx_count -= static_cast<int>(clocks);
-    s.rx_sync = clocks == 1 ? ((s.rx_sync << 1) | (uart_rx & 1)) & 3 : ((uart_rx & 1) ? 3 : 0);
+    if (s.rx_count == 0) {  // the first clock samples a data bit
+      s.rx_shift = static_cast<std::uint8_t>((((s.rx_sync >> 1) & 1) << 7) | (s.rx_shift >> 1));
+      s.rx_count = kClocksPerBit;
+      if (s.rx_bit_index == 7) s.rx_state = 3;
+      s.rx_bit_index = (s.rx_bit_index + 1) & 7;
+    }
+    s.rx_count -= counted;
   }
-  if (s.bits_left != 0) s.tx_count -= static_cast<int>(clocks);
+  s.rx_sync = clocks == 1 ? ((s.rx_sync << 1) | (uart_rx & 1)) & 3 : ((uart_rx & 1) ? 3 : 0);
+  if (s.bits_left != 0) {
+    if (s.tx_count == 0) {  // the first clock shifts out the next bit
+      s.frame = static_cast<std::uint16_t>(0x200 | (s.frame >> 1));
+      --s.bits_left;
+      s.tx_count = kClocksPerBit;
+    }
+    s.tx_count -= counted;
+  }
   s.pwm = pwm;
   s.enable_out = enabled;
   s.pwm_phase = (last_phase + 1) % period;
   s.tick += static_cast<int>(clocks);
   s.cycle += clocks;
+  pins_.uart_tx = s.frame & 1;
   pins_.drive_pwm = s.pwm;
   pins_.drive_enable = s.enable_out;
   return clocks;
 }
 
-// Most clocks change only free-running counters: the UARTs counting out a bit, the PWM phase,
-// the tick, the encoder synchronisers. Such a clock is taken here, in place, with exactly the next
-// values the full clock below would compute; any clock where something else could change (a bit
-// boundary, a byte, a frame, a command, the period's events, the controller's stores, a capture,
-// an encoder error, a fault turning the drives off) returns false untouched and goes the full way.
+// Most clocks change only counters: the UARTs counting out a bit, the PWM phase, the tick, the
+// encoder synchronisers. Such a clock is skip()'s run of one, in place, with exactly the next
+// values the full clock below would compute; any clock where something else could change (a byte,
+// a frame, a command, the period's events, the controller's stores, a capture, an encoder error, a
+// fault turning the drives off) returns false untouched and goes the full way.
 bool ModelBoard::quiet_clock(int uart_rx, int encoder_a, int encoder_b) {
-  if (!quiet()) return false;
-  State& s = *state_;
-  const Memories& m = *memories_;
-  const int tick = s.tick;
-  const int rx_level = (s.rx_sync >> 1) & 1;
-  const bool fault = s.fault_cause != 0;
-
-  // ---- the clock ----
-  if (s.rx_state != 0) {
-    if (s.rx_count != 0) {
-      --s.rx_count;
-    } else {  // a data bit's middle (rx_state 2)
-      s.rx_shift = static_cast<std::uint8_t>((rx_level << 7) | (s.rx_shift >> 1));
-      s.rx_count = kClocksPerBit - 1;
-      if (s.rx_bit_index == 7) s.rx_state = 3;
-      s.rx_bit_index = (s.rx_bit_index + 1) & 7;
-    }
-  }
-  s.rx_sync = ((s.rx_sync << 1) | (uart_rx & 1)) & 3;
-  if (s.bits_left != 0) {
-    if (s.tx_count != 0) {
-      --s.tx_count;
-    } else {  // the next bit (not the last one's end)
-      s.frame = static_cast<std::uint16_t>(0x200 | (s.frame >> 1));
-      --s.bits_left;
-      s.tx_count = kClocksPerBit - 1;
-    }
-  }
-  count_encoders(s, encoder_a, encoder_b);
-  if (!s.settled) {
-    {
-      const int payload = (s.tx_index - 4) & 63;
-      s.read_data = m.words[((s.is_identify ? 0 : 16) + (payload >> 1)) & 255];
-    }
-    s.peek_data = peek_word(s.peek_memory, s.capture);
-    s.word_index = s.capture;
-    for (int j = 0; j < 3; ++j) {
-      const std::int32_t reference_count = s.r[j] >> 8;
-      const std::int32_t reference17 = sign_extend(static_cast<std::uint32_t>(reference_count), 17);
-      s.difference_q[j] =
-          sign_extend(static_cast<std::uint32_t>(reference17 - static_cast<std::int16_t>(s.counts_q[j])), 17);
-      const std::int32_t block = sign_extend(static_cast<std::uint32_t>(reference_count), 24) >> 10;
-      s.outside_q[j] = block < board::kMinTravelBlock || block > board::kMaxTravelBlock;
-    }
-    s.settled = true;
-  }
-  int pwm = 0;
-  for (int j = 0; j < 3; ++j) {
-    if (s.enabled && !fault && s.pwm_phase < s.duty[j]) pwm |= 1 << j;
-  }
-  s.pwm = pwm;
-  s.enable_out = s.enabled && !fault;
-  s.pwm_phase = (s.pwm_phase + 1) & ((1 << board::kPwmBits) - 1);
-  s.tick = tick + 1;
-  ++s.cycle;
-  pins_.uart_tx = s.frame & 1;
-  pins_.drive_pwm = s.pwm;
-  pins_.drive_enable = s.enable_out;
-  return true;
+  DrivePattern pattern;
+  return skip(1, uart_rx, encoder_a, encoder_b, &pattern) == 1;
 }
 
 void ModelBoard::clock(int uart_rx, int encoder_a, int encoder_b) {

@@ -165,7 +165,11 @@ bool VirtualBoard::skip_model(std::uint64_t limit) {
     if ((core.bits_sent + taken) / byte_clocks != core.bits_sent / byte_clocks) --core.bytes_on_line;
     core.bits_sent += taken;
   }
-  if (core.line.hold_tx_pin(tx_level, static_cast<int>(taken))) from_board_.push_back(core.line.byte());
+  // The TX pin holds its level after the run's first clock (which may shift out the next bit;
+  // the receiver is then inside a byte, and its bound above does not depend on the level).
+  if (core.line.hold_tx_pin(core.board->pins().uart_tx, static_cast<int>(taken))) {
+    from_board_.push_back(core.line.byte());
+  }
   world_->advance(taken, pattern);
   clocks_ += taken;
   period_phase_ += taken;

@@ -53,6 +53,7 @@ class ModelBoard {
   std::uint64_t skip(std::uint64_t limit, int uart_rx, int encoder_a, int encoder_b, DrivePattern* pattern);
 
  private:
+  void settle();
   bool quiet() const;
   bool quiet_clock(int uart_rx, int encoder_a, int encoder_b);
 
