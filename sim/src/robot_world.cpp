@@ -69,8 +69,11 @@ class RobotWorld::PwmHistory {
       const std::uint64_t range = (length == 64 ? ~std::uint64_t{0} : (std::uint64_t{1} << length) - 1) << bit;
       const std::uint64_t levels = (ones == 64 ? ~std::uint64_t{0} : (std::uint64_t{1} << ones) - 1) << bit;
       std::uint64_t& word = words_[static_cast<std::size_t>(slot >> 6)];
-      high_ += ones - __builtin_popcountll(word & range);
-      word = (word & ~range) | levels;
+      const std::uint64_t old = word & range;
+      if (old != levels) {  // after a period at the same duty the history already holds these levels
+        high_ += ones - __builtin_popcountll(old);
+        word = (word & ~range) | levels;
+      }
       cycles -= static_cast<std::uint64_t>(length);
       slot += length;
       if (slot == period_) slot = 0;
@@ -91,6 +94,7 @@ RobotWorld::RobotWorld(const BoardInterface& board, const EffectSet& effects, co
   if (!(board.board_clock_hz > 0.0) || board.pwm_period_cycles <= 0 || board.plant_divider <= 0) {
     throw std::invalid_argument("RobotWorld: board clock, PWM period and plant divider must be positive");
   }
+  plant_step_s_ = board.plant_divider / board.board_clock_hz;
   // Home: the encoders read the home count with the plate at rest there.
   for (int j = 0; j < 3; ++j) home_true_alpha_deg_[j] = true_angle_for_reading(j, board.home_count * board.count_deg);
   const FkSolution home = forward_kinematics(true_geometry_, home_true_alpha_deg_);
@@ -145,7 +149,7 @@ void RobotWorld::step(const DrivePins& pins) {
     for (int j = 0; j < 3; ++j) {
       const double sign = ((pins.direction >> j) & 1) ? -1.0 : 1.0;
       current_a_[j] = pins.enable ? sign * board_.current_full_scale_a * pwm_history_[j]->high() / board_.pwm_period_cycles : 0.0;
-      plants_[j]->step(current_a_[j], board_.plant_divider / board_.board_clock_hz);
+      plants_[j]->step(current_a_[j], plant_step_s_);
       true_alpha_deg_[j] = plants_[j]->shaft_angle_deg();
     }
     reading_deg_ = sensors_.update(true_alpha_deg_);
@@ -173,7 +177,8 @@ void RobotWorld::advance(std::uint64_t cycles, const DrivePattern& pattern) {
   for (int j = 0; j < 3; ++j) {
     pwm_history_[j]->fill(static_cast<int>(pwm_slot_), pattern.phase, pattern.enable ? pattern.duty[j] : 0, quiet);
   }
-  pwm_slot_ = (pwm_slot_ + quiet) % static_cast<std::size_t>(period);
+  pwm_slot_ += quiet;
+  if (pwm_slot_ >= static_cast<std::size_t>(period)) pwm_slot_ %= static_cast<std::size_t>(period);
   plant_phase_ += static_cast<int>(quiet);
   cycle_ += quiet;
   for (auto& encoder : encoders_) encoder->wait(quiet);
@@ -181,10 +186,11 @@ void RobotWorld::advance(std::uint64_t cycles, const DrivePattern& pattern) {
 }
 
 DrivePins DrivePattern::pins(std::uint64_t cycle, int pwm_period_cycles) const {
-  const int level_phase = static_cast<int>((static_cast<std::uint64_t>(phase) + cycle) % pwm_period_cycles);
+  std::uint64_t level_phase = static_cast<std::uint64_t>(phase) + cycle;
+  if (level_phase >= static_cast<std::uint64_t>(pwm_period_cycles)) level_phase %= pwm_period_cycles;
   DrivePins out;
   for (int j = 0; j < 3; ++j) {
-    if (enable && level_phase < duty[j]) out.pwm |= 1 << j;
+    if (enable && level_phase < static_cast<std::uint64_t>(std::max(duty[j], 0))) out.pwm |= 1 << j;
   }
   out.direction = direction;
   out.enable = enable;

@@ -96,6 +96,7 @@ class RobotWorld {
   void update_lines();  // lines_a_, lines_b_ from the encoders
 
   BoardInterface board_;
+  double plant_step_s_ = 0.0;  // plant_divider board cycles [s]
   EffectSet effects_;
   Geometry true_geometry_;
   JointSensorChain sensors_;
