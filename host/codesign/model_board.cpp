@@ -231,7 +231,8 @@ struct ModelBoard::State {
 };
 
 ModelBoard::ModelBoard(const golden::QuantisedNetwork& network, const std::string& identify_mem)
-    : memories_(std::make_unique<Memories>()), state_(std::make_unique<State>()),
+    : memories_(std::make_unique<Memories>()),
+      state_(std::make_unique<State>()),
       next_state_(std::make_unique<State>()) {
   State& s = *state_;
   network_ = network;
@@ -335,8 +336,8 @@ std::uint64_t ModelBoard::skip(std::uint64_t limit, int uart_rx, int encoder_a, 
   if (s.running) {
     const std::uint64_t elapsed = s.cycle - s.run_start;
     for (std::uint64_t event : {std::uint64_t{kLoadCycles}, std::uint64_t{kLoadCycles + kJointCycles},
-                                std::uint64_t{kLoadCycles + 2 * kJointCycles}, std::uint64_t{kLoadCycles + 3 * kJointCycles},
-                                std::uint64_t{kRunCycles}}) {
+                                std::uint64_t{kLoadCycles + 2 * kJointCycles},
+                                std::uint64_t{kLoadCycles + 3 * kJointCycles}, std::uint64_t{kRunCycles}}) {
       if (event > elapsed) {
         clocks = std::min(clocks, event - elapsed);
         break;

@@ -63,8 +63,8 @@ class RobotWorld::PwmHistory {
   void fill(int slot, int phase, int duty, std::uint64_t cycles) {
     while (cycles > 0) {
       const int bit = slot & 63;
-      const int length = static_cast<int>(
-          std::min<std::uint64_t>(cycles, static_cast<std::uint64_t>(std::min({64 - bit, period_ - slot, period_ - phase}))));
+      const int length = static_cast<int>(std::min<std::uint64_t>(
+          cycles, static_cast<std::uint64_t>(std::min({64 - bit, period_ - slot, period_ - phase}))));
       const int ones = std::clamp(duty - phase, 0, length);
       const std::uint64_t range = (length == 64 ? ~std::uint64_t{0} : (std::uint64_t{1} << length) - 1) << bit;
       const std::uint64_t levels = (ones == 64 ? ~std::uint64_t{0} : (std::uint64_t{1} << ones) - 1) << bit;
@@ -148,7 +148,8 @@ void RobotWorld::step(const DrivePins& pins) {
   if (plant_step) {
     for (int j = 0; j < 3; ++j) {
       const double sign = ((pins.direction >> j) & 1) ? -1.0 : 1.0;
-      current_a_[j] = pins.enable ? sign * board_.current_full_scale_a * pwm_history_[j]->high() / board_.pwm_period_cycles : 0.0;
+      current_a_[j] =
+          pins.enable ? sign * board_.current_full_scale_a * pwm_history_[j]->high() / board_.pwm_period_cycles : 0.0;
       plants_[j]->step(current_a_[j], plant_step_s_);
       true_alpha_deg_[j] = plants_[j]->shaft_angle_deg();
     }

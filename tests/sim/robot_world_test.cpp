@@ -49,8 +49,7 @@ TEST(RobotWorld, AdvanceEqualsSteppingCycleByCycle) {
       pattern.enable = run % 20000 < 18000;
     }
     pattern.phase = phase(random);
-    const std::uint64_t cycles =
-        std::uniform_int_distribution<std::uint64_t>(1, bulk.cycles_to_event())(random);
+    const std::uint64_t cycles = std::uniform_int_distribution<std::uint64_t>(1, bulk.cycles_to_event())(random);
     bulk.advance(cycles, pattern);
     for (std::uint64_t i = 0; i < cycles; ++i) stepped.step(pattern.pins(i, board.pwm_period_cycles));
 

@@ -44,9 +44,9 @@ struct DrivePins {
 //   enable && (phase + i) mod pwm_period_cycles < duty[j],
 // direction and enable as given (the board's PWM compare with its duties held).
 struct DrivePattern {
-  int phase = 0;                // the PWM phase counter the first cycle's level was compared with
-  std::array<int, 3> duty{};    // PWM cycles high per period (>= the period: always high)
-  int direction = 0;            // as DrivePins
+  int phase = 0;              // the PWM phase counter the first cycle's level was compared with
+  std::array<int, 3> duty{};  // PWM cycles high per period (>= the period: always high)
+  int direction = 0;          // as DrivePins
   bool enable = false;
   DrivePins pins(std::uint64_t cycle, int pwm_period_cycles) const;  // the pins of cycle i of the run
 };
