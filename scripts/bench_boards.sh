@@ -3,24 +3,28 @@
 # co-simulation (`deltactl cosim`, experiment 1, paper-like robot): the Verilated board core (RTL
 # fidelity) and the C++ model board (model fidelity, bit-exact with it), each as board cycles per
 # second and as a multiple of real time (rtl/board/delta_board_pkg.sv BoardClockHz), median of RUNS
-# runs, then their ratio. The model runs free here (cosim never paces).
-# Usage: scripts/bench_boards.sh [BUILD_DIR] [SECONDS] [RUNS]   (defaults: build, 2, 3)
+# runs, then their ratio. The model runs free here (cosim never paces). BASELINE_BUILD (optional):
+# another build (e.g. of an older commit) whose model board is measured in the same run, and the
+# ratio of this build's model to it.
+# Usage: scripts/bench_boards.sh [BUILD_DIR] [SECONDS] [RUNS] [BASELINE_BUILD]   (defaults: build, 2, 3, none)
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 build=${1:-$root/build}
 seconds=${2:-2}
 runs=${3:-3}
+baseline=${4:-}
 deltactl="$build/bin/deltactl"
+[[ -z $baseline || -x $baseline/bin/deltactl ]] || { echo "bench_boards: $baseline/bin/deltactl missing" >&2; exit 2; }
 [[ -x $deltactl ]] || { echo "bench_boards: $deltactl missing: bash scripts/build.sh" >&2; exit 2; }
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 clock_mhz=$(awk '/localparam int BoardClockHz/ { gsub(/[_;]/, "", $7); print $7 / 1e6 }' "$root/rtl/board/delta_board_pkg.sv")
 
-# median M board cycles/s of `deltactl cosim --fidelity $1`
+# median M board cycles/s of `deltactl cosim --fidelity $1` (deltactl $2, default this build's)
 measure() {
-  local fidelity=$1 rates=() rate run
+  local fidelity=$1 program=${2:-$deltactl} rates=() rate run
   for ((run = 1; run <= runs; run++)); do
-    "$deltactl" cosim --fidelity "$fidelity" --weights "$root/weights/paper_like.json" \
+    "$program" cosim --fidelity "$fidelity" --weights "$root/weights/paper_like.json" \
       --effects "$root/sim/paper_like_effects.json" --trajectory experiment1 --duration "$seconds" \
       >/dev/null 2>"$work/err" || true
     rate=$(sed -n 's/.*[( ]\([0-9.]*\) M board cycles\/s).*/\1/p' "$work/err" | tail -1)
@@ -33,6 +37,7 @@ median() { printf '%s\n' "$@" | sort -g | awk '{ a[NR] = $1 } END { print a[int(
 
 read -r -a rtl <<<"$(measure rtl)"
 read -r -a model <<<"$(measure model)"
+[[ -z $baseline ]] || read -r -a base <<<"$(measure model "$baseline/bin/deltactl")"
 rtl_median=$(median "${rtl[@]}")
 model_median=$(median "${model[@]}")
 x() { awk -v r="$1" -v c="$clock_mhz" 'BEGIN { printf "%.3f", r / c }'; }
@@ -40,4 +45,11 @@ echo "| board | runs | M board cycles/s (each) | median | x real time (${clock_m
 echo "|---|---|---|---|---|"
 echo "| RTL (Verilated board_core) | $runs | ${rtl[*]} | $rtl_median | $(x "$rtl_median") |"
 echo "| model (C++ model board) | $runs | ${model[*]} | $model_median | $(x "$model_median") |"
+if [[ -n $baseline ]]; then
+  base_median=$(median "${base[@]}")
+  echo "| model, baseline build ($baseline) | $runs | ${base[*]} | $base_median | $(x "$base_median") |"
+fi
 echo "model / RTL: $(awk -v m="$model_median" -v r="$rtl_median" 'BEGIN { printf "%.2f", m / r }') x"
+if [[ -n $baseline ]]; then
+  echo "model / baseline model: $(awk -v m="$model_median" -v b="$base_median" 'BEGIN { printf "%.2f", m / b }') x"
+fi

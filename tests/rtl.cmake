@@ -27,6 +27,7 @@ set_tests_properties(rtl_network_systemc PROPERTIES LABELS rtl PASS_REGULAR_EXPR
 
 delta_add_gtest(rtl_board_tests
   SOURCES ${CMAKE_CURRENT_LIST_DIR}/rtl/test_network_crossing.cpp ${CMAKE_CURRENT_LIST_DIR}/rtl/test_board_facts.cpp
+          ${CMAKE_CURRENT_LIST_DIR}/rtl/test_uart_line.cpp
   LIBRARIES delta::rtl_board delta::golden delta::control
   LABELS rtl)
 target_include_directories(rtl_board_tests PRIVATE ${CMAKE_CURRENT_LIST_DIR}/rtl)

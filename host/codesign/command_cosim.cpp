@@ -211,7 +211,9 @@ void run_cosim_command(const CosimCommandOptions& options, const std::string& co
     std::cout << "\nrecording: " << options.out << '\n';
   }
   if (!options.plot.empty()) {
-    write_cosim_plot(options.plot, result, "Co-simulation: board RTL + plants + virtual robot, " + options.trajectory);
+    write_cosim_plot(options.plot, result,
+                     std::string("Co-simulation: ") + (options.fidelity == "model" ? "model board" : "board RTL") +
+                         " + plants + virtual robot, " + options.trajectory);
     std::cout << "plot: " << options.plot << '\n';
   }
   if (r.outcome != link::StreamReport::Outcome::kCompleted || r.played != r.samples ||
@@ -234,7 +236,7 @@ const RegisterCommand command("cosim", 70, [](CLI::App& root) {
       "plants (sim/joint_plant: motor, 66:1 gearbox, friction, gravity); their angles pass the virtual\n"
       "robot's sensor effects into quadrature encoder signals, and the plate position is the true\n"
       "geometry's forward kinematics seen through the frame misalignment. About 10 s of wall time per\n"
-      "simulated second.\n"
+      "simulated second; --fidelity model (the C++ model board, bit-exact with the RTL) about 0.4 s.\n"
       "The host knows only the link: it identifies the board (weights CRC and build id must match),\n"
       "sets home, enables, finds the plate by inverting its network at the encoder counts, and paces\n"
       "the setpoints by telemetry (--fill ahead). Each sample carries the position for the time its\n"

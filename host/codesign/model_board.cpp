@@ -4,8 +4,10 @@
 // from the present ones, then commits them, as the RTL's always_ff blocks do.
 #include "delta/cosim/model_board.hpp"
 
+#include <algorithm>
 #include <fstream>
 #include <stdexcept>
+#include <utility>
 
 #include "delta/board_facts.hpp"
 #include "delta/golden/joint_fixed.hpp"
@@ -67,6 +69,65 @@ std::uint32_t peek_word(const PeekMemory& memory, int w) {
     joint = ((w - reference_word) >> 1) & 3;
   }
   return joint < 3 ? memory[joint][slot] : 0;
+}
+
+// quadrature_counter.sv: the move from the last {A, B} to this one (+1, -1, 0), or a skipped state.
+constexpr int kSkippedState = 2;
+int quadrature_move(int previous, int ab) {
+  switch ((previous << 2) | ab) {
+    case 0b0010:
+    case 0b1011:
+    case 0b1101:
+    case 0b0100:
+      return 1;
+    case 0b0001:
+    case 0b0111:
+    case 0b1110:
+    case 0b1000:
+      return -1;
+    case 0b0011:
+    case 0b1100:
+    case 0b0110:
+    case 0b1001:
+      return kSkippedState;
+    default:
+      return 0;
+  }
+}
+
+// One quiet clock (no set-home) of the encoder synchronisers and quadrature counters, in place.
+// True if a joint skipped a state (its step error is set).
+template <typename Registers>
+bool count_encoders(Registers& s, int encoder_a, int encoder_b) {
+  bool skipped = false;
+  for (int j = 0; j < 3; ++j) {
+    const int ab = (((s.enc_a >> j) & 1) << 1) | ((s.enc_b >> j) & 1);
+    const int move = quadrature_move(s.previous[j], ab);
+    if (move == kSkippedState) {
+      s.step_error[j] = true;
+      skipped = true;
+    } else {
+      s.count[j] = static_cast<std::uint16_t>(s.count[j] + move);
+    }
+    s.previous[j] = ab;
+  }
+  s.enc_a = s.enc_a_meta;
+  s.enc_a_meta = encoder_a;
+  s.enc_b = s.enc_b_meta;
+  s.enc_b_meta = encoder_b;
+  return skipped;
+}
+
+// The synchronisers and counters hold these pins: a clock with them changes nothing.
+template <typename Registers>
+bool encoders_settled(const Registers& s, int encoder_a, int encoder_b) {
+  if (s.enc_a_meta != encoder_a || s.enc_a != encoder_a || s.enc_b_meta != encoder_b || s.enc_b != encoder_b) {
+    return false;
+  }
+  for (int j = 0; j < 3; ++j) {
+    if (s.previous[j] != ((((encoder_a >> j) & 1) << 1) | ((encoder_b >> j) & 1))) return false;
+  }
+  return true;
 }
 
 std::int32_t sign_extend(std::uint32_t value, int bits) {
@@ -170,7 +231,9 @@ struct ModelBoard::State {
 };
 
 ModelBoard::ModelBoard(const golden::QuantisedNetwork& network, const std::string& identify_mem)
-    : memories_(std::make_unique<Memories>()), state_(std::make_unique<State>()) {
+    : memories_(std::make_unique<Memories>()),
+      state_(std::make_unique<State>()),
+      next_state_(std::make_unique<State>()) {
   State& s = *state_;
   network_ = network;
   s.network = &network_;
@@ -186,13 +249,28 @@ ModelBoard::ModelBoard(const golden::QuantisedNetwork& network, const std::strin
 
 ModelBoard::~ModelBoard() = default;
 
-// Most clocks change only free-running counters: the UARTs counting out a bit, the PWM phase,
-// the tick, the encoder synchronisers. Such a clock is taken here, in place, with exactly the next
-// values the full clock below would compute; any clock where something else could change (a bit
-// boundary, a byte, a frame, a command, the period's events, the controller's stores, a capture,
-// an encoder error, a fault turning the drives off) returns false untouched and goes the full way.
-bool ModelBoard::quiet_clock(int uart_rx, int encoder_a, int encoder_b) {
+// The registers that only follow inputs constant in quiet clocks (link_tx's RAM read, the peek,
+// the safety pipeline), as the first quiet clock after a full one computes them; they hold then.
+void ModelBoard::settle() {
   State& s = *state_;
+  const int payload = (s.tx_index - 4) & 63;
+  s.read_data = memories_->words[((s.is_identify ? 0 : 16) + (payload >> 1)) & 255];
+  s.peek_data = peek_word(s.peek_memory, s.capture);
+  s.word_index = s.capture;
+  for (int j = 0; j < 3; ++j) {
+    const std::int32_t reference_count = s.r[j] >> 8;
+    const std::int32_t reference17 = sign_extend(static_cast<std::uint32_t>(reference_count), 17);
+    s.difference_q[j] =
+        sign_extend(static_cast<std::uint32_t>(reference17 - static_cast<std::int16_t>(s.counts_q[j])), 17);
+    const std::int32_t block = sign_extend(static_cast<std::uint32_t>(reference_count), 24) >> 10;
+    s.outside_q[j] = block < board::kMinTravelBlock || block > board::kMaxTravelBlock;
+  }
+  s.settled = true;
+}
+
+// Whether the next clock is quiet (see quiet_clock), whatever the encoder lines show.
+bool ModelBoard::quiet() const {
+  const State& s = *state_;
   const Memories& m = *memories_;
   const int tick = s.tick;
   if (tick == 0 || tick == 1 || tick == kClocksPerPeriod / 2 || tick == kClocksPerPeriod - 100 ||
@@ -230,95 +308,108 @@ bool ModelBoard::quiet_clock(int uart_rx, int encoder_a, int encoder_b) {
   } else if (s.tx_count == 0 && s.bits_left == 1) {
     return false;  // the last bit ends: link_tx sees the UART ready
   }
+  return true;
+}
 
-  // ---- the clock ----
+std::uint64_t ModelBoard::skip(std::uint64_t limit, int uart_rx, int encoder_a, int encoder_b, DrivePattern* pattern) {
+  State& s = *state_;
+  if (limit == 0 || !quiet()) return 0;
+  // Up to the next clock that is not quiet: the period's next event, a UART bit's end, the
+  // controller's next store.
+  std::uint64_t clocks = limit;
+  for (int event : {1, kClocksPerPeriod / 2, kClocksPerPeriod - 100, kClocksPerPeriod - 1}) {
+    if (event > s.tick) {
+      clocks = std::min<std::uint64_t>(clocks, static_cast<std::uint64_t>(event - s.tick));
+      break;
+    }
+  }
+  // Idle, uart_rx must stay high (an edge: one clock, the synchroniser takes it); inside a byte
+  // its level counts only at a bit's middle. A data bit's middle (uart_rx) or the next bit out
+  // (uart_tx) only in the run's first clock.
+  if (s.rx_state == 0 && (s.rx_sync != 3 || !(uart_rx & 1))) clocks = 1;
   if (s.rx_state != 0) {
-    if (s.rx_count != 0) {
-      --s.rx_count;
-    } else {  // a data bit's middle (rx_state 2)
-      s.rx_shift = static_cast<std::uint8_t>((rx_level << 7) | (s.rx_shift >> 1));
-      s.rx_count = kClocksPerBit - 1;
+    clocks = std::min<std::uint64_t>(clocks, static_cast<std::uint64_t>(s.rx_count == 0 ? kClocksPerBit : s.rx_count));
+  }
+  if (s.bits_left != 0) {
+    clocks = std::min<std::uint64_t>(clocks, static_cast<std::uint64_t>(s.tx_count == 0 ? kClocksPerBit : s.tx_count));
+  }
+  if (s.running) {
+    const std::uint64_t elapsed = s.cycle - s.run_start;
+    for (std::uint64_t event : {std::uint64_t{kLoadCycles}, std::uint64_t{kLoadCycles + kJointCycles},
+                                std::uint64_t{kLoadCycles + 2 * kJointCycles},
+                                std::uint64_t{kLoadCycles + 3 * kJointCycles}, std::uint64_t{kRunCycles}}) {
+      if (event > elapsed) {
+        clocks = std::min(clocks, event - elapsed);
+        break;
+      }
+    }
+  }
+
+  if (!s.settled) settle();
+  // The synchronisers take the held encoder lines in three clocks, counting as they go; a clock
+  // that meets a skipped state ends the run (the next one latches the error).
+  for (std::uint64_t counted = 0; counted < clocks && !encoders_settled(s, encoder_a, encoder_b);) {
+    ++counted;
+    if (count_encoders(s, encoder_a, encoder_b)) clocks = counted;
+  }
+
+  const bool enabled = s.enabled && s.fault_cause == 0;
+  pattern->phase = s.pwm_phase;
+  for (int j = 0; j < 3; ++j) pattern->duty[j] = s.duty[j];
+  pattern->direction = s.direction;
+  pattern->enable = enabled;
+  const int period = 1 << board::kPwmBits;
+  const int last_phase = static_cast<int>((static_cast<std::uint64_t>(s.pwm_phase) + clocks - 1) % period);
+  int pwm = 0;
+  for (int j = 0; j < 3; ++j) {
+    if (enabled && last_phase < s.duty[j]) pwm |= 1 << j;
+  }
+  const int counted = static_cast<int>(clocks);
+  if (s.rx_state != 0) {
+    if (s.rx_count == 0) {  // the first clock samples a data bit
+      s.rx_shift = static_cast<std::uint8_t>((((s.rx_sync >> 1) & 1) << 7) | (s.rx_shift >> 1));
+      s.rx_count = kClocksPerBit;
       if (s.rx_bit_index == 7) s.rx_state = 3;
       s.rx_bit_index = (s.rx_bit_index + 1) & 7;
     }
+    s.rx_count -= counted;
   }
-  s.rx_sync = ((s.rx_sync << 1) | (uart_rx & 1)) & 3;
+  s.rx_sync = clocks == 1 ? ((s.rx_sync << 1) | (uart_rx & 1)) & 3 : ((uart_rx & 1) ? 3 : 0);
   if (s.bits_left != 0) {
-    if (s.tx_count != 0) {
-      --s.tx_count;
-    } else {  // the next bit (not the last one's end)
+    if (s.tx_count == 0) {  // the first clock shifts out the next bit
       s.frame = static_cast<std::uint16_t>(0x200 | (s.frame >> 1));
       --s.bits_left;
-      s.tx_count = kClocksPerBit - 1;
+      s.tx_count = kClocksPerBit;
     }
-  }
-  for (int j = 0; j < 3; ++j) {
-    const int ab = (((s.enc_a >> j) & 1) << 1) | ((s.enc_b >> j) & 1);
-    switch ((s.previous[j] << 2) | ab) {
-      case 0b0010:
-      case 0b1011:
-      case 0b1101:
-      case 0b0100:
-        ++s.count[j];
-        break;
-      case 0b0001:
-      case 0b0111:
-      case 0b1110:
-      case 0b1000:
-        --s.count[j];
-        break;
-      case 0b0011:
-      case 0b1100:
-      case 0b0110:
-      case 0b1001:
-        s.step_error[j] = true;
-        break;
-      default:
-        break;
-    }
-    s.previous[j] = ab;
-  }
-  s.enc_a = s.enc_a_meta;
-  s.enc_a_meta = encoder_a;
-  s.enc_b = s.enc_b_meta;
-  s.enc_b_meta = encoder_b;
-  if (!s.settled) {
-    {
-      const int payload = (s.tx_index - 4) & 63;
-      s.read_data = m.words[((s.is_identify ? 0 : 16) + (payload >> 1)) & 255];
-    }
-    s.peek_data = peek_word(s.peek_memory, s.capture);
-    s.word_index = s.capture;
-    for (int j = 0; j < 3; ++j) {
-      const std::int32_t reference_count = s.r[j] >> 8;
-      const std::int32_t reference17 = sign_extend(static_cast<std::uint32_t>(reference_count), 17);
-      s.difference_q[j] =
-          sign_extend(static_cast<std::uint32_t>(reference17 - static_cast<std::int16_t>(s.counts_q[j])), 17);
-      const std::int32_t block = sign_extend(static_cast<std::uint32_t>(reference_count), 24) >> 10;
-      s.outside_q[j] = block < board::kMinTravelBlock || block > board::kMaxTravelBlock;
-    }
-    s.settled = true;
-  }
-  int pwm = 0;
-  for (int j = 0; j < 3; ++j) {
-    if (s.enabled && !fault && s.pwm_phase < s.duty[j]) pwm |= 1 << j;
+    s.tx_count -= counted;
   }
   s.pwm = pwm;
-  s.enable_out = s.enabled && !fault;
-  s.pwm_phase = (s.pwm_phase + 1) & ((1 << board::kPwmBits) - 1);
-  s.tick = tick + 1;
-  ++s.cycle;
+  s.enable_out = enabled;
+  s.pwm_phase = (last_phase + 1) % period;
+  s.tick += static_cast<int>(clocks);
+  s.cycle += clocks;
   pins_.uart_tx = s.frame & 1;
   pins_.drive_pwm = s.pwm;
   pins_.drive_enable = s.enable_out;
-  return true;
+  return clocks;
+}
+
+// Most clocks change only counters: the UARTs counting out a bit, the PWM phase, the tick, the
+// encoder synchronisers. Such a clock is skip()'s run of one, in place, with exactly the next
+// values the full clock below would compute; any clock where something else could change (a byte,
+// a frame, a command, the period's events, the controller's stores, a capture, an encoder error, a
+// fault turning the drives off) returns false untouched and goes the full way.
+bool ModelBoard::quiet_clock(int uart_rx, int encoder_a, int encoder_b) {
+  DrivePattern pattern;
+  return skip(1, uart_rx, encoder_a, encoder_b, &pattern) == 1;
 }
 
 void ModelBoard::clock(int uart_rx, int encoder_a, int encoder_b) {
   if (quiet_clock(uart_rx, encoder_a, encoder_b)) return;
   State& s = *state_;
   Memories& m = *memories_;
-  State n = s;  // the next values, committed at the end
+  State& n = *next_state_;  // the next values, committed at the end (the buffers swap)
+  n = s;
   n.settled = false;
   const int rx_level = (s.rx_sync >> 1) & 1;
 
@@ -573,31 +664,9 @@ void ModelBoard::clock(int uart_rx, int encoder_a, int encoder_b) {
   int step_error_bits = 0;
   for (int j = 0; j < 3; ++j) {
     const int ab = (((s.enc_a >> j) & 1) << 1) | ((s.enc_b >> j) & 1);
-    const int key = (s.previous[j] << 2) | ab;
-    std::uint16_t count = s.count[j];
-    bool error = false;
-    switch (key) {
-      case 0b0010:
-      case 0b1011:
-      case 0b1101:
-      case 0b0100:
-        ++count;
-        break;
-      case 0b0001:
-      case 0b0111:
-      case 0b1110:
-      case 0b1000:
-        --count;
-        break;
-      case 0b0011:
-      case 0b1100:
-      case 0b0110:
-      case 0b1001:
-        error = true;
-        break;
-      default:
-        break;
-    }
+    const int move = quadrature_move(s.previous[j], ab);
+    const bool error = move == kSkippedState;
+    const std::uint16_t count = static_cast<std::uint16_t>(s.count[j] + (error ? 0 : move));
     n.previous[j] = ab;
     n.step_error[j] = error;
     n.count[j] = home ? static_cast<std::uint16_t>(board::kHomeCount) : count;
@@ -845,7 +914,7 @@ void ModelBoard::clock(int uart_rx, int encoder_a, int encoder_b) {
 
   n.tick = s.tick == kClocksPerPeriod - 1 ? 0 : s.tick + 1;
   n.cycle = s.cycle + 1;
-  *state_ = std::move(n);
+  std::swap(state_, next_state_);
 
   const State& q = *state_;
   pins_.uart_tx = q.frame & 1;

@@ -141,12 +141,55 @@ void VirtualBoard::clock_model() {
   ++clocks_;
 }
 
-void VirtualBoard::step(std::uint64_t board_clocks) {
-  for (std::uint64_t i = 0; i < board_clocks; ++i) clock();
+// Model fidelity: runs of clocks in which nothing but counters move on either side of the pins
+// (ModelBoard::skip, RobotWorld::advance) go at once; a run ends where the board or the world has
+// an event, the line's RX level changes, a byte from the board completes, or a control period
+// ends (its first clock, with the observers, goes one by one).
+bool VirtualBoard::skip_model(std::uint64_t limit) {
+  Core& core = *core_;
+  std::uint64_t clocks = std::min({limit, kClocksPerTick - period_phase_, world_->cycles_to_event()});
+  const bool sending = core.line.sending();
+  if (sending) clocks = std::min<std::uint64_t>(clocks, static_cast<std::uint64_t>(core.line.rx_pin_holds()));
+  if (clocks_ < encoder_skip_clock_) clocks = std::min(clocks, encoder_skip_clock_ - clocks_);
+  const int tx_level = core.board->pins().uart_tx;
+  const int to_byte = core.line.tx_cycles_to_byte(tx_level);
+  if (to_byte > 0) clocks = std::min<std::uint64_t>(clocks, static_cast<std::uint64_t>(to_byte));
+  const int skipped = clocks_ >= encoder_skip_clock_ ? 1 : 0;
+  DrivePattern pattern;
+  const std::uint64_t taken = core.board->skip(clocks, core.line.rx_pin_level(), world_->encoder_a() ^ skipped,
+                                               world_->encoder_b() ^ skipped, &pattern);
+  if (taken == 0) return false;
+  core.line.hold_rx_pin(static_cast<int>(taken));
+  if (sending) {
+    const std::uint64_t byte_clocks = 10 * kClocksPerBit;
+    if ((core.bits_sent + taken) / byte_clocks != core.bits_sent / byte_clocks) --core.bytes_on_line;
+    core.bits_sent += taken;
+  }
+  // The TX pin holds its level after the run's first clock (which may shift out the next bit;
+  // the receiver is then inside a byte, and its bound above does not depend on the level).
+  if (core.line.hold_tx_pin(core.board->pins().uart_tx, static_cast<int>(taken))) {
+    from_board_.push_back(core.line.byte());
+  }
+  world_->advance(taken, pattern);
+  clocks_ += taken;
+  period_phase_ += taken;
+  if (period_phase_ == kClocksPerTick) period_phase_ = 0;
+  millisecond_phase_ += taken;
+  if (millisecond_phase_ == kClocksPerMillisecond) millisecond_phase_ = 0;
+  return true;
 }
 
+void VirtualBoard::run(std::uint64_t board_clocks, bool until_byte) {
+  const std::uint64_t end = clocks_ + board_clocks;
+  while (clocks_ < end && !(until_byte && !from_board_.empty())) {
+    if (!core_->board || period_phase_ == 0 || !skip_model(end - clocks_)) clock();
+  }
+}
+
+void VirtualBoard::step(std::uint64_t board_clocks) { run(board_clocks, false); }
+
 bool VirtualBoard::step_until_byte(std::uint64_t board_clocks) {
-  for (std::uint64_t i = 0; i < board_clocks && from_board_.empty(); ++i) clock();
+  run(board_clocks, true);
   return !from_board_.empty();
 }
 

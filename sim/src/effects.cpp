@@ -82,7 +82,12 @@ double JointSensorChain::reading_without_backlash(int joint, double true_alpha_d
 Vec3 JointSensorChain::update(const Vec3& true_alpha_deg) {
   Vec3 measured;
   for (int j = 0; j < 3; ++j) {
-    double alpha = scaled_and_transmitted(j, true_alpha_deg[j]);
+    // A joint at rest keeps its angle: the last transmission (the same bits, without libm).
+    if (true_alpha_deg[j] != last_true_alpha_deg_[j]) {
+      last_true_alpha_deg_[j] = true_alpha_deg[j];
+      last_transmitted_deg_[j] = scaled_and_transmitted(j, true_alpha_deg[j]);
+    }
+    double alpha = last_transmitted_deg_[j];
     if (effects_.backlash_deg) alpha = backlash_[j].update(alpha);
     if (effects_.joint_offset_deg) alpha += (*effects_.joint_offset_deg)[j];
     measured[j] = alpha;

@@ -16,9 +16,10 @@ double rotor_side_inertia(const JointPlantParameters& parameters) {
 JointPlant::JointPlant(const JointPlantParameters& parameters, double shaft_angle_deg)
     : parameters_(parameters),
       inertia_kg_m2_(rotor_side_inertia(parameters)),
-      rotor_angle_rad_(shaft_angle_deg * kRadPerDeg * parameters.gear_ratio) {}
+      rotor_angle_rad_(shaft_angle_deg * kRadPerDeg * parameters.gear_ratio),
+      shaft_rad_(rotor_angle_rad_ / parameters.gear_ratio) {}
 
-double JointPlant::shaft_angle_deg() const { return rotor_angle_rad_ / parameters_.gear_ratio * kDegPerRad; }
+double JointPlant::shaft_angle_deg() const { return shaft_rad_ * kDegPerRad; }
 
 std::int32_t JointPlant::encoder_count() const {
   return static_cast<std::int32_t>(std::floor(shaft_angle_deg() / parameters_.encoder_resolution_deg));
@@ -29,8 +30,13 @@ void JointPlant::step(double current_a, double period_s, double extra_load_shaft
   const double motor_nm = parameters_.torque_constant_nm_per_a * std::clamp(current_a, -limit, limit);
   const double dt = period_s / parameters_.substeps;
   for (int n = 0; n < parameters_.substeps; ++n) {
-    const double shaft_rad = rotor_angle_rad_ / parameters_.gear_ratio;
-    const double load_shaft_nm = parameters_.gravity_nm * std::cos(shaft_rad) + extra_load_shaft_nm;
+    const double shaft_rad = shaft_rad_;
+    // A joint at rest keeps its angle: its cosine is the last one (the same bits, without libm).
+    if (shaft_rad != cos_shaft_rad_) {
+      cos_shaft_rad_ = shaft_rad;
+      cos_shaft_ = std::cos(shaft_rad);
+    }
+    const double load_shaft_nm = parameters_.gravity_nm * cos_shaft_ + extra_load_shaft_nm;
     // Everything except Coulomb friction, referred to the rotor.
     const double drive_nm =
         motor_nm - load_shaft_nm / parameters_.gear_ratio - parameters_.viscous_nm_s_per_rad * rotor_velocity_rad_s_;
@@ -43,6 +49,7 @@ void JointPlant::step(double current_a, double period_s, double extra_load_shaft
     const bool reversed = rotor_velocity_rad_s_ != 0.0 && new_velocity * rotor_velocity_rad_s_ < 0.0;
     rotor_velocity_rad_s_ = reversed ? 0.0 : new_velocity;
     rotor_angle_rad_ += rotor_velocity_rad_s_ * dt;
+    shaft_rad_ = rotor_angle_rad_ / parameters_.gear_ratio;
   }
 }
 

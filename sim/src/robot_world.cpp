@@ -1,6 +1,7 @@
 // The robot around a board, one board clock at a time (see robot_world.hpp).
 #include "delta/robot_world.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -14,12 +15,22 @@ class RobotWorld::Quadrature {
  public:
   Quadrature(int count, int home_count, int dwell) : count_(count), target_(count), home_(home_count), dwell_(dwell) {}
   void set_target(int count) { target_ = count; }
-  // True when the count (and so a line) changed.
+  // True when the count (and so a line) changed. The wait saturates at the dwell (a joint at rest
+  // for hours must not wrap it).
   bool step() {
-    if (++waited_ < dwell_ || count_ == target_) return false;
+    if (waited_ < dwell_) ++waited_;
+    if (waited_ < dwell_ || count_ == target_) return false;
     waited_ = 0;
     count_ += count_ < target_ ? 1 : -1;
     return true;
+  }
+  // Steps up to and including the next one that moves the count (none: `never`).
+  std::uint64_t steps_to_move(std::uint64_t never) const {
+    return count_ == target_ ? never : static_cast<std::uint64_t>(std::max(1, dwell_ - waited_));
+  }
+  // `steps` steps that do not move the count (fewer than steps_to_move()).
+  void wait(std::uint64_t steps) {
+    waited_ = static_cast<int>(std::min<std::uint64_t>(static_cast<std::uint64_t>(dwell_), waited_ + steps));
   }
 
   int count() const { return count_; }
@@ -34,12 +45,56 @@ class RobotWorld::Quadrature {
   int waited_ = 0;
 };
 
+// One joint's PWM levels over the last PWM period, a bit per board cycle (slot = cycle mod the
+// period), and how many of them are high.
+class RobotWorld::PwmHistory {
+ public:
+  explicit PwmHistory(int period) : period_(period), words_(static_cast<std::size_t>((period + 63) / 64), 0) {}
+  int high() const { return high_; }
+  void set(int slot, int level) {
+    std::uint64_t& word = words_[static_cast<std::size_t>(slot >> 6)];
+    const std::uint64_t bit = std::uint64_t{1} << (slot & 63);
+    high_ += level - ((word & bit) ? 1 : 0);
+    word = level ? word | bit : word & ~bit;
+  }
+  // `cycles` cycles from `slot` whose levels are (phase + i) mod period < duty, in pieces that
+  // stay inside one word and wrap neither the slot nor the phase: each piece is a run of ones
+  // then zeros.
+  void fill(int slot, int phase, int duty, std::uint64_t cycles) {
+    while (cycles > 0) {
+      const int bit = slot & 63;
+      const int length = static_cast<int>(std::min<std::uint64_t>(
+          cycles, static_cast<std::uint64_t>(std::min({64 - bit, period_ - slot, period_ - phase}))));
+      const int ones = std::clamp(duty - phase, 0, length);
+      const std::uint64_t range = (length == 64 ? ~std::uint64_t{0} : (std::uint64_t{1} << length) - 1) << bit;
+      const std::uint64_t levels = (ones == 64 ? ~std::uint64_t{0} : (std::uint64_t{1} << ones) - 1) << bit;
+      std::uint64_t& word = words_[static_cast<std::size_t>(slot >> 6)];
+      const std::uint64_t old = word & range;
+      if (old != levels) {  // after a period at the same duty the history already holds these levels
+        high_ += ones - __builtin_popcountll(old);
+        word = (word & ~range) | levels;
+      }
+      cycles -= static_cast<std::uint64_t>(length);
+      slot += length;
+      if (slot == period_) slot = 0;
+      phase += length;
+      if (phase == period_) phase = 0;
+    }
+  }
+
+ private:
+  int period_;
+  std::vector<std::uint64_t> words_;
+  int high_ = 0;
+};
+
 RobotWorld::RobotWorld(const BoardInterface& board, const EffectSet& effects, const Geometry& nominal,
                        const JointPlantParameters& plant)
     : board_(board), effects_(effects), true_geometry_(apply_geometry_effects(nominal, effects)), sensors_(effects) {
   if (!(board.board_clock_hz > 0.0) || board.pwm_period_cycles <= 0 || board.plant_divider <= 0) {
     throw std::invalid_argument("RobotWorld: board clock, PWM period and plant divider must be positive");
   }
+  plant_step_s_ = board.plant_divider / board.board_clock_hz;
   // Home: the encoders read the home count with the plate at rest there.
   for (int j = 0; j < 3; ++j) home_true_alpha_deg_[j] = true_angle_for_reading(j, board.home_count * board.count_deg);
   const FkSolution home = forward_kinematics(true_geometry_, home_true_alpha_deg_);
@@ -51,7 +106,7 @@ RobotWorld::RobotWorld(const BoardInterface& board, const EffectSet& effects, co
   for (int j = 0; j < 3; ++j) {
     plants_[j] = std::make_unique<JointPlant>(plant_parameters, home_true_alpha_deg_[j]);
     encoders_[j] = std::make_unique<Quadrature>(board.home_count, board.home_count, board.quadrature_dwell);
-    pwm_history_[j].assign(static_cast<std::size_t>(board.pwm_period_cycles), 0);
+    pwm_history_[j] = std::make_unique<PwmHistory>(board.pwm_period_cycles);
   }
   true_alpha_deg_ = home_true_alpha_deg_;
   reading_deg_ = sensors_.update(true_alpha_deg_);  // the backlash starts centred at home
@@ -71,11 +126,13 @@ double RobotWorld::true_angle_for_reading(int joint, double reading_deg) const {
   }
   for (int i = 0; i < 80; ++i) {
     const double mid = 0.5 * (low + high);
+    const double last_low = low, last_high = high;
     if (error(mid) * error(low) <= 0) {
       high = mid;
     } else {
       low = mid;
     }
+    if (low == last_low && high == last_high) break;  // converged: every further step repeats this one
   }
   return 0.5 * (low + high);
 }
@@ -85,18 +142,15 @@ void RobotWorld::step(const DrivePins& pins) {
   // slot = cycle_ mod the PWM period, phase = cycle_ mod the plant divider (counters, not divisions).
   const std::size_t slot = pwm_slot_;
   if (++pwm_slot_ == static_cast<std::size_t>(board_.pwm_period_cycles)) pwm_slot_ = 0;
-  for (int j = 0; j < 3; ++j) {
-    const std::uint8_t high = (pins.pwm >> j) & 1;
-    pwm_high_[j] += high - pwm_history_[j][slot];
-    pwm_history_[j][slot] = high;
-  }
+  for (int j = 0; j < 3; ++j) pwm_history_[j]->set(static_cast<int>(slot), (pins.pwm >> j) & 1);
   const bool plant_step = plant_phase_ == board_.plant_divider - 1;
   if (++plant_phase_ == board_.plant_divider) plant_phase_ = 0;
   if (plant_step) {
     for (int j = 0; j < 3; ++j) {
       const double sign = ((pins.direction >> j) & 1) ? -1.0 : 1.0;
-      current_a_[j] = pins.enable ? sign * board_.current_full_scale_a * pwm_high_[j] / board_.pwm_period_cycles : 0.0;
-      plants_[j]->step(current_a_[j], board_.plant_divider / board_.board_clock_hz);
+      current_a_[j] =
+          pins.enable ? sign * board_.current_full_scale_a * pwm_history_[j]->high() / board_.pwm_period_cycles : 0.0;
+      plants_[j]->step(current_a_[j], plant_step_s_);
       true_alpha_deg_[j] = plants_[j]->shaft_angle_deg();
     }
     reading_deg_ = sensors_.update(true_alpha_deg_);
@@ -109,6 +163,39 @@ void RobotWorld::step(const DrivePins& pins) {
   bool moved = false;
   for (auto& encoder : encoders_) moved |= encoder->step();
   if (moved) update_lines();
+}
+
+std::uint64_t RobotWorld::cycles_to_event() const {
+  std::uint64_t cycles = static_cast<std::uint64_t>(board_.plant_divider - plant_phase_);
+  for (const auto& encoder : encoders_) cycles = encoder->steps_to_move(cycles);
+  return cycles;
+}
+
+void RobotWorld::advance(std::uint64_t cycles, const DrivePattern& pattern) {
+  const int period = board_.pwm_period_cycles;
+  // The cycles before the last: the PWM history and the counters only.
+  const std::uint64_t quiet = cycles - 1;
+  for (int j = 0; j < 3; ++j) {
+    pwm_history_[j]->fill(static_cast<int>(pwm_slot_), pattern.phase, pattern.enable ? pattern.duty[j] : 0, quiet);
+  }
+  pwm_slot_ += quiet;
+  if (pwm_slot_ >= static_cast<std::size_t>(period)) pwm_slot_ %= static_cast<std::size_t>(period);
+  plant_phase_ += static_cast<int>(quiet);
+  cycle_ += quiet;
+  for (auto& encoder : encoders_) encoder->wait(quiet);
+  step(pattern.pins(quiet, period));
+}
+
+DrivePins DrivePattern::pins(std::uint64_t cycle, int pwm_period_cycles) const {
+  std::uint64_t level_phase = static_cast<std::uint64_t>(phase) + cycle;
+  if (level_phase >= static_cast<std::uint64_t>(pwm_period_cycles)) level_phase %= pwm_period_cycles;
+  DrivePins out;
+  for (int j = 0; j < 3; ++j) {
+    if (enable && level_phase < static_cast<std::uint64_t>(std::max(duty[j], 0))) out.pwm |= 1 << j;
+  }
+  out.direction = direction;
+  out.enable = enable;
+  return out;
 }
 
 void RobotWorld::update_lines() {

@@ -6,6 +6,7 @@
 
 #include <array>
 #include <cmath>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -107,6 +108,9 @@ class JointSensorChain {
 
   EffectSet effects_;
   std::array<Backlash, 3> backlash_;
+  // update()'s last scaled and transmitted angles and their true angles (NaN: none yet).
+  Vec3 last_true_alpha_deg_ = Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
+  Vec3 last_transmitted_deg_ = Vec3::Zero();
 };
 
 // Round to the nearest multiple of a resolution (encoder counts, stage counts).

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 
 namespace delta {
 
@@ -45,7 +46,10 @@ class JointPlant {
   JointPlantParameters parameters_;
   double inertia_kg_m2_;
   double rotor_angle_rad_;
+  double shaft_rad_;  // rotor_angle_rad_ / gear_ratio, divided once per change
   double rotor_velocity_rad_s_ = 0.0;
+  double cos_shaft_rad_ = std::numeric_limits<double>::quiet_NaN();  // the last cosine's argument (NaN: none)
+  double cos_shaft_ = 0.0;
 };
 
 }  // namespace delta

@@ -39,6 +39,18 @@ struct DrivePins {
   bool enable = false;
 };
 
+// The drive pins over a run of board cycles in which only a free-running PWM phase counter moves:
+// in cycle i of the run (0, 1, ...) joint j's PWM level is
+//   enable && (phase + i) mod pwm_period_cycles < duty[j],
+// direction and enable as given (the board's PWM compare with its duties held).
+struct DrivePattern {
+  int phase = 0;              // the PWM phase counter the first cycle's level was compared with
+  std::array<int, 3> duty{};  // PWM cycles high per period (>= the period: always high)
+  int direction = 0;          // as DrivePins
+  bool enable = false;
+  DrivePins pins(std::uint64_t cycle, int pwm_period_cycles) const;  // the pins of cycle i of the run
+};
+
 class RobotWorld {
  public:
   // Places the plants where the encoders read the home count (the arms on their home fixture)
@@ -53,6 +65,13 @@ class RobotWorld {
   // plant_divider cycles; then the encoder lines of the next cycle, one quadrature state closer to
   // the reading.
   void step(const DrivePins& pins);
+
+  // Board cycles from now up to and including the next one whose step() integrates the plants or
+  // moves an encoder line (at least 1): the cycles before it change only counters.
+  std::uint64_t cycles_to_event() const;
+  // `cycles` board cycles (1 .. cycles_to_event()) with the drive pins of `pattern`: exactly what
+  // as many step() calls with those pins do, the cycles before the last without calling step().
+  void advance(std::uint64_t cycles, const DrivePattern& pattern);
 
   int encoder_a() const { return lines_a_; }  // bit j: joint j's A line for the next board cycle
   int encoder_b() const { return lines_b_; }
@@ -77,13 +96,14 @@ class RobotWorld {
   void update_lines();  // lines_a_, lines_b_ from the encoders
 
   BoardInterface board_;
+  double plant_step_s_ = 0.0;  // plant_divider board cycles [s]
   EffectSet effects_;
   Geometry true_geometry_;
   JointSensorChain sensors_;
   std::array<std::unique_ptr<JointPlant>, 3> plants_;
   std::array<std::unique_ptr<Quadrature>, 3> encoders_;
-  std::array<std::vector<std::uint8_t>, 3> pwm_history_;
-  std::array<int, 3> pwm_high_{0, 0, 0};
+  class PwmHistory;
+  std::array<std::unique_ptr<PwmHistory>, 3> pwm_history_;
   Vec3 true_alpha_deg_ = Vec3::Zero();
   Vec3 reading_deg_ = Vec3::Zero();
   Vec3 current_a_ = Vec3::Zero();

@@ -18,6 +18,7 @@
 #include <string>
 
 #include "delta/golden/fixed_network.hpp"
+#include "delta/robot_world.hpp"
 
 namespace delta::cosim {
 
@@ -43,7 +44,17 @@ class ModelBoard {
   void clock(int uart_rx, int encoder_a, int encoder_b);
   const ModelBoardPins& pins() const { return pins_; }
 
+  // Up to `limit` clocks at once with the pins held, if they are clocks that only count: the
+  // UARTs inside a bit, the tick between the period's events, the controller between its stores,
+  // the PWM phase, the synchronisers taking the held pins (the quadrature counters counting a
+  // change of the encoder lines; a skipped state ends the run). Returns how many it took
+  // (0: none, clock() the next one) and the drive pins it showed in them (`pattern`); the state
+  // after them is exactly what as many clock() calls leave.
+  std::uint64_t skip(std::uint64_t limit, int uart_rx, int encoder_a, int encoder_b, DrivePattern* pattern);
+
  private:
+  void settle();
+  bool quiet() const;
   bool quiet_clock(int uart_rx, int encoder_a, int encoder_b);
 
   struct Memories;
@@ -51,6 +62,7 @@ class ModelBoard {
   golden::QuantisedNetwork network_;
   std::unique_ptr<Memories> memories_;
   std::unique_ptr<State> state_;
+  std::unique_ptr<State> next_state_;  // clock()'s next values
   ModelBoardPins pins_;
 };
 

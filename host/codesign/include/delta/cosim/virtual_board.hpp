@@ -114,6 +114,8 @@ class VirtualBoard {
   class Core;
   void clock();
   void clock_model();
+  bool skip_model(std::uint64_t limit);
+  void run(std::uint64_t board_clocks, bool until_byte);
   void observe(bool drives_enabled);
 
   std::unique_ptr<Core> core_;

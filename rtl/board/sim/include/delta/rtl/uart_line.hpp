@@ -52,6 +52,53 @@ class UartLine {
   }
   std::uint8_t byte() const { return byte_; }
 
+  // Runs of cycles at once (a board model that skips clocks in which its pins hold), exactly as
+  // many rx_pin() or sample_tx_pin() calls.
+  // RX pin: cycles its present level still holds (0 when idle: high for ever).
+  int rx_pin_level() const { return tx_bits_.empty() ? 1 : tx_bits_.front(); }
+  int rx_pin_holds() const { return tx_bits_.empty() ? 0 : clocks_per_bit_ - tx_phase_; }
+  // The RX pin's level for `cycles` cycles (while sending, at most rx_pin_holds()).
+  int hold_rx_pin(int cycles) {
+    if (tx_bits_.empty()) return 1;
+    const int bit = tx_bits_.front();
+    tx_phase_ += cycles;
+    if (tx_phase_ == clocks_per_bit_) {
+      tx_phase_ = 0;
+      tx_bits_.pop_front();
+    }
+    return bit;
+  }
+  // TX pin held at `level`: cycles up to and including the one that completes a byte (-1: none would).
+  int tx_cycles_to_byte(int level) const {
+    const int stop_sample = clocks_per_bit_ / 2 + 9 * clocks_per_bit_;
+    if (rx_phase_ >= 0) return stop_sample - rx_phase_;
+    return level == 0 ? stop_sample + 1 : -1;
+  }
+  // `cycles` cycles of the TX pin at `level` (at most tx_cycles_to_byte()); true when the last
+  // completed a byte.
+  bool hold_tx_pin(int level, int cycles) {
+    if (rx_phase_ < 0) {
+      if (level != 0) return false;
+      rx_phase_ = 0;
+      --cycles;
+    }
+    const int from = rx_phase_ + 1;
+    rx_phase_ += cycles;
+    // Bit b is sampled at phase clocks_per_bit / 2 + b clocks_per_bit (0 start, 1..8 data, 9 stop).
+    const int half = clocks_per_bit_ / 2;
+    for (int b = from <= half ? 0 : (from - half + clocks_per_bit_ - 1) / clocks_per_bit_;
+         half + b * clocks_per_bit_ <= rx_phase_; ++b) {
+      if (b >= 1 && b <= 8) rx_byte_ |= level << (b - 1);
+      if (b == 9) {
+        byte_ = static_cast<std::uint8_t>(rx_byte_);
+        rx_byte_ = 0;
+        rx_phase_ = -1;
+        return true;
+      }
+    }
+    return false;
+  }
+
  private:
   int clocks_per_bit_;
   std::deque<int> tx_bits_;
