@@ -40,7 +40,12 @@ class RtlIkBackend : public IkBackend {
 
   bool has_raw_codes() const override { return true; }
 
-  std::vector<IkRow> evaluate(const std::vector<Vec3>& positions_m) override {
+  bool has_time_ordered_parts() const override { return weights_.deployed(); }
+
+  std::vector<IkRow> evaluate(const std::vector<Vec3>& positions_m, bool in_time_order) override {
+    if (in_time_order && weights_.deployed()) {
+      throw std::invalid_argument("the rtl back end has no backlash compensation yet: use --pose-wise");
+    }
     std::vector<IkRow> rows(positions_m.size());
     for (std::size_t i = 0; i < positions_m.size(); ++i) {
       bool clamped = false;
