@@ -152,6 +152,11 @@ ModelTraining train_model(const Recording& recording, const std::string& model, 
   if (model != "network" && model != "hybrid" && model != "deployed") {
     throw std::invalid_argument("unknown model '" + model + "' (choose deployed, network or hybrid)");
   }
+  // The deployed model adds anchor poses: count the recording's own samples first.
+  if (recording.samples.size() < kMinTrainingSamples) {
+    throw InputError(recording.path, 0,
+                     "training needs at least " + std::to_string(kMinTrainingSamples) + " samples");
+  }
   ModelTraining result;
   result.weights.model = model;
   std::vector<Vec3> inputs, targets;
