@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Benchmark of the float network: training time to convergence on the 13333-sample validation run of
-# the paper-like robot (seeds 1..3), and inference time per pose against the closed-form kinematics.
+# the paper-like robot (seeds 1..3; deployed, network, hybrid), and inference time per pose against the closed-form kinematics.
 # BUILD selects the build folder (default build/). Prints Markdown tables.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -16,7 +16,7 @@ echo "Training: deltactl train on 13333 samples (paper-like validation run), $(n
 echo
 echo "| model | seed | epochs | stopped by | validation RMSE [deg] | wall time [s] | CPU time [s] |"
 echo "|---|---|---|---|---|---|---|"
-for model in network hybrid; do
+for model in deployed network hybrid; do
   for seed in 1 2 3; do
     /usr/bin/time -f "%e %U %S" -o "$work/time" \
       "$deltactl" train --model "$model" --data "$work/fit.csv" --out "$work/w.json" --seed "$seed" 2>"$work/log"

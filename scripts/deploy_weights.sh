@@ -44,7 +44,8 @@ started=$SECONDS
 
 if [[ -z $weights ]]; then
   step "1. retrain the network on $data (seed $seed) -> $out/W.json"
-  "$deltactl" train --data "$data" --out "$out/W.json" --seed "$seed" 2>"$out/train.log"
+  # The board's gateware runs the plain network (the deployed model's compensation is not in it yet).
+  "$deltactl" train --model network --data "$data" --out "$out/W.json" --seed "$seed" 2>"$out/train.log"
   tail -2 "$out/train.log"
   weights=$out/W.json
 else

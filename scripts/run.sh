@@ -22,22 +22,25 @@ $deltactl simulate --experiment validation --effects "$effects" --seed 1 --out "
 $deltactl simulate --experiment sweep --effects "$effects" --seed 7 --out "$out/check.csv"
 $deltactl compare --data "$out/fit.csv" --plot "$out/validation_errors.png"
 
-section "2. Table 1 on a held-out sweep: math model, shipped network ($weights) and hybrid"
+section "2. Table 1 on a held-out sweep: math model, shipped network ($weights), hybrid, deployed model"
 $deltactl table1 --data "$out/fit.csv" --holdout "$out/check.csv" \
-  --network "$weights" --hybrid weights/paper_like_hybrid.json
+  --network "$weights" --hybrid weights/paper_like_hybrid.json --deployed weights/paper_like_deployed.json
 
-section "3. The network in fixed point (golden model), HLS C++ and RTL: raw output codes"
-for backend in float fixed hls rtl; do
-  $deltactl ik --weights "$weights" --backend "$backend" --in "$out/check.csv" --out "$out/ik_$backend.csv"
-done
+section "3. The network (and the deployed model, rows in time order) in fixed point (golden model), HLS C++ and RTL"
 raw_columns() { cut -d, -f4-6 "$1"; }
-if cmp -s <(raw_columns "$out/ik_fixed.csv") <(raw_columns "$out/ik_hls.csv") &&
-   cmp -s <(raw_columns "$out/ik_fixed.csv") <(raw_columns "$out/ik_rtl.csv"); then
-  echo "fixed, hls and rtl: identical raw codes on all $(($(wc -l < "$out/ik_fixed.csv") - 1)) poses"
-else
-  echo "MISMATCH: raw codes differ between back ends (see $out/ik_*.csv)" >&2
-  exit 1
-fi
+for model in "$weights" weights/paper_like_deployed.json; do
+  name=$(basename "$model" .json)
+  for backend in float fixed hls rtl; do
+    $deltactl ik --weights "$model" --backend "$backend" --in "$out/check.csv" --out "$out/ik_${name}_$backend.csv"
+  done
+  if cmp -s <(raw_columns "$out/ik_${name}_fixed.csv") <(raw_columns "$out/ik_${name}_hls.csv") &&
+     cmp -s <(raw_columns "$out/ik_${name}_fixed.csv") <(raw_columns "$out/ik_${name}_rtl.csv"); then
+    echo "$name: fixed, hls and rtl: identical raw codes on all $(($(wc -l < "$out/ik_${name}_fixed.csv") - 1)) poses"
+  else
+    echo "MISMATCH: raw codes differ between back ends (see $out/ik_${name}_*.csv)" >&2
+    exit 1
+  fi
+done
 
 section "4. Joint controllers in closed loop (double vs fixed point, single-joint plant)"
 $deltactl joint-loop --plot "$out/joint_loop.png"

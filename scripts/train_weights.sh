@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Regenerates the shipped weights (weights/paper_like.json, weights/paper_like_hybrid.json) bit for bit:
+# Regenerates the shipped weights (weights/paper_like.json, paper_like_hybrid.json, paper_like_deployed.json)
+# bit for bit:
 # records the paper's validation trajectory on the paper-like virtual robot and trains on it, seed 1.
 # BUILD selects the build folder (default build/, configured by scripts/build.sh).
 set -euo pipefail
@@ -17,7 +18,10 @@ mkdir -p "$data"
 cd "$data"
 "$deltactl" simulate --experiment validation --effects "$root/sim/paper_like_effects.json" --seed 1 \
   --out paper_like_validation_seed1.csv
-"$deltactl" train --data paper_like_validation_seed1.csv --seed 1 --out "$root/weights/paper_like.json"
+"$deltactl" train --model network --data paper_like_validation_seed1.csv --seed 1 --out "$root/weights/paper_like.json"
 "$deltactl" train --model hybrid --data paper_like_validation_seed1.csv --seed 1 \
   --out "$root/weights/paper_like_hybrid.json"
-echo "train_weights: wrote weights/paper_like.json and weights/paper_like_hybrid.json (git diff shows any change)"
+"$deltactl" train --model deployed --data paper_like_validation_seed1.csv --seed 1 \
+  --out "$root/weights/paper_like_deployed.json"
+echo "train_weights: wrote weights/paper_like.json, paper_like_hybrid.json and paper_like_deployed.json" \
+  "(git diff shows any change)"

@@ -7,6 +7,8 @@ delta_add_gtest(fixed_point_tests
     ${CMAKE_CURRENT_LIST_DIR}/fixed_point/test_golden.cpp
     ${CMAKE_CURRENT_LIST_DIR}/fixed_point/test_hls_csim.cpp
     ${CMAKE_CURRENT_LIST_DIR}/fixed_point/test_cli_fixed.cpp
+    ${CMAKE_CURRENT_LIST_DIR}/fixed_point/test_backlash_compensation.cpp
+    ${CMAKE_CURRENT_LIST_DIR}/fixed_point/test_deployed_model.cpp
   LIBRARIES delta::golden delta::hls_network
   LABELS fixed_point)
 target_include_directories(fixed_point_tests PRIVATE ${CMAKE_CURRENT_LIST_DIR})

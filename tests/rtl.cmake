@@ -9,6 +9,18 @@ delta_add_gtest(rtl_network_tests
   LABELS rtl)
 target_include_directories(rtl_network_tests PRIVATE ${CMAKE_CURRENT_LIST_DIR}/rtl)
 
+# The deployed model's backlash compensation: RTL, and its gate-level netlist.
+delta_add_gtest(rtl_compensation_tests
+  SOURCES ${CMAKE_CURRENT_LIST_DIR}/rtl/test_backlash_compensation_rtl.cpp
+  LIBRARIES delta::rtl_network
+  LABELS rtl)
+delta_add_gtest(rtl_compensation_gate_level_tests
+  SOURCES ${CMAKE_CURRENT_LIST_DIR}/rtl/test_backlash_compensation_rtl.cpp
+  LIBRARIES delta_rtl_compensation_gate_model delta::golden
+  LABELS rtl)
+target_include_directories(rtl_compensation_gate_level_tests PRIVATE ${PROJECT_SOURCE_DIR}/rtl/network/sim/include)
+target_compile_definitions(rtl_compensation_gate_level_tests PRIVATE DELTA_COMPENSATION_GATE_LEVEL)
+
 delta_add_gtest(rtl_gate_level_tests
   SOURCES ${CMAKE_CURRENT_LIST_DIR}/rtl/test_network_gate_level.cpp
   LIBRARIES delta_rtl_network_gate_model delta::golden

@@ -24,6 +24,7 @@ struct DefaultNetworkConfig {
   static constexpr int hidden_fraction = 17;                                  // h: Q1.17
   static constexpr int output_weight_bits = 24, output_weight_fraction = 17;  // LW', degrees
   static constexpr int output_bits = 24, output_fraction = 14;                // alpha, degrees
+  static constexpr int half_play_bits = 16;  // backlash half-play h, unsigned, output LSBs: [0, 4) deg
   // Input gains 2^-e_j are powers of two in [2^-3, 2^12] (half ranges from 0.17 mm to 5.3 m).
   static constexpr int input_gain_bits = 16, input_gain_integer = 13;
 
@@ -76,6 +77,12 @@ struct DefaultNetworkConfig {
                           output_accumulator_bits - output_accumulator_fraction>
       output_wide_t;
   typedef fixed_round_sat<output_bits, output_bits - output_fraction> output_t;
+  // Backlash compensation (deployed model): s - r and s -/+ h need one bit above the output; the
+  // new reference itself always fits the output format (hls/README.md, "Backlash compensation").
+  static constexpr int compensation_difference_bits = output_bits + 1;
+  typedef ufixed_exact<half_play_bits, half_play_bits - output_fraction> half_play_t;
+  typedef fixed_exact<compensation_difference_bits, compensation_difference_bits - output_fraction>
+      compensation_difference_t;
   typedef uint_t<3> saturation_t;  // bit 0 scaled input, bit 1 tanh input, bit 2 output
 };
 

@@ -28,8 +28,16 @@ const RegisterIkBackend hls_backend("hls", "the HLS C++ (sc_fixed C-simulation),
                                         out.output_saturated = flags & delta_hls::kOutputSaturated;
                                         return out;
                                       };
+                                      auto compensation = std::make_shared<delta_hls::CompensationCodes<Config>>(
+                                          quantise_compensation_file(weights_path, weights));
+                                      CompensationStep step = [compensation](const std::array<std::int64_t, 3>& codes,
+                                                                             bool first) {
+                                        if (first) compensation->restart();
+                                        return compensation->step(codes);
+                                      };
                                       return std::make_unique<FixedPointIkBackend>("hls", std::move(weights),
-                                                                                   std::move(q), std::move(evaluator));
+                                                                                   std::move(q), std::move(evaluator),
+                                                                                   std::move(step));
                                     });
 
 }  // namespace

@@ -58,16 +58,20 @@ bool is_blank(const std::string& line) { return line.find_first_not_of(" \t\r") 
 
 }  // namespace
 
-CsvTable read_csv(const std::string& path, const std::vector<std::string>& required_columns) {
+CsvTable read_csv(const std::string& path, const std::vector<std::string>& required_columns,
+                  const std::vector<std::string>& optional_columns) {
   std::ifstream input = open_input_file(path);
-  return parse_csv(input, path, required_columns);
+  return parse_csv(input, path, required_columns, optional_columns);
 }
 
-CsvTable parse_csv(std::istream& input, const std::string& path, const std::vector<std::string>& required_columns) {
+CsvTable parse_csv(std::istream& input, const std::string& path, const std::vector<std::string>& required_columns,
+                   const std::vector<std::string>& optional_columns) {
   CsvTable table;
   table.path = path;
   table.columns = required_columns;
-  std::vector<std::size_t> field_index(required_columns.size());
+  table.columns.insert(table.columns.end(), optional_columns.begin(), optional_columns.end());
+  table.present.assign(table.columns.size(), true);
+  std::vector<std::size_t> field_index(table.columns.size());
   std::size_t header_fields = 0;
   bool have_header = false;
   std::string line;
@@ -99,6 +103,13 @@ CsvTable parse_csv(std::istream& input, const std::string& path, const std::vect
         }
         field_index[k] = found;
       }
+      for (std::size_t k = required_columns.size(); k < table.columns.size(); ++k) {
+        field_index[k] = fields.size();
+        for (std::size_t f = 0; f < fields.size(); ++f) {
+          if (trim(fields[f]) == table.columns[k]) field_index[k] = f;
+        }
+        table.present[k] = field_index[k] < fields.size();
+      }
       continue;
     }
     if (fields.size() != header_fields) {
@@ -106,18 +117,19 @@ CsvTable parse_csv(std::istream& input, const std::string& path, const std::vect
                        "wrong field count: " + std::to_string(fields.size()) + " fields, the header has " +
                            std::to_string(header_fields));
     }
-    std::vector<double> row(required_columns.size());
-    for (std::size_t k = 0; k < required_columns.size(); ++k) {
+    std::vector<double> row(table.columns.size(), 0.0);
+    for (std::size_t k = 0; k < table.columns.size(); ++k) {
+      if (!table.present[k]) continue;
       const std::string text = trim(fields[field_index[k]]);
       char* end = nullptr;
       const double value = std::strtod(text.c_str(), &end);
       if (text.empty() || end != text.c_str() + text.size()) {
         throw InputError(path, line_number,
-                         "column '" + required_columns[k] + "': " + quoted_excerpt(text) + " is not a number");
+                         "column '" + table.columns[k] + "': " + quoted_excerpt(text) + " is not a number");
       }
       if (!std::isfinite(value)) {
         throw InputError(path, line_number,
-                         "column '" + required_columns[k] + "': " + quoted_excerpt(text) + " is not finite");
+                         "column '" + table.columns[k] + "': " + quoted_excerpt(text) + " is not finite");
       }
       row[k] = value;
     }

@@ -29,6 +29,13 @@ void check_plausible(const CsvTable& table, std::size_t row, std::size_t first, 
 
 }  // namespace
 
+void check_time_order(const CsvTable& table, std::size_t row, std::size_t column) {
+  if (row == 0 || !(table.rows[row][column] < table.rows[row - 1][column])) return;
+  throw InputError(table.path, table.line_numbers[row],
+                   "time goes backwards (t_s " + format_number(table.rows[row][column]) + " after " +
+                       format_number(table.rows[row - 1][column]) + ")");
+}
+
 Recording read_recording(const std::string& path) {
   const CsvTable table = read_csv(path, {"t_s", "alpha1_deg", "alpha2_deg", "alpha3_deg", "x_m", "y_m", "z_m"});
   Recording recording;
@@ -37,11 +44,7 @@ Recording read_recording(const std::string& path) {
   recording.samples.reserve(table.rows.size());
   for (std::size_t i = 0; i < table.rows.size(); ++i) {
     const std::vector<double>& row = table.rows[i];
-    if (i > 0 && row[0] < recording.samples.back().t_s) {
-      throw InputError(path, table.line_numbers[i],
-                       "time goes backwards (t_s " + format_number(row[0]) + " after " +
-                           format_number(recording.samples.back().t_s) + ")");
-    }
+    check_time_order(table, i, 0);
     check_plausible(table, i, 1, 3, kMaxPlausibleAngleDeg, "deg");
     check_plausible(table, i, 4, 3, kMaxPlausiblePositionM, "m");
     Sample sample;

@@ -23,7 +23,8 @@ TEST(TrainCommand, OneProgressLinePerEpochAndSameSeedSameFile) {
   const std::string a = ::testing::TempDir() + "nn_cli_a.json", b = ::testing::TempDir() + "nn_cli_b.json";
   const auto first = run_deltactl("train --data " + data + " --out " + a + " --seed 2 --hidden 6 --max-epochs 4");
   ASSERT_EQ(first.exit_code, 0) << first.err;
-  EXPECT_EQ(std::count(first.err.begin(), first.err.end(), '\n'), 5) << first.err;  // 4 epochs + summary
+  // 4 epochs, the identified math model (the deployed model's backlash), the summary.
+  EXPECT_EQ(std::count(first.err.begin(), first.err.end(), '\n'), 6) << first.err;
   EXPECT_NE(first.err.find("epoch    4"), std::string::npos) << first.err;
   const auto second =
       run_deltactl("train --data " + data + " --out " + b + " --seed 2 --hidden 6 --max-epochs 4 --threads 1");
@@ -51,7 +52,8 @@ TEST(Table1Command, PrintsEveryModelForFitAndHoldout) {
   const auto result = run_deltactl("table1 --data " + data + " --holdout " + check + " --max-epochs 3 --hidden 8");
   ASSERT_EQ(result.exit_code, 0) << result.err;
   for (const char* row : {"paper: math model", "paper: NN 3-25-3", "ours: math model (nominal)",
-                          "ours: math model + identified effects", "ours: network 3-8-3", "ours: hybrid"}) {
+                          "ours: math model + identified effects", "ours: network 3-8-3", "ours: hybrid",
+                          "ours: deployed, pose-wise", "ours: deployed, in time order"}) {
     const std::size_t first = result.out.find(row);
     ASSERT_NE(first, std::string::npos) << row << "\n" << result.out;
     EXPECT_NE(result.out.find(row, first + 1), std::string::npos) << "one row per recording: " << row;

@@ -78,7 +78,7 @@ TEST(WeightsFile, DeltactlRejectsBrokenFilesWithFileLineReasonAndExitCode2) {
   const std::string in = temp("in.csv");
   write_text(in, "x_m,y_m,z_m\n0,0,-0.075\n");
   const std::vector<BadCase> cases = {
-      {"version", "\"version\": 1", "\"version\": 2", "unsupported weights file version 2"},
+      {"version", "\"version\": 1", "\"version\": 3", "unsupported weights file version 3"},
       {"shape", "\"hidden\": 2", "\"hidden\": 3", "input_weights: expected 3 rows"},
       {"row", "\"output_bias\": [", "\"output_bias\": [1, ", "output_bias: expected an array of 3"},
       {"infinite", "\"hidden_bias\": [", "\"hidden_bias\": [1e999, ", "not finite"},

@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "delta/golden/fixed_network.hpp"
+#include "backlash_compensation.hpp"
 #include "network.hpp"
 
 namespace delta_hls {
@@ -30,6 +31,7 @@ delta::golden::Formats golden_formats() {
   f.output_weight_fraction_bits = C::output_weight_fraction;
   f.output_bits = C::output_bits;
   f.output_fraction_bits = C::output_fraction;
+  f.half_play_bits = C::half_play_bits;
   return f;
 }
 
@@ -41,7 +43,7 @@ inline bool same_formats(const delta::golden::Formats& a, const delta::golden::F
          a.tanh_segments_per_unit_log2 == b.tanh_segments_per_unit_log2 && a.tanh_guard_bits == b.tanh_guard_bits &&
          a.hidden_fraction_bits == b.hidden_fraction_bits && a.output_weight_bits == b.output_weight_bits &&
          a.output_weight_fraction_bits == b.output_weight_fraction_bits && a.output_bits == b.output_bits &&
-         a.output_fraction_bits == b.output_fraction_bits;
+         a.output_fraction_bits == b.output_fraction_bits && a.half_play_bits == b.half_play_bits;
 }
 
 template <class C>
@@ -113,5 +115,35 @@ std::array<std::int64_t, 3> evaluate_codes(const NetworkWeights<C>& weights,
   if (saturation) *saturation = static_cast<unsigned>(flags.to_uint());
   return raw;
 }
+
+// The HLS backlash compensation on raw codes: golden half-plays in, the next references out; the
+// state persists between calls until restart().
+template <class C>
+class CompensationCodes {
+ public:
+  explicit CompensationCodes(const delta::golden::QuantisedCompensation& q) {
+    for (int o = 0; o < C::outputs; ++o) {
+      half_play_[o] = fixed_from_code<typename C::half_play_t, C::half_play_bits + 1, C::output_fraction>(q.half_play[o]);
+    }
+  }
+  void restart() {
+    for (int o = 0; o < C::outputs; ++o) state_.reference[o] = 0;
+    state_.started = false;
+  }
+  std::array<std::int64_t, 3> step(const std::array<std::int64_t, 3>& alpha_code) {
+    typename C::output_t alpha[C::outputs], reference[C::outputs];
+    for (int o = 0; o < C::outputs; ++o) {
+      alpha[o] = fixed_from_code<typename C::output_t, C::output_bits, C::output_fraction>(alpha_code[o]);
+    }
+    backlash_compensation<C>(alpha, half_play_, state_, reference);
+    std::array<std::int64_t, 3> raw{};
+    for (int o = 0; o < C::outputs; ++o) raw[o] = fixed_to_code<C::output_bits, C::output_fraction>(reference[o]);
+    return raw;
+  }
+
+ private:
+  typename C::half_play_t half_play_[C::outputs];
+  CompensationState<C> state_;
+};
 
 }  // namespace delta_hls

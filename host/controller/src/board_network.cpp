@@ -16,6 +16,10 @@ BoardWeights read_board_weights(const std::string& weights_path) {
   if (weights.hybrid()) {
     throw InputError(weights_path, 0, "is a hybrid model; the board runs the network alone (train --model network)");
   }
+  if (weights.deployed()) {
+    throw InputError(weights_path, 0,
+                     "is a deployed model; this gateware has no backlash compensation (train --model network)");
+  }
   if (weights.network.hidden() != 25) {
     throw InputError(weights_path, 0,
                      "has " + std::to_string(weights.network.hidden()) + " hidden neurons; the RTL is built for 25");

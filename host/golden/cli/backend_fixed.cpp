@@ -9,7 +9,9 @@ const RegisterIkBackend fixed_backend(
       nn::WeightsFile weights = nn::read_weights_file(weights_path);
       QuantisedNetwork q = quantise_file(weights_path, weights);
       RawEvaluator evaluator = [q](const std::array<std::int64_t, 3>& codes) { return evaluate_raw(q, codes); };
-      return std::make_unique<FixedPointIkBackend>("fixed", std::move(weights), std::move(q), std::move(evaluator));
+      CompensationStep compensation = golden_compensation(quantise_compensation_file(weights_path, weights));
+      return std::make_unique<FixedPointIkBackend>("fixed", std::move(weights), std::move(q), std::move(evaluator),
+                                                   std::move(compensation));
     });
 
 }  // namespace

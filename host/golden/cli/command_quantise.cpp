@@ -39,6 +39,10 @@ std::string golden_vectors_text(const QuantisedNetwork& q, const nn::Network& ne
 
 void run_quantise(const QuantiseOptions& options) {
   const nn::WeightsFile weights = nn::read_weights_file(options.weights);
+  if (weights.deployed()) {
+    throw InputError(options.weights, 0,
+                     "is a deployed model; the board's ROMs have no backlash compensation yet (train --model network)");
+  }
   QuantisedNetwork q;
   std::vector<ExportFile> files;
   try {

@@ -19,6 +19,7 @@ void Formats::validate() const {
   require(tanh_segments_per_unit_log2 >= 0 && tanh_fraction_shift() >= 0,
           "tanh segments finer than the tanh input LSB");
   require(tanh_guard_bits >= 0 && tanh_guard_bits <= 8, "tanh_guard_bits out of 0..8");
+  require(half_play_bits >= 1 && half_play_bits < output_bits, "half_play_bits out of 1..output_bits - 1");
   require(hidden_accumulator_fraction_bits() >= tanh_input_fraction_bits,
           "tanh input finer than the hidden accumulator");
   require(output_accumulator_fraction_bits() >= output_fraction_bits, "output finer than its accumulator");
@@ -196,6 +197,39 @@ std::array<std::int64_t, 3> encode_position(const Formats& formats, const Vec3& 
 
 double decode_angle_deg(const Formats& formats, std::int64_t raw) {
   return std::ldexp(static_cast<double>(raw), -formats.output_fraction_bits);
+}
+
+QuantisedCompensation quantise_compensation(const Vec3& half_play_deg, const Formats& formats) {
+  formats.validate();
+  QuantisedCompensation q;
+  for (int j = 0; j < 3; ++j) {
+    const std::string what = "backlash half-play of joint " + std::to_string(j + 1);
+    if (!(half_play_deg[j] >= 0.0)) throw std::invalid_argument(what + " must be a number >= 0");
+    const double scaled = std::floor(std::ldexp(half_play_deg[j], formats.output_fraction_bits) + 0.5);
+    if (scaled > std::ldexp(1.0, formats.half_play_bits) - 1.0) {
+      throw std::invalid_argument(what + " (" + std::to_string(half_play_deg[j]) + " deg) does not fit " +
+                                  std::to_string(formats.half_play_bits) + " unsigned bits of output LSBs");
+    }
+    q.half_play[j] = static_cast<std::int64_t>(scaled);
+  }
+  return q;
+}
+
+std::int64_t compensate_joint(std::int64_t half_play, std::int64_t static_code, std::int64_t reference, bool started) {
+  if (!started) return static_code;
+  const std::int64_t difference = static_code - reference;
+  if (difference > half_play) return static_code - half_play;
+  if (difference < -half_play) return static_code + half_play;
+  return reference;
+}
+
+std::array<std::int64_t, 3> compensate(const QuantisedCompensation& compensation, CompensationState& state,
+                                       const std::array<std::int64_t, 3>& static_codes) {
+  for (int j = 0; j < 3; ++j) {
+    state.reference[j] = compensate_joint(compensation.half_play[j], static_codes[j], state.reference[j], state.started);
+  }
+  state.started = true;
+  return state.reference;
 }
 
 }  // namespace delta::golden

@@ -10,17 +10,21 @@ namespace delta {
 
 struct CsvTable {
   std::string path;
-  std::vector<std::string> columns;       // the requested columns, in request order
-  std::vector<std::vector<double>> rows;  // rows[i][k]: requested column k of data row i
+  std::vector<std::string> columns;       // the requested columns, in request order (required, then optional)
+  std::vector<bool> present;              // present[k]: column k is in the file (always for required ones)
+  std::vector<std::vector<double>> rows;  // rows[i][k]: requested column k of data row i (0 when absent)
   std::vector<std::size_t> line_numbers;  // file line of each data row, for later errors
 };
 
 // Reads the requested columns; all of them must be present, numeric and finite on every row.
 // Throws InputError for a missing file, an empty file (no header or no data), a missing column,
 // a wrong field count, or a non-numeric or non-finite field.
-CsvTable read_csv(const std::string& path, const std::vector<std::string>& required_columns);
+// Optional columns are read (with the same checks) when the header names them.
+CsvTable read_csv(const std::string& path, const std::vector<std::string>& required_columns,
+                  const std::vector<std::string>& optional_columns = {});
 
 // The same on an open stream; `path` names it in errors (the fuzzer feeds bytes this way).
-CsvTable parse_csv(std::istream& input, const std::string& path, const std::vector<std::string>& required_columns);
+CsvTable parse_csv(std::istream& input, const std::string& path, const std::vector<std::string>& required_columns,
+                   const std::vector<std::string>& optional_columns = {});
 
 }  // namespace delta

@@ -23,8 +23,13 @@ class IkBackend {
  public:
   virtual ~IkBackend() = default;
   virtual bool has_raw_codes() const { return false; }
-  // One row per position, in order. Faults are reported per row, never as NaN.
-  virtual std::vector<IkRow> evaluate(const std::vector<Vec3>& positions_m) = 0;
+  // One row per position, in order. Faults are reported per row, never as NaN. With in_time_order
+  // the positions are one recording's rows in time order, and the model's time-ordered parts (the
+  // deployed model's backlash compensation, started afresh at the first row) apply; without it
+  // every pose stands alone. Models without such parts ignore the flag.
+  virtual std::vector<IkRow> evaluate(const std::vector<Vec3>& positions_m, bool in_time_order) = 0;
+  // Whether the model has parts that depend on the order of the rows.
+  virtual bool has_time_ordered_parts() const { return false; }
   // Counters worth reporting after a run (saturations, out-of-range inputs), as "name: value".
   virtual std::vector<std::string> report() const { return {}; }
 };

@@ -14,6 +14,12 @@ struct Recording {
   std::vector<std::size_t> line_numbers;  // file line of each sample
 };
 
+struct CsvTable;
+
+// Throws InputError naming the file and line when row `row`'s time (column `column`, seconds) is
+// before the previous row's: SPEC recordings are in time order.
+void check_time_order(const CsvTable& table, std::size_t row, std::size_t column);
+
 // Throws InputError (file, line, reason) on any SPEC violation, including time going backwards.
 Recording read_recording(const std::string& path);
 

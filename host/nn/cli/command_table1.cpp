@@ -1,4 +1,5 @@
-// deltactl table1: the paper's Table 1 on held-out recordings: math model, network and hybrid.
+// deltactl table1: the paper's Table 1 on held-out recordings: math model, network, hybrid and the
+// deployed model (in time order and pose-wise).
 #include <functional>
 #include <iostream>
 #include <memory>
@@ -24,8 +25,10 @@ struct Table1Options {
   std::vector<std::string> holdouts;
   std::string network_weights;  // given: skip training the network
   std::string hybrid_weights;   // given: skip training the hybrid
+  std::string deployed_weights;  // given: skip training the deployed model
   std::string save_network;
   std::string save_hybrid;
+  std::string save_deployed;
   TrainingOptions training;
 };
 
@@ -84,11 +87,13 @@ void run_table1(const Table1Options& options) {
   std::vector<Recording> holdouts;
   for (const std::string& path : options.holdouts) holdouts.push_back(read_recording(path));
   // Saved networks are opened first (a bad path fails before training) and appear together at the end.
-  std::optional<OutputFile> save_network, save_hybrid;
+  std::optional<OutputFile> save_network, save_hybrid, save_deployed;
   if (!options.save_network.empty()) save_network.emplace(options.save_network);
   if (!options.save_hybrid.empty()) save_hybrid.emplace(options.save_hybrid);
+  if (!options.save_deployed.empty()) save_deployed.emplace(options.save_deployed);
   const WeightsFile network = obtain(options.network_weights, "network", data, options.training, save_network);
   const WeightsFile hybrid = obtain(options.hybrid_weights, "hybrid", data, options.training, save_hybrid);
+  const WeightsFile deployed = obtain(options.deployed_weights, "deployed", data, options.training, save_deployed);
   const std::string hidden = std::to_string(network.network.hidden());
   std::cout << "Table 1: joint-angle error (measured - model) in degrees. Paper: its robot, over the whole\n"
                "recorded set. Ours: models fitted on "
@@ -108,24 +113,35 @@ void run_table1(const Table1Options& options) {
         {"ours: math model + identified effects",
          [&hybrid](const Vec3& p) { return math_model_angles(hybrid.effects, p); }},
         {"ours: network 3-" + hidden + "-3", [&network](const Vec3& p) { return evaluate_model(network, p); }},
-        {"ours: hybrid (identified model + network)", [&hybrid](const Vec3& p) { return evaluate_model(hybrid, p); }}};
+        {"ours: hybrid (identified model + network)", [&hybrid](const Vec3& p) { return evaluate_model(hybrid, p); }},
+        {"ours: deployed, pose-wise (static network)",
+         [&deployed](const Vec3& p) { return evaluate_model(deployed, p); }},
+        // The rows of a recording come in time order: the compensation follows them.
+        {"ours: deployed, in time order (+ backlash compensation)",
+         [&deployed, play = std::make_shared<BacklashCompensation>(deployed.backlash_half_play_deg)](const Vec3& p) {
+           IkSolution solution = evaluate_model(deployed, p);
+           if (solution.ok()) solution.alpha_deg = play->update(solution.alpha_deg);
+           return solution;
+         }}};
     for (const auto& [name, model] : models) add_row(table, name, model_stats(*recording, name, model));
     table.print(std::cout);
   }
-  for (auto* save : {&save_network, &save_hybrid})
+  for (auto* save : {&save_network, &save_hybrid, &save_deployed})
     if (*save) (*save)->finish();
-  for (auto* save : {&save_network, &save_hybrid})
+  for (auto* save : {&save_network, &save_hybrid, &save_deployed})
     if (*save) (*save)->commit();
 }
 
 const RegisterCommand command("table1", 45, [](CLI::App& root) {
   auto options = std::make_shared<Table1Options>();
-  CLI::App* sub = root.add_subcommand("table1", "The paper's Table 1 on held-out data: math model, network, hybrid");
+  CLI::App* sub =
+      root.add_subcommand("table1", "The paper's Table 1 on held-out data: math model, network, hybrid, deployed");
   sub->footer(
-      "\nFits the network and the hybrid on FIT (as 'deltactl train' does, or loads them with --network and\n"
-      "--hybrid), then prints RMSE and MAE per joint as Markdown tables, the paper's figures beside ours, for\n"
-      "FIT and for every --holdout recording. Rows: the nominal math model, the math model with the effects\n"
-      "the hybrid identified, the pure network, and the hybrid (identified model + network on the residual).\n"
+      "\nFits the network, the hybrid and the deployed model on FIT (as 'deltactl train' does, or loads them with\n"
+      "--network, --hybrid and --deployed), then prints RMSE and MAE per joint as Markdown tables, the paper's\n"
+      "figures beside ours, for FIT and for every --holdout recording. Rows: the nominal math model, the math\n"
+      "model with the effects the hybrid identified, the pure network, the hybrid (identified model + network\n"
+      "on the residual), and the deployed model pose-wise and in time order (the recording's rows, in float).\n"
       "Example: deltactl table1 --data fit.csv --holdout sweep.csv --holdout experiment1.csv");
   sub->add_option("--data", options->data, "recording the models are fitted on (SPEC CSV)")->required();
   sub->add_option("--holdout", options->holdouts, "recording never seen in training (repeatable)")->required();
@@ -133,6 +149,8 @@ const RegisterCommand command("table1", 45, [](CLI::App& root) {
   sub->add_option("--hybrid", options->hybrid_weights, "use this hybrid W.json instead of training one");
   sub->add_option("--save-network", options->save_network, "write the trained network here");
   sub->add_option("--save-hybrid", options->save_hybrid, "write the trained hybrid here");
+  sub->add_option("--deployed", options->deployed_weights, "use this deployed W.json instead of training one");
+  sub->add_option("--save-deployed", options->save_deployed, "write the trained deployed model here");
   add_training_options(sub, options->training);
   sub->callback([options] { run_table1(*options); });
 });

@@ -1,4 +1,5 @@
-// deltactl train: fit the inverse-kinematics network (or the hybrid) to a recording -> W.json.
+// deltactl train: fit the inverse-kinematics model (deployed by default, or the plain network, or the
+// hybrid) to a recording -> W.json.
 #include <chrono>
 #include <iostream>
 #include <memory>
@@ -18,7 +19,7 @@ namespace {
 struct TrainOptions {
   std::string data;
   std::string out;
-  std::string model = "network";
+  std::string model = "deployed";
   TrainingOptions training;
 };
 
@@ -55,16 +56,22 @@ const RegisterCommand command("train", 40, [](CLI::App& root) {
       "A seeded share of the samples (--validation) is held out: training stops when it has not improved\n"
       "for 6 epochs in a row, when the training error has plateaued (< 1 % over 25 epochs), or at\n"
       "--max-epochs; the weights with the best validation error are kept. One line per epoch on stderr.\n"
-      "--model hybrid first fits the math model's effects (geometry per chain, joint offsets, encoder\n"
-      "scales, frame tilt and shift, backlash; in time order) and trains the network on what remains.\n"
+      "--model deployed (the default: what the board runs) first fits the math model's effects (geometry\n"
+      "per chain, joint offsets, encoder scales, frame tilt and shift, backlash; in time order), trains the\n"
+      "network on the recording without the identified backlash, and keeps the identified half-play: in\n"
+      "time order (ik on rows with t_s, the board's setpoints) each joint's answer passes that play.\n"
+      "--model network is the paper's plain network on the recording as it is.\n"
+      "--model hybrid fits the same effects and trains the network on what they leave (a PC reference).\n"
       "The same data, seed and options give the same W.json, byte for byte, with any thread count.\n"
       "Example: deltactl train --data rec.csv --out W.json --seed 1 --hidden 25");
   sub->add_option("--data", options->data, "recording to fit (SPEC CSV)")->required();
   sub->add_option("--out", options->out, "weights file to write (W.json)")->required();
   add_training_options(sub, options->training);
-  sub->add_option("--model", options->model, "network (the paper's) or hybrid (math model + network)")
+  sub->add_option("--model", options->model,
+                  "deployed (static network + backlash compensation), network (the paper's) or hybrid (math model + "
+                  "network)")
       ->capture_default_str()
-      ->check(CLI::IsMember({"network", "hybrid"}));
+      ->check(CLI::IsMember({"deployed", "network", "hybrid"}));
   sub->add_option("--validation", options->training.validation_fraction, "share of samples held out for early stopping")
       ->capture_default_str()
       ->check(options::real_number(0, 0.5));

@@ -1,4 +1,4 @@
-// Pose-wise evaluation of pure-network and hybrid weights files.
+// Evaluation of network, hybrid and deployed weights files.
 #include "delta/nn/trained_model.hpp"
 
 #include <Eigen/Geometry>
@@ -45,6 +45,16 @@ void add_hybrid_math_model(const WeightsFile& weights, const Vec3& measured_posi
     row.alpha_deg += model.alpha_deg;
   else
     row.error = model.reason();
+}
+
+BacklashCompensation::BacklashCompensation(const Vec3& half_play_deg) {
+  for (int j = 0; j < 3; ++j) play_[j] = Backlash(2.0 * half_play_deg[j]);
+}
+
+Vec3 BacklashCompensation::update(const Vec3& static_deg) {
+  Vec3 out;
+  for (int j = 0; j < 3; ++j) out[j] = play_[j].update(static_deg[j]);
+  return out;
 }
 
 }  // namespace delta::nn

@@ -289,7 +289,9 @@ TrainingResult train_network(const std::vector<Vec3>& inputs_m, const std::vecto
                              const TrainingOptions& options,
                              const std::function<void(const TrainingEpoch&)>& progress) {
   if (inputs_m.size() != targets_deg.size()) throw std::invalid_argument("inputs and targets differ in count");
-  if (inputs_m.size() < 10) throw std::invalid_argument("training needs at least 10 samples");
+  if (inputs_m.size() < kMinTrainingSamples) {
+    throw std::invalid_argument("training needs at least " + std::to_string(kMinTrainingSamples) + " samples");
+  }
   TrainingResult result;
   result.network = initial_network(inputs_m, targets_deg, options.hidden, options.seed);
 

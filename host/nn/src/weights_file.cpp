@@ -90,16 +90,22 @@ WeightsFile parse_weights_file(const std::string& text, const std::string& path)
   if (format != kFormatName)
     reader.fail("format", "format must be \"" + std::string(kFormatName) + "\", got " + format.dump());
   const json& version = reader.field("version");
-  if (!version.is_number_integer() || version.get<int>() != kWeightsFileVersion) {
-    reader.fail("version", "unsupported weights file version " + version.dump() + " (this build reads version " +
+  if (!version.is_number_integer() || version.get<long long>() < kFirstWeightsFileVersion ||
+      version.get<long long>() > kWeightsFileVersion) {
+    reader.fail("version", "unsupported weights file version " + version.dump() +
+                               " (this build reads versions " + std::to_string(kFirstWeightsFileVersion) + " to " +
                                std::to_string(kWeightsFileVersion) + ")");
   }
   WeightsFile weights;
   const json& model = reader.field("model");
-  if (model != "network" && model != "hybrid") {
-    reader.fail("model", "model must be \"network\" or \"hybrid\", got " + model.dump());
+  if (model != "network" && model != "hybrid" && model != "deployed") {
+    reader.fail("model", "model must be \"network\", \"hybrid\" or \"deployed\", got " + quoted_excerpt(model.dump()));
   }
   weights.model = model.get<std::string>();
+  if (version.get<int>() < weights.version()) {
+    reader.fail("version", "model \"" + weights.model + "\" needs weights file version " +
+                               std::to_string(weights.version()) + ", the file says " + version.dump());
+  }
   const json& hidden_value = reader.field("hidden");
   if (!hidden_value.is_number_integer() || hidden_value.get<long long>() < 1 ||
       hidden_value.get<long long>() > kMaxHiddenNeurons) {
@@ -138,6 +144,30 @@ WeightsFile parse_weights_file(const std::string& text, const std::string& path)
   } else if (effects != document.end()) {
     reader.fail("effects", "effects belong to a hybrid model only (this file says model \"network\")");
   }
+  const auto compensation = document.find("compensation");
+  if (weights.deployed()) {
+    if (compensation == document.end()) throw InputError(path, 1, "a deployed model needs a \"compensation\" object");
+    if (!compensation->is_object()) reader.fail("compensation", "compensation must be a JSON object");
+    for (const auto& item : compensation->items()) {
+      if (item.key() != "backlash_half_play_deg") {
+        reader.fail("compensation", "compensation: unknown part " + quoted_excerpt(item.key()) +
+                                        " (this build applies backlash_half_play_deg only)");
+      }
+    }
+    const Reader part{text, path, *compensation};
+    weights.backlash_half_play_deg = part.vector("backlash_half_play_deg", 3);
+    for (int j = 0; j < 3; ++j) {
+      const double half_play = weights.backlash_half_play_deg[j];
+      if (!(half_play >= 0.0 && half_play <= kMaxBacklashHalfPlayDeg)) {
+        reader.fail("backlash_half_play_deg", "backlash_half_play_deg: joint " + std::to_string(j + 1) + " has " +
+                                                  format_number(half_play) + " deg, expected 0 to " +
+                                                  format_number(kMaxBacklashHalfPlayDeg));
+      }
+    }
+  } else if (compensation != document.end()) {
+    reader.fail("compensation", "compensation belongs to a deployed model only (this file says model " +
+                                    json(weights.model).dump() + ")");
+  }
   const auto provenance = document.find("provenance");
   if (provenance != document.end()) {
     if (!provenance->is_object()) reader.fail("provenance", "provenance must be a JSON object");
@@ -152,7 +182,7 @@ std::string weights_file_text(const WeightsFile& weights) {
   const Network& network = weights.network;
   std::string text = "{\n";
   text += "  \"format\": \"" + std::string(kFormatName) + "\",\n";
-  text += "  \"version\": " + std::to_string(kWeightsFileVersion) + ",\n";
+  text += "  \"version\": " + std::to_string(weights.version()) + ",\n";
   text += "  \"model\": " + json(weights.model).dump() + ",\n";
   text += "  \"hidden\": " + std::to_string(network.hidden()) + ",\n";
   text += "  \"input_min\": " + vector_text(network.input_min) + ",\n";
@@ -164,6 +194,9 @@ std::string weights_file_text(const WeightsFile& weights) {
   text += "  \"output_weights\": " + matrix_text(network.output_weights) + ",\n";
   text += "  \"output_bias\": " + vector_text(network.output_bias) + ",\n";
   if (weights.hybrid()) text += "  \"effects\": " + effects_to_json(weights.effects).dump() + ",\n";
+  if (weights.deployed()) {
+    text += "  \"compensation\": {\"backlash_half_play_deg\": " + vector_text(weights.backlash_half_play_deg) + "},\n";
+  }
   // nlohmann's dump prints doubles as shortest round-trip text and sorts keys: deterministic.
   text += "  \"provenance\": " + weights.provenance.dump() + "\n";
   return text + "}\n";

@@ -34,6 +34,7 @@ struct Formats {
   int output_weight_fraction_bits = 17;  //   Q7.17
   int output_bits = 24;                  // alpha: degrees, Q10.14, in [-512, 512) deg
   int output_fraction_bits = 14;
+  int half_play_bits = 16;               // h: backlash half-play, unsigned, output LSBs: [0, 4) deg
 
   int hidden_bits() const { return hidden_fraction_bits + 1; }
   int tanh_range_log2() const { return tanh_input_bits - 1 - tanh_input_fraction_bits; }  // 3: [-8, 8)
@@ -42,6 +43,8 @@ struct Formats {
   int tanh_entry_fraction_bits() const { return hidden_fraction_bits + tanh_guard_bits; }
   int hidden_accumulator_fraction_bits() const { return scaled_input_bits - 1 + input_weight_fraction_bits; }
   int output_accumulator_fraction_bits() const { return hidden_fraction_bits + output_weight_fraction_bits; }
+  // The compensation's difference s - r and shifted angle s -/+ h: one bit above the output.
+  int compensation_difference_bits() const { return output_bits + 1; }
   // Throws std::invalid_argument when a combination cannot work (e.g. a shift that would be negative).
   void validate() const;
 };
@@ -77,6 +80,35 @@ struct RawOutput {
   bool tanh_input_saturated = false;
   bool output_saturated = false;
 };
+
+// The deployed model's backlash compensation on output codes (hls/README.md, "Backlash
+// compensation"): per joint a half-play h (unsigned, half_play_bits, output LSBs) and the
+// reference r it last produced. For each new network answer s, in time order:
+//   first answer:  r = s
+//   s - r > h:     r = s - h      (moving up: the reference lags s by h)
+//   s - r < -h:    r = s + h      (moving down)
+//   otherwise:     r unchanged    (inside the play)
+// s - r needs compensation_difference_bits(); the new r never leaves the output format, because
+// s - h > r >= min in the second case and s + h < r <= max in the third: nothing to saturate.
+struct QuantisedCompensation {
+  std::array<std::int64_t, 3> half_play{};  // h_j in output LSBs
+};
+
+struct CompensationState {
+  std::array<std::int64_t, 3> reference{};  // r_j: the last reference code
+  bool started = false;                     // false until the first answer (after reset)
+};
+
+// Half-plays in degrees -> codes (round half up). Throws std::invalid_argument for a negative or
+// non-finite half-play or one beyond half_play_bits.
+QuantisedCompensation quantise_compensation(const Vec3& half_play_deg, const Formats& formats = Formats());
+
+// One joint's step of the play (above); `started` false makes r = s.
+std::int64_t compensate_joint(std::int64_t half_play, std::int64_t static_code, std::int64_t reference, bool started);
+
+// All three joints: the joint references for the network's answers `static_codes`, updating `state`.
+std::array<std::int64_t, 3> compensate(const QuantisedCompensation& compensation, CompensationState& state,
+                                       const std::array<std::int64_t, 3>& static_codes);
 
 // Primitive casts, shared by the golden model and its tests.
 std::int64_t round_shift(std::int64_t value, int shift);  // round half up; shift <= 0 shifts left

@@ -1,6 +1,7 @@
 // The fixed-point inverse-kinematics back end shared by `ik --backend fixed` (golden integer model)
-// and `ik --backend hls` (HLS C simulation): raw output codes beside the angles, saturation counts
-// in the report. Only the evaluator of raw codes differs between them.
+// and `ik --backend hls` (HLS C simulation): raw output codes beside the angles (for a deployed
+// model in time order: the compensated references), saturation counts in the report. Only the
+// evaluator of raw codes and the compensation step differ between them.
 #pragma once
 
 #include <functional>
@@ -17,6 +18,27 @@
 namespace delta::golden {
 
 using RawEvaluator = std::function<RawOutput(const std::array<std::int64_t, 3>&)>;
+// The deployed model's compensation of one back end, stateful: `first` restarts it (the first row
+// of a recording), then each call takes the network's next raw answer in time order.
+using CompensationStep = std::function<std::array<std::int64_t, 3>(const std::array<std::int64_t, 3>&, bool first)>;
+
+// Quantises the deployed model's half-plays; one too wide for the format is bad input.
+inline QuantisedCompensation quantise_compensation_file(const std::string& weights_path,
+                                                        const nn::WeightsFile& weights) {
+  try {
+    return quantise_compensation(weights.backlash_half_play_deg, Formats{});
+  } catch (const std::invalid_argument& error) {
+    throw InputError(weights_path, 0, std::string("cannot be quantised: ") + error.what());
+  }
+}
+
+// The golden model's compensation as a CompensationStep.
+inline CompensationStep golden_compensation(const QuantisedCompensation& compensation) {
+  return [compensation, state = CompensationState{}](const std::array<std::int64_t, 3>& codes, bool first) mutable {
+    if (first) state = CompensationState{};
+    return compensate(compensation, state, codes);
+  };
+}
 
 // Reads and quantises W.json; a weight that would saturate its format is bad input.
 inline QuantisedNetwork quantise_file(const std::string& weights_path, const nn::WeightsFile& weights) {
@@ -29,16 +51,21 @@ inline QuantisedNetwork quantise_file(const std::string& weights_path, const nn:
 
 class FixedPointIkBackend : public IkBackend {
  public:
-  FixedPointIkBackend(std::string name, nn::WeightsFile weights, QuantisedNetwork quantised, RawEvaluator evaluator)
+  // `compensation` is the back end's own compensation (the deployed model's time-ordered part).
+  FixedPointIkBackend(std::string name, nn::WeightsFile weights, QuantisedNetwork quantised, RawEvaluator evaluator,
+                      CompensationStep compensation)
       : name_(std::move(name)),
         weights_(std::move(weights)),
         quantised_(std::move(quantised)),
-        evaluator_(std::move(evaluator)) {}
+        evaluator_(std::move(evaluator)),
+        compensation_(std::move(compensation)) {}
 
   bool has_raw_codes() const override { return true; }
+  bool has_time_ordered_parts() const override { return weights_.deployed(); }
 
-  std::vector<IkRow> evaluate(const std::vector<Vec3>& positions_m) override {
+  std::vector<IkRow> evaluate(const std::vector<Vec3>& positions_m, bool in_time_order) override {
     std::vector<IkRow> rows(positions_m.size());
+    const bool compensate = in_time_order && weights_.deployed();
     const nn::Network& network = weights_.network;
     for (std::size_t i = 0; i < positions_m.size(); ++i) {
       bool input_clamped = false;
@@ -54,7 +81,10 @@ class FixedPointIkBackend : public IkBackend {
         ++outside_training_range_;
       }
       rows[i].raw = out.alpha;
-      for (int o = 0; o < 3; ++o) rows[i].alpha_deg[o] = decode_angle_deg(quantised_.formats, out.alpha[o]);
+      if (compensate) {
+        rows[i].raw = compensation_(out.alpha, i == 0);
+      }
+      for (int o = 0; o < 3; ++o) rows[i].alpha_deg[o] = decode_angle_deg(quantised_.formats, rows[i].raw[o]);
       nn::add_hybrid_math_model(weights_, positions_m[i], rows[i]);  // raw codes: the residual
     }
     return rows;
@@ -62,7 +92,8 @@ class FixedPointIkBackend : public IkBackend {
 
   std::vector<std::string> report() const override {
     return {name_ + ": 3-" + std::to_string(quantised_.hidden) + "-3 network in fixed point (hls/README.md)" +
-                (weights_.hybrid() ? "; raw codes are the residual added to the math model" : ""),
+                (weights_.hybrid() ? "; raw codes are the residual added to the math model" : "") +
+                (weights_.deployed() ? "; deployed model: + backlash compensation in time order" : ""),
             "positions outside the training range: " + std::to_string(outside_training_range_),
             "saturations: scaled input " + std::to_string(counters_.scaled_input) + ", tanh input " +
                 std::to_string(counters_.tanh_input) + " (harmless), output " + std::to_string(counters_.output) +
@@ -74,6 +105,7 @@ class FixedPointIkBackend : public IkBackend {
   nn::WeightsFile weights_;
   QuantisedNetwork quantised_;
   RawEvaluator evaluator_;
+  CompensationStep compensation_;
   SaturationCounters counters_;
   std::size_t outside_training_range_ = 0;
   std::size_t raw_input_clamped_ = 0;

@@ -3,6 +3,7 @@
 // format. Deterministic for a seed; the first `count` vectors of one seed are always the same.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
@@ -73,6 +74,46 @@ inline std::vector<RawInput> csim_vectors(const QuantisedNetwork& q, const Vec3&
     }
   }
   return vectors;
+}
+
+// A seeded walk of network answers for the backlash compensation tests: half-plays (random up to
+// 4000 LSBs, or the widest the format holds in every fifth walk), then answers that move by up to
+// three half-plays per step and sometimes jump to the output format's edges.
+struct CompensationWalk {
+  QuantisedCompensation compensation;
+  std::vector<std::array<std::int64_t, 3>> answers;
+};
+
+inline std::vector<CompensationWalk> compensation_walks(const Formats& formats, int walks, int steps,
+                                                        std::uint64_t seed) {
+  std::mt19937_64 generator(seed);
+  const std::int64_t top = (std::int64_t{1} << (formats.output_bits - 1)) - 1;
+  const std::int64_t bottom = -(std::int64_t{1} << (formats.output_bits - 1));
+  std::vector<CompensationWalk> result(static_cast<std::size_t>(walks));
+  for (int walk = 0; walk < walks; ++walk) {
+    CompensationWalk& w = result[static_cast<std::size_t>(walk)];
+    for (auto& h : w.compensation.half_play) {
+      h = walk % 5 == 0 ? (std::int64_t{1} << formats.half_play_bits) - 1 : static_cast<std::int64_t>(generator() % 4000);
+    }
+    std::array<std::int64_t, 3> s{};
+    for (auto& v : s) v = static_cast<std::int64_t>(generator() % 2000000) - 1000000;
+    for (int i = 0; i < steps; ++i) {
+      for (int j = 0; j < 3; ++j) {
+        const std::uint64_t kind = generator() % 100;
+        if (kind == 0) {
+          s[j] = top;
+        } else if (kind == 1) {
+          s[j] = bottom;
+        } else {
+          const std::int64_t span = 3 * w.compensation.half_play[j] + 2;
+          s[j] = std::clamp<std::int64_t>(s[j] + static_cast<std::int64_t>(generator() % (2 * span + 1)) - span,
+                                          bottom, top);
+        }
+      }
+      w.answers.push_back(s);
+    }
+  }
+  return result;
 }
 
 }  // namespace delta::golden

@@ -1,5 +1,7 @@
-// From a recording to a complete weights file: the pure network, or the hybrid (fit the
-// math-model effects, then train the network on the remaining residual), with provenance.
+// From a recording to a complete weights file, with provenance: the pure network; the hybrid (fit
+// the math-model effects, then train the network on the remaining residual); or the deployed model
+// (fit the same effects, train the network on the recording without the identified backlash, keep
+// the identified half-play for the time-ordered compensation).
 #pragma once
 
 #include <functional>
@@ -16,10 +18,10 @@ namespace delta::nn {
 struct ModelTraining {
   WeightsFile weights;
   TrainingResult training;
-  std::optional<EffectFit> effect_fit;  // hybrid only
+  std::optional<EffectFit> effect_fit;  // hybrid and deployed
 };
 
-// model: "network" or "hybrid" (std::invalid_argument otherwise).
+// model: "deployed", "network" or "hybrid" (std::invalid_argument otherwise).
 ModelTraining train_model(const Recording& recording, const std::string& model, const TrainingOptions& options,
                           const std::function<void(const TrainingEpoch&)>& progress = {});
 

@@ -1,6 +1,9 @@
-// Pose-wise evaluation of a weights file: the pure network, or the hybrid (math model with the
-// identified effects plus the network's residual).
+// Evaluation of a weights file: pose-wise (the pure network, the hybrid's math model with the
+// identified effects plus the network's residual, the deployed model's static network) and the
+// deployed model's time-ordered part (backlash compensation of each joint, in row order).
 #pragma once
+
+#include <array>
 
 #include "delta/effects.hpp"
 #include "delta/ik_backend.hpp"
@@ -23,5 +26,16 @@ IkSolution evaluate_model(const WeightsFile& weights, const Vec3& measured_posit
 // angles are the network's residual, so this adds the math model in double (or sets row.error
 // when the model cannot reach the pose). A pure network leaves the row as it is.
 void add_hybrid_math_model(const WeightsFile& weights, const Vec3& measured_position_m, IkRow& row);
+
+// The deployed model's time-ordered part in double (weights_file.hpp): one play of half-width h_j
+// per joint on the static angles, fed in time order; the first angle passes unchanged.
+class BacklashCompensation {
+ public:
+  explicit BacklashCompensation(const Vec3& half_play_deg);
+  Vec3 update(const Vec3& static_deg);
+
+ private:
+  std::array<Backlash, 3> play_;
+};
 
 }  // namespace delta::nn

@@ -15,6 +15,9 @@
 
 namespace delta::nn {
 
+// Fewest samples a network is trained on (train_network refuses fewer).
+constexpr std::size_t kMinTrainingSamples = 10;
+
 struct TrainingOptions {
   int hidden = 25;
   std::uint64_t seed = 1;             // initial weights (Nguyen-Widrow) and the validation split

@@ -1,7 +1,16 @@
-// W.json: the versioned weights file of a trained inverse-kinematics model (pure network or hybrid).
+// W.json: the versioned weights file of a trained inverse-kinematics model (network, hybrid or
+// deployed).
 //
-// Two model kinds, chosen by "model":
+// Three model kinds, chosen by "model":
 //   "network": alpha_deg = network.evaluate(position_m)                       (the paper's net)
+//   "deployed" (version 2): the static angle s = network.evaluate(position_m), trained on targets
+//              from which the identified backlash was removed, then, for positions in time order
+//              (rows of a recording, setpoints of the board), each joint passes a play of the
+//              identified half-width h_j: the first angle passes unchanged; afterwards the output
+//              holds until s leaves [out - h, out + h] and then follows at s -/+ h. This is what the
+//              encoder reads when the plate is at the pose (it lags the static angle by h in the
+//              direction of motion), so it is the joint reference that puts the plate there.
+//              Without time order (a pose alone) the model is s.
 //   "hybrid":  alpha_deg = math_model(effects, position_m) + network.evaluate(position_m)
 //              where math_model is the closed-form inverse kinematics of the nominal geometry with
 //              the identified geometric effects applied (delta::apply_geometry_effects) plus
@@ -9,14 +18,16 @@
 // A fixed-point back end evaluating a hybrid file implements the network part only: its outputs
 // are then the residual, and the math model is added by whoever owns it.
 //
-// Text layout (version 1), one key per line, numbers as shortest round-trip decimals so that the
+// Text layout (version 1; version 2 only for "deployed", which adds "compensation"), one key per line, numbers as shortest round-trip decimals so that the
 // same weights always give the same bytes:
-//   { "format": "delta-nn-weights", "version": 1, "model": "network" | "hybrid",
+//   { "format": "delta-nn-weights", "version": 1 | 2, "model": "network" | "hybrid" | "deployed",
 //     "hidden": H,
 //     "input_min": [3] (m), "input_max": [3] (m), "output_min": [3] (deg), "output_max": [3] (deg),
 //     "input_weights": [H rows of 3] (IW{1,1}), "hidden_bias": [H] (b{1}),
 //     "output_weights": [3 rows of H] (LW{2,1}), "output_bias": [3] (b{2}),
 //     "effects": {effect file object, shared/SPEC.md} (hybrid only),
+//     "compensation": {"backlash_half_play_deg": [3] (h_j, >= 0)} (deployed only; any other key is
+//                     refused: a reader must not run a model it cannot apply),
 //     "provenance": {"tool", "data", "samples", "seed", "hidden", "epochs", "stop_reason",
 //                    "training_mse_deg2", "validation_mse_deg2", ...} }
 #pragma once
@@ -30,22 +41,32 @@
 
 namespace delta::nn {
 
-constexpr int kWeightsFileVersion = 1;
+// The newest version this build reads and writes; network and hybrid files stay version 1 (the
+// same bytes as before), a deployed model needs version 2.
+constexpr int kWeightsFileVersion = 2;
+constexpr int kFirstWeightsFileVersion = 1;
+// Largest half-play a deployed model may carry, degrees (a play wider than this is not backlash).
+constexpr double kMaxBacklashHalfPlayDeg = 2.0;
 // Most hidden neurons a weights file may have: checked when reading, writing and importing.
 constexpr long long kMaxHiddenNeurons = 10000;
 
 struct WeightsFile {
-  std::string model = "network";  // "network" or "hybrid"
-  Network network;                // full angles ("network") or residual angles ("hybrid"), degrees
+  std::string model = "network";  // "network", "hybrid" or "deployed"
+  Network network;                // full angles ("network", "deployed": the static part) or residual ("hybrid"), degrees
   EffectSet effects;              // hybrid: the identified math-model effects (memoryless ones only)
+  Vec3 backlash_half_play_deg = Vec3::Zero();  // deployed: h_j of the time-ordered compensation
   nlohmann::json provenance = nlohmann::json::object();  // how it was made (free-form, deterministic)
 
   bool hybrid() const { return model == "hybrid"; }
+  bool deployed() const { return model == "deployed"; }
+  // The file format version this model needs (written as such).
+  int version() const { return deployed() ? 2 : 1; }
 };
 
 // Throws delta::InputError(file, line, reason): unreadable file, bad JSON, wrong format or version,
-// unknown model kind, wrong shapes, non-finite values, an empty or inverted scaling range, or
-// effects a pose-wise model cannot apply (backlash, which needs the direction of motion).
+// unknown model kind, wrong shapes, non-finite values, an empty or inverted scaling range,
+// effects a pose-wise model cannot apply (backlash, which needs the direction of motion), or a
+// compensation this build cannot apply (an unknown key, a negative or too wide half-play).
 WeightsFile read_weights_file(const std::string& path);
 
 // Parses an already-read text; `path` names it in errors.

@@ -53,7 +53,11 @@ class NetworkHarness {
 
   ~NetworkHarness() {
     if (trace_) trace_->close();
+    // A Verilated model's scopes unregister through the thread's current context: make it this
+    // model's, not another harness's (already gone) when two live in one process.
+    Verilated::threadContextp(context_.get());
     model_->final();
+    model_.reset();
   }
 
   NetworkHarness(const NetworkHarness&) = delete;
