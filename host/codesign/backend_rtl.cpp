@@ -40,8 +40,7 @@ class RtlIkBackend : public IkBackend {
     golden::write_export(quantised_, directory_.path());
     network_ = std::make_unique<NetworkHarness<Vdelta_network>>(quantised_.formats.input_bits,
                                                                 quantised_.formats.output_bits, directory_.path());
-    const golden::QuantisedCompensation compensation =
-        golden::quantise_compensation_file(weights_path, weights_);
+    const golden::QuantisedCompensation compensation = golden::quantise_compensation_file(weights_path, weights_);
     compensation_ = std::make_unique<CompensationHarness<Vbacklash_compensation>>(
         quantised_.formats.output_bits, quantised_.formats.half_play_bits, compensation.half_play);
   }

@@ -22,10 +22,10 @@ TEST(GoldenCompensation, FirstAnswerPassesThenTheReferenceHoldsInsideThePlayAndF
   // Joint 1 (h = 100): start at 1000, rise to 1150 (leaves the play: 1150 - 100), fall to 1030
   // (inside), fall to 900 (leaves downwards: 900 + 100), stay. Joint 2 (h = 0) follows exactly.
   const std::vector<std::pair<Codes, Codes>> steps = {{{1000, -5, 0}, {1000, -5, 0}},
-                                                       {{1150, 3, 7}, {1050, 3, 0}},
-                                                       {{1030, -2, 8}, {1050, -2, 1}},
-                                                       {{900, -2, -6}, {1000, -2, 1}},
-                                                       {{900, 40, -7}, {1000, 40, 0}}};
+                                                      {{1150, 3, 7}, {1050, 3, 0}},
+                                                      {{1030, -2, 8}, {1050, -2, 1}},
+                                                      {{900, -2, -6}, {1000, -2, 1}},
+                                                      {{900, 40, -7}, {1000, 40, 0}}};
   for (const auto& [input, expected] : steps) {
     EXPECT_EQ(compensate(compensation, state, input), expected) << input[0] << " " << input[1] << " " << input[2];
   }

@@ -49,8 +49,8 @@ TEST(DeployedModel, PaperLikeRobotHeldOutAtTheNoiseFloorThroughTheFixedBackendIn
   no_backlash.backlash_deg.reset();
   const std::string static_effects = temp_path("no_backlash.json");
   write_text(static_effects, effects_to_json(no_backlash).dump());
-  for (const auto& [experiment, seed] : std::vector<std::pair<std::string, int>>{
-           {"sweep", 7}, {"experiment1", 1}, {"experiment2", 1}}) {
+  for (const auto& [experiment, seed] :
+       std::vector<std::pair<std::string, int>>{{"sweep", 7}, {"experiment1", 1}, {"experiment2", 1}}) {
     SCOPED_TRACE(experiment);
     const std::string check = temp_path(experiment + ".csv"), ideal = temp_path(experiment + "_static.csv");
     simulate(experiment, seed, kEffects, check);
@@ -58,20 +58,22 @@ TEST(DeployedModel, PaperLikeRobotHeldOutAtTheNoiseFloorThroughTheFixedBackendIn
     const std::string fixed = temp_path("fixed.csv"), hls = temp_path("hls.csv"), alone = temp_path("alone.csv");
     for (const auto& [backend, out, option] : std::vector<std::array<std::string, 3>>{
              {"fixed", fixed, ""}, {"hls", hls, ""}, {"fixed", alone, " --pose-wise"}}) {
-      const CommandResult ik =
-          run_deltactl("ik --weights " + weights + " --backend " + backend + " --in " + check + " --out " + out + option);
+      const CommandResult ik = run_deltactl("ik --weights " + weights + " --backend " + backend + " --in " + check +
+                                            " --out " + out + option);
       ASSERT_EQ(ik.exit_code, 0) << ik.err;
-      EXPECT_NE(ik.err.find(option.empty() ? "applied in row order" : "off (--pose-wise)"), std::string::npos) << ik.err;
+      EXPECT_NE(ik.err.find(option.empty() ? "applied in row order" : "off (--pose-wise)"), std::string::npos)
+          << ik.err;
     }
     EXPECT_EQ(angles(fixed, "_raw"), angles(hls, "_raw")) << "fixed and hls raw codes differ";
     const std::vector<Vec3> measured = angles(check);
     const Vec3 ordered = joint_error_stats(measured, angles(fixed)).rmse_deg;
     const Vec3 pose_wise = joint_error_stats(measured, angles(alone)).rmse_deg;
     const Vec3 best_static = joint_error_stats(measured, angles(ideal)).rmse_deg;
-    std::printf("%s: in row order %.5f %.5f %.5f deg (%.2f floors); pose-wise %.5f %.5f %.5f, best static map "
-                "%.5f %.5f %.5f deg\n",
-                experiment.c_str(), ordered[0], ordered[1], ordered[2], ordered.maxCoeff() / kNoiseFloorDeg,
-                pose_wise[0], pose_wise[1], pose_wise[2], best_static[0], best_static[1], best_static[2]);
+    std::printf(
+        "%s: in row order %.5f %.5f %.5f deg (%.2f floors); pose-wise %.5f %.5f %.5f, best static map "
+        "%.5f %.5f %.5f deg\n",
+        experiment.c_str(), ordered[0], ordered[1], ordered[2], ordered.maxCoeff() / kNoiseFloorDeg, pose_wise[0],
+        pose_wise[1], pose_wise[2], best_static[0], best_static[1], best_static[2]);
     for (int j = 0; j < 3; ++j) {
       EXPECT_LE(ordered[j], 1.5 * kNoiseFloorDeg) << "joint " << j + 1;
       EXPECT_LE(pose_wise[j], 1.1 * best_static[j]) << "joint " << j + 1;

@@ -51,9 +51,9 @@ TEST(Table1Command, PrintsEveryModelForFitAndHoldout) {
   const std::string check = small_recording("sweep", 600, 7);
   const auto result = run_deltactl("table1 --data " + data + " --holdout " + check + " --max-epochs 3 --hidden 8");
   ASSERT_EQ(result.exit_code, 0) << result.err;
-  for (const char* row : {"paper: math model", "paper: NN 3-25-3", "ours: math model (nominal)",
-                          "ours: math model + identified effects", "ours: network 3-8-3", "ours: hybrid",
-                          "ours: deployed, pose-wise", "ours: deployed, in time order"}) {
+  for (const char* row :
+       {"paper: math model", "paper: NN 3-25-3", "ours: math model (nominal)", "ours: math model + identified effects",
+        "ours: network 3-8-3", "ours: hybrid", "ours: deployed, pose-wise", "ours: deployed, in time order"}) {
     const std::size_t first = result.out.find(row);
     ASSERT_NE(first, std::string::npos) << row << "\n" << result.out;
     EXPECT_NE(result.out.find(row, first + 1), std::string::npos) << "one row per recording: " << row;

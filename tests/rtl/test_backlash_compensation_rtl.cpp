@@ -41,8 +41,8 @@ TEST(COMPENSATION_SUITE, EqualsTheGoldenModelOnRandomWalksToTheFormatsEdges) {
       const std::array<std::int64_t, 3> got = rtl.step(walk.answers[i]);
       latency = rtl.latency_cycles();
       if (got != expected && ++mismatches <= 5) {
-        ADD_FAILURE() << "step " << i << ": " << kWhat << " " << got[0] << " " << got[1] << " " << got[2]
-                      << " golden " << expected[0] << " " << expected[1] << " " << expected[2];
+        ADD_FAILURE() << "step " << i << ": " << kWhat << " " << got[0] << " " << got[1] << " " << got[2] << " golden "
+                      << expected[0] << " " << expected[1] << " " << expected[2];
       }
     }
   }

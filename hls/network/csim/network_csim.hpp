@@ -7,8 +7,8 @@
 #include <memory>
 #include <stdexcept>
 
-#include "delta/golden/fixed_network.hpp"
 #include "backlash_compensation.hpp"
+#include "delta/golden/fixed_network.hpp"
 #include "network.hpp"
 
 namespace delta_hls {
@@ -123,7 +123,8 @@ class CompensationCodes {
  public:
   explicit CompensationCodes(const delta::golden::QuantisedCompensation& q) {
     for (int o = 0; o < C::outputs; ++o) {
-      half_play_[o] = fixed_from_code<typename C::half_play_t, C::half_play_bits + 1, C::output_fraction>(q.half_play[o]);
+      half_play_[o] =
+          fixed_from_code<typename C::half_play_t, C::half_play_bits + 1, C::output_fraction>(q.half_play[o]);
     }
   }
   void restart() {

@@ -226,7 +226,8 @@ std::int64_t compensate_joint(std::int64_t half_play, std::int64_t static_code, 
 std::array<std::int64_t, 3> compensate(const QuantisedCompensation& compensation, CompensationState& state,
                                        const std::array<std::int64_t, 3>& static_codes) {
   for (int j = 0; j < 3; ++j) {
-    state.reference[j] = compensate_joint(compensation.half_play[j], static_codes[j], state.reference[j], state.started);
+    state.reference[j] =
+        compensate_joint(compensation.half_play[j], static_codes[j], state.reference[j], state.started);
   }
   state.started = true;
   return state.reference;

@@ -23,8 +23,8 @@ namespace {
 struct Table1Options {
   std::string data;
   std::vector<std::string> holdouts;
-  std::string network_weights;  // given: skip training the network
-  std::string hybrid_weights;   // given: skip training the hybrid
+  std::string network_weights;   // given: skip training the network
+  std::string hybrid_weights;    // given: skip training the hybrid
   std::string deployed_weights;  // given: skip training the deployed model
   std::string save_network;
   std::string save_hybrid;

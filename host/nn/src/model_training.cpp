@@ -22,9 +22,9 @@ namespace {
 // kAnchorGap (share of each axis' range) from every recorded pose, the identified math model
 // without backlash plus what that model leaves on the recording, per joint as a function of the
 // joint's angle (kResidualBinDeg bins: transmission ripple and scale errors are of this kind).
-constexpr int kAnchorGrid = 10;          // poses per axis, over the box grown by kAnchorMargin
-constexpr double kAnchorMargin = 0.03;   // share of each axis' range added on both sides
-constexpr double kAnchorGap = 0.06;      // share of each axis' range
+constexpr int kAnchorGrid = 10;         // poses per axis, over the box grown by kAnchorMargin
+constexpr double kAnchorMargin = 0.03;  // share of each axis' range added on both sides
+constexpr double kAnchorGap = 0.06;     // share of each axis' range
 constexpr double kResidualBinDeg = 0.25;
 
 struct JointResidual {
@@ -47,7 +47,8 @@ JointResidual joint_residual(const std::vector<double>& model_deg, const std::ve
   const std::size_t bins = static_cast<std::size_t>((*high - *low) / kResidualBinDeg) + 1;
   std::vector<double> sum(bins, 0.0), count(bins, 0.0);
   for (std::size_t i = 0; i < model_deg.size(); ++i) {
-    const std::size_t bin = std::min(bins - 1, static_cast<std::size_t>((model_deg[i] - map.first_deg) / kResidualBinDeg));
+    const std::size_t bin =
+        std::min(bins - 1, static_cast<std::size_t>((model_deg[i] - map.first_deg) / kResidualBinDeg));
     sum[bin] += residual_deg[i];
     count[bin] += 1.0;
   }
@@ -109,8 +110,8 @@ void add_anchors(const EffectSet& effects, const JointResiduals& maps, std::vect
   for (int a = 0; a < kAnchorGrid; ++a) {
     for (int b = 0; b < kAnchorGrid; ++b) {
       for (int c = 0; c < kAnchorGrid; ++c) {
-        const Vec3 share = Vec3(a, b, c) / (kAnchorGrid - 1.0) * (1.0 + 2.0 * kAnchorMargin) -
-                           Vec3::Constant(kAnchorMargin);
+        const Vec3 share =
+            Vec3(a, b, c) / (kAnchorGrid - 1.0) * (1.0 + 2.0 * kAnchorMargin) - Vec3::Constant(kAnchorMargin);
         const Vec3 pose = low + share.cwiseProduct(range);
         double nearest = std::numeric_limits<double>::infinity();
         for (std::size_t i = 0; i < recorded && nearest > kAnchorGap * kAnchorGap; ++i) {
@@ -154,8 +155,7 @@ ModelTraining train_model(const Recording& recording, const std::string& model, 
   }
   // The deployed model adds anchor poses: count the recording's own samples first.
   if (recording.samples.size() < kMinTrainingSamples) {
-    throw InputError(recording.path, 0,
-                     "training needs at least " + std::to_string(kMinTrainingSamples) + " samples");
+    throw InputError(recording.path, 0, "training needs at least " + std::to_string(kMinTrainingSamples) + " samples");
   }
   ModelTraining result;
   result.weights.model = model;

@@ -92,9 +92,9 @@ WeightsFile parse_weights_file(const std::string& text, const std::string& path)
   const json& version = reader.field("version");
   if (!version.is_number_integer() || version.get<long long>() < kFirstWeightsFileVersion ||
       version.get<long long>() > kWeightsFileVersion) {
-    reader.fail("version", "unsupported weights file version " + version.dump() +
-                               " (this build reads versions " + std::to_string(kFirstWeightsFileVersion) + " to " +
-                               std::to_string(kWeightsFileVersion) + ")");
+    reader.fail("version", "unsupported weights file version " + version.dump() + " (this build reads versions " +
+                               std::to_string(kFirstWeightsFileVersion) + " to " + std::to_string(kWeightsFileVersion) +
+                               ")");
   }
   WeightsFile weights;
   const json& model = reader.field("model");

@@ -34,7 +34,7 @@ struct Formats {
   int output_weight_fraction_bits = 17;  //   Q7.17
   int output_bits = 24;                  // alpha: degrees, Q10.14, in [-512, 512) deg
   int output_fraction_bits = 14;
-  int half_play_bits = 16;               // h: backlash half-play, unsigned, output LSBs: [0, 4) deg
+  int half_play_bits = 16;  // h: backlash half-play, unsigned, output LSBs: [0, 4) deg
 
   int hidden_bits() const { return hidden_fraction_bits + 1; }
   int tanh_range_log2() const { return tanh_input_bits - 1 - tanh_input_fraction_bits; }  // 3: [-8, 8)

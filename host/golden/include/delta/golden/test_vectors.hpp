@@ -93,7 +93,8 @@ inline std::vector<CompensationWalk> compensation_walks(const Formats& formats, 
   for (int walk = 0; walk < walks; ++walk) {
     CompensationWalk& w = result[static_cast<std::size_t>(walk)];
     for (auto& h : w.compensation.half_play) {
-      h = walk % 5 == 0 ? (std::int64_t{1} << formats.half_play_bits) - 1 : static_cast<std::int64_t>(generator() % 4000);
+      h = walk % 5 == 0 ? (std::int64_t{1} << formats.half_play_bits) - 1
+                        : static_cast<std::int64_t>(generator() % 4000);
     }
     std::array<std::int64_t, 3> s{};
     for (auto& v : s) v = static_cast<std::int64_t>(generator() % 2000000) - 1000000;
@@ -106,8 +107,8 @@ inline std::vector<CompensationWalk> compensation_walks(const Formats& formats, 
           s[j] = bottom;
         } else {
           const std::int64_t span = 3 * w.compensation.half_play[j] + 2;
-          s[j] = std::clamp<std::int64_t>(s[j] + static_cast<std::int64_t>(generator() % (2 * span + 1)) - span,
-                                          bottom, top);
+          s[j] = std::clamp<std::int64_t>(s[j] + static_cast<std::int64_t>(generator() % (2 * span + 1)) - span, bottom,
+                                          top);
         }
       }
       w.answers.push_back(s);

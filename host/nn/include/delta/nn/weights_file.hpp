@@ -18,8 +18,8 @@
 // A fixed-point back end evaluating a hybrid file implements the network part only: its outputs
 // are then the residual, and the math model is added by whoever owns it.
 //
-// Text layout (version 1; version 2 only for "deployed", which adds "compensation"), one key per line, numbers as shortest round-trip decimals so that the
-// same weights always give the same bytes:
+// Text layout (version 1; version 2 only for "deployed", which adds "compensation"), one key per line, numbers as
+// shortest round-trip decimals so that the same weights always give the same bytes:
 //   { "format": "delta-nn-weights", "version": 1 | 2, "model": "network" | "hybrid" | "deployed",
 //     "hidden": H,
 //     "input_min": [3] (m), "input_max": [3] (m), "output_min": [3] (deg), "output_max": [3] (deg),
@@ -52,9 +52,9 @@ constexpr long long kMaxHiddenNeurons = 10000;
 
 struct WeightsFile {
   std::string model = "network";  // "network", "hybrid" or "deployed"
-  Network network;                // full angles ("network", "deployed": the static part) or residual ("hybrid"), degrees
-  EffectSet effects;              // hybrid: the identified math-model effects (memoryless ones only)
-  Vec3 backlash_half_play_deg = Vec3::Zero();  // deployed: h_j of the time-ordered compensation
+  Network network;    // full angles ("network", "deployed": the static part) or residual ("hybrid"), degrees
+  EffectSet effects;  // hybrid: the identified math-model effects (memoryless ones only)
+  Vec3 backlash_half_play_deg = Vec3::Zero();            // deployed: h_j of the time-ordered compensation
   nlohmann::json provenance = nlohmann::json::object();  // how it was made (free-form, deterministic)
 
   bool hybrid() const { return model == "hybrid"; }

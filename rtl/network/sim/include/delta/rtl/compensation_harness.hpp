@@ -27,8 +27,8 @@ class CompensationHarness {
     model_ = std::make_unique<Model>(context_.get(), "compensation");
     for (int j = 0; j < 3; ++j) {
       if (half_play[j] < 0 || half_play[j] >= (std::int64_t{1} << half_play_width)) {
-        throw std::out_of_range("compensation_harness: half-play " + std::to_string(half_play[j]) +
-                                " does not fit " + std::to_string(half_play_width) + " unsigned bits");
+        throw std::out_of_range("compensation_harness: half-play " + std::to_string(half_play[j]) + " does not fit " +
+                                std::to_string(half_play_width) + " unsigned bits");
       }
       set_field(model_->half_play_i, j * half_play_width, half_play_width, static_cast<std::uint64_t>(half_play[j]));
     }
