@@ -196,8 +196,9 @@ void try_measuring_scale(const PipelineData& data, const std::vector<Sample>& al
   if ((diagnosis.significant & scale_imitators()).none() && diagnosis.floor_test.at_floor) return;
   std::optional<ScaleModel> best;
   const FamilySet others = diagnosis.significant & ~scale_imitators();
-  for (const FamilySet families : {others, FamilySet{}}) {
-    if (best && families == others) continue;
+  std::vector<FamilySet> candidates = {others};
+  if (others.any()) candidates.push_back(FamilySet{});
+  for (const FamilySet families : candidates) {
     std::optional<ScaleModel> model = fit_axis_scale(data, families, diagnosis.theta);
     if (model && (!best || mean_square(model->holdout_rmse) < mean_square(best->holdout_rmse))) best = std::move(model);
   }

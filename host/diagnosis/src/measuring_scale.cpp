@@ -73,6 +73,29 @@ bool step_scales(const EffectSet& effects, const std::vector<Sample>& rows, Vec3
   return true;
 }
 
+// The scale model's other families refitted from `refit_from` on every FIT row unscaled (prior
+// `start`), and its FIT and CHECK predictions; false when the refit fails or a row is unreachable.
+bool finish_scale_model(const PipelineData& data, const Parameters& start, const Parameters& refit_from,
+                        ScaleModel& model) {
+  const std::vector<Sample> fit_rows = unscaled(data.fit, model.scale);
+  if (model.families.any()) {
+    FitOptions options;
+    options.noise_floor_deg = data.options.noise_floor_deg;
+    const FitResult refit = fit_model(fit_rows, model.families, refit_from, start, options);
+    if (!refit.ok) return false;
+    model.theta = refit.theta;
+    model.fit = refit;
+  }
+  const EffectSet effects = to_effect_set(model.theta, model.families);
+  const Prediction fit_prediction = predict_recording(effects, fit_rows);
+  const Prediction check_prediction = predict_recording(effects, unscaled(data.check, model.scale));
+  if (fit_prediction.unreachable || check_prediction.unreachable) return false;
+  model.fit_prediction = fit_prediction.alpha_deg;
+  model.check_prediction = check_prediction.alpha_deg;
+  model.holdout_rmse = joint_rmse(data.check, model.check_prediction);
+  return true;
+}
+
 }  // namespace
 
 std::vector<Sample> unscaled(const std::vector<Sample>& rows, const Vec3& scale) {
@@ -108,20 +131,7 @@ std::optional<ScaleModel> fit_axis_scale(const PipelineData& data, FamilySet oth
       model.theta = refit.theta;
     }
   }
-  const std::vector<Sample> fit_rows = unscaled(data.fit, model.scale);
-  if (others.any()) {
-    const FitResult refit = fit_model(fit_rows, others, model.theta, start, options);
-    if (!refit.ok) return std::nullopt;
-    model.theta = refit.theta;
-    model.fit = refit;
-  }
-  const EffectSet effects = to_effect_set(model.theta, others);
-  const Prediction fit_prediction = predict_recording(effects, fit_rows);
-  const Prediction check_prediction = predict_recording(effects, unscaled(data.check, model.scale));
-  if (fit_prediction.unreachable || check_prediction.unreachable) return std::nullopt;
-  model.fit_prediction = fit_prediction.alpha_deg;
-  model.check_prediction = check_prediction.alpha_deg;
-  model.holdout_rmse = joint_rmse(data.check, model.check_prediction);
+  if (!finish_scale_model(data, start, model.theta, model)) return std::nullopt;
   // Covariance of the scales: residual variance on the screening rows times (J^T J)^-1.
   double sum_squares = 0.0;
   for (std::size_t i = 0; i < data.fit.size(); ++i)
@@ -166,23 +176,8 @@ std::optional<ScaleModel> fit_measuring_scale(const PipelineData& data, FamilySe
   ScaleModel model;
   model.scale = Vec3::Constant(scale);
   model.families = others;
-  FitOptions options;
-  options.noise_floor_deg = data.options.noise_floor_deg;
-  const std::vector<Sample> fit_rows = unscaled(data.fit, model.scale);
   model.theta = start;
-  if (others.any()) {
-    const FitResult refit = fit_model(fit_rows, others, middle.fit.theta, start, options);
-    if (!refit.ok) return std::nullopt;
-    model.theta = refit.theta;
-    model.fit = refit;
-  }
-  const EffectSet effects = to_effect_set(model.theta, others);
-  const Prediction fit_prediction = predict_recording(effects, fit_rows);
-  const Prediction check_prediction = predict_recording(effects, unscaled(data.check, model.scale));
-  if (fit_prediction.unreachable || check_prediction.unreachable) return std::nullopt;
-  model.fit_prediction = fit_prediction.alpha_deg;
-  model.check_prediction = check_prediction.alpha_deg;
-  model.holdout_rmse = joint_rmse(data.check, model.check_prediction);
+  if (!finish_scale_model(data, start, middle.fit.theta, model)) return std::nullopt;
   // Cost = residual variance x (3 N - p) near the minimum; the curvature gives the variance of s.
   if (curvature > 0.0) {
     const double variance = middle.cost / (3.0 * data.fit.size());
