@@ -44,8 +44,9 @@ started=$SECONDS
 
 if [[ -z $weights ]]; then
   step "1. retrain the network on $data (seed $seed) -> $out/W.json"
-  # The board's gateware runs the plain network (the deployed model's compensation is not in it yet).
-  "$deltactl" train --model network --data "$data" --out "$out/W.json" --seed "$seed" 2>"$out/train.log"
+  # The deployed model (train's default): the static network on backlash-free targets plus the
+  # per-joint backlash compensation the board's interpolator applies (half_play.mem).
+  "$deltactl" train --data "$data" --out "$out/W.json" --seed "$seed" 2>"$out/train.log"
   tail -2 "$out/train.log"
   weights=$out/W.json
 else
@@ -55,7 +56,11 @@ else
 fi
 if [[ -n $holdout ]]; then
   step "2. held-out Table 1 ($holdout)"
-  "$deltactl" table1 --data "${data:-$holdout}" --holdout "$holdout" --network "$weights"
+  if grep -q '"model": "deployed"' "$weights"; then
+    "$deltactl" table1 --data "${data:-$holdout}" --holdout "$holdout" --deployed "$weights"
+  else
+    "$deltactl" table1 --data "${data:-$holdout}" --holdout "$holdout" --network "$weights"
+  fi
 fi
 
 step "3. quantise for the board's ROMs -> $out/mem"

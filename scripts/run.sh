@@ -3,8 +3,9 @@
 # paper's validation experiment and the math model's error, the network against it on held-out
 # data, the same network in fixed point, HLS C++ and RTL (identical raw codes), the joint
 # controllers in closed loop, the sim-to-real diagnosis, and the whole robot co-simulated around
-# the board RTL (one period of experiment 1) and around the C++ model board, bit-exact with it
-# (75 s of the validation trajectory). Outputs go to build/run/.
+# the board RTL (one period of experiment 1 with the deployed model the board ships; the plain
+# network beside it) and around the C++ model board, bit-exact with it (75 s of the validation
+# trajectory). Outputs go to build/run/.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 cd "$root"
@@ -51,8 +52,13 @@ $deltactl diagnose --data "$out/fit.csv" --holdout "$out/check.csv" --json "$out
 
 section "6. Co-simulation: the board RTL (network + joint controllers) driving the paper-like robot"
 # One period of experiment 1 after a 0.3 s start; about 8 s of wall time per simulated second.
-$deltactl cosim --weights "$weights" --effects "$effects" --trajectory experiment1 --duration 5.3 \
-  --out "$out/cosim.csv" --plot "$out/cosim.png"
+# The board's shipped model: the deployed one (network + backlash compensation in the interpolator).
+$deltactl cosim --weights weights/paper_like_deployed.json --effects "$effects" --trajectory experiment1 \
+  --duration 5.3 --out "$out/cosim.csv" --plot "$out/cosim.png"
+echo
+echo "The same with the plain network ($weights) on the model board (bit-exact with the RTL board):"
+$deltactl cosim --fidelity model --weights "$weights" --effects "$effects" --trajectory experiment1 --duration 5.3 \
+  --out "$out/cosim_plain.csv"
 
 section "7. Co-simulation on the model board: 75 s of the validation trajectory in closed loop"
 # The C++ model board (bit-exact with the board RTL: ctest -R ModelBoard) runs free, about 3 x

@@ -87,6 +87,7 @@ CosimResult run_cosim(const CosimOptions& options) {
   };
 
   // ---- the truth, every 1 ms of board time from t0 (the evaluation, not the host) ----
+  golden::CompensationState compensation_state;  // the deployed model's play, in time order
   board.observe_truth([&](const TruthSample& truth, const RobotWorld& world) {
     const double tau = truth.t_s - result.t0_s;
     if (tau < -1e-9 || tau >= options.duration_s - 1e-9) return;
@@ -98,7 +99,16 @@ CosimResult run_cosim(const CosimOptions& options) {
     sample.encoder_deg = truth.encoder_deg;
     sample.current_a = truth.current_a;
     sample.drives_enabled = truth.drives_enabled;
-    sample.network_deg = answer_deg(network, sample.reference_m);
+    if (network.compensation.any()) {
+      // The deployed model: the golden compensation of the answers, in time order (what the
+      // board's interpolator targets, round_shift(25 r, 4), while it follows).
+      const golden::RawOutput raw =
+          golden::evaluate_raw(network, golden::encode_position(network.formats, sample.reference_m));
+      const std::array<std::int64_t, 3> codes = golden::compensate(network.compensation, compensation_state, raw.alpha);
+      for (int j = 0; j < 3; ++j) sample.network_deg[j] = golden::decode_angle_deg(network.formats, codes[j]);
+    } else {
+      sample.network_deg = answer_deg(network, sample.reference_m);
+    }
     // The ideal joints read their target through the backlash's present play.
     sample.network_ideal_m = world.plate_for_readings(sample.network_deg);
     const IkSolution textbook = inverse_kinematics(options.nominal, sample.reference_m);

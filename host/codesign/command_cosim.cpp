@@ -157,13 +157,16 @@ void run_cosim_command(const CosimCommandOptions& options, const std::string& co
   add(options.fidelity == "model" ? "closed loop: model board, plants, effects"
                                   : "closed loop: board RTL, plants, effects",
       summary.closed_loop);
-  add("network answers, joints exact", summary.network_ideal);
+  add(quantised.compensation.any() ? "network + backlash compensation, joints exact" : "network answers, joints exact",
+      summary.network_ideal);
   add("textbook IK, joints exact", summary.textbook_ideal);
   plate.print(std::cout);
   std::cout << '\n';
   Table joints({"joint tracking", "alpha_1", "alpha_2", "alpha_3"});
-  joints.add_row({"encoder - network answer due [deg rms] (truth, 1 kHz)", fixed(summary.joint_rms_deg[0], 4),
-                  fixed(summary.joint_rms_deg[1], 4), fixed(summary.joint_rms_deg[2], 4)});
+  joints.add_row({quantised.compensation.any() ? "encoder - compensated answer due [deg rms] (truth, 1 kHz)"
+                                               : "encoder - network answer due [deg rms] (truth, 1 kHz)",
+                  fixed(summary.joint_rms_deg[0], 4), fixed(summary.joint_rms_deg[1], 4),
+                  fixed(summary.joint_rms_deg[2], 4)});
   joints.add_row({"count - joint reference [deg rms] (telemetry)", fixed(summary.board_joint_rms_deg[0], 4),
                   fixed(summary.board_joint_rms_deg[1], 4), fixed(summary.board_joint_rms_deg[2], 4)});
   joints.print(std::cout);
@@ -248,7 +251,8 @@ const RegisterCommand command("cosim", 70, [](CLI::App& root) {
       "stops the torque (following error, watchdog, travel limits).\n"
       "Example: deltactl cosim --weights weights/paper_like.json --effects sim/paper_like_effects.json \\\n"
       "           --duration 2 --out cosim.csv --plot cosim.png");
-  sub->add_option("--weights", options->weights, "network weights (W.json, model 'network', 25 hidden)")->required();
+  sub->add_option("--weights", options->weights, "network weights (W.json: model 'deployed' or 'network', 25 hidden)")
+      ->required();
   sub->add_option("--effects", options->effects, "virtual robot's effects (JSON); none: the nominal robot");
   sub->add_option("--trajectory", options->trajectory, "experiment1, experiment2, validation or sweep")
       ->capture_default_str();

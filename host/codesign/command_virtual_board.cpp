@@ -192,7 +192,8 @@ const RegisterCommand command("virtual-board", 72, [](CLI::App& root) {
       "--truth: CSV at 1 kHz of board time, written as it runs (flushed twice a second, complete on\n"
       "exit): t_s (board time since reset), x/y/z_m (the plate as the measuring stage sees it),\n"
       "true_alpha*_deg (plant angles), drives_enabled, encoder*_deg, current*_a.\n"
-      "Defaults: the shipped weights (weights/paper_like.json) and the paper-like robot\n"
+      "Defaults: the plain network (weights/paper_like.json; the bitstream ships the deployed model,\n"
+      "--weights weights/paper_like_deployed.json) and the paper-like robot\n"
       "(sim/paper_like_effects.json); --effects '' is the nominal robot.\n"
       "--inject-encoder-skip-at S: at board time S joint 1's A and B lines both invert (a skipped\n"
       "quadrature state: the board latches fault cause 0, encoder skip), for the host's fault tests.\n"
@@ -201,7 +202,8 @@ const RegisterCommand command("virtual-board", 72, [](CLI::App& root) {
   sub->add_option("--link", options->link, "path at which to link the pseudo-terminal (a serial port to open)")
       ->required();
   sub->add_option("--effects", options->effects, "virtual robot's effects (JSON)")->capture_default_str();
-  sub->add_option("--weights", options->weights, "network weights the board runs (W.json, model 'network', 25 hidden)")
+  sub->add_option("--weights", options->weights,
+                  "network weights the board runs (W.json: model 'deployed' or 'network', 25 hidden)")
       ->capture_default_str();
   sub->add_option("--truth", options->truth, "CSV of the ground truth at 1 kHz of board time");
   sub->add_option("--fidelity", options->fidelity, "rtl: the Verilated board core; model: the C++ model board")

@@ -148,6 +148,7 @@ struct ModelBoard::Memories {
 
 struct ModelBoard::State {
   const golden::QuantisedNetwork* network = nullptr;
+  std::array<std::int32_t, 3> half_plays{};  // H_j, Q24.8 counts (half_play.mem): constant
   control::JointFixedCoefficients coefficients = control::make_fixed_coefficients(control::JointControllerParameters{});
   std::uint64_t cycle = 0;
 
@@ -237,6 +238,7 @@ ModelBoard::ModelBoard(const golden::QuantisedNetwork& network, const std::strin
   State& s = *state_;
   network_ = network;
   s.network = &network_;
+  s.half_plays = golden::interpolation::half_play_counts(network_.compensation);
   s.count.fill(static_cast<std::uint16_t>(board::kHomeCount));
   std::ifstream in(identify_mem);
   if (!in) throw std::runtime_error("model board: cannot read " + identify_mem);
@@ -625,9 +627,9 @@ void ModelBoard::clock(int uart_rx, int encoder_a, int encoder_b) {
   } else if (s.busy) {
     const int j = s.joint;
     n.step = s.step + 1;
-    if (s.step == 3) {
+    if (s.step == 4) {
       const std::int64_t c = golden::interpolation::reference_counts(s.net_outputs[j]);
-      const std::int64_t diff = c - s.r[j];
+      const std::int64_t diff = golden::interpolation::play(c - s.r[j], s.half_plays[j]);
       const bool saturated = diff > golden::interpolation::kDeltaMax || diff < golden::interpolation::kDeltaMin;
       n.delta =
           take_answer
@@ -636,7 +638,7 @@ void ModelBoard::clock(int uart_rx, int encoder_a, int encoder_b) {
               : s.d[j];
       if (take_answer && saturated && interpolator_enabled) n.slew_limited = true;
     }
-    if (s.step == 6) {
+    if (s.step == 7) {
       const std::int64_t weight_now = golden::interpolation::kWeights[s.phase];
       const std::int64_t weight_next = k_next == 10 ? (std::int64_t{1} << golden::interpolation::kWeightShift)
                                                     : golden::interpolation::kWeights[k_next];

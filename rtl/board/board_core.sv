@@ -256,6 +256,17 @@ module board_core #(
   logic [95:0] references /*verilator public_flat_rd*/;  // the joints' references this period
   logic [47:0] counts;
   logic        slew_limited;
+  // The deployed model's backlash half-plays H_j (Q.8 counts; zero for the plain network): constants
+  // from the weights' half_play.mem.
+  logic [3*delta_board_pkg::HalfPlayBits-1:0] half_plays;
+  readmemh_table #(
+    .Depth  (3),
+    .Width  (delta_board_pkg::HalfPlayBits),
+    .MemDir (MemDir),
+    .MemFile("half_play.mem")
+  ) u_half_plays (
+    .words_o(half_plays)
+  );
   reference_interpolator u_interpolator (
     .clk_i,
     .rst_ni,
@@ -265,6 +276,7 @@ module board_core #(
     .answer_i      (net_done),
     .outputs_i     (net_outputs),
     .counts_i      (counts),
+    .half_plays_i  (half_plays),
     .references_o  (references),
     .slew_limited_o(slew_limited)
   );

@@ -49,6 +49,7 @@ package delta_board_pkg;
   // Interpolation: reference r(k) = B + round(D * K(k) / 2^InterpolationShift), K(k) = round(k 2^14 / 10).
   localparam int InterpolationShift /*verilator public*/ = 14;
   localparam int SegmentDeltaBits /*verilator public*/ = 16;  // D: reference change per setpoint, Q.8 counts, saturated
+  localparam int HalfPlayBits /*verilator public*/ = 17;  // H: backlash half-play per joint, Q.8 counts, unsigned (half_play.mem)
 
   // Command byte values (payload of a command frame).
   localparam int CommandEnable /*verilator public*/ = 1;  // drives on (homed, no fault); resumes after hold

@@ -6,15 +6,26 @@
 // 2^14 / 10), B' = B + D. Only r and D are stored; an update moves r from period k to k + 1 as
 //   r' = r - round_shift(D * K_k, 14) + round_shift(D * K_(k+1), 14),   K_10 = 2^14,
 // so after k = 9 it lands exactly on B + D. A network answer y (answer_i, in the first period of a
-// segment) sets D = saturate_16(round_shift(25 y, 4) - r) at the next update (r = B then);
-// slew_limited_o pulses when it saturates. A new segment starts with D = 0: without an answer
-// (underrun, hold) the reference holds. With enabled_i low the reference is the encoder count.
+// segment) sets D = saturate_16(play(round_shift(25 y, 4) - r, H)) at the next update (r = B
+// then); slew_limited_o pulses when it saturates. A new segment starts with D = 0: without an
+// answer (underrun, hold) the reference holds. With enabled_i low the reference is the encoder
+// count.
+//
+// Backlash compensation (the deployed model, issue 15): play(d, H) = d - H for d > H, d + H for
+// d < -H, else 0: the segment's target moves only when the answer leaves the play of half-width
+// H_j (half_plays_i, Q.8 counts) around the reference the joint holds, and then trails it by H_j.
+// With H = 25 h / 16 (h: the model's half-play in output LSBs, a whole number of 16) the target
+// is exactly round_shift(25 r, 4) of the golden compensation r of the answers (golden
+// SetpointInterpolator). H = 0 (the plain network) passes d unchanged. d = C - r: 33 bits;
+// d -/+ H: one adder; the result is d -/+ H when its sign is d's, else 0 (at |d| = H both are 0).
 //
 // update_i (once per period, after the controller has copied its inputs and well before the next
-// period starts) runs the three joints through one shared datapath, one after the other (7 cycles
+// period starts) runs the three joints through one shared datapath, one after the other (8 cycles
 // each); r and D rotate through it, so no joint needs a multiplexer. One multiplier (an iCE40
 // DSP), used twice per joint.
-module reference_interpolator (
+module reference_interpolator #(
+  parameter int unsigned HalfPlayBits = delta_board_pkg::HalfPlayBits
+) (
   input  logic        clk_i,
   input  logic        rst_ni,
   input  logic        update_i,       // pulse: compute the references of the next period
@@ -23,6 +34,7 @@ module reference_interpolator (
   input  logic        answer_i,       // pulse: outputs_i holds a new network answer
   input  logic [71:0] outputs_i,      // y_j at [24j +: 24], Q10.14 degrees, held
   input  logic [47:0] counts_i,       // encoder counts, joint j at [16j +: 16]
+  input  logic [3*HalfPlayBits-1:0] half_plays_i,  // H_j at [HalfPlayBits j +: HalfPlayBits], constant
   output logic [95:0] references_o,   // r_j at [32j +: 32], Q24.8 counts, stable between updates
   output logic        slew_limited_o  // pulse: a segment's change was saturated
 );
@@ -57,37 +69,46 @@ module reference_interpolator (
   logic [3:0]  k_next;
   logic signed [28:0] y25_q;   // 9 y
   logic signed [32:0] diff_q;  // c - r
+  logic signed [32:0] played_q;  // c - r -/+ H
   logic signed [DeltaBits-1:0] delta_q;
   logic signed [31:0] product_q;
   logic signed [16:0] rounded_now_q;
   logic signed [23:0] y;
   logic [15:0]        count;
+  logic [HalfPlayBits-1:0] half_play;
 
   assign k_next = (phase_i == 4'd9) ? 4'd10 : phase_i + 4'd1;
   always_comb begin
     unique case (joint_q)
       2'd1: begin
-        y     = outputs_i[24 +: 24];
-        count = counts_i[16 +: 16];
+        y         = outputs_i[24 +: 24];
+        count     = counts_i[16 +: 16];
+        half_play = half_plays_i[HalfPlayBits +: HalfPlayBits];
       end
       2'd2: begin
-        y     = outputs_i[48 +: 24];
-        count = counts_i[32 +: 16];
+        y         = outputs_i[48 +: 24];
+        count     = counts_i[32 +: 16];
+        half_play = half_plays_i[2*HalfPlayBits +: HalfPlayBits];
       end
       default: begin
-        y     = outputs_i[0 +: 24];
-        count = counts_i[0 +: 16];
+        y         = outputs_i[0 +: 24];
+        count     = counts_i[0 +: 16];
+        half_play = half_plays_i[0 +: HalfPlayBits];
       end
     endcase
   end
 
-  // saturate_16(c - r): the difference fits when its bits 32..15 all equal the sign.
+  // play(c - r, H): d - H for d >= 0, d + H for d < 0, kept when the sign stays d's, else 0.
+  logic signed [32:0] played;
+  assign played = (played_q[32] == diff_q[32]) ? played_q : '0;
+
+  // saturate_16(play): the value fits when its bits 32..15 all equal the sign.
   logic signed [DeltaBits-1:0] delta_saturated;
   logic                        saturated;
   always_comb begin
-    saturated       = diff_q[32:DeltaBits-1] != '0 && diff_q[32:DeltaBits-1] != '1;
-    delta_saturated = !saturated ? DeltaBits'(diff_q)
-                    : diff_q[32] ? {1'b1, {(DeltaBits - 1){1'b0}}} : {1'b0, {(DeltaBits - 1){1'b1}}};
+    saturated       = played[32:DeltaBits-1] != '0 && played[32:DeltaBits-1] != '1;
+    delta_saturated = !saturated ? DeltaBits'(played)
+                    : played[32] ? {1'b1, {(DeltaBits - 1){1'b0}}} : {1'b0, {(DeltaBits - 1){1'b1}}};
   end
 
   // round_shift(p, 14) = (p >> 14) + p[13]; |D K| < 2^29, so 17 bits above the shift suffice.
@@ -96,7 +117,7 @@ module reference_interpolator (
   logic signed [16:0] rounded, step;
   logic signed [31:0] r_new;
   assign take_answer  = answer_pending_q && phase_i == 4'd0;
-  assign k_multiplier = (step_q == 4'd4) ? k_weight(phase_i) : k_weight(k_next);
+  assign k_multiplier = (step_q == 4'd5) ? k_weight(phase_i) : k_weight(k_next);
   assign rounded      = 17'(product_q[31:Shift]) + 17'(product_q[Shift-1]);
   assign step         = rounded - rounded_now_q;
   assign r_new        = enabled_i ? $signed(r_q[0]) + 32'(step) : {{8{count[15]}}, count, 8'd0};
@@ -112,9 +133,10 @@ module reference_interpolator (
     y25_q       <= 29'(y) + (29'(y) <<< 3);
     y25_rounded <= y25_q + ((29'(y) <<< 4) | 29'sd8);
     diff_q      <= 33'(c) - 33'($signed(r_q[0]));
+    played_q    <= diff_q[32] ? diff_q + 33'(half_play) : diff_q - 33'(half_play);
     delta_q     <= take_answer ? delta_saturated : $signed(d_q[0]);
     product_q   <= $signed(delta_q) * $signed(k_multiplier);
-    if (step_q == 4'd5) rounded_now_q <= rounded;
+    if (step_q == 4'd6) rounded_now_q <= rounded;
   end
 
   always_ff @(posedge clk_i or negedge rst_ni) begin
@@ -136,11 +158,11 @@ module reference_interpolator (
         step_q  <= '0;
         joint_q <= '0;
       end else if (busy_q) begin
-        // step 0: 9 y; 1: 25 y + 8; 2: c - r; 3: D; 4: D K_k; 5: its rounding held, D K_(k+1);
-        // 6: r' and rotate.
+        // step 0: 9 y; 1: 25 y + 8; 2: c - r; 3: c - r -/+ H; 4: D; 5: D K_k; 6: its rounding
+        // held, D K_(k+1); 7: r' and rotate.
         step_q <= step_q + 1'b1;
-        if (step_q == 4'd3 && take_answer && saturated && enabled_i) slew_limited_o <= 1'b1;
-        if (step_q == 4'd6) begin
+        if (step_q == 4'd4 && take_answer && saturated && enabled_i) slew_limited_o <= 1'b1;
+        if (step_q == 4'd7) begin
           step_q  <= '0;
           joint_q <= joint_q + 1'b1;
           r_q[0]  <= r_q[1];

@@ -41,7 +41,7 @@ dpkg-deb --ctrl-tarfile "$deb" | tar -xO ./conffiles | grep -qx /etc/deltactl/de
 dpkg-deb --ctrl-tarfile "$deb" | tar -xO ./postinst | grep -q 'adduser --system' || fail "postinst makes no user"
 root="$work/root"
 dpkg -x "$deb" "$root"
-for file in usr/bin/deltactl usr/share/deltactl/weights/paper_like.json lib/systemd/system/deltactl.service \
+for file in usr/bin/deltactl usr/share/deltactl/weights/paper_like_deployed.json lib/systemd/system/deltactl.service \
             lib/udev/rules.d/70-delta-board.rules etc/deltactl/deltactl.conf usr/share/doc/deltactl/copyright \
             usr/share/doc/deltactl/lab_setup.md; do
   [[ -e "$root/$file" ]] || fail "package lacks /$file"
@@ -53,7 +53,7 @@ sed "s#/usr/share/deltactl#$root/usr/share/deltactl#" "$root/etc/deltactl/deltac
 installed="$root/usr/bin/deltactl"
 run_note="no virtual board (host-only tree): the installed host run is not exercised"
 if [[ -n $full_deltactl ]]; then
-  weights="$root/usr/share/deltactl/weights/paper_like.json"
+  weights="$root/usr/share/deltactl/weights/paper_like_deployed.json"
   tty="$work/tty"
   "$full_deltactl" virtual-board --link "$tty" --weights "$weights" --fidelity model --truth "$work/truth.csv" \
     >"$work/board.log" 2>&1 &

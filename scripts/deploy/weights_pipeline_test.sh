@@ -25,7 +25,7 @@ mkdir "$work/again"
 for file in "$work"/again/*.mem; do
   cmp -s "$file" "$work/new/mem/$(basename "$file")" || fail "$(basename "$file") differs from deltactl quantise"
 done
-bash "$src/scripts/deploy_weights.sh" --weights "$src/weights/paper_like.json" --out-dir "$work/shipped" \
+bash "$src/scripts/deploy_weights.sh" --weights "$src/weights/paper_like_deployed.json" --out-dir "$work/shipped" \
   --no-bitstream >"$work/log2" 2>&1 || { cat "$work/log2" >&2; fail "deploy_weights.sh --weights"; }
 if [[ -f $build/rtl/network/mem/identify.mem ]]; then
   cmp -s "$work/shipped/mem/identify.mem" "$build/rtl/network/mem/identify.mem" ||

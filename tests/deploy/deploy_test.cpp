@@ -55,7 +55,7 @@ TEST(DeployConfig, ValidFileGivesEveryValue) {
 TEST(DeployConfig, ShippedExampleIsValidOnceItsWeightsExist) {
   std::ifstream in(std::string(DELTA_SOURCE_DIR) + "/host/deploy/conf/deltactl.conf");
   std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  const std::string installed = "/usr/share/deltactl/weights/paper_like.json";
+  const std::string installed = "/usr/share/deltactl/weights/paper_like_deployed.json";
   ASSERT_NE(text.find(installed), std::string::npos);
   text.replace(text.find(installed), installed.size(), kWeights);
   const deploy::DeployConfig config = deploy::parse_config(text, "deltactl.conf");

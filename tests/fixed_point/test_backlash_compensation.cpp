@@ -62,11 +62,15 @@ TEST(GoldenCompensation, IsTheVirtualRobotsPlayOnCodes) {
 
 TEST(GoldenCompensation, QuantisesHalfPlaysAndRefusesWhatTheFormatCannotHold) {
   const QuantisedCompensation q = quantise_compensation(Vec3(0.075, 0.015, 0.0));
-  EXPECT_EQ(q.half_play[0], 1229);  // 0.075 * 2^14 = 1228.8
-  EXPECT_EQ(q.half_play[1], 246);   // 245.76
+  // Whole numbers of 16 output LSBs (2^-10 deg), so the board's reference shift 25 h / 16 is exact.
+  EXPECT_EQ(q.half_play[0], 1232);  // 0.075 * 2^10 = 76.8 -> 77 x 16
+  EXPECT_EQ(q.half_play[1], 240);   // 15.36 -> 15 x 16
   EXPECT_EQ(q.half_play[2], 0);
-  EXPECT_THROW(quantise_compensation(Vec3(4.0, 0.0, 0.0)), std::invalid_argument);  // 2^16 LSBs
-  EXPECT_NO_THROW(quantise_compensation(Vec3(3.9999, 0.0, 0.0)));
+  EXPECT_EQ(quantise_compensation(Vec3(0.0, 0.0, 0.0078125)).half_play[2], 128);       // 8 x 16 exactly
+  EXPECT_EQ(quantise_compensation(Vec3(0.0, 0.0, 0.00048828125)).half_play[2], 16);    // 0.5 x 16: half up
+  EXPECT_THROW(quantise_compensation(Vec3(4.0, 0.0, 0.0)), std::invalid_argument);     // 2^16 LSBs
+  EXPECT_THROW(quantise_compensation(Vec3(3.9999, 0.0, 0.0)), std::invalid_argument);  // rounds up to 2^16
+  EXPECT_EQ(quantise_compensation(Vec3(3.999, 0.0, 0.0)).half_play[0], 65520);         // the widest: 2^16 - 16
   EXPECT_THROW(quantise_compensation(Vec3(-0.001, 0.0, 0.0)), std::invalid_argument);
 }
 

@@ -16,6 +16,7 @@
 #include "delta/crc32.hpp"
 #include "delta/gateware.hpp"
 #include "delta/golden/export.hpp"
+#include "delta/golden/fixed_point_backend.hpp"
 #include "delta/link/payloads.hpp"
 #include "delta/nn/weights_file.hpp"
 #include "support/run_command.hpp"
@@ -23,9 +24,14 @@
 namespace delta {
 namespace {
 
-const std::string kWeights = std::string(DELTA_SOURCE_DIR) + "/weights/paper_like.json";
+// The board's shipped model: the deployed one (network + backlash half-plays, half_play.mem).
+const std::string kWeights = std::string(DELTA_SOURCE_DIR) + "/weights/paper_like_deployed.json";
 
-golden::QuantisedNetwork shipped_network() { return golden::quantise(nn::read_weights_file(kWeights).network); }
+golden::QuantisedNetwork shipped_network() {
+  golden::QuantisedNetwork q = golden::quantise_file(kWeights, nn::read_weights_file(kWeights));
+  EXPECT_TRUE(q.compensation.any());
+  return q;
+}
 
 std::string out_dir(const std::string& name) {
   const std::string dir = ::testing::TempDir() + "link_identify_" + name;
@@ -80,6 +86,7 @@ TEST(WeightsCrc, ChangesWhenAnyOneCodeChangesByOneLsb) {
     EXPECT_TRUE(changed([&](golden::QuantisedNetwork& n) { n.input_centre[j] += 1; })) << j;
     EXPECT_TRUE(changed([&](golden::QuantisedNetwork& n) { n.input_shift[j] += 1; })) << j;
     EXPECT_TRUE(changed([&](golden::QuantisedNetwork& n) { n.output_bias[j] -= 1; })) << j;
+    EXPECT_TRUE(changed([&](golden::QuantisedNetwork& n) { n.compensation.half_play[j] += 16; })) << j;
   }
   EXPECT_TRUE(changed([&](golden::QuantisedNetwork& n) { n.tanh_slope.back() += 1; }));
 }
@@ -91,7 +98,7 @@ TEST(WeightsCrc, IsTheCrcOfTheMemFilesWordsAsLittleEndianBytes) {
   ASSERT_EQ(result.exit_code, 0) << result.err;
   std::vector<std::uint8_t> bytes;
   for (const char* name : {"input_centre", "input_shift", "input_weights", "hidden_bias", "tanh_table", "tanh_slope",
-                           "output_weights", "output_bias"}) {
+                           "output_weights", "output_bias", "half_play"}) {
     const MemWords mem = read_mem(dir + "/" + name + ".mem");
     ASSERT_GT(mem.bits, 0) << name;
     ASSERT_FALSE(mem.words.empty()) << name;

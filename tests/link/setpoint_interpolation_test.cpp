@@ -5,10 +5,13 @@
 // reference computed from the physical units (seeds printed).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <iostream>
 #include <random>
 
+#include "delta/golden/fixed_network.hpp"
 #include "delta/golden/setpoint_interpolation.hpp"
 
 namespace delta::golden {
@@ -177,6 +180,60 @@ TEST(SetpointInterpolation, DrivesOffTheReferenceIsTheEncoderCountAndEnablingSta
   interpolator.follow_encoders({-32768, 0, 1});
   EXPECT_EQ(interpolator.reference(kPeriods - 1), (References{-32768 * 256, 0, 256}));
   EXPECT_EQ(interpolator.delta(), (References{0, 0, 0}));
+}
+
+// The deployed model's compensation on the board (play(C - B, H), H = 25 h / 16) against the
+// golden compensation of the answers (golden::compensate): seeded random walks of answers with
+// steps up to three half-plays and direction reversals, half-plays from 0 to the format's widest.
+// While the reference follows (no slew limit, hold or drives off), every segment's target B + D is
+// round_shift(25 r, 4) of the golden reference r, bit for bit; and play(d, 0) = d.
+TEST(SetpointInterpolation, TheBoardsPlayEqualsTheGoldenCompensationOfTheAnswers) {
+  const std::uint64_t seed = 1515;
+  std::printf("seed %llu\n", static_cast<unsigned long long>(seed));
+  std::mt19937_64 random(seed);
+  const Formats formats;
+  const std::int64_t widest =
+      (std::int64_t{1} << formats.half_play_bits) - (std::int64_t{1} << formats.half_play_step_bits);
+  std::int64_t compared = 0, moved = 0, held = 0;
+  for (int walk = 0; walk < 200; ++walk) {
+    QuantisedCompensation compensation;
+    for (int j = 0; j < 3; ++j) {
+      std::uniform_int_distribution<std::int64_t> steps(0, widest >> formats.half_play_step_bits);
+      compensation.half_play[j] = walk == 0 ? 0 : (walk == 1 ? widest : steps(random) << formats.half_play_step_bits);
+    }
+    SetpointInterpolator board(interpolation::half_play_counts(compensation));
+    CompensationState state;
+    state.started = true;  // r = 0 = B: both start at the same reference
+    std::array<std::int64_t, 3> answer{};
+    for (int n = 0; n < 300; ++n) {
+      std::array<std::int32_t, 3> code{};
+      for (int j = 0; j < 3; ++j) {
+        // steps within +-3 half-plays (at least +-64 LSBs), capped so D never saturates
+        const std::int64_t span =
+            std::min<std::int64_t>(std::max<std::int64_t>(3 * compensation.half_play[j], 64), 20000);
+        std::uniform_int_distribution<std::int64_t> step(-span, span);
+        answer[j] += step(random);
+        code[j] = static_cast<std::int32_t>(answer[j]);
+      }
+      const std::array<std::int64_t, 3> golden = compensate(compensation, state, answer);
+      board.begin_segment(code);
+      for (int j = 0; j < 3; ++j) {
+        const std::int64_t target = std::int64_t{board.start()[j]} + board.delta()[j];
+        ASSERT_EQ(target, interpolation::reference_counts(static_cast<std::int32_t>(golden[j])))
+            << "walk " << walk << " answer " << n << " joint " << j << " h " << compensation.half_play[j];
+        ++compared;
+        (board.delta()[j] != 0 ? moved : held) += 1;
+      }
+    }
+    EXPECT_EQ(board.saturations(), (std::array<std::uint64_t, 3>{})) << "walk " << walk;
+  }
+  std::cout << compared << " targets compared, " << moved << " moved, " << held << " held inside the play\n";
+  EXPECT_GT(held, compared / 10);
+  EXPECT_GT(moved, compared / 4);
+  EXPECT_EQ(interpolation::play(12345, 0), 12345);
+  EXPECT_EQ(interpolation::play(-7, 0), -7);
+  EXPECT_EQ(interpolation::play(100, 100), 0);
+  EXPECT_EQ(interpolation::play(-101, 100), -1);
 }
 
 }  // namespace

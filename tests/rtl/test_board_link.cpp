@@ -21,6 +21,7 @@
 #include "delta/geometry.hpp"
 #include "delta/golden/export.hpp"
 #include "delta/golden/fixed_network.hpp"
+#include "delta/golden/fixed_point_backend.hpp"
 #include "delta/golden/setpoint_interpolation.hpp"
 #include "delta/kinematics.hpp"
 #include "delta/nn/weights_file.hpp"
@@ -365,16 +366,17 @@ TEST(BoardLink, WatchdogTurnsTheTorqueOffWithin50msOfTheLastValidFrame) {
 // Positions around the home pose (every joint at 30 deg): a 2 mm circle at 1 Hz with a 4 mm jump.
 Vec3 home_position() { return forward_kinematics(Geometry::nominal(), Vec3(30.0, 30.0, 30.0)).position_m; }
 
-TEST(BoardLink, SetpointsPlayAtOneKilohertzAndTheReferencesEqualTheGoldenInterpolation) {
-  const golden::QuantisedNetwork q = shipped_network();
-  Bench bench(export_directory(q, "board_link_setpoints"));
+// Streams 400 setpoints (a circle with a slew-limited jump) to the board and compares every
+// period's references with the golden interpolation (with q's backlash half-plays, if any).
+void expect_references_equal_the_golden_interpolation(const golden::QuantisedNetwork& q, const std::string& name) {
+  Bench bench(export_directory(q, name));
   Vboard_core& core = bench.core();
   auto& root = *core.rootp;
   // The plant: the encoders follow the references (a perfect joint), so no following error.
   // The golden model runs alongside, fed with what the board plays (its pops) and the golden
   // network's answers; every period's references must match, bit for bit.
   std::vector<std::array<std::int64_t, 3>> codes;  // setpoint n's position codes
-  golden::SetpointInterpolator golden_interpolator;
+  golden::SetpointInterpolator golden_interpolator(golden::interpolation::half_play_counts(q.compensation));
   bool enabled = false, compared_any = false;
   std::uint32_t played = 0;
   std::int64_t periods_compared = 0, mismatches = 0;
@@ -474,6 +476,22 @@ TEST(BoardLink, SetpointsPlayAtOneKilohertzAndTheReferencesEqualTheGoldenInterpo
   EXPECT_EQ(after.slew_limits, golden_interpolator.saturations()[0] + golden_interpolator.saturations()[1] +
                                    golden_interpolator.saturations()[2]);
   EXPECT_EQ(after.references, board_references(core)) << "the telemetry's references are the board's";
+}
+
+TEST(BoardLink, SetpointsPlayAtOneKilohertzAndTheReferencesEqualTheGoldenInterpolation) {
+  expect_references_equal_the_golden_interpolation(shipped_network(), "board_link_setpoints");
+}
+
+// The deployed model (weights/paper_like_deployed.json): its half-plays in half_play.mem, the
+// board's play on C - B, bit for bit the golden interpolation's, across the circle's reversals,
+// the slew-limited jump and the holds at the end.
+TEST(BoardLink, TheDeployedModelsBacklashCompensationEqualsTheGoldenInterpolation) {
+  const std::string path = std::string(DELTA_SOURCE_DIR) + "/weights/paper_like_deployed.json";
+  const golden::QuantisedNetwork q = golden::quantise_file(path, nn::read_weights_file(path));
+  ASSERT_TRUE(q.compensation.any());
+  std::cout << "half-plays " << q.compensation.half_play[0] << ' ' << q.compensation.half_play[1] << ' '
+            << q.compensation.half_play[2] << " output LSBs\n";
+  expect_references_equal_the_golden_interpolation(q, "board_link_setpoints_deployed");
 }
 
 }  // namespace

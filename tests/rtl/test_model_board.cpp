@@ -15,6 +15,7 @@
 #include "delta/effect_file.hpp"
 #include "delta/golden/export.hpp"
 #include "delta/golden/fixed_network.hpp"
+#include "delta/golden/fixed_point_backend.hpp"
 #include "delta/link/payloads.hpp"
 #include "delta/nn/weights_file.hpp"
 #include "delta/trajectory.hpp"
@@ -23,7 +24,13 @@
 namespace delta::test {
 namespace {
 
-const std::string kWeights = std::string(DELTA_SOURCE_DIR) + "/weights/paper_like.json";
+// The deployed model: its backlash compensation (half_play.mem) runs in both boards' interpolators.
+const std::string kWeights = std::string(DELTA_SOURCE_DIR) + "/weights/paper_like_deployed.json";
+golden::QuantisedNetwork deployed_network() {
+  golden::QuantisedNetwork q = golden::quantise_file(kWeights, nn::read_weights_file(kWeights));
+  EXPECT_TRUE(q.compensation.any());
+  return q;
+}
 const std::string kEffects = std::string(DELTA_SOURCE_DIR) + "/sim/paper_like_effects.json";
 
 struct PeriodRecord {
@@ -57,7 +64,7 @@ BoardRun run_board(cosim::BoardFidelity fidelity, const golden::QuantisedNetwork
 }
 
 TEST(ModelBoard, EqualsTheRtlBoardFrameForFrameAndPeriodForPeriodOverExperimentOne) {
-  const golden::QuantisedNetwork q = golden::quantise(nn::read_weights_file(kWeights).network);
+  const golden::QuantisedNetwork q = deployed_network();
   const std::string mem_dir = fresh_directory("model_board_mem");
   golden::write_export(q, mem_dir);
   auto seconds_since = [](std::chrono::steady_clock::time_point start) {
@@ -157,7 +164,7 @@ FaultRun run_fault_session(cosim::BoardFidelity fidelity, const golden::Quantise
 }
 
 TEST(ModelBoard, EqualsTheRtlBoardThroughAnEncoderSkipFaultAndItsRecovery) {
-  const golden::QuantisedNetwork q = golden::quantise(nn::read_weights_file(kWeights).network);
+  const golden::QuantisedNetwork q = deployed_network();
   const std::string mem_dir = fresh_directory("model_board_fault_mem");
   golden::write_export(q, mem_dir);
   const FaultRun rtl = run_fault_session(cosim::BoardFidelity::kRtl, q, mem_dir);

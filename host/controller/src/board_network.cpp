@@ -5,6 +5,7 @@
 
 #include <Eigen/Dense>
 
+#include "delta/golden/fixed_point_backend.hpp"
 #include "delta/input_error.hpp"
 #include "delta/kinematics.hpp"
 #include "delta/nn/weights_file.hpp"
@@ -16,20 +17,12 @@ BoardWeights read_board_weights(const std::string& weights_path) {
   if (weights.hybrid()) {
     throw InputError(weights_path, 0, "is a hybrid model; the board runs the network alone (train --model network)");
   }
-  if (weights.deployed()) {
-    throw InputError(weights_path, 0,
-                     "is a deployed model; this gateware has no backlash compensation (train --model network)");
-  }
   if (weights.network.hidden() != 25) {
     throw InputError(weights_path, 0,
                      "has " + std::to_string(weights.network.hidden()) + " hidden neurons; the RTL is built for 25");
   }
   BoardWeights board;
-  try {
-    board.network = golden::quantise(weights.network);
-  } catch (const std::invalid_argument& error) {
-    throw InputError(weights_path, 0, std::string("cannot be quantised: ") + error.what());
-  }
+  board.network = golden::quantise_file(weights_path, weights);  // a deployed model's half-plays too
   board.trained_min_m = weights.network.input_min;
   board.trained_max_m = weights.network.input_max;
   return board;

@@ -9,6 +9,7 @@
 #include "delta/command.hpp"
 #include "delta/gateware.hpp"
 #include "delta/golden/export.hpp"
+#include "delta/golden/fixed_point_backend.hpp"
 #include "delta/golden/test_vectors.hpp"
 #include "delta/input_error.hpp"
 #include "delta/nn/weights_file.hpp"
@@ -39,14 +40,9 @@ std::string golden_vectors_text(const QuantisedNetwork& q, const nn::Network& ne
 
 void run_quantise(const QuantiseOptions& options) {
   const nn::WeightsFile weights = nn::read_weights_file(options.weights);
-  if (weights.deployed()) {
-    throw InputError(options.weights, 0,
-                     "is a deployed model; the board's ROMs have no backlash compensation yet (train --model network)");
-  }
-  QuantisedNetwork q;
+  const QuantisedNetwork q = quantise_file(options.weights, weights);  // a deployed model's half-plays too
   std::vector<ExportFile> files;
   try {
-    q = quantise(weights.network);
     files = export_files(q);
   } catch (const std::invalid_argument& error) {
     throw InputError(options.weights, 0, std::string("cannot be quantised: ") + error.what());
@@ -60,6 +56,11 @@ void run_quantise(const QuantiseOptions& options) {
   for (const ExportFile& file : files) std::cout << options.out_dir << "/" << file.name << '\n';
   std::cerr << "quantise: 3-" << q.hidden << "-3 network, input shifts " << q.input_shift[0] << ' ' << q.input_shift[1]
             << ' ' << q.input_shift[2] << (weights.hybrid() ? "; hybrid model: the network part (residual)" : "")
+            << (weights.deployed()
+                    ? "; deployed model: backlash half-plays " + std::to_string(q.compensation.half_play[0]) + " " +
+                          std::to_string(q.compensation.half_play[1]) + " " +
+                          std::to_string(q.compensation.half_play[2]) + " output LSBs (half_play.mem)"
+                    : "")
             << "; weights CRC-32 " << hex_word(crc, 32) << ", gateware build id " << hex_word(kGatewareBuildId, 32)
             << '\n';
 }
@@ -69,7 +70,8 @@ const RegisterCommand command("quantise", 45, [](CLI::App& root) {
   CLI::App* sub = root.add_subcommand("quantise", "Quantise W.json for the FPGA: $readmemh files and a C++ header");
   sub->footer(
       "\nWrites input_centre, input_shift, input_weights, hidden_bias, tanh_table, tanh_slope,\n"
-      "output_weights, output_bias (.mem, one hex word per line, format in each file's header),\n"
+      "output_weights, output_bias, half_play (the deployed model's backlash half-plays in the board's\n"
+      "reference units; zero for a plain network) (.mem, one hex word per line, format in each file's header),\n"
       "fixed_network_weights.hpp, and identify.mem: the board link's identify payload (docs/board_link.md:\n"
       "protocol, gateware build id, CRC-32 of the codes above, clocks, rates) as 16-bit words for the\n"
       "board's block RAM. Formats: hls/README.md. Weights that would saturate a format are refused\n"

@@ -7,6 +7,7 @@
 
 #include "delta/crc32.hpp"
 #include "delta/gateware.hpp"
+#include "delta/golden/setpoint_interpolation.hpp"
 #include "delta/output_file.hpp"
 
 namespace delta::golden {
@@ -20,6 +21,11 @@ struct MemSpec {
   std::vector<std::int64_t> words;
   std::string cpp_name;
 };
+
+std::vector<std::int64_t> half_play_words(const QuantisedNetwork& q) {
+  const std::array<std::int32_t, 3> counts = interpolation::half_play_counts(q.compensation);
+  return {counts.begin(), counts.end()};
+}
 
 std::vector<MemSpec> mem_specs(const QuantisedNetwork& q) {
   const Formats& f = q.formats;
@@ -60,6 +66,12 @@ std::vector<MemSpec> mem_specs(const QuantisedNetwork& q) {
        "kOutputWeights"},
       {"output_bias.mem", "b2'_o (degrees), o = 0..2", q_format("signed", bias2_bits, acc2), bias2_bits,
        std::vector<std::int64_t>(q.output_bias.begin(), q.output_bias.end()), "kOutputBias"},
+      {"half_play.mem",
+       "H_j = 25 h_j / 16: the deployed model's backlash half-play of joint j as the board's reference "
+       "shift (reference_interpolator.sv), 0 for the plain network, j = 0..2",
+       "unsigned Q" + std::to_string(board::kHalfPlayBits - interpolation::kReferenceFractionBits) + "." +
+           std::to_string(interpolation::kReferenceFractionBits) + " encoder counts",
+       static_cast<int>(board::kHalfPlayBits), half_play_words(q), "kHalfPlay"},
   };
 }
 

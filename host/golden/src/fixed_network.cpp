@@ -20,6 +20,8 @@ void Formats::validate() const {
           "tanh segments finer than the tanh input LSB");
   require(tanh_guard_bits >= 0 && tanh_guard_bits <= 8, "tanh_guard_bits out of 0..8");
   require(half_play_bits >= 1 && half_play_bits < output_bits, "half_play_bits out of 1..output_bits - 1");
+  require(half_play_step_bits >= 0 && half_play_step_bits < half_play_bits,
+          "half_play_step_bits out of 0..half_play_bits - 1");
   require(hidden_accumulator_fraction_bits() >= tanh_input_fraction_bits,
           "tanh input finer than the hidden accumulator");
   require(output_accumulator_fraction_bits() >= output_fraction_bits, "output finer than its accumulator");
@@ -205,7 +207,9 @@ QuantisedCompensation quantise_compensation(const Vec3& half_play_deg, const For
   for (int j = 0; j < 3; ++j) {
     const std::string what = "backlash half-play of joint " + std::to_string(j + 1);
     if (!(half_play_deg[j] >= 0.0)) throw std::invalid_argument(what + " must be a number >= 0");
-    const double scaled = std::floor(std::ldexp(half_play_deg[j], formats.output_fraction_bits) + 0.5);
+    const int step_bits = formats.half_play_step_bits;
+    const double scaled =
+        std::ldexp(std::floor(std::ldexp(half_play_deg[j], formats.output_fraction_bits - step_bits) + 0.5), step_bits);
     if (scaled > std::ldexp(1.0, formats.half_play_bits) - 1.0) {
       throw std::invalid_argument(what + " (" + std::to_string(half_play_deg[j]) + " deg) does not fit " +
                                   std::to_string(formats.half_play_bits) + " unsigned bits of output LSBs");

@@ -35,6 +35,9 @@ struct Formats {
   int output_bits = 24;                  // alpha: degrees, Q10.14, in [-512, 512) deg
   int output_fraction_bits = 14;
   int half_play_bits = 16;  // h: backlash half-play, unsigned, output LSBs: [0, 4) deg
+  // h is a whole number of 2^half_play_step_bits output LSBs (2^-10 deg): the board's references
+  // (Q24.8 counts = round_shift(25 y, 4), setpoint_interpolation.hpp) then move by exactly 25 h / 16.
+  int half_play_step_bits = 4;
 
   int hidden_bits() const { return hidden_fraction_bits + 1; }
   int tanh_range_log2() const { return tanh_input_bits - 1 - tanh_input_fraction_bits; }  // 3: [-8, 8)
@@ -47,6 +50,25 @@ struct Formats {
   int compensation_difference_bits() const { return output_bits + 1; }
   // Throws std::invalid_argument when a combination cannot work (e.g. a shift that would be negative).
   void validate() const;
+};
+
+// The deployed model's backlash compensation on output codes (hls/README.md, "Backlash
+// compensation"): per joint a half-play h (unsigned, half_play_bits, output LSBs) and the
+// reference r it last produced. For each new network answer s, in time order:
+//   first answer:  r = s
+//   s - r > h:     r = s - h      (moving up: the reference lags s by h)
+//   s - r < -h:    r = s + h      (moving down)
+//   otherwise:     r unchanged    (inside the play)
+// s - r needs compensation_difference_bits(); the new r never leaves the output format, because
+// s - h > r >= min in the second case and s + h < r <= max in the third: nothing to saturate.
+struct QuantisedCompensation {
+  std::array<std::int64_t, 3> half_play{};  // h_j in output LSBs, whole multiples of 2^half_play_step_bits
+  bool any() const { return half_play[0] != 0 || half_play[1] != 0 || half_play[2] != 0; }
+};
+
+struct CompensationState {
+  std::array<std::int64_t, 3> reference{};  // r_j: the last reference code
+  bool started = false;                     // false until the first answer (after reset)
 };
 
 // Everything the arithmetic needs, as integer codes (the content of the exported .mem files).
@@ -62,6 +84,9 @@ struct QuantisedNetwork {
   std::vector<std::int64_t> tanh_slope;        // table[i + 1] - table[i], i = 0..segments-1
   std::vector<std::int64_t> output_weights;    // 3 x H, row-major, LW' in Q(w2), degrees
   std::array<std::int64_t, 3> output_bias{};   // b2' in the output accumulator's format, degrees
+  // The deployed model's half-plays (zero for the plain network): not used by the network's
+  // arithmetic; exported to the board (half_play.mem) and covered by the weights CRC.
+  QuantisedCompensation compensation;
 };
 
 // Counts of casts that clamped. Inside the trained range all of them must stay zero.
@@ -81,25 +106,8 @@ struct RawOutput {
   bool output_saturated = false;
 };
 
-// The deployed model's backlash compensation on output codes (hls/README.md, "Backlash
-// compensation"): per joint a half-play h (unsigned, half_play_bits, output LSBs) and the
-// reference r it last produced. For each new network answer s, in time order:
-//   first answer:  r = s
-//   s - r > h:     r = s - h      (moving up: the reference lags s by h)
-//   s - r < -h:    r = s + h      (moving down)
-//   otherwise:     r unchanged    (inside the play)
-// s - r needs compensation_difference_bits(); the new r never leaves the output format, because
-// s - h > r >= min in the second case and s + h < r <= max in the third: nothing to saturate.
-struct QuantisedCompensation {
-  std::array<std::int64_t, 3> half_play{};  // h_j in output LSBs
-};
-
-struct CompensationState {
-  std::array<std::int64_t, 3> reference{};  // r_j: the last reference code
-  bool started = false;                     // false until the first answer (after reset)
-};
-
-// Half-plays in degrees -> codes (round half up). Throws std::invalid_argument for a negative or
+// Half-plays in degrees -> codes: to the nearest whole number of 2^half_play_step_bits output LSBs
+// (round half up). Throws std::invalid_argument for a negative or
 // non-finite half-play or one beyond half_play_bits.
 QuantisedCompensation quantise_compensation(const Vec3& half_play_deg, const Formats& formats = Formats());
 

@@ -40,10 +40,13 @@ inline CompensationStep golden_compensation(const QuantisedCompensation& compens
   };
 }
 
-// Reads and quantises W.json; a weight that would saturate its format is bad input.
+// Reads and quantises W.json (a deployed model's half-plays too, in q.compensation); a weight that
+// would saturate its format is bad input.
 inline QuantisedNetwork quantise_file(const std::string& weights_path, const nn::WeightsFile& weights) {
   try {
-    return quantise(weights.network, Formats{});  // the HLS config's formats (a test checks they agree)
+    QuantisedNetwork q = quantise(weights.network, Formats{});  // the HLS config's formats (a test checks they agree)
+    if (weights.deployed()) q.compensation = quantise_compensation(weights.backlash_half_play_deg, Formats{});
+    return q;
   } catch (const std::invalid_argument& error) {
     throw InputError(weights_path, 0, std::string("cannot be quantised: ") + error.what());
   }

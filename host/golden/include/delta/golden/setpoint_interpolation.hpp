@@ -4,16 +4,24 @@
 // periods. Integer arithmetic only, bit for bit what the RTL must compute:
 //
 //   C   = round_shift(25 * y, 4)                 y: raw output code (Q10.14 deg) -> Q24.8 counts, exact
-//   D   = saturate_16(C - B)                     B: the reference at the segment start
+//   D   = saturate_16(play(C - B, H))            B: the reference at the segment start
 //   r_k = B + round_shift(D * K_k, 14)           K_k = round(k 2^14 / 10), k = 0 .. 9
 //   B'  = B + D                                  the next segment's start
 //
 // round_shift(v, s) = floor((v + 2^(s-1)) / 2^s), an arithmetic shift (golden::round_shift).
+// play(d, H) = d - H (d > H), d + H (d < -H), else 0: the deployed model's backlash compensation
+// (H = 25 h / 16 per joint, h its half-play code; H = 0 for the plain network, play(d, 0) = d).
+// Because h is a whole number of 16 output LSBs, round_shift(25 (s -/+ h), 4) = C -/+ H and
+// d > H exactly when s - r > h for the golden compensation's r (golden::compensate), so the
+// segment targets B + D are round_shift(25 r, 4) of its references while the reference follows
+// them (no slew limit, hold or drives off in between): tests/link/setpoint_interpolation_test.cpp.
 // Hold or underrun: D = 0. Drives off: the reference is the encoder count << 8.
 #pragma once
 
 #include <array>
 #include <cstdint>
+#include <stdexcept>
+#include <string>
 
 #include "delta/board_facts.hpp"
 #include "delta/golden/fixed_network.hpp"
@@ -62,12 +70,35 @@ constexpr std::array<std::int32_t, kPeriods> make_weights() {
 constexpr std::array<std::int32_t, kPeriods> kWeights = make_weights();
 static_assert(kWeights[0] == 0 && kWeights[1] == 1638 && kWeights[9] == 14746, "K_k = (k 16384 + 5) / 10");
 
+static_assert(kAnswerScale.shift == Formats().half_play_step_bits, "H = 25 h / 16 must be exact");
+static_assert(((std::int64_t{1} << Formats().half_play_bits) - 1) * kAnswerScale.factor >> kAnswerScale.shift <
+                  (std::int64_t{1} << board::kHalfPlayBits),
+              "HalfPlayBits (delta_board_pkg.sv) must hold the widest half-play");
+
 constexpr std::int32_t kDeltaMax = (std::int32_t{1} << (kDeltaBits - 1)) - 1;  // 32767
 constexpr std::int32_t kDeltaMin = -(std::int32_t{1} << (kDeltaBits - 1));     // -32768
 
 // C: a network output code (24-bit signed, Q10.14 degrees) as a reference in Q24.8 counts.
 inline std::int32_t reference_counts(std::int32_t answer_code) {
   return static_cast<std::int32_t>(round_shift(kAnswerScale.factor * answer_code, kAnswerScale.shift));
+}
+
+// H: a half-play code h (output LSBs, golden::QuantisedCompensation) in Q24.8 counts, 25 h / 16
+// exactly. Throws std::invalid_argument for a negative h or one that is not a whole number of
+// 2^half_play_step_bits LSBs (the board's compensation would then differ from the golden one).
+inline std::int32_t half_play_counts(std::int64_t half_play_code) {
+  constexpr std::int64_t kStep = std::int64_t{1} << Formats().half_play_step_bits;
+  if (half_play_code < 0 || half_play_code % kStep != 0 || half_play_code >> Formats().half_play_bits != 0) {
+    throw std::invalid_argument("half-play code " + std::to_string(half_play_code) + " is not a whole number of " +
+                                std::to_string(kStep) + " output LSBs below 2^" +
+                                std::to_string(Formats().half_play_bits));
+  }
+  return reference_counts(static_cast<std::int32_t>(half_play_code));
+}
+
+inline std::array<std::int32_t, 3> half_play_counts(const QuantisedCompensation& compensation) {
+  return {half_play_counts(compensation.half_play[0]), half_play_counts(compensation.half_play[1]),
+          half_play_counts(compensation.half_play[2])};
 }
 
 // An encoder count (0.01 deg) as a reference in Q24.8 counts: the reference with the drives off.
@@ -80,9 +111,16 @@ struct SegmentDelta {
   bool saturated = false;  // C - B did not fit
 };
 
-// D = saturate_16(C - B).
-inline SegmentDelta segment_delta(std::int32_t target, std::int32_t start) {
-  const std::int64_t change = std::int64_t{target} - start;
+// play(d, H): the backlash compensation's dead band (above).
+inline std::int64_t play(std::int64_t difference, std::int64_t half_play) {
+  if (difference > half_play) return difference - half_play;
+  if (difference < -half_play) return difference + half_play;
+  return 0;
+}
+
+// D = saturate_16(play(C - B, H)).
+inline SegmentDelta segment_delta(std::int32_t target, std::int32_t start, std::int32_t half_play = 0) {
+  const std::int64_t change = play(std::int64_t{target} - start, half_play);
   SegmentDelta delta;
   delta.saturated = change > kDeltaMax || change < kDeltaMin;
   delta.value = static_cast<std::int32_t>(change > kDeltaMax ? kDeltaMax : change < kDeltaMin ? kDeltaMin : change);
@@ -112,6 +150,10 @@ class SetpointInterpolator {
   static constexpr int kJoints = 3;
   using References = std::array<std::int32_t, kJoints>;  // Q24.8 counts
 
+  SetpointInterpolator() = default;
+  // `half_plays`: H_j (Q24.8 counts) of the deployed model's compensation, as in half_play.mem.
+  explicit SetpointInterpolator(const References& half_plays) : half_plays_(half_plays) {}
+
   void follow_encoders(const std::array<std::int16_t, kJoints>& counts) {
     for (int j = 0; j < kJoints; ++j) {
       start_[j] = interpolation::encoder_reference(counts[j]);
@@ -125,7 +167,7 @@ class SetpointInterpolator {
     for (int j = 0; j < kJoints; ++j) {
       start_[j] = interpolation::next_start(start_[j], delta_[j]);
       const interpolation::SegmentDelta delta =
-          interpolation::segment_delta(interpolation::reference_counts(answer[j]), start_[j]);
+          interpolation::segment_delta(interpolation::reference_counts(answer[j]), start_[j], half_plays_[j]);
       delta_[j] = delta.value;
       if (delta.saturated) ++saturations_[j];
     }
@@ -158,6 +200,7 @@ class SetpointInterpolator {
   const std::array<std::uint64_t, kJoints>& saturations() const { return saturations_; }
 
  private:
+  References half_plays_{};
   References start_{};
   References delta_{};
   std::array<std::uint64_t, kJoints> saturations_{};
