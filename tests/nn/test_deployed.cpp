@@ -2,6 +2,8 @@
 // training on a small recording (the identified play, the static network, the held-out effect).
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include <random>
 
 #include "delta/input_error.hpp"
@@ -154,6 +156,35 @@ TEST(DeployedTraining, AnotherRobotWithWidePlayOnEveryJointReachesTheFloorHeldOu
   const Vec3 ordered = joint_error_stats(measured, in_order).rmse_deg;
   std::printf("held-out (experiment 2) RMSE in time order %.5f %.5f %.5f deg\n", ordered[0], ordered[1], ordered[2]);
   EXPECT_LT(ordered.maxCoeff(), 2.0 * 0.01 / std::sqrt(12.0));
+}
+
+// The restart rule: a training that ends above kStallFloors encoder floors (forced here by 5
+// epochs) is trained once more from seed + kRestartSeedOffset and the better one is kept; the
+// floor is read from the recording (0.01 deg counts: 0.01 / sqrt(12)). The first training alone is
+// the same run with the seed (the restart changes nothing before it), so the result is never worse.
+TEST(DeployedTraining, AStalledTrainingRestartsOnceFromAnotherSeedAndKeepsTheBetter) {
+  const EffectSet effects = test::paper_like_effects();
+  const Recording fit = test::as_recording(test::record("validation", effects, 2000), "fit.csv");
+  TrainingOptions options;
+  options.seed = 5;
+  options.max_epochs = 5;
+  std::vector<double> validation_mse;  // of every epoch of both trainings, in order
+  const ModelTraining stalled = train_model(fit, "deployed", options, [&](const TrainingEpoch& epoch) {
+    validation_mse.push_back(epoch.validation_mse_deg2);
+  });
+  EXPECT_NEAR(stalled.floor_deg, 0.01 / std::sqrt(12.0), 1e-9);
+  ASSERT_TRUE(stalled.restart_seed.has_value());
+  EXPECT_EQ(*stalled.restart_seed, options.seed + kRestartSeedOffset);
+  const nlohmann::json& restart = stalled.weights.provenance.at("restart");
+  EXPECT_EQ(restart.at("seed").get<std::uint64_t>(), options.seed + kRestartSeedOffset);
+  EXPECT_EQ(restart.at("kept").get<std::string>(), stalled.restart_kept ? "restart" : "first");
+  ASSERT_GE(validation_mse.size(), 2u);  // epochs of two trainings reported
+  const double best = *std::min_element(validation_mse.begin(), validation_mse.end());
+  EXPECT_NEAR(stalled.training.validation_mse_deg2, best, 1e-12 + 1e-9 * best);
+  std::printf("5 epochs twice: validation RMSE %.5f deg (%.1f floors), kept the %s\n",
+              std::sqrt(stalled.training.validation_mse_deg2),
+              std::sqrt(stalled.training.validation_mse_deg2) / stalled.floor_deg,
+              stalled.restart_kept ? "restart" : "first");
 }
 
 }  // namespace

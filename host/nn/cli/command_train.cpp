@@ -40,6 +40,11 @@ void run_train(const TrainOptions& options) {
               << fixed(fit.rmse_after_deg[1], 4) << ' ' << fixed(fit.rmse_after_deg[2], 4) << " deg\n";
   }
   const TrainingResult& training = result.training;
+  if (result.restart_seed) {
+    std::cerr << "train: the first training stalled above " << kStallFloors << " encoder floors ("
+              << fixed(result.floor_deg, 5) << " deg); restarted from seed " << *result.restart_seed << ", kept the "
+              << (result.restart_kept ? "restart" : "first") << '\n';
+  }
   std::cerr << "train: " << options.model << " 3-" << options.training.hidden << "-3 on " << training.training_samples
             << " samples (+" << training.validation_samples << " validation), " << training.epochs
             << " epochs, stopped by " << training.stop_reason << ", best epoch " << training.best_epoch

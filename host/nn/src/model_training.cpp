@@ -146,6 +146,33 @@ void thin_recording(std::size_t recorded, std::vector<Vec3>& inputs, std::vector
   targets.resize(kept);
 }
 
+// The encoder floor of a recording: the step q of the grid the readings of every joint lie on (the
+// encoder's quantisation, 0.01 deg on the paper's robot: the smallest gap between distinct
+// readings, every reading a whole number of steps from the first), over sqrt(12); 0 when the
+// readings are not on a grid (unquantised data: no floor to compare with).
+double quantisation_floor_deg(const Recording& recording) {
+  double step = 0.0;
+  for (int j = 0; j < 3; ++j) {
+    std::vector<double> values;
+    values.reserve(recording.samples.size());
+    for (const Sample& sample : recording.samples) values.push_back(sample.alpha_deg[j]);
+    std::sort(values.begin(), values.end());
+    values.erase(std::unique(values.begin(), values.end()), values.end());
+    double smallest = 0.0;
+    for (std::size_t i = 1; i < values.size(); ++i) {
+      const double gap = values[i] - values[i - 1];
+      if (gap > 1e-9 && (smallest == 0.0 || gap < smallest)) smallest = gap;
+    }
+    if (smallest == 0.0) return 0.0;
+    for (double value : values) {
+      const double steps = (value - values.front()) / smallest;
+      if (std::abs(steps - std::round(steps)) > 1e-3) return 0.0;  // not on a grid
+    }
+    step = std::max(step, smallest);
+  }
+  return step / std::sqrt(12.0);
+}
+
 }  // namespace
 
 ModelTraining train_model(const Recording& recording, const std::string& model, const TrainingOptions& options,
@@ -206,6 +233,18 @@ ModelTraining train_model(const Recording& recording, const std::string& model, 
       thin_recording(recording.samples.size(), inputs, targets);
     }
     result.training = train_network(inputs, targets, options, progress);
+    if (model == "deployed") {
+      result.floor_deg = quantisation_floor_deg(recording);
+      if (result.training.validation_samples > 0 && result.floor_deg > 0.0 &&
+          std::sqrt(result.training.validation_mse_deg2) > kStallFloors * result.floor_deg) {
+        TrainingOptions restart = options;
+        restart.seed = options.seed + kRestartSeedOffset;
+        result.restart_seed = restart.seed;
+        TrainingResult second = train_network(inputs, targets, restart, progress);
+        result.restart_kept = second.validation_mse_deg2 < result.training.validation_mse_deg2;
+        if (result.restart_kept) result.training = std::move(second);
+      }
+    }
   } catch (const std::invalid_argument& error) {
     throw InputError(recording.path, 0, error.what());
   }
@@ -236,6 +275,12 @@ ModelTraining train_model(const Recording& recording, const std::string& model, 
   }
   if (result.weights.deployed()) {
     provenance["anchor_poses"] = anchors;
+    provenance["encoder_floor_deg"] = result.floor_deg;
+    if (result.restart_seed) {
+      provenance["restart"] = {{"seed", *result.restart_seed},
+                               {"rule", "validation RMSE above " + format_number(kStallFloors) + " encoder floors"},
+                               {"kept", result.restart_kept ? "restart" : "first"}};
+    }
     provenance["anchor_rule"] = "grid " + std::to_string(kAnchorGrid) + "^3 over the recorded box grown by " +
                                 format_number(kAnchorMargin) + " of each range, farther than " +
                                 format_number(kAnchorGap) + " of each range from every recorded pose";
