@@ -111,12 +111,15 @@ class HostProcess {
 
 // A virtual board, homed through `deltactl host home` unless told not to.
 struct Bench {
-  std::string dir, link, truth;
+  std::string dir, link, truth, weights;
   std::unique_ptr<VirtualBoardProcess> board;
-  Bench(const std::string& name, std::vector<std::string> extra = {}, bool home_it = true) : dir(temp_dir(name)) {
+  // `weights`: what both the virtual board and the host run (the plain shipped network unless told).
+  Bench(const std::string& name, std::vector<std::string> extra = {}, bool home_it = true,
+        std::string weights_path = kWeights)
+      : dir(temp_dir(name)), weights(std::move(weights_path)) {
     link = dir + "/tty";
     truth = dir + "/truth.csv";
-    std::vector<std::string> arguments = {"--weights", kWeights, "--truth", truth};
+    std::vector<std::string> arguments = {"--weights", weights, "--truth", truth};
     arguments.insert(arguments.end(), extra.begin(), extra.end());
     board = std::make_unique<VirtualBoardProcess>(link, arguments);
     const std::string ready = board->ready_line(60'000);
@@ -131,7 +134,7 @@ struct Bench {
             "--port",
             port,
             "--weights",
-            kWeights,
+            weights,
             "--trajectory",
             "experiment1",
             "--duration",
