@@ -27,8 +27,7 @@ const RegisterIkBackend hls_backend(
         out.output_saturated = flags & delta_hls::kOutputSaturated;
         return out;
       };
-      auto compensation =
-          std::make_shared<delta_hls::CompensationCodes<Config>>(quantise_compensation_file(weights_path, weights));
+      auto compensation = std::make_shared<delta_hls::CompensationCodes<Config>>(q.compensation);
       CompensationStep step = [compensation](const std::array<std::int64_t, 3>& codes, bool first) {
         if (first) compensation->restart();
         return compensation->step(codes);

@@ -32,17 +32,12 @@ class RtlIkBackend : public IkBackend {
       throw InputError(weights_path, 0,
                        "has " + std::to_string(weights_.network.hidden()) + " hidden neurons; the RTL is built for 25");
     }
-    try {
-      quantised_ = golden::quantise(weights_.network);
-    } catch (const std::invalid_argument& error) {
-      throw InputError(weights_path, 0, std::string("cannot be quantised: ") + error.what());
-    }
+    quantised_ = golden::quantise_file(weights_path, weights_);  // a deployed model's half-plays too
     golden::write_export(quantised_, directory_.path());
     network_ = std::make_unique<NetworkHarness<Vdelta_network>>(quantised_.formats.input_bits,
                                                                 quantised_.formats.output_bits, directory_.path());
-    const golden::QuantisedCompensation compensation = golden::quantise_compensation_file(weights_path, weights_);
     compensation_ = std::make_unique<CompensationHarness<Vbacklash_compensation>>(
-        quantised_.formats.output_bits, quantised_.formats.half_play_bits, compensation.half_play);
+        quantised_.formats.output_bits, quantised_.formats.half_play_bits, quantised_.compensation.half_play);
   }
 
   bool has_raw_codes() const override { return true; }

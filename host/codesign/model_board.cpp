@@ -148,7 +148,6 @@ struct ModelBoard::Memories {
 
 struct ModelBoard::State {
   const golden::QuantisedNetwork* network = nullptr;
-  std::array<std::int32_t, 3> half_plays{};  // H_j, Q24.8 counts (half_play.mem): constant
   control::JointFixedCoefficients coefficients = control::make_fixed_coefficients(control::JointControllerParameters{});
   std::uint64_t cycle = 0;
 
@@ -238,7 +237,7 @@ ModelBoard::ModelBoard(const golden::QuantisedNetwork& network, const std::strin
   State& s = *state_;
   network_ = network;
   s.network = &network_;
-  s.half_plays = golden::interpolation::half_play_counts(network_.compensation);
+  half_plays_ = golden::interpolation::half_play_counts(network_.compensation);
   s.count.fill(static_cast<std::uint16_t>(board::kHomeCount));
   std::ifstream in(identify_mem);
   if (!in) throw std::runtime_error("model board: cannot read " + identify_mem);
@@ -629,7 +628,7 @@ void ModelBoard::clock(int uart_rx, int encoder_a, int encoder_b) {
     n.step = s.step + 1;
     if (s.step == 4) {
       const std::int64_t c = golden::interpolation::reference_counts(s.net_outputs[j]);
-      const std::int64_t diff = golden::interpolation::play(c - s.r[j], s.half_plays[j]);
+      const std::int64_t diff = golden::play(c - s.r[j], half_plays_[j]);
       const bool saturated = diff > golden::interpolation::kDeltaMax || diff < golden::interpolation::kDeltaMin;
       n.delta =
           take_answer

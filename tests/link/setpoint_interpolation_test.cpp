@@ -230,10 +230,10 @@ TEST(SetpointInterpolation, TheBoardsPlayEqualsTheGoldenCompensationOfTheAnswers
   std::cout << compared << " targets compared, " << moved << " moved, " << held << " held inside the play\n";
   EXPECT_GT(held, compared / 10);
   EXPECT_GT(moved, compared / 4);
-  EXPECT_EQ(interpolation::play(12345, 0), 12345);
-  EXPECT_EQ(interpolation::play(-7, 0), -7);
-  EXPECT_EQ(interpolation::play(100, 100), 0);
-  EXPECT_EQ(interpolation::play(-101, 100), -1);
+  EXPECT_EQ(play(12345, 0), 12345);
+  EXPECT_EQ(play(-7, 0), -7);
+  EXPECT_EQ(play(100, 100), 0);
+  EXPECT_EQ(play(-101, 100), -1);
 }
 
 }  // namespace

@@ -23,6 +23,18 @@ namespace {
 const std::string kWeights = std::string(DELTA_SOURCE_DIR) + "/weights/paper_like.json";
 const std::string kEffects = std::string(DELTA_SOURCE_DIR) + "/sim/paper_like_effects.json";
 
+// Experiment 1 with the paper-like robot after a 0.3 s smooth start, q's ROMs in mem_dir.
+cosim::CosimOptions experiment_one(const golden::QuantisedNetwork& q, const std::string& mem_dir, double duration_s) {
+  cosim::CosimOptions options;
+  options.mem_dir = mem_dir;
+  options.network = &q;
+  options.effects = read_effect_file(kEffects);
+  options.trajectory = make_trajectory("experiment1").position_m;
+  options.duration_s = duration_s;
+  options.blend_s = 0.3;
+  return options;
+}
+
 // 0.6 s of experiment 1 (0.3 s smooth start from where the host finds the plate), the host
 // speaking only link v2 to the virtual board at RTL fidelity: the board identifies itself with the
 // host's weights, plays every setpoint without underrun once playing, the clean line drops no
@@ -33,14 +45,7 @@ TEST(Cosim, PaperLikeRobotFollowsExperimentOneOverTheLink) {
   const golden::QuantisedNetwork q = golden::quantise(nn::read_weights_file(kWeights).network);
   const std::string mem_dir = fresh_directory("cosim_mem");
   golden::write_export(q, mem_dir);
-  cosim::CosimOptions options;
-  options.mem_dir = mem_dir;
-  options.network = &q;
-  options.effects = read_effect_file(kEffects);
-  options.trajectory = make_trajectory("experiment1").position_m;
-  options.duration_s = 0.6;
-  options.blend_s = 0.3;
-  const cosim::CosimResult result = cosim::run_cosim(options);
+  const cosim::CosimResult result = cosim::run_cosim(experiment_one(q, mem_dir, 0.6));
   const cosim::TrackingSummary summary = cosim::summarise(result, 0.4);
   const link::LinkStatistics& link = result.link;
   std::cout << "played " << result.stream.played << " of " << result.stream.samples << ", t0 " << result.t0_s * 1e3
@@ -117,14 +122,8 @@ TEST(Cosim, TheDeployedModelPlacesThePlateFiveTimesCloserOnExperimentOne) {
     const golden::QuantisedNetwork q = golden::quantise_file(weights, nn::read_weights_file(weights));
     const std::string mem_dir = fresh_directory(name);
     golden::write_export(q, mem_dir);
-    cosim::CosimOptions options;
+    cosim::CosimOptions options = experiment_one(q, mem_dir, 5.3);
     options.fidelity = cosim::BoardFidelity::kModel;
-    options.mem_dir = mem_dir;
-    options.network = &q;
-    options.effects = read_effect_file(kEffects);
-    options.trajectory = make_trajectory("experiment1").position_m;
-    options.duration_s = 5.3;
-    options.blend_s = 0.3;
     const cosim::CosimResult result = cosim::run_cosim(options);
     EXPECT_EQ(result.stream.played, result.stream.samples) << name;
     EXPECT_EQ(result.identify.weights_crc, weights_crc(q)) << name;

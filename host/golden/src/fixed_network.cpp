@@ -220,11 +220,7 @@ QuantisedCompensation quantise_compensation(const Vec3& half_play_deg, const For
 }
 
 std::int64_t compensate_joint(std::int64_t half_play, std::int64_t static_code, std::int64_t reference, bool started) {
-  if (!started) return static_code;
-  const std::int64_t difference = static_code - reference;
-  if (difference > half_play) return static_code - half_play;
-  if (difference < -half_play) return static_code + half_play;
-  return reference;
+  return started ? reference + play(static_code - reference, half_play) : static_code;
 }
 
 std::array<std::int64_t, 3> compensate(const QuantisedCompensation& compensation, CompensationState& state,

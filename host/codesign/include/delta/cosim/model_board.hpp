@@ -60,6 +60,7 @@ class ModelBoard {
   struct Memories;
   struct State;
   golden::QuantisedNetwork network_;
+  std::array<std::int32_t, 3> half_plays_{};  // H_j, Q24.8 counts (half_play.mem): constant
   std::unique_ptr<Memories> memories_;
   std::unique_ptr<State> state_;
   std::unique_ptr<State> next_state_;  // clock()'s next values

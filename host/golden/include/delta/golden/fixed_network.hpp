@@ -111,6 +111,15 @@ struct RawOutput {
 // non-finite half-play or one beyond half_play_bits.
 QuantisedCompensation quantise_compensation(const Vec3& half_play_deg, const Formats& formats = Formats());
 
+// The play's dead band on a difference d = s - r: d - h (d > h), d + h (d < -h), else 0. The one
+// definition: the golden compensation (r' = r + play(s - r, h)) and the board's interpolation
+// (play(C - B, H), setpoint_interpolation.hpp) both use it.
+inline std::int64_t play(std::int64_t difference, std::int64_t half_play) {
+  if (difference > half_play) return difference - half_play;
+  if (difference < -half_play) return difference + half_play;
+  return 0;
+}
+
 // One joint's step of the play (above); `started` false makes r = s.
 std::int64_t compensate_joint(std::int64_t half_play, std::int64_t static_code, std::int64_t reference, bool started);
 

@@ -22,16 +22,6 @@ using RawEvaluator = std::function<RawOutput(const std::array<std::int64_t, 3>&)
 // of a recording), then each call takes the network's next raw answer in time order.
 using CompensationStep = std::function<std::array<std::int64_t, 3>(const std::array<std::int64_t, 3>&, bool first)>;
 
-// Quantises the deployed model's half-plays; one too wide for the format is bad input.
-inline QuantisedCompensation quantise_compensation_file(const std::string& weights_path,
-                                                        const nn::WeightsFile& weights) {
-  try {
-    return quantise_compensation(weights.backlash_half_play_deg, Formats{});
-  } catch (const std::invalid_argument& error) {
-    throw InputError(weights_path, 0, std::string("cannot be quantised: ") + error.what());
-  }
-}
-
 // The golden model's compensation as a CompensationStep.
 inline CompensationStep golden_compensation(const QuantisedCompensation& compensation) {
   return [compensation, state = CompensationState{}](const std::array<std::int64_t, 3>& codes, bool first) mutable {

@@ -111,13 +111,6 @@ struct SegmentDelta {
   bool saturated = false;  // C - B did not fit
 };
 
-// play(d, H): the backlash compensation's dead band (above).
-inline std::int64_t play(std::int64_t difference, std::int64_t half_play) {
-  if (difference > half_play) return difference - half_play;
-  if (difference < -half_play) return difference + half_play;
-  return 0;
-}
-
 // D = saturate_16(play(C - B, H)).
 inline SegmentDelta segment_delta(std::int32_t target, std::int32_t start, std::int32_t half_play = 0) {
   const std::int64_t change = play(std::int64_t{target} - start, half_play);
