@@ -4,8 +4,8 @@
 # fidelity) and the C++ model board (model fidelity, bit-exact with it), each as board cycles per
 # second and as a multiple of real time (rtl/board/delta_board_pkg.sv BoardClockHz), median of RUNS
 # runs, then their ratio. The model runs free here (cosim never paces). BASELINE_BUILD (optional):
-# another build (e.g. of an older commit) whose model board is measured in the same run, and the
-# ratio of this build's model to it.
+# another build (e.g. of an older commit) whose two boards are measured in the same run, and the
+# ratios of this build's boards to its.
 # Usage: scripts/bench_boards.sh [BUILD_DIR] [SECONDS] [RUNS] [BASELINE_BUILD]   (defaults: build, 2, 3, none)
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -37,7 +37,10 @@ median() { printf '%s\n' "$@" | sort -g | awk '{ a[NR] = $1 } END { print a[int(
 
 read -r -a rtl <<<"$(measure rtl)"
 read -r -a model <<<"$(measure model)"
-[[ -z $baseline ]] || read -r -a base <<<"$(measure model "$baseline/bin/deltactl")"
+if [[ -n $baseline ]]; then
+  read -r -a base_rtl <<<"$(measure rtl "$baseline/bin/deltactl")"
+  read -r -a base <<<"$(measure model "$baseline/bin/deltactl")"
+fi
 rtl_median=$(median "${rtl[@]}")
 model_median=$(median "${model[@]}")
 x() { awk -v r="$1" -v c="$clock_mhz" 'BEGIN { printf "%.3f", r / c }'; }
@@ -46,10 +49,14 @@ echo "|---|---|---|---|---|"
 echo "| RTL (Verilated board_core) | $runs | ${rtl[*]} | $rtl_median | $(x "$rtl_median") |"
 echo "| model (C++ model board) | $runs | ${model[*]} | $model_median | $(x "$model_median") |"
 if [[ -n $baseline ]]; then
+  base_rtl_median=$(median "${base_rtl[@]}")
   base_median=$(median "${base[@]}")
+  echo "| RTL, baseline build ($baseline) | $runs | ${base_rtl[*]} | $base_rtl_median | $(x "$base_rtl_median") |"
   echo "| model, baseline build ($baseline) | $runs | ${base[*]} | $base_median | $(x "$base_median") |"
 fi
-echo "model / RTL: $(awk -v m="$model_median" -v r="$rtl_median" 'BEGIN { printf "%.2f", m / r }') x"
+ratio() { awk -v a="$1" -v b="$2" 'BEGIN { printf "%.2f", a / b }'; }
+echo "model / RTL: $(ratio "$model_median" "$rtl_median") x"
 if [[ -n $baseline ]]; then
-  echo "model / baseline model: $(awk -v m="$model_median" -v b="$base_median" 'BEGIN { printf "%.2f", m / b }') x"
+  echo "RTL / baseline RTL: $(ratio "$rtl_median" "$base_rtl_median") x"
+  echo "model / baseline model: $(ratio "$model_median" "$base_median") x"
 fi

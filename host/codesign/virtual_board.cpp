@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "Vboard_core.h"
+#include "Vboard_core___024root.h"
 #include "delta/cosim/model_board.hpp"
 #include "delta/rtl/board_clock.hpp"
 #include "delta/rtl/uart_line.hpp"
@@ -37,7 +38,8 @@ class VirtualBoard::Core {
   std::unique_ptr<Vboard_core> model;
   std::unique_ptr<ModelBoard> board;
   rtl::UartLine line;
-  std::size_t bytes_on_line = 0;  // written and not yet fully sent
+  rtl::IdleNetworkSkip network_clock;  // the board clock without an idle network's edges
+  std::size_t bytes_on_line = 0;       // written and not yet fully sent
   std::uint64_t bits_sent = 0;
 };
 
@@ -52,6 +54,7 @@ VirtualBoard::VirtualBoard(const VirtualBoardOptions& options) : core_(std::make
     encoder_skip_clock_ = static_cast<std::uint64_t>(options.inject_encoder_skip_at_s * kBoardClockHz);
   }
   world_ = std::make_unique<RobotWorld>(board_interface, options.effects, options.nominal, options.plant);
+  skip_idle_network_ = options.skip_idle_network;
   if (core_->board) return;  // the model starts in its reset state
 
   Vboard_core& core = *core_->model;
@@ -68,6 +71,8 @@ VirtualBoard::VirtualBoard(const VirtualBoardOptions& options) : core_(std::make
 VirtualBoard::~VirtualBoard() = default;
 
 const RobotWorld& VirtualBoard::world() const { return *world_; }
+
+std::uint64_t VirtualBoard::idle_network_clocks() const { return core_->network_clock.skipped(); }
 
 void VirtualBoard::write(const std::uint8_t* data, std::size_t size) {
   core_->line.send(std::vector<std::uint8_t>(data, data + size));
@@ -108,7 +113,11 @@ void VirtualBoard::clock() {
   const int skipped = clocks_ >= encoder_skip_clock_ ? 1 : 0;  // joint 1's lines inverted
   core.encoder_a_i = world_->encoder_a() ^ skipped;
   core.encoder_b_i = world_->encoder_b() ^ skipped;
-  rtl::clock_board(core);
+  if (skip_idle_network_) {
+    core_->network_clock.clock(core);
+  } else {
+    rtl::clock_board(core);
+  }
   if (core_->line.sample_tx_pin(core.uart_tx_o)) from_board_.push_back(core_->line.byte());
   world_->step({core.drive_pwm_o, core.drive_dir_o, static_cast<bool>(core.drive_enable_o)});
   ++clocks_;

@@ -45,12 +45,16 @@ module network_crossing #(
   // ---- board side (clk_i) ---------------------------------------------------------------------
   logic [InputBits-1:0]  inputs_q;
   logic [OutputBits-1:0] outputs_q;
-  logic                  request_q, busy_q, answer_seen_q, done_q;
+  logic                  busy_q, answer_seen_q, done_q;
+  // Read by the simulation's idle skip (rtl/board/sim/include/delta/rtl/board_clock.hpp).
+  logic                  request_q /*verilator public_flat_rd*/;
   logic [1:0]            answer_sync_q;
   logic [OutputBits-1:0] held_outputs_q;  // network side, below
   logic                  answer_q;
 
-  assign ready_o = start_i && !busy_q;
+  logic ready /*verilator public_flat_rd*/;  // request_q toggles at the next edge
+  assign ready   = start_i && !busy_q;
+  assign ready_o = ready;
 
   always_ff @(posedge clk_i or negedge rst_ni) begin
     if (!rst_ni) begin
@@ -81,8 +85,9 @@ module network_crossing #(
   assign outputs_o = CaptureOutputs ? outputs_q : net_outputs_i;
 
   // ---- network side (clk_network_i) -------------------------------------------------------------
-  logic [1:0]            request_sync_q;
-  logic                  request_seen_q, start_q;
+  logic [1:0]            request_sync_q /*verilator public_flat_rd*/;
+  logic                  request_seen_q /*verilator public_flat_rd*/;
+  logic                  start_q /*verilator public_flat_rd*/;
 
   always_ff @(posedge clk_network_i or negedge rst_network_ni) begin
     if (!rst_network_ni) begin

@@ -92,7 +92,7 @@ module delta_network #(
   end
 
   // ---- control: accept, token stream, done ----------------------------------------------------
-  logic                   busy_q;
+  logic                   busy_q /*verilator public_flat_rd*/;  // read by the simulation's idle skip
   logic [StepWidth-1:0]   step_q;
   logic [NeuronWidth-1:0] neuron_q;
   logic [GroupWidth-1:0]  group_q;

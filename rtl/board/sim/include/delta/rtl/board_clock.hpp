@@ -2,6 +2,8 @@
 // it (the PLL's GENCLK and GENCLK_HALF). Shared by the co-simulation and the board tests.
 #pragma once
 
+#include <cstdint>
+
 namespace delta::rtl {
 
 template <typename BoardCore>
@@ -17,5 +19,56 @@ void clock_board(BoardCore& core) {
   core.clk_network_i = 0;
   core.eval();
 }
+
+// clock_board, without the network clock's two edges where they provably change nothing: two
+// evaluations instead of four and none of the network's logic, the same state after every board
+// clock (tests/rtl/test_board_idle_network.cpp runs both side by side and compares them).
+//
+// Why an idle network's edges change nothing (rtl/network/delta_network.sv, network_crossing.sv):
+// with busy_q low and no start (the crossing's start_q low), accept and issue are low, so the
+// counters (step, neuron, group) hold, group_q is 0 (every inference ends on its last group and
+// accept clears it), the token pipeline shifts in constants and no valid bit, and every other
+// register is either enabled by accept or a valid bit (offset_q, activation_q, both accumulators
+// of layer 2, resolved_q, y_q) and holds, or a function of constant registers and ROM words at
+// constant addresses one stage down: after the pipeline's depth (14 stages behind the token
+// registers' 12) each one has reached its fixed point. accum1_q too: its feedback is taken only
+// when first_group_s3_q is low, which needs a token of group > 0. The crossing's network side
+// holds when its request synchroniser already shows request_q, request_seen_q matches it and
+// start_q is low; request_q toggles only at a board edge where ready is high (then the second
+// network edge of that board clock would see it). kFlushEdges network edges of idle, a margin
+// over the 26 stages, before the first skip.
+class IdleNetworkSkip {
+ public:
+  static constexpr std::uint32_t kFlushEdges = 64;
+
+  template <typename BoardCore>
+  void clock(BoardCore& core) {
+    auto& root = *core.rootp;
+    const bool request = root.board_core__DOT__u_crossing__DOT__request_q;
+    const bool quiet = !root.board_core__DOT__u_network__DOT__busy_q &&
+                       !root.board_core__DOT__u_crossing__DOT__start_q &&
+                       root.board_core__DOT__u_crossing__DOT__request_sync_q == (request ? 3u : 0u) &&
+                       root.board_core__DOT__u_crossing__DOT__request_seen_q == request &&
+                       !root.board_core__DOT__u_crossing__DOT__ready;
+    if (!quiet) {
+      idle_edges_ = 0;
+    } else if (idle_edges_ >= kFlushEdges) {
+      ++skipped_;
+      core.clk_i = 1;
+      core.eval();
+      core.clk_i = 0;
+      core.eval();
+      return;
+    } else {
+      idle_edges_ += 2;
+    }
+    clock_board(core);
+  }
+  std::uint64_t skipped() const { return skipped_; }  // board clocks without network edges
+
+ private:
+  std::uint32_t idle_edges_ = 0;  // network edges clocked with the network quiet before them
+  std::uint64_t skipped_ = 0;
+};
 
 }  // namespace delta::rtl
