@@ -41,6 +41,22 @@ struct PeriodRecord {
   cosim::BoardPins pins;
 };
 
+// Every control period of b equals a's: its clock, the currents the world applied (the PWM it
+// averaged, exactly), the encoder lines, the plant angles and the status pins.
+void expect_same_periods(const std::vector<PeriodRecord>& a, const std::vector<PeriodRecord>& b) {
+  ASSERT_EQ(b.size(), a.size());
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    ASSERT_EQ(b[i].clocks, a[i].clocks) << "period " << i;
+    ASSERT_EQ(b[i].current_a, a[i].current_a) << "period " << i;
+    ASSERT_EQ(b[i].encoder_deg, a[i].encoder_deg) << "period " << i;
+    ASSERT_EQ(b[i].true_alpha_deg, a[i].true_alpha_deg) << "period " << i;
+    ASSERT_EQ(b[i].pins.drive_enable, a[i].pins.drive_enable) << "period " << i;
+    ASSERT_EQ(b[i].pins.fault_cause_bits, a[i].pins.fault_cause_bits) << "period " << i;
+    ASSERT_EQ(b[i].pins.encoder_error_bits, a[i].pins.encoder_error_bits) << "period " << i;
+    ASSERT_EQ(b[i].pins.joint_limited, a[i].pins.joint_limited) << "period " << i;
+  }
+}
+
 struct BoardRun {
   cosim::CosimResult result;
   std::vector<PeriodRecord> periods;
@@ -100,19 +116,7 @@ TEST(ModelBoard, EqualsTheRtlBoardFrameForFrameAndPeriodForPeriodOverExperimentO
   }
   EXPECT_GT(moving, 1000u);
 
-  ASSERT_EQ(model.periods.size(), rtl.periods.size());
-  for (std::size_t i = 0; i < rtl.periods.size(); ++i) {
-    const PeriodRecord& a = rtl.periods[i];
-    const PeriodRecord& b = model.periods[i];
-    ASSERT_EQ(b.clocks, a.clocks);
-    ASSERT_EQ(b.current_a, a.current_a) << "period " << i;  // the PWM the world averaged, exactly
-    ASSERT_EQ(b.encoder_deg, a.encoder_deg) << "period " << i;
-    ASSERT_EQ(b.true_alpha_deg, a.true_alpha_deg) << "period " << i;
-    ASSERT_EQ(b.pins.drive_enable, a.pins.drive_enable) << "period " << i;
-    ASSERT_EQ(b.pins.fault_cause_bits, a.pins.fault_cause_bits) << "period " << i;
-    ASSERT_EQ(b.pins.encoder_error_bits, a.pins.encoder_error_bits) << "period " << i;
-    ASSERT_EQ(b.pins.joint_limited, a.pins.joint_limited) << "period " << i;
-  }
+  expect_same_periods(rtl.periods, model.periods);
 }
 
 // A host session with a fault and a recovery, on either board: identify, set home, enable, stream
@@ -177,19 +181,7 @@ void expect_same_runs(const FaultRun& a, const FaultRun& b) {
     ASSERT_EQ(link::encode(b.telemetry[i]), link::encode(a.telemetry[i]))
         << "telemetry frame " << i << " (tick " << a.telemetry[i].tick << ")";
   }
-  ASSERT_EQ(b.periods.size(), a.periods.size());
-  for (std::size_t i = 0; i < a.periods.size(); ++i) {
-    const PeriodRecord& x = a.periods[i];
-    const PeriodRecord& y = b.periods[i];
-    ASSERT_EQ(y.clocks, x.clocks) << "period " << i;
-    ASSERT_EQ(y.current_a, x.current_a) << "period " << i;
-    ASSERT_EQ(y.encoder_deg, x.encoder_deg) << "period " << i;
-    ASSERT_EQ(y.true_alpha_deg, x.true_alpha_deg) << "period " << i;
-    ASSERT_EQ(y.pins.drive_enable, x.pins.drive_enable) << "period " << i;
-    ASSERT_EQ(y.pins.fault_cause_bits, x.pins.fault_cause_bits) << "period " << i;
-    ASSERT_EQ(y.pins.encoder_error_bits, x.pins.encoder_error_bits) << "period " << i;
-    ASSERT_EQ(y.pins.joint_limited, x.pins.joint_limited) << "period " << i;
-  }
+  expect_same_periods(a.periods, b.periods);
 }
 
 TEST(ModelBoard, EqualsTheRtlBoardThroughAnEncoderSkipFaultAndItsRecovery) {
