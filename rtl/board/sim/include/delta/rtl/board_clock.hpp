@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <type_traits>
 
 namespace delta::rtl {
 
@@ -37,6 +38,20 @@ void clock_board(BoardCore& core) {
 // start_q is low; request_q toggles only at a board edge where ready is high (then the second
 // network edge of that board clock would see it). kFlushEdges network edges of idle, a margin
 // over the 26 stages, before the first skip.
+//
+// One evaluation per rising edge: Verilator 5 finds a rising edge of a clock against the level the
+// last eval() saw, which it keeps in the model (__Vtrigrprev__TOP__<clock>). board_core acts on
+// rising clock edges only (its resets are the only other triggers, and no logic reads a clock's
+// level), so an evaluation at a falling edge recomputes the same values from the same registers and
+// inputs. Where the model keeps those levels, the falling edges are recorded there instead of
+// evaluated: a board clock is one evaluation, two with the network's edges; the clocks stay high
+// between board clocks. Another Verilator: every falling edge evaluated (same results).
+template <typename Root, typename = void>
+struct RecordsClockLevels : std::false_type {};
+template <typename Root>
+struct RecordsClockLevels<Root, std::void_t<decltype(Root::__Vtrigrprev__TOP__clk_i),
+                                            decltype(Root::__Vtrigrprev__TOP__clk_network_i)>> : std::true_type {};
+
 class IdleNetworkSkip {
  public:
   static constexpr std::uint32_t kFlushEdges = 64;
@@ -44,25 +59,39 @@ class IdleNetworkSkip {
   template <typename BoardCore>
   void clock(BoardCore& core) {
     auto& root = *core.rootp;
+    using Root = std::remove_reference_t<decltype(root)>;
     const bool request = root.board_core__DOT__u_crossing__DOT__request_q;
     const bool quiet = !root.board_core__DOT__u_network__DOT__busy_q &&
                        !root.board_core__DOT__u_crossing__DOT__start_q &&
                        root.board_core__DOT__u_crossing__DOT__request_sync_q == (request ? 3u : 0u) &&
                        root.board_core__DOT__u_crossing__DOT__request_seen_q == request &&
                        !root.board_core__DOT__u_crossing__DOT__ready;
+    const bool skip = quiet && idle_edges_ >= kFlushEdges;
     if (!quiet) {
       idle_edges_ = 0;
-    } else if (idle_edges_ >= kFlushEdges) {
-      ++skipped_;
+    } else if (!skip) {
+      idle_edges_ += 2;
+    }
+    if (skip) ++skipped_;
+    if constexpr (RecordsClockLevels<Root>::value) {
+      root.__Vtrigrprev__TOP__clk_i = 0;  // the falling edge of the last board clock
+      core.clk_i = 1;
+      if (!skip) {
+        root.__Vtrigrprev__TOP__clk_network_i = 0;
+        core.clk_network_i = 1;
+      }
+      core.eval();
+      if (skip) return;
+      root.__Vtrigrprev__TOP__clk_network_i = 0;  // the network's second rising edge
+      core.eval();
+    } else if (skip) {
       core.clk_i = 1;
       core.eval();
       core.clk_i = 0;
       core.eval();
-      return;
     } else {
-      idle_edges_ += 2;
+      clock_board(core);
     }
-    clock_board(core);
   }
   std::uint64_t skipped() const { return skipped_; }  // board clocks without network edges
 
