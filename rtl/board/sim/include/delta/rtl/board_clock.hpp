@@ -49,8 +49,9 @@ void clock_board(BoardCore& core) {
 template <typename Root, typename = void>
 struct RecordsClockLevels : std::false_type {};
 template <typename Root>
-struct RecordsClockLevels<Root, std::void_t<decltype(Root::__Vtrigrprev__TOP__clk_i),
-                                            decltype(Root::__Vtrigrprev__TOP__clk_network_i)>> : std::true_type {};
+struct RecordsClockLevels<
+    Root, std::void_t<decltype(Root::__Vtrigrprev__TOP__clk_i), decltype(Root::__Vtrigrprev__TOP__clk_network_i)>>
+    : std::true_type {};
 
 class IdleNetworkSkip {
  public:
