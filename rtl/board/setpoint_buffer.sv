@@ -44,17 +44,15 @@ module setpoint_buffer #(
   logic [SlotWidth-1:0] write_slot;
   logic [3:0]           write_lane;
   logic                 write_enable, pop;
-  logic [15:0] write_mask;  // one write port with a bit mask per RAM: the high or the low byte
-  assign write_mask = write_lane[0] ? 16'hFF00 : 16'h00FF;
   for (genvar w = 0; w < 6; w++) begin : g_ram  // bytes 2w and 2w+1 of every entry
     // no_rw_check: no read-during-write logic; the slot written (next free) is never the slot read
-    // (the oldest entry) because a full buffer takes no write.
+    // (the oldest entry) because a full buffer takes no write. One write port per RAM, the high or
+    // the low byte (the block RAM's bit mask).
     (* no_rw_check *) logic [15:0] ram_q [Depth];
     always_ff @(posedge clk_i) begin
       if (write_enable && write_lane[3:1] == 3'(w)) begin
-        for (int b = 0; b < 16; b++) begin
-          if (write_mask[b]) ram_q[write_slot][b] <= payload_byte_i[b % 8];
-        end
+        if (write_lane[0]) ram_q[write_slot][15:8] <= payload_byte_i;
+        else ram_q[write_slot][7:0] <= payload_byte_i;
       end
     end
     always_ff @(posedge clk_i) begin
