@@ -51,7 +51,7 @@ $deltactl diagnose --data "$out/fit.csv" --holdout "$out/check.csv" --json "$out
   --predictions "$out/diagnosis_predictions.csv" --report "$out/diagnosis/report.md"
 
 section "6. Co-simulation: the board RTL (network + joint controllers) driving the paper-like robot"
-# One period of experiment 1 after a 0.3 s start; about 8 s of wall time per simulated second.
+# One period of experiment 1 after a 0.3 s start; about 4 s of wall time per simulated second.
 # The board's shipped model: the deployed one (network + backlash compensation in the interpolator).
 $deltactl cosim --weights weights/paper_like_deployed.json --effects "$effects" --trajectory experiment1 \
   --duration 5.3 --out "$out/cosim.csv" --plot "$out/cosim.png"

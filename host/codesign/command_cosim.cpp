@@ -238,7 +238,7 @@ const RegisterCommand command("cosim", 70, [](CLI::App& root) {
       "setpoint buffer, network, 10 kHz interpolation, three joint controllers, PWM) driving three joint\n"
       "plants (sim/joint_plant: motor, 66:1 gearbox, friction, gravity); their angles pass the virtual\n"
       "robot's sensor effects into quadrature encoder signals, and the plate position is the true\n"
-      "geometry's forward kinematics seen through the frame misalignment. About 10 s of wall time per\n"
+      "geometry's forward kinematics seen through the frame misalignment. About 4 s of wall time per\n"
       "simulated second; --fidelity model (the C++ model board, bit-exact with the RTL) about 0.4 s.\n"
       "The host knows only the link: it identifies the board (weights CRC and build id must match),\n"
       "sets home, enables, finds the plate by inverting its network at the encoder counts, and paces\n"

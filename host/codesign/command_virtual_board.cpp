@@ -182,7 +182,7 @@ const RegisterCommand command("virtual-board", 72, [](CLI::App& root) {
       "clock, 23 clocks per bit at 1 Mbaud) with the robot world (three joint plants, the effects'\n"
       "sensor chain, quadrature encoders, PWM averaging). Bytes from PATH enter the board's UART at its\n"
       "bit timing; the board's bytes come back as they leave its TX pin. The simulation runs as fast as\n"
-      "it can, about a tenth of real time: a host paces itself by the board's telemetry, never by its\n"
+      "it can, about a quarter of real time: a host paces itself by the board's telemetry, never by its\n"
       "own clock. --fidelity model runs the C++ model board instead (bit-exact with the RTL at its\n"
       "pins: the same bytes, PWM and encoder counts), kept to wall-clock time unless --free-run (a\n"
       "paced board that falls behind, its process not scheduled, drops the lag rather than catching up\n"

@@ -2,7 +2,7 @@
 // issue 13: experiment 1 streamed and followed (joints and plate), the host stopped (SIGSTOP: the
 // board's watchdog, then exit 4 without re-enabling), 1 % of the bytes corrupted by a tap, an
 // encoder skip (exit 3), the board killed (exit 4 within 100 ms), and bad trajectories refused
-// before any byte is sent (exit 2). The virtual board runs at ~0.04-0.12 x real time: the host is
+// before any byte is sent (exit 2). The virtual board runs at ~0.1-0.3 x real time: the host is
 // paced by telemetry; time bounds on the board are read from its truth (board time).
 #include <fcntl.h>
 #include <gtest/gtest.h>
