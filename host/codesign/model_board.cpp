@@ -288,7 +288,10 @@ bool ModelBoard::quiet() const {
   }
   // link_rx idle and settled; nothing pending in the setpoint buffer, interpolator or safety.
   if (s.fetched || s.read != s.write || s.ring_data != m.ring[s.read]) return false;
-  if (s.starting || s.busy || s.slew_limited || s.check || s.checked || s.current_valid != 0) return false;
+  // The interpolator acts in steps 4 (the segment's change) and 7 (the reference) of each joint;
+  // the steps between only count.
+  const bool interpolating = s.busy && (s.step == 4 || s.step == 7);
+  if (s.starting || interpolating || s.slew_limited || s.check || s.checked || s.current_valid != 0) return false;
   if (s.step_error[0] || s.step_error[1] || s.step_error[2]) return false;
   const bool fault = s.fault_cause != 0;
   if (fault && (s.enabled || s.holding)) return false;
@@ -346,6 +349,8 @@ std::uint64_t ModelBoard::skip(std::uint64_t limit, int uart_rx, int encoder_a, 
     }
   }
 
+  if (s.busy) clocks = std::min<std::uint64_t>(clocks, static_cast<std::uint64_t>((s.step < 4 ? 4 : 7) - s.step));
+
   if (!s.settled) settle();
   // The synchronisers take the held encoder lines in three clocks, counting as they go; a clock
   // that meets a skipped state ends the run (the next one latches the error).
@@ -387,6 +392,7 @@ std::uint64_t ModelBoard::skip(std::uint64_t limit, int uart_rx, int encoder_a, 
   s.pwm = pwm;
   s.enable_out = enabled;
   s.pwm_phase = (last_phase + 1) % period;
+  if (s.busy) s.step += static_cast<int>(clocks);
   s.tick += static_cast<int>(clocks);
   s.cycle += clocks;
   pins_.uart_tx = s.frame & 1;
