@@ -19,7 +19,7 @@ namespace delta::cosim {
 // At model fidelity only `board` is set.
 class VirtualBoard::Core {
  public:
-  explicit Core(const VirtualBoardOptions& options) : line(kClocksPerBit) {
+  explicit Core(const VirtualBoardOptions& options) : line(kClocksPerBit), network_clock(options.skip_idle_network) {
     if (options.fidelity == BoardFidelity::kModel) {
       if (options.network == nullptr) throw std::invalid_argument("the model board needs the network's weights");
       board = std::make_unique<ModelBoard>(*options.network, options.mem_dir + "/identify.mem");
@@ -54,7 +54,6 @@ VirtualBoard::VirtualBoard(const VirtualBoardOptions& options) : core_(std::make
     encoder_skip_clock_ = static_cast<std::uint64_t>(options.inject_encoder_skip_at_s * kBoardClockHz);
   }
   world_ = std::make_unique<RobotWorld>(board_interface, options.effects, options.nominal, options.plant);
-  skip_idle_network_ = options.skip_idle_network;
   if (core_->board) return;  // the model starts in its reset state
 
   Vboard_core& core = *core_->model;
@@ -113,11 +112,7 @@ void VirtualBoard::clock() {
   const int skipped = clocks_ >= encoder_skip_clock_ ? 1 : 0;  // joint 1's lines inverted
   core.encoder_a_i = world_->encoder_a() ^ skipped;
   core.encoder_b_i = world_->encoder_b() ^ skipped;
-  if (skip_idle_network_) {
-    core_->network_clock.clock(core);
-  } else {
-    rtl::clock_board(core);
-  }
+  core_->network_clock.clock(core);
   if (core_->line.sample_tx_pin(core.uart_tx_o)) from_board_.push_back(core_->line.byte());
   world_->step({core.drive_pwm_o, core.drive_dir_o, static_cast<bool>(core.drive_enable_o)});
   ++clocks_;

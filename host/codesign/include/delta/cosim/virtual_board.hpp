@@ -56,7 +56,8 @@ struct VirtualBoardOptions {
   // off. Negative: never (a test's fault injection).
   double inject_encoder_skip_at_s = -1.0;
   // RTL fidelity: board clocks in which the network is idle and provably stays so go without its
-  // clock's edges (rtl::IdleNetworkSkip; the same board, about 1.6 x as fast). False: every edge.
+  // clock's edges, and a rising edge is one evaluation (rtl::IdleNetworkSkip; the same board, about
+  // 2 x as fast). False: rtl::clock_board, every edge of both clocks evaluated.
   bool skip_idle_network = true;
 };
 
@@ -131,7 +132,6 @@ class VirtualBoard {
   std::uint64_t period_phase_ = 0;       // clocks_ mod kClocksPerTick
   std::uint64_t millisecond_phase_ = 0;  // clocks_ mod kClocksPerMillisecond
   std::uint64_t encoder_skip_clock_ = ~std::uint64_t{0};
-  bool skip_idle_network_ = true;
 };
 
 // The virtual board as a byte stream for a host in the same process: write_all queues onto the

@@ -21,9 +21,11 @@ void clock_board(BoardCore& core) {
   core.eval();
 }
 
-// clock_board, without the network clock's two edges where they provably change nothing: two
-// evaluations instead of four and none of the network's logic, the same state after every board
-// clock (tests/rtl/test_board_idle_network.cpp runs both side by side and compares them).
+// clock_board, without the network clock's two edges where they provably change nothing (none of
+// the network's logic evaluated) and with one evaluation per rising edge (below): the same state
+// after every board clock (RtlBoard.SkippingAnIdleNetworksClockEdgesChangesNothing in
+// tests/rtl/test_model_board.cpp runs a session both ways and compares them). Constructed
+// disabled, it is clock_board: every edge, four evaluations.
 //
 // Why an idle network's edges change nothing (rtl/network/delta_network.sv, network_crossing.sv):
 // with busy_q low and no start (the crossing's start_q low), accept and issue are low, so the
@@ -57,8 +59,14 @@ class IdleNetworkSkip {
  public:
   static constexpr std::uint32_t kFlushEdges = 64;
 
+  explicit IdleNetworkSkip(bool enabled = true) : enabled_(enabled) {}
+
   template <typename BoardCore>
   void clock(BoardCore& core) {
+    if (!enabled_) {
+      clock_board(core);
+      return;
+    }
     auto& root = *core.rootp;
     using Root = std::remove_reference_t<decltype(root)>;
     const bool request = root.board_core__DOT__u_crossing__DOT__request_q;
@@ -97,6 +105,7 @@ class IdleNetworkSkip {
   std::uint64_t skipped() const { return skipped_; }  // board clocks without network edges
 
  private:
+  bool enabled_;
   std::uint32_t idle_edges_ = 0;  // network edges clocked with the network quiet before them
   std::uint64_t skipped_ = 0;
 };
