@@ -48,6 +48,24 @@ double golden_reference_deg(const golden::QuantisedNetwork& network, const Vec3&
   return counts_q8 / 256.0 * 0.01;
 }
 
+// Joint tracking of a host run's recording: RMS of encoder - the board's joint reference per joint
+// over the path (tau >= 0) with the drives on; `frames` gets how many rows that is.
+Vec3 joint_tracking_rms_deg(const Table& out, std::size_t* frames = nullptr) {
+  Vec3 sum_sq = Vec3::Zero();
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < out.rows.size(); ++i) {
+    if (out.at(i, "tau_s") < 0.0 || out.at(i, "drives_enabled") == 0) continue;
+    for (int j = 0; j < 3; ++j) {
+      const std::string k = std::to_string(j + 1);
+      const double e = out.at(i, "alpha" + k + "_deg") - out.at(i, "alpha" + k + "_ref_deg");
+      sum_sq[j] += e * e;
+    }
+    ++n;
+  }
+  if (frames != nullptr) *frames = n;
+  return (sum_sq / static_cast<double>(n)).cwiseSqrt();
+}
+
 // Rows of the recording where the board's joint reference is not the golden answer for the
 // position the host sent (stream samples only, the drives on, no underrun or lost frame near).
 std::size_t reference_mismatches(const Table& out, const golden::QuantisedNetwork& network, std::size_t* checked) {
@@ -87,18 +105,8 @@ TEST(HostRun, ExperimentOneFollowsTheNetworkReferencesAndThePlateTheCosimulation
   const Table truth = read_table(bench.truth);
   ASSERT_GT(out.rows.size(), 5000u);
   // Joints: encoder - the board's joint reference, over the path (tau >= 0, drives on).
-  Vec3 sum_sq = Vec3::Zero();
   std::size_t n = 0;
-  for (std::size_t i = 0; i < out.rows.size(); ++i) {
-    if (out.at(i, "tau_s") < 0.0 || out.at(i, "drives_enabled") == 0) continue;
-    for (int j = 0; j < 3; ++j) {
-      const std::string k = std::to_string(j + 1);
-      const double e = out.at(i, "alpha" + k + "_deg") - out.at(i, "alpha" + k + "_ref_deg");
-      sum_sq[j] += e * e;
-    }
-    ++n;
-  }
-  const Vec3 joint_rms = (sum_sq / static_cast<double>(n)).cwiseSqrt();
+  const Vec3 joint_rms = joint_tracking_rms_deg(out, &n);
   std::cout << "joint rms over the path (" << n << " frames): " << joint_rms.transpose() << " deg\n";
   for (int j = 0; j < 3; ++j) EXPECT_LT(joint_rms[j], 0.01) << "joint " << j + 1;
 
@@ -163,16 +171,9 @@ TEST(HostRun, TheDeployedModelPlacesThePlateAsTheCosimulationDoes) {
   std::map<long, std::size_t> truth_at;
   for (std::size_t i = 0; i < truth.rows.size(); ++i) truth_at[std::lround(truth.at(i, "t_s") * 1e3)] = i;
   double distance_sq = 0.0;
-  Vec3 joint_sq = Vec3::Zero();
-  std::size_t m = 0, n = 0;
+  std::size_t m = 0;
   for (std::size_t i = 0; i < out.rows.size(); ++i) {
     if (out.at(i, "tau_s") < 0.0 || out.at(i, "drives_enabled") == 0) continue;
-    for (int j = 0; j < 3; ++j) {
-      const std::string k = std::to_string(j + 1);
-      const double e = out.at(i, "alpha" + k + "_deg") - out.at(i, "alpha" + k + "_ref_deg");
-      joint_sq[j] += e * e;
-    }
-    ++n;
     const auto found = truth_at.find(std::lround(out.at(i, "t_s") * 1e3));
     if (found == truth_at.end() || out.at(i, "tau_s") < 0.4 || out.at(i, "tau_s") > 5.0) continue;
     const std::size_t r = found->second;
@@ -182,7 +183,7 @@ TEST(HostRun, TheDeployedModelPlacesThePlateAsTheCosimulationDoes) {
     ++m;
   }
   ASSERT_GT(m, 4000u);
-  const Vec3 joint_rms = (joint_sq / static_cast<double>(n)).cwiseSqrt();
+  const Vec3 joint_rms = joint_tracking_rms_deg(out);
   const double plate_rms = std::sqrt(distance_sq / static_cast<double>(m));
   std::cout << "deployed model: joint rms " << joint_rms.transpose() << " deg; plate error over path time 0.4..5 s "
             << plate_rms * 1e6 << " um RMS (" << m << " ms)\n";
