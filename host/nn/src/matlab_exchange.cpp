@@ -140,7 +140,13 @@ class Mat5Layout {
       const std::uint32_t count = small ? first >> 16 : word(bytes, at + 4);
       const std::size_t data = small ? at + 4 : at + 8;
       if (count > to - data) fail("a matrix sub-element claims more bytes than the matrix holds");
-      if (index == 0 && (count < 8 || (word(bytes, data) & 0xff) != 6)) fail("a variable is not a real double matrix");
+      const std::uint32_t type = small ? first & 0xffff : first;
+      // libmatio takes the flags as 8 bytes and the dimensions right after them, whatever the
+      // tags claim: a longer flags element would hide dimensions it then reads.
+      if (index == 0 && (type != 6 || count != 8 || (word(bytes, data) & 0xff) != 6)) {
+        fail("a variable is not a real double matrix");
+      }
+      if (index == 1 && (type != 5 || count < 8 || count % 4 != 0)) fail("a variable's dimensions are malformed");
       if (index == 1) {
         for (std::size_t d = 0; d + 4 <= count; d += 4)
           elements *= std::min<std::size_t>(word(bytes, data + d), kMaxMatElements + 1);
