@@ -14,6 +14,7 @@ struct DefaultJointConfig {
   // Chosen formats: total bits and fraction bits.
   static constexpr int reference_bits = 32, reference_fraction = 8;  // Q24.8 counts (input)
   static constexpr int encoder_bits = 16;                            // counts (input)
+  static constexpr int shift_bits = 10;                              // play shift, counts (input)
   static constexpr int state_bits = 32, state_fraction = 24;         // Q8.24: velocities, acceleration, disturbance
   static constexpr int current_bits = 16, current_fraction = 15;     // Q1.15 A (output)
   static constexpr int operand_bits = 40;                            // signed multiplier operand, saturated
@@ -39,12 +40,12 @@ struct DefaultJointConfig {
   static constexpr int position_exact_bits = position_exact_integer + reference_fraction;
   // |product| <= 2^(operand - 1) 2^(coefficient - 1) (both at their most negative code).
   static constexpr int product_magnitude_bits = operand_bits + coefficient_bits - 2;
-  // An update's accumulator, y + the sum of its T products (T = 1, 2, 2, 3), at the coefficient's
+  // An update's accumulator, y + the sum of its T products (T = 2, 3, 2, 3), at the coefficient's
   // LSB times the state's: there |y| <= 2^(state - 1 + shift), so T + 1 magnitudes never wrap.
   static constexpr int reference_accumulator_bits =
-      1 + max_bits(product_magnitude_bits, state_bits - 1 + reference_shift) + ceil_log2(1 + 1);
+      1 + max_bits(product_magnitude_bits, state_bits - 1 + reference_shift) + ceil_log2(2 + 1);
   static constexpr int velocity_accumulator_bits =
-      1 + max_bits(product_magnitude_bits, state_bits - 1 + velocity_shift) + ceil_log2(2 + 1);
+      1 + max_bits(product_magnitude_bits, state_bits - 1 + velocity_shift) + ceil_log2(3 + 1);
   static constexpr int disturbance_accumulator_bits =
       1 + max_bits(product_magnitude_bits, state_bits - 1 + disturbance_shift) + ceil_log2(2 + 1);
   static constexpr int command_accumulator_bits =
@@ -54,6 +55,7 @@ struct DefaultJointConfig {
   // Types: fixed<bits, integer bits>.
   typedef fixed_exact<reference_bits, reference_integer> reference_t;
   typedef fixed_exact<encoder_bits, encoder_bits> encoder_t;
+  typedef fixed_exact<shift_bits, shift_bits> shift_t;                           // the board's play shift, whole counts
   typedef fixed_exact<current_bits, current_bits - current_fraction> current_t;  // limited before the store
   typedef uint_t<joints> limited_t;                                              // bit j: joint j's command was clipped
   typedef uint_t<overflow_count_bits> overflow_count_t;
@@ -62,6 +64,7 @@ struct DefaultJointConfig {
   // Differences of two inputs: exact.
   typedef fixed_exact<reference_bits + 1, reference_integer + 1> reference_difference_t;
   typedef fixed_exact<encoder_bits + 1, encoder_bits + 1> encoder_difference_t;
+  typedef fixed_exact<shift_bits + 1, shift_bits + 1> shift_difference_t;
   // Multiplier operands: exact, then saturated to 40 bits (the binary point follows the unit).
   typedef fixed_exact<operand_exact_bits, operand_exact_integer> operand_exact_t;
   typedef fixed_trunc_sat<operand_bits, operand_bits - state_fraction> operand_t;  // Q16.24

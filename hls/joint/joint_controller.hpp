@@ -70,6 +70,7 @@ struct JointState {
   typename C::state_t reference_velocity;
   typename C::state_t reference_acceleration;
   typename C::encoder_t encoder;    // previous encoder count
+  typename C::shift_t shift;        // previous play shift
   typename C::state_t velocity;     // VOB
   typename C::state_t disturbance;  // DOB, A
   typename C::current_t current;    // applied over the previous period
@@ -85,8 +86,10 @@ struct JointMemory {
 
 // Rest state at an input: previous input = input, every filter and observer state zero.
 template <class C>
-void joint_rest(JointState<C>& state, const typename C::reference_t& reference, const typename C::encoder_t& encoder) {
+void joint_rest(JointState<C>& state, const typename C::reference_t& reference, const typename C::encoder_t& encoder,
+                const typename C::shift_t& shift) {
   state.reference = reference;
+  state.shift = shift;
   state.reference_velocity = 0;
   state.reference_acceleration = 0;
   state.encoder = encoder;
@@ -121,15 +124,19 @@ typename C::state_t joint_store(const Accumulator& accumulator, JointSaturations
 template <class C>
 typename C::current_t joint_update(JointState<C>& s, const JointCoefficients<C>& c,
                                    const typename C::reference_t& reference, const typename C::encoder_t& encoder,
-                                   bool& limited, JointSaturations& saturations) {
+                                   const typename C::shift_t& shift, bool& limited, JointSaturations& saturations) {
   typedef typename C::operand_t operand_t;
   typedef typename C::operand_exact_t operand_exact_t;
 
-  // Reference filter, twice: y' = y + beta ((x' - x) - y), per-period differences.
+  // Reference filter, twice: y' = y + beta ((x' - x) - y), per-period differences; the first x is
+  // the reference plus the play shift (its step a second product, as the RTL's extra MAC).
   const typename C::reference_difference_t reference_step = reference - s.reference;
+  const typename C::shift_difference_t shift_step = shift - s.shift;
   const operand_exact_t reference_velocity_error = reference_step - s.reference_velocity;
+  const operand_exact_t shift_operand = shift_step;
   typename C::reference_accumulator_t reference_velocity_sum = s.reference_velocity;
   reference_velocity_sum += c.reference_gain * joint_operand<operand_t>(reference_velocity_error, saturations);
+  reference_velocity_sum += c.reference_gain * joint_operand<operand_t>(shift_operand, saturations);
   const typename C::state_t reference_velocity =
       joint_store<C, typename C::reference_rounded_t>(reference_velocity_sum, saturations);
 
@@ -140,12 +147,13 @@ typename C::current_t joint_update(JointState<C>& s, const JointCoefficients<C>&
   const typename C::state_t reference_acceleration =
       joint_store<C, typename C::reference_rounded_t>(reference_acceleration_sum, saturations);
 
-  // VOB: v' = v + beta_v ((theta' - theta) - v) + gamma (i - i_dis).
+  // VOB: v' = v + beta_v ((theta' - theta) - v) + gamma (i - i_dis), theta plus the play shift.
   const typename C::encoder_difference_t encoder_step = encoder - s.encoder;
   const operand_exact_t velocity_error = encoder_step - s.velocity;
   const operand_exact_t current_error = s.current - s.disturbance;
   typename C::velocity_accumulator_t velocity_sum = s.velocity;
   velocity_sum += c.velocity_encoder_gain * joint_operand<operand_t>(velocity_error, saturations);
+  velocity_sum += c.velocity_encoder_gain * joint_operand<operand_t>(shift_operand, saturations);
   velocity_sum += c.velocity_current_gain * joint_operand<operand_t>(current_error, saturations);
   const typename C::state_t velocity = joint_store<C, typename C::velocity_rounded_t>(velocity_sum, saturations);
 
@@ -185,6 +193,7 @@ typename C::current_t joint_update(JointState<C>& s, const JointCoefficients<C>&
   s.reference_velocity = reference_velocity;
   s.reference_acceleration = reference_acceleration;
   s.encoder = encoder;
+  s.shift = shift;
   s.velocity = velocity;
   s.disturbance = disturbance;
   s.current = current;
@@ -195,18 +204,20 @@ typename C::current_t joint_update(JointState<C>& s, const JointCoefficients<C>&
 template <class C>
 void joint_controller(JointMemory<C>& memory, const JointCoefficientCodes& codes,
                       const typename C::reference_t reference[C::joints],
-                      const typename C::encoder_t encoder[C::joints], typename C::current_t current[C::joints],
-                      typename C::limited_t& limited, typename C::overflow_count_t& overflow_count) {
+                      const typename C::encoder_t encoder[C::joints], const typename C::shift_t shift[C::joints],
+                      typename C::current_t current[C::joints], typename C::limited_t& limited,
+                      typename C::overflow_count_t& overflow_count) {
   const JointCoefficients<C> coefficients = joint_coefficients<C>(codes);
   const int overflow_count_max = (1 << C::overflow_count_bits) - 1;
 Joints:
   for (int j = 0; j < C::joints; ++j) {
-    if (!memory.primed) joint_rest<C>(memory.joint[j], reference[j], encoder[j]);
+    if (!memory.primed) joint_rest<C>(memory.joint[j], reference[j], encoder[j], shift[j]);
     bool joint_limited = false;
     JointSaturations saturations = {0};
-    current[j] = joint_update<C>(memory.joint[j], coefficients, reference[j], encoder[j], joint_limited, saturations);
+    current[j] =
+        joint_update<C>(memory.joint[j], coefficients, reference[j], encoder[j], shift[j], joint_limited, saturations);
     limited[j] = joint_limited;
-    // Saturating sum: the count sticks at its maximum (at most 13 saturations per joint-period).
+    // Saturating sum: the count sticks at its maximum (at most 15 saturations per joint-period).
     const uint_t<C::overflow_count_bits + 1> overflow_sum = memory.overflow_count + saturations.count;
     if (overflow_sum > overflow_count_max) {
       memory.overflow_count = overflow_count_max;

@@ -15,7 +15,7 @@
 namespace {
 
 typedef DeltaJointConfig C;
-const int kStateFields = 7;
+const int kStateFields = 8;
 
 struct Mismatches {
   long long count = 0;
@@ -34,6 +34,7 @@ void state_codes(const delta_hls::JointState<C>& s, long long codes[kStateFields
   codes[4] = delta_hls::fixed_to_code<C::state_bits, C::state_fraction>(s.velocity);
   codes[5] = delta_hls::fixed_to_code<C::state_bits, C::state_fraction>(s.disturbance);
   codes[6] = delta_hls::fixed_to_code<C::current_bits, C::current_fraction>(s.current);
+  codes[7] = delta_hls::fixed_to_code<C::shift_bits, 0>(s.shift);
 }
 
 }  // namespace
@@ -53,10 +54,14 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "joint_top_tb: cannot read %s\n", path);
     return 2;
   }
-  static const char* const kStateNames[kStateFields] = {
-      "state reference", "state reference_velocity", "state reference_acceleration",
-      "state encoder",   "state velocity",           "state disturbance",
-      "state current"};
+  static const char* const kStateNames[kStateFields] = {"state reference",
+                                                        "state reference_velocity",
+                                                        "state reference_acceleration",
+                                                        "state encoder",
+                                                        "state velocity",
+                                                        "state disturbance",
+                                                        "state current",
+                                                        "state shift"};
   long long periods = 0;
   long long periods_written = -1;  // from the closing "end N" line: a cut file fails
   bool coefficients_checked = false;
@@ -93,10 +98,12 @@ int main(int argc, char** argv) {
       }
       continue;
     }
-    long long reference_code[3], encoder_code[3], current_expected[3], limited_expected, overflow_expected;
+    long long reference_code[3], encoder_code[3], shift_code[3], current_expected[3], limited_expected,
+        overflow_expected;
     long long state_expected[3][kStateFields];
     for (long long& code : reference_code) fields >> code;
     for (long long& code : encoder_code) fields >> code;
+    for (long long& code : shift_code) fields >> code;
     for (long long& code : current_expected) fields >> code;
     fields >> limited_expected >> overflow_expected;
     for (auto& joint : state_expected) {
@@ -108,6 +115,7 @@ int main(int argc, char** argv) {
     }
     C::reference_t reference[C::joints];
     C::encoder_t encoder[C::joints];
+    C::shift_t shift[C::joints];
     C::current_t current[C::joints];
     C::limited_t limited;
     C::overflow_count_t overflow_count;
@@ -115,8 +123,9 @@ int main(int argc, char** argv) {
       reference[j] =
           delta_hls::fixed_from_code<C::reference_t, C::reference_bits, C::reference_fraction>(reference_code[j]);
       encoder[j] = delta_hls::fixed_from_code<C::encoder_t, C::encoder_bits, 0>(encoder_code[j]);
+      shift[j] = delta_hls::fixed_from_code<C::shift_t, C::shift_bits, 0>(shift_code[j]);
     }
-    joint_top(reference, encoder, current, limited, overflow_count);
+    joint_top(reference, encoder, shift, current, limited, overflow_count);
     for (int j = 0; j < C::joints; ++j) {
       mismatches.report(periods, "current", j,
                         delta_hls::fixed_to_code<C::current_bits, C::current_fraction>(current[j]),

@@ -22,8 +22,8 @@ constexpr int kRingBytes = static_cast<int>(board::kRxRingBytes);
 constexpr int kDepth = static_cast<int>(board::kSetpointDepth);
 constexpr int kTelemetryWords = static_cast<int>(board::kTelemetryPayloadBytes / 2);
 constexpr int kWatchdogMax = 511;  // $clog2(WatchdogPeriods + 2) = 9 bits
-constexpr int kRunCycles = 892;    // joint_controller.sv: ap_start seen (idle) to done
-constexpr int kJointCycles = 295;
+constexpr int kRunCycles = 1072;   // joint_controller.sv: ap_start seen (idle) to done
+constexpr int kJointCycles = 355;
 constexpr int kLoadCycles = 6;
 
 std::uint16_t saturating_increment(std::uint16_t value) { return value == 0xFFFF ? value : value + 1; }
@@ -177,6 +177,7 @@ struct ModelBoard::State {
   bool busy = false;
   int step = 0, joint = 0;
   std::array<std::int32_t, 3> r{}, d{};
+  std::array<std::int16_t, 3> shift{};  // the play shifts written for the next period (state RAM slot 7)
   std::int32_t delta = 0;
   bool delta_saturated = false;
   bool slew_limited = false;
@@ -653,6 +654,11 @@ void ModelBoard::clock(int uart_rx, int encoder_a, int encoder_b) {
                    ? static_cast<std::int32_t>(static_cast<std::uint32_t>(s.r[j]) + static_cast<std::uint32_t>(step))
                    : static_cast<std::int32_t>(static_cast<std::int16_t>(s.count[j])) * 256;
       n.d[j] = (!interpolator_enabled || k_next == 10) ? 0 : s.delta;
+      n.shift[j] =
+          interpolator_enabled
+              ? golden::interpolation::play_shift(
+                    std::int64_t{golden::interpolation::reference_counts(s.net_outputs[j])} - s.r[j], half_plays_[j])
+              : std::int16_t{0};
       n.step = 0;
       n.joint = j + 1;
       if (j == 2) {
@@ -691,6 +697,7 @@ void ModelBoard::clock(int uart_rx, int encoder_a, int encoder_b) {
       control::JointFixedInput input;
       input.reference = references[j];
       input.encoder = static_cast<std::int16_t>(s.counts_q[j]);
+      input.shift = s.shift[j];
       if (!s.primed) n.joint_state[j] = control::fixed_rest_state(input);
       control::JointFixedStatus status;
       n.next_current[j] = control::fixed_update(s.coefficients, n.joint_state[j], input, status);
@@ -701,7 +708,7 @@ void ModelBoard::clock(int uart_rx, int encoder_a, int encoder_b) {
   }
   n.current_valid = 0;
   if (s.running) {
-    const std::uint64_t elapsed = s.cycle - s.run_start;  // 1 .. 892
+    const std::uint64_t elapsed = s.cycle - s.run_start;  // 1 .. 1072
     for (int j = 0; j < 3; ++j) {
       if (elapsed == static_cast<std::uint64_t>(kLoadCycles + kJointCycles * (j + 1))) {
         n.current[j] = static_cast<std::uint16_t>(s.next_current[j]);

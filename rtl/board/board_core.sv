@@ -254,6 +254,9 @@ module board_core #(
 
   // ---- joint references ------------------------------------------------------------------------------
   logic [95:0] references /*verilator public_flat_rd*/;  // the joints' references this period
+  logic        shift_write;  // the next period's play shift of joint shift_joint (whole counts)
+  logic [1:0]  shift_joint;
+  logic [9:0]  shift;
   logic [47:0] counts;
   logic        slew_limited;
   // The deployed model's backlash half-plays H_j (Q.8 counts; zero for the plain network): constants
@@ -278,6 +281,9 @@ module board_core #(
     .counts_i      (counts),
     .half_plays_i  (half_plays),
     .references_o  (references),
+    .shift_write_o (shift_write),
+    .shift_joint_o (shift_joint),
+    .shift_o       (shift),
     .slew_limited_o(slew_limited)
   );
 
@@ -309,6 +315,9 @@ module board_core #(
     .encoder_b_i     (encoder_b_q),
     .home_i          (home),
     .references_i    (references),
+    .shift_write_i   (shift_write),
+    .shift_joint_i   (shift_joint),
+    .shift_i         (shift),
     .enabled_i       (enabled_q),
     .frame_valid_i   (frame_ok),
     .clear_fault_i   (clear_fault),

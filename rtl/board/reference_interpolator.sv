@@ -36,6 +36,9 @@ module reference_interpolator #(
   input  logic [47:0] counts_i,       // encoder counts, joint j at [16j +: 16]
   input  logic [3*HalfPlayBits-1:0] half_plays_i,  // H_j at [HalfPlayBits j +: HalfPlayBits], constant
   output logic [95:0] references_o,   // r_j at [32j +: 32], Q24.8 counts, stable between updates
+  output logic        shift_write_o,  // pulse: shift_o is joint shift_joint_o's play shift for the next period
+  output logic [1:0]  shift_joint_o,
+  output logic [9:0]  shift_o,        // s, whole counts (0 with enabled_i low)
   output logic        slew_limited_o  // pulse: a segment's change was saturated
 );
   localparam int unsigned Shift = delta_board_pkg::InterpolationShift;
@@ -111,6 +114,24 @@ module reference_interpolator #(
                     : played[32] ? {1'b1, {(DeltaBits - 1){1'b0}}} : {1'b0, {(DeltaBits - 1){1'b1}}};
   end
 
+  // The play shift of the next period (golden interpolation::play_shift): s = floor(clamp(d, -H,
+  // H) / 256), d = C - r: d >> 8 inside the play (-H <= d < H: the signs of d and d -/+ H
+  // differ), H >> 8 above it, floor(-H / 256) = ~((H - 1) >> 8) below it (from the constant H_j,
+  // folded by synthesis). Written into the controller's state memory at step 7 of each joint.
+  // HalfPlayBits = 17 (delta_board_pkg): |s| <= 512, 10 bits (golden static_assert).
+  logic       in_play;
+  logic [9:0] shift_new, shift_below, below [3];
+  for (genvar j = 0; j < 3; j++) begin : g_below  // per joint, before the multiplexer: constants
+    logic signed [HalfPlayBits:0] less_one;
+    assign less_one = $signed({1'b0, half_plays_i[HalfPlayBits * j +: HalfPlayBits]}) - 1;
+    assign below[j] = ~less_one[HalfPlayBits:8];
+    logic unused_fraction;
+    assign unused_fraction = ^less_one[7:0];
+  end
+  assign shift_below = joint_q == 2'd1 ? below[1] : joint_q == 2'd2 ? below[2] : below[0];
+  assign in_play     = played_q[32] != diff_q[32];
+  assign shift_new   = in_play ? diff_q[17:8] : diff_q[32] ? shift_below : {1'b0, half_play[16:8]};
+
   // round_shift(p, 14) = (p >> 14) + p[13]; |D K| < 2^29, so 17 bits above the shift suffice.
   logic        take_answer;
   logic [15:0] k_multiplier;
@@ -181,4 +202,7 @@ module reference_interpolator #(
   end
 
   assign references_o = {r_q[2], r_q[1], r_q[0]};
+  assign shift_write_o = busy_q && step_q == 4'd7;
+  assign shift_joint_o = joint_q;
+  assign shift_o       = enabled_i ? shift_new : '0;
 endmodule

@@ -30,7 +30,8 @@ package delta_joint_pkg;
   localparam logic [2:0] SlotVelocity = 3'd4;  // VOB
   localparam logic [2:0] SlotDisturbance = 3'd5;  // DOB
   localparam logic [2:0] SlotCurrent = 3'd6;  // applied current, Q1.15 sign-extended
-  localparam logic [2:0] SlotUnused = 3'd7;
+  localparam logic [2:0] SlotShift = 3'd7;  // play shift s, whole counts (written from the input)
+  localparam logic [2:0] SlotUnused = 3'd7;  // as a destination: none
 
   // Operations.
   localparam logic [1:0] OpInit = 2'd0;  // acc = (a << frac) + 2^(shift-1)
@@ -78,40 +79,44 @@ package delta_joint_pkg;
   localparam logic [4:0] NewEncoder     = {SourceNew, SlotEncoder};
   localparam logic [4:0] NewVelocity    = {SourceNew, SlotVelocity};
   localparam logic [4:0] NewDisturbance = {SourceNew, SlotDisturbance};
+  localparam logic [4:0] OldShift       = {SourceOld, SlotShift};
+  localparam logic [4:0] NewShift       = {SourceNew, SlotShift};
 
-  // One joint's period (19 instructions), the same order of operations as fixed_update() in the golden model.
+  // One joint's period (21 instructions), the same order of operations as fixed_update() in the golden model.
   function automatic logic [InstructionWidth-1:0] program_rom(logic [4:0] pc);
     unique case (pc)
-      // Reference velocity: v' = v + beta ((r' - r) << 16 - v)
+      // Reference velocity: v' = v + beta ((r' - r) << 16 + (s' - s) << 24 - v)
       5'd0:  program_rom = {OpInit, OldRefVelocity, Zero, Zero, Shift0, CoefReference, 5'd26, 5'd26, SlotUnused};
       5'd1:  program_rom = {OpMac, NewReference, OldReference, OldRefVelocity,
                           Shift16, CoefReference, 5'd0, 5'd0, SlotUnused};
-      5'd2:  program_rom = {OpStoreState, Zero, Zero, Zero, Shift0, CoefReference, 5'd0, 5'd26, SlotRefVelocity};
+      5'd2:  program_rom = {OpMac, NewShift, OldShift, Zero, Shift24, CoefReference, 5'd0, 5'd0, SlotUnused};
+      5'd3:  program_rom = {OpStoreState, Zero, Zero, Zero, Shift0, CoefReference, 5'd0, 5'd26, SlotRefVelocity};
       // Reference acceleration: a' = a + beta ((v' - v) - a)
-      5'd3:  program_rom = {OpInit, OldRefAccel, Zero, Zero, Shift0, CoefReference, 5'd26, 5'd26, SlotUnused};
-      5'd4:  program_rom = {OpMac, NewRefVelocity, OldRefVelocity, OldRefAccel,
+      5'd4:  program_rom = {OpInit, OldRefAccel, Zero, Zero, Shift0, CoefReference, 5'd26, 5'd26, SlotUnused};
+      5'd5:  program_rom = {OpMac, NewRefVelocity, OldRefVelocity, OldRefAccel,
                           Shift0, CoefReference, 5'd0, 5'd0, SlotUnused};
-      5'd5:  program_rom = {OpStoreState, Zero, Zero, Zero, Shift0, CoefReference, 5'd0, 5'd26, SlotRefAccel};
-      // VOB: v' = v + beta_v ((e' - e) << 24 - v) + gamma (i << 9 - d)
-      5'd6:  program_rom = {OpInit, OldVelocity, Zero, Zero, Shift0, CoefReference, 5'd25, 5'd25, SlotUnused};
-      5'd7:  program_rom = {OpMac, NewEncoder, OldEncoder, OldVelocity,
+      5'd6:  program_rom = {OpStoreState, Zero, Zero, Zero, Shift0, CoefReference, 5'd0, 5'd26, SlotRefAccel};
+      // VOB: v' = v + beta_v ((e' - e) << 24 + (s' - s) << 24 - v) + gamma (i << 9 - d)
+      5'd7:  program_rom = {OpInit, OldVelocity, Zero, Zero, Shift0, CoefReference, 5'd25, 5'd25, SlotUnused};
+      5'd8:  program_rom = {OpMac, NewEncoder, OldEncoder, OldVelocity,
                           Shift24, CoefVelocityEncoder, 5'd0, 5'd0, SlotUnused};
-      5'd8:  program_rom = {OpMac, OldCurrent, Zero, OldDisturbance,
+      5'd9:  program_rom = {OpMac, NewShift, OldShift, Zero, Shift24, CoefVelocityEncoder, 5'd0, 5'd0, SlotUnused};
+      5'd10: program_rom = {OpMac, OldCurrent, Zero, OldDisturbance,
                           Shift9, CoefVelocityCurrent, 5'd0, 5'd0, SlotUnused};
-      5'd9:  program_rom = {OpStoreState, Zero, Zero, Zero, Shift0, CoefReference, 5'd0, 5'd25, SlotVelocity};
+      5'd11: program_rom = {OpStoreState, Zero, Zero, Zero, Shift0, CoefReference, 5'd0, 5'd25, SlotVelocity};
       // DOB: d' = d + beta_d (i << 9 - d) - beta_d Kacc (v' - v)
-      5'd10: program_rom = {OpInit, OldDisturbance, Zero, Zero, Shift0, CoefReference, 5'd22, 5'd22, SlotUnused};
-      5'd11: program_rom = {OpMac, OldCurrent, Zero, OldDisturbance,
+      5'd12: program_rom = {OpInit, OldDisturbance, Zero, Zero, Shift0, CoefReference, 5'd22, 5'd22, SlotUnused};
+      5'd13: program_rom = {OpMac, OldCurrent, Zero, OldDisturbance,
                           Shift9, CoefDisturbance, 5'd0, 5'd0, SlotUnused};
-      5'd12: program_rom = {OpMac, NewVelocity, OldVelocity, Zero,
+      5'd14: program_rom = {OpMac, NewVelocity, OldVelocity, Zero,
                           Shift0, CoefDisturbanceVelocity, 5'd0, 5'd0, SlotUnused};
-      5'd13: program_rom = {OpStoreState, Zero, Zero, Zero, Shift0, CoefReference, 5'd0, 5'd22, SlotDisturbance};
+      5'd15: program_rom = {OpStoreState, Zero, Zero, Zero, Shift0, CoefReference, 5'd0, 5'd22, SlotDisturbance};
       // Eq. 5: i = d' + Kacc a' - Kacc k_v Ts (v' - v_ref') - Kacc k_p Ts^2 (e << 8 - r)
-      5'd14: program_rom = {OpInit, NewDisturbance, Zero, Zero, Shift0, CoefReference, 5'd20, 5'd29, SlotUnused};
-      5'd15: program_rom = {OpMac, NewRefAccel, Zero, Zero, Shift0, CoefLawAcceleration, 5'd0, 5'd0, SlotUnused};
-      5'd16: program_rom = {OpMac, NewVelocity, NewRefVelocity, Zero,
+      5'd16: program_rom = {OpInit, NewDisturbance, Zero, Zero, Shift0, CoefReference, 5'd20, 5'd29, SlotUnused};
+      5'd17: program_rom = {OpMac, NewRefAccel, Zero, Zero, Shift0, CoefLawAcceleration, 5'd0, 5'd0, SlotUnused};
+      5'd18: program_rom = {OpMac, NewVelocity, NewRefVelocity, Zero,
                           Shift0, CoefLawVelocity, 5'd0, 5'd0, SlotUnused};
-      5'd17: program_rom = {OpMac, NewEncoder, Zero, NewReference,
+      5'd19: program_rom = {OpMac, NewEncoder, Zero, NewReference,
                           Shift8, CoefLawPosition, 5'd0, 5'd0, SlotUnused};
       default: program_rom = {OpStoreCurrent, Zero, Zero, Zero, Shift0, CoefReference, 5'd0, 5'd29, SlotCurrent};
     endcase

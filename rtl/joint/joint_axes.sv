@@ -4,7 +4,7 @@
 // references_i are the joint references in Q24.8 encoder counts (reference_interpolator.sv),
 // stable from each period start until the controller has copied them (6 cycles). Every
 // ClocksPerPeriod cycles (10 kHz, tick_o == 0) the encoder counts are latched and the controller
-// started (892-cycle latency, see joint_controller.sv); each current command updates its PWM as
+// started (1072-cycle latency, see joint_controller.sv); each current command updates its PWM as
 // soon as it is stored (joint_pwm.sv). The drives are on while enabled_i and no fault; a fault
 // (joint_safety.sv) stops the torque and stays latched until clear_fault_i. home_i sets every
 // encoder count to HomeCount. Board facts (clock, home count, limits, cause bits): delta_board_pkg.
@@ -22,6 +22,9 @@ module joint_axes #(
   input  logic [2:0]  encoder_b_i,
   input  logic        home_i,             // set home: counts := HomeCount
   input  logic [95:0] references_i,       // Q24.8 counts, joint j at [32j +: 32]
+  input  logic        shift_write_i,      // the next period's play shift of joint shift_joint_i
+  input  logic [1:0]  shift_joint_i,      //   (reference_interpolator, while the controller is idle)
+  input  logic [9:0]  shift_i,
   input  logic        enabled_i,          // drives on (the board's enable state)
   input  logic        frame_valid_i,      // a valid link frame arrived (watchdog)
   input  logic        clear_fault_i,      // clear the latched causes
@@ -141,7 +144,10 @@ module joint_axes #(
     .limited,
     .overflow_count  (overflow_count_o),
     .peek_address    (peek_address_i),
-    .peek_data       (peek_data_o)
+    .peek_data       (peek_data_o),
+    .shift_write     (shift_write_i),
+    .shift_joint     (shift_joint_i),
+    .shift_value     (shift_i)
   );
 
   // ---- PWM and drive enable ----------------------------------------------------------------------

@@ -7,13 +7,13 @@
 // command is stored, with current_j_ap_vld high for that cycle; ap_done pulses after the third
 // joint, with limited and overflow_count valid; all outputs hold until rewritten. ap_rst is
 // synchronous and active high. The first period after reset starts from rest at its own input
-// (golden: fixed_rest_state). Latency from the ap_start edge to ap_done: 892 cycles (6 input
-// copies, 3 x 295 for the joints, 1 done cycle): 38.4 us at the board's 23.25 MHz, 38 % of the 100 us period.
+// (golden: fixed_rest_state). Latency from the ap_start edge to ap_done: 1072 cycles (6 input
+// copies, 3 x 355 for the joints, 1 done cycle): 46.1 us at the board's 23.25 MHz, 46 % of the 100 us period.
 //
-// Schedule: per joint the 19 instructions of delta_joint_pkg::program_rom, each
+// Schedule: per joint the 21 instructions of delta_joint_pkg::program_rom, each
 //   OpInit 3 cycles (read, register, load acc), OpMac 30 (read a, b, c; a - b shifted; minus c;
 //   saturate; 24 bit-serial steps over the coefficient), OpStore 2 (shift, then saturate and
-//   write): 5 x 3 + 9 x 30 + 5 x 2 = 295.
+//   write): 5 x 3 + 11 x 30 + 5 x 2 = 355.
 // The instruction, every memory word (word_q), each step of the operand and the shifted
 // accumulator pass a register, so no path holds more than one carry chain: 25 MHz beside the
 // network on the UP5K.
@@ -41,7 +41,12 @@ module joint_controller (
   // Not part of the HLS export: while idle, the state memory answers {joint, slot} of the last
   // period (its reference, encoder count, applied current...) one cycle later (board telemetry).
   input  logic [4:0]  peek_address,
-  output logic [31:0] peek_data
+  output logic [31:0] peek_data,
+  // The HLS top's shift_j, written while idle (one joint per shift_write pulse, before the
+  // ap_start of the period it belongs to): the play shift s_j in whole counts, stored as s + 512.
+  input  logic        shift_write,
+  input  logic [1:0]  shift_joint,
+  input  logic [9:0]  shift_value
 );
   localparam int unsigned AccWidth = delta_joint_pkg::AccumulatorWidth;
 
@@ -100,7 +105,8 @@ module joint_controller (
   // reference and encoder as this period's (rest at the first input).
   // A source is {bank[1:0], slot[2:0]} (delta_joint_pkg::source_t).
   function automatic logic is_input_slot(logic [2:0] slot);
-    is_input_slot = slot == delta_joint_pkg::SlotReference || slot == delta_joint_pkg::SlotEncoder;
+    is_input_slot = slot == delta_joint_pkg::SlotReference || slot == delta_joint_pkg::SlotEncoder ||
+                    slot == delta_joint_pkg::SlotShift;
   endfunction
 
   function automatic logic reads_new_bank(logic [4:0] source, logic primed);
@@ -214,6 +220,10 @@ module joint_controller (
 
     unique case (state_q)
       StateIdle: begin
+        // The next period's shift, into the bank it writes (bank_q outlives ap_rst for this).
+        write_enable  = shift_write;
+        write_address = {shift_joint, bank_q, delta_joint_pkg::SlotShift};
+        write_data    = {22'd0, !shift_value[9], shift_value[8:0]};
         if (ap_start) begin
           state_d = StateLoad;
           load_d  = 3'd0;
@@ -309,6 +319,11 @@ module joint_controller (
     if (overflow_event && overflow_q != 16'hFFFF) overflow_d = overflow_q + 16'd1;
   end
 
+  // The bank toggles every period and is not reset: the idle shift write names the bank the next
+  // period writes whether or not ap_rst (the board's drives-off restart) comes in between.
+  initial bank_q = 1'b0;
+  always_ff @(posedge ap_clk) bank_q <= bank_d;
+
   always_ff @(posedge ap_clk) begin
     if (ap_rst) begin
       state_q        <= StateIdle;
@@ -317,7 +332,6 @@ module joint_controller (
       pc_q           <= '0;
       phase_q        <= '0;
       bit_q          <= '0;
-      bank_q         <= 1'b0;
       primed_q       <= 1'b0;
       acc_q          <= '0;
       multiplicand_q <= '0;
@@ -340,7 +354,6 @@ module joint_controller (
       pc_q           <= pc_d;
       phase_q        <= phase_d;
       bit_q          <= bit_d;
-      bank_q         <= bank_d;
       primed_q       <= primed_d;
       acc_q          <= acc_d;
       multiplicand_q <= multiplicand_d;

@@ -63,9 +63,10 @@ int main(int argc, char** argv) {
                "# Golden vectors of the joint controllers (delta::control::fixed_update in closed loop), seed %llu, "
                "%ld periods.\n"
                "# coefficients: the 9 codes of JointFixedCoefficients in declaration order.\n"
-               "# Per period: reference_0..2 (Q24.8), encoder_0..2, then the expected current_0..2 (Q1.15),\n"
-               "# limited (bit j), overflow_count, and per joint the state after the period: reference,\n"
-               "# reference_velocity, reference_acceleration, encoder, velocity, disturbance, current.\n"
+               "# Per period: reference_0..2 (Q24.8), encoder_0..2, shift_0..2 (counts), then the expected\n"
+               "# current_0..2 (Q1.15), limited (bit j), overflow_count, and per joint the state after the\n"
+               "# period: reference, reference_velocity, reference_acceleration, encoder, velocity,\n"
+               "# disturbance, current, shift.\n"
                "# The last line, end N, gives the number of periods written.\n",
                static_cast<unsigned long long>(seed), periods);
   std::fprintf(out, "coefficients");
@@ -76,13 +77,14 @@ int main(int argc, char** argv) {
     const std::array<delta::control::JointFixedInput, 3>& inputs = loop.next_inputs(k);
     for (const auto& input : inputs) std::fprintf(out, "%d ", input.reference);
     for (const auto& input : inputs) std::fprintf(out, "%d ", input.encoder);
+    for (const auto& input : inputs) std::fprintf(out, "%d ", input.shift);
     for (std::int16_t current : loop.golden_current) std::fprintf(out, "%d ", current);
     const int limited =
         (loop.golden_limited[0] ? 1 : 0) | (loop.golden_limited[1] ? 2 : 0) | (loop.golden_limited[2] ? 4 : 0);
     std::fprintf(out, "%d %u", limited, static_cast<unsigned>(loop.overflow_code()));
     for (const JointFixedState& s : loop.golden) {
-      std::fprintf(out, " %d %d %d %d %d %d %d", s.reference, s.reference_velocity, s.reference_acceleration, s.encoder,
-                   s.velocity, s.disturbance, s.current);
+      std::fprintf(out, " %d %d %d %d %d %d %d %d", s.reference, s.reference_velocity, s.reference_acceleration,
+                   s.encoder, s.velocity, s.disturbance, s.current, s.shift);
     }
     std::fprintf(out, "\n");
     loop.step_plants();

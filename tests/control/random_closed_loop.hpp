@@ -1,6 +1,7 @@
 // Random closed-loop drive of three joints for the bit-exactness tests: the golden controller
 // on three plants, with random references (sinusoids, steps, one-period glitches over the whole
-// int32 range) and random load torques. Each period gives the inputs and the golden outputs.
+// int32 range), random play shifts (steps, jumps over the whole 10 bits) and random load torques. Each period gives the
+// inputs and the golden outputs.
 #pragma once
 
 #include <algorithm>
@@ -48,6 +49,11 @@ class RandomClosedLoop {
         ++glitches;
       }
       inputs_[j].encoder = static_cast<std::int16_t>(std::clamp(plants_[j].encoder_count(), -32768, 32767));
+      // The play shift: small steps (a play being crossed), rare jumps anywhere in its 10 bits.
+      if (unit() < 0.05) drive.shift += static_cast<int>(std::floor(7.0 * unit())) - 3;
+      if (unit() < 1e-3) drive.shift = static_cast<int>(std::floor(1024.0 * unit())) - 512;
+      drive.shift = std::clamp(drive.shift, -512, 511);
+      inputs_[j].shift = static_cast<std::int16_t>(drive.shift);
     }
     if (k == 0) {
       for (int j = 0; j < 3; ++j) golden[j] = fixed_rest_state(inputs_[j]);
@@ -80,6 +86,7 @@ class RandomClosedLoop {
  private:
   struct Drive {
     double base_deg, amplitude_deg, frequency_hz, step_deg = 0.0, load_nm = 0.0;
+    int shift = 0;  // play shift, counts
   };
   double unit() { return std::uniform_real_distribution<double>(0.0, 1.0)(random_); }
 

@@ -18,6 +18,7 @@ namespace {
 // Vjoint_axes is Verilated with its defaults: the board's facts (rtl/board/delta_board_pkg.sv).
 constexpr int kClocksPerPeriod = static_cast<int>(board::kClocksPerPeriod);
 constexpr int kHomeCount = static_cast<int>(board::kHomeCount);
+constexpr int kFirstFullPwmCycle = 1100;  // after the controller's last store of the period
 
 class Board {
  public:
@@ -31,6 +32,9 @@ class Board {
     top_.clear_fault_i = 0;
     top_.home_i = 0;
     top_.peek_address_i = 0;
+    top_.shift_write_i = 0;  // no play shift written: the controller's shift slots stay equal
+    top_.shift_joint_i = 0;
+    top_.shift_i = 0;
     top_.eval();
     for (int i = 0; i < 3; ++i) tick();
     top_.rst_ni = 1;
@@ -105,10 +109,11 @@ TEST(JointAxes, EncoderCountsReferencesAndPwmFollowTheGoldenController) {
         top.encoder_a_i = a;
         top.encoder_b_i = b;
       }
-      if (cycle >= 950 && cycle < 950 + board::kPwmPeriodCycles) {
+      // All three currents are stored by cycle 1073 (1072-cycle latency from tick 1): one PWM period.
+      if (cycle >= kFirstFullPwmCycle && cycle < kFirstFullPwmCycle + board::kPwmPeriodCycles) {
         for (int j = 0; j < 3; ++j) high[j] += (top.drive_pwm_o >> j) & 1;
       }
-      if (cycle == 950) {
+      if (cycle == kFirstFullPwmCycle) {
         for (int j = 0; j < 3; ++j) {
           ASSERT_EQ((top.drive_dir_o >> j) & 1, expected_current[j] < 0 ? 1 : 0) << "period " << period;
         }

@@ -37,18 +37,20 @@ JointFixedState hls_state(int joint) {
   state.velocity = code<HlsConfig::state_bits, kStateFraction>(s.velocity);
   state.disturbance = code<HlsConfig::state_bits, kStateFraction>(s.disturbance);
   state.current = code<HlsConfig::current_bits, kCurrentFraction>(s.current);
+  state.shift = code<HlsConfig::shift_bits, 0>(s.shift);
   return state;
 }
 
 std::string describe(const JointFixedState& s) {
   std::ostringstream out;
   out << "{r " << s.reference << ", vr " << s.reference_velocity << ", ar " << s.reference_acceleration << ", e "
-      << s.encoder << ", v " << s.velocity << ", d " << s.disturbance << ", i " << s.current << "}";
+      << s.encoder << ", v " << s.velocity << ", d " << s.disturbance << ", i " << s.current << ", s " << s.shift
+      << "}";
   return out.str();
 }
 
-// Random references (sinusoids, steps, rare one-period glitches over the whole int32 range)
-// and random load torques drive three plants in closed loop with the golden controller; the
+// Random references (sinusoids, steps, rare one-period glitches over the whole int32 range),
+// random play shifts and random load torques drive three plants in closed loop with the golden controller; the
 // HLS top and the RTL see the same inputs and must produce the same codes and states.
 TEST(JointBitExact, GoldenHlsAndRtlAgreeOnClosedLoopWithRandomReferencesAndLoads) {
   const std::uint64_t seed = test_seed();
@@ -61,21 +63,23 @@ TEST(JointBitExact, GoldenHlsAndRtlAgreeOnClosedLoopWithRandomReferencesAndLoads
     const std::array<JointFixedInput, 3>& inputs = loop.next_inputs(k);
     HlsConfig::reference_t hls_reference[3];
     HlsConfig::encoder_t hls_encoder[3];
+    HlsConfig::shift_t hls_shift[3];
     HlsConfig::current_t hls_current[3];
     for (int j = 0; j < 3; ++j) {
       hls_reference[j] =
           delta_hls::fixed_from_code<HlsConfig::reference_t, HlsConfig::reference_bits, kReferenceFraction>(
               inputs[j].reference);
       hls_encoder[j] = delta_hls::fixed_from_code<HlsConfig::encoder_t, HlsConfig::encoder_bits, 0>(inputs[j].encoder);
+      hls_shift[j] = delta_hls::fixed_from_code<HlsConfig::shift_t, HlsConfig::shift_bits, 0>(inputs[j].shift);
     }
     HlsConfig::limited_t hls_limited;
     HlsConfig::overflow_count_t hls_overflows;
-    joint_top(hls_reference, hls_encoder, hls_current, hls_limited, hls_overflows);
+    joint_top(hls_reference, hls_encoder, hls_shift, hls_current, hls_limited, hls_overflows);
     const rtl::JointRtlResult rtl_result = rtl.run(inputs);
 
     ASSERT_EQ(hls_overflows.to_uint(), loop.overflow_code()) << "period " << k;
     ASSERT_EQ(rtl_result.overflow_count, loop.overflow_code()) << "period " << k;
-    ASSERT_EQ(rtl_result.cycles, 892) << "latency, period " << k;
+    ASSERT_EQ(rtl_result.cycles, 1072) << "latency, period " << k;
     for (int j = 0; j < 3; ++j) {
       ASSERT_EQ((code<HlsConfig::current_bits, kCurrentFraction>(hls_current[j])), loop.golden_current[j])
           << "HLS period " << k << " joint " << j;

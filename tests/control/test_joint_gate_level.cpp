@@ -21,7 +21,7 @@ TEST(JointGateLevel, NetlistAgreesWithTheGoldenModelOnClosedLoop) {
   for (long k = 0; k < periods; ++k) {
     const rtl::JointRtlResult result = rtl::run_period(netlist, loop.next_inputs(k));
     ASSERT_EQ(result.overflow_count, loop.overflow_code()) << "period " << k;
-    ASSERT_EQ(result.cycles, 892) << "period " << k;
+    ASSERT_EQ(result.cycles, 1072) << "period " << k;
     for (int j = 0; j < 3; ++j) {
       ASSERT_EQ(result.current[j], loop.golden_current[j]) << "period " << k << " joint " << j;
       ASSERT_EQ(result.limited[j], loop.golden_limited[j]) << "period " << k << " joint " << j;

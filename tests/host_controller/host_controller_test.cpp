@@ -156,8 +156,9 @@ TEST(HostRun, ExperimentOneFollowsTheNetworkReferencesAndThePlateTheCosimulation
 
 // Issue 15's deployed model (weights/paper_like_deployed.json, what the board ships) through the
 // same pty against the model board in real time: the host drives it unchanged, the joints follow
-// their (compensated) references as closely, and the plate is within 1.1 x the co-simulation's
-// 16.03 um RMS (README.md; the plain network: 89.6 um).
+// their (compensated) references as closely, and the plate is within 1.2 x the co-simulation's
+// 14.49 um RMS (README.md; the plain network: 89.9 um). Measured: 15.7 um (the host streams
+// through a real pty in real time, paced by the telemetry it reads, not the co-simulation's clock).
 TEST(HostRun, TheDeployedModelPlacesThePlateAsTheCosimulationDoes) {
   Bench bench("deployed", {"--fidelity", "model"}, true,
               std::string(DELTA_SOURCE_DIR) + "/weights/paper_like_deployed.json");
@@ -188,7 +189,7 @@ TEST(HostRun, TheDeployedModelPlacesThePlateAsTheCosimulationDoes) {
   std::cout << "deployed model: joint rms " << joint_rms.transpose() << " deg; plate error over path time 0.4..5 s "
             << plate_rms * 1e6 << " um RMS (" << m << " ms)\n";
   for (int j = 0; j < 3; ++j) EXPECT_LT(joint_rms[j], 0.01) << "joint " << j + 1;
-  EXPECT_LT(plate_rms, 1.1 * 16.03e-6);
+  EXPECT_LT(plate_rms, 1.2 * 14.49e-6);
   std::filesystem::remove_all(bench.dir);
 }
 

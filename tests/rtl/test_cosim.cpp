@@ -114,9 +114,10 @@ TEST(Cosim, PaperLikeRobotFollowsExperimentOneOverTheLink) {
 
 // Issue 15: experiment 1 (5.3 s, the README's co-simulation) on the model board, the plain
 // network against the deployed model (static network + the board's backlash compensation in the
-// interpolator). Measured: plate 89.8 um RMS plain, 16.0 um deployed (the rest is mostly the
-// reversals: the encoder sees the arm through joint 1's 0.15 deg play, so while the reference
-// holds inside the play nothing drives the arm); joint tracking (count - reference) unchanged.
+// interpolator, and the play shift that lets the controller see the motor while the answer
+// crosses the play). Measured: plate 89.9 um RMS plain, 14.5 um deployed (16.0 without the play
+// shift: the encoder sees the arm through joint 1's 0.15 deg play, so while the reference held
+// inside the play nothing drove the arm); joint tracking (count - reference) unchanged.
 TEST(Cosim, TheDeployedModelPlacesThePlateFiveTimesCloserOnExperimentOne) {
   auto run = [](const std::string& weights, const std::string& name) {
     const golden::QuantisedNetwork q = golden::quantise_file(weights, nn::read_weights_file(weights));
@@ -141,7 +142,7 @@ TEST(Cosim, TheDeployedModelPlacesThePlateFiveTimesCloserOnExperimentOne) {
             << plain.board_joint_rms_deg.transpose() << ", deployed " << deployed.board_joint_rms_deg.transpose()
             << " deg\n";
   EXPECT_GT(plain.closed_loop.rms_distance_m, 80e-6);
-  EXPECT_LT(deployed.closed_loop.rms_distance_m, 16.5e-6);  // issue 15 asks 15 um: not met (16.0)
+  EXPECT_LT(deployed.closed_loop.rms_distance_m, 15e-6);  // issue 15's bound (14.5 measured)
   EXPECT_LT(deployed.closed_loop.rms_distance_m, plain.closed_loop.rms_distance_m / 5.0);
   for (int j = 0; j < 3; ++j) {
     EXPECT_LT(deployed.board_joint_rms_deg[j], 0.005) << "joint " << j + 1;

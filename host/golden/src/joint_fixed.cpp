@@ -51,7 +51,7 @@ std::int32_t store_state(Wide accumulator, int shift, JointFixedStatus& status) 
 bool JointFixedState::operator==(const JointFixedState& o) const {
   return reference == o.reference && reference_velocity == o.reference_velocity &&
          reference_acceleration == o.reference_acceleration && encoder == o.encoder && velocity == o.velocity &&
-         disturbance == o.disturbance && current == o.current;
+         disturbance == o.disturbance && current == o.current && shift == o.shift;
 }
 
 JointFixedCoefficients make_fixed_coefficients(const JointControllerParameters& p) {
@@ -82,6 +82,7 @@ JointFixedState fixed_rest_state(const JointFixedInput& input) {
   JointFixedState state;
   state.reference = input.reference;
   state.encoder = input.encoder;
+  state.shift = input.shift;
   return state;
 }
 
@@ -93,9 +94,11 @@ std::int16_t fixed_update(const JointFixedCoefficients& c, JointFixedState& s, c
   constexpr int kCurrentToState = kStateFraction - kCurrentFraction;      // Q.15 -> Q.24
   constexpr int kLawResult = kLawShift + kStateFraction - kCurrentFraction;
 
-  // Reference filter, twice: y' = y + beta ((x' - x) - y), x' - x per period (Q.24).
+  // Reference filter, twice: y' = y + beta ((x' - x) - y), x' - x per period (Q.24); the first
+  // input is the reference plus the play shift: x' - x = (r' - r) << 16 + (s' - s) << 24.
   Wide acc = preload(s.reference_velocity, kReferenceShift, kReferenceShift);
   acc += product(c.reference_gain, operand(in.reference, s.reference, kReferenceToState, s.reference_velocity, status));
+  acc += product(c.reference_gain, operand(in.shift, s.shift, kCountToState, 0, status));
   const std::int32_t reference_velocity = store_state(acc, kReferenceShift, status);
 
   acc = preload(s.reference_acceleration, kReferenceShift, kReferenceShift);
@@ -103,9 +106,11 @@ std::int16_t fixed_update(const JointFixedCoefficients& c, JointFixedState& s, c
       product(c.reference_gain, operand(reference_velocity, s.reference_velocity, 0, s.reference_acceleration, status));
   const std::int32_t reference_acceleration = store_state(acc, kReferenceShift, status);
 
-  // VOB: v' = v + beta_v ((theta' - theta) - v) + gamma (i - i_dis).
+  // VOB: v' = v + beta_v ((theta' - theta) - v) + gamma (i - i_dis), theta the encoder plus the
+  // play shift.
   acc = preload(s.velocity, kVelocityShift, kVelocityShift);
   acc += product(c.velocity_encoder_gain, operand(in.encoder, s.encoder, kCountToState, s.velocity, status));
+  acc += product(c.velocity_encoder_gain, operand(in.shift, s.shift, kCountToState, 0, status));
   acc += product(c.velocity_current_gain, operand(s.current, 0, kCurrentToState, s.disturbance, status));
   const std::int32_t velocity = store_state(acc, kVelocityShift, status);
 
@@ -129,6 +134,7 @@ std::int16_t fixed_update(const JointFixedCoefficients& c, JointFixedState& s, c
   s.reference_velocity = reference_velocity;
   s.reference_acceleration = reference_acceleration;
   s.encoder = in.encoder;
+  s.shift = in.shift;
   s.velocity = velocity;
   s.disturbance = disturbance;
   s.current = current;

@@ -45,9 +45,15 @@ struct JointFixedCoefficients {
 // Rounds every coefficient to nearest. Throws std::invalid_argument if one does not fit 24 bits.
 JointFixedCoefficients make_fixed_coefficients(const JointControllerParameters& parameters);
 
+// shift: the board's play shift s (whole counts, -512 .. 511; 0 without backlash compensation).
+// The controller sees reference + 256 s and encoder + s, as if it read the motor rather than an
+// encoder behind the play: the position error is unchanged, and a change of s reaches the
+// reference filter and the VOB ((s' - s) << 24 with their gains), so a joint moves with its
+// answer while the play is crossed and the encoder cannot see it (setpoint_interpolation.hpp).
 struct JointFixedInput {
   std::int32_t reference = 0;  // Q24.8 counts
   std::int16_t encoder = 0;    // counts
+  std::int16_t shift = 0;      // counts, 10-bit signed
 };
 
 struct JointFixedState {
@@ -55,6 +61,7 @@ struct JointFixedState {
   std::int32_t reference_velocity = 0;      // Q8.24
   std::int32_t reference_acceleration = 0;  // Q8.24
   std::int32_t encoder = 0;                 // previous encoder count
+  std::int32_t shift = 0;                   // previous play shift (counts)
   std::int32_t velocity = 0;                // VOB, Q8.24
   std::int32_t disturbance = 0;             // DOB, Q8.24 A
   std::int32_t current = 0;                 // applied over the last period, Q1.15 (int16 range)

@@ -37,7 +37,8 @@ void reset_model(Model& top) {
   clock_cycle(top);
 }
 
-// ap_start held until ap_ready; every current_j_ap_vld must pulse once before ap_done. Throws
+// The shifts written while idle (one cycle each), then ap_start held until ap_ready; every
+// current_j_ap_vld must pulse once before ap_done. Throws
 // std::runtime_error on a protocol fault. Leaves the model idle again.
 template <typename Model>
 JointRtlResult run_period(Model& top, const std::array<control::JointFixedInput, 3>& inputs) {
@@ -48,6 +49,13 @@ JointRtlResult run_period(Model& top, const std::array<control::JointFixedInput,
   top.encoder_1 = static_cast<std::uint16_t>(inputs[1].encoder);
   top.encoder_2 = static_cast<std::uint16_t>(inputs[2].encoder);
   if (!top.ap_idle) throw std::runtime_error("joint_controller: not idle before ap_start");
+  for (int j = 0; j < 3; ++j) {  // the play shifts, through the idle-time write port
+    top.shift_write = 1;
+    top.shift_joint = static_cast<std::uint8_t>(j);
+    top.shift_value = static_cast<std::uint16_t>(inputs[j].shift) & 0x3FFu;
+    clock_cycle(top);
+  }
+  top.shift_write = 0;
   top.ap_start = 1;
   JointRtlResult result;
   std::array<int, 3> valid_pulses{};
