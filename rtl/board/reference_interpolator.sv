@@ -114,23 +114,37 @@ module reference_interpolator #(
                     : played[32] ? {1'b1, {(DeltaBits - 1){1'b0}}} : {1'b0, {(DeltaBits - 1){1'b1}}};
   end
 
-  // The play shift of the next period (golden interpolation::play_shift): s = floor(clamp(d, -H,
-  // H) / 256), d = C - r: d >> 8 inside the play (-H <= d < H: the signs of d and d -/+ H
-  // differ), H >> 8 above it, floor(-H / 256) = ~((H - 1) >> 8) below it (from the constant H_j,
-  // folded by synthesis). Written into the controller's state memory at step 7 of each joint.
-  // HalfPlayBits = 17 (delta_board_pkg): |s| <= 512, 10 bits (golden static_assert).
-  logic       in_play;
-  logic [9:0] shift_new, shift_below, below [3];
-  for (genvar j = 0; j < 3; j++) begin : g_below  // per joint, before the multiplexer: constants
-    logic signed [HalfPlayBits:0] less_one;
-    assign less_one = $signed({1'b0, half_plays_i[HalfPlayBits * j +: HalfPlayBits]}) - 1;
-    assign below[j] = ~less_one[HalfPlayBits:8];
-    logic unused_fraction;
-    assign unused_fraction = ^less_one[7:0];
+  // The play shift of the next period (golden interpolation::play_shift): s = floor((clamp(d,
+  // -H, H) + g) / 256), d = C - r, g = 0 when H mod 256 is in [64, 192), else 128: inside the play
+  // (-H <= d < H: the signs of d and d -/+ H differ) (d >> 8) + (d[7] if g), above it the constant
+  // floor((H + g) / 256), below it floor((g - H) / 256), per joint (folded by synthesis). Written
+  // into the controller's state memory at step 7 of each joint. HalfPlayBits = 17: 10 bits.
+  logic       in_play, half_up;
+  logic [9:0] shift_new, shift_above, shift_below, above [3], below [3];
+  logic [2:0] rounds;
+  for (genvar j = 0; j < 3; j++) begin : g_ends  // per joint, before the multiplexer: constants
+    logic [HalfPlayBits-1:0] h;
+    logic signed [HalfPlayBits+1:0] high, low;
+    assign h         = half_plays_i[HalfPlayBits * j +: HalfPlayBits];
+    assign rounds[j] = h[7] == h[6];
+    assign high      = $signed({2'b00, h}) + (rounds[j] ? 19'sd128 : 19'sd0);
+    assign low       = (rounds[j] ? 19'sd128 : 19'sd0) - $signed({2'b00, h});
+    assign above[j]  = high[17:8];
+    assign below[j]  = low[17:8];
+    logic unused_ends;
+    assign unused_ends = ^{high[18], high[7:0], low[18], low[7:0]};
   end
-  assign shift_below = joint_q == 2'd1 ? below[1] : joint_q == 2'd2 ? below[2] : below[0];
-  assign in_play     = played_q[32] != diff_q[32];
-  assign shift_new   = in_play ? diff_q[17:8] : diff_q[32] ? shift_below : {1'b0, half_play[16:8]};
+  always_comb begin
+    unique case (joint_q)
+      2'd1:    {shift_above, shift_below, half_up} = {above[1], below[1], rounds[1]};
+      2'd2:    {shift_above, shift_below, half_up} = {above[2], below[2], rounds[2]};
+      default: {shift_above, shift_below, half_up} = {above[0], below[0], rounds[0]};
+    endcase
+  end
+  assign in_play   = played_q[32] != diff_q[32];
+  logic round_bit;
+  assign round_bit = half_up && diff_q[7];
+  assign shift_new = in_play ? diff_q[17:8] + {9'd0, round_bit} : diff_q[32] ? shift_below : shift_above;
 
   // round_shift(p, 14) = (p >> 14) + p[13]; |D K| < 2^29, so 17 bits above the shift suffice.
   logic        take_answer;

@@ -236,5 +236,45 @@ TEST(SetpointInterpolation, TheBoardsPlayEqualsTheGoldenCompensationOfTheAnswers
   EXPECT_EQ(play(-101, 100), -1);
 }
 
+// The play shift (issue 15) against its definition, for every half-play the format can carry
+// (whole numbers of 16 output LSBs, H = 25 h / 16): s = floor((clamp(d, -H, H) + g) / 256),
+// non-decreasing in d, 0 for H = 0, within 10 bits; and at both ends of the play it does not move
+// while the answer wobbles up to a quarter count inward (63 Q.8), so a steady motion, which sits
+// at an end, never sees its shift flip. With g = 0 that fails for round plays (0.04 deg: H =
+// 1025, one LSB above 4 counts).
+TEST(SetpointInterpolation, ThePlayShiftIsStillAtBothEndsOfEveryPlay) {
+  const Formats formats;
+  const std::int64_t step = std::int64_t{1} << formats.half_play_step_bits;
+  std::int64_t plays = 0, flips_without_offset = 0;
+  for (std::int64_t code = 0; code < (std::int64_t{1} << formats.half_play_bits); code += step) {
+    const std::int32_t h = interpolation::half_play_counts(code);
+    const std::int32_t g = interpolation::play_shift_offset(h);
+    ASSERT_TRUE(g == 0 || g == 128);
+    const std::int16_t top = interpolation::play_shift(h + 1000, h);
+    const std::int16_t bottom = interpolation::play_shift(-h - 1000, h);
+    ASSERT_EQ(top, (h + g) >> 8) << "h " << code;
+    ASSERT_EQ(bottom, (g - h) >> 8) << "h " << code;
+    ASSERT_LT(top, 512);
+    ASSERT_GE(bottom, -512);
+    for (std::int32_t wobble = 0; wobble < 64; ++wobble) {
+      ASSERT_EQ(interpolation::play_shift(h - wobble, h), top) << "h " << code << " wobble " << wobble;
+      ASSERT_EQ(interpolation::play_shift(-h + wobble, h), bottom) << "h " << code << " wobble " << wobble;
+    }
+    if ((h >> 8) != ((h - 63) >> 8) || ((-h) >> 8) != ((-h + 63) >> 8)) ++flips_without_offset;
+    std::int16_t last = bottom;
+    for (std::int64_t d = -h; d <= h; d += 37) {
+      const std::int16_t shift = interpolation::play_shift(d, h);
+      ASSERT_GE(shift, last) << "h " << code << " d " << d;
+      last = shift;
+    }
+    ++plays;
+  }
+  std::cout << plays << " half-plays; " << flips_without_offset << " would flip at an end without the grid offset\n";
+  EXPECT_EQ(interpolation::play_shift(12345, 0), 0);
+  EXPECT_EQ(interpolation::play_shift(-12345, 0), 0);
+  EXPECT_GE(flips_without_offset, plays / 4);  // a quarter of all plays: H mod 256 within 63 of a boundary
+  EXPECT_EQ(interpolation::play_shift_offset(interpolation::half_play_counts(656)), 128);  // 0.04 deg: H = 1025
+}
+
 }  // namespace
 }  // namespace delta::golden

@@ -121,18 +121,29 @@ inline SegmentDelta segment_delta(std::int32_t target, std::int32_t start, std::
 }
 
 // The play shift s of a joint for the controller's next period (whole counts, 10-bit signed):
-//   s = floor(clamp(C - r, -H, H) / 256)
+//   s = floor((clamp(C - r, -H, H) + g) / 256)
 // with C the network's latest answer and r the reference the joint holds (Q24.8 counts): where the
 // answer stands in the play, so the controller, which takes reference + 256 s and encoder + s
-// (delta/golden/joint_fixed.hpp), sees the motor rather than the encoder behind the play. While the
-// play is closed s is constant (+-H >> 8, nothing changes); while the answer crosses it s follows
-// the answer and moves the joint although the encoder holds. 0 with the drives off or H = 0.
-// The board computes it every period in the interpolator's update (reference_interpolator.sv).
+// (delta/golden/joint_fixed.hpp), sees the motor, in counts as a motor encoder would, rather than
+// the encoder behind the play. While the play is closed s is constant (nothing changes); while the
+// answer crosses it s follows the answer count by count and moves the joint although the encoder
+// holds. 0 with the drives off or H = 0. The grid offset g (play_shift_offset) keeps both ends of
+// the play, -H and +H, at least a quarter count from a count boundary, so an answer wobbling by a
+// few LSBs at the end of the play, where every steady motion sits, never flips s: with g = 0 a
+// round play (H a whole number of counts plus the 2^-10 deg quantisation) would sit right at one.
+// The board computes s every period in the interpolator's update (reference_interpolator.sv).
+constexpr std::int32_t play_shift_offset(std::int32_t half_play) {
+  const std::int32_t quarter = (half_play >> 6) & 3;  // which quarter of a count H mod 256 is in
+  return quarter == 1 || quarter == 2 ? 0 : 128;      // ends at +-(H mod 256), or at 128 +- it
+}
 inline std::int16_t play_shift(std::int64_t difference, std::int32_t half_play) {
   const std::int64_t place = difference < -half_play ? -half_play : difference > half_play ? half_play : difference;
-  return static_cast<std::int16_t>(place >> 8);  // arithmetic shift: floor
+  return static_cast<std::int16_t>((place + play_shift_offset(half_play)) >> 8);  // arithmetic shift: floor
 }
-static_assert((((std::int64_t{1} << board::kHalfPlayBits) - 1) >> 8) < 512, "the play shift must fit 10 bits");
+static_assert(((((std::int64_t{1} << Formats().half_play_bits) - 1) * kAnswerScale.factor >> kAnswerScale.shift) +
+                   128 >>
+               8) < 512,
+              "the play shift of the widest half-play must fit 10 bits");
 
 // r_k = B + round_shift(D K_k, 14), k = 0 .. kPeriods - 1. (B + D: the next segment's start.)
 // The sum wraps like a 32-bit register; the travel keeps references far inside it.
