@@ -59,7 +59,9 @@ TEST(FoundationCli, MalformedRecordingsAreRejectedWithFileLineAndReason) {
       EXPECT_NE(result.err.find(bad.expected_reason), std::string::npos) << bad.name << ": " << result.err;
       EXPECT_EQ(std::count(result.err.begin(), result.err.end(), '\n'), 1) << "one line: " << result.err;
     }
-    if (bad.concerns_positions) EXPECT_FALSE(file_exists(temp(bad.name + "_ik.csv"))) << bad.name;
+    if (bad.concerns_positions) {
+      EXPECT_FALSE(file_exists(temp(bad.name + "_ik.csv"))) << bad.name;
+    }
   }
 }
 

@@ -72,7 +72,9 @@ TEST(ShippedWeights, BeatThePaperOnAHeldOutSweep) {
     EXPECT_LT(rmse[0], 0.1655);
     EXPECT_LT(rmse[1], 0.0616);
     EXPECT_LT(rmse[2], 0.0576);
-    if (weights.hybrid()) EXPECT_LT(rmse.maxCoeff(), 0.08);
+    if (weights.hybrid()) {
+      EXPECT_LT(rmse.maxCoeff(), 0.08);
+    }
   }
 }
 

@@ -120,7 +120,9 @@ TEST(VirtualBoard, SessionOverThePseudoTerminalStreamsAShortTrajectory) {
     int on = 0;
     ASSERT_EQ(std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf,%lf,%lf,%lf,%d", &t, &x, &y, &z, &a1, &a2, &a3, &on), 8)
         << line;
-    if (count > 0) EXPECT_NEAR(t - last_t, 1e-3, 1e-9) << line;
+    if (count > 0) {
+      EXPECT_NEAR(t - last_t, 1e-3, 1e-9) << line;
+    }
     last_t = t;
     last_enabled = on != 0;
     enabled += on;
