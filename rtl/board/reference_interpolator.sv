@@ -9,7 +9,8 @@
 // segment) sets D = saturate_16(play(round_shift(25 y, 4) - r, H)) at the next update (r = B
 // then); slew_limited_o pulses when it saturates. A new segment starts with D = 0: without an
 // answer (underrun, hold) the reference holds. With enabled_i low the reference is the encoder
-// count.
+// count. Each joint's update also works out its play shift for the next period (issue 15, below)
+// and hands it to the joint controllers (shift_write_o, shift_joint_o, shift_o).
 //
 // Backlash compensation (the deployed model, issue 15): play(d, H) = d - H for d > H, d + H for
 // d < -H, else 0: the segment's target moves only when the answer leaves the play of half-width
