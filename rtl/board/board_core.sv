@@ -256,7 +256,7 @@ module board_core #(
   logic [95:0] references /*verilator public_flat_rd*/;  // the joints' references this period
   logic        shift_write;  // the next period's play shift of joint shift_joint (whole counts)
   logic [1:0]  shift_joint;
-  logic [9:0]  shift;
+  logic [delta_joint_pkg::ShiftBits-1:0] shift;
   logic [47:0] counts;
   logic        slew_limited;
   // The deployed model's backlash half-plays H_j (Q.8 counts; zero for the plain network): constants

@@ -39,7 +39,7 @@ module reference_interpolator #(
   output logic [95:0] references_o,   // r_j at [32j +: 32], Q24.8 counts, stable between updates
   output logic        shift_write_o,  // pulse: shift_o is joint shift_joint_o's play shift for the next period
   output logic [1:0]  shift_joint_o,
-  output logic [9:0]  shift_o,        // s, whole counts (0 with enabled_i low)
+  output logic [delta_joint_pkg::ShiftBits-1:0] shift_o,  // s, whole counts (0 with enabled_i low)
   output logic        slew_limited_o  // pulse: a segment's change was saturated
 );
   localparam int unsigned Shift = delta_board_pkg::InterpolationShift;

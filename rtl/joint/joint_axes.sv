@@ -24,7 +24,7 @@ module joint_axes #(
   input  logic [95:0] references_i,       // Q24.8 counts, joint j at [32j +: 32]
   input  logic        shift_write_i,      // the next period's play shift of joint shift_joint_i
   input  logic [1:0]  shift_joint_i,      //   (reference_interpolator, while the controller is idle)
-  input  logic [9:0]  shift_i,
+  input  logic [delta_joint_pkg::ShiftBits-1:0] shift_i,
   input  logic        enabled_i,          // drives on (the board's enable state)
   input  logic        frame_valid_i,      // a valid link frame arrived (watchdog)
   input  logic        clear_fault_i,      // clear the latched causes

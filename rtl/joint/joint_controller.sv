@@ -43,10 +43,11 @@ module joint_controller (
   input  logic [4:0]  peek_address,
   output logic [31:0] peek_data,
   // The HLS top's shift_j, written while idle (one joint per shift_write pulse, before the
-  // ap_start of the period it belongs to): the play shift s_j in whole counts, stored as s + 512.
+  // ap_start of the period it belongs to): the play shift s_j in whole counts, stored offset by
+  // half its range (s + 2^(ShiftBits - 1)), so that differences of stored words are differences of s.
   input  logic        shift_write,
   input  logic [1:0]  shift_joint,
-  input  logic [9:0]  shift_value
+  input  logic [delta_joint_pkg::ShiftBits-1:0] shift_value
 );
   localparam int unsigned AccWidth = delta_joint_pkg::AccumulatorWidth;
 
@@ -223,7 +224,7 @@ module joint_controller (
         // The next period's shift, into the bank it writes (bank_q outlives ap_rst for this).
         write_enable  = shift_write;
         write_address = {shift_joint, bank_q, delta_joint_pkg::SlotShift};
-        write_data    = {22'd0, !shift_value[9], shift_value[8:0]};
+        write_data    = 32'({!shift_value[delta_joint_pkg::ShiftBits-1], shift_value[delta_joint_pkg::ShiftBits-2:0]});
         if (ap_start) begin
           state_d = StateLoad;
           load_d  = 3'd0;

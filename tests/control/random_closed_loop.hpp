@@ -49,10 +49,11 @@ class RandomClosedLoop {
         ++glitches;
       }
       inputs_[j].encoder = static_cast<std::int16_t>(std::clamp(plants_[j].encoder_count(), -32768, 32767));
-      // The play shift: small steps (a play being crossed), rare jumps anywhere in its 10 bits.
+      // The play shift: small steps (a play being crossed), rare jumps anywhere in its kShiftBits.
       if (unit() < 0.05) drive.shift += static_cast<int>(std::floor(7.0 * unit())) - 3;
-      if (unit() < 1e-3) drive.shift = static_cast<int>(std::floor(1024.0 * unit())) - 512;
-      drive.shift = std::clamp(drive.shift, -512, 511);
+      constexpr int kShiftHalfRange = 1 << (kShiftBits - 1);
+      if (unit() < 1e-3) drive.shift = static_cast<int>(std::floor(2.0 * kShiftHalfRange * unit())) - kShiftHalfRange;
+      drive.shift = std::clamp(drive.shift, -kShiftHalfRange, kShiftHalfRange - 1);
       inputs_[j].shift = static_cast<std::int16_t>(drive.shift);
     }
     if (k == 0) {

@@ -103,7 +103,7 @@ TEST(JointBitExact, GoldenHlsAndRtlAgreeOnClosedLoopWithRandomReferencesAndLoads
 }
 
 // The coefficient codes compiled into the HLS top (the generated header) and the literals of the
-// RTL package equal the golden model's.
+// RTL package, its play-shift width too, equal the golden model's.
 TEST(JointBitExact, HlsAndRtlCoefficientsEqualTheGoldenModel) {
   const JointFixedCoefficients c = make_fixed_coefficients(JointControllerParameters{});
   const std::array<std::pair<const char*, std::int32_t>, 9> expected{
@@ -135,6 +135,11 @@ TEST(JointBitExact, HlsAndRtlCoefficientsEqualTheGoldenModel) {
     if (value >= (std::int64_t{1} << (bits - 1))) value -= std::int64_t{1} << bits;  // two's complement
     EXPECT_EQ(value, expected[n].second) << expected[n].first << " in delta_joint_pkg.sv";
   }
+  std::smatch match;
+  const std::string body = text.str();
+  ASSERT_TRUE(std::regex_search(body, match, std::regex("localparam int unsigned ShiftBits = (\\d+);")))
+      << "ShiftBits missing in delta_joint_pkg.sv";
+  EXPECT_EQ(std::stoi(match[1]), kShiftBits) << "ShiftBits in delta_joint_pkg.sv";
 }
 
 // The chosen widths of the HLS config are the golden model's formats.
@@ -148,6 +153,7 @@ TEST(JointBitExact, HlsConfigFormatsEqualTheGoldenModel) {
   EXPECT_EQ(HlsConfig::velocity_shift, kVelocityShift);
   EXPECT_EQ(HlsConfig::disturbance_shift, kDisturbanceShift);
   EXPECT_EQ(HlsConfig::law_shift, kLawShift);
+  EXPECT_EQ(HlsConfig::shift_bits, kShiftBits);
   // The golden accumulator (66 bits) also holds the rounding half-LSB; the HLS casts round instead.
   EXPECT_LE(HlsConfig::command_accumulator_bits, kAccumulatorBits);
 }

@@ -37,7 +37,7 @@ control::JointFixedState JointRtlModel::state(int joint) const {
   state.velocity = word(4);
   state.disturbance = word(5);
   state.current = word(6);
-  state.shift = word(7) - 512;  // stored as s + 512
+  state.shift = word(7) - (1 << (control::kShiftBits - 1));  // stored offset by half the range
   return state;
 }
 

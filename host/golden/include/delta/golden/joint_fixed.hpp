@@ -19,6 +19,7 @@ namespace delta::control {
 constexpr int kReferenceFraction = 8;
 constexpr int kStateFraction = 24;
 constexpr int kCurrentFraction = 15;
+constexpr int kShiftBits = 10;        // play shift input, whole counts, signed (JointFixedInput::shift)
 constexpr int kCoefficientBits = 24;  // signed, two's complement
 constexpr int kOperandBits = 40;      // signed multiplier operand, saturated
 constexpr int kAccumulatorBits = 66;  // exact: 3 products of 40 x 24 bits plus a shifted state
@@ -45,7 +46,7 @@ struct JointFixedCoefficients {
 // Rounds every coefficient to nearest. Throws std::invalid_argument if one does not fit 24 bits.
 JointFixedCoefficients make_fixed_coefficients(const JointControllerParameters& parameters);
 
-// shift: the board's play shift s (whole counts, -512 .. 511; 0 without backlash compensation).
+// shift: the board's play shift s (whole counts, kShiftBits signed; 0 without backlash compensation).
 // The controller sees reference + 256 s and encoder + s, as if it read the motor rather than an
 // encoder behind the play: the position error is unchanged, and a change of s reaches the
 // reference filter and the VOB ((s' - s) << 24 with their gains), so a joint moves with its
@@ -53,7 +54,7 @@ JointFixedCoefficients make_fixed_coefficients(const JointControllerParameters& 
 struct JointFixedInput {
   std::int32_t reference = 0;  // Q24.8 counts
   std::int16_t encoder = 0;    // counts
-  std::int16_t shift = 0;      // counts, 10-bit signed
+  std::int16_t shift = 0;      // counts, kShiftBits signed
 };
 
 struct JointFixedState {

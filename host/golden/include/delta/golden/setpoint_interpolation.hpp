@@ -25,6 +25,7 @@
 
 #include "delta/board_facts.hpp"
 #include "delta/golden/fixed_network.hpp"
+#include "delta/golden/joint_fixed.hpp"
 
 namespace delta::golden {
 
@@ -71,8 +72,10 @@ constexpr std::array<std::int32_t, kPeriods> kWeights = make_weights();
 static_assert(kWeights[0] == 0 && kWeights[1] == 1638 && kWeights[9] == 14746, "K_k = (k 16384 + 5) / 10");
 
 static_assert(kAnswerScale.shift == Formats().half_play_step_bits, "H = 25 h / 16 must be exact");
-static_assert(((std::int64_t{1} << Formats().half_play_bits) - 1) * kAnswerScale.factor >> kAnswerScale.shift <
-                  (std::int64_t{1} << board::kHalfPlayBits),
+// The widest H the format can carry, Q24.8 counts.
+constexpr std::int64_t kWidestHalfPlay =
+    ((std::int64_t{1} << Formats().half_play_bits) - 1) * kAnswerScale.factor >> kAnswerScale.shift;
+static_assert(kWidestHalfPlay < (std::int64_t{1} << board::kHalfPlayBits),
               "HalfPlayBits (delta_board_pkg.sv) must hold the widest half-play");
 
 constexpr std::int32_t kDeltaMax = (std::int32_t{1} << (kDeltaBits - 1)) - 1;  // 32767
@@ -120,7 +123,7 @@ inline SegmentDelta segment_delta(std::int32_t target, std::int32_t start, std::
   return delta;
 }
 
-// The play shift s of a joint for the controller's next period (whole counts, 10-bit signed):
+// The play shift s of a joint for the controller's next period (whole counts, kShiftBits signed):
 //   s = floor((clamp(C - r, -H, H) + g) / 256)
 // with C the network's latest answer and r the reference the joint holds (Q24.8 counts): where the
 // answer stands in the play, so the controller, which takes reference + 256 s and encoder + s
@@ -140,10 +143,8 @@ inline std::int16_t play_shift(std::int64_t difference, std::int32_t half_play) 
   const std::int64_t place = difference < -half_play ? -half_play : difference > half_play ? half_play : difference;
   return static_cast<std::int16_t>((place + play_shift_offset(half_play)) >> 8);  // arithmetic shift: floor
 }
-static_assert(((((std::int64_t{1} << Formats().half_play_bits) - 1) * kAnswerScale.factor >> kAnswerScale.shift) +
-                   128 >>
-               8) < 512,
-              "the play shift of the widest half-play must fit 10 bits");
+static_assert((kWidestHalfPlay + 128 >> 8) < (1 << (control::kShiftBits - 1)),
+              "the play shift of the widest half-play must fit control::kShiftBits");
 
 // r_k = B + round_shift(D K_k, 14), k = 0 .. kPeriods - 1. (B + D: the next segment's start.)
 // The sum wraps like a 32-bit register; the travel keeps references far inside it.

@@ -52,7 +52,7 @@ JointRtlResult run_period(Model& top, const std::array<control::JointFixedInput,
   for (int j = 0; j < 3; ++j) {  // the play shifts, through the idle-time write port
     top.shift_write = 1;
     top.shift_joint = static_cast<std::uint8_t>(j);
-    top.shift_value = static_cast<std::uint16_t>(inputs[j].shift) & 0x3FFu;
+    top.shift_value = static_cast<std::uint16_t>(inputs[j].shift) & ((1u << control::kShiftBits) - 1);
     clock_cycle(top);
   }
   top.shift_write = 0;
