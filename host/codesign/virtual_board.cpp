@@ -50,6 +50,10 @@ VirtualBoard::VirtualBoard(const VirtualBoardOptions& options) : core_(std::make
   board_interface.current_full_scale_a = kCurrentFullScaleA;
   board_interface.home_count = kHomeCount;
   board_interface.count_deg = kCountDeg;
+  // The plants step once per control period, 35 cycles before it starts: up to 8 counts (4 cycles
+  // each) and the synchronisers' 3 cycles reach the counters the controllers sample at tick 0.
+  board_interface.plant_divider = static_cast<int>(kClocksPerTick);
+  board_interface.plant_lead = 3 + 8 * board_interface.quadrature_dwell;
   if (options.inject_encoder_skip_at_s >= 0.0) {
     encoder_skip_clock_ = static_cast<std::uint64_t>(options.inject_encoder_skip_at_s * kBoardClockHz);
   }

@@ -53,4 +53,41 @@ void JointPlant::step(double current_a, double period_s, double extra_load_shaft
   }
 }
 
+void JointPlant::advance(double current_a, double period_s, double extra_load_shaft_nm) {
+  const double limit = parameters_.current_limit_a;
+  const double motor_nm = parameters_.torque_constant_nm_per_a * std::clamp(current_a, -limit, limit);
+  if (shaft_rad_ != cos_shaft_rad_) {
+    cos_shaft_rad_ = shaft_rad_;
+    cos_shaft_ = std::cos(shaft_rad_);
+  }
+  const double load_shaft_nm = parameters_.gravity_nm * cos_shaft_ + extra_load_shaft_nm;
+  // Everything except Coulomb friction, referred to the rotor, held over the step.
+  const double drive_nm =
+      motor_nm - load_shaft_nm / parameters_.gear_ratio - parameters_.viscous_nm_s_per_rad * rotor_velocity_rad_s_;
+  double remaining = period_s;
+  double angle = rotor_angle_rad_;
+  double velocity = rotor_velocity_rad_s_;
+  // At most three pieces: moving, stopped where friction reversed it, broken away the other way.
+  for (int piece = 0; piece < 3 && remaining > 0.0; ++piece) {
+    if (velocity == 0.0 && std::abs(drive_nm) <= parameters_.coulomb_nm) break;  // stuck for the rest
+    const double direction = velocity != 0.0 ? std::copysign(1.0, velocity) : std::copysign(1.0, drive_nm);
+    const double acceleration = (drive_nm - direction * parameters_.coulomb_nm) / inertia_kg_m2_;
+    const double to_stop = velocity * acceleration < 0.0 ? -velocity / acceleration : remaining;
+    if (to_stop < remaining) {  // friction stops the joint within the step
+      angle += 0.5 * velocity * to_stop;
+      velocity = 0.0;
+      remaining -= to_stop;
+      continue;
+    }
+    angle += (velocity + 0.5 * acceleration * remaining) * remaining;
+    velocity += acceleration * remaining;
+    remaining = 0.0;
+  }
+  if (angle != rotor_angle_rad_) {
+    rotor_angle_rad_ = angle;
+    shaft_rad_ = rotor_angle_rad_ / parameters_.gear_ratio;
+  }
+  rotor_velocity_rad_s_ = velocity;
+}
+
 }  // namespace delta

@@ -45,55 +45,31 @@ class RobotWorld::Quadrature {
   int waited_ = 0;
 };
 
-// One joint's PWM levels over the last PWM period, a bit per board cycle (slot = cycle mod the
-// period), and how many of them are high.
-class RobotWorld::PwmHistory {
- public:
-  explicit PwmHistory(int period) : period_(period), words_(static_cast<std::size_t>((period + 63) / 64), 0) {}
-  int high() const { return high_; }
-  void set(int slot, int level) {
-    std::uint64_t& word = words_[static_cast<std::size_t>(slot >> 6)];
-    const std::uint64_t bit = std::uint64_t{1} << (slot & 63);
-    high_ += level - ((word & bit) ? 1 : 0);
-    word = level ? word | bit : word & ~bit;
-  }
-  // `cycles` cycles from `slot` whose levels are (phase + i) mod period < duty, in pieces that
-  // stay inside one word and wrap neither the slot nor the phase: each piece is a run of ones
-  // then zeros.
-  void fill(int slot, int phase, int duty, std::uint64_t cycles) {
-    while (cycles > 0) {
-      const int bit = slot & 63;
-      const int length = static_cast<int>(std::min<std::uint64_t>(
-          cycles, static_cast<std::uint64_t>(std::min({64 - bit, period_ - slot, period_ - phase}))));
-      const int ones = std::clamp(duty - phase, 0, length);
-      const std::uint64_t range = (length == 64 ? ~std::uint64_t{0} : (std::uint64_t{1} << length) - 1) << bit;
-      const std::uint64_t levels = (ones == 64 ? ~std::uint64_t{0} : (std::uint64_t{1} << ones) - 1) << bit;
-      std::uint64_t& word = words_[static_cast<std::size_t>(slot >> 6)];
-      const std::uint64_t old = word & range;
-      if (old != levels) {  // after a period at the same duty the history already holds these levels
-        high_ += ones - __builtin_popcountll(old);
-        word = (word & ~range) | levels;
-      }
-      cycles -= static_cast<std::uint64_t>(length);
-      slot += length;
-      if (slot == period_) slot = 0;
-      phase += length;
-      if (phase == period_) phase = 0;
-    }
-  }
+namespace {
 
- private:
-  int period_;
-  std::vector<std::uint64_t> words_;
-  int high_ = 0;
-};
+// Cycles i in [0, cycles) whose PWM level is high: (phase + i) mod period < duty.
+std::int64_t high_cycles(int phase, int duty, std::uint64_t cycles, int period) {
+  if (duty <= 0) return 0;
+  if (duty >= period) return static_cast<std::int64_t>(cycles);
+  // below(m): the cycles in [0, m) of a pattern starting at phase 0.
+  const auto below = [&](std::uint64_t m) {
+    return static_cast<std::int64_t>(m / static_cast<std::uint64_t>(period)) * duty +
+           std::min<std::int64_t>(static_cast<std::int64_t>(m % static_cast<std::uint64_t>(period)), duty);
+  };
+  return below(static_cast<std::uint64_t>(phase) + cycles) - below(static_cast<std::uint64_t>(phase));
+}
+
+}  // namespace
 
 RobotWorld::RobotWorld(const BoardInterface& board, const EffectSet& effects, const Geometry& nominal,
                        const JointPlantParameters& plant)
     : board_(board), effects_(effects), true_geometry_(apply_geometry_effects(nominal, effects)), sensors_(effects) {
-  if (!(board.board_clock_hz > 0.0) || board.pwm_period_cycles <= 0 || board.plant_divider <= 0) {
-    throw std::invalid_argument("RobotWorld: board clock, PWM period and plant divider must be positive");
+  if (!(board.board_clock_hz > 0.0) || board.pwm_period_cycles <= 0 || board.plant_divider <= 0 ||
+      board.plant_lead < 0 || board.plant_lead >= board.plant_divider) {
+    throw std::invalid_argument(
+        "RobotWorld: board clock, PWM period and plant divider must be positive, the plant lead below the divider");
   }
+  plant_phase_ = board.plant_lead;
   plant_step_s_ = board.plant_divider / board.board_clock_hz;
   // Home: the encoders read the home count with the plate at rest there.
   for (int j = 0; j < 3; ++j) home_true_alpha_deg_[j] = true_angle_for_reading(j, board.home_count * board.count_deg);
@@ -101,12 +77,9 @@ RobotWorld::RobotWorld(const BoardInterface& board, const EffectSet& effects, co
   if (!home.ok()) throw std::runtime_error("the robot's home pose: " + home.reason());
   home_measured_m_ = apply_frame_misalignment(effects, home.position_m);
 
-  JointPlantParameters plant_parameters = plant;
-  plant_parameters.substeps = 1;  // the plant step (plant_divider board cycles, ~1 us) is already short
   for (int j = 0; j < 3; ++j) {
-    plants_[j] = std::make_unique<JointPlant>(plant_parameters, home_true_alpha_deg_[j]);
+    plants_[j] = std::make_unique<JointPlant>(plant, home_true_alpha_deg_[j]);  // solved exactly (advance)
     encoders_[j] = std::make_unique<Quadrature>(board.home_count, board.home_count, board.quadrature_dwell);
-    pwm_history_[j] = std::make_unique<PwmHistory>(board.pwm_period_cycles);
   }
   true_alpha_deg_ = home_true_alpha_deg_;
   reading_deg_ = sensors_.update(true_alpha_deg_);  // the backlash starts centred at home
@@ -138,19 +111,19 @@ double RobotWorld::true_angle_for_reading(int joint, double reading_deg) const {
 }
 
 void RobotWorld::step(const DrivePins& pins) {
-  // Drives: the current follows the PWM duty averaged over one PWM period.
-  // slot = cycle_ mod the PWM period, phase = cycle_ mod the plant divider (counters, not divisions).
-  const std::size_t slot = pwm_slot_;
-  if (++pwm_slot_ == static_cast<std::size_t>(board_.pwm_period_cycles)) pwm_slot_ = 0;
-  for (int j = 0; j < 3; ++j) pwm_history_[j]->set(static_cast<int>(slot), (pins.pwm >> j) & 1);
+  // Drives: the current is the PWM duty averaged over the plant step (the direction pin signs it).
+  if (pins.enable) {
+    for (int j = 0; j < 3; ++j) {
+      if ((pins.pwm >> j) & 1) drive_sum_[j] += ((pins.direction >> j) & 1) ? -1 : 1;
+    }
+  }
   const bool plant_step = plant_phase_ == board_.plant_divider - 1;
   if (++plant_phase_ == board_.plant_divider) plant_phase_ = 0;
   if (plant_step) {
     for (int j = 0; j < 3; ++j) {
-      const double sign = ((pins.direction >> j) & 1) ? -1.0 : 1.0;
-      current_a_[j] =
-          pins.enable ? sign * board_.current_full_scale_a * pwm_history_[j]->high() / board_.pwm_period_cycles : 0.0;
-      plants_[j]->step(current_a_[j], plant_step_s_);
+      current_a_[j] = board_.current_full_scale_a * static_cast<double>(drive_sum_[j]) / board_.plant_divider;
+      drive_sum_[j] = 0;
+      plants_[j]->advance(current_a_[j], plant_step_s_);
       true_alpha_deg_[j] = plants_[j]->shaft_angle_deg();
     }
     reading_deg_ = sensors_.update(true_alpha_deg_);
@@ -172,18 +145,18 @@ std::uint64_t RobotWorld::cycles_to_event() const {
 }
 
 void RobotWorld::advance(std::uint64_t cycles, const DrivePattern& pattern) {
-  const int period = board_.pwm_period_cycles;
-  // The cycles before the last: the PWM history and the counters only.
+  // The cycles before the last: the drive's sums and the counters only.
   const std::uint64_t quiet = cycles - 1;
-  for (int j = 0; j < 3; ++j) {
-    pwm_history_[j]->fill(static_cast<int>(pwm_slot_), pattern.phase, pattern.enable ? pattern.duty[j] : 0, quiet);
+  if (pattern.enable) {
+    for (int j = 0; j < 3; ++j) {
+      const std::int64_t high = high_cycles(pattern.phase, pattern.duty[j], quiet, board_.pwm_period_cycles);
+      drive_sum_[j] += ((pattern.direction >> j) & 1) ? -high : high;
+    }
   }
-  pwm_slot_ += quiet;
-  if (pwm_slot_ >= static_cast<std::size_t>(period)) pwm_slot_ %= static_cast<std::size_t>(period);
   plant_phase_ += static_cast<int>(quiet);
   cycle_ += quiet;
   for (auto& encoder : encoders_) encoder->wait(quiet);
-  step(pattern.pins(quiet, period));
+  step(pattern.pins(quiet, board_.pwm_period_cycles));
 }
 
 DrivePins DrivePattern::pins(std::uint64_t cycle, int pwm_period_cycles) const {

@@ -19,6 +19,8 @@ BoardInterface board_interface() {
   board.current_full_scale_a = 0.5;
   board.home_count = 3000;
   board.count_deg = 0.01;
+  board.plant_divider = 2325;  // the control period, as the virtual board steps the plants
+  board.plant_lead = 35;
   return board;
 }
 

@@ -34,6 +34,12 @@ class JointPlant {
   // Advances by period_s with the commanded current (clipped to the current limit) and an
   // external load torque on the shaft [N m] (positive opposes positive motion like gravity).
   void step(double current_a, double period_s, double extra_load_shaft_nm = 0.0);
+  // The same motion solved exactly over period_s for a current held over it (no substeps): the
+  // drive torque (motor, the gravity load at the present angle, viscous friction at the present
+  // velocity) is held, so each piece of the step is a constant acceleration against Coulomb
+  // friction; where the velocity reaches zero the joint stops there and sticks, or breaks away
+  // the other way if the drive exceeds the friction, and the rest of the step goes on from there.
+  void advance(double current_a, double period_s, double extra_load_shaft_nm = 0.0);
 
   double shaft_angle_deg() const;
   double rotor_angle_rad() const { return rotor_angle_rad_; }

@@ -1,7 +1,8 @@
 // The robot around a board, one board clock at a time: drive pins in, encoder lines out.
 //
-//   drives: PWM duty -> current (full scale at 100 % duty, averaged over one PWM period)
-//   plants: current -> true joint angle (joint_plant: motor, gearbox, friction, gravity)
+//   drives: PWM duty -> current (full scale at 100 % duty, the pins averaged over each plant step)
+//   plants: current -> true joint angle (joint_plant: motor, gearbox, friction, gravity), solved
+//     exactly once per plant step (JointPlant::advance; the board's control period)
 //   sensors: true angle -> encoder reading (encoder_scale, transmission_error, backlash,
 //     joint_offset, counts) -> quadrature A/B lines, one state per quadrature dwell at most
 //   plate: true geometry FK(true angles) -> frame_misalignment -> what the measuring stage sees
@@ -28,7 +29,10 @@ struct BoardInterface {
   double current_full_scale_a = 0.0;  // current at 100 % duty
   int home_count = 0;                 // encoder count at the board's reset
   double count_deg = 0.01;            // one encoder count
-  int plant_divider = 20;             // board cycles per plant integration step
+  int plant_divider = 20;             // board cycles per plant step (the board's control period)
+  // The plant steps in the cycle plant_lead cycles before each multiple of plant_divider (cycle
+  // k plant_divider - 1 - plant_lead): its encoder moves reach the board before the period starts.
+  int plant_lead = 0;
   int quadrature_dwell = 4;           // board cycles per quadrature state, at least
 };
 
@@ -61,9 +65,9 @@ class RobotWorld {
   RobotWorld(const RobotWorld&) = delete;
   RobotWorld& operator=(const RobotWorld&) = delete;
 
-  // One board cycle with the drive pins the board showed in it: PWM averaging, the plants every
-  // plant_divider cycles; then the encoder lines of the next cycle, one quadrature state closer to
-  // the reading.
+  // One board cycle with the drive pins the board showed in it: the drive's average, the plants
+  // once every plant_divider cycles (with the pins' average since the last plant step); then the
+  // encoder lines of the next cycle, one quadrature state closer to the reading.
   void step(const DrivePins& pins);
 
   // Board cycles from now up to and including the next one whose step() integrates the plants or
@@ -79,7 +83,7 @@ class RobotWorld {
   double time_s() const { return static_cast<double>(cycle_) / board_.board_clock_hz; }
 
   const Vec3& true_alpha_deg() const { return true_alpha_deg_; }
-  const Vec3& current_a() const { return current_a_; }  // applied over the last plant step
+  const Vec3& current_a() const { return current_a_; }  // the average over the last plant step
   Vec3 encoder_deg() const;                             // the counts on the lines, in degrees
   Vec3 measured_position_m() const;                     // the plate as the stage sees it
   const Vec3& home_true_alpha_deg() const { return home_true_alpha_deg_; }
@@ -102,16 +106,14 @@ class RobotWorld {
   JointSensorChain sensors_;
   std::array<std::unique_ptr<JointPlant>, 3> plants_;
   std::array<std::unique_ptr<Quadrature>, 3> encoders_;
-  class PwmHistory;
-  std::array<std::unique_ptr<PwmHistory>, 3> pwm_history_;
+  std::array<std::int64_t, 3> drive_sum_{};  // since the last plant step: +1 per high cycle, -1 reversed
   Vec3 true_alpha_deg_ = Vec3::Zero();
   Vec3 reading_deg_ = Vec3::Zero();
   Vec3 current_a_ = Vec3::Zero();
   Vec3 home_true_alpha_deg_ = Vec3::Zero();
   Vec3 home_measured_m_ = Vec3::Zero();
   std::uint64_t cycle_ = 0;
-  std::size_t pwm_slot_ = 0;  // cycle_ mod pwm_period_cycles
-  int plant_phase_ = 0;       // cycle_ mod plant_divider
+  int plant_phase_ = 0;  // (cycle_ + plant_lead) mod plant_divider: the plant steps at plant_divider - 1
   int lines_a_ = 0;           // encoder_a(), encoder_b()
   int lines_b_ = 0;
 };

@@ -9,7 +9,7 @@
 //     -> robot world (currents, plants, sensors) -> quadrature A/B -> board_core -> UART line -> bytes
 //
 // One board clock (43 ns) is one step: both clocks in their true ratio (rtl/board/sim
-// board_clock.hpp), the world integrated every 20 board clocks (0.86 us). The truth (true joint
+// board_clock.hpp), the world's plants solved once per control period (35 clocks before it). The truth (true joint
 // angles, the plate as the measuring stage sees it, drive enable) is offered every 1 ms of board
 // time to an observer. VirtualBoardStream makes it an io::ByteStream for a host in the same
 // process (the co-simulation); `deltactl virtual-board` puts it behind a pseudo-terminal.

@@ -143,7 +143,7 @@ inline std::int16_t play_shift(std::int64_t difference, std::int32_t half_play) 
   const std::int64_t place = difference < -half_play ? -half_play : difference > half_play ? half_play : difference;
   return static_cast<std::int16_t>((place + play_shift_offset(half_play)) >> 8);  // arithmetic shift: floor
 }
-static_assert((kWidestHalfPlay + 128 >> 8) < (1 << (control::kShiftBits - 1)),
+static_assert(((kWidestHalfPlay + 128) >> 8) < (1 << (control::kShiftBits - 1)),
               "the play shift of the widest half-play must fit control::kShiftBits");
 
 // r_k = B + round_shift(D K_k, 14), k = 0 .. kPeriods - 1. (B + D: the next segment's start.)
