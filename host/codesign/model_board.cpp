@@ -25,6 +25,13 @@ constexpr int kWatchdogMax = 511;  // $clog2(WatchdogPeriods + 2) = 9 bits
 constexpr int kRunCycles = 1072;   // joint_controller.sv: ap_start seen (idle) to done
 constexpr int kJointCycles = 355;
 constexpr int kLoadCycles = 6;
+// The serial line, 8N1 at kClocksPerBit (B) clocks a bit. uart_rx: the start bit's first clock e
+// reaches the synchroniser's output at e + 2; it waits B/2 + 1 clocks to the start bit's middle,
+// samples the data bits B clocks apart and sets valid in the clock at the stop bit's middle:
+// e + 3 + B/2 + 9 B. The line at the TX pin (rtl::UartLine) sees the start bit after the clock
+// uart_tx loads the byte and completes the byte B/2 + 9 B clocks later, at the stop bit's middle.
+constexpr std::uint64_t kRxValidDelay = 3 + kClocksPerBit / 2 + 9 * kClocksPerBit;
+constexpr std::uint64_t kTxByteDelay = kClocksPerBit / 2 + 9 * kClocksPerBit;
 
 std::uint16_t saturating_increment(std::uint16_t value) { return value == 0xFFFF ? value : value + 1; }
 
@@ -151,8 +158,7 @@ struct ModelBoard::State {
   control::JointFixedCoefficients coefficients = control::make_fixed_coefficients(control::JointControllerParameters{});
   std::uint64_t cycle = 0;
 
-  // uart_rx
-  int rx_sync = 3, rx_state = 0, rx_count = 0, rx_bit_index = 0;
+  // uart_rx: its byte and valid (the line's bytes, their clocks in ModelBoard::rx_line_)
   std::uint8_t rx_shift = 0;
   bool rx_valid = false;
   // link_rx
@@ -279,14 +285,8 @@ bool ModelBoard::quiet() const {
       tick == kClocksPerPeriod - 1) {
     return false;
   }
-  // uart_rx: idle on a high line (settled), or counting inside a bit.
-  const int rx_level = (s.rx_sync >> 1) & 1;
+  // uart_rx: no byte for link_rx (a byte's valid is set at the end of a run, see skip).
   if (s.rx_valid) return false;
-  if (s.rx_state == 0) {
-    if (!rx_level || s.rx_count != kClocksPerBit / 2) return false;
-  } else if (s.rx_count == 0 && s.rx_state != 2) {
-    return false;  // a start bit confirmed or a stop bit: the full clock
-  }
   // link_rx idle and settled; nothing pending in the setpoint buffer, interpolator or safety.
   if (s.fetched || s.read != s.write || s.ring_data != m.ring[s.read]) return false;
   // The interpolator acts in steps 4 (the segment's change) and 7 (the reference) of each joint;
@@ -308,15 +308,11 @@ bool ModelBoard::quiet() const {
   // link_tx idle or waiting for uart_tx inside a bit; no capture.
   if (s.capturing || s.writing || s.tx_state == 1) return false;
   if (s.tx_state == 0 && (s.telemetry_pending || s.identify_pending)) return false;
-  if (s.bits_left == 0) {
-    if (s.tx_state != 0) return false;
-  } else if (s.tx_count == 0 && s.bits_left == 1) {
-    return false;  // the last bit ends: link_tx sees the UART ready
-  }
+  if (s.bits_left == 0 && s.tx_state != 0) return false;  // link_tx sees the UART ready
   return true;
 }
 
-std::uint64_t ModelBoard::skip(std::uint64_t limit, int uart_rx, int encoder_a, int encoder_b, DrivePattern* pattern) {
+std::uint64_t ModelBoard::skip(std::uint64_t limit, int encoder_a, int encoder_b, DrivePattern* pattern) {
   State& s = *state_;
   if (limit == 0 || !quiet()) return 0;
   // Up to the next clock that is not quiet: the period's next event, a UART bit's end, the
@@ -328,16 +324,15 @@ std::uint64_t ModelBoard::skip(std::uint64_t limit, int uart_rx, int encoder_a, 
       break;
     }
   }
-  // Idle, uart_rx must stay high (an edge: one clock, the synchroniser takes it); inside a byte
-  // its level counts only at a bit's middle. A data bit's middle (uart_rx) or the next bit out
-  // (uart_tx) only in the run's first clock.
-  if (s.rx_state == 0 && (s.rx_sync != 3 || !(uart_rx & 1))) clocks = 1;
-  if (s.rx_state != 0) {
-    clocks = std::min<std::uint64_t>(clocks, static_cast<std::uint64_t>(s.rx_count == 0 ? kClocksPerBit : s.rx_count));
-  }
+  // uart_rx: up to the clock that hands link_rx the line's next byte; uart_tx: up to the clock its
+  // last bit ends (link_tx sees it ready in the next) and the clock the line completes its byte.
+  const bool rx_byte = !rx_line_.empty();
+  if (rx_byte) clocks = std::min(clocks, rx_line_.front().valid_cycle - s.cycle + 1);
   if (s.bits_left != 0) {
-    clocks = std::min<std::uint64_t>(clocks, static_cast<std::uint64_t>(s.tx_count == 0 ? kClocksPerBit : s.tx_count));
+    clocks = std::min<std::uint64_t>(
+        clocks, static_cast<std::uint64_t>(s.tx_count + 1 + (s.bits_left - 1) * kClocksPerBit));
   }
+  if (tx_byte_cycle_ != kNever && tx_byte_cycle_ >= s.cycle) clocks = std::min(clocks, tx_byte_cycle_ - s.cycle + 1);
   if (s.running) {
     const std::uint64_t elapsed = s.cycle - s.run_start;
     for (std::uint64_t event : {std::uint64_t{kLoadCycles}, std::uint64_t{kLoadCycles + kJointCycles},
@@ -372,23 +367,22 @@ std::uint64_t ModelBoard::skip(std::uint64_t limit, int uart_rx, int encoder_a, 
     if (enabled && last_phase < s.duty[j]) pwm |= 1 << j;
   }
   const int counted = static_cast<int>(clocks);
-  if (s.rx_state != 0) {
-    if (s.rx_count == 0) {  // the first clock samples a data bit
-      s.rx_shift = static_cast<std::uint8_t>((((s.rx_sync >> 1) & 1) << 7) | (s.rx_shift >> 1));
-      s.rx_count = kClocksPerBit;
-      if (s.rx_bit_index == 7) s.rx_state = 3;
-      s.rx_bit_index = (s.rx_bit_index + 1) & 7;
-    }
-    s.rx_count -= counted;
+  if (rx_byte && rx_line_.front().valid_cycle == s.cycle + clocks - 1) {  // the run's last clock
+    s.rx_valid = true;
+    s.rx_shift = rx_line_.front().byte;
+    rx_line_.pop_front();
   }
-  s.rx_sync = clocks == 1 ? ((s.rx_sync << 1) | (uart_rx & 1)) & 3 : ((uart_rx & 1) ? 3 : 0);
   if (s.bits_left != 0) {
-    if (s.tx_count == 0) {  // the first clock shifts out the next bit
-      s.frame = static_cast<std::uint16_t>(0x200 | (s.frame >> 1));
-      --s.bits_left;
-      s.tx_count = kClocksPerBit;
+    // A bit ends in each clock that finds the count at 0: the first after tx_count + 1 clocks.
+    if (counted <= s.tx_count) {
+      s.tx_count -= counted;
+    } else {
+      const int after = counted - s.tx_count - 1;
+      const int bits = 1 + after / kClocksPerBit;  // at most bits_left (the bound above)
+      s.frame = static_cast<std::uint16_t>(((s.frame >> bits) | (((1u << bits) - 1) << (10 - bits))) & 0x3FF);
+      s.bits_left -= bits;
+      s.tx_count = kClocksPerBit - 1 - after % kClocksPerBit;
     }
-    s.tx_count -= counted;
   }
   s.pwm = pwm;
   s.enable_out = enabled;
@@ -407,58 +401,48 @@ std::uint64_t ModelBoard::skip(std::uint64_t limit, int uart_rx, int encoder_a, 
 // values the full clock below would compute; any clock where something else could change (a byte,
 // a frame, a command, the period's events, the controller's stores, a capture, an encoder error, a
 // fault turning the drives off) returns false untouched and goes the full way.
-bool ModelBoard::quiet_clock(int uart_rx, int encoder_a, int encoder_b) {
+bool ModelBoard::quiet_clock(int encoder_a, int encoder_b) {
   DrivePattern pattern;
-  return skip(1, uart_rx, encoder_a, encoder_b, &pattern) == 1;
+  return skip(1, encoder_a, encoder_b, &pattern) == 1;
 }
 
-void ModelBoard::clock(int uart_rx, int encoder_a, int encoder_b) {
-  if (quiet_clock(uart_rx, encoder_a, encoder_b)) return;
+void ModelBoard::receive(const std::uint8_t* data, std::size_t size) {
+  const std::uint64_t byte_clocks = 10 * static_cast<std::uint64_t>(kClocksPerBit);
+  for (std::size_t i = 0; i < size; ++i) {
+    // The start bit's first clock: now, or when the line has sent the byte before.
+    const std::uint64_t start = std::max(state_->cycle, line_free_cycle_);
+    line_free_cycle_ = start + byte_clocks;
+    rx_line_.push_back({start + kRxValidDelay, data[i]});
+    line_end_.push_back(line_free_cycle_);
+  }
+}
+
+std::size_t ModelBoard::bytes_on_line() {
+  while (!line_end_.empty() && line_end_.front() <= state_->cycle) line_end_.pop_front();
+  return line_end_.size();
+}
+
+bool ModelBoard::take_tx_byte(std::uint8_t* byte) {
+  if (tx_byte_cycle_ == kNever || tx_byte_cycle_ >= state_->cycle) return false;
+  *byte = tx_byte_;
+  tx_byte_cycle_ = kNever;
+  return true;
+}
+
+void ModelBoard::clock(int encoder_a, int encoder_b) {
+  if (quiet_clock(encoder_a, encoder_b)) return;
   State& s = *state_;
   Memories& m = *memories_;
   State& n = *next_state_;  // the next values, committed at the end (the buffers swap)
   n = s;
   n.settled = false;
-  const int rx_level = (s.rx_sync >> 1) & 1;
-
-  // ---- uart_rx ----
+  // ---- uart_rx (the line's bytes at their clocks: ModelBoard::receive) ----
   n.rx_valid = false;
-  switch (s.rx_state) {
-    case 0:
-      n.rx_count = kClocksPerBit / 2;
-      if (!rx_level) n.rx_state = 1;
-      break;
-    case 1:
-      if (s.rx_count != 0) {
-        n.rx_count = s.rx_count - 1;
-      } else if (rx_level) {
-        n.rx_state = 0;
-      } else {
-        n.rx_state = 2;
-        n.rx_count = kClocksPerBit - 1;
-        n.rx_bit_index = 0;
-      }
-      break;
-    case 2:
-      if (s.rx_count != 0) {
-        n.rx_count = s.rx_count - 1;
-      } else {
-        n.rx_shift = static_cast<std::uint8_t>((rx_level << 7) | (s.rx_shift >> 1));
-        n.rx_count = kClocksPerBit - 1;
-        n.rx_bit_index = (s.rx_bit_index + 1) & 7;
-        if (s.rx_bit_index == 7) n.rx_state = 3;
-      }
-      break;
-    default:
-      if (s.rx_count != 0) {
-        n.rx_count = s.rx_count - 1;
-      } else {
-        n.rx_state = 0;
-        n.rx_valid = rx_level;
-      }
-      break;
+  if (!rx_line_.empty() && rx_line_.front().valid_cycle == s.cycle) {
+    n.rx_valid = true;
+    n.rx_shift = rx_line_.front().byte;
+    rx_line_.pop_front();
   }
-  n.rx_sync = ((s.rx_sync << 1) | (uart_rx & 1)) & 3;
 
   // ---- link_rx ----
   bool frame_start = false, payload_valid = false, frame_ok = false, frame_bad = false;
@@ -917,6 +901,10 @@ void ModelBoard::clock(int uart_rx, int encoder_a, int encoder_b) {
       n.frame = static_cast<std::uint16_t>(0x200 | (tx_data << 1));
       n.bits_left = 10;
       n.tx_count = kClocksPerBit - 1;
+      // The line (rtl::UartLine at the TX pin) sees the start bit after this clock and completes
+      // the byte at its stop bit's middle.
+      tx_byte_ = tx_data;
+      tx_byte_cycle_ = s.cycle + kTxByteDelay;
     }
   } else if (s.tx_count != 0) {
     n.tx_count = s.tx_count - 1;

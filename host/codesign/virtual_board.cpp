@@ -78,11 +78,17 @@ const RobotWorld& VirtualBoard::world() const { return *world_; }
 std::uint64_t VirtualBoard::idle_network_clocks() const { return core_->network_clock.skipped(); }
 
 void VirtualBoard::write(const std::uint8_t* data, std::size_t size) {
+  if (core_->board) {  // the model board's line takes bytes
+    core_->board->receive(data, size);
+    return;
+  }
   core_->line.send(std::vector<std::uint8_t>(data, data + size));
   core_->bytes_on_line += size;
 }
 
-std::size_t VirtualBoard::bytes_to_board() const { return core_->bytes_on_line; }
+std::size_t VirtualBoard::bytes_to_board() const {
+  return core_->board ? core_->board->bytes_on_line() : core_->bytes_on_line;
+}
 
 std::size_t VirtualBoard::read(std::uint8_t* data, std::size_t capacity) {
   const std::size_t n = std::min(capacity, from_board_.size());
@@ -138,46 +144,30 @@ void VirtualBoard::observe(bool drives_enabled) {
 void VirtualBoard::clock_model() {
   ModelBoard& board = *core_->board;
   if (truth_observer_ && millisecond_phase_ == 0) observe(board.pins().drive_enable);
-  const bool sending = core_->line.sending();
-  const int rx = core_->line.rx_pin();
-  if (sending && ++core_->bits_sent % (10 * kClocksPerBit) == 0) --core_->bytes_on_line;
   const int skipped = clocks_ >= encoder_skip_clock_ ? 1 : 0;
-  board.clock(rx, world_->encoder_a() ^ skipped, world_->encoder_b() ^ skipped);
+  board.clock(world_->encoder_a() ^ skipped, world_->encoder_b() ^ skipped);
   const ModelBoardPins& pins = board.pins();
-  if (core_->line.sample_tx_pin(pins.uart_tx)) from_board_.push_back(core_->line.byte());
+  std::uint8_t byte = 0;
+  if (board.take_tx_byte(&byte)) from_board_.push_back(byte);
   world_->step({pins.drive_pwm, pins.drive_dir, pins.drive_enable});
   ++clocks_;
 }
 
 // Model fidelity: runs of clocks in which nothing but counters move on either side of the pins
 // (ModelBoard::skip, RobotWorld::advance) go at once; a run ends where the board or the world has
-// an event, the line's RX level changes, a byte from the board completes, or a control period
-// ends (its first clock, with the observers, goes one by one).
+// an event (the board's include its serial lines' bytes), or a control period ends (its first
+// clock, with the observers, goes one by one).
 bool VirtualBoard::skip_model(std::uint64_t limit) {
   Core& core = *core_;
   std::uint64_t clocks = std::min({limit, kClocksPerTick - period_phase_, world_->cycles_to_event()});
-  const bool sending = core.line.sending();
-  if (sending) clocks = std::min<std::uint64_t>(clocks, static_cast<std::uint64_t>(core.line.rx_pin_holds()));
   if (clocks_ < encoder_skip_clock_) clocks = std::min(clocks, encoder_skip_clock_ - clocks_);
-  const int tx_level = core.board->pins().uart_tx;
-  const int to_byte = core.line.tx_cycles_to_byte(tx_level);
-  if (to_byte > 0) clocks = std::min<std::uint64_t>(clocks, static_cast<std::uint64_t>(to_byte));
   const int skipped = clocks_ >= encoder_skip_clock_ ? 1 : 0;
   DrivePattern pattern;
-  const std::uint64_t taken = core.board->skip(clocks, core.line.rx_pin_level(), world_->encoder_a() ^ skipped,
-                                               world_->encoder_b() ^ skipped, &pattern);
+  const std::uint64_t taken =
+      core.board->skip(clocks, world_->encoder_a() ^ skipped, world_->encoder_b() ^ skipped, &pattern);
   if (taken == 0) return false;
-  core.line.hold_rx_pin(static_cast<int>(taken));
-  if (sending) {
-    const std::uint64_t byte_clocks = 10 * kClocksPerBit;
-    if ((core.bits_sent + taken) / byte_clocks != core.bits_sent / byte_clocks) --core.bytes_on_line;
-    core.bits_sent += taken;
-  }
-  // The TX pin holds its level after the run's first clock (which may shift out the next bit;
-  // the receiver is then inside a byte, and its bound above does not depend on the level).
-  if (core.line.hold_tx_pin(core.board->pins().uart_tx, static_cast<int>(taken))) {
-    from_board_.push_back(core.line.byte());
-  }
+  std::uint8_t byte = 0;
+  if (core.board->take_tx_byte(&byte)) from_board_.push_back(byte);
   world_->advance(taken, pattern);
   clocks_ += taken;
   period_phase_ += taken;

@@ -14,7 +14,9 @@
 #pragma once
 
 #include <array>
+#include <cstddef>
 #include <cstdint>
+#include <deque>
 #include <memory>
 #include <string>
 
@@ -24,7 +26,7 @@
 namespace delta::cosim {
 
 struct ModelBoardPins {
-  int uart_tx = 1;
+  int uart_tx = 1;  // the TX pin's level (its bytes: take_tx_byte)
   int drive_pwm = 0;
   int drive_dir = 0;
   bool drive_enable = false;
@@ -41,22 +43,32 @@ class ModelBoard {
   ModelBoard(const ModelBoard&) = delete;
   ModelBoard& operator=(const ModelBoard&) = delete;
 
-  // One board clock edge with the pins as the board samples them.
-  void clock(int uart_rx, int encoder_a, int encoder_b);
+  // The serial line at the RX pin, byte by byte (8N1, kLinkClocksPerBit clocks a bit): the bytes
+  // go onto the line behind what it still sends, the first now (before the next clock), and
+  // uart_rx hands each to link_rx in the clock the RTL's does.
+  void receive(const std::uint8_t* data, std::size_t size);
+  std::size_t bytes_on_line();  // received and not yet fully on the line
+  // The line at the TX pin: the byte it completed in a clock already run (at the stop bit's
+  // middle, as rtl::UartLine decodes the pin), once.
+  bool take_tx_byte(std::uint8_t* byte);
+
+  // One board clock edge with the encoder lines as the board samples them.
+  void clock(int encoder_a, int encoder_b);
   const ModelBoardPins& pins() const { return pins_; }
 
   // Up to `limit` clocks at once with the pins held, if they are clocks that only count: the
-  // UARTs inside a bit, the tick between the period's events, the controller between its stores,
-  // the PWM phase, the synchronisers taking the held pins (the quadrature counters counting a
-  // change of the encoder lines; a skipped state ends the run). Returns how many it took
-  // (0: none, clock() the next one) and the drive pins it showed in them (`pattern`); the state
-  // after them is exactly what as many clock() calls leave.
-  std::uint64_t skip(std::uint64_t limit, int uart_rx, int encoder_a, int encoder_b, DrivePattern* pattern);
+  // UARTs inside a byte (a run ends at the clock uart_rx hands over a byte, uart_tx's last bit
+  // ends or the TX line completes a byte), the tick between the period's events, the controller
+  // between its stores, the PWM phase, the synchronisers taking the held pins (the quadrature
+  // counters counting a change of the encoder lines; a skipped state ends the run). Returns how
+  // many it took (0: none, clock() the next one) and the drive pins it showed in them
+  // (`pattern`); the state after them is exactly what as many clock() calls leave.
+  std::uint64_t skip(std::uint64_t limit, int encoder_a, int encoder_b, DrivePattern* pattern);
 
  private:
   void settle();
   bool quiet() const;
-  bool quiet_clock(int uart_rx, int encoder_a, int encoder_b);
+  bool quiet_clock(int encoder_a, int encoder_b);
 
   struct Memories;
   struct State;
@@ -66,6 +78,18 @@ class ModelBoard {
   std::unique_ptr<State> state_;
   std::unique_ptr<State> next_state_;  // clock()'s next values
   ModelBoardPins pins_;
+  // The RX line: each byte with the clock in which uart_rx sets valid; when each leaves the line.
+  struct RxByte {
+    std::uint64_t valid_cycle;
+    std::uint8_t byte;
+  };
+  std::deque<RxByte> rx_line_;
+  std::deque<std::uint64_t> line_end_;
+  std::uint64_t line_free_cycle_ = 0;
+  // The TX line: the byte uart_tx sends and the clock in which the line completes it.
+  static constexpr std::uint64_t kNever = ~std::uint64_t{0};
+  std::uint64_t tx_byte_cycle_ = kNever;
+  std::uint8_t tx_byte_ = 0;
 };
 
 }  // namespace delta::cosim
