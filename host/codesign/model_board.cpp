@@ -137,6 +137,15 @@ bool encoders_settled(const Registers& s, int encoder_a, int encoder_b) {
   return true;
 }
 
+// joint_pwm: joint j's duty and direction from its stored current (Q1.15 A).
+template <typename Registers>
+void set_duty(Registers& n, int j, std::uint16_t current) {
+  const std::int16_t c = static_cast<std::int16_t>(current);
+  const int magnitude = c < 0 ? static_cast<std::uint16_t>(-c) : c;
+  n.duty[j] = (magnitude >> (14 - board::kPwmBits)) & ((1 << (board::kPwmBits + 1)) - 1);
+  n.direction = (n.direction & ~(1 << j)) | ((c < 0 ? 1 : 0) << j);
+}
+
 std::int32_t sign_extend(std::uint32_t value, int bits) {
   const std::uint32_t m = 1u << (bits - 1);
   value &= (bits == 32) ? 0xFFFFFFFFu : ((1u << bits) - 1);
@@ -314,7 +323,37 @@ bool ModelBoard::quiet() const {
 
 std::uint64_t ModelBoard::skip(std::uint64_t limit, int encoder_a, int encoder_b, DrivePattern* pattern) {
   State& s = *state_;
-  if (limit == 0 || !quiet()) return 0;
+  pattern->phase = s.pwm_phase;
+  for (int j = 0; j < 3; ++j) pattern->duty[j] = s.duty[j];
+  pattern->direction = s.direction;
+  pattern->enable = s.enabled && s.fault_cause == 0;
+  std::uint64_t taken = 0;
+  while (taken < limit) {
+    if (quiet()) {
+      taken += quiet_run(limit - taken, encoder_a, encoder_b);
+    } else {
+      // A clock that sets new duties shows the new directions and the old duties: a run of its own.
+      const bool new_duty = s.current_valid != 0;
+      if (new_duty && taken != 0) break;
+      if (!micro_clock(encoder_a, encoder_b)) break;
+      ++taken;
+      if (new_duty) {
+        pattern->direction = s.direction;
+        break;
+      }
+    }
+    if (tx_byte_cycle_ < s.cycle) break;  // the TX line completed a byte: for the host now
+  }
+  pins_.uart_tx = s.frame & 1;
+  pins_.drive_pwm = s.pwm;
+  pins_.drive_dir = s.direction;
+  pins_.drive_enable = s.enable_out;
+  return taken;
+}
+
+// A run of quiet clocks (quiet() holds for the first), up to `limit`: to the next clock that is not.
+std::uint64_t ModelBoard::quiet_run(std::uint64_t limit, int encoder_a, int encoder_b) {
+  State& s = *state_;
   // Up to the next clock that is not quiet: the period's next event, a UART bit's end, the
   // controller's next store.
   std::uint64_t clocks = limit;
@@ -356,10 +395,6 @@ std::uint64_t ModelBoard::skip(std::uint64_t limit, int encoder_a, int encoder_b
   }
 
   const bool enabled = s.enabled && s.fault_cause == 0;
-  pattern->phase = s.pwm_phase;
-  for (int j = 0; j < 3; ++j) pattern->duty[j] = s.duty[j];
-  pattern->direction = s.direction;
-  pattern->enable = enabled;
   const int period = 1 << board::kPwmBits;
   const int last_phase = static_cast<int>((static_cast<std::uint64_t>(s.pwm_phase) + clocks - 1) % period);
   int pwm = 0;
@@ -390,10 +425,287 @@ std::uint64_t ModelBoard::skip(std::uint64_t limit, int encoder_a, int encoder_b
   if (s.busy) s.step += static_cast<int>(clocks);
   s.tick += static_cast<int>(clocks);
   s.cycle += clocks;
-  pins_.uart_tx = s.frame & 1;
-  pins_.drive_pwm = s.pwm;
-  pins_.drive_enable = s.enable_out;
   return clocks;
+}
+
+// The counters of one clock (what a quiet run of one does), with the drive pins of the clock.
+void ModelBoard::count_clock(int encoder_a, int encoder_b) {
+  State& s = *state_;
+  if (!encoders_settled(s, encoder_a, encoder_b)) count_encoders(s, encoder_a, encoder_b);
+  const bool enabled = s.enabled && s.fault_cause == 0;
+  int pwm = 0;
+  for (int j = 0; j < 3; ++j) {
+    if (enabled && s.pwm_phase < s.duty[j]) pwm |= 1 << j;
+  }
+  s.pwm = pwm;
+  s.enable_out = enabled;
+  s.pwm_phase = (s.pwm_phase + 1) & ((1 << board::kPwmBits) - 1);
+  s.rx_valid = false;
+  if (!rx_line_.empty() && rx_line_.front().valid_cycle == s.cycle) {
+    s.rx_valid = true;
+    s.rx_shift = rx_line_.front().byte;
+    rx_line_.pop_front();
+  }
+  if (s.bits_left != 0) {
+    if (s.tx_count != 0) {
+      --s.tx_count;
+    } else {
+      s.frame = static_cast<std::uint16_t>(0x200 | (s.frame >> 1));
+      --s.bits_left;
+      s.tx_count = kClocksPerBit - 1;
+    }
+  }
+  if (s.busy) ++s.step;
+  s.tick = s.tick == kClocksPerPeriod - 1 ? 0 : s.tick + 1;
+  ++s.cycle;
+}
+
+// One clock that is not quiet but whose work is one of the frequent kinds below, none of them
+// touching what another reads in the same clock: exactly the full clock's next values, without
+// evaluating the rest. False (nothing done) for any other clock: the period's start (tick 0, 1)
+// and a snapshot, a frame's end or a dropped frame, a command, a fault, the safety check, a
+// skipped encoder state, the drives going off.
+//   link_rx: a byte into the ring, a fetch, a header or payload byte, the ring's read;
+//   link_tx: a byte to uart_tx (its header, payload, CRC), the wait after it;
+//   telemetry: the capture of a word and its write;
+//   interpolator: a joint's segment change (step 4) and reference (step 7), the update's start;
+//   controller: the load's end, a joint's current stored, its PWM duty, the run's end.
+bool ModelBoard::micro_clock(int encoder_a, int encoder_b) {
+  State& s = *state_;
+  Memories& m = *memories_;
+  const bool fault = s.fault_cause != 0;
+  if (s.step_error[0] || s.step_error[1] || s.step_error[2] || s.slew_limited || s.starting || s.check ||
+      s.checked || (fault && (s.enabled || s.holding)) || (!s.enabled && s.silent_periods != 0) ||
+      (s.enabled && s.silent_periods > board::kWatchdogPeriods) ||
+      (s.tx_state == 0 && (s.telemetry_pending || s.identify_pending))) {
+    return false;
+  }
+  const int tick = s.tick;
+  if (tick == 0 || tick == 1 || (tick == kClocksPerPeriod / 2 && s.phase == 0) ||
+      (tick == kClocksPerPeriod - 100 && s.busy) || (tick == kClocksPerPeriod - 1 && !s.enabled)) {
+    return false;
+  }
+  const bool update = tick == kClocksPerPeriod - 100;
+
+  // ---- link_rx (a frame's end or a dropped frame: the full clock) ----
+  const bool ring_write = s.rx_valid;
+  bool fetched = false, frame_start = false, payload_valid = false, crc_clear = false, crc_valid = false;
+  int read = s.read, index = s.index;
+  std::uint8_t header = 0;
+  if (!s.fetched) {
+    fetched = s.read != s.write;
+  } else {
+    read = (s.read + 1) % kRingBytes;
+    if (s.index == 0) {
+      if (s.ring_data == board::kFrameSync) {
+        index = 1;
+        crc_clear = true;
+      }
+    } else if (s.index < 4) {
+      crc_valid = true;
+      index = s.index + 1;
+      header = s.ring_data;
+      if (s.index == 3) {
+        bool known = false;
+        const int size = payload_size(s.ring_data, &known);
+        if (!(known && s.length == size)) return false;  // dropped: the rescan
+        frame_start = true;
+      }
+    } else if (s.index < s.end) {
+      crc_valid = true;
+      payload_valid = true;
+      index = s.index + 1;
+    } else if (s.index == s.end) {
+      index = s.index + 1;
+    } else {
+      return false;  // the frame's end
+    }
+  }
+
+  // ---- interpolator ----
+  const bool interpolating = s.busy && (s.step == 4 || s.step == 7);
+  const bool interpolator_enabled = s.enabled && !fault;
+  const bool take_answer = s.answer_pending && s.phase == 0;
+  const int k_next = s.phase == 9 ? 10 : s.phase + 1;
+  const int j_interpolated = s.joint;
+  std::int32_t delta = s.delta, r = 0, d = 0;
+  std::int16_t shift = 0;
+  bool slew_limited = false;
+  if (interpolating && s.step == 4) {
+    const int j = s.joint;
+    const std::int64_t c = golden::interpolation::reference_counts(s.net_outputs[j]);
+    const std::int64_t diff = golden::play(c - s.r[j], half_plays_[j]);
+    const bool saturated = diff > golden::interpolation::kDeltaMax || diff < golden::interpolation::kDeltaMin;
+    delta = take_answer ? static_cast<std::int32_t>(saturated ? (diff < 0 ? golden::interpolation::kDeltaMin
+                                                                          : golden::interpolation::kDeltaMax)
+                                                              : diff)
+                        : s.d[j];
+    slew_limited = take_answer && saturated && interpolator_enabled;
+  } else if (interpolating) {
+    const int j = s.joint;
+    const std::int64_t weight_now = golden::interpolation::kWeights[s.phase];
+    const std::int64_t weight_next = k_next == 10 ? (std::int64_t{1} << golden::interpolation::kWeightShift)
+                                                  : golden::interpolation::kWeights[k_next];
+    const std::int64_t step = golden::round_shift(std::int64_t{s.delta} * weight_next, 14) -
+                              golden::round_shift(std::int64_t{s.delta} * weight_now, 14);
+    r = interpolator_enabled
+            ? static_cast<std::int32_t>(static_cast<std::uint32_t>(s.r[j]) + static_cast<std::uint32_t>(step))
+            : static_cast<std::int32_t>(static_cast<std::int16_t>(s.count[j])) * 256;
+    d = (!interpolator_enabled || k_next == 10) ? 0 : s.delta;
+    shift = interpolator_enabled
+                ? golden::interpolation::play_shift(
+                      std::int64_t{golden::interpolation::reference_counts(s.net_outputs[j])} - s.r[j], half_plays_[j])
+                : std::int16_t{0};
+  }
+
+  // ---- joint controller ----
+  std::uint64_t elapsed = 0;
+  if (s.running) elapsed = s.cycle - s.run_start;
+  const int current_valid = s.current_valid;
+
+  // ---- telemetry capture, link_tx ----
+  const bool capturing = s.capturing, writing = s.writing;
+  const std::uint16_t word = writing ? telemetry_word_of(s) : std::uint16_t{0};
+  const bool tx_load = s.tx_state == 2 && s.bits_left == 0;
+  std::uint8_t tx_data = 0;
+  if (tx_load) {
+    const int payload = (s.tx_index - 4) & 63;
+    if (s.tx_index == 0)
+      tx_data = static_cast<std::uint8_t>(board::kFrameSync);
+    else if (s.tx_index == 1)
+      tx_data = static_cast<std::uint8_t>(s.tx_length);
+    else if (s.tx_index == 2)
+      tx_data = s.tx_sequence;
+    else if (s.tx_index == 3)
+      tx_data = static_cast<std::uint8_t>(s.is_identify ? board::kFrameTypeIdentify : board::kFrameTypeTelemetry);
+    else if (s.tx_index == s.tx_length + 4)
+      tx_data = static_cast<std::uint8_t>(s.tx_crc >> 8);
+    else if (s.tx_index == s.tx_length + 5)
+      tx_data = static_cast<std::uint8_t>(s.tx_crc & 0xFF);
+    else
+      tx_data = static_cast<std::uint8_t>((payload & 1) ? s.read_data >> 8 : s.read_data & 0xFF);
+  }
+
+  // The present values the work below writes over.
+  const bool was_fetched = s.fetched;
+  const std::uint8_t ring_byte = s.ring_data, rx_byte = s.rx_shift;
+  const int old_index = s.index, old_read = s.read, old_write = s.write, old_tx_index = s.tx_index;
+  const int old_step = s.step, tx_state = s.tx_state, capture = s.capture;
+  const std::uint64_t cycle = s.cycle;
+  const std::uint32_t next_index = s.sample_index + static_cast<std::uint32_t>(s.fill);
+
+  // The registers that follow the present state every clock (RAM reads before this clock's writes).
+  settle();
+  count_clock(encoder_a, encoder_b);  // the counters, the drive pins (of the present duties)
+  s.settled = false;
+
+  // link_rx: the ring's read (before this clock's write), the byte in, the byte processed.
+  s.ring_data = m.ring[old_read];
+  if (ring_write) {
+    m.ring[old_write] = rx_byte;
+    s.write = (old_write + 1) % kRingBytes;
+  }
+  s.fetched = fetched;
+  if (was_fetched) {
+    s.read = read;
+    s.index = index;
+    if (crc_clear) {
+      s.start = old_read;
+      s.rx_crc = 0xFFFF;
+    }
+    if (crc_valid) s.rx_crc = crc_byte(s.rx_crc, ring_byte);
+    if (old_index == 1) s.length = header;
+    if (old_index == 2) s.sequence = header;
+    if (old_index == 3) {
+      bool known = false;
+      s.type = header;
+      s.end = (payload_size(header, &known) + 4) & 63;
+    }
+    if (old_index >= 4 && old_index == s.end) s.crc_high_ok = ring_byte == (s.rx_crc >> 8);
+    if (frame_start) {
+      s.full_at_start = s.fill == kDepth;
+      s.index_match = true;
+      s.vetoed = false;
+    }
+    if (payload_valid) {
+      const int payload_index = (old_index - 4) & 63;
+      if (s.type == board::kFrameTypeCommand) s.command = ring_byte;
+      if (s.type == board::kFrameTypeSetpoint) {
+        if (payload_index < 4 && ring_byte != ((next_index >> (8 * (payload_index & 3))) & 0xFF)) {
+          s.index_match = false;
+        }
+        if (payload_index >= 4 && !s.full_at_start) m.ram[next_index % kDepth][(payload_index - 4) % 12] = ring_byte;
+      }
+    }
+  }
+
+  // interpolator
+  if (interpolating && old_step == 4) {
+    s.delta = delta;
+    s.slew_limited = slew_limited;
+  } else if (interpolating) {
+    const int j = j_interpolated;
+    s.r[j] = r;
+    s.d[j] = d;
+    s.shift[j] = shift;
+    s.step = 0;
+    s.joint = j + 1;
+    if (j == 2) {
+      s.busy = false;
+      if (take_answer) s.answer_pending = false;
+    }
+  }
+  if (update) {
+    s.busy = true;
+    s.step = 0;
+    s.joint = 0;
+  }
+
+  // joint controller: the load's end, a current stored, the run's end; joint_pwm: the duties
+  s.current_valid = 0;
+  if (elapsed != 0) {
+    if (elapsed == kLoadCycles) s.start_q = false;
+    for (int j = 0; j < 3; ++j) {
+      if (elapsed == static_cast<std::uint64_t>(kLoadCycles + kJointCycles * (j + 1))) {
+        s.current[j] = static_cast<std::uint16_t>(s.next_current[j]);
+        s.current_valid |= 1 << j;
+        s.peek_memory[j][kSlotCurrent] = static_cast<std::uint32_t>(static_cast<std::int32_t>(s.next_current[j]));
+        s.overflow = static_cast<std::uint16_t>(std::min<int>(0xFFFF, s.overflow + s.next_overflow[j]));
+      }
+    }
+    if (elapsed == kRunCycles) {
+      s.running = false;
+      s.primed = true;
+    }
+  }
+  for (int j = 0; j < 3; ++j) {
+    if ((current_valid >> j) & 1) set_duty(s, j, s.current[j]);
+  }
+
+  // telemetry capture and link_tx
+  if (writing) m.words[(16 + s.written) & 255] = word;
+  s.writing = capturing;
+  s.written = capture;
+  if (writing && !capturing) s.telemetry_pending = true;
+  if (capturing) {
+    s.capture = (capture + 1) & 31;
+    if (capture == kTelemetryWords - 1) s.capturing = false;
+  }
+  if (tx_state == 1) s.tx_state = 2;
+  if (tx_load) {
+    if (old_tx_index != 0 && old_tx_index < s.tx_length + 4) s.tx_crc = crc_byte(s.tx_crc, tx_data);
+    s.tx_index = (old_tx_index + 1) & 63;
+    if (old_tx_index == s.tx_length + 5)
+      s.tx_state = 0;
+    else if (old_tx_index >= 3)
+      s.tx_state = 1;
+    s.frame = static_cast<std::uint16_t>(0x200 | (tx_data << 1));
+    s.bits_left = 10;
+    s.tx_count = kClocksPerBit - 1;
+    tx_byte_ = tx_data;
+    tx_byte_cycle_ = cycle + kTxByteDelay;
+  }
+  return true;
 }
 
 // Most clocks change only counters: the UARTs counting out a bit, the PWM phase, the tick, the
@@ -427,6 +739,49 @@ bool ModelBoard::take_tx_byte(std::uint8_t* byte) {
   *byte = tx_byte_;
   tx_byte_cycle_ = kNever;
   return true;
+}
+
+// The telemetry word the capture writes in this clock (word_index, one clock behind the capture):
+// board_core.sv's telemetry mux over the status registers and the peeked controller state.
+std::uint16_t ModelBoard::telemetry_word_of(const State& s) {
+  const int reference_word = static_cast<int>(board::kTelemetryReferencesOffset / 2);
+  const int count_word = static_cast<int>(board::kTelemetryCountsOffset / 2);
+  const bool fault = s.fault_cause != 0;
+  int flags = 0;
+  if (s.enabled && !fault) flags |= 1 << board::kFlagDriveEnable;
+  if (s.homed) flags |= 1 << board::kFlagHomed;
+  if (s.holding) flags |= 1 << board::kFlagHolding;
+  if (fault) flags |= 1 << board::kFlagFault;
+  if (s.encoder_error != 0) flags |= 1 << board::kFlagEncoderError;
+  const int w = s.word_index;
+  if (w == board::kTelemetrySampleIndexOffset / 2)
+    return s.sample_index & 0xFFFF;
+  else if (w == board::kTelemetrySampleIndexOffset / 2 + 1)
+    return s.sample_index >> 16;
+  else if (w == board::kTelemetryTickOffset / 2)
+    return s.period_count & 0xFFFF;
+  else if (w == board::kTelemetryTickOffset / 2 + 1)
+    return s.period_count >> 16;
+  else if (w == board::kTelemetryFaultOffset / 2)
+    return static_cast<std::uint16_t>((flags << 8) | s.fault_cause);
+  else if (w == board::kTelemetryFillOffset / 2)
+    return static_cast<std::uint16_t>(s.fill);
+  else if (w == board::kTelemetryBadFramesOffset / 2)
+    return s.bad_frames;
+  else if (w == board::kTelemetryUnderrunsOffset / 2)
+    return s.underruns;
+  else if (w == board::kTelemetrySaturationsOffset / 2)
+    return s.overflow;
+  else if (w == board::kTelemetrySlewLimitsOffset / 2)
+    return s.slew_limits;
+  else if (w == board::kTelemetryRejectedOffset / 2)
+    return s.refused;
+  else if (w == board::kTelemetrySequenceOffset / 2)
+    return s.last_sequence;
+  else if (w >= reference_word && w < count_word && (w & 1) != (reference_word & 1))
+    return s.peek_data >> 16;
+  else
+    return s.peek_data & 0xFFFF;
 }
 
 void ModelBoard::clock(int encoder_a, int encoder_b) {
@@ -753,12 +1108,7 @@ void ModelBoard::clock(int encoder_a, int encoder_b) {
 
   // ---- joint_pwm ----
   for (int j = 0; j < 3; ++j) {
-    if ((s.current_valid >> j) & 1) {
-      const std::int16_t c = static_cast<std::int16_t>(s.current[j]);
-      const int magnitude = c < 0 ? static_cast<std::uint16_t>(-c) : c;
-      n.duty[j] = (magnitude >> (14 - board::kPwmBits)) & ((1 << (board::kPwmBits + 1)) - 1);
-      n.direction = (n.direction & ~(1 << j)) | ((c < 0 ? 1 : 0) << j);
-    }
+    if ((s.current_valid >> j) & 1) set_duty(n, j, s.current[j]);
   }
   int pwm = 0;
   for (int j = 0; j < 3; ++j) {
@@ -775,49 +1125,10 @@ void ModelBoard::clock(int encoder_a, int encoder_b) {
   if (frame_ok) n.last_sequence = s.sequence;
 
   // ---- telemetry words and link_tx ----
-  const int reference_word = static_cast<int>(board::kTelemetryReferencesOffset / 2);
-  const int count_word = static_cast<int>(board::kTelemetryCountsOffset / 2);
   // peek: the state word asked for in this cycle, one cycle later (the controller is idle then).
   n.peek_data = peek_word(s.peek_memory, s.capture);
   n.word_index = s.capture;
-  std::uint16_t telemetry_word = 0;
-  {
-    int flags = 0;
-    if (s.enabled && !fault) flags |= 1 << board::kFlagDriveEnable;
-    if (s.homed) flags |= 1 << board::kFlagHomed;
-    if (s.holding) flags |= 1 << board::kFlagHolding;
-    if (fault) flags |= 1 << board::kFlagFault;
-    if (s.encoder_error != 0) flags |= 1 << board::kFlagEncoderError;
-    const int w = s.word_index;
-    if (w == board::kTelemetrySampleIndexOffset / 2)
-      telemetry_word = s.sample_index & 0xFFFF;
-    else if (w == board::kTelemetrySampleIndexOffset / 2 + 1)
-      telemetry_word = s.sample_index >> 16;
-    else if (w == board::kTelemetryTickOffset / 2)
-      telemetry_word = s.period_count & 0xFFFF;
-    else if (w == board::kTelemetryTickOffset / 2 + 1)
-      telemetry_word = s.period_count >> 16;
-    else if (w == board::kTelemetryFaultOffset / 2)
-      telemetry_word = static_cast<std::uint16_t>((flags << 8) | s.fault_cause);
-    else if (w == board::kTelemetryFillOffset / 2)
-      telemetry_word = static_cast<std::uint16_t>(s.fill);
-    else if (w == board::kTelemetryBadFramesOffset / 2)
-      telemetry_word = s.bad_frames;
-    else if (w == board::kTelemetryUnderrunsOffset / 2)
-      telemetry_word = s.underruns;
-    else if (w == board::kTelemetrySaturationsOffset / 2)
-      telemetry_word = s.overflow;
-    else if (w == board::kTelemetrySlewLimitsOffset / 2)
-      telemetry_word = s.slew_limits;
-    else if (w == board::kTelemetryRejectedOffset / 2)
-      telemetry_word = s.refused;
-    else if (w == board::kTelemetrySequenceOffset / 2)
-      telemetry_word = s.last_sequence;
-    else if (w >= reference_word && w < count_word && (w & 1) != (reference_word & 1))
-      telemetry_word = s.peek_data >> 16;
-    else
-      telemetry_word = s.peek_data & 0xFFFF;
-  }
+  const std::uint16_t telemetry_word = telemetry_word_of(s);
   const bool tx_ready = s.bits_left == 0;
   bool tx_valid = false;
   std::uint8_t tx_data = 0;

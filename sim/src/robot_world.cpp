@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -89,9 +90,27 @@ RobotWorld::RobotWorld(const BoardInterface& board, const EffectSet& effects, co
 
 RobotWorld::~RobotWorld() = default;
 
-// The true angle at which joint j's encoder reads `reading_deg` (bisection over +-20 deg).
+// The true angle at which joint j's encoder reads `reading_deg`: secant steps from the reading
+// itself (the chain's slope is about 1), else bisection over +-20 deg.
 double RobotWorld::true_angle_for_reading(int joint, double reading_deg) const {
   auto error = [&](double true_deg) { return sensors_.reading_without_backlash(joint, true_deg) - reading_deg; };
+  {
+    double x0 = reading_deg, e0 = error(x0);
+    double x1 = x0 - e0;
+    for (int i = 0; i < 12 && e0 != 0.0; ++i) {
+      const double e1 = error(x1);
+      if (e1 == 0.0 || std::abs(x1 - x0) <= 4 * std::numeric_limits<double>::epsilon() * std::abs(x1)) {
+        if (std::abs(x1 - reading_deg) < 20.0) return x1;
+        break;
+      }
+      if (e1 == e0) break;
+      const double x2 = x1 - e1 * (x1 - x0) / (e1 - e0);
+      x0 = x1;
+      e0 = e1;
+      x1 = x2;
+    }
+    if (e0 == 0.0 && std::abs(x0 - reading_deg) < 20.0) return x0;
+  }
   double low = reading_deg - 20.0, high = reading_deg + 20.0;
   if (error(low) * error(high) > 0) {
     throw std::runtime_error("no true angle of joint " + std::to_string(joint + 1) + " reads " +

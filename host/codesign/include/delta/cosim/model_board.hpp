@@ -66,12 +66,16 @@ class ModelBoard {
   std::uint64_t skip(std::uint64_t limit, int encoder_a, int encoder_b, DrivePattern* pattern);
 
  private:
+  struct State;
   void settle();
   bool quiet() const;
   bool quiet_clock(int encoder_a, int encoder_b);
+  std::uint64_t quiet_run(std::uint64_t limit, int encoder_a, int encoder_b);
+  void count_clock(int encoder_a, int encoder_b);
+  bool micro_clock(int encoder_a, int encoder_b);
+  static std::uint16_t telemetry_word_of(const State& s);
 
   struct Memories;
-  struct State;
   golden::QuantisedNetwork network_;
   std::array<std::int32_t, 3> half_plays_{};  // H_j, Q24.8 counts (half_play.mem): constant
   std::unique_ptr<Memories> memories_;
