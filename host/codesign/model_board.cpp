@@ -595,9 +595,13 @@ bool ModelBoard::micro_clock(int encoder_a, int encoder_b) {
   const std::uint32_t next_index = s.sample_index + static_cast<std::uint32_t>(s.fill);
 
   // The registers that follow the present state every clock (RAM reads before this clock's writes).
-  settle();
+  if (!s.settled) settle();
   count_clock(encoder_a, encoder_b);  // the counters, the drive pins (of the present duties)
-  s.settled = false;
+  // What settle() follows changes below: the TX RAM read's address or word, the capture's word,
+  // a stored current (the peek), a reference (the safety pipeline).
+  bool stored = false;
+  for (int j = 0; j < 3; ++j) stored |= elapsed == static_cast<std::uint64_t>(kLoadCycles + kJointCycles * (j + 1));
+  if (tx_load || writing || capturing || stored || (interpolating && old_step == 7)) s.settled = false;
 
   // link_rx: the ring's read (before this clock's write), the byte in, the byte processed.
   s.ring_data = m.ring[old_read];

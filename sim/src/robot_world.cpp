@@ -48,14 +48,19 @@ class RobotWorld::Quadrature {
 
 namespace {
 
-// Cycles i in [0, cycles) whose PWM level is high: (phase + i) mod period < duty.
-std::int64_t high_cycles(int phase, int duty, std::uint64_t cycles, int period) {
+// Cycles i in [0, cycles) whose PWM level is high: (phase + i) mod period < duty (0 <= phase <
+// period; period_bits >= 0 when the period is 2^period_bits: shifts instead of divisions).
+std::int64_t high_cycles(int phase, int duty, std::uint64_t cycles, int period, int period_bits) {
   if (duty <= 0) return 0;
   if (duty >= period) return static_cast<std::int64_t>(cycles);
+  if (phase + cycles <= static_cast<std::uint64_t>(period)) {  // within one PWM period
+    return std::max<std::int64_t>(0, std::min<std::int64_t>(phase + static_cast<std::int64_t>(cycles), duty) - phase);
+  }
   // below(m): the cycles in [0, m) of a pattern starting at phase 0.
   const auto below = [&](std::uint64_t m) {
-    return static_cast<std::int64_t>(m / static_cast<std::uint64_t>(period)) * duty +
-           std::min<std::int64_t>(static_cast<std::int64_t>(m % static_cast<std::uint64_t>(period)), duty);
+    const std::uint64_t periods = period_bits >= 0 ? m >> period_bits : m / static_cast<std::uint64_t>(period);
+    const std::uint64_t rest = m - periods * static_cast<std::uint64_t>(period);
+    return static_cast<std::int64_t>(periods) * duty + std::min<std::int64_t>(static_cast<std::int64_t>(rest), duty);
   };
   return below(static_cast<std::uint64_t>(phase) + cycles) - below(static_cast<std::uint64_t>(phase));
 }
@@ -71,6 +76,9 @@ RobotWorld::RobotWorld(const BoardInterface& board, const EffectSet& effects, co
         "RobotWorld: board clock, PWM period and plant divider must be positive, the plant lead below the divider");
   }
   plant_phase_ = board.plant_lead;
+  if ((board.pwm_period_cycles & (board.pwm_period_cycles - 1)) == 0) {
+    pwm_period_bits_ = __builtin_ctz(static_cast<unsigned>(board.pwm_period_cycles));
+  }
   plant_step_s_ = board.plant_divider / board.board_clock_hz;
   // Home: the encoders read the home count with the plate at rest there.
   for (int j = 0; j < 3; ++j) home_true_alpha_deg_[j] = true_angle_for_reading(j, board.home_count * board.count_deg);
@@ -168,7 +176,8 @@ void RobotWorld::advance(std::uint64_t cycles, const DrivePattern& pattern) {
   const std::uint64_t quiet = cycles - 1;
   if (pattern.enable) {
     for (int j = 0; j < 3; ++j) {
-      const std::int64_t high = high_cycles(pattern.phase, pattern.duty[j], quiet, board_.pwm_period_cycles);
+      const std::int64_t high =
+          high_cycles(pattern.phase, pattern.duty[j], quiet, board_.pwm_period_cycles, pwm_period_bits_);
       drive_sum_[j] += ((pattern.direction >> j) & 1) ? -high : high;
     }
   }

@@ -69,16 +69,21 @@ std::size_t LinkSession::poll_frames() {
 
 void LinkSession::receive_frames() {
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(options_.frame_timeout_ms);
-  for (;;) {
+  long long left = options_.frame_timeout_ms;
+  bool readable = false;
+  // The clock is read after a wait that ended without a byte, and every 64 bytes that did not end
+  // a frame (a stream of garbage still times out; a frame's bytes cost no clock reads).
+  for (unsigned bytes = 0;; ++bytes) {
     if (poll_frames() > 0) return;
-    const auto left =
-        std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now()).count();
+    if (!readable || bytes % 64 == 0) {
+      left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now()).count();
+    }
     if (left <= 0) {
       throw LinkError(LinkError::Kind::kLinkLost, stream_.name() + ": no frame from the board for " +
                                                       std::to_string(options_.frame_timeout_ms) + " ms");
     }
     try {
-      stream_.wait_readable(static_cast<int>(std::min<long long>(left, 100)));
+      readable = stream_.wait_readable(static_cast<int>(std::min<long long>(left, 100)));
     } catch (const std::system_error& error) {
       throw LinkError(LinkError::Kind::kLinkLost, std::string("link: ") + error.what());
     }

@@ -101,6 +101,7 @@ class RobotWorld {
 
   BoardInterface board_;
   double plant_step_s_ = 0.0;  // plant_divider board cycles [s]
+  int pwm_period_bits_ = -1;   // log2 of a power-of-two PWM period (-1: another period)
   EffectSet effects_;
   Geometry true_geometry_;
   JointSensorChain sensors_;
