@@ -22,9 +22,14 @@ constexpr int kRingBytes = static_cast<int>(board::kRxRingBytes);
 constexpr int kDepth = static_cast<int>(board::kSetpointDepth);
 constexpr int kTelemetryWords = static_cast<int>(board::kTelemetryPayloadBytes / 2);
 constexpr int kWatchdogMax = 511;  // $clog2(WatchdogPeriods + 2) = 9 bits
-constexpr int kRunCycles = 1072;   // joint_controller.sv: ap_start seen (idle) to done
-constexpr int kJointCycles = 355;
-constexpr int kLoadCycles = 6;
+constexpr int kJointCycles = 355;  // joint_controller.sv: a joint's datapath run
+constexpr int kLoadCycles = 6;     // ap_start seen (idle) to ap_ready; the currents stored at 6 + 355 (j + 1)
+// Registers the model folds where the RTL spends a clock nothing else can see:
+//   link_tx's state 1 (a clock for the RAM read after a payload byte): the model's read is settled;
+//   the controller's start_q, cleared at ap_ready in the RTL: here when the run starts (nothing
+//   reads it while the controller runs); ap_done, a clock after the third store in the RTL: here
+//   with it (nothing reads it before the next period);
+//   link_rx's ring read while idle: the fetch that precedes every use of it reads it again.
 // The serial line, 8N1 at kClocksPerBit (B) clocks a bit. uart_rx: the start bit's first clock e
 // reaches the synchroniser's output at e + 2; it waits B/2 + 1 clocks to the start bit's middle,
 // samples the data bits B clocks apart and sets valid in the clock at the stop bit's middle:
@@ -288,7 +293,6 @@ void ModelBoard::settle() {
 // Whether the next clock is quiet (see quiet_clock), whatever the encoder lines show.
 bool ModelBoard::quiet() const {
   const State& s = *state_;
-  const Memories& m = *memories_;
   const int tick = s.tick;
   if (tick == 0 || tick == 1 || tick == kClocksPerPeriod / 2 || tick == kClocksPerPeriod - 100 ||
       tick == kClocksPerPeriod - 1) {
@@ -297,7 +301,7 @@ bool ModelBoard::quiet() const {
   // uart_rx: no byte for link_rx (a byte's valid is set at the end of a run, see skip).
   if (s.rx_valid) return false;
   // link_rx idle and settled; nothing pending in the setpoint buffer, interpolator or safety.
-  if (s.fetched || s.read != s.write || s.ring_data != m.ring[s.read]) return false;
+  if (s.fetched || s.read != s.write) return false;
   // The interpolator acts in steps 4 (the segment's change) and 7 (the reference) of each joint;
   // the steps between only count.
   const bool interpolating = s.busy && (s.step == 4 || s.step == 7);
@@ -309,13 +313,12 @@ bool ModelBoard::quiet() const {
   if (s.enabled && s.silent_periods > board::kWatchdogPeriods) return false;
   if (s.running) {
     const std::uint64_t elapsed = s.cycle - s.run_start;
-    if (elapsed == kLoadCycles || elapsed == kRunCycles ||
-        (elapsed > kLoadCycles && (elapsed - kLoadCycles) % kJointCycles == 0)) {
+    if (elapsed > kLoadCycles && (elapsed - kLoadCycles) % kJointCycles == 0) {
       return false;
     }
   }
   // link_tx idle or waiting for uart_tx inside a bit; no capture.
-  if (s.capturing || s.writing || s.tx_state == 1) return false;
+  if (s.capturing || s.writing) return false;
   if (s.tx_state == 0 && (s.telemetry_pending || s.identify_pending)) return false;
   if (s.bits_left == 0 && s.tx_state != 0) return false;  // link_tx sees the UART ready
   return true;
@@ -374,9 +377,8 @@ std::uint64_t ModelBoard::quiet_run(std::uint64_t limit, int encoder_a, int enco
   if (tx_byte_cycle_ != kNever && tx_byte_cycle_ >= s.cycle) clocks = std::min(clocks, tx_byte_cycle_ - s.cycle + 1);
   if (s.running) {
     const std::uint64_t elapsed = s.cycle - s.run_start;
-    for (std::uint64_t event : {std::uint64_t{kLoadCycles}, std::uint64_t{kLoadCycles + kJointCycles},
-                                std::uint64_t{kLoadCycles + 2 * kJointCycles},
-                                std::uint64_t{kLoadCycles + 3 * kJointCycles}, std::uint64_t{kRunCycles}}) {
+    for (std::uint64_t event : {std::uint64_t{kLoadCycles + kJointCycles}, std::uint64_t{kLoadCycles + 2 * kJointCycles},
+                                std::uint64_t{kLoadCycles + 3 * kJointCycles}}) {
       if (event > elapsed) {
         clocks = std::min(clocks, event - elapsed);
         break;
@@ -590,7 +592,7 @@ bool ModelBoard::micro_clock(int encoder_a, int encoder_b) {
   const bool was_fetched = s.fetched;
   const std::uint8_t ring_byte = s.ring_data, rx_byte = s.rx_shift;
   const int old_index = s.index, old_read = s.read, old_write = s.write, old_tx_index = s.tx_index;
-  const int old_step = s.step, tx_state = s.tx_state, capture = s.capture;
+  const int old_step = s.step, capture = s.capture;
   const std::uint64_t cycle = s.cycle;
   const std::uint32_t next_index = s.sample_index + static_cast<std::uint32_t>(s.fill);
 
@@ -665,10 +667,9 @@ bool ModelBoard::micro_clock(int encoder_a, int encoder_b) {
     s.joint = 0;
   }
 
-  // joint controller: the load's end, a current stored, the run's end; joint_pwm: the duties
+  // joint controller: a current stored (the third ends the run); joint_pwm: the duties
   s.current_valid = 0;
   if (elapsed != 0) {
-    if (elapsed == kLoadCycles) s.start_q = false;
     for (int j = 0; j < 3; ++j) {
       if (elapsed == static_cast<std::uint64_t>(kLoadCycles + kJointCycles * (j + 1))) {
         s.current[j] = static_cast<std::uint16_t>(s.next_current[j]);
@@ -677,7 +678,7 @@ bool ModelBoard::micro_clock(int encoder_a, int encoder_b) {
         s.overflow = static_cast<std::uint16_t>(std::min<int>(0xFFFF, s.overflow + s.next_overflow[j]));
       }
     }
-    if (elapsed == kRunCycles) {
+    if (elapsed == static_cast<std::uint64_t>(kLoadCycles + 3 * kJointCycles)) {
       s.running = false;
       s.primed = true;
     }
@@ -695,14 +696,10 @@ bool ModelBoard::micro_clock(int encoder_a, int encoder_b) {
     s.capture = (capture + 1) & 31;
     if (capture == kTelemetryWords - 1) s.capturing = false;
   }
-  if (tx_state == 1) s.tx_state = 2;
   if (tx_load) {
     if (old_tx_index != 0 && old_tx_index < s.tx_length + 4) s.tx_crc = crc_byte(s.tx_crc, tx_data);
     s.tx_index = (old_tx_index + 1) & 63;
-    if (old_tx_index == s.tx_length + 5)
-      s.tx_state = 0;
-    else if (old_tx_index >= 3)
-      s.tx_state = 1;
+    if (old_tx_index == s.tx_length + 5) s.tx_state = 0;
     s.frame = static_cast<std::uint16_t>(0x200 | (tx_data << 1));
     s.bits_left = 10;
     s.tx_count = kClocksPerBit - 1;
@@ -1035,6 +1032,7 @@ void ModelBoard::clock(int encoder_a, int encoder_b) {
   std::array<std::int32_t, 3> references = s.r;
   if (s.start_q && ap_idle) {
     n.running = true;
+    n.start_q = false;  // (the RTL clears it at ap_ready, kLoadCycles later: nothing reads it before)
     n.run_start = s.cycle;
     for (int j = 0; j < 3; ++j) {
       control::JointFixedInput input;
@@ -1051,7 +1049,7 @@ void ModelBoard::clock(int encoder_a, int encoder_b) {
   }
   n.current_valid = 0;
   if (s.running) {
-    const std::uint64_t elapsed = s.cycle - s.run_start;  // 1 .. 1072
+    const std::uint64_t elapsed = s.cycle - s.run_start;  // 1 .. 1071
     for (int j = 0; j < 3; ++j) {
       if (elapsed == static_cast<std::uint64_t>(kLoadCycles + kJointCycles * (j + 1))) {
         n.current[j] = static_cast<std::uint16_t>(s.next_current[j]);
@@ -1060,13 +1058,11 @@ void ModelBoard::clock(int encoder_a, int encoder_b) {
         n.overflow = static_cast<std::uint16_t>(std::min<int>(0xFFFF, s.overflow + s.next_overflow[j]));
       }
     }
-    if (elapsed == kRunCycles) {
+    if (elapsed == static_cast<std::uint64_t>(kLoadCycles + 3 * kJointCycles)) {  // (ap_done: a clock later in the RTL)
       n.running = false;
       n.primed = true;
     }
   }
-  // ap_ready: the last load cycle.
-  if (s.running && s.cycle - s.run_start == kLoadCycles) n.start_q = false;
   if (s.tick == 0 && ap_idle) {
     n.start_q = true;
     n.counts_q = s.count;
@@ -1174,17 +1170,12 @@ void ModelBoard::clock(int encoder_a, int encoder_b) {
         n.tx_index = 0;
         clear = true;
       }
-    } else if (s.tx_state == 1) {
-      n.tx_state = 2;
-    } else {
+    } else {  // state 2 (state 1, the RTL's wait for its RAM read after a payload byte, folded)
       tx_valid = true;
       if (tx_ready) {
         valid = s.tx_index != 0 && s.tx_index < s.tx_length + 4;
         n.tx_index = (s.tx_index + 1) & 63;
-        if (s.tx_index == s.tx_length + 5)
-          n.tx_state = 0;
-        else if (s.tx_index >= 3)
-          n.tx_state = 1;
+        if (s.tx_index == s.tx_length + 5) n.tx_state = 0;
       }
     }
     if (clear) n.tx_crc = 0xFFFF;
