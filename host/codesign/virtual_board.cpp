@@ -142,6 +142,7 @@ void VirtualBoard::observe(bool drives_enabled) {
 }
 
 void VirtualBoard::clock_model() {
+  flush_world();
   ModelBoard& board = *core_->board;
   if (truth_observer_ && millisecond_phase_ == 0) observe(board.pins().drive_enable);
   const int skipped = clocks_ >= encoder_skip_clock_ ? 1 : 0;
@@ -153,13 +154,22 @@ void VirtualBoard::clock_model() {
   ++clocks_;
 }
 
+// The world's runs not yet advanced (consecutive runs of one drive pattern go in one advance).
+void VirtualBoard::flush_world() {
+  if (world_cycles_ == 0) return;
+  world_->advance(world_cycles_, world_pattern_);
+  world_cycles_ = 0;
+}
+
 // Model fidelity: runs of clocks in which nothing but counters move on either side of the pins
 // (ModelBoard::skip, RobotWorld::advance) go at once; a run ends where the board or the world has
 // an event (the board's include its serial lines' bytes), or a control period ends (its first
-// clock, with the observers, goes one by one).
+// clock, with the observers, goes one by one). The world takes the runs when the drive pattern
+// changes, at its own event, and before anything looks at it.
 bool VirtualBoard::skip_model(std::uint64_t limit) {
   Core& core = *core_;
-  std::uint64_t clocks = std::min({limit, kClocksPerTick - period_phase_, world_->cycles_to_event()});
+  const std::uint64_t to_world_event = world_->cycles_to_event() - world_cycles_;
+  std::uint64_t clocks = std::min({limit, kClocksPerTick - period_phase_, to_world_event});
   if (clocks_ < encoder_skip_clock_) clocks = std::min(clocks, encoder_skip_clock_ - clocks_);
   const int skipped = clocks_ >= encoder_skip_clock_ ? 1 : 0;
   DrivePattern pattern;
@@ -168,7 +178,17 @@ bool VirtualBoard::skip_model(std::uint64_t limit) {
   if (taken == 0) return false;
   std::uint8_t byte = 0;
   if (core.board->take_tx_byte(&byte)) from_board_.push_back(byte);
-  world_->advance(taken, pattern);
+  const int period = static_cast<int>(board::kPwmPeriodCycles);
+  const bool continues = world_cycles_ != 0 && pattern.enable == world_pattern_.enable &&
+                         pattern.direction == world_pattern_.direction && pattern.duty == world_pattern_.duty &&
+                         static_cast<std::uint64_t>(pattern.phase) ==
+                             (static_cast<std::uint64_t>(world_pattern_.phase) + world_cycles_) % period;
+  if (!continues) {
+    flush_world();
+    world_pattern_ = pattern;
+  }
+  world_cycles_ += taken;
+  if (taken == to_world_event) flush_world();  // the world's event: its plant step or an encoder line
   clocks_ += taken;
   period_phase_ += taken;
   if (period_phase_ == kClocksPerTick) period_phase_ = 0;
@@ -182,6 +202,7 @@ void VirtualBoard::run(std::uint64_t board_clocks, bool until_byte) {
   while (clocks_ < end && !(until_byte && !from_board_.empty())) {
     if (!core_->board || period_phase_ == 0 || !skip_model(end - clocks_)) clock();
   }
+  if (core_->board) flush_world();
 }
 
 void VirtualBoard::step(std::uint64_t board_clocks) { run(board_clocks, false); }

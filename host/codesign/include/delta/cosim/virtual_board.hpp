@@ -120,6 +120,7 @@ class VirtualBoard {
   void clock();
   void clock_model();
   bool skip_model(std::uint64_t limit);
+  void flush_world();
   void run(std::uint64_t board_clocks, bool until_byte);
   void observe(bool drives_enabled);
 
@@ -132,6 +133,8 @@ class VirtualBoard {
   std::uint64_t period_phase_ = 0;       // clocks_ mod kClocksPerTick
   std::uint64_t millisecond_phase_ = 0;  // clocks_ mod kClocksPerMillisecond
   std::uint64_t encoder_skip_clock_ = ~std::uint64_t{0};
+  DrivePattern world_pattern_;    // model fidelity: the drive pattern of the runs the world has not taken
+  std::uint64_t world_cycles_ = 0;  // (their cycles)
 };
 
 // The virtual board as a byte stream for a host in the same process: write_all queues onto the
