@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <fstream>
 #include <stdexcept>
+#include <string>
 #include <utility>
 
 #include "delta/board_facts.hpp"
@@ -324,7 +325,163 @@ bool ModelBoard::quiet() const {
   return true;
 }
 
+// The registers the run check compares (all but link_rx's idle ring read, which the model leaves to
+// the fetch, and the joint states, which change only in full clocks).
+#define DELTA_MODEL_BOARD_REGISTERS(X) \
+  X(cycle) \
+  X(rx_shift) \
+  X(rx_valid) \
+  X(write) \
+  X(read) \
+  X(start) \
+  X(index) \
+  X(end) \
+  X(fetched) \
+  X(crc_high_ok) \
+  X(length) \
+  X(type) \
+  X(sequence) \
+  X(rx_crc) \
+  X(command) \
+  X(enabled) \
+  X(holding) \
+  X(homed) \
+  X(tick) \
+  X(phase) \
+  X(period_count) \
+  X(sample_index) \
+  X(fill) \
+  X(full_at_start) \
+  X(index_match) \
+  X(vetoed) \
+  X(starting) \
+  X(net_outputs) \
+  X(answer_pending) \
+  X(busy) \
+  X(step) \
+  X(joint) \
+  X(r) \
+  X(d) \
+  X(shift) \
+  X(delta) \
+  X(slew_limited) \
+  X(enc_a_meta) \
+  X(enc_a) \
+  X(enc_b_meta) \
+  X(enc_b) \
+  X(previous) \
+  X(count) \
+  X(step_error) \
+  X(start_q) \
+  X(counts_q) \
+  X(encoder_error) \
+  X(silent_periods) \
+  X(check) \
+  X(checked) \
+  X(active) \
+  X(fault_cause) \
+  X(difference_q) \
+  X(outside_q) \
+  X(running) \
+  X(primed) \
+  X(run_start) \
+  X(next_current) \
+  X(next_overflow) \
+  X(current) \
+  X(current_valid) \
+  X(overflow) \
+  X(peek_memory) \
+  X(peek_data) \
+  X(pwm_phase) \
+  X(duty) \
+  X(direction) \
+  X(pwm) \
+  X(enable_out) \
+  X(bad_frames) \
+  X(underruns) \
+  X(slew_limits) \
+  X(refused) \
+  X(last_sequence) \
+  X(read_data) \
+  X(capturing) \
+  X(writing) \
+  X(telemetry_pending) \
+  X(identify_pending) \
+  X(capture) \
+  X(written) \
+  X(word_index) \
+  X(tx_state) \
+  X(tx_index) \
+  X(tx_length) \
+  X(is_identify) \
+  X(telemetry_sequence) \
+  X(tx_sequence) \
+  X(identify_sequence) \
+  X(tx_crc) \
+  X(frame) \
+  X(bits_left) \
+  X(tx_count)
+
+// The first register in which a and b differ (nullptr: none).
+const char* ModelBoard::differing_register(const State& a, const State& b) {
+#define DELTA_COMPARE(name) \
+  if (!(a.name == b.name)) return #name;
+  DELTA_MODEL_BOARD_REGISTERS(DELTA_COMPARE)
+#undef DELTA_COMPARE
+  if (a.fetched && a.ring_data != b.ring_data) return "ring_data";
+  return nullptr;
+}
+
 std::uint64_t ModelBoard::skip(std::uint64_t limit, int encoder_a, int encoder_b, DrivePattern* pattern) {
+  if (!check_runs_ || checking_) return skip_run(limit, encoder_a, encoder_b, pattern);
+  // The run check: the same clocks again, one full clock each, from the same state.
+  const State before = *state_;
+  const Memories memories_before = *memories_;
+  const auto rx_line_before = rx_line_;
+  const std::uint64_t tx_byte_cycle_before = tx_byte_cycle_;
+  const std::uint8_t tx_byte_before = tx_byte_;
+  const std::uint64_t taken = skip_run(limit, encoder_a, encoder_b, pattern);
+  if (taken == 0) return 0;
+  const State after = *state_;
+  const Memories memories_after = *memories_;
+  const auto rx_line_after = rx_line_;
+  const std::uint64_t tx_byte_cycle_after = tx_byte_cycle_;
+  const ModelBoardPins pins_after = pins_;
+  *state_ = before;
+  *memories_ = memories_before;
+  rx_line_ = rx_line_before;
+  tx_byte_cycle_ = tx_byte_cycle_before;
+  tx_byte_ = tx_byte_before;
+  checking_ = true;
+  auto fail = [&](const std::string& what) {
+    checking_ = false;
+    throw std::logic_error("model board: a run of " + std::to_string(taken) + " clocks from cycle " +
+                           std::to_string(before.cycle) + " (tick " + std::to_string(before.tick) + ") differs from " +
+                           "its full clocks: " + what);
+  };
+  for (std::uint64_t i = 0; i < taken; ++i) {
+    clock(encoder_a, encoder_b);
+    const DrivePins shown = pattern->pins(i, 1 << board::kPwmBits);
+    if (shown.pwm != pins_.drive_pwm || shown.enable != pins_.drive_enable ||
+        (shown.enable && shown.direction != pins_.drive_dir)) {
+      fail("the drive pins in clock " + std::to_string(i));
+    }
+  }
+  checking_ = false;
+  if (const char* name = differing_register(*state_, after)) fail(std::string("register ") + name);
+  if (memories_->ring != memories_after.ring || memories_->ram != memories_after.ram ||
+      memories_->words != memories_after.words) {
+    fail("a block RAM");
+  }
+  if (tx_byte_cycle_ != tx_byte_cycle_after || rx_line_.size() != rx_line_after.size()) fail("a serial line");
+  if (pins_.drive_pwm != pins_after.drive_pwm || pins_.drive_dir != pins_after.drive_dir ||
+      pins_.drive_enable != pins_after.drive_enable) {
+    fail("the pins after the run");
+  }
+  return taken;
+}
+
+std::uint64_t ModelBoard::skip_run(std::uint64_t limit, int encoder_a, int encoder_b, DrivePattern* pattern) {
   State& s = *state_;
   pattern->phase = s.pwm_phase;
   for (int j = 0; j < 3; ++j) pattern->duty[j] = s.duty[j];
@@ -786,7 +943,7 @@ std::uint16_t ModelBoard::telemetry_word_of(const State& s) {
 }
 
 void ModelBoard::clock(int encoder_a, int encoder_b) {
-  if (quiet_clock(encoder_a, encoder_b)) return;
+  if (!checking_ && quiet_clock(encoder_a, encoder_b)) return;
   State& s = *state_;
   Memories& m = *memories_;
   State& n = *next_state_;  // the next values, committed at the end (the buffers swap)

@@ -23,6 +23,7 @@ class VirtualBoard::Core {
     if (options.fidelity == BoardFidelity::kModel) {
       if (options.network == nullptr) throw std::invalid_argument("the model board needs the network's weights");
       board = std::make_unique<ModelBoard>(*options.network, options.mem_dir + "/identify.mem");
+      board->check_runs(options.check_model_runs);
       return;
     }
     context = std::make_unique<VerilatedContext>();

@@ -132,11 +132,12 @@ struct FaultRun {
 
 FaultRun run_fault_session(cosim::BoardFidelity fidelity, const golden::QuantisedNetwork& q, const std::string& mem_dir,
                            bool skip_idle_network = true, std::uint64_t* idle_network_clocks = nullptr,
-                           std::uint64_t* clocks = nullptr) {
+                           std::uint64_t* clocks = nullptr, bool check_model_runs = false) {
   FaultRun out;
   cosim::VirtualBoardOptions options;
   options.fidelity = fidelity;
   options.skip_idle_network = skip_idle_network;
+  options.check_model_runs = check_model_runs;
   options.network = &q;
   options.mem_dir = mem_dir;
   options.effects = read_effect_file(kEffects);
@@ -200,6 +201,25 @@ TEST(ModelBoard, EqualsTheRtlBoardThroughAnEncoderSkipFaultAndItsRecovery) {
   EXPECT_TRUE(rtl.reenabled.has(link::TelemetryFlag::kDriveEnable));
   EXPECT_EQ(rtl.second.outcome, link::StreamReport::Outcome::kCompleted);
   expect_same_runs(rtl, model);
+}
+
+// The model board's speed comes from taking clocks in runs (quiet clocks that only count, and
+// micro clocks that do one frequent kind of work): the fault session with every run checked
+// against as many full clocks, register by register, block RAM by block RAM and drive pin by
+// drive pin (ModelBoard::check_runs throws at the first difference); the checked session is the
+// unchecked one.
+TEST(ModelBoard, ItsRunsOfClocksAreExactlyItsFullClocks) {
+  const golden::QuantisedNetwork q = deployed_network();
+  const std::string mem_dir = fresh_directory("model_board_runs_mem");
+  golden::write_export(q, mem_dir);
+  FaultRun checked;
+  std::uint64_t clocks = 0;
+  ASSERT_NO_THROW(checked = run_fault_session(cosim::BoardFidelity::kModel, q, mem_dir, true, nullptr, &clocks, true));
+  const FaultRun model = run_fault_session(cosim::BoardFidelity::kModel, q, mem_dir);
+  std::cout << "board clocks checked: " << clocks << "\n";
+  EXPECT_GT(clocks, 10'000'000u);  // the whole session (about 0.55 s of board time)
+  EXPECT_EQ(checked.second.outcome, link::StreamReport::Outcome::kCompleted);
+  expect_same_runs(model, checked);
 }
 
 // The RTL board's idle-network skip (rtl::IdleNetworkSkip: board clocks without the network

@@ -65,8 +65,15 @@ class ModelBoard {
   // (`pattern`); the state after them is exactly what as many clock() calls leave.
   std::uint64_t skip(std::uint64_t limit, int encoder_a, int encoder_b, DrivePattern* pattern);
 
+  // The run check (tests): every skip() runs its clocks again as full clocks from the same state
+  // and throws std::logic_error naming the first register, block RAM, drive pin or line byte that
+  // differs (the quiet runs and micro clocks must be exactly the full clocks they stand for).
+  void check_runs(bool on) { check_runs_ = on; }
+
  private:
   struct State;
+  std::uint64_t skip_run(std::uint64_t limit, int encoder_a, int encoder_b, DrivePattern* pattern);
+  static const char* differing_register(const State& a, const State& b);
   void settle();
   bool quiet() const;
   bool quiet_clock(int encoder_a, int encoder_b);
@@ -82,6 +89,8 @@ class ModelBoard {
   std::unique_ptr<State> state_;
   std::unique_ptr<State> next_state_;  // clock()'s next values
   ModelBoardPins pins_;
+  bool check_runs_ = false;
+  bool checking_ = false;  // replaying a run as full clocks
   // The RX line: each byte with the clock in which uart_rx sets valid; when each leaves the line.
   struct RxByte {
     std::uint64_t valid_cycle;

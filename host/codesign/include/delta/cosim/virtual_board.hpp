@@ -59,6 +59,9 @@ struct VirtualBoardOptions {
   // clock's edges, and a rising edge is one evaluation (rtl::IdleNetworkSkip; the same board, about
   // 2 x as fast). False: rtl::clock_board, every edge of both clocks evaluated.
   bool skip_idle_network = true;
+  // Model fidelity: check every run of clocks the model board takes at once against as many full
+  // clocks (ModelBoard::check_runs; tests, about 50 x slower).
+  bool check_model_runs = false;
 };
 
 // What the world is, every 1 ms of board time (ground truth: no sensor saw it).
