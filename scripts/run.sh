@@ -61,9 +61,9 @@ $deltactl cosim --fidelity model --weights "$weights" --effects "$effects" --tra
   --out "$out/cosim_plain.csv"
 
 section "7. Co-simulation on the model board: 75 s of the validation trajectory in closed loop"
-# The C++ model board (bit-exact with the board RTL: ctest -R ModelBoard) runs free, about 3 x
-# real time on this machine (scripts/bench_boards.sh): about 25 s of wall time. The first 75 s of
-# the validation trajectory's 1333 s (x, y sinusoids of 5 mm, z descending).
+# The C++ model board (bit-exact with the board RTL: ctest -R ModelBoard) runs free, about 45 x
+# real time on this machine (scripts/bench_boards.sh): a few seconds of wall time. The first 75 s
+# of the validation trajectory's 1333 s (x, y sinusoids of 5 mm, z descending).
 $deltactl cosim --fidelity model --weights "$weights" --effects "$effects" --trajectory validation --duration 75 \
   --out "$out/cosim_model_validation.csv" --plot "$out/cosim_model_validation.png"
 echo

@@ -328,98 +328,98 @@ bool ModelBoard::quiet() const {
 // The registers the run check compares (all but link_rx's idle ring read, which the model leaves to
 // the fetch, and the joint states, which change only in full clocks).
 #define DELTA_MODEL_BOARD_REGISTERS(X) \
-  X(cycle) \
-  X(rx_shift) \
-  X(rx_valid) \
-  X(write) \
-  X(read) \
-  X(start) \
-  X(index) \
-  X(end) \
-  X(fetched) \
-  X(crc_high_ok) \
-  X(length) \
-  X(type) \
-  X(sequence) \
-  X(rx_crc) \
-  X(command) \
-  X(enabled) \
-  X(holding) \
-  X(homed) \
-  X(tick) \
-  X(phase) \
-  X(period_count) \
-  X(sample_index) \
-  X(fill) \
-  X(full_at_start) \
-  X(index_match) \
-  X(vetoed) \
-  X(starting) \
-  X(net_outputs) \
-  X(answer_pending) \
-  X(busy) \
-  X(step) \
-  X(joint) \
-  X(r) \
-  X(d) \
-  X(shift) \
-  X(delta) \
-  X(slew_limited) \
-  X(enc_a_meta) \
-  X(enc_a) \
-  X(enc_b_meta) \
-  X(enc_b) \
-  X(previous) \
-  X(count) \
-  X(step_error) \
-  X(start_q) \
-  X(counts_q) \
-  X(encoder_error) \
-  X(silent_periods) \
-  X(check) \
-  X(checked) \
-  X(active) \
-  X(fault_cause) \
-  X(difference_q) \
-  X(outside_q) \
-  X(running) \
-  X(primed) \
-  X(run_start) \
-  X(next_current) \
-  X(next_overflow) \
-  X(current) \
-  X(current_valid) \
-  X(overflow) \
-  X(peek_memory) \
-  X(peek_data) \
-  X(pwm_phase) \
-  X(duty) \
-  X(direction) \
-  X(pwm) \
-  X(enable_out) \
-  X(bad_frames) \
-  X(underruns) \
-  X(slew_limits) \
-  X(refused) \
-  X(last_sequence) \
-  X(read_data) \
-  X(capturing) \
-  X(writing) \
-  X(telemetry_pending) \
-  X(identify_pending) \
-  X(capture) \
-  X(written) \
-  X(word_index) \
-  X(tx_state) \
-  X(tx_index) \
-  X(tx_length) \
-  X(is_identify) \
-  X(telemetry_sequence) \
-  X(tx_sequence) \
-  X(identify_sequence) \
-  X(tx_crc) \
-  X(frame) \
-  X(bits_left) \
+  X(cycle)                             \
+  X(rx_shift)                          \
+  X(rx_valid)                          \
+  X(write)                             \
+  X(read)                              \
+  X(start)                             \
+  X(index)                             \
+  X(end)                               \
+  X(fetched)                           \
+  X(crc_high_ok)                       \
+  X(length)                            \
+  X(type)                              \
+  X(sequence)                          \
+  X(rx_crc)                            \
+  X(command)                           \
+  X(enabled)                           \
+  X(holding)                           \
+  X(homed)                             \
+  X(tick)                              \
+  X(phase)                             \
+  X(period_count)                      \
+  X(sample_index)                      \
+  X(fill)                              \
+  X(full_at_start)                     \
+  X(index_match)                       \
+  X(vetoed)                            \
+  X(starting)                          \
+  X(net_outputs)                       \
+  X(answer_pending)                    \
+  X(busy)                              \
+  X(step)                              \
+  X(joint)                             \
+  X(r)                                 \
+  X(d)                                 \
+  X(shift)                             \
+  X(delta)                             \
+  X(slew_limited)                      \
+  X(enc_a_meta)                        \
+  X(enc_a)                             \
+  X(enc_b_meta)                        \
+  X(enc_b)                             \
+  X(previous)                          \
+  X(count)                             \
+  X(step_error)                        \
+  X(start_q)                           \
+  X(counts_q)                          \
+  X(encoder_error)                     \
+  X(silent_periods)                    \
+  X(check)                             \
+  X(checked)                           \
+  X(active)                            \
+  X(fault_cause)                       \
+  X(difference_q)                      \
+  X(outside_q)                         \
+  X(running)                           \
+  X(primed)                            \
+  X(run_start)                         \
+  X(next_current)                      \
+  X(next_overflow)                     \
+  X(current)                           \
+  X(current_valid)                     \
+  X(overflow)                          \
+  X(peek_memory)                       \
+  X(peek_data)                         \
+  X(pwm_phase)                         \
+  X(duty)                              \
+  X(direction)                         \
+  X(pwm)                               \
+  X(enable_out)                        \
+  X(bad_frames)                        \
+  X(underruns)                         \
+  X(slew_limits)                       \
+  X(refused)                           \
+  X(last_sequence)                     \
+  X(read_data)                         \
+  X(capturing)                         \
+  X(writing)                           \
+  X(telemetry_pending)                 \
+  X(identify_pending)                  \
+  X(capture)                           \
+  X(written)                           \
+  X(word_index)                        \
+  X(tx_state)                          \
+  X(tx_index)                          \
+  X(tx_length)                         \
+  X(is_identify)                       \
+  X(telemetry_sequence)                \
+  X(tx_sequence)                       \
+  X(identify_sequence)                 \
+  X(tx_crc)                            \
+  X(frame)                             \
+  X(bits_left)                         \
   X(tx_count)
 
 // The first register in which a and b differ (nullptr: none).
@@ -528,14 +528,15 @@ std::uint64_t ModelBoard::quiet_run(std::uint64_t limit, int encoder_a, int enco
   const bool rx_byte = !rx_line_.empty();
   if (rx_byte) clocks = std::min(clocks, rx_line_.front().valid_cycle - s.cycle + 1);
   if (s.bits_left != 0) {
-    clocks = std::min<std::uint64_t>(
-        clocks, static_cast<std::uint64_t>(s.tx_count + 1 + (s.bits_left - 1) * kClocksPerBit));
+    clocks =
+        std::min<std::uint64_t>(clocks, static_cast<std::uint64_t>(s.tx_count + 1 + (s.bits_left - 1) * kClocksPerBit));
   }
   if (tx_byte_cycle_ != kNever && tx_byte_cycle_ >= s.cycle) clocks = std::min(clocks, tx_byte_cycle_ - s.cycle + 1);
   if (s.running) {
     const std::uint64_t elapsed = s.cycle - s.run_start;
-    for (std::uint64_t event : {std::uint64_t{kLoadCycles + kJointCycles}, std::uint64_t{kLoadCycles + 2 * kJointCycles},
-                                std::uint64_t{kLoadCycles + 3 * kJointCycles}}) {
+    for (std::uint64_t event :
+         {std::uint64_t{kLoadCycles + kJointCycles}, std::uint64_t{kLoadCycles + 2 * kJointCycles},
+          std::uint64_t{kLoadCycles + 3 * kJointCycles}}) {
       if (event > elapsed) {
         clocks = std::min(clocks, event - elapsed);
         break;
@@ -633,8 +634,8 @@ bool ModelBoard::micro_clock(int encoder_a, int encoder_b) {
   State& s = *state_;
   Memories& m = *memories_;
   const bool fault = s.fault_cause != 0;
-  if (s.step_error[0] || s.step_error[1] || s.step_error[2] || s.slew_limited || s.starting || s.check ||
-      s.checked || (fault && (s.enabled || s.holding)) || (!s.enabled && s.silent_periods != 0) ||
+  if (s.step_error[0] || s.step_error[1] || s.step_error[2] || s.slew_limited || s.starting || s.check || s.checked ||
+      (fault && (s.enabled || s.holding)) || (!s.enabled && s.silent_periods != 0) ||
       (s.enabled && s.silent_periods > board::kWatchdogPeriods) ||
       (s.tx_state == 0 && (s.telemetry_pending || s.identify_pending))) {
     return false;
@@ -695,10 +696,11 @@ bool ModelBoard::micro_clock(int encoder_a, int encoder_b) {
     const std::int64_t c = golden::interpolation::reference_counts(s.net_outputs[j]);
     const std::int64_t diff = golden::play(c - s.r[j], half_plays_[j]);
     const bool saturated = diff > golden::interpolation::kDeltaMax || diff < golden::interpolation::kDeltaMin;
-    delta = take_answer ? static_cast<std::int32_t>(saturated ? (diff < 0 ? golden::interpolation::kDeltaMin
-                                                                          : golden::interpolation::kDeltaMax)
-                                                              : diff)
-                        : s.d[j];
+    delta =
+        take_answer
+            ? static_cast<std::int32_t>(
+                  saturated ? (diff < 0 ? golden::interpolation::kDeltaMin : golden::interpolation::kDeltaMax) : diff)
+            : s.d[j];
     slew_limited = take_answer && saturated && interpolator_enabled;
   } else if (interpolating) {
     const int j = s.joint;

@@ -33,7 +33,7 @@ struct BoardInterface {
   // The plant steps in the cycle plant_lead cycles before each multiple of plant_divider (cycle
   // k plant_divider - 1 - plant_lead): its encoder moves reach the board before the period starts.
   int plant_lead = 0;
-  int quadrature_dwell = 4;           // board cycles per quadrature state, at least
+  int quadrature_dwell = 4;  // board cycles per quadrature state, at least
 };
 
 // The board's drive outputs during one board cycle.
@@ -115,7 +115,7 @@ class RobotWorld {
   Vec3 home_measured_m_ = Vec3::Zero();
   std::uint64_t cycle_ = 0;
   int plant_phase_ = 0;  // (cycle_ + plant_lead) mod plant_divider: the plant steps at plant_divider - 1
-  int lines_a_ = 0;           // encoder_a(), encoder_b()
+  int lines_a_ = 0;      // encoder_a(), encoder_b()
   int lines_b_ = 0;
 };
 

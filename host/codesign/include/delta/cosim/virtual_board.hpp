@@ -136,7 +136,7 @@ class VirtualBoard {
   std::uint64_t period_phase_ = 0;       // clocks_ mod kClocksPerTick
   std::uint64_t millisecond_phase_ = 0;  // clocks_ mod kClocksPerMillisecond
   std::uint64_t encoder_skip_clock_ = ~std::uint64_t{0};
-  DrivePattern world_pattern_;    // model fidelity: the drive pattern of the runs the world has not taken
+  DrivePattern world_pattern_;      // model fidelity: the drive pattern of the runs the world has not taken
   std::uint64_t world_cycles_ = 0;  // (their cycles)
 };
 
