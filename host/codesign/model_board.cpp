@@ -25,11 +25,16 @@ constexpr int kTelemetryWords = static_cast<int>(board::kTelemetryPayloadBytes /
 constexpr int kWatchdogMax = 511;  // $clog2(WatchdogPeriods + 2) = 9 bits
 constexpr int kJointCycles = 355;  // joint_controller.sv: a joint's datapath run
 constexpr int kLoadCycles = 6;     // ap_start seen (idle) to ap_ready; the currents stored at 6 + 355 (j + 1)
+// The clock (cycles after ap_start was seen) in which joint j's PWM duty is set: the RTL stores
+// current_q a clock before, which nothing but joint_pwm reads; the model stores both here.
+constexpr std::uint64_t duty_cycle(int j) {
+  return static_cast<std::uint64_t>(kLoadCycles + kJointCycles * (j + 1) + 1);
+}
+constexpr std::uint64_t kRunCycles = duty_cycle(2);  // ap_done (the RTL's, too)
 // Registers the model folds where the RTL spends a clock nothing else can see:
 //   link_tx's state 1 (a clock for the RAM read after a payload byte): the model's read is settled;
 //   the controller's start_q, cleared at ap_ready in the RTL: here when the run starts (nothing
-//   reads it while the controller runs); ap_done, a clock after the third store in the RTL: here
-//   with it (nothing reads it before the next period);
+//   reads it while the controller runs); current_q, stored a clock before its duty (above);
 //   link_rx's ring read while idle: the fetch that precedes every use of it reads it again.
 // The serial line, 8N1 at kClocksPerBit (B) clocks a bit. uart_rx: the start bit's first clock e
 // reaches the synchroniser's output at e + 2; it waits B/2 + 1 clocks to the start bit's middle,
@@ -152,6 +157,25 @@ void set_duty(Registers& n, int j, std::uint16_t current) {
   n.direction = (n.direction & ~(1 << j)) | ((c < 0 ? 1 : 0) << j);
 }
 
+// joint_controller and joint_pwm in the clock `elapsed` cycles after ap_start was seen: joint j's
+// current stored with its duty at duty_cycle(j), the run's end with the third (n: the next values,
+// whose next_current and overflow are the present ones here).
+template <typename Registers>
+void store_current(Registers& n, std::uint64_t elapsed) {
+  for (int j = 0; j < 3; ++j) {
+    if (elapsed == duty_cycle(j)) {
+      n.current[j] = static_cast<std::uint16_t>(n.next_current[j]);
+      n.peek_memory[j][kSlotCurrent] = static_cast<std::uint32_t>(static_cast<std::int32_t>(n.next_current[j]));
+      n.overflow = static_cast<std::uint16_t>(std::min<int>(0xFFFF, n.overflow + n.next_overflow[j]));
+      set_duty(n, j, n.current[j]);
+    }
+  }
+  if (elapsed == kRunCycles) {
+    n.running = false;
+    n.primed = true;
+  }
+}
+
 std::int32_t sign_extend(std::uint32_t value, int bits) {
   const std::uint32_t m = 1u << (bits - 1);
   value &= (bits == 32) ? 0xFFFFFFFFu : ((1u << bits) - 1);
@@ -227,7 +251,6 @@ struct ModelBoard::State {
   std::array<std::int16_t, 3> next_current{};
   std::array<int, 3> next_overflow{};
   std::array<std::uint16_t, 3> current{};  // current_q
-  int current_valid = 0;
   std::uint16_t overflow = 0;
   PeekMemory peek_memory{};  // the last run's slots
   std::uint32_t peek_data = 0;
@@ -295,8 +318,8 @@ void ModelBoard::settle() {
 bool ModelBoard::quiet() const {
   const State& s = *state_;
   const int tick = s.tick;
-  if (tick == 0 || tick == 1 || tick == kClocksPerPeriod / 2 || tick == kClocksPerPeriod - 100 ||
-      tick == kClocksPerPeriod - 1) {
+  if (tick == 0 || tick == 1 || (tick == kClocksPerPeriod / 2 && s.phase == 0) || tick == kClocksPerPeriod - 100 ||
+      (tick == kClocksPerPeriod - 1 && !s.enabled)) {
     return false;
   }
   // uart_rx: no byte for link_rx (a byte's valid is set at the end of a run, see skip).
@@ -306,7 +329,7 @@ bool ModelBoard::quiet() const {
   // The interpolator acts in steps 4 (the segment's change) and 7 (the reference) of each joint;
   // the steps between only count.
   const bool interpolating = s.busy && (s.step == 4 || s.step == 7);
-  if (s.starting || interpolating || s.slew_limited || s.check || s.checked || s.current_valid != 0) return false;
+  if (s.starting || interpolating || s.slew_limited || s.check || s.checked) return false;
   if (s.step_error[0] || s.step_error[1] || s.step_error[2]) return false;
   const bool fault = s.fault_cause != 0;
   if (fault && (s.enabled || s.holding)) return false;
@@ -314,7 +337,7 @@ bool ModelBoard::quiet() const {
   if (s.enabled && s.silent_periods > board::kWatchdogPeriods) return false;
   if (s.running) {
     const std::uint64_t elapsed = s.cycle - s.run_start;
-    if (elapsed > kLoadCycles && (elapsed - kLoadCycles) % kJointCycles == 0) {
+    if (elapsed == duty_cycle(0) || elapsed == duty_cycle(1) || elapsed == duty_cycle(2)) {
       return false;
     }
   }
@@ -388,7 +411,6 @@ bool ModelBoard::quiet() const {
   X(next_current)                      \
   X(next_overflow)                     \
   X(current)                           \
-  X(current_valid)                     \
   X(overflow)                          \
   X(peek_memory)                       \
   X(peek_data)                         \
@@ -493,7 +515,9 @@ std::uint64_t ModelBoard::skip_run(std::uint64_t limit, int encoder_a, int encod
       taken += quiet_run(limit - taken, encoder_a, encoder_b);
     } else {
       // A clock that sets new duties shows the new directions and the old duties: a run of its own.
-      const bool new_duty = s.current_valid != 0;
+      const bool new_duty =
+          s.running && (s.cycle - s.run_start == duty_cycle(0) || s.cycle - s.run_start == duty_cycle(1) ||
+                        s.cycle - s.run_start == duty_cycle(2));
       if (new_duty && taken != 0) break;
       if (!micro_clock(encoder_a, encoder_b)) break;
       ++taken;
@@ -517,7 +541,9 @@ std::uint64_t ModelBoard::quiet_run(std::uint64_t limit, int encoder_a, int enco
   // Up to the next clock that is not quiet: the period's next event, a UART bit's end, the
   // controller's next store.
   std::uint64_t clocks = limit;
-  for (int event : {1, kClocksPerPeriod / 2, kClocksPerPeriod - 100, kClocksPerPeriod - 1}) {
+  // (A snapshot only in phase 0, the controllers' reset only with the drives off; tick 0 next.)
+  for (int event : {1, s.phase == 0 ? kClocksPerPeriod / 2 : 0, kClocksPerPeriod - 100,
+                    s.enabled ? kClocksPerPeriod : kClocksPerPeriod - 1, kClocksPerPeriod}) {
     if (event > s.tick) {
       clocks = std::min<std::uint64_t>(clocks, static_cast<std::uint64_t>(event - s.tick));
       break;
@@ -534,9 +560,7 @@ std::uint64_t ModelBoard::quiet_run(std::uint64_t limit, int encoder_a, int enco
   if (tx_byte_cycle_ != kNever && tx_byte_cycle_ >= s.cycle) clocks = std::min(clocks, tx_byte_cycle_ - s.cycle + 1);
   if (s.running) {
     const std::uint64_t elapsed = s.cycle - s.run_start;
-    for (std::uint64_t event :
-         {std::uint64_t{kLoadCycles + kJointCycles}, std::uint64_t{kLoadCycles + 2 * kJointCycles},
-          std::uint64_t{kLoadCycles + 3 * kJointCycles}}) {
+    for (std::uint64_t event : {duty_cycle(0), duty_cycle(1), duty_cycle(2)}) {
       if (event > elapsed) {
         clocks = std::min(clocks, event - elapsed);
         break;
@@ -584,6 +608,7 @@ std::uint64_t ModelBoard::quiet_run(std::uint64_t limit, int encoder_a, int enco
   s.pwm_phase = (last_phase + 1) % period;
   if (s.busy) s.step += static_cast<int>(clocks);
   s.tick += static_cast<int>(clocks);
+  if (s.tick == kClocksPerPeriod) s.tick = 0;  // (a run ends before tick 0 at the latest)
   s.cycle += clocks;
   return clocks;
 }
@@ -722,7 +747,6 @@ bool ModelBoard::micro_clock(int encoder_a, int encoder_b) {
   // ---- joint controller ----
   std::uint64_t elapsed = 0;
   if (s.running) elapsed = s.cycle - s.run_start;
-  const int current_valid = s.current_valid;
 
   // ---- telemetry capture, link_tx ----
   const bool capturing = s.capturing, writing = s.writing;
@@ -761,7 +785,7 @@ bool ModelBoard::micro_clock(int encoder_a, int encoder_b) {
   // What settle() follows changes below: the TX RAM read's address or word, the capture's word,
   // a stored current (the peek), a reference (the safety pipeline).
   bool stored = false;
-  for (int j = 0; j < 3; ++j) stored |= elapsed == static_cast<std::uint64_t>(kLoadCycles + kJointCycles * (j + 1));
+  for (int j = 0; j < 3; ++j) stored |= elapsed == duty_cycle(j);
   if (tx_load || writing || capturing || stored || (interpolating && old_step == 7)) s.settled = false;
 
   // link_rx: the ring's read (before this clock's write), the byte in, the byte processed.
@@ -826,25 +850,8 @@ bool ModelBoard::micro_clock(int encoder_a, int encoder_b) {
     s.joint = 0;
   }
 
-  // joint controller: a current stored (the third ends the run); joint_pwm: the duties
-  s.current_valid = 0;
-  if (elapsed != 0) {
-    for (int j = 0; j < 3; ++j) {
-      if (elapsed == static_cast<std::uint64_t>(kLoadCycles + kJointCycles * (j + 1))) {
-        s.current[j] = static_cast<std::uint16_t>(s.next_current[j]);
-        s.current_valid |= 1 << j;
-        s.peek_memory[j][kSlotCurrent] = static_cast<std::uint32_t>(static_cast<std::int32_t>(s.next_current[j]));
-        s.overflow = static_cast<std::uint16_t>(std::min<int>(0xFFFF, s.overflow + s.next_overflow[j]));
-      }
-    }
-    if (elapsed == static_cast<std::uint64_t>(kLoadCycles + 3 * kJointCycles)) {
-      s.running = false;
-      s.primed = true;
-    }
-  }
-  for (int j = 0; j < 3; ++j) {
-    if ((current_valid >> j) & 1) set_duty(s, j, s.current[j]);
-  }
+  // joint controller: a current stored with its PWM duty (the third ends the run)
+  if (elapsed != 0) store_current(s, elapsed);
 
   // telemetry capture and link_tx
   if (writing) m.words[(16 + s.written) & 255] = word;
@@ -1206,22 +1213,7 @@ void ModelBoard::clock(int encoder_a, int encoder_b) {
       n.peek_memory[j][kSlotEncoder] = static_cast<std::uint32_t>(static_cast<std::int32_t>(input.encoder));
     }
   }
-  n.current_valid = 0;
-  if (s.running) {
-    const std::uint64_t elapsed = s.cycle - s.run_start;  // 1 .. 1071
-    for (int j = 0; j < 3; ++j) {
-      if (elapsed == static_cast<std::uint64_t>(kLoadCycles + kJointCycles * (j + 1))) {
-        n.current[j] = static_cast<std::uint16_t>(s.next_current[j]);
-        n.current_valid |= 1 << j;
-        n.peek_memory[j][kSlotCurrent] = static_cast<std::uint32_t>(static_cast<std::int32_t>(s.next_current[j]));
-        n.overflow = static_cast<std::uint16_t>(std::min<int>(0xFFFF, s.overflow + s.next_overflow[j]));
-      }
-    }
-    if (elapsed == static_cast<std::uint64_t>(kLoadCycles + 3 * kJointCycles)) {  // (ap_done: a clock later in the RTL)
-      n.running = false;
-      n.primed = true;
-    }
-  }
+  if (s.running) store_current(n, s.cycle - s.run_start);  // elapsed 1 .. kRunCycles
   if (s.tick == 0 && ap_idle) {
     n.start_q = true;
     n.counts_q = s.count;
@@ -1231,7 +1223,6 @@ void ModelBoard::clock(int encoder_a, int encoder_b) {
     n.running = false;
     n.primed = false;
     n.current = {0, 0, 0};
-    n.current_valid = 0;
     n.overflow = 0;
   }
 
@@ -1266,9 +1257,6 @@ void ModelBoard::clock(int encoder_a, int encoder_b) {
   if (s.checked) n.active = following != 0 || outside != 0;
 
   // ---- joint_pwm ----
-  for (int j = 0; j < 3; ++j) {
-    if ((s.current_valid >> j) & 1) set_duty(n, j, s.current[j]);
-  }
   int pwm = 0;
   for (int j = 0; j < 3; ++j) {
     if (s.enabled && !fault && s.pwm_phase < s.duty[j]) pwm |= 1 << j;

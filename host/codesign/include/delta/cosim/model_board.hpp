@@ -8,9 +8,10 @@
 //   reference interpolation (setpoint_interpolation.hpp's rule) at tick ClocksPerPeriod - 100,
 //     joint j's reference written 7 (j + 1) cycles after the update starts,
 //   joint controllers (control::fixed_update, fixed_rest_state after a period with the drives
-//     off) started at tick 1, joint j's current stored at tick 363 + 355 j (joint_controller.sv's
-//     1072-cycle schedule), its PWM duty one cycle later; the play shift (interpolation::play_shift)
-//     written with each joint's reference update, for the next period.
+//     off) started at tick 1, joint j's PWM duty set at tick 364 + 355 j (joint_controller.sv's
+//     1072-cycle schedule stores the current a clock before; the model stores both at once); the
+//     play shift (interpolation::play_shift) written with each joint's reference update, for the
+//     next period.
 #pragma once
 
 #include <array>
