@@ -13,6 +13,7 @@
 #include "delta/board_facts.hpp"
 #include "delta/golden/joint_fixed.hpp"
 #include "delta/golden/setpoint_interpolation.hpp"
+#include "delta/link/frame_codec.hpp"
 
 namespace delta::cosim {
 namespace {
@@ -46,14 +47,8 @@ constexpr std::uint64_t kTxByteDelay = kClocksPerBit / 2 + 9 * kClocksPerBit;
 
 std::uint16_t saturating_increment(std::uint16_t value) { return value == 0xFFFF ? value : value + 1; }
 
-std::uint16_t crc_byte(std::uint16_t crc, std::uint8_t data) {
-  std::uint16_t value = crc ^ static_cast<std::uint16_t>(data << 8);
-  for (int b = 0; b < 8; ++b) {
-    value = (value & 0x8000) ? static_cast<std::uint16_t>((value << 1) ^ board::kFrameCrcPolynomial)
-                             : static_cast<std::uint16_t>(value << 1);
-  }
-  return value;
-}
+// The link CRC-16 register after one more byte (link_crc16.sv; the host's link::crc16).
+std::uint16_t crc_byte(std::uint16_t crc, std::uint8_t data) { return link::crc16(&data, 1, crc); }
 
 int payload_size(std::uint8_t type, bool* known) {
   *known = true;

@@ -1,6 +1,7 @@
 // The frame codec of the board link v2 (see frame_codec.hpp).
 #include "delta/link/frame_codec.hpp"
 
+#include <array>
 #include <stdexcept>
 #include <string>
 
@@ -37,13 +38,29 @@ std::optional<std::size_t> payload_bytes(Receiver receiver, std::uint8_t type) {
   }
 }
 
+namespace {
+
+// The CRC of each byte value from a zero register: the polynomial's eight shifts, a byte at once.
+struct Crc16Table {
+  std::array<std::uint16_t, 256> entry{};
+  constexpr Crc16Table() {
+    for (int value = 0; value < 256; ++value) {
+      auto crc = static_cast<std::uint16_t>(value << 8);
+      for (int bit = 0; bit < 8; ++bit) {
+        crc = (crc & 0x8000) ? static_cast<std::uint16_t>((crc << 1) ^ board::kFrameCrcPolynomial)
+                             : static_cast<std::uint16_t>(crc << 1);
+      }
+      entry[static_cast<std::size_t>(value)] = crc;
+    }
+  }
+};
+constexpr Crc16Table kCrc16Table;
+
+}  // namespace
+
 std::uint16_t crc16(const std::uint8_t* data, std::size_t size, std::uint16_t crc) {
   for (std::size_t i = 0; i < size; ++i) {
-    crc ^= static_cast<std::uint16_t>(data[i]) << 8;
-    for (int bit = 0; bit < 8; ++bit) {
-      crc = (crc & 0x8000) ? static_cast<std::uint16_t>((crc << 1) ^ board::kFrameCrcPolynomial)
-                           : static_cast<std::uint16_t>(crc << 1);
-    }
+    crc = static_cast<std::uint16_t>((crc << 8) ^ kCrc16Table.entry[((crc >> 8) ^ data[i]) & 0xFF]);
   }
   return crc;
 }
@@ -54,8 +71,12 @@ std::vector<std::uint8_t> encode_frame(const Frame& frame) {
     throw std::invalid_argument("link frame of type " + std::to_string(static_cast<int>(frame.type)) + " with " +
                                 std::to_string(frame.payload.size()) + " payload bytes");
   }
-  std::vector<std::uint8_t> bytes = {kSync, static_cast<std::uint8_t>(frame.payload.size()), frame.sequence,
-                                     static_cast<std::uint8_t>(frame.type)};
+  std::vector<std::uint8_t> bytes;
+  bytes.reserve(kHeaderBytes + frame.payload.size() + kCrcBytes);
+  for (std::uint8_t header : {kSync, static_cast<std::uint8_t>(frame.payload.size()), frame.sequence,
+                              static_cast<std::uint8_t>(frame.type)}) {
+    bytes.push_back(header);
+  }
   bytes.insert(bytes.end(), frame.payload.begin(), frame.payload.end());
   const std::uint16_t crc = crc16(bytes.data() + 1, bytes.size() - 1);
   bytes.push_back(static_cast<std::uint8_t>(crc >> 8));
