@@ -198,18 +198,18 @@ bool VirtualBoard::skip_model(std::uint64_t limit) {
   return true;
 }
 
-void VirtualBoard::run(std::uint64_t board_clocks, bool until_byte) {
+void VirtualBoard::run(std::uint64_t board_clocks, std::size_t until_bytes) {
   const std::uint64_t end = clocks_ + board_clocks;
-  while (clocks_ < end && !(until_byte && !from_board_.empty())) {
+  while (clocks_ < end && !(until_bytes != 0 && from_board_.size() >= until_bytes)) {
     if (!core_->board || period_phase_ == 0 || !skip_model(end - clocks_)) clock();
   }
   if (core_->board) flush_world();
 }
 
-void VirtualBoard::step(std::uint64_t board_clocks) { run(board_clocks, false); }
+void VirtualBoard::step(std::uint64_t board_clocks) { run(board_clocks, 0); }
 
-bool VirtualBoard::step_until_byte(std::uint64_t board_clocks) {
-  run(board_clocks, true);
+bool VirtualBoard::step_until_byte(std::uint64_t board_clocks, std::size_t bytes) {
+  run(board_clocks, std::max<std::size_t>(bytes, 1));
   return !from_board_.empty();
 }
 
@@ -232,9 +232,9 @@ BoardPins VirtualBoard::pins() const {
   return pins;
 }
 
-bool VirtualBoardStream::wait_readable(int timeout_ms) {
+bool VirtualBoardStream::wait_readable(int timeout_ms, std::size_t bytes) {
   const auto clocks = static_cast<std::uint64_t>(std::max(timeout_ms, 0)) * kClocksPerMillisecond;
-  return board_.step_until_byte(std::max<std::uint64_t>(clocks, 1));
+  return board_.step_until_byte(std::max<std::uint64_t>(clocks, 1), bytes);
 }
 
 }  // namespace delta::cosim

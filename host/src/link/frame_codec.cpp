@@ -90,6 +90,11 @@ std::vector<Frame> FrameDecoder::feed(const std::uint8_t* data, std::size_t size
   return frames;
 }
 
+std::size_t FrameDecoder::bytes_to_decide() const {
+  if (buffer_.empty()) return 1;
+  return (expected_ != 0 ? expected_ : kHeaderBytes) - buffer_.size();
+}
+
 void FrameDecoder::accept_byte(std::uint8_t byte, std::vector<Frame>& frames) {
   if (buffer_.empty()) {
     if (byte == kSync) {

@@ -83,7 +83,7 @@ void LinkSession::receive_frames() {
                                                       std::to_string(options_.frame_timeout_ms) + " ms");
     }
     try {
-      readable = stream_.wait_readable(static_cast<int>(std::min<long long>(left, 100)));
+      readable = stream_.wait_readable(static_cast<int>(std::min<long long>(left, 100)), decoder_.bytes_to_decide());
     } catch (const std::system_error& error) {
       throw LinkError(LinkError::Kind::kLinkLost, std::string("link: ") + error.what());
     }

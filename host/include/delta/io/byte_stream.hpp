@@ -24,6 +24,13 @@ class ByteStream {
   // fd(); a stream without a descriptor overrides it (the in-process virtual board advances its
   // simulated time here, so its timeout is in board time).
   virtual bool wait_readable(int timeout_ms);
+  // The same, where the reader can do nothing before `bytes` bytes are there (the rest of a frame):
+  // a stream may return with fewer; the in-process virtual board runs on until they are there
+  // (or the timeout), without stopping at every byte.
+  virtual bool wait_readable(int timeout_ms, std::size_t bytes) {
+    static_cast<void>(bytes);
+    return wait_readable(timeout_ms);
+  }
   virtual const std::string& name() const = 0;
 };
 

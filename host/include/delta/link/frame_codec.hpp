@@ -88,6 +88,9 @@ class FrameDecoder {
   std::vector<Frame> feed(const std::uint8_t* data, std::size_t size);
   std::vector<Frame> feed(const std::vector<std::uint8_t>& bytes) { return feed(bytes.data(), bytes.size()); }
   const DecoderCounters& counters() const { return counters_; }
+  // Bytes the decoder needs before it can complete or drop a frame: the rest of the header, then
+  // the rest of the frame (1 between frames).
+  std::size_t bytes_to_decide() const;
   std::uint64_t dropped() const { return counters_.bad_crc + counters_.bad_length + counters_.unknown_type; }
 
  private:

@@ -100,8 +100,9 @@ class VirtualBoard {
   std::size_t bytes_from_board() const { return from_board_.size(); }
 
   void step(std::uint64_t board_clocks);
-  // Steps until a byte from the board is waiting or `board_clocks` have passed; true if one is.
-  bool step_until_byte(std::uint64_t board_clocks);
+  // Steps until `bytes` bytes from the board are waiting (at least one) or `board_clocks` have
+  // passed; true if one is.
+  bool step_until_byte(std::uint64_t board_clocks, std::size_t bytes = 1);
   std::uint64_t clocks() const { return clocks_; }
   std::uint64_t idle_network_clocks() const;  // RTL: board clocks run without the network's edges
   double time_s() const { return static_cast<double>(clocks_) / kBoardClockHz; }
@@ -124,7 +125,7 @@ class VirtualBoard {
   void clock_model();
   bool skip_model(std::uint64_t limit);
   void flush_world();
-  void run(std::uint64_t board_clocks, bool until_byte);
+  void run(std::uint64_t board_clocks, std::size_t until_bytes);  // until_bytes 0: all board_clocks
   void observe(bool drives_enabled);
 
   std::unique_ptr<Core> core_;
@@ -149,7 +150,8 @@ class VirtualBoardStream : public io::ByteStream {
       : board_(board), name_(std::move(name)) {}
   std::size_t read_some(std::uint8_t* data, std::size_t capacity) override { return board_.read(data, capacity); }
   void write_all(const std::uint8_t* data, std::size_t size, int /*timeout_ms*/) override { board_.write(data, size); }
-  bool wait_readable(int timeout_ms) override;
+  bool wait_readable(int timeout_ms) override { return wait_readable(timeout_ms, 1); }
+  bool wait_readable(int timeout_ms, std::size_t bytes) override;
   int fd() const override { return -1; }
   const std::string& name() const override { return name_; }
 
