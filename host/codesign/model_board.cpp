@@ -44,6 +44,9 @@ constexpr std::uint64_t kRunCycles = duty_cycle(2);  // ap_done (the RTL's, too)
 // uart_tx loads the byte and completes the byte B/2 + 9 B clocks later, at the stop bit's middle.
 constexpr std::uint64_t kRxValidDelay = 3 + kClocksPerBit / 2 + 9 * kClocksPerBit;
 constexpr std::uint64_t kTxByteDelay = kClocksPerBit / 2 + 9 * kClocksPerBit;
+// link_tx hands uart_tx a byte in the first clock it finds it ready, which is 10 B + 1 clocks after
+// the last: a frame's bytes load that far apart from the first (which waits for the UART's last).
+constexpr std::uint64_t kTxByteClocks = 10 * kClocksPerBit + 1;
 
 std::uint16_t saturating_increment(std::uint16_t value) { return value == 0xFFFF ? value : value + 1; }
 
@@ -258,16 +261,13 @@ struct ModelBoard::State {
   std::uint16_t bad_frames = 0, underruns = 0, slew_limits = 0, refused = 0;
   std::uint8_t last_sequence = 0;
   // link_tx
-  std::uint16_t read_data = 0;
   bool capturing = false, writing = false, telemetry_pending = false, identify_pending = false;
   int capture = 0, written = 0, word_index = 0;
-  int tx_state = 0, tx_index = 0, tx_length = 0;
+  int tx_state = 0, tx_length = 0;  // 0 idle, 2 sending (a frame scheduled on the TX line)
   bool is_identify = false;
   std::uint8_t telemetry_sequence = 0, tx_sequence = 0, identify_sequence = 0;
-  std::uint16_t tx_crc = 0xFFFF;
-  // uart_tx
-  std::uint16_t frame = 0x3FF;
-  int bits_left = 0, tx_count = 0;
+  std::uint64_t tx_last_load = 0;  // the frame's last byte to uart_tx (link_tx idle from the next clock)
+  std::uint64_t uart_free = 0;     // the first clock uart_tx is ready after it
 };
 
 ModelBoard::ModelBoard(const golden::QuantisedNetwork& network, const std::string& identify_mem)
@@ -294,8 +294,6 @@ ModelBoard::~ModelBoard() = default;
 // the safety pipeline), as the first quiet clock after a full one computes them; they hold then.
 void ModelBoard::settle() {
   State& s = *state_;
-  const int payload = (s.tx_index - 4) & 63;
-  s.read_data = memories_->words[((s.is_identify ? 0 : 16) + (payload >> 1)) & 255];
   s.peek_data = peek_word(s.peek_memory, s.capture);
   s.word_index = s.capture;
   for (int j = 0; j < 3; ++j) {
@@ -339,7 +337,6 @@ bool ModelBoard::quiet() const {
   // link_tx idle or waiting for uart_tx inside a bit; no capture.
   if (s.capturing || s.writing) return false;
   if (s.tx_state == 0 && (s.telemetry_pending || s.identify_pending)) return false;
-  if (s.bits_left == 0 && s.tx_state != 0) return false;  // link_tx sees the UART ready
   return true;
 }
 
@@ -419,7 +416,6 @@ bool ModelBoard::quiet() const {
   X(slew_limits)                       \
   X(refused)                           \
   X(last_sequence)                     \
-  X(read_data)                         \
   X(capturing)                         \
   X(writing)                           \
   X(telemetry_pending)                 \
@@ -428,16 +424,13 @@ bool ModelBoard::quiet() const {
   X(written)                           \
   X(word_index)                        \
   X(tx_state)                          \
-  X(tx_index)                          \
   X(tx_length)                         \
   X(is_identify)                       \
   X(telemetry_sequence)                \
   X(tx_sequence)                       \
-  X(identify_sequence)                 \
-  X(tx_crc)                            \
-  X(frame)                             \
-  X(bits_left)                         \
-  X(tx_count)
+  X(tx_last_load)                      \
+  X(uart_free)                       \
+  X(identify_sequence)                
 
 // The first register in which a and b differ (nullptr: none).
 const char* ModelBoard::differing_register(const State& a, const State& b) {
@@ -455,20 +448,18 @@ std::uint64_t ModelBoard::skip(std::uint64_t limit, int encoder_a, int encoder_b
   const State before = *state_;
   const Memories memories_before = *memories_;
   const auto rx_line_before = rx_line_;
-  const std::uint64_t tx_byte_cycle_before = tx_byte_cycle_;
-  const std::uint8_t tx_byte_before = tx_byte_;
+  const auto tx_line_before = tx_line_;
   const std::uint64_t taken = skip_run(limit, encoder_a, encoder_b, pattern);
   if (taken == 0) return 0;
   const State after = *state_;
   const Memories memories_after = *memories_;
   const auto rx_line_after = rx_line_;
-  const std::uint64_t tx_byte_cycle_after = tx_byte_cycle_;
+  const auto tx_line_after = tx_line_;
   const ModelBoardPins pins_after = pins_;
   *state_ = before;
   *memories_ = memories_before;
   rx_line_ = rx_line_before;
-  tx_byte_cycle_ = tx_byte_cycle_before;
-  tx_byte_ = tx_byte_before;
+  tx_line_ = tx_line_before;
   checking_ = true;
   auto fail = [&](const std::string& what) {
     checking_ = false;
@@ -490,7 +481,7 @@ std::uint64_t ModelBoard::skip(std::uint64_t limit, int encoder_a, int encoder_b
       memories_->words != memories_after.words) {
     fail("a block RAM");
   }
-  if (tx_byte_cycle_ != tx_byte_cycle_after || rx_line_.size() != rx_line_after.size()) fail("a serial line");
+  if (tx_line_.size() != tx_line_after.size() || rx_line_.size() != rx_line_after.size()) fail("a serial line");
   if (pins_.drive_pwm != pins_after.drive_pwm || pins_.drive_dir != pins_after.drive_dir ||
       pins_.drive_enable != pins_after.drive_enable) {
     fail("the pins after the run");
@@ -521,9 +512,8 @@ std::uint64_t ModelBoard::skip_run(std::uint64_t limit, int encoder_a, int encod
         break;
       }
     }
-    if (tx_byte_cycle_ < s.cycle) break;  // the TX line completed a byte: for the host now
+    if (!tx_line_.empty() && tx_line_.front().cycle < s.cycle) break;  // a byte for the host now
   }
-  pins_.uart_tx = s.frame & 1;
   pins_.drive_pwm = s.pwm;
   pins_.drive_dir = s.direction;
   pins_.drive_enable = s.enable_out;
@@ -548,11 +538,10 @@ std::uint64_t ModelBoard::quiet_run(std::uint64_t limit, int encoder_a, int enco
   // last bit ends (link_tx sees it ready in the next) and the clock the line completes its byte.
   const bool rx_byte = !rx_line_.empty();
   if (rx_byte) clocks = std::min(clocks, rx_line_.front().valid_cycle - s.cycle + 1);
-  if (s.bits_left != 0) {
-    clocks =
-        std::min<std::uint64_t>(clocks, static_cast<std::uint64_t>(s.tx_count + 1 + (s.bits_left - 1) * kClocksPerBit));
+  if (s.tx_state != 0) clocks = std::min(clocks, s.tx_last_load - s.cycle + 1);
+  if (!tx_line_.empty() && tx_line_.front().cycle >= s.cycle) {
+    clocks = std::min(clocks, tx_line_.front().cycle - s.cycle + 1);
   }
-  if (tx_byte_cycle_ != kNever && tx_byte_cycle_ >= s.cycle) clocks = std::min(clocks, tx_byte_cycle_ - s.cycle + 1);
   if (s.running) {
     const std::uint64_t elapsed = s.cycle - s.run_start;
     for (std::uint64_t event : {duty_cycle(0), duty_cycle(1), duty_cycle(2)}) {
@@ -580,24 +569,12 @@ std::uint64_t ModelBoard::quiet_run(std::uint64_t limit, int encoder_a, int enco
   for (int j = 0; j < 3; ++j) {
     if (enabled && last_phase < s.duty[j]) pwm |= 1 << j;
   }
-  const int counted = static_cast<int>(clocks);
   if (rx_byte && rx_line_.front().valid_cycle == s.cycle + clocks - 1) {  // the run's last clock
     s.rx_valid = true;
     s.rx_shift = rx_line_.front().byte;
     rx_line_.pop_front();
   }
-  if (s.bits_left != 0) {
-    // A bit ends in each clock that finds the count at 0: the first after tx_count + 1 clocks.
-    if (counted <= s.tx_count) {
-      s.tx_count -= counted;
-    } else {
-      const int after = counted - s.tx_count - 1;
-      const int bits = 1 + after / kClocksPerBit;  // at most bits_left (the bound above)
-      s.frame = static_cast<std::uint16_t>(((s.frame >> bits) | (((1u << bits) - 1) << (10 - bits))) & 0x3FF);
-      s.bits_left -= bits;
-      s.tx_count = kClocksPerBit - 1 - after % kClocksPerBit;
-    }
-  }
+  if (s.tx_state != 0 && s.tx_last_load == s.cycle + clocks - 1) s.tx_state = 0;  // the frame's last byte loaded
   s.pwm = pwm;
   s.enable_out = enabled;
   s.pwm_phase = (last_phase + 1) % period;
@@ -626,15 +603,7 @@ void ModelBoard::count_clock(int encoder_a, int encoder_b) {
     s.rx_shift = rx_line_.front().byte;
     rx_line_.pop_front();
   }
-  if (s.bits_left != 0) {
-    if (s.tx_count != 0) {
-      --s.tx_count;
-    } else {
-      s.frame = static_cast<std::uint16_t>(0x200 | (s.frame >> 1));
-      --s.bits_left;
-      s.tx_count = kClocksPerBit - 1;
-    }
-  }
+  if (s.tx_state != 0 && s.tx_last_load == s.cycle) s.tx_state = 0;
   if (s.busy) ++s.step;
   s.tick = s.tick == kClocksPerPeriod - 1 ? 0 : s.tick + 1;
   ++s.cycle;
@@ -746,32 +715,12 @@ bool ModelBoard::micro_clock(int encoder_a, int encoder_b) {
   // ---- telemetry capture, link_tx ----
   const bool capturing = s.capturing, writing = s.writing;
   const std::uint16_t word = writing ? telemetry_word_of(s) : std::uint16_t{0};
-  const bool tx_load = s.tx_state == 2 && s.bits_left == 0;
-  std::uint8_t tx_data = 0;
-  if (tx_load) {
-    const int payload = (s.tx_index - 4) & 63;
-    if (s.tx_index == 0)
-      tx_data = static_cast<std::uint8_t>(board::kFrameSync);
-    else if (s.tx_index == 1)
-      tx_data = static_cast<std::uint8_t>(s.tx_length);
-    else if (s.tx_index == 2)
-      tx_data = s.tx_sequence;
-    else if (s.tx_index == 3)
-      tx_data = static_cast<std::uint8_t>(s.is_identify ? board::kFrameTypeIdentify : board::kFrameTypeTelemetry);
-    else if (s.tx_index == s.tx_length + 4)
-      tx_data = static_cast<std::uint8_t>(s.tx_crc >> 8);
-    else if (s.tx_index == s.tx_length + 5)
-      tx_data = static_cast<std::uint8_t>(s.tx_crc & 0xFF);
-    else
-      tx_data = static_cast<std::uint8_t>((payload & 1) ? s.read_data >> 8 : s.read_data & 0xFF);
-  }
 
   // The present values the work below writes over.
   const bool was_fetched = s.fetched;
   const std::uint8_t ring_byte = s.ring_data, rx_byte = s.rx_shift;
-  const int old_index = s.index, old_read = s.read, old_write = s.write, old_tx_index = s.tx_index;
+  const int old_index = s.index, old_read = s.read, old_write = s.write;
   const int old_step = s.step, capture = s.capture;
-  const std::uint64_t cycle = s.cycle;
   const std::uint32_t next_index = s.sample_index + static_cast<std::uint32_t>(s.fill);
 
   // The registers that follow the present state every clock (RAM reads before this clock's writes).
@@ -781,7 +730,7 @@ bool ModelBoard::micro_clock(int encoder_a, int encoder_b) {
   // a stored current (the peek), a reference (the safety pipeline).
   bool stored = false;
   for (int j = 0; j < 3; ++j) stored |= elapsed == duty_cycle(j);
-  if (tx_load || writing || capturing || stored || (interpolating && old_step == 7)) s.settled = false;
+  if (writing || capturing || stored || (interpolating && old_step == 7)) s.settled = false;
 
   // link_rx: the ring's read (before this clock's write), the byte in, the byte processed.
   s.ring_data = m.ring[old_read];
@@ -857,16 +806,6 @@ bool ModelBoard::micro_clock(int encoder_a, int encoder_b) {
     s.capture = (capture + 1) & 31;
     if (capture == kTelemetryWords - 1) s.capturing = false;
   }
-  if (tx_load) {
-    if (old_tx_index != 0 && old_tx_index < s.tx_length + 4) s.tx_crc = crc_byte(s.tx_crc, tx_data);
-    s.tx_index = (old_tx_index + 1) & 63;
-    if (old_tx_index == s.tx_length + 5) s.tx_state = 0;
-    s.frame = static_cast<std::uint16_t>(0x200 | (tx_data << 1));
-    s.bits_left = 10;
-    s.tx_count = kClocksPerBit - 1;
-    tx_byte_ = tx_data;
-    tx_byte_cycle_ = cycle + kTxByteDelay;
-  }
   return true;
 }
 
@@ -897,9 +836,9 @@ std::size_t ModelBoard::bytes_on_line() {
 }
 
 bool ModelBoard::take_tx_byte(std::uint8_t* byte) {
-  if (tx_byte_cycle_ == kNever || tx_byte_cycle_ >= state_->cycle) return false;
-  *byte = tx_byte_;
-  tx_byte_cycle_ = kNever;
+  if (tx_line_.empty() || tx_line_.front().cycle >= state_->cycle) return false;
+  *byte = tx_line_.front().byte;
+  tx_line_.pop_front();
   return true;
 }
 
@@ -944,6 +883,33 @@ std::uint16_t ModelBoard::telemetry_word_of(const State& s) {
     return s.peek_data >> 16;
   else
     return s.peek_data & 0xFFFF;
+}
+
+// link_tx and uart_tx a frame at a time: link_tx starts a frame in clock `start` (n: its header
+// fields set) and hands uart_tx byte k (sync, length, sequence, type, the payload's words low byte
+// first from its RAM, the CRC high byte first) in the clock kTxByteClocks k after the first, which
+// waits for the UART's last byte; the TX line completes each kTxByteDelay later. The words it
+// reads hold still while it sends (a capture waits for a telemetry frame to end; an identify
+// frame reads words no capture writes).
+void ModelBoard::start_frame(State& n, std::uint64_t start) {
+  const Memories& m = *memories_;
+  std::array<std::uint8_t, 6 + board::kFrameMaxPayloadBytes> bytes{};
+  const int length = n.tx_length;
+  bytes[0] = static_cast<std::uint8_t>(board::kFrameSync);
+  bytes[1] = static_cast<std::uint8_t>(length);
+  bytes[2] = n.tx_sequence;
+  bytes[3] = static_cast<std::uint8_t>(n.is_identify ? board::kFrameTypeIdentify : board::kFrameTypeTelemetry);
+  for (int p = 0; p < length; ++p) {
+    const std::uint16_t word = m.words[((n.is_identify ? 0 : 16) + (p >> 1)) & 255];
+    bytes[4 + p] = static_cast<std::uint8_t>((p & 1) ? word >> 8 : word & 0xFF);
+  }
+  const std::uint16_t crc = link::crc16(bytes.data() + 1, static_cast<std::size_t>(length + 3));
+  bytes[length + 4] = static_cast<std::uint8_t>(crc >> 8);
+  bytes[length + 5] = static_cast<std::uint8_t>(crc & 0xFF);
+  const std::uint64_t first = std::max(start + 1, n.uart_free);
+  for (int k = 0; k < length + 6; ++k) tx_line_.push_back({first + kTxByteClocks * k + kTxByteDelay, bytes[k]});
+  n.tx_last_load = first + kTxByteClocks * static_cast<std::uint64_t>(length + 5);
+  n.uart_free = n.tx_last_load + kTxByteClocks;
 }
 
 void ModelBoard::clock(int encoder_a, int encoder_b) {
@@ -1271,30 +1237,10 @@ void ModelBoard::clock(int encoder_a, int encoder_b) {
   n.peek_data = peek_word(s.peek_memory, s.capture);
   n.word_index = s.capture;
   const std::uint16_t telemetry_word = telemetry_word_of(s);
-  const bool tx_ready = s.bits_left == 0;
-  bool tx_valid = false;
-  std::uint8_t tx_data = 0;
   {
-    const int payload = (s.tx_index - 4) & 63;
-    const int read_address = (s.is_identify ? 0 : 16) + (payload >> 1);
-    n.read_data = m.words[read_address & 255];
     if (s.writing) m.words[(16 + s.written) & 255] = telemetry_word;
-    if (s.tx_index == 0)
-      tx_data = static_cast<std::uint8_t>(board::kFrameSync);
-    else if (s.tx_index == 1)
-      tx_data = static_cast<std::uint8_t>(s.tx_length);
-    else if (s.tx_index == 2)
-      tx_data = s.tx_sequence;
-    else if (s.tx_index == 3)
-      tx_data = static_cast<std::uint8_t>(s.is_identify ? board::kFrameTypeIdentify : board::kFrameTypeTelemetry);
-    else if (s.tx_index == s.tx_length + 4)
-      tx_data = static_cast<std::uint8_t>(s.tx_crc >> 8);
-    else if (s.tx_index == s.tx_length + 5)
-      tx_data = static_cast<std::uint8_t>(s.tx_crc & 0xFF);
-    else
-      tx_data = static_cast<std::uint8_t>((payload & 1) ? s.read_data >> 8 : s.read_data & 0xFF);
     const bool sending_telemetry = s.tx_state != 0 && !s.is_identify;
-    bool clear = false, valid = false, start_identify = false, start_telemetry = false;
+    bool start_identify = false, start_telemetry = false;
     if (s.tx_state == 0) {
       if (s.telemetry_pending) {
         start_telemetry = true;
@@ -1309,19 +1255,11 @@ void ModelBoard::clock(int encoder_a, int encoder_b) {
       }
       if (start_telemetry || start_identify) {
         n.tx_state = 2;
-        n.tx_index = 0;
-        clear = true;
+        start_frame(n, s.cycle);
       }
-    } else {  // state 2 (state 1, the RTL's wait for its RAM read after a payload byte, folded)
-      tx_valid = true;
-      if (tx_ready) {
-        valid = s.tx_index != 0 && s.tx_index < s.tx_length + 4;
-        n.tx_index = (s.tx_index + 1) & 63;
-        if (s.tx_index == s.tx_length + 5) n.tx_state = 0;
-      }
+    } else if (s.cycle == s.tx_last_load) {
+      n.tx_state = 0;  // the frame's last byte goes to uart_tx
     }
-    if (clear) n.tx_crc = 0xFFFF;
-    if (valid) n.tx_crc = crc_byte(clear ? 0xFFFF : s.tx_crc, tx_data);
     n.writing = s.capturing;
     n.written = s.capture;
     if (s.writing && !s.capturing) n.telemetry_pending = true;
@@ -1343,31 +1281,11 @@ void ModelBoard::clock(int encoder_a, int encoder_b) {
       if (s.capture == kTelemetryWords - 1) n.capturing = false;
     }
   }
-  // ---- uart_tx ----
-  if (s.bits_left == 0) {
-    if (tx_valid) {
-      n.frame = static_cast<std::uint16_t>(0x200 | (tx_data << 1));
-      n.bits_left = 10;
-      n.tx_count = kClocksPerBit - 1;
-      // The line (rtl::UartLine at the TX pin) sees the start bit after this clock and completes
-      // the byte at its stop bit's middle.
-      tx_byte_ = tx_data;
-      tx_byte_cycle_ = s.cycle + kTxByteDelay;
-    }
-  } else if (s.tx_count != 0) {
-    n.tx_count = s.tx_count - 1;
-  } else {
-    n.frame = static_cast<std::uint16_t>(0x200 | (s.frame >> 1));
-    n.bits_left = s.bits_left - 1;
-    n.tx_count = kClocksPerBit - 1;
-  }
-
   n.tick = s.tick == kClocksPerPeriod - 1 ? 0 : s.tick + 1;
   n.cycle = s.cycle + 1;
   std::swap(state_, next_state_);
 
   const State& q = *state_;
-  pins_.uart_tx = q.frame & 1;
   pins_.drive_pwm = q.pwm;
   pins_.drive_dir = q.direction;
   pins_.drive_enable = q.enable_out;

@@ -27,7 +27,6 @@
 namespace delta::cosim {
 
 struct ModelBoardPins {
-  int uart_tx = 1;  // the TX pin's level (its bytes: take_tx_byte)
   int drive_pwm = 0;
   int drive_dir = 0;
   bool drive_enable = false;
@@ -82,6 +81,7 @@ class ModelBoard {
   void count_clock(int encoder_a, int encoder_b);
   bool micro_clock(int encoder_a, int encoder_b);
   static std::uint16_t telemetry_word_of(const State& s);
+  void start_frame(State& n, std::uint64_t start);
 
   struct Memories;
   golden::QuantisedNetwork network_;
@@ -100,10 +100,12 @@ class ModelBoard {
   std::deque<RxByte> rx_line_;
   std::deque<std::uint64_t> line_end_;
   std::uint64_t line_free_cycle_ = 0;
-  // The TX line: the byte uart_tx sends and the clock in which the line completes it.
-  static constexpr std::uint64_t kNever = ~std::uint64_t{0};
-  std::uint64_t tx_byte_cycle_ = kNever;
-  std::uint8_t tx_byte_ = 0;
+  // The TX line: the bytes of the frames link_tx sends and the clock in which the line completes each.
+  struct TxByte {
+    std::uint64_t cycle;
+    std::uint8_t byte;
+  };
+  std::deque<TxByte> tx_line_;
 };
 
 }  // namespace delta::cosim
