@@ -429,8 +429,8 @@ bool ModelBoard::quiet() const {
   X(telemetry_sequence)                \
   X(tx_sequence)                       \
   X(tx_last_load)                      \
-  X(uart_free)                       \
-  X(identify_sequence)                
+  X(uart_free)                         \
+  X(identify_sequence)
 
 // The first register in which a and b differ (nullptr: none).
 const char* ModelBoard::differing_register(const State& a, const State& b) {
@@ -512,7 +512,6 @@ std::uint64_t ModelBoard::skip_run(std::uint64_t limit, int encoder_a, int encod
         break;
       }
     }
-    if (!tx_line_.empty() && tx_line_.front().cycle < s.cycle) break;  // a byte for the host now
   }
   pins_.drive_pwm = s.pwm;
   pins_.drive_dir = s.direction;
@@ -539,9 +538,7 @@ std::uint64_t ModelBoard::quiet_run(std::uint64_t limit, int encoder_a, int enco
   const bool rx_byte = !rx_line_.empty();
   if (rx_byte) clocks = std::min(clocks, rx_line_.front().valid_cycle - s.cycle + 1);
   if (s.tx_state != 0) clocks = std::min(clocks, s.tx_last_load - s.cycle + 1);
-  if (!tx_line_.empty() && tx_line_.front().cycle >= s.cycle) {
-    clocks = std::min(clocks, tx_line_.front().cycle - s.cycle + 1);
-  }
+
   if (s.running) {
     const std::uint64_t elapsed = s.cycle - s.run_start;
     for (std::uint64_t event : {duty_cycle(0), duty_cycle(1), duty_cycle(2)}) {
@@ -833,6 +830,10 @@ void ModelBoard::receive(const std::uint8_t* data, std::size_t size) {
 std::size_t ModelBoard::bytes_on_line() {
   while (!line_end_.empty() && line_end_.front() <= state_->cycle) line_end_.pop_front();
   return line_end_.size();
+}
+
+std::uint64_t ModelBoard::tx_byte_cycle(std::size_t k) const {
+  return k < tx_line_.size() ? tx_line_[k].cycle : ~std::uint64_t{0};
 }
 
 bool ModelBoard::take_tx_byte(std::uint8_t* byte) {

@@ -150,7 +150,7 @@ void VirtualBoard::clock_model() {
   board.clock(world_->encoder_a() ^ skipped, world_->encoder_b() ^ skipped);
   const ModelBoardPins& pins = board.pins();
   std::uint8_t byte = 0;
-  if (board.take_tx_byte(&byte)) from_board_.push_back(byte);
+  while (board.take_tx_byte(&byte)) from_board_.push_back(byte);
   world_->step({pins.drive_pwm, pins.drive_dir, pins.drive_enable});
   ++clocks_;
 }
@@ -167,10 +167,14 @@ void VirtualBoard::flush_world() {
 // an event (the board's include its serial lines' bytes), or a control period ends (its first
 // clock, with the observers, goes one by one). The world takes the runs when the drive pattern
 // changes, at its own event, and before anything looks at it.
-bool VirtualBoard::skip_model(std::uint64_t limit) {
+bool VirtualBoard::skip_model(std::uint64_t limit, std::size_t needed_bytes) {
   Core& core = *core_;
   const std::uint64_t to_world_event = world_->cycles_to_event() - world_cycles_;
   std::uint64_t clocks = std::min({limit, kClocksPerTick - period_phase_, to_world_event});
+  if (needed_bytes != 0) {  // up to the clock the line completes the byte the caller waits for
+    const std::uint64_t completes = core.board->tx_byte_cycle(needed_bytes - 1);
+    if (completes != ~std::uint64_t{0}) clocks = std::min(clocks, completes - clocks_ + 1);
+  }
   if (clocks_ < encoder_skip_clock_) clocks = std::min(clocks, encoder_skip_clock_ - clocks_);
   const int skipped = clocks_ >= encoder_skip_clock_ ? 1 : 0;
   DrivePattern pattern;
@@ -178,7 +182,7 @@ bool VirtualBoard::skip_model(std::uint64_t limit) {
       core.board->skip(clocks, world_->encoder_a() ^ skipped, world_->encoder_b() ^ skipped, &pattern);
   if (taken == 0) return false;
   std::uint8_t byte = 0;
-  if (core.board->take_tx_byte(&byte)) from_board_.push_back(byte);
+  while (core.board->take_tx_byte(&byte)) from_board_.push_back(byte);
   const int period = static_cast<int>(board::kPwmPeriodCycles);
   const bool continues = world_cycles_ != 0 && pattern.enable == world_pattern_.enable &&
                          pattern.direction == world_pattern_.direction && pattern.duty == world_pattern_.duty &&
@@ -201,7 +205,8 @@ bool VirtualBoard::skip_model(std::uint64_t limit) {
 void VirtualBoard::run(std::uint64_t board_clocks, std::size_t until_bytes) {
   const std::uint64_t end = clocks_ + board_clocks;
   while (clocks_ < end && !(until_bytes != 0 && from_board_.size() >= until_bytes)) {
-    if (!core_->board || period_phase_ == 0 || !skip_model(end - clocks_)) clock();
+    const std::size_t needed = until_bytes > from_board_.size() ? until_bytes - from_board_.size() : 0;
+    if (!core_->board || period_phase_ == 0 || !skip_model(end - clocks_, needed)) clock();
   }
   if (core_->board) flush_world();
 }

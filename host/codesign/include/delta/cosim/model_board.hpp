@@ -48,9 +48,13 @@ class ModelBoard {
   // uart_rx hands each to link_rx in the clock the RTL's does.
   void receive(const std::uint8_t* data, std::size_t size);
   std::size_t bytes_on_line();  // received and not yet fully on the line
-  // The line at the TX pin: the byte it completed in a clock already run (at the stop bit's
+  // The line at the TX pin: the next byte it completed in a clock already run (at the stop bit's
   // middle, as rtl::UartLine decodes the pin), once.
   bool take_tx_byte(std::uint8_t* byte);
+  // The clock in which the line completes the k-th byte not yet taken (k = 0: the next), as far as
+  // link_tx has started its frame; ~0 if not yet known. A run of clocks (skip) goes past
+  // completions: the caller bounds it where it needs a byte.
+  std::uint64_t tx_byte_cycle(std::size_t k) const;
 
   // One board clock edge with the encoder lines as the board samples them.
   void clock(int encoder_a, int encoder_b);

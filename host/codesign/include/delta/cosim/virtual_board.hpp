@@ -123,7 +123,7 @@ class VirtualBoard {
   class Core;
   void clock();
   void clock_model();
-  bool skip_model(std::uint64_t limit);
+  bool skip_model(std::uint64_t limit, std::size_t needed_bytes);
   void flush_world();
   void run(std::uint64_t board_clocks, std::size_t until_bytes);  // until_bytes 0: all board_clocks
   void observe(bool drives_enabled);
