@@ -620,18 +620,33 @@ bool ModelBoard::micro_clock(int encoder_a, int encoder_b) {
   State& s = *state_;
   Memories& m = *memories_;
   const bool fault = s.fault_cause != 0;
-  if (s.step_error[0] || s.step_error[1] || s.step_error[2] || s.slew_limited || s.starting || s.check || s.checked ||
+  if (s.step_error[0] || s.step_error[1] || s.step_error[2] || s.slew_limited || s.check ||
       (fault && (s.enabled || s.holding)) || (!s.enabled && s.silent_periods != 0) ||
       (s.enabled && s.silent_periods > board::kWatchdogPeriods) ||
       (s.tx_state == 0 && (s.telemetry_pending || s.identify_pending))) {
     return false;
   }
   const int tick = s.tick;
-  if (tick == 0 || tick == 1 || (tick == kClocksPerPeriod / 2 && s.phase == 0) ||
-      (tick == kClocksPerPeriod - 100 && s.busy) || (tick == kClocksPerPeriod - 1 && !s.enabled)) {
+  if (tick == 1 || (tick == kClocksPerPeriod / 2 && s.phase == 0) || (tick == kClocksPerPeriod - 100 && s.busy) ||
+      (tick == kClocksPerPeriod - 1 && !s.enabled)) {
     return false;
   }
   const bool update = tick == kClocksPerPeriod - 100;
+
+  // ---- the period's start (tick 0) and the safety check (a fault latching: the full clock) ----
+  const bool period_start = tick == 0;
+  const bool ap_idle = !s.running;
+  const std::array<std::uint16_t, 3> counts = s.count;
+  int following = 0, outside = 0;
+  if (s.checked) {
+    for (int j = 0; j < 3; ++j) {
+      const std::int32_t high = s.difference_q[j] >> board::kFollowingBits;
+      if (high != 0 && high != -1) following |= 1 << j;
+      if (s.outside_q[j]) outside |= 1 << j;
+    }
+    if (s.enabled && (following != 0 || outside != 0)) return false;
+  }
+  const bool checked = s.checked;
 
   // ---- link_rx (a frame's end or a dropped frame: the full clock) ----
   const bool ring_write = s.rx_valid;
@@ -727,7 +742,24 @@ bool ModelBoard::micro_clock(int encoder_a, int encoder_b) {
   // a stored current (the peek), a reference (the safety pipeline).
   bool stored = false;
   for (int j = 0; j < 3; ++j) stored |= elapsed == duty_cycle(j);
-  if (writing || capturing || stored || (interpolating && old_step == 7)) s.settled = false;
+  if (writing || capturing || stored || (interpolating && old_step == 7) || period_start) s.settled = false;
+
+  // schedule, controller start request, watchdog count, safety check; the played setpoint taken
+  if (period_start) {
+    s.phase = s.phase == 9 ? 0 : s.phase + 1;
+    s.period_count = s.period_count + 1;
+    if (ap_idle) {
+      s.start_q = true;
+      s.counts_q = counts;
+    }
+    if (s.enabled && s.silent_periods != kWatchdogMax) ++s.silent_periods;
+    s.check = ap_idle;
+  }
+  if (checked) {
+    s.active = following != 0 || outside != 0;
+    s.checked = false;
+  }
+  s.starting = false;
 
   // link_rx: the ring's read (before this clock's write), the byte in, the byte processed.
   s.ring_data = m.ring[old_read];
