@@ -170,7 +170,10 @@ void VirtualBoard::flush_world() {
 bool VirtualBoard::skip_model(std::uint64_t limit, std::size_t needed_bytes) {
   Core& core = *core_;
   const std::uint64_t to_world_event = world_->cycles_to_event() - world_cycles_;
-  std::uint64_t clocks = std::min({limit, kClocksPerTick - period_phase_, to_world_event});
+  // The observers see the start of each period (1 ms) they watch in clock().
+  std::uint64_t clocks = std::min(limit, to_world_event);
+  if (period_observer_) clocks = std::min(clocks, kClocksPerTick - period_phase_);
+  if (truth_observer_) clocks = std::min(clocks, kClocksPerMillisecond - millisecond_phase_);
   if (needed_bytes != 0) {  // up to the clock the line completes the byte the caller waits for
     const std::uint64_t completes = core.board->tx_byte_cycle(needed_bytes - 1);
     if (completes != ~std::uint64_t{0}) clocks = std::min(clocks, completes - clocks_ + 1);
@@ -195,10 +198,10 @@ bool VirtualBoard::skip_model(std::uint64_t limit, std::size_t needed_bytes) {
   world_cycles_ += taken;
   if (taken == to_world_event) flush_world();  // the world's event: its plant step or an encoder line
   clocks_ += taken;
-  period_phase_ += taken;
-  if (period_phase_ == kClocksPerTick) period_phase_ = 0;
+  period_phase_ += taken;  // (a run crosses a period's start only where nothing observes it)
+  if (period_phase_ >= kClocksPerTick) period_phase_ %= kClocksPerTick;
   millisecond_phase_ += taken;
-  if (millisecond_phase_ == kClocksPerMillisecond) millisecond_phase_ = 0;
+  if (millisecond_phase_ >= kClocksPerMillisecond) millisecond_phase_ %= kClocksPerMillisecond;
   return true;
 }
 
@@ -206,7 +209,8 @@ void VirtualBoard::run(std::uint64_t board_clocks, std::size_t until_bytes) {
   const std::uint64_t end = clocks_ + board_clocks;
   while (clocks_ < end && !(until_bytes != 0 && from_board_.size() >= until_bytes)) {
     const std::size_t needed = until_bytes > from_board_.size() ? until_bytes - from_board_.size() : 0;
-    if (!core_->board || period_phase_ == 0 || !skip_model(end - clocks_, needed)) clock();
+    const bool observed = (period_observer_ && period_phase_ == 0) || (truth_observer_ && millisecond_phase_ == 0);
+    if (!core_->board || observed || !skip_model(end - clocks_, needed)) clock();
   }
   if (core_->board) flush_world();
 }
