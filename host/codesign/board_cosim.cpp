@@ -137,6 +137,7 @@ CosimResult run_cosim(const CosimOptions& options) {
   result.saturations = last.saturations;
   result.pins = board.pins();
   result.board_cycles = board.clocks();
+  result.board_busy_s = board.busy_s();
   return result;
 }
 

@@ -142,6 +142,12 @@ void run_cosim_command(const CosimCommandOptions& options, const std::string& co
   std::cerr << (terminal ? "\r" : "") << "cosim: " << fixed(options.duration_s, 1) << " s simulated in "
             << fixed(wall, 1) << " s wall (" << fixed(result.board_cycles / kBoardClockHz, 3) << " s of board time, "
             << fixed(result.board_cycles / wall / 1e6, 2) << " M board cycles/s)\n";
+  if (result.board_busy_s > 0.0) {  // the board and the world without the host and the truth recording
+    const double alone = result.board_cycles / result.board_busy_s;
+    std::cerr << "cosim: the board and the world alone: " << fixed(result.board_busy_s, 2) << " s wall, "
+              << fixed(alone / 1e6, 2) << " M board cycles/s, " << fixed(alone / kBoardClockHz, 1)
+              << " x real time (the rest: the host, the truth recording)\n";
+  }
 
   const double from_s = options.blend_s + options.settle_s;
   const TrackingSummary summary = summarise(result, from_s);

@@ -2,6 +2,7 @@
 #include "delta/cosim/virtual_board.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <stdexcept>
 #include <vector>
 
@@ -99,7 +100,11 @@ std::size_t VirtualBoard::read(std::uint8_t* data, std::size_t capacity) {
 }
 
 void VirtualBoard::clock() {
-  if (period_observer_ && period_phase_ == 0) period_observer_(clocks_, pins(), *world_);
+  if (period_observer_ && period_phase_ == 0) {
+    const auto start = std::chrono::steady_clock::now();
+    period_observer_(clocks_, pins(), *world_);
+    observer_s_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  }
   if (core_->board) {
     clock_model();
     if (++period_phase_ == kClocksPerTick) period_phase_ = 0;
@@ -107,16 +112,7 @@ void VirtualBoard::clock() {
     return;
   }
   Vboard_core& core = *core_->model;
-  if (truth_observer_ && millisecond_phase_ == 0) {
-    TruthSample truth;
-    truth.t_s = time_s();
-    truth.position_m = world_->measured_position_m();
-    truth.true_alpha_deg = world_->true_alpha_deg();
-    truth.encoder_deg = world_->encoder_deg();
-    truth.current_a = world_->current_a();
-    truth.drives_enabled = core.drive_enable_o;
-    truth_observer_(truth, *world_);
-  }
+  if (truth_observer_ && millisecond_phase_ == 0) observe(core.drive_enable_o);
   const bool sending = core_->line.sending();
   core.uart_rx_i = core_->line.rx_pin();
   if (sending && ++core_->bits_sent % (10 * kClocksPerBit) == 0) --core_->bytes_on_line;
@@ -132,6 +128,7 @@ void VirtualBoard::clock() {
 }
 
 void VirtualBoard::observe(bool drives_enabled) {
+  const auto start = std::chrono::steady_clock::now();
   TruthSample truth;
   truth.t_s = time_s();
   truth.position_m = world_->measured_position_m();
@@ -140,6 +137,7 @@ void VirtualBoard::observe(bool drives_enabled) {
   truth.current_a = world_->current_a();
   truth.drives_enabled = drives_enabled;
   truth_observer_(truth, *world_);
+  observer_s_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
 void VirtualBoard::clock_model() {
@@ -206,6 +204,8 @@ bool VirtualBoard::skip_model(std::uint64_t limit, std::size_t needed_bytes) {
 }
 
 void VirtualBoard::run(std::uint64_t board_clocks, std::size_t until_bytes) {
+  const auto start = std::chrono::steady_clock::now();
+  const double observers_before = observer_s_;
   const std::uint64_t end = clocks_ + board_clocks;
   while (clocks_ < end && !(until_bytes != 0 && from_board_.size() >= until_bytes)) {
     const std::size_t needed = until_bytes > from_board_.size() ? until_bytes - from_board_.size() : 0;
@@ -213,6 +213,8 @@ void VirtualBoard::run(std::uint64_t board_clocks, std::size_t until_bytes) {
     if (!core_->board || observed || !skip_model(end - clocks_, needed)) clock();
   }
   if (core_->board) flush_world();
+  busy_s_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() -
+             (observer_s_ - observers_before);
 }
 
 void VirtualBoard::step(std::uint64_t board_clocks) { run(board_clocks, 0); }

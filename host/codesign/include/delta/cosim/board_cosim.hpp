@@ -85,6 +85,7 @@ struct CosimResult {
   std::uint16_t slew_limits = 0;
   std::uint16_t saturations = 0;
   std::uint64_t board_cycles = 0;
+  double board_busy_s = 0.0;  // wall time in the board and the world (VirtualBoard::busy_s)
 };
 
 // Throws std::runtime_error if the home pose cannot be found, a pose is unreachable, the board's

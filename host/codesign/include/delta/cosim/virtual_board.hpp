@@ -105,6 +105,9 @@ class VirtualBoard {
   bool step_until_byte(std::uint64_t board_clocks, std::size_t bytes = 1);
   std::uint64_t clocks() const { return clocks_; }
   std::uint64_t idle_network_clocks() const;  // RTL: board clocks run without the network's edges
+  // Wall time spent advancing the board and the world (step, step_until_byte), the observers'
+  // calls excluded: the board's own speed inside a co-simulation [s].
+  double busy_s() const { return busy_s_; }
   double time_s() const { return static_cast<double>(clocks_) / kBoardClockHz; }
 
   // Called at every 1 ms of board time (t = 0, 1 ms, ...) with the truth and the world.
@@ -137,6 +140,8 @@ class VirtualBoard {
   std::uint64_t period_phase_ = 0;       // clocks_ mod kClocksPerTick
   std::uint64_t millisecond_phase_ = 0;  // clocks_ mod kClocksPerMillisecond
   std::uint64_t encoder_skip_clock_ = ~std::uint64_t{0};
+  double busy_s_ = 0.0;
+  double observer_s_ = 0.0;         // (inside runs, taken out of busy_s_)
   DrivePattern world_pattern_;      // model fidelity: the drive pattern of the runs the world has not taken
   std::uint64_t world_cycles_ = 0;  // (their cycles)
 };
