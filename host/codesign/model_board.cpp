@@ -505,7 +505,7 @@ std::uint64_t ModelBoard::skip_run(std::uint64_t limit, int encoder_a, int encod
           s.running && (s.cycle - s.run_start == duty_cycle(0) || s.cycle - s.run_start == duty_cycle(1) ||
                         s.cycle - s.run_start == duty_cycle(2));
       if (new_duty && taken != 0) break;
-      if (!micro_clock(encoder_a, encoder_b)) break;
+      if (!micro_clock(encoder_a, encoder_b, limit - taken)) break;
       ++taken;
       if (new_duty) {
         pattern->direction = s.direction;
@@ -616,7 +616,7 @@ void ModelBoard::count_clock(int encoder_a, int encoder_b) {
 //   telemetry: the capture of a word and its write;
 //   interpolator: a joint's segment change (step 4) and reference (step 7), the update's start;
 //   controller: the load's end, a joint's current stored, its PWM duty, the run's end.
-bool ModelBoard::micro_clock(int encoder_a, int encoder_b) {
+bool ModelBoard::micro_clock(int encoder_a, int encoder_b, std::uint64_t lines_hold) {
   State& s = *state_;
   Memories& m = *memories_;
   const bool fault = s.fault_cause != 0;
@@ -632,6 +632,16 @@ bool ModelBoard::micro_clock(int encoder_a, int encoder_b) {
     return false;
   }
   const bool update = tick == kClocksPerPeriod - 100;
+  // The whole update in its first clock, all three joints (the reference the controllers and the
+  // safety check see next period, the slew-limit count telemetry reports next millisecond: the
+  // same), where nothing can turn the drives off before it ends: the drives on, link_rx idle with
+  // no byte for it before then, the encoder lines held and settled (no skipped state, no fault).
+  // Not under the run check, which compares the RTL's register trace clock by clock.
+  constexpr std::uint64_t kUpdateClocks = 8 * 3;
+  const bool whole_update = update && !check_runs_ && s.enabled && !fault && lines_hold > kUpdateClocks + 4 &&
+                            !s.rx_valid && !s.fetched && s.read == s.write &&
+                            (rx_line_.empty() || rx_line_.front().valid_cycle > s.cycle + kUpdateClocks + 4) &&
+                            encoders_settled(s, encoder_a, encoder_b);
 
   // ---- the period's start (tick 0) and the safety check (a fault latching: the full clock) ----
   const bool period_start = tick == 0;
@@ -817,7 +827,33 @@ bool ModelBoard::micro_clock(int encoder_a, int encoder_b) {
       if (take_answer) s.answer_pending = false;
     }
   }
-  if (update) {
+  if (whole_update) {
+    const bool take = s.answer_pending && s.phase == 0;
+    const int next = s.phase == 9 ? 10 : s.phase + 1;
+    const std::int64_t weight_now = golden::interpolation::kWeights[s.phase];
+    const std::int64_t weight_next =
+        next == 10 ? (std::int64_t{1} << golden::interpolation::kWeightShift) : golden::interpolation::kWeights[next];
+    for (int j = 0; j < 3; ++j) {
+      const std::int64_t c = golden::interpolation::reference_counts(s.net_outputs[j]);
+      const std::int64_t diff = golden::play(c - s.r[j], half_plays_[j]);
+      const bool saturated = diff > golden::interpolation::kDeltaMax || diff < golden::interpolation::kDeltaMin;
+      s.delta = take ? static_cast<std::int32_t>(
+                           saturated ? (diff < 0 ? golden::interpolation::kDeltaMin : golden::interpolation::kDeltaMax)
+                                     : diff)
+                     : s.d[j];
+      if (take && saturated) s.slew_limits = saturating_increment(s.slew_limits);
+      const std::int64_t step = golden::round_shift(std::int64_t{s.delta} * weight_next, 14) -
+                                golden::round_shift(std::int64_t{s.delta} * weight_now, 14);
+      s.shift[j] = golden::interpolation::play_shift(c - s.r[j], half_plays_[j]);
+      s.r[j] = static_cast<std::int32_t>(static_cast<std::uint32_t>(s.r[j]) + static_cast<std::uint32_t>(step));
+      s.d[j] = next == 10 ? 0 : s.delta;
+    }
+    if (take) s.answer_pending = false;
+    s.busy = false;
+    s.step = 0;
+    s.joint = 3;
+    s.settled = false;
+  } else if (update) {
     s.busy = true;
     s.step = 0;
     s.joint = 0;

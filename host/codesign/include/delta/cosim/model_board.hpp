@@ -83,7 +83,7 @@ class ModelBoard {
   bool quiet_clock(int encoder_a, int encoder_b);
   std::uint64_t quiet_run(std::uint64_t limit, int encoder_a, int encoder_b);
   void count_clock(int encoder_a, int encoder_b);
-  bool micro_clock(int encoder_a, int encoder_b);
+  bool micro_clock(int encoder_a, int encoder_b, std::uint64_t lines_hold);
   static std::uint16_t telemetry_word_of(const State& s);
   void start_frame(State& n, std::uint64_t start);
 
