@@ -3,9 +3,11 @@
 # co-simulation (`deltactl cosim`, experiment 1, paper-like robot): the Verilated board core (RTL
 # fidelity) and the C++ model board (model fidelity, bit-exact with it), each as board cycles per
 # second and as a multiple of real time (rtl/board/delta_board_pkg.sv BoardClockHz), median of RUNS
-# runs, then their ratio. The model runs free here (cosim never paces). BASELINE_BUILD (optional):
-# another build (e.g. of an older commit) whose two boards are measured in the same run, and the
-# ratios of this build's boards to its.
+# runs, then their ratio: the whole co-simulation (host, board, world, truth recording) and, where
+# cosim reports it, the board and the world alone (its "alone" line: the wall time inside the
+# virtual board, the observers excluded). The model runs free here (cosim never paces).
+# BASELINE_BUILD (optional): another build (e.g. of an older commit) whose two boards are measured
+# in the same run, and the ratios of this build's boards to its.
 # Usage: scripts/bench_boards.sh [BUILD_DIR] [SECONDS] [RUNS] [BASELINE_BUILD]   (defaults: build, 2, 3, none)
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -20,9 +22,10 @@ work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 clock_mhz=$(awk '/localparam int BoardClockHz/ { gsub(/[_;]/, "", $7); print $7 / 1e6 }' "$root/rtl/board/delta_board_pkg.sv")
 
-# median M board cycles/s of `deltactl cosim --fidelity $1` (deltactl $2, default this build's)
+# M board cycles/s of RUNS runs of `deltactl cosim --fidelity $1` (deltactl $2, default this
+# build's): the whole co-simulation's, then (after "|") the board and world alone ("-" if not reported)
 measure() {
-  local fidelity=$1 program=${2:-$deltactl} rates=() rate run
+  local fidelity=$1 program=${2:-$deltactl} rates=() alone=() rate run
   for ((run = 1; run <= runs; run++)); do
     "$program" cosim --fidelity "$fidelity" --weights "$root/weights/paper_like.json" \
       --effects "$root/sim/paper_like_effects.json" --trajectory experiment1 --duration "$seconds" \
@@ -30,29 +33,49 @@ measure() {
     rate=$(sed -n 's/.*[( ]\([0-9.]*\) M board cycles\/s).*/\1/p' "$work/err" | tail -1)
     [[ -n $rate ]] || { echo "bench_boards: no speed line from --fidelity $fidelity:" >&2; tail -3 "$work/err" >&2; exit 1; }
     rates+=("$rate")
+    rate=$(sed -n 's/.*alone: .* \([0-9.]*\) M board cycles\/s, .*/\1/p' "$work/err" | tail -1)
+    alone+=("${rate:--}")
   done
-  echo "${rates[*]}"
+  echo "${rates[*]} | ${alone[*]}"
 }
 median() { printf '%s\n' "$@" | sort -g | awk '{ a[NR] = $1 } END { print a[int((NR + 1) / 2)] }'; }
 
-read -r -a rtl <<<"$(measure rtl)"
-read -r -a model <<<"$(measure model)"
+split() { # "a b | c d" -> the whole runs (part 1) or the alone runs (part 2)
+  local text=$1 part=$2
+  if [[ $part == 1 ]]; then echo "${text%% |*}"; else echo "${text##*| }"; fi
+}
+rtl_all=$(measure rtl)
+model_all=$(measure model)
 if [[ -n $baseline ]]; then
-  read -r -a base_rtl <<<"$(measure rtl "$baseline/bin/deltactl")"
-  read -r -a base <<<"$(measure model "$baseline/bin/deltactl")"
+  base_rtl_all=$(measure rtl "$baseline/bin/deltactl")
+  base_all=$(measure model "$baseline/bin/deltactl")
 fi
+read -r -a rtl <<<"$(split "$rtl_all" 1)"
+read -r -a model <<<"$(split "$model_all" 1)"
+read -r -a model_alone <<<"$(split "$model_all" 2)"
+read -r -a rtl_alone <<<"$(split "$rtl_all" 2)"
 rtl_median=$(median "${rtl[@]}")
 model_median=$(median "${model[@]}")
-x() { awk -v r="$1" -v c="$clock_mhz" 'BEGIN { printf "%.3f", r / c }'; }
+x() { [[ $1 == - ]] && { echo -; return; }; awk -v r="$1" -v c="$clock_mhz" 'BEGIN { printf "%.3f", r / c }'; }
 echo "| board | runs | M board cycles/s (each) | median | x real time (${clock_mhz} MHz board clock) |"
 echo "|---|---|---|---|---|"
-echo "| RTL (Verilated board_core) | $runs | ${rtl[*]} | $rtl_median | $(x "$rtl_median") |"
-echo "| model (C++ model board) | $runs | ${model[*]} | $model_median | $(x "$model_median") |"
+echo "| RTL (Verilated board_core), whole co-simulation | $runs | ${rtl[*]} | $rtl_median | $(x "$rtl_median") |"
+if [[ ${rtl_alone[0]} != - ]]; then
+  rtl_alone_median=$(median "${rtl_alone[@]}")
+  echo "| RTL, the board and the world alone | $runs | ${rtl_alone[*]} | $rtl_alone_median | $(x "$rtl_alone_median") |"
+fi
+echo "| model (C++ model board), whole co-simulation | $runs | ${model[*]} | $model_median | $(x "$model_median") |"
+if [[ ${model_alone[0]} != - ]]; then
+  model_alone_median=$(median "${model_alone[@]}")
+  echo "| model, the board and the world alone | $runs | ${model_alone[*]} | $model_alone_median | $(x "$model_alone_median") |"
+fi
 if [[ -n $baseline ]]; then
+  read -r -a base_rtl <<<"$(split "$base_rtl_all" 1)"
+  read -r -a base <<<"$(split "$base_all" 1)"
   base_rtl_median=$(median "${base_rtl[@]}")
   base_median=$(median "${base[@]}")
-  echo "| RTL, baseline build ($baseline) | $runs | ${base_rtl[*]} | $base_rtl_median | $(x "$base_rtl_median") |"
-  echo "| model, baseline build ($baseline) | $runs | ${base[*]} | $base_median | $(x "$base_median") |"
+  echo "| RTL, baseline build ($baseline), whole co-simulation | $runs | ${base_rtl[*]} | $base_rtl_median | $(x "$base_rtl_median") |"
+  echo "| model, baseline build ($baseline), whole co-simulation | $runs | ${base[*]} | $base_median | $(x "$base_median") |"
 fi
 ratio() { awk -v a="$1" -v b="$2" 'BEGIN { printf "%.2f", a / b }'; }
 echo "model / RTL: $(ratio "$model_median" "$rtl_median") x"

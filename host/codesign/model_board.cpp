@@ -659,26 +659,38 @@ bool ModelBoard::micro_clock(int encoder_a, int encoder_b, std::uint64_t lines_h
   const bool checked = s.checked;
 
   // ---- link_rx (a frame's end or a dropped frame: the full clock) ----
+  // A byte into an idle ring is fetched and processed two clocks later, by link_rx alone: the
+  // model takes the three clocks in the first (nothing else reads link_rx's registers; the window
+  // keeps clear of tick 1, whose play moves the setpoint buffer's write address), unless the byte
+  // ends or drops a frame, and not under the run check.
   const bool ring_write = s.rx_valid;
+  bool whole_byte =
+      ring_write && !s.fetched && s.read == s.write && !check_runs_ && tick > 1 && tick < kClocksPerPeriod - 2;
+  if (whole_byte && s.index != 0) {
+    bool known = false;
+    const bool drops = s.index == 3 && !(payload_size(s.rx_shift, &known) == s.length && known);
+    whole_byte = !drops && (s.index < 4 || s.index <= s.end);
+  }
+  const std::uint8_t processed = whole_byte ? s.rx_shift : s.ring_data;
   bool fetched = false, frame_start = false, payload_valid = false, crc_clear = false, crc_valid = false;
   int read = s.read, index = s.index;
   std::uint8_t header = 0;
-  if (!s.fetched) {
+  if (!s.fetched && !whole_byte) {
     fetched = s.read != s.write;
   } else {
     read = (s.read + 1) % kRingBytes;
     if (s.index == 0) {
-      if (s.ring_data == board::kFrameSync) {
+      if (processed == board::kFrameSync) {
         index = 1;
         crc_clear = true;
       }
     } else if (s.index < 4) {
       crc_valid = true;
       index = s.index + 1;
-      header = s.ring_data;
+      header = processed;
       if (s.index == 3) {
         bool known = false;
-        const int size = payload_size(s.ring_data, &known);
+        const int size = payload_size(processed, &known);
         if (!(known && s.length == size)) return false;  // dropped: the rescan
         frame_start = true;
       }
@@ -739,8 +751,8 @@ bool ModelBoard::micro_clock(int encoder_a, int encoder_b, std::uint64_t lines_h
   const std::uint16_t word = writing ? telemetry_word_of(s) : std::uint16_t{0};
 
   // The present values the work below writes over.
-  const bool was_fetched = s.fetched;
-  const std::uint8_t ring_byte = s.ring_data, rx_byte = s.rx_shift;
+  const bool was_fetched = s.fetched || whole_byte;
+  const std::uint8_t ring_byte = processed, rx_byte = s.rx_shift;
   const int old_index = s.index, old_read = s.read, old_write = s.write;
   const int old_step = s.step, capture = s.capture;
   const std::uint32_t next_index = s.sample_index + static_cast<std::uint32_t>(s.fill);
@@ -772,7 +784,7 @@ bool ModelBoard::micro_clock(int encoder_a, int encoder_b, std::uint64_t lines_h
   s.starting = false;
 
   // link_rx: the ring's read (before this clock's write), the byte in, the byte processed.
-  s.ring_data = m.ring[old_read];
+  s.ring_data = whole_byte ? ring_byte : m.ring[old_read];
   if (ring_write) {
     m.ring[old_write] = rx_byte;
     s.write = (old_write + 1) % kRingBytes;
