@@ -117,8 +117,9 @@ void run_virtual_board(const VirtualBoardCommandOptions& options) {
   // One control period of board time per turn (100 us): the pty's bytes join the line at the board's
   // bit timing, the board's bytes go out as they complete. Paced: each turn waits until its board
   // time is due on the wall clock (a board that behaves like the real one for a host in a dry run).
-  // Free-running: a millisecond of board time per turn (the pty's read and write per turn cost more
-  // than the model board's periods; a host's bytes join the line within 1 ms of board time).
+  // The model board free-running: a millisecond of board time per turn (the pty's read and write
+  // per turn cost more than the model board's periods; a host's bytes join the line within 1 ms of
+  // board time). The RTL board, slower than real time, keeps to a period per turn.
   // A paced board that fell behind (this process not scheduled) does not catch up by running fast,
   // which no real board does: the lag beyond 2 ms is dropped from its clock and counted.
   const auto start = std::chrono::steady_clock::now();
@@ -134,7 +135,7 @@ void run_virtual_board(const VirtualBoardCommandOptions& options) {
       board.write(buffer, static_cast<std::size_t>(got));
       bytes_in += static_cast<std::uint64_t>(got);
     }
-    board.step(paced ? kClocksPerTick : kClocksPerMillisecond);
+    board.step(model && !paced ? kClocksPerMillisecond : kClocksPerTick);
     const std::size_t out = board.read(buffer, sizeof buffer);
     if (out > 0) {
       const std::size_t written = write_what_fits(fd, buffer, out);
