@@ -16,6 +16,7 @@
 #include "delta/golden/export.hpp"
 #include "delta/golden/fixed_network.hpp"
 #include "delta/golden/fixed_point_backend.hpp"
+#include "delta/io/byte_stream.hpp"
 #include "delta/link/payloads.hpp"
 #include "delta/nn/weights_file.hpp"
 #include "delta/trajectory.hpp"
@@ -130,9 +131,34 @@ struct FaultRun {
   link::TelemetryPayload cleared, reenabled;
 };
 
+// The host's bytes to the board with one bit flipped in every `every`-th byte (0: none): the
+// board's receiver drops frames and rescans its ring.
+class CorruptingStream : public io::ByteStream {
+ public:
+  CorruptingStream(io::ByteStream& inner, std::size_t every) : inner_(inner), every_(every) {}
+  std::size_t read_some(std::uint8_t* data, std::size_t capacity) override { return inner_.read_some(data, capacity); }
+  void write_all(const std::uint8_t* data, std::size_t size, int timeout_ms) override {
+    std::vector<std::uint8_t> bytes(data, data + size);
+    for (std::uint8_t& byte : bytes) {
+      if (every_ != 0 && ++written_ % every_ == 0) byte ^= static_cast<std::uint8_t>(1u << (written_ / every_ % 8));
+    }
+    inner_.write_all(bytes.data(), bytes.size(), timeout_ms);
+  }
+  bool wait_readable(int timeout_ms) override { return inner_.wait_readable(timeout_ms); }
+  bool wait_readable(int timeout_ms, std::size_t bytes) override { return inner_.wait_readable(timeout_ms, bytes); }
+  int fd() const override { return inner_.fd(); }
+  const std::string& name() const override { return inner_.name(); }
+
+ private:
+  io::ByteStream& inner_;
+  std::size_t every_;
+  std::size_t written_ = 0;
+};
+
 FaultRun run_fault_session(cosim::BoardFidelity fidelity, const golden::QuantisedNetwork& q, const std::string& mem_dir,
                            bool skip_idle_network = true, std::uint64_t* idle_network_clocks = nullptr,
-                           std::uint64_t* clocks = nullptr, bool check_model_runs = false) {
+                           std::uint64_t* clocks = nullptr, bool check_model_runs = false,
+                           std::size_t corrupt_every = 0) {
   FaultRun out;
   cosim::VirtualBoardOptions options;
   options.fidelity = fidelity;
@@ -146,7 +172,8 @@ FaultRun run_fault_session(cosim::BoardFidelity fidelity, const golden::Quantise
   board.observe_periods([&out](std::uint64_t clocks, const cosim::BoardPins& pins, const RobotWorld& world) {
     out.periods.push_back({clocks, world.current_a(), world.encoder_deg(), world.true_alpha_deg(), pins});
   });
-  cosim::VirtualBoardStream stream(board);
+  cosim::VirtualBoardStream board_stream(board);
+  CorruptingStream stream(board_stream, corrupt_every);
   link::LinkSession session(stream);
   session.identify();
   session.set_home();
@@ -219,6 +246,34 @@ TEST(ModelBoard, ItsRunsOfClocksAreExactlyItsFullClocks) {
   std::cout << "board clocks checked: " << clocks << "\n";
   EXPECT_GT(clocks, 10'000'000u);  // the whole session (about 0.55 s of board time)
   EXPECT_EQ(checked.second.outcome, link::StreamReport::Outcome::kCompleted);
+  expect_same_runs(model, checked);
+}
+
+// The same session with one bit flipped in every 97th byte the host sends (after the identify
+// and set-home, which go first through clean bytes; then frames are dropped, setpoints refused and
+// streamed again, the receiver rescans its ring): both boards identical, and the model's runs
+// checked against its full clocks on it.
+TEST(ModelBoard, EqualsTheRtlBoardWithCorruptedBytesToTheBoard) {
+  const golden::QuantisedNetwork q = deployed_network();
+  const std::string mem_dir = fresh_directory("model_board_corrupt_mem");
+  golden::write_export(q, mem_dir);
+  FaultRun rtl, model, checked;
+  const std::size_t every = 97;
+  try {
+    rtl = run_fault_session(cosim::BoardFidelity::kRtl, q, mem_dir, true, nullptr, nullptr, false, every);
+  } catch (const std::exception& error) {
+    FAIL() << "RTL session: " << error.what();
+  }
+  ASSERT_NO_THROW(
+      model = run_fault_session(cosim::BoardFidelity::kModel, q, mem_dir, true, nullptr, nullptr, false, every));
+  ASSERT_NO_THROW(checked =
+                      run_fault_session(cosim::BoardFidelity::kModel, q, mem_dir, true, nullptr, nullptr, true, every));
+  ASSERT_FALSE(rtl.telemetry.empty());
+  const link::TelemetryPayload& last = rtl.telemetry.back();
+  std::cout << "RTL: " << rtl.telemetry.size() << " telemetry frames; board counters: bad frames " << last.bad_frames
+            << ", refused " << last.rejected << "\n";
+  EXPECT_GT(last.bad_frames, 10u);  // the corruption reached the receiver
+  expect_same_runs(rtl, model);
   expect_same_runs(model, checked);
 }
 
