@@ -174,6 +174,27 @@ void store_current(Registers& n, std::uint64_t elapsed) {
   }
 }
 
+// reference_interpolator.sv, step 4: joint j's segment change D, the play taken out of the distance
+// from the reference r to its answer (C), saturated; the held D unless a new answer is taken.
+std::int32_t segment_delta(std::int32_t answer, std::int32_t r, std::int32_t half_play, bool take, std::int32_t held,
+                           bool* saturated) {
+  const std::int64_t diff = golden::play(golden::interpolation::reference_counts(answer) - r, half_play);
+  *saturated = diff > golden::interpolation::kDeltaMax || diff < golden::interpolation::kDeltaMin;
+  if (!take) return held;
+  return static_cast<std::int32_t>(
+      *saturated ? (diff < 0 ? golden::interpolation::kDeltaMin : golden::interpolation::kDeltaMax) : diff);
+}
+
+// Step 7: the reference's change over the period from weight K_phase to K_phase+1 of D.
+std::int64_t reference_step(std::int32_t delta, int phase) {
+  const int next = phase == 9 ? 10 : phase + 1;
+  const std::int64_t weight_now = golden::interpolation::kWeights[phase];
+  const std::int64_t weight_next =
+      next == 10 ? (std::int64_t{1} << golden::interpolation::kWeightShift) : golden::interpolation::kWeights[next];
+  return golden::round_shift(std::int64_t{delta} * weight_next, 14) -
+         golden::round_shift(std::int64_t{delta} * weight_now, 14);
+}
+
 std::int32_t sign_extend(std::uint32_t value, int bits) {
   const std::uint32_t m = 1u << (bits - 1);
   value &= (bits == 32) ? 0xFFFFFFFFu : ((1u << bits) - 1);
@@ -716,22 +737,12 @@ bool ModelBoard::micro_clock(int encoder_a, int encoder_b, std::uint64_t lines_h
   bool slew_limited = false;
   if (interpolating && s.step == 4) {
     const int j = s.joint;
-    const std::int64_t c = golden::interpolation::reference_counts(s.net_outputs[j]);
-    const std::int64_t diff = golden::play(c - s.r[j], half_plays_[j]);
-    const bool saturated = diff > golden::interpolation::kDeltaMax || diff < golden::interpolation::kDeltaMin;
-    delta =
-        take_answer
-            ? static_cast<std::int32_t>(
-                  saturated ? (diff < 0 ? golden::interpolation::kDeltaMin : golden::interpolation::kDeltaMax) : diff)
-            : s.d[j];
+    bool saturated = false;
+    delta = segment_delta(s.net_outputs[j], s.r[j], half_plays_[j], take_answer, s.d[j], &saturated);
     slew_limited = take_answer && saturated && interpolator_enabled;
   } else if (interpolating) {
     const int j = s.joint;
-    const std::int64_t weight_now = golden::interpolation::kWeights[s.phase];
-    const std::int64_t weight_next = k_next == 10 ? (std::int64_t{1} << golden::interpolation::kWeightShift)
-                                                  : golden::interpolation::kWeights[k_next];
-    const std::int64_t step = golden::round_shift(std::int64_t{s.delta} * weight_next, 14) -
-                              golden::round_shift(std::int64_t{s.delta} * weight_now, 14);
+    const std::int64_t step = reference_step(s.delta, s.phase);
     r = interpolator_enabled
             ? static_cast<std::int32_t>(static_cast<std::uint32_t>(s.r[j]) + static_cast<std::uint32_t>(step))
             : static_cast<std::int32_t>(static_cast<std::int16_t>(s.count[j])) * 256;
@@ -841,24 +852,15 @@ bool ModelBoard::micro_clock(int encoder_a, int encoder_b, std::uint64_t lines_h
   }
   if (whole_update) {
     const bool take = s.answer_pending && s.phase == 0;
-    const int next = s.phase == 9 ? 10 : s.phase + 1;
-    const std::int64_t weight_now = golden::interpolation::kWeights[s.phase];
-    const std::int64_t weight_next =
-        next == 10 ? (std::int64_t{1} << golden::interpolation::kWeightShift) : golden::interpolation::kWeights[next];
     for (int j = 0; j < 3; ++j) {
-      const std::int64_t c = golden::interpolation::reference_counts(s.net_outputs[j]);
-      const std::int64_t diff = golden::play(c - s.r[j], half_plays_[j]);
-      const bool saturated = diff > golden::interpolation::kDeltaMax || diff < golden::interpolation::kDeltaMin;
-      s.delta = take ? static_cast<std::int32_t>(
-                           saturated ? (diff < 0 ? golden::interpolation::kDeltaMin : golden::interpolation::kDeltaMax)
-                                     : diff)
-                     : s.d[j];
+      bool saturated = false;
+      s.delta = segment_delta(s.net_outputs[j], s.r[j], half_plays_[j], take, s.d[j], &saturated);
       if (take && saturated) s.slew_limits = saturating_increment(s.slew_limits);
-      const std::int64_t step = golden::round_shift(std::int64_t{s.delta} * weight_next, 14) -
-                                golden::round_shift(std::int64_t{s.delta} * weight_now, 14);
-      s.shift[j] = golden::interpolation::play_shift(c - s.r[j], half_plays_[j]);
+      const std::int64_t step = reference_step(s.delta, s.phase);
+      s.shift[j] = golden::interpolation::play_shift(
+          std::int64_t{golden::interpolation::reference_counts(s.net_outputs[j])} - s.r[j], half_plays_[j]);
       s.r[j] = static_cast<std::int32_t>(static_cast<std::uint32_t>(s.r[j]) + static_cast<std::uint32_t>(step));
-      s.d[j] = next == 10 ? 0 : s.delta;
+      s.d[j] = s.phase == 9 ? 0 : s.delta;
     }
     if (take) s.answer_pending = false;
     s.busy = false;
@@ -1182,22 +1184,12 @@ void ModelBoard::clock(int encoder_a, int encoder_b) {
     const int j = s.joint;
     n.step = s.step + 1;
     if (s.step == 4) {
-      const std::int64_t c = golden::interpolation::reference_counts(s.net_outputs[j]);
-      const std::int64_t diff = golden::play(c - s.r[j], half_plays_[j]);
-      const bool saturated = diff > golden::interpolation::kDeltaMax || diff < golden::interpolation::kDeltaMin;
-      n.delta =
-          take_answer
-              ? static_cast<std::int32_t>(
-                    saturated ? (diff < 0 ? golden::interpolation::kDeltaMin : golden::interpolation::kDeltaMax) : diff)
-              : s.d[j];
+      bool saturated = false;
+      n.delta = segment_delta(s.net_outputs[j], s.r[j], half_plays_[j], take_answer, s.d[j], &saturated);
       if (take_answer && saturated && interpolator_enabled) n.slew_limited = true;
     }
     if (s.step == 7) {
-      const std::int64_t weight_now = golden::interpolation::kWeights[s.phase];
-      const std::int64_t weight_next = k_next == 10 ? (std::int64_t{1} << golden::interpolation::kWeightShift)
-                                                    : golden::interpolation::kWeights[k_next];
-      const std::int64_t step = golden::round_shift(std::int64_t{s.delta} * weight_next, 14) -
-                                golden::round_shift(std::int64_t{s.delta} * weight_now, 14);
+      const std::int64_t step = reference_step(s.delta, s.phase);
       n.r[j] = interpolator_enabled
                    ? static_cast<std::int32_t>(static_cast<std::uint32_t>(s.r[j]) + static_cast<std::uint32_t>(step))
                    : static_cast<std::int32_t>(static_cast<std::int16_t>(s.count[j])) * 256;

@@ -25,21 +25,26 @@ std::int32_t JointPlant::encoder_count() const {
   return static_cast<std::int32_t>(std::floor(shaft_angle_deg() / parameters_.encoder_resolution_deg));
 }
 
-void JointPlant::step(double current_a, double period_s, double extra_load_shaft_nm) {
+double JointPlant::motor_nm(double current_a) const {
   const double limit = parameters_.current_limit_a;
-  const double motor_nm = parameters_.torque_constant_nm_per_a * std::clamp(current_a, -limit, limit);
+  return parameters_.torque_constant_nm_per_a * std::clamp(current_a, -limit, limit);
+}
+
+double JointPlant::drive_nm(double motor_nm, double extra_load_shaft_nm) {
+  // A joint at rest keeps its angle: its cosine is the last one (the same bits, without libm).
+  if (shaft_rad_ != cos_shaft_rad_) {
+    cos_shaft_rad_ = shaft_rad_;
+    cos_shaft_ = std::cos(shaft_rad_);
+  }
+  const double load_shaft_nm = parameters_.gravity_nm * cos_shaft_ + extra_load_shaft_nm;
+  return motor_nm - load_shaft_nm / parameters_.gear_ratio - parameters_.viscous_nm_s_per_rad * rotor_velocity_rad_s_;
+}
+
+void JointPlant::step(double current_a, double period_s, double extra_load_shaft_nm) {
+  const double motor = motor_nm(current_a);
   const double dt = period_s / parameters_.substeps;
   for (int n = 0; n < parameters_.substeps; ++n) {
-    const double shaft_rad = shaft_rad_;
-    // A joint at rest keeps its angle: its cosine is the last one (the same bits, without libm).
-    if (shaft_rad != cos_shaft_rad_) {
-      cos_shaft_rad_ = shaft_rad;
-      cos_shaft_ = std::cos(shaft_rad);
-    }
-    const double load_shaft_nm = parameters_.gravity_nm * cos_shaft_ + extra_load_shaft_nm;
-    // Everything except Coulomb friction, referred to the rotor.
-    const double drive_nm =
-        motor_nm - load_shaft_nm / parameters_.gear_ratio - parameters_.viscous_nm_s_per_rad * rotor_velocity_rad_s_;
+    const double drive_nm = this->drive_nm(motor, extra_load_shaft_nm);
     if (rotor_velocity_rad_s_ == 0.0 && std::abs(drive_nm) <= parameters_.coulomb_nm) continue;  // stuck
     const double direction =
         rotor_velocity_rad_s_ != 0.0 ? std::copysign(1.0, rotor_velocity_rad_s_) : std::copysign(1.0, drive_nm);
@@ -54,16 +59,7 @@ void JointPlant::step(double current_a, double period_s, double extra_load_shaft
 }
 
 void JointPlant::advance(double current_a, double period_s, double extra_load_shaft_nm) {
-  const double limit = parameters_.current_limit_a;
-  const double motor_nm = parameters_.torque_constant_nm_per_a * std::clamp(current_a, -limit, limit);
-  if (shaft_rad_ != cos_shaft_rad_) {
-    cos_shaft_rad_ = shaft_rad_;
-    cos_shaft_ = std::cos(shaft_rad_);
-  }
-  const double load_shaft_nm = parameters_.gravity_nm * cos_shaft_ + extra_load_shaft_nm;
-  // Everything except Coulomb friction, referred to the rotor, held over the step.
-  const double drive_nm =
-      motor_nm - load_shaft_nm / parameters_.gear_ratio - parameters_.viscous_nm_s_per_rad * rotor_velocity_rad_s_;
+  const double drive_nm = this->drive_nm(motor_nm(current_a), extra_load_shaft_nm);  // held over the step
   double remaining = period_s;
   double angle = rotor_angle_rad_;
   double velocity = rotor_velocity_rad_s_;

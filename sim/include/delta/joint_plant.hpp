@@ -49,6 +49,11 @@ class JointPlant {
   const JointPlantParameters& parameters() const { return parameters_; }
 
  private:
+  double motor_nm(double current_a) const;  // the current clipped to the limit, as torque
+  // Everything except Coulomb friction, referred to the rotor: the motor, the gravity load at the
+  // present angle (its cosine kept while the angle holds), viscous friction at the present velocity.
+  double drive_nm(double motor_nm, double extra_load_shaft_nm);
+
   JointPlantParameters parameters_;
   double inertia_kg_m2_;
   double rotor_angle_rad_;
