@@ -15,6 +15,7 @@
 #include <iostream>
 #include <sstream>
 #include <string>
+#include <thread>
 
 #include "../support/run_command.hpp"
 #include "../support/virtual_board_process.hpp"
@@ -33,7 +34,8 @@ namespace {
 const std::string kWeights = std::string(DELTA_SOURCE_DIR) + "/weights/paper_like.json";
 
 // 0.2 s of a 2 mm circle around where the plate starts, streamed over the pty: every sample is
-// played, no underrun once playing, no frame lost or bad on the clean line, drives off at the end.
+// played, no underrun once playing, no frame lost or bad on the clean line, nothing resent after
+// the host's late wake half way, drives off at the end.
 TEST(VirtualBoard, SessionOverThePseudoTerminalStreamsAShortTrajectory) {
   const std::string dir = ::testing::TempDir() + "virtual_board_session_" + std::to_string(::getpid());
   std::filesystem::create_directories(dir);
@@ -66,8 +68,11 @@ TEST(VirtualBoard, SessionOverThePseudoTerminalStreamsAShortTrajectory) {
 
     constexpr std::size_t kSamples = 200;
     std::size_t asked = 0;
-    const link::StreamReport report = session.stream(kSamples, [&](std::size_t, std::int64_t reach_tick) {
+    const link::StreamReport report = session.stream(kSamples, [&](std::size_t k, std::int64_t reach_tick) {
       ++asked;
+      // A late wake half way: the frames that pile up meanwhile are stale, and the setpoints
+      // already sent must not look lost (the resend rule paces by the newest frame only).
+      if (k == kSamples / 2) std::this_thread::sleep_for(std::chrono::milliseconds(30));
       const double tau = (reach_tick - t0_tick) * link::kTickSeconds;
       const double s = tau / 0.2;  // one turn, radius growing from 0 to 1 mm
       const Vec3 p = centre + Vec3(1e-3 * s * std::cos(2 * M_PI * s), 1e-3 * s * std::sin(2 * M_PI * s), 0.0);

@@ -242,7 +242,10 @@ StreamReport LinkSession::stream(std::size_t samples, const SetpointSource& sour
       report.underruns_at_last_play = t.underruns;
       return report;
     }
-    send_some(t);
+    // Paced by the newest frame only: frames that piled up while this process could not run are
+    // stale (setpoints sent on them would look lost to the resend rule and go out twice).
+    if (unread_telemetry_.empty()) poll_frames();
+    if (unread_telemetry_.empty()) send_some(t);
   }
 }
 
