@@ -7,7 +7,8 @@
 # cosim reports it, the board and the world alone (its "alone" line: the wall time inside the
 # virtual board, the observers excluded). The model runs free here (cosim never paces).
 # BASELINE_BUILD (optional): another build (e.g. of an older commit) whose two boards are measured
-# in the same run, and the ratios of this build's boards to its.
+# in the same run, and the ratios of this build's boards to its; a build whose cosim has no
+# --fidelity (before the model board, e.g. cbff4c4, issue 16's filing day) has its RTL board only.
 # Usage: scripts/bench_boards.sh [BUILD_DIR] [SECONDS] [RUNS] [BASELINE_BUILD]   (defaults: build, 2, 3, none)
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -20,14 +21,23 @@ deltactl="$build/bin/deltactl"
 [[ -x $deltactl ]] || { echo "bench_boards: $deltactl missing: bash scripts/build.sh" >&2; exit 2; }
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
-clock_mhz=$(awk '/localparam int BoardClockHz/ { gsub(/[_;]/, "", $7); print $7 / 1e6 }' "$root/rtl/board/delta_board_pkg.sv")
+# The simulated board clock of a source tree [MHz]: its co-simulation's clocks per 10 kHz period
+# (SimClocksPerPeriod where the simulation ran a shorter period than the board, before issue 15).
+clock_of() {
+  awk '/localparam int BoardClockHz/ { gsub(/[_;]/, "", $7); board = $7 / 1e6 }
+       /localparam int SimClocksPerPeriod/ { gsub(/[_;]/, "", $7); sim = $7 / 100 }
+       END { print sim ? sim : board }' "$1/rtl/board/delta_board_pkg.sv"
+}
+clock_mhz=$(clock_of "$root")
 
 # M board cycles/s of RUNS runs of `deltactl cosim --fidelity $1` (deltactl $2, default this
 # build's): the whole co-simulation's, then (after "|") the board and world alone ("-" if not reported)
 measure() {
-  local fidelity=$1 program=${2:-$deltactl} rates=() alone=() rate run
+  local fidelity=$1 program=${2:-$deltactl} rates=() alone=() rate run choice=()
+  # (a build before the model board: the RTL board without the option)
+  [[ $("$program" cosim --help) != *--fidelity* ]] || choice=(--fidelity "$fidelity")
   for ((run = 1; run <= runs; run++)); do
-    "$program" cosim --fidelity "$fidelity" --weights "$root/weights/paper_like.json" \
+    "$program" cosim "${choice[@]}" --weights "$root/weights/paper_like.json" \
       --effects "$root/sim/paper_like_effects.json" --trajectory experiment1 --duration "$seconds" \
       >/dev/null 2>"$work/err" || true
     rate=$(sed -n 's/.*[( ]\([0-9.]*\) M board cycles\/s).*/\1/p' "$work/err" | tail -1)
@@ -46,9 +56,13 @@ split() { # "a b | c d" -> the whole runs (part 1) or the alone runs (part 2)
 }
 rtl_all=$(measure rtl)
 model_all=$(measure model)
+base_has_model=false
 if [[ -n $baseline ]]; then
   base_rtl_all=$(measure rtl "$baseline/bin/deltactl")
-  base_all=$(measure model "$baseline/bin/deltactl")
+  if [[ $("$baseline/bin/deltactl" cosim --help) == *--fidelity* ]]; then
+    base_has_model=true
+    base_all=$(measure model "$baseline/bin/deltactl")
+  fi
 fi
 read -r -a rtl <<<"$(split "$rtl_all" 1)"
 read -r -a model <<<"$(split "$model_all" 1)"
@@ -56,7 +70,7 @@ read -r -a model_alone <<<"$(split "$model_all" 2)"
 read -r -a rtl_alone <<<"$(split "$rtl_all" 2)"
 rtl_median=$(median "${rtl[@]}")
 model_median=$(median "${model[@]}")
-x() { [[ $1 == - ]] && { echo -; return; }; awk -v r="$1" -v c="$clock_mhz" 'BEGIN { printf "%.3f", r / c }'; }
+x() { [[ $1 == - ]] && { echo -; return; }; awk -v r="$1" -v c="${2:-$clock_mhz}" 'BEGIN { printf "%.3f", r / c }'; }
 echo "| board | runs | M board cycles/s (each) | median | x real time (${clock_mhz} MHz board clock) |"
 echo "|---|---|---|---|---|"
 echo "| RTL (Verilated board_core), whole co-simulation | $runs | ${rtl[*]} | $rtl_median | $(x "$rtl_median") |"
@@ -71,15 +85,19 @@ if [[ ${model_alone[0]} != - ]]; then
 fi
 if [[ -n $baseline ]]; then
   read -r -a base_rtl <<<"$(split "$base_rtl_all" 1)"
-  read -r -a base <<<"$(split "$base_all" 1)"
   base_rtl_median=$(median "${base_rtl[@]}")
-  base_median=$(median "${base[@]}")
-  echo "| RTL, baseline build ($baseline), whole co-simulation | $runs | ${base_rtl[*]} | $base_rtl_median | $(x "$base_rtl_median") |"
-  echo "| model, baseline build ($baseline), whole co-simulation | $runs | ${base[*]} | $base_median | $(x "$base_median") |"
+  base_source=$(sed -n 's/^CMAKE_HOME_DIRECTORY:INTERNAL=//p' "$baseline/CMakeCache.txt")
+  base_clock_mhz=$(clock_of "$base_source")
+  echo "| RTL, baseline build ($baseline), whole co-simulation | $runs | ${base_rtl[*]} | $base_rtl_median | $(x "$base_rtl_median" "$base_clock_mhz") (its ${base_clock_mhz} MHz) |"
+  if $base_has_model; then
+    read -r -a base <<<"$(split "$base_all" 1)"
+    base_median=$(median "${base[@]}")
+    echo "| model, baseline build ($baseline), whole co-simulation | $runs | ${base[*]} | $base_median | $(x "$base_median") |"
+  fi
 fi
 ratio() { awk -v a="$1" -v b="$2" 'BEGIN { printf "%.2f", a / b }'; }
 echo "model / RTL: $(ratio "$model_median" "$rtl_median") x"
 if [[ -n $baseline ]]; then
-  echo "RTL / baseline RTL: $(ratio "$rtl_median" "$base_rtl_median") x"
-  echo "model / baseline model: $(ratio "$model_median" "$base_median") x"
+  echo "RTL / baseline RTL: $(ratio "$rtl_median" "$base_rtl_median") x (board cycles per second)"
+  if $base_has_model; then echo "model / baseline model: $(ratio "$model_median" "$base_median") x"; fi
 fi

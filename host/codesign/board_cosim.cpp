@@ -68,6 +68,7 @@ CosimResult run_cosim(const CosimOptions& options) {
     return (1.0 - s) * start + s * options.trajectory(tau);
   };
   const std::size_t samples = static_cast<std::size_t>(std::llround(options.duration_s * 1000.0)) + 1;
+  result.samples.reserve(samples);
   auto source = [&](std::size_t /*k*/, std::int64_t reach_tick) {
     bool clamped = false;
     const auto codes =

@@ -47,10 +47,14 @@ Eigen::Matrix3d misalignment_rotation(const Vec3& rotation_deg) {
       .toRotationMatrix();
 }
 
+StageFrame::StageFrame(const EffectSet& effects) : misaligned_(effects.frame_misalignment.has_value()) {
+  if (!misaligned_) return;
+  rotation_ = misalignment_rotation(effects.frame_misalignment->rotation_deg);
+  translation_m_ = effects.frame_misalignment->translation_m;
+}
+
 Vec3 apply_frame_misalignment(const EffectSet& effects, const Vec3& true_position_m) {
-  if (!effects.frame_misalignment) return true_position_m;
-  const FrameMisalignment& frame = *effects.frame_misalignment;
-  return misalignment_rotation(frame.rotation_deg) * true_position_m + frame.translation_m;
+  return StageFrame(effects)(true_position_m);
 }
 
 JointSensorChain::JointSensorChain(const EffectSet& effects) : effects_(effects) {
@@ -76,6 +80,8 @@ double JointSensorChain::scaled_and_transmitted(int joint, double true_alpha_deg
 
 double JointSensorChain::reading_without_backlash(int joint, double true_alpha_deg) const {
   const double offset = effects_.joint_offset_deg ? (*effects_.joint_offset_deg)[joint] : 0.0;
+  // The angle update() last saw (the world's present one): its transmission, without libm.
+  if (true_alpha_deg == last_true_alpha_deg_[joint]) return last_transmitted_deg_[joint] + offset;
   return scaled_and_transmitted(joint, true_alpha_deg) + offset;
 }
 

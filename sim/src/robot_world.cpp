@@ -69,7 +69,11 @@ std::int64_t high_cycles(int phase, int duty, std::uint64_t cycles, int period, 
 
 RobotWorld::RobotWorld(const BoardInterface& board, const EffectSet& effects, const Geometry& nominal,
                        const JointPlantParameters& plant)
-    : board_(board), effects_(effects), true_geometry_(apply_geometry_effects(nominal, effects)), sensors_(effects) {
+    : board_(board),
+      effects_(effects),
+      stage_frame_(effects),
+      true_geometry_(apply_geometry_effects(nominal, effects)),
+      sensors_(effects) {
   if (!(board.board_clock_hz > 0.0) || board.pwm_period_cycles <= 0 || board.plant_divider <= 0 ||
       board.plant_lead < 0 || board.plant_lead >= board.plant_divider) {
     throw std::invalid_argument(
@@ -217,7 +221,7 @@ Vec3 RobotWorld::encoder_deg() const {
 Vec3 RobotWorld::measured_position_m() const {
   const FkSolution plate = forward_kinematics(true_geometry_, true_alpha_deg_);
   if (!plate.ok()) throw std::runtime_error("plate pose at t = " + std::to_string(time_s()) + " s: " + plate.reason());
-  return apply_frame_misalignment(effects_, plate.position_m);
+  return stage_frame_(plate.position_m);
 }
 
 Vec3 RobotWorld::plate_for_readings(const Vec3& readings_deg) const {
@@ -229,7 +233,7 @@ Vec3 RobotWorld::plate_for_readings(const Vec3& readings_deg) const {
   }
   const FkSolution plate = forward_kinematics(true_geometry_, alpha);
   if (!plate.ok()) throw std::runtime_error("plate pose for readings: " + plate.reason());
-  return apply_frame_misalignment(effects_, plate.position_m);
+  return stage_frame_(plate.position_m);
 }
 
 }  // namespace delta

@@ -18,6 +18,7 @@ SimulationReport VirtualRobot::record(const Trajectory& trajectory, const Record
   std::mt19937_64 generator(options.seed);
   std::normal_distribution<double> noise(0.0, options.angle_noise_deg);
   report.samples.reserve(count);
+  const StageFrame stage_frame(effects_);
   for (std::size_t i = 0; i < count; ++i) {
     const double t = static_cast<double>(i) / rate;
     const Vec3 true_position = trajectory.position_m(t);
@@ -29,7 +30,7 @@ SimulationReport VirtualRobot::record(const Trajectory& trajectory, const Record
     Sample sample;
     sample.t_s = t;
     sample.alpha_deg = sensors.update(ik.alpha_deg);
-    sample.position_m = apply_frame_misalignment(effects_, true_position);
+    sample.position_m = stage_frame(true_position);
     for (int j = 0; j < 3; ++j) {
       if (options.angle_noise_deg > 0.0) sample.alpha_deg[j] += noise(generator);
       if (options.quantise) {

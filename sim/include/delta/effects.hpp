@@ -56,6 +56,20 @@ Eigen::Matrix3d misalignment_rotation(const Vec3& rotation_deg);
 // Measured position (before stage quantisation) for a true plate position.
 Vec3 apply_frame_misalignment(const EffectSet& effects, const Vec3& true_position_m);
 
+// apply_frame_misalignment with its rotation computed once (the same bits), for loops over samples.
+class StageFrame {
+ public:
+  explicit StageFrame(const EffectSet& effects);
+  Vec3 operator()(const Vec3& true_position_m) const {
+    return misaligned_ ? Vec3(rotation_ * true_position_m + translation_m_) : true_position_m;
+  }
+
+ private:
+  bool misaligned_ = false;
+  Eigen::Matrix3d rotation_ = Eigen::Matrix3d::Identity();
+  Vec3 translation_m_ = Vec3::Zero();
+};
+
 // Memoryless part of the joint sensor chain before backlash: encoder_scale then
 // transmission_error, for one joint. Templated for automatic differentiation.
 template <typename Scalar>

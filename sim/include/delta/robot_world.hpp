@@ -103,6 +103,7 @@ class RobotWorld {
   double plant_step_s_ = 0.0;  // plant_divider board cycles [s]
   int pwm_period_bits_ = -1;   // log2 of a power-of-two PWM period (-1: another period)
   EffectSet effects_;
+  StageFrame stage_frame_;
   Geometry true_geometry_;
   JointSensorChain sensors_;
   std::array<std::unique_ptr<JointPlant>, 3> plants_;
