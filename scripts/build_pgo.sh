@@ -3,7 +3,9 @@
 # instrumented (DELTA_PGO=generate), trains it on co-simulations through both virtual boards
 # (TRAIN_SECONDS of experiment 1 on the RTL board; ten times as long on the model board, of
 # experiment 1 with the deployed model and of the validation trajectory with the plain network),
-# then rebuilds it with the profiles (DELTA_PGO=use). Otherwise the usual Release build. Compare with
+# then rebuilds it with the profiles (DELTA_PGO=use). Both builds also link-time optimised; not for
+# this machine's processor (-march=native changes Eigen's vector reductions and fused multiply-adds
+# the world's floating-point bits: as built here, the recordings equal the default build's). Compare with
 #   bash scripts/bench_boards.sh BUILD_DIR 2 5 build
 # Usage: scripts/build_pgo.sh [BUILD_DIR] [TRAIN_SECONDS]   (defaults: build-pgo, 0.5)
 set -euo pipefail
@@ -13,7 +15,8 @@ seconds=${2:-0.5}
 bash "$root/scripts/setup.sh"
 profiles="$build/pgo"
 echo "build_pgo: instrumented build in $build" >&2
-cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DDELTA_PGO=generate -DDELTA_PGO_DIR="$profiles" >/dev/null
+cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DDELTA_PGO=generate -DDELTA_PGO_DIR="$profiles" \
+  -DCMAKE_INTERPROCEDURAL_OPTIMIZATION=ON -DCMAKE_CXX_FLAGS= >/dev/null
 rm -rf "$profiles"
 cmake --build "$build" --target deltactl
 train() { # FIDELITY WEIGHTS TRAJECTORY SECONDS

@@ -3,6 +3,7 @@
 // iCEBreaker. RTL fidelity (the Verilated board) or model fidelity (the C++ model board,
 // bit-exact with it): delta/cosim/virtual_board.hpp, model_board.hpp.
 #include <fcntl.h>
+#include <poll.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -46,8 +47,15 @@ struct VirtualBoardCommandOptions {
 };
 
 // Writes what fits into the pty without waiting: with no program reading PATH the board's bytes
-// are dropped, as an FTDI chip drops them with no host attached.
-std::size_t write_what_fits(int fd, const std::uint8_t* data, std::size_t size) {
+// are dropped, as an FTDI chip drops them with no host attached. Once the pty was full, a poll
+// asks whether it has room before a write: a write into a full pty still wakes the kernel's
+// worker that moves its bytes (most of a free-running board's time with nobody reading).
+std::size_t write_what_fits(int fd, const std::uint8_t* data, std::size_t size, bool* full) {
+  if (*full) {
+    pollfd room{fd, POLLOUT, 0};
+    if (::poll(&room, 1, 0) <= 0 || !(room.revents & POLLOUT)) return 0;
+    *full = false;
+  }
   std::size_t written = 0;
   while (written < size) {
     const ssize_t n = ::write(fd, data + written, size - written);
@@ -56,7 +64,8 @@ std::size_t write_what_fits(int fd, const std::uint8_t* data, std::size_t size) 
     } else if (n < 0 && errno == EINTR) {
       continue;
     } else {
-      break;  // EAGAIN: the pty's buffer is full
+      *full = true;  // EAGAIN: the pty's buffer is full
+      break;
     }
   }
   return written;
@@ -127,6 +136,7 @@ void run_virtual_board(const VirtualBoardCommandOptions& options) {
   std::chrono::steady_clock::duration dropped_lag{};
   auto last_flush = start;
   std::uint64_t bytes_in = 0, bytes_out = 0, bytes_dropped = 0;
+  bool pty_full = false;
   std::uint8_t buffer[4096];
   const int fd = pty->fd();
   while (!stop_requested) {
@@ -138,7 +148,7 @@ void run_virtual_board(const VirtualBoardCommandOptions& options) {
     board.step(model && !paced ? kClocksPerMillisecond : kClocksPerTick);
     const std::size_t out = board.read(buffer, sizeof buffer);
     if (out > 0) {
-      const std::size_t written = write_what_fits(fd, buffer, out);
+      const std::size_t written = write_what_fits(fd, buffer, out, &pty_full);
       bytes_out += written;
       bytes_dropped += out - written;
     }

@@ -25,6 +25,7 @@
 #include "delta/golden/export.hpp"
 #include "delta/golden/fixed_network.hpp"
 #include "delta/io/serial_port.hpp"
+#include "delta/link/frame_codec.hpp"
 #include "delta/link/session.hpp"
 #include "delta/nn/weights_file.hpp"
 
@@ -180,6 +181,47 @@ TEST(VirtualBoard, ModelFidelityKeepsToWallClockTimeOverThePseudoTerminal) {
   EXPECT_GT(board_s, 0.3);            // 300 setpoints at 1 kHz, and the buffer drained
   EXPECT_LT(board_s, wall_s + 0.02);  // never ahead of the wall clock
   EXPECT_EQ(board.terminate(), 0);
+  std::filesystem::remove_all(dir);
+}
+
+// --free-run: the model board runs faster than real time, and left alone (nobody reading, its pty
+// full: it drops its bytes without writing into the full pty) it still talks to a host that opens
+// the link later: telemetry frames arrive, their ticks running ahead of the wall clock.
+TEST(VirtualBoard, FreeRunningModelBoardLeftAloneStillTalksToAHostThatComesLater) {
+  const std::string dir = ::testing::TempDir() + "virtual_board_free_" + std::to_string(::getpid());
+  std::filesystem::create_directories(dir);
+  const std::string link = dir + "/tty";
+  const std::string truth = dir + "/truth.csv";
+  VirtualBoardProcess board(link, {"--weights", kWeights, "--truth", truth, "--fidelity", "model", "--free-run"});
+  const std::string ready = board.ready_line(60'000);
+  ASSERT_NE(ready.find("model fidelity"), std::string::npos) << "ready line: '" << ready << "'";
+  ASSERT_EQ(ready.find("real time"), std::string::npos) << "ready line: '" << ready << "'";
+  const auto start = std::chrono::steady_clock::now();
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // nobody reads: the pty fills
+
+  io::SerialPort port(link, static_cast<int>(board::kLinkBaud));
+  link::FrameDecoder decoder(link::Receiver::kHost);
+  std::vector<std::uint32_t> ticks;
+  std::uint8_t buffer[4096];
+  const auto reading = std::chrono::steady_clock::now();
+  while (std::chrono::steady_clock::now() - reading < std::chrono::milliseconds(300)) {
+    if (!port.wait_readable(50)) continue;
+    const std::size_t got = port.read_some(buffer, sizeof buffer);
+    for (const link::Frame& frame : decoder.feed(buffer, got)) {
+      if (frame.type == link::FrameType::kTelemetry) ticks.push_back(link::decode_telemetry(frame.payload).tick);
+    }
+  }
+  EXPECT_EQ(board.terminate(), 0);
+  const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  std::size_t rows = 0;
+  std::istringstream lines(read_text(truth));
+  for (std::string line; std::getline(lines, line);) ++rows;
+  const double board_s = static_cast<double>(rows - 1) * 1e-3;  // a row per millisecond of board time
+  std::cout << "telemetry frames read in 0.3 s: " << ticks.size() << "; board " << board_s << " s in " << wall_s
+            << " s wall\n";
+  ASSERT_GE(ticks.size(), 100u);                   // the bytes flow again once a host reads
+  EXPECT_GT(ticks.back() - ticks.front(), 9000u);  // 10 kHz ticks: over 3 x real time in the 0.3 s
+  EXPECT_GT(board_s, 5.0 * wall_s);                // free-running: more than 5 x real time
   std::filesystem::remove_all(dir);
 }
 
