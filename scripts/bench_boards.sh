@@ -6,10 +6,13 @@
 # runs, then their ratio: the whole co-simulation (host, board, world, truth recording) and, where
 # cosim reports it, the board and the world alone (its "alone" line: the wall time inside the
 # virtual board, the observers excluded). The model runs free here (cosim never paces).
-# BASELINE_BUILD (optional): another build (e.g. of an older commit) whose two boards are measured
-# in the same run, and the ratios of this build's boards to its; a build whose cosim has no
-# --fidelity (before the model board, e.g. cbff4c4, issue 16's filing day) has its RTL board only.
-# Usage: scripts/bench_boards.sh [BUILD_DIR] [SECONDS] [RUNS] [BASELINE_BUILD]   (defaults: build, 2, 3, none)
+# BASELINE (optional): another build (e.g. of an older commit) whose two boards are measured in the
+# same run, and the ratios of this build's boards to its; a build whose cosim has no --fidelity
+# (before the model board, e.g. cbff4c4, issue 16's filing day) has its RTL board only. BASELINE is
+# a build directory, or a commit of this repository: then its default build in
+# build-baseline-COMMIT/src/build (a git worktree, built once, deltactl only).
+# Usage: scripts/bench_boards.sh [BUILD_DIR] [SECONDS] [RUNS] [BASELINE]   (defaults: build, 2, 3, none)
+#   e.g. bash scripts/build_pgo.sh && bash scripts/bench_boards.sh build-pgo 2 5 cbff4c4
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 build=${1:-$root/build}
@@ -17,6 +20,18 @@ seconds=${2:-2}
 runs=${3:-3}
 baseline=${4:-}
 deltactl="$build/bin/deltactl"
+if [[ -n $baseline && ! -d $baseline ]]; then
+  commit=$(git -C "$root" rev-parse --verify --quiet "$baseline^{commit}") ||
+    { echo "bench_boards: $baseline is neither a build directory nor a commit" >&2; exit 2; }
+  tree="$root/build-baseline-${commit:0:7}/src"
+  if [[ ! -x $tree/build/bin/deltactl ]]; then
+    echo "bench_boards: building $baseline (${commit:0:7}) in $tree/build" >&2
+    [[ -d $tree ]] || git -C "$root" worktree add --detach "$tree" "$commit" >&2
+    cmake -S "$tree" -B "$tree/build" -G Ninja -DCMAKE_BUILD_TYPE=Release >/dev/null
+    cmake --build "$tree/build" --target deltactl >&2
+  fi
+  baseline="$tree/build"
+fi
 [[ -z $baseline || -x $baseline/bin/deltactl ]] || { echo "bench_boards: $baseline/bin/deltactl missing" >&2; exit 2; }
 [[ -x $deltactl ]] || { echo "bench_boards: $deltactl missing: bash scripts/build.sh" >&2; exit 2; }
 work=$(mktemp -d)
