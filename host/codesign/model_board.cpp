@@ -62,6 +62,78 @@ int payload_size(std::uint8_t type, bool* known) {
   return 0;
 }
 
+// What link_rx did with the byte it processed (link_rx.sv's frame parser).
+struct RxProcessed {
+  bool frame_start = false;    // a known type with its length: the payload follows
+  bool payload_valid = false;  // a payload byte (at index - 4)
+  bool frame_ok = false;       // the CRC's low byte matched: the frame ends, taken
+  bool frame_bad = false;      // dropped (unknown type, wrong length, CRC): rescanned from after its sync
+};
+
+// Whether link_rx processing `byte` ends a frame or drops one.
+template <typename Registers>
+bool rx_byte_ends_frame(const Registers& s, std::uint8_t byte) {
+  if (s.index == 3) {
+    bool known = false;
+    const int size = payload_size(byte, &known);
+    return !(known && s.length == size);
+  }
+  return s.index >= 4 && s.index > s.end;
+}
+
+// link_rx processing the byte it fetched: its registers' next values in `n` from the present ones
+// in `s` (n may be s: every present value is read before any is written).
+template <typename Registers>
+RxProcessed process_rx_byte(const Registers& s, std::uint8_t byte, Registers& n) {
+  const int index = s.index, read = s.read, start = s.start, end = s.end;
+  const std::uint8_t length = s.length;
+  const std::uint16_t crc = s.rx_crc;
+  const bool crc_high_ok = s.crc_high_ok;
+  RxProcessed out;
+  n.read = (read + 1) % kRingBytes;
+  if (index == 0) {
+    if (byte == board::kFrameSync) {
+      n.start = read;
+      n.index = 1;
+      n.rx_crc = 0xFFFF;
+    }
+  } else if (index < 4) {
+    n.rx_crc = crc_byte(crc, byte);
+    n.index = index + 1;
+    if (index == 1) n.length = byte;
+    if (index == 2) n.sequence = byte;
+    if (index == 3) {
+      n.type = byte;
+      bool known = false;
+      const int size = payload_size(byte, &known);
+      n.end = (size + 4) & 63;
+      if (known && length == size) {
+        out.frame_start = true;
+      } else {
+        out.frame_bad = true;
+        n.index = 0;
+        n.read = (start + 1) % kRingBytes;
+      }
+    }
+  } else if (index < end) {
+    n.rx_crc = crc_byte(crc, byte);
+    out.payload_valid = true;
+    n.index = index + 1;
+  } else if (index == end) {
+    n.crc_high_ok = byte == (crc >> 8);
+    n.index = index + 1;
+  } else {
+    n.index = 0;
+    if (crc_high_ok && byte == (crc & 0xFF)) {
+      out.frame_ok = true;
+    } else {
+      out.frame_bad = true;
+      n.read = (start + 1) % kRingBytes;
+    }
+  }
+  return out;
+}
+
 // Slots of a joint in the controllers' state memory (rtl/joint/delta_joint_pkg.sv, Slot*).
 constexpr int kSlotReference = 0;
 constexpr int kSlotEncoder = 3;
@@ -685,45 +757,14 @@ bool ModelBoard::micro_clock(int encoder_a, int encoder_b, std::uint64_t lines_h
   // keeps clear of tick 1, whose play moves the setpoint buffer's write address), unless the byte
   // ends or drops a frame, and not under the run check.
   const bool ring_write = s.rx_valid;
-  bool whole_byte =
-      ring_write && !s.fetched && s.read == s.write && !check_runs_ && tick > 1 && tick < kClocksPerPeriod - 2;
-  if (whole_byte && s.index != 0) {
-    bool known = false;
-    const bool drops = s.index == 3 && !(payload_size(s.rx_shift, &known) == s.length && known);
-    whole_byte = !drops && (s.index < 4 || s.index <= s.end);
-  }
+  const bool whole_byte = ring_write && !s.fetched && s.read == s.write && !check_runs_ && tick > 1 &&
+                          tick < kClocksPerPeriod - 2 && !rx_byte_ends_frame(s, s.rx_shift);
   const std::uint8_t processed = whole_byte ? s.rx_shift : s.ring_data;
-  bool fetched = false, frame_start = false, payload_valid = false, crc_clear = false, crc_valid = false;
-  int read = s.read, index = s.index;
-  std::uint8_t header = 0;
+  bool fetched = false;
   if (!s.fetched && !whole_byte) {
     fetched = s.read != s.write;
-  } else {
-    read = (s.read + 1) % kRingBytes;
-    if (s.index == 0) {
-      if (processed == board::kFrameSync) {
-        index = 1;
-        crc_clear = true;
-      }
-    } else if (s.index < 4) {
-      crc_valid = true;
-      index = s.index + 1;
-      header = processed;
-      if (s.index == 3) {
-        bool known = false;
-        const int size = payload_size(processed, &known);
-        if (!(known && s.length == size)) return false;  // dropped: the rescan
-        frame_start = true;
-      }
-    } else if (s.index < s.end) {
-      crc_valid = true;
-      payload_valid = true;
-      index = s.index + 1;
-    } else if (s.index == s.end) {
-      index = s.index + 1;
-    } else {
-      return false;  // the frame's end
-    }
+  } else if (rx_byte_ends_frame(s, processed)) {
+    return false;  // a frame's end or a dropped frame: the full clock
   }
 
   // ---- interpolator ----
@@ -802,27 +843,13 @@ bool ModelBoard::micro_clock(int encoder_a, int encoder_b, std::uint64_t lines_h
   }
   s.fetched = fetched;
   if (was_fetched) {
-    s.read = read;
-    s.index = index;
-    if (crc_clear) {
-      s.start = old_read;
-      s.rx_crc = 0xFFFF;
-    }
-    if (crc_valid) s.rx_crc = crc_byte(s.rx_crc, ring_byte);
-    if (old_index == 1) s.length = header;
-    if (old_index == 2) s.sequence = header;
-    if (old_index == 3) {
-      bool known = false;
-      s.type = header;
-      s.end = (payload_size(header, &known) + 4) & 63;
-    }
-    if (old_index >= 4 && old_index == s.end) s.crc_high_ok = ring_byte == (s.rx_crc >> 8);
-    if (frame_start) {
+    const RxProcessed rx = process_rx_byte(s, ring_byte, s);
+    if (rx.frame_start) {
       s.full_at_start = s.fill == kDepth;
       s.index_match = true;
       s.vetoed = false;
     }
-    if (payload_valid) {
+    if (rx.payload_valid) {
       const int payload_index = (old_index - 4) & 63;
       if (s.type == board::kFrameTypeCommand) s.command = ring_byte;
       if (s.type == board::kFrameTypeSetpoint) {
@@ -1011,56 +1038,15 @@ void ModelBoard::clock(int encoder_a, int encoder_b) {
   }
 
   // ---- link_rx ----
-  bool frame_start = false, payload_valid = false, frame_ok = false, frame_bad = false;
-  bool crc_clear = false, crc_valid = false;
   n.fetched = false;
+  RxProcessed rx;
   if (!s.fetched) {
     n.fetched = s.read != s.write;
   } else {
-    n.read = (s.read + 1) % kRingBytes;
-    if (s.index == 0) {
-      if (s.ring_data == board::kFrameSync) {
-        n.start = s.read;
-        n.index = 1;
-        crc_clear = true;
-      }
-    } else if (s.index < 4) {
-      crc_valid = true;
-      n.index = s.index + 1;
-      if (s.index == 1) n.length = s.ring_data;
-      if (s.index == 2) n.sequence = s.ring_data;
-      if (s.index == 3) {
-        n.type = s.ring_data;
-        bool known = false;
-        const int size = payload_size(s.ring_data, &known);
-        n.end = (size + 4) & 63;
-        if (known && s.length == size) {
-          frame_start = true;
-        } else {
-          frame_bad = true;
-          n.index = 0;
-          n.read = (s.start + 1) % kRingBytes;
-        }
-      }
-    } else if (s.index < s.end) {
-      crc_valid = true;
-      payload_valid = true;
-      n.index = s.index + 1;
-    } else if (s.index == s.end) {
-      n.crc_high_ok = s.ring_data == (s.rx_crc >> 8);
-      n.index = s.index + 1;
-    } else {
-      n.index = 0;
-      if (s.crc_high_ok && s.ring_data == (s.rx_crc & 0xFF)) {
-        frame_ok = true;
-      } else {
-        frame_bad = true;
-        n.read = (s.start + 1) % kRingBytes;
-      }
-    }
+    rx = process_rx_byte(s, s.ring_data, n);
   }
-  if (crc_clear) n.rx_crc = 0xFFFF;
-  if (crc_valid) n.rx_crc = crc_byte(crc_clear ? 0xFFFF : s.rx_crc, s.ring_data);
+  const bool frame_start = rx.frame_start, payload_valid = rx.payload_valid;
+  const bool frame_ok = rx.frame_ok, frame_bad = rx.frame_bad;
   n.ring_data = m.ring[s.read];  // read before this edge's write (the RTL never reads the slot written)
   if (s.rx_valid) {
     m.ring[s.write] = s.rx_shift;
