@@ -10,7 +10,8 @@
 // per telemetry frame (the line's budget: 100 bytes per ms, 22 per setpoint). A setpoint the board
 // did not take (corrupted on the line, refused) shows as the board's next free index (s + fill)
 // staying below one sent `resend_after_frames` telemetry frames ago: the session sends again from
-// the board's next free index.
+// the board's next free index. Only the newest frame paces: frames that piled up while the host
+// could not run are stale (the setpoints sent since would look lost on them and go out twice).
 //
 // Timing: the board plays sample s at the first control period of the next 1 ms segment after the
 // telemetry snapshot that names it (tick T + 10) and its network answer is the joint reference one
