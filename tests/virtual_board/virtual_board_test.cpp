@@ -51,7 +51,7 @@ TEST(VirtualBoard, SessionOverThePseudoTerminalStreamsAShortTrajectory) {
   {
     io::SerialPort port(link, static_cast<int>(board::kLinkBaud));
     link::SessionOptions options;
-    options.frame_timeout_ms = 5000;  // the RTL simulation runs at about a quarter of real time
+    options.frame_timeout_ms = 5000;  // the RTL simulation runs at about 0.4 x real time
     link::LinkSession session(port, options);
     const link::IdentifyPayload identify = session.identify();
     EXPECT_EQ(identify.protocol_version, board::kProtocolVersion);
