@@ -9,6 +9,7 @@
 #include <stdexcept>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "delta/board_facts.hpp"
 #include "delta/golden/joint_fixed.hpp"
@@ -255,6 +256,12 @@ std::int32_t segment_delta(std::int32_t answer, std::int32_t r, std::int32_t hal
   if (!take) return held;
   return static_cast<std::int32_t>(
       *saturated ? (diff < 0 ? golden::interpolation::kDeltaMin : golden::interpolation::kDeltaMax) : diff);
+}
+
+// Step 7: the play's shift of the reference r toward its answer (reference_interpolator.sv).
+std::int16_t reference_shift(std::int32_t answer, std::int32_t r, std::int32_t half_play) {
+  return golden::interpolation::play_shift(std::int64_t{golden::interpolation::reference_counts(answer)} - r,
+                                           half_play);
 }
 
 // Step 7: the reference's change over the period from weight K_phase to K_phase+1 of D.
@@ -788,10 +795,7 @@ bool ModelBoard::micro_clock(int encoder_a, int encoder_b, std::uint64_t lines_h
             ? static_cast<std::int32_t>(static_cast<std::uint32_t>(s.r[j]) + static_cast<std::uint32_t>(step))
             : static_cast<std::int32_t>(static_cast<std::int16_t>(s.count[j])) * 256;
     d = (!interpolator_enabled || k_next == 10) ? 0 : s.delta;
-    shift = interpolator_enabled
-                ? golden::interpolation::play_shift(
-                      std::int64_t{golden::interpolation::reference_counts(s.net_outputs[j])} - s.r[j], half_plays_[j])
-                : std::int16_t{0};
+    shift = interpolator_enabled ? reference_shift(s.net_outputs[j], s.r[j], half_plays_[j]) : std::int16_t{0};
   }
 
   // ---- joint controller ----
@@ -884,8 +888,7 @@ bool ModelBoard::micro_clock(int encoder_a, int encoder_b, std::uint64_t lines_h
       s.delta = segment_delta(s.net_outputs[j], s.r[j], half_plays_[j], take, s.d[j], &saturated);
       if (take && saturated) s.slew_limits = saturating_increment(s.slew_limits);
       const std::int64_t step = reference_step(s.delta, s.phase);
-      s.shift[j] = golden::interpolation::play_shift(
-          std::int64_t{golden::interpolation::reference_counts(s.net_outputs[j])} - s.r[j], half_plays_[j]);
+      s.shift[j] = reference_shift(s.net_outputs[j], s.r[j], half_plays_[j]);
       s.r[j] = static_cast<std::int32_t>(static_cast<std::uint32_t>(s.r[j]) + static_cast<std::uint32_t>(step));
       s.d[j] = s.phase == 9 ? 0 : s.delta;
     }
@@ -1003,22 +1006,19 @@ std::uint16_t ModelBoard::telemetry_word_of(const State& s) {
 // frame reads words no capture writes).
 void ModelBoard::start_frame(State& n, std::uint64_t start) {
   const Memories& m = *memories_;
-  std::array<std::uint8_t, 6 + board::kFrameMaxPayloadBytes> bytes{};
-  const int length = n.tx_length;
-  bytes[0] = static_cast<std::uint8_t>(board::kFrameSync);
-  bytes[1] = static_cast<std::uint8_t>(length);
-  bytes[2] = n.tx_sequence;
-  bytes[3] = static_cast<std::uint8_t>(n.is_identify ? board::kFrameTypeIdentify : board::kFrameTypeTelemetry);
-  for (int p = 0; p < length; ++p) {
+  link::Frame frame;  // the link's frame layout (link::encode_frame), the words as link_tx reads them
+  frame.sequence = n.tx_sequence;
+  frame.type = n.is_identify ? link::FrameType::kIdentify : link::FrameType::kTelemetry;
+  frame.payload.resize(static_cast<std::size_t>(n.tx_length));
+  for (int p = 0; p < n.tx_length; ++p) {
     const std::uint16_t word = m.words[((n.is_identify ? 0 : 16) + (p >> 1)) & 255];
-    bytes[4 + p] = static_cast<std::uint8_t>((p & 1) ? word >> 8 : word & 0xFF);
+    frame.payload[static_cast<std::size_t>(p)] = static_cast<std::uint8_t>((p & 1) ? word >> 8 : word & 0xFF);
   }
-  const std::uint16_t crc = link::crc16(bytes.data() + 1, static_cast<std::size_t>(length + 3));
-  bytes[length + 4] = static_cast<std::uint8_t>(crc >> 8);
-  bytes[length + 5] = static_cast<std::uint8_t>(crc & 0xFF);
+  const std::vector<std::uint8_t> bytes = link::encode_frame(frame);
   const std::uint64_t first = std::max(start + 1, n.uart_free);
-  for (int k = 0; k < length + 6; ++k) tx_line_.push_back({first + kTxByteClocks * k + kTxByteDelay, bytes[k]});
-  n.tx_last_load = first + kTxByteClocks * static_cast<std::uint64_t>(length + 5);
+  for (std::size_t k = 0; k < bytes.size(); ++k)
+    tx_line_.push_back({first + kTxByteClocks * k + kTxByteDelay, bytes[k]});
+  n.tx_last_load = first + kTxByteClocks * (bytes.size() - 1);
   n.uart_free = n.tx_last_load + kTxByteClocks;
 }
 
@@ -1180,11 +1180,7 @@ void ModelBoard::clock(int encoder_a, int encoder_b) {
                    ? static_cast<std::int32_t>(static_cast<std::uint32_t>(s.r[j]) + static_cast<std::uint32_t>(step))
                    : static_cast<std::int32_t>(static_cast<std::int16_t>(s.count[j])) * 256;
       n.d[j] = (!interpolator_enabled || k_next == 10) ? 0 : s.delta;
-      n.shift[j] =
-          interpolator_enabled
-              ? golden::interpolation::play_shift(
-                    std::int64_t{golden::interpolation::reference_counts(s.net_outputs[j])} - s.r[j], half_plays_[j])
-              : std::int16_t{0};
+      n.shift[j] = interpolator_enabled ? reference_shift(s.net_outputs[j], s.r[j], half_plays_[j]) : std::int16_t{0};
       n.step = 0;
       n.joint = j + 1;
       if (j == 2) {

@@ -101,9 +101,7 @@ std::size_t VirtualBoard::read(std::uint8_t* data, std::size_t capacity) {
 
 void VirtualBoard::clock() {
   if (period_observer_ && period_phase_ == 0) {
-    const auto start = std::chrono::steady_clock::now();
-    period_observer_(clocks_, pins(), *world_);
-    observer_s_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    observed([&] { period_observer_(clocks_, pins(), *world_); });
   }
   if (core_->board) {
     clock_model();
@@ -128,7 +126,6 @@ void VirtualBoard::clock() {
 }
 
 void VirtualBoard::observe(bool drives_enabled) {
-  const auto start = std::chrono::steady_clock::now();
   TruthSample truth;
   truth.t_s = time_s();
   truth.position_m = world_->measured_position_m();
@@ -136,8 +133,7 @@ void VirtualBoard::observe(bool drives_enabled) {
   truth.encoder_deg = world_->encoder_deg();
   truth.current_a = world_->current_a();
   truth.drives_enabled = drives_enabled;
-  truth_observer_(truth, *world_);
-  observer_s_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  observed([&] { truth_observer_(truth, *world_); });
 }
 
 void VirtualBoard::clock_model() {

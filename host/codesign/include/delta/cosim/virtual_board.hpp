@@ -15,6 +15,7 @@
 // process (the co-simulation); `deltactl virtual-board` puts it behind a pseudo-terminal.
 #pragma once
 
+#include <chrono>
 #include <cstddef>
 #include <cstdint>
 #include <deque>
@@ -130,6 +131,13 @@ class VirtualBoard {
   void flush_world();
   void run(std::uint64_t board_clocks, std::size_t until_bytes);  // until_bytes 0: all board_clocks
   void observe(bool drives_enabled);
+  // Calls an observer, its wall time counted in observer_s_ (not the board's).
+  template <typename Call>
+  void observed(Call&& call) {
+    const auto start = std::chrono::steady_clock::now();
+    call();
+    observer_s_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  }
 
   std::unique_ptr<Core> core_;
   std::unique_ptr<RobotWorld> world_;
