@@ -8,7 +8,7 @@
 # virtual board, the observers excluded). The model runs free here (cosim never paces).
 # BASELINE (optional): another build (e.g. of an older commit) whose two boards are measured in the
 # same run, and the ratios of this build's boards to its; a build whose cosim has no --fidelity
-# (before the model board, e.g. cbff4c4, issue 16's filing day) has its RTL board only. BASELINE is
+# (before the model board, e.g. cbff4c4) has its RTL board only. BASELINE is
 # a build directory, or a commit of this repository: then its default build in
 # build-baseline-COMMIT/src/build (a git worktree, built once, deltactl only).
 # Usage: scripts/bench_boards.sh [BUILD_DIR] [SECONDS] [RUNS] [BASELINE]   (defaults: build, 2, 3, none)
@@ -37,7 +37,7 @@ fi
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 # The simulated board clock of a source tree [MHz]: its co-simulation's clocks per 10 kHz period
-# (SimClocksPerPeriod where the simulation ran a shorter period than the board, before issue 15).
+# (SimClocksPerPeriod where the simulation ran a shorter period than the board, before the play shift).
 clock_of() {
   awk '/localparam int BoardClockHz/ { gsub(/[_;]/, "", $7); board = $7 / 1e6 }
        /localparam int SimClocksPerPeriod/ { gsub(/[_;]/, "", $7); sim = $7 / 100 }

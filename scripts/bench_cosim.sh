@@ -2,7 +2,7 @@
 # Benchmark (not a CTest test): speed of the whole-robot co-simulation around the Verilated board
 # core as built (the virtual board at RTL fidelity), as board cycles per second and as a multiple of
 # real time (rtl/board/delta_board_pkg.sv BoardClockHz: 23.25 MHz), median of RUNS runs of `deltactl cosim` on
-# experiment 1 with the paper-like robot. Issue 16's baseline for the RTL board's speed-up.
+# experiment 1 with the paper-like robot.
 # Usage: scripts/bench_cosim.sh [BUILD_DIR] [SECONDS] [RUNS]   (defaults: build, 2, 3)
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)

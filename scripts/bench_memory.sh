@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Benchmark (not a CTest test): peak resident memory of train, diagnose, cosim and accuracy on their
-# default inputs (issue 17 keeps them at 25-27 MB; measured by /usr/bin/time's maximum RSS).
+# default inputs (measured by /usr/bin/time's maximum RSS).
 # Usage: scripts/bench_memory.sh [BUILD_DIR]. Prints a Markdown table.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)

@@ -1,4 +1,4 @@
-# Hardening (issue 17): every bad input, option and output path handled per SPEC.
+# Hardening: every bad input, option and output path handled per SPEC.
 pkg_check_modules(hardening_matio REQUIRED IMPORTED_TARGET matio)  # writes a compressed .mat bomb
 delta_add_gtest(hardening_tests
   SOURCES hardening/output_file_test.cpp hardening/bad_input_test.cpp

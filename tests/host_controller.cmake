@@ -4,7 +4,7 @@ delta_add_gtest(stream_plan_tests
   LIBRARIES delta::controller
   LABELS host host_controller)
 
-# The host controller (`deltactl host`) against the virtual board through a pty: issue 13's
+# The host controller (`deltactl host`) against the virtual board through a pty: its
 # acceptance. Needs the virtual board (Verilator), so not in the host-only build.
 if(DELTA_HOST_ONLY)
   return()

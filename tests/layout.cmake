@@ -5,3 +5,7 @@ set_tests_properties(Layout.HlsAndRtlHoldNoCommandLineCodeAndHlsNoFloatingPoint 
 # Every tracked C++ file follows .clang-format.
 add_test(NAME Format.EveryCppFileFollowsClangFormat COMMAND ${PROJECT_SOURCE_DIR}/tests/layout/check_format.sh)
 set_tests_properties(Format.EveryCppFileFollowsClangFormat PROPERTIES LABELS host)
+# Every command block of the root README runs as written (the two commands excepted: CI runs them).
+add_test(NAME Readme.EveryCommandRunsAsWritten
+  COMMAND ${PROJECT_SOURCE_DIR}/tests/layout/readme_commands.sh ${PROJECT_SOURCE_DIR} ${PROJECT_BINARY_DIR})
+set_tests_properties(Readme.EveryCommandRunsAsWritten PROPERTIES LABELS host TIMEOUT 900 RUN_SERIAL TRUE)

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The layout shows the architecture (issue 11): hls/ holds only synthesizable C++ and its
+# The layout shows the architecture: hls/ holds only synthesizable C++ and its
 # C-simulation testbenches, rtl/ SystemVerilog, harnesses and the FPGA flow; neither includes the
 # command line (CLI11, delta/command.hpp) nor the host's table or plot code; nothing under hls/
 # computes in float or double. Prints every offending line; exit 1 if there is one.
@@ -15,6 +15,11 @@ fi
 if grep -rn -E '\b(double|float)\b' hls --include='*.cpp' --include='*.hpp' --include='*.h' |
    grep -v -E '^[^:]+:[0-9]+: *//' | grep -v -E '//.*\b(double|float)\b' ; then
   echo "layout: float or double under hls/ (coefficients and constants as integer codes)" >&2
+  status=1
+fi
+# The docs are for users: no issue numbers in README.md, docs/ or any folder's README (history is git's).
+if git ls-files '*.md' | xargs grep -n -E '\b[Ii]ssues? #?[0-9]+' ; then
+  echo "layout: a page for users names an issue number (say what it is; history belongs in git)" >&2
   status=1
 fi
 if ((status == 0)); then echo "layout: hls/ and rtl/ include no command-line, table or plot code; no float or double under hls/"; fi
