@@ -4,12 +4,14 @@
 # yosys 0.23, yosys-abc (PDR, unbounded) and yosys-smtbmc with z3 (counterexamples).
 #
 #   scripts/formal.sh [--out DIR] [--jobs N] [--timeout S] [--only JOB] [--rtl DIR] [--quiet]
+#                     [--stop-at-failure]
 #
 # One line per property: its verdict (proven: PDR, unbounded; passed to depth N: bounded, when PDR
 # ran out of time; FAILED) and the time. Every cover must be reached (a counterexample to its
 # negation) or the run fails: a property whose cover is unreachable would pass vacuously.
 # On a failure: DIR/<job>.<property>.vcd (waveform) and DIR/<job>.<property>_tb.v (testbench) from
-# yosys-smtbmc, and exit 1. --rtl points at another copy of rtl/ (the mutation run's mutants).
+# yosys-smtbmc, and exit 1 (exit 3 when yosys cannot read the RTL). --rtl points at another copy
+# of rtl/ (the mutation run's mutants); --stop-at-failure ends at the first failure.
 set -euo pipefail
 
 here=$(cd "$(dirname "$0")/.." && pwd)
@@ -20,6 +22,7 @@ timeout=60        # seconds of PDR per property before falling back to bounded m
 bmc_depth=40      # depth of that fallback (and the frames a cover may need beyond PDR's reach)
 only=
 quiet=0
+stop=0
 while [ $# -gt 0 ]; do
   case $1 in
     --out) out=$2; shift 2 ;;
@@ -28,6 +31,7 @@ while [ $# -gt 0 ]; do
     --only) only=$2; shift 2 ;;
     --rtl) rtl=$2; shift 2 ;;
     --quiet) quiet=1; shift ;;
+    --stop-at-failure) stop=1; shift ;;
     -h|--help) sed -n '2,13p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "formal.sh: unknown argument '$1' (try --help)" >&2; exit 2 ;;
   esac
@@ -44,14 +48,24 @@ pkg="$rtl/board/delta_board_pkg.sv $rtl/joint/delta_joint_pkg.sv"
 # ---- the proof jobs: name, top module, sources, yosys commands after reading them ----------------
 # Submodules' assumptions become assertions in a composition (their environment is checked).
 # Blackboxed submodules (yosys `blackbox`) drive their outputs freely: a sound over-approximation.
+# job NAME TOP SOURCES [BLACKBOX_SOURCES] [TRUSTED]: BLACKBOX_SOURCES are read for their ports
+# only; TRUSTED submodules keep their assumptions (each is proved by another job, named there).
 job_names=()
-declare -A job_top job_src job_cmd
-job() { job_names+=("$1"); job_top[$1]=$2; job_src[$1]=$3; job_cmd[$1]=${4:-}; }
+declare -A job_top job_src job_lib job_trusted
+job() { job_names+=("$1"); job_top[$1]=$2; job_src[$1]=$(echo $3); job_lib[$1]=$(echo ${4:-}); job_trusted[$1]=${5:-}; }
 
 job joint_safety joint_safety "$rtl/joint/joint_safety.sv"
 job joint_pwm joint_pwm "$rtl/joint/joint_pwm.sv"
 job setpoint_buffer setpoint_buffer "$rtl/board/setpoint_buffer.sv"
 job link_rx link_rx "$rtl/board/link_crc16.sv $rtl/board/link_rx.sv"
+# The board's command logic with joint_axes (fault latch, PWM, encoders) and the setpoint buffer;
+# link_rx (job link_rx) and the controllers' current clamp (job joint_controller) trusted.
+job board_core board_core "$rtl/network/delta_network_pkg.sv $rtl/board/board_core.sv $rtl/board/setpoint_buffer.sv $rtl/joint/joint_axes.sv
+    $rtl/joint/joint_safety.sv $rtl/joint/joint_pwm.sv $rtl/joint/quadrature_counter.sv" \
+  "$rtl/network/readmemh_table.sv $rtl/network/delta_network.sv $rtl/board/network_crossing.sv
+    $rtl/board/reference_interpolator.sv $rtl/board/link_tx.sv $rtl/board/uart_tx.sv $rtl/board/uart_rx.sv
+    $rtl/board/link_rx.sv $rtl/joint/joint_controller.sv" \
+  "setpoint_buffer joint_pwm"
 
 # ---- build the models: one AIGER per assertion and per cover (negated) ---------------------------
 cat >"$work/cover2assert.v" <<'EOF'
@@ -85,9 +99,16 @@ build_job() {  # job -> $work/<job>/{model.il, props, <kind>.<name>.aig}
   local j=$1 d=$work/$1
   mkdir -p "$d"
   local top=${job_top[$j]}
-  if ! yosys -q -l "$d/read.log" -p "read_verilog -formal -sv $pkg ${job_src[$j]}; hierarchy -top $top;
-        ${job_cmd[$j]}
-        prep -top $top; chformal -assume -assume2assert $top %n; flatten; opt_clean;
+  local lib=
+  local f
+  for f in ${job_lib[$j]}; do  # black boxes: the module header (ports) only
+    sed -n '/^module /,/^);/p' "$f" >"$d/stub.$(basename "$f")"
+    echo endmodule >>"$d/stub.$(basename "$f")"
+    lib="$lib read_verilog -lib -sv $d/stub.$(basename "$f");"
+  done
+  if ! yosys -q -l "$d/read.log" -p "read_verilog -formal -sv $pkg ${job_src[$j]}; $lib hierarchy -top $top;
+        prep -top $top; select -set keep $top ${job_trusted[$j]}; chformal -assume -assume2assert @keep %n;
+        flatten; opt_clean;
         write_rtlil $d/model.il;
         tee -q -o $d/asserts select -list t:\$assert; tee -q -o $d/covers select -list t:\$cover" >/dev/null 2>&1; then
     echo "formal.sh: yosys could not read job $j (log: $d/read.log):" >&2
@@ -95,38 +116,35 @@ build_job() {  # job -> $work/<job>/{model.il, props, <kind>.<name>.aig}
     return 1
   fi
   # Lower once (covers turned into assertions of their negation: a counterexample reaches them),
-  # then write one AIGER per property with every other property removed.
+  # turn every assertion into an output (its failure), write one AIGER; each check takes the cone
+  # of its output.
   yosys -q -l "$d/lower.log" -p "read_rtlil $d/model.il; techmap -map $work/cover2assert.v t:\$cover;
       script $work/aig.ys; write_rtlil $d/lowered.il" >/dev/null 2>&1 ||
     { echo "formal.sh: yosys failed on job $j (log: $d/lower.log)" >&2; return 1; }
+  python3 "$here/scripts/formal_outputs.py" "$d/lowered.il" "$d/outputs.il" "$d/outputs" &&
+    yosys -q -l "$d/aiger.log" -p "read_rtlil $d/outputs.il; write_aiger -zinit $d/model.aig" >/dev/null 2>&1 ||
+    { echo "formal.sh: yosys failed on job $j (log: $d/aiger.log)" >&2; return 1; }
   : >"$d/props"
-  local script=$d/split.ys kind cell name
-  echo "read_rtlil $d/lowered.il; design -save base" >"$script"
-  for kind in assert cover; do
-    while read -r cell; do
-      [ -n "$cell" ] || continue
-      name=${cell#*/}
-      echo "$kind $name" >>"$d/props"
-      printf 'design -load base\nchformal -assert -remove t:$assert n:%s %%d\nopt_clean\nwrite_aiger -zinit %s\n' \
-        "$name" "$d/$kind.$name.aig" >>"$script"
-    done <"$d/${kind}s"
-  done
-  yosys -q -l "$d/split.log" -s "$script" >/dev/null 2>&1 || { echo "formal.sh: yosys failed on job $j (log: $d/split.log)" >&2; return 1; }
+  local index=0 name
+  while read -r name; do
+    if grep -qx "[^/]*/$name" "$d/covers"; then echo "cover $name $index"; else echo "assert $name $index"; fi >>"$d/props"
+    index=$((index + 1))
+  done <"$d/outputs"
 }
 
 # ---- check one property: prints "job kind name verdict seconds" ------------------------------------
 check() {
-  local j=$1 kind=$2 name=$3 d=$work/$1
-  local aig=$d/$kind.$name.aig t0 t1 log verdict frame
+  local j=$1 kind=$2 name=$3 index=$4 d=$work/$1
+  local aig="$d/model.aig; fold; strash; cone -O $index -s" t0 t1 log verdict frame
   t0=$(date +%s.%N)
-  log=$(timeout $((timeout + 30)) yosys-abc -c "read_aiger $aig; fold; strash; scorr; pdr -T $timeout" 2>&1 || true)
+  log=$(timeout $((timeout + 30)) yosys-abc -c "read_aiger $aig; scorr; pdr -T $timeout" 2>&1 || true)
   if grep -q "Property proved" <<<"$log"; then
     verdict=proven
   elif frame=$(grep -o "asserted in frame [0-9]*" <<<"$log" | grep -o "[0-9]*$"); then
     verdict="cex@$frame"
   else
     # PDR ran out of time: bounded model checking to bmc_depth frames.
-    log=$(timeout $((timeout * 3)) yosys-abc -c "read_aiger $aig; fold; strash; bmc3 -F $bmc_depth -T $((timeout * 2))" 2>&1 || true)
+    log=$(timeout $((timeout * 3)) yosys-abc -c "read_aiger $aig; bmc3 -F $bmc_depth -T $((timeout * 2))" 2>&1 || true)
     if frame=$(grep -o "asserted in frame [0-9]*" <<<"$log" | grep -o "[0-9]*$"); then
       verdict="cex@$frame"
     elif grep -q "No output asserted in $bmc_depth frames" <<<"$log"; then
@@ -138,9 +156,12 @@ check() {
   fi
   t1=$(date +%s.%N)
   printf '%s %s %s %s %.2f\n' "$j" "$kind" "$name" "$verdict" "$(echo "$t1 - $t0" | bc)"
+  # --stop-at-failure: exit status 255 makes xargs stop.
+  if [ "$stop" = 1 ] && { { [ $kind = assert ] && [[ $verdict != proven && $verdict != depth@* ]]; } ||
+                          { [ $kind = cover ] && [[ $verdict != cex@* ]]; }; }; then exit 255; fi
 }
 export -f check
-export work timeout bmc_depth
+export work timeout bmc_depth stop
 
 # ---- counterexample: waveform and testbench from yosys-smtbmc ---------------------------------------
 counterexample() {
@@ -160,10 +181,10 @@ done
 [ ${#selected[@]} -gt 0 ] || { echo "formal.sh: no job named '$only'" >&2; exit 2; }
 
 start=$(date +%s.%N)
-for j in "${selected[@]}"; do build_job "$j"; done
+for j in "${selected[@]}"; do build_job "$j" || exit 3; done
 for j in "${selected[@]}"; do
-  while read -r kind name; do echo "$j $kind $name"; done <"$work/$j/props"
-done | xargs -P "$jobs" -L 1 bash -c 'check "$0" "$1" "$2"' >"$work/results"
+  while read -r kind name index; do echo "$j $kind $name $index"; done <"$work/$j/props"
+done | xargs -P "$jobs" -L 1 bash -c 'check "$0" "$1" "$2" "$3"' >"$work/results" 2>/dev/null || true
 
 failed=0 proven=0 bounded=0 reached=0 props=0 covers=0
 while read -r j kind name verdict seconds; do
