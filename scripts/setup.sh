@@ -7,6 +7,7 @@ packages=(
   libeigen3-dev nlohmann-json3-dev libcli11-dev libgtest-dev libmatio-dev zlib1g-dev  # libraries
   verilator libsystemc-dev                 # RTL simulation (C++ and SystemC testbenches)
   yosys nextpnr-ice40 fpga-icestorm iverilog  # FPGA flow and gate-level simulation
+  z3                                       # formal proofs (scripts/formal.sh): yosys-smtbmc's solver
   gnuplot-nox                              # PNG plots
   clang-format                             # C++ layout (.clang-format; CTest Format.*)
   python3-serial socat                     # independent serial clients for the link tests

@@ -455,4 +455,70 @@ module board_core #(
   end
   assign led_green_o = green_q;
   assign led_red_o   = red_q;
+
+`ifdef FORMAL
+  // ---- Formal properties (scripts/formal.sh; docs/formal.md) ----
+  // Proved with the network, its crossing, the interpolator, the joint controllers' datapath, the
+  // UARTs, link_tx and link_rx as black boxes whose outputs are free (a sound over-approximation):
+  // link_rx's delivery is proved in its own job and assumed here through setpoint_buffer's
+  // protocol assumptions, the controllers' current limit through joint_pwm's.
+  // Environment: reset in the first cycle only.
+  logic f_past_valid = 1'b0;
+  always_ff @(posedge clk_i) f_past_valid <= 1'b1;
+  always_comb reset_only_in_the_first_cycle: assume (rst_ni == f_past_valid);
+
+  // The command a CRC-valid command frame carries (its one payload byte), kept independently.
+  logic [7:0] f_command_q = '0;
+  always_ff @(posedge clk_i) if (payload_valid && is_command && payload_index == 6'd0) f_command_q <= payload_byte;
+  logic f_valid_enable, f_valid_disable, f_valid_hold, f_valid_clear, f_valid_home;
+  assign f_valid_enable  = frame_ok && is_command && f_command_q == 8'(delta_board_pkg::CommandEnable);
+  assign f_valid_disable = frame_ok && is_command && f_command_q == 8'(delta_board_pkg::CommandDisable);
+  assign f_valid_hold    = frame_ok && is_command && f_command_q == 8'(delta_board_pkg::CommandHold);
+  assign f_valid_clear   = frame_ok && is_command && f_command_q == 8'(delta_board_pkg::CommandClearFault);
+  assign f_valid_home    = frame_ok && is_command && f_command_q == 8'(delta_board_pkg::CommandSetHome);
+  always_comb begin
+    pwm_outputs_off_whenever_the_drives_are_off: assert (drive_enable_o || drive_pwm_o == '0);
+    pwm_outputs_off_whenever_the_drives_are_off_c: cover (!drive_enable_o && enabled_q);
+    the_fault_pin_is_the_latch: assert (joint_fault_o == (joint_fault_cause_o != '0));
+    the_fault_pin_is_the_latch_c: cover (joint_fault_o);
+    if (clear_fault) a_clear_is_taken_only_with_the_cause_gone: assert (f_valid_clear && !fault_active);
+    a_clear_is_taken_only_with_the_cause_gone_c: cover (clear_fault && fault);
+    if (f_valid_clear && !fault_active) a_valid_clear_with_the_cause_gone_is_taken: assert (clear_fault);
+    a_valid_clear_with_the_cause_gone_is_taken_c: cover (f_valid_clear && !fault_active && fault);
+    if (home) set_home_only_with_the_drives_off: assert (f_valid_home && !enabled_q);
+    set_home_only_with_the_drives_off_c: cover (home);
+    if (play) plays_only_with_the_drives_on_and_no_fault: assert (enabled_q && !holding_q && !fault);
+    plays_only_with_the_drives_on_and_no_fault_c: cover (play);
+    holding_only_while_enabled: assert (!holding_q || enabled_q);
+    holding_only_while_enabled_c: cover (holding_q);
+  end
+  always_ff @(posedge clk_i) begin
+    if (f_past_valid && $past(rst_ni)) begin
+      // Enable: only after an enable command in a CRC-valid frame, homed, no fault latched.
+      if (!$past(enabled_q) && enabled_q) enables_only_on_a_valid_enable_homed_without_fault: assert ($past(f_valid_enable) && $past(homed_q) && !$past(fault));
+      enables_only_on_a_valid_enable_homed_without_fault_c: cover (!$past(enabled_q) && enabled_q);
+      if (!$past(drive_enable_o) && drive_enable_o) drives_on_only_a_clock_after_the_enable: assert ($past(enabled_q) && !$past(fault));
+      drives_on_only_a_clock_after_the_enable_c: cover (!$past(drive_enable_o) && drive_enable_o);
+      // Progress: a valid enable in the allowed state enables in the next clock.
+      if ($past(f_valid_enable) && $past(homed_q) && !$past(fault) && !($past(enabled_q) && !$past(holding_q))) begin
+        a_valid_enable_homed_without_fault_enables: assert (enabled_q && !holding_q);
+      end
+      a_valid_enable_homed_without_fault_enables_c: cover ($past(f_valid_enable) && $past(homed_q) && $past(holding_q));
+      // Commands act only on a CRC-valid command frame (a dropped frame changes no state); a fault
+      // is the only other way the drives go off, and nothing turns them on by itself.
+      if ($past(enabled_q) != enabled_q || $past(holding_q) != holding_q || $past(homed_q) != homed_q) begin
+        state_changes_only_on_a_valid_command_or_a_fault: assert ($past(frame_ok && is_command) || ($past(fault) && !enabled_q && !holding_q));
+      end
+      state_changes_only_on_a_valid_command_or_a_fault_c: cover ($past(frame_bad) && $past(enabled_q) && enabled_q);
+      if ($past(fault)) a_fault_turns_the_enable_off: assert (!enabled_q && !holding_q && !drive_enable_o);
+      a_fault_turns_the_enable_off_c: cover ($past(fault) && $past(enabled_q));
+      if ($past(f_valid_disable)) disable_turns_the_drives_off: assert (!enabled_q && !holding_q);
+      disable_turns_the_drives_off_c: cover ($past(f_valid_disable) && $past(enabled_q));
+      if ($past(f_valid_hold) && $past(enabled_q) && !$past(fault)) hold_holds: assert (holding_q && enabled_q);
+      hold_holds_c: cover ($past(f_valid_hold) && $past(enabled_q));
+      if ($past(f_valid_disable) || $past(fault && enabled_q)) disable_or_fault_flushes_the_setpoints: assert (fill == '0);
+      disable_or_fault_flushes_the_setpoints_c: cover ($past(f_valid_disable) && $past(fill) != '0);
+    end
+  end
+`endif
 endmodule

@@ -174,4 +174,105 @@ module link_rx #(
   assign sequence_o      = sequence_q;
   assign payload_index_o = index_q - 6'd4;
   assign payload_byte_o  = ring_data_q;
+
+`ifdef FORMAL
+  // ---- Formal properties (scripts/formal.sh; docs/formal.md) ----
+  // Environment: reset in the first cycle only; uart_rx delivers a byte at most once per
+  // 9 bit times (a byte takes 10 on the line: start, 8 data bits, stop).
+  localparam int FByteGap = 9 * delta_board_pkg::LinkClocksPerBit;
+  localparam int FMaxFrame = delta_board_pkg::FrameHeaderBytes + delta_board_pkg::SetpointPayloadBytes +
+                             delta_board_pkg::FrameCrcBytes;  // the longest frame the board takes
+  logic f_past_valid = 1'b0;
+  always_ff @(posedge clk_i) f_past_valid <= 1'b1;
+  logic [$clog2(FByteGap+1)-1:0] f_gap_q = '0;  // cycles since the last byte, saturating
+  always_ff @(posedge clk_i) begin
+    if (rx_valid_i) f_gap_q <= '0;
+    else if (f_gap_q != $clog2(FByteGap+1)'(FByteGap)) f_gap_q <= f_gap_q + 1'b1;
+  end
+  always_comb begin
+    reset_only_in_the_first_cycle: assume (rst_ni == f_past_valid);
+    bytes_arrive_at_most_at_the_line_rate: assume (!rx_valid_i || (f_gap_q == $clog2(FByteGap+1)'(FByteGap) && rst_ni));
+  end
+
+  // The specification of the frame rules (docs/board_link.md), written independently: a parser
+  // of the bytes as this receiver consumes them (ring_data_q while fetched_q), and a bit-serial
+  // CRC-16/CCITT-FALSE.
+  function automatic logic [15:0] f_crc16(logic [15:0] crc, logic [7:0] data);
+    logic [15:0] value;
+    value = crc;
+    for (int i = 7; i >= 0; i--) begin
+      value = (value[15] ^ data[i]) ? ((value << 1) ^ 16'(delta_board_pkg::FrameCrcPolynomial)) : (value << 1);
+    end
+    f_crc16 = value;
+  endfunction
+  function automatic logic [7:0] f_size(logic [7:0] frame_type);
+    f_size = 8'hFF;  // not a type the board receives
+    if (frame_type == 8'(delta_board_pkg::FrameTypeIdentifyRequest)) f_size = 8'd0;
+    if (frame_type == 8'(delta_board_pkg::FrameTypeSetpoint)) f_size = 8'(delta_board_pkg::SetpointPayloadBytes);
+    if (frame_type == 8'(delta_board_pkg::FrameTypeCommand)) f_size = 8'(delta_board_pkg::CommandPayloadBytes);
+  endfunction
+  logic [7:0]  f_pos_q = '0, f_length_q = '0, f_type_q = '0, f_sequence_q = '0, f_high_q = '0;
+  logic [15:0] f_crc_q = '0;
+  logic [7:0]  f_byte;
+  logic        f_header_ok, f_start, f_drop_header, f_payload, f_end, f_crc_ok;
+  assign f_byte        = ring_data_q;
+  assign f_header_ok   = f_size(f_byte) != 8'hFF && f_length_q == f_size(f_byte);
+  assign f_start       = fetched_q && f_pos_q == 8'd3 && f_header_ok;
+  assign f_drop_header = fetched_q && f_pos_q == 8'd3 && !f_header_ok;
+  assign f_payload     = fetched_q && f_pos_q >= 8'd4 && f_pos_q < 8'd4 + f_length_q;
+  assign f_end         = fetched_q && f_pos_q == 8'd5 + f_length_q;
+  assign f_crc_ok      = f_high_q == f_crc_q[15:8] && f_byte == f_crc_q[7:0];
+  always_ff @(posedge clk_i) begin
+    if (!rst_ni) begin
+      f_pos_q <= '0;
+    end else if (fetched_q) begin
+      if (f_pos_q == 8'd0) begin
+        if (f_byte == Sync) f_pos_q <= 8'd1;
+        f_crc_q <= 16'(delta_board_pkg::FrameCrcInit);
+      end else begin
+        f_pos_q <= f_drop_header || f_end ? 8'd0 : f_pos_q + 8'd1;
+        if (f_pos_q < 8'd4 + f_length_q) f_crc_q <= f_crc16(f_crc_q, f_byte);
+        if (f_pos_q == 8'd1) f_length_q <= f_byte;
+        if (f_pos_q == 8'd2) f_sequence_q <= f_byte;
+        if (f_pos_q == 8'd3) f_type_q <= f_byte;
+        if (f_pos_q == 8'd4 + f_length_q) f_high_q <= f_byte;
+      end
+    end
+  end
+
+  always_comb begin
+    // Delivery follows the frame rules exactly: a header with a known type and its length
+    // starts a frame, its payload bytes are presented once in order, and only a matching CRC
+    // (both bytes) gives ok_o; everything else is dropped and counted.
+    start_only_for_a_valid_header: assert (start_o == f_start);
+    start_only_for_a_valid_header_c: cover (start_o && f_type_q == 8'(delta_board_pkg::FrameTypeCommand));
+    payload_bytes_presented_once_in_order: assert (payload_valid_o == f_payload && (!f_payload || payload_index_o == 6'(f_pos_q - 8'd4)));
+    payload_bytes_presented_once_in_order_c: cover (payload_valid_o && payload_index_o == 6'(delta_board_pkg::SetpointPayloadBytes - 1));
+    ok_only_with_a_matching_crc: assert (ok_o == (f_end && f_crc_ok));
+    ok_only_with_a_matching_crc_c: cover (ok_o && f_length_q == 8'(delta_board_pkg::CommandPayloadBytes));
+    bad_crc_or_header_drops_the_frame: assert (bad_o == (f_drop_header || (f_end && !f_crc_ok)));
+    bad_crc_or_header_drops_the_frame_c: cover (bad_o && f_end);
+    if (start_o || payload_valid_o || ok_o) frame_fields_held_from_the_header: assert (type_o == (start_o ? f_byte : f_type_q) &&
+        sequence_o == f_sequence_q && (start_o || type_o == f_type_q));
+    frame_fields_held_from_the_header_c: cover (ok_o && type_o == 8'(delta_board_pkg::FrameTypeSetpoint));
+    // The ring: the parser reads only received bytes and never falls a ring behind the receiver
+    // (a frame it may still rescan is never overwritten).
+    the_parser_reads_only_received_bytes: assert (!fetched_d || read_q != write_q);
+    the_parser_reads_only_received_bytes_c: cover (fetched_q && f_pos_q == 8'd5);
+    backlog_stays_within_a_frame: assert (PointerWidth'(write_q - read_q) <= PointerWidth'(FMaxFrame + 1) &&
+        (f_pos_q == 8'd0 || PointerWidth'(write_q - start_q) <= PointerWidth'(FMaxFrame + 1)));
+    backlog_stays_within_a_frame_c: cover (PointerWidth'(write_q - read_q) == PointerWidth'(FMaxFrame - 1));
+  end
+  always_ff @(posedge clk_i) begin
+    if (f_past_valid && $past(rst_ni)) begin
+      if (fetched_q) the_byte_read_is_at_the_read_pointer: assert ($past(fetched_d) && read_q == $past(read_q));
+      the_byte_read_is_at_the_read_pointer_c: cover (fetched_q && $past(rx_valid_i));
+      // After a drop the parser rescans from the byte after the dropped frame's sync.
+      if ($past(bad_o)) rescan_after_a_drop: assert (read_q == $past(start_q) + 1'b1 && f_pos_q == 8'd0);
+      rescan_after_a_drop_c: cover ($past(bad_o) && $past(f_pos_q) == 8'd3);
+      if ($past(ok_o)) continue_after_a_frame: assert (read_q == $past(read_q) + 1'b1 && f_pos_q == 8'd0);
+      continue_after_a_frame_c: cover ($past(ok_o));
+    end
+  end
+`endif
 endmodule

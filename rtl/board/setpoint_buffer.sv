@@ -118,4 +118,85 @@ module setpoint_buffer #(
   assign start_o        = starting_q;
   assign sample_index_o = sample_index_q;
   assign fill_o         = 16'(fill_q);
+
+`ifdef FORMAL
+  // ---- Formal properties (scripts/formal.sh; docs/formal.md) ----
+  // Environment: reset in the first cycle only, and link_rx's delivery protocol (link_rx.sv's
+  // header; in a composition with link_rx these assumptions are checked as assertions): a frame
+  // starts (frame_start_i) outside a frame, presents its payload bytes in order from index 0,
+  // and ends with frame_ok_i (all its bytes presented) or with a drop; the type holds meanwhile.
+  logic f_past_valid = 1'b0;
+  always_ff @(posedge clk_i) f_past_valid <= 1'b1;
+  logic       f_in_frame_q = 1'b0, f_setpoint_q = 1'b0, f_flushed_q = 1'b0, f_full_q = 1'b0;
+  logic [5:0] f_bytes_q = '0;
+  logic [31:0] f_index_q = '0;  // the frame's sample index, bytes 0..3 little-endian
+  always_ff @(posedge clk_i) begin
+    if (!rst_ni || frame_ok_i) f_in_frame_q <= 1'b0;
+    else if (frame_start_i) f_in_frame_q <= 1'b1;
+    if (frame_start_i) begin
+      f_bytes_q   <= '0;
+      f_setpoint_q <= is_setpoint_i;
+      f_flushed_q <= flush_i;
+      f_full_q    <= fill_q == FillWidth'(Depth);
+    end else begin
+      if (payload_valid_i) f_bytes_q <= f_bytes_q + 6'd1;
+      if (flush_i) f_flushed_q <= 1'b1;
+    end
+    if (payload_valid_i && payload_index_i < 6'd4) f_index_q[8 * payload_index_i[1:0] +: 8] <= payload_byte_i;
+  end
+  always_comb begin
+    reset_only_in_the_first_cycle: assume (rst_ni == f_past_valid);
+    a_frame_starts_outside_a_frame: assume (!frame_start_i || !f_in_frame_q || !rst_ni);
+    payload_bytes_come_in_order_inside_a_frame: assume (!payload_valid_i || (f_in_frame_q && !frame_start_i && payload_index_i == f_bytes_q));
+    a_frame_ends_ok_after_its_whole_payload: assume (!frame_ok_i || (f_in_frame_q && !frame_start_i &&
+        f_bytes_q == (is_setpoint_i ? 6'(delta_board_pkg::SetpointPayloadBytes) : f_bytes_q)));
+    the_type_holds_through_the_frame: assume (!f_in_frame_q || frame_start_i || is_setpoint_i == f_setpoint_q);
+  end
+
+  logic [31:0] f_next_index;
+  assign f_next_index = sample_index_q + 32'(fill_q);
+  always_comb begin
+    // Playback: only an entry the buffer holds is played; an empty buffer underruns instead.
+    plays_only_an_entry_it_holds: assert (!pop || fill_q != '0);
+    plays_only_an_entry_it_holds_c: cover (pop && fill_q == FillWidth'(1));
+    underrun_exactly_when_empty: assert (underrun_o == (play_i && fill_q == '0));
+    underrun_exactly_when_empty_c: cover (underrun_o);
+    fill_never_exceeds_the_depth: assert (fill_q <= FillWidth'(Depth));
+    fill_never_exceeds_the_depth_c: cover (fill_q == FillWidth'(Depth));
+    // Filling: an entry is taken only from a CRC-valid setpoint frame that carries the next free
+    // sample index, began with room and met no flush; the bytes go into the next free slot.
+    if (commit) commits_only_the_next_index_with_room_and_no_flush: assert (frame_ok_i && f_setpoint_q &&
+        f_index_q == f_next_index && !f_full_q && !f_flushed_q && !flush_i);
+    commits_only_the_next_index_with_room_and_no_flush_c: cover (commit && fill_q == '0 && sample_index_q != '0);
+    if (frame_ok_i && is_setpoint_i && f_index_q == f_next_index && !f_full_q && !f_flushed_q && !flush_i) begin
+      a_valid_setpoint_is_taken: assert (commit);
+    end
+    a_valid_setpoint_is_taken_c: cover (commit && fill_q == FillWidth'(Depth - 1));
+    refused_exactly_when_not_taken: assert (refused_o == (frame_ok_i && is_setpoint_i && !commit));
+    refused_exactly_when_not_taken_c: cover (refused_o && f_index_q == f_next_index);
+    if (write_enable) writes_only_a_free_slot: assert (fill_q < FillWidth'(Depth) && write_slot == f_next_index[SlotWidth-1:0] &&
+        f_setpoint_q && payload_index_i >= 6'd4 && payload_index_i < 6'(delta_board_pkg::SetpointPayloadBytes));
+    writes_only_a_free_slot_c: cover (write_enable && fill_q == FillWidth'(Depth - 1));
+    if (write_enable && pop) never_writes_the_slot_it_plays: assert (write_slot != sample_index_q[SlotWidth-1:0]);
+    never_writes_the_slot_it_plays_c: cover (write_enable && pop);
+  end
+  always_ff @(posedge clk_i) begin
+    if (f_past_valid && $past(rst_ni)) begin
+      // Bookkeeping: a flush empties, a take adds one, a play removes one; the index counts plays.
+      fill_counts_takes_and_plays: assert (fill_q == ($past(flush_i) ? '0 : $past(fill_q) + FillWidth'($past(commit)) - FillWidth'($past(pop))));
+      fill_counts_takes_and_plays_c: cover ($past(commit) && $past(pop));
+      sample_index_counts_plays: assert (sample_index_q == $past(sample_index_q) + 32'($past(pop)));
+      sample_index_counts_plays_c: cover (sample_index_q == 32'd2);
+      // The network is started once per play and held until it is ready.
+      if ($past(pop)) a_play_starts_the_network: assert (start_o);
+      if ($past(start_o) && !$past(ready_i) && !$past(pop)) start_holds_until_ready: assert (start_o);
+      if (!$past(pop) && !$past(start_o)) start_only_after_a_play: assert (!start_o);
+      if ($past(ready_i) && !$past(pop)) start_drops_at_ready: assert (!start_o);
+      a_play_starts_the_network_c: cover ($past(pop) && start_o);
+      start_holds_until_ready_c: cover ($past(start_o, 1) && start_o && !$past(pop));
+      start_only_after_a_play_c: cover ($past(start_o) && !start_o);
+      start_drops_at_ready_c: cover ($past(ready_i) && $past(start_o) && !start_o);
+    end
+  end
+`endif
 endmodule

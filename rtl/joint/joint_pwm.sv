@@ -68,4 +68,67 @@ module joint_pwm #(
   assign drive_pwm_o    = pwm_q;
   assign drive_dir_o    = direction_q;
   assign drive_enable_o = enable_q;
+
+`ifdef FORMAL
+  // ---- Formal properties (scripts/formal.sh; docs/formal.md) ----
+  // Environment: reset in the first cycle only; the controller's currents within its limit.
+  logic f_past_valid = 1'b0;
+  always_ff @(posedge clk_i) f_past_valid <= 1'b1;
+  localparam logic signed [15:0] FLimit = 16'(delta_board_pkg::CurrentLimitCode);
+  function automatic logic [31:0] f_magnitude(logic [15:0] current);
+    f_magnitude = current[15] ? 32'(0 - 32'($signed(current))) : 32'(current);
+  endfunction
+  function automatic logic f_within(logic [15:0] current);
+    f_within = $signed(current) <= FLimit && $signed(current) >= -FLimit;
+  endfunction
+  always_comb begin
+    reset_only_in_the_first_cycle: assume (rst_ni == f_past_valid);
+    currents_within_the_limit: assume ((!current_valid_i[0] || f_within(currents_i[15:0])) &&
+        (!current_valid_i[1] || f_within(currents_i[31:16])) && (!current_valid_i[2] || f_within(currents_i[47:32])));
+  end
+  // The specification: the last stored current of each joint, and the PWM period's position.
+  logic [47:0]        f_current_q = '0;
+  logic [PwmBits-1:0] f_phase_q = '0;
+  always_ff @(posedge clk_i) begin
+    f_phase_q <= rst_ni ? f_phase_q + 1'b1 : '0;
+    for (int j = 0; j < 3; j++) begin
+      if (!rst_ni) f_current_q[16 * j +: 16] <= '0;
+      else if (current_valid_i[j]) f_current_q[16 * j +: 16] <= currents_i[16 * j +: 16];
+    end
+  end
+  // duty = |current| / 0.5 A of the period: |current| 2^PwmBits / CurrentLimitCode cycles.
+  localparam int FScale = $clog2(delta_board_pkg::CurrentLimitCode);  // the limit is a power of two
+  logic [3*16-1:0] f_duty_q = '0;
+  always_ff @(posedge clk_i) begin
+    for (int j = 0; j < 3; j++) begin
+      if (!rst_ni) f_duty_q[16 * j +: 16] <= '0;
+      else if (current_valid_i[j]) f_duty_q[16 * j +: 16] <= 16'((f_magnitude(currents_i[16 * j +: 16]) << PwmBits) >> FScale);
+    end
+  end
+  logic [2:0] f_on;  // joint j's PWM is high in this phase
+  for (genvar j = 0; j < 3; j++) begin : g_spec
+    assign f_on[j] = 16'(f_phase_q) < f_duty_q[16 * j +: 16];
+  end
+
+  always_comb begin
+    pwm_off_whenever_the_drives_are_off: assert (drive_enable_o || drive_pwm_o == '0);
+  end
+  always_ff @(posedge clk_i) begin
+    if (f_past_valid) pwm_off_whenever_the_drives_are_off_c: cover (!drive_enable_o && $past(drive_pwm_o) != '0);
+  end
+  always_ff @(posedge clk_i) begin
+    if (f_past_valid) begin
+      drives_on_only_when_enabled_and_no_fault: assert (drive_enable_o == ($past(rst_ni) && $past(enabled_i) && !$past(fault_i)));
+      drives_on_only_when_enabled_and_no_fault_c: cover (drive_enable_o && $past(enabled_i) && f_current_q != '0);
+      if ($past(fault_i) || !$past(enabled_i)) torque_off_the_clock_after_a_fault_or_disable: assert (!drive_enable_o && drive_pwm_o == '0);
+      torque_off_the_clock_after_a_fault_or_disable_c: cover ($past(fault_i) && $past(drive_pwm_o) != '0);
+      if ($past(rst_ni)) begin
+        pwm_duty_is_the_current_over_full_scale: assert (drive_pwm_o == ($past(enabled_i && !fault_i) ? $past(f_on) : 3'b000));
+        direction_is_the_currents_sign: assert (drive_dir_o == {f_current_q[47], f_current_q[31], f_current_q[15]});
+      end
+      pwm_duty_is_the_current_over_full_scale_c: cover (drive_pwm_o == 3'b101 && drive_enable_o);
+      direction_is_the_currents_sign_c: cover (drive_dir_o == 3'b011 && drive_enable_o);
+    end
+  end
+`endif
 endmodule

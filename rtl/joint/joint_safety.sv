@@ -102,4 +102,98 @@ module joint_safety #(
   assign active_o      = active_q;
   assign fault_o       = fault_cause_q != '0;
   assign fault_cause_o = fault_cause_q;
+
+`ifdef FORMAL
+  // ---- Formal properties (scripts/formal.sh; the list and how to run them: docs/formal.md) ----
+  // Environment: reset in the first cycle only; a period start is a tick (joint_axes). Every
+  // other input is free: ticks may come every cycle, frames, enables and clears at any time.
+  logic [1:0] f_cycles_q = 2'd0;  // saturating: $past(x) valid from 1, $past(x, 2) from 2
+  logic       f_past_valid, f_past2_valid;
+  always_ff @(posedge clk_i) if (f_cycles_q != 2'd3) f_cycles_q <= f_cycles_q + 2'd1;
+  assign f_past_valid  = f_cycles_q != 2'd0;
+  assign f_past2_valid = f_cycles_q[1];
+  always_comb begin
+    reset_only_in_the_first_cycle: assume (rst_ni == f_past_valid);
+    a_period_start_is_a_tick: assume (!period_start_i || tick_i);
+  end
+
+  // The specification of the checks, written independently of the pipeline above: the whole
+  // reference (24 integer bits) against the count, and the travel in counts.
+  localparam int FollowingLimit = 1 << FollowingBits;
+  localparam int TravelLow      = MinTravelBlock * 1024;
+  localparam int TravelHigh     = (MaxTravelBlock + 1) * 1024;  // first count outside
+  logic [2:0] f_following, f_outside;
+  for (genvar j = 0; j < 3; j++) begin : g_spec
+    logic signed [31:0] f_reference, f_count, f_difference;
+    assign f_reference    = 32'($signed(references_i[32 * j + 8 +: 24]));
+    assign f_count        = 32'($signed(counts_i[16 * j +: 16]));
+    assign f_difference   = f_reference - f_count;
+    assign f_following[j] = f_difference < -FollowingLimit || f_difference >= FollowingLimit;
+    assign f_outside[j]   = f_reference < TravelLow || f_reference >= TravelHigh;
+  end
+  // Periods with the drives on and no valid frame (the watchdog's specification), saturating.
+  logic [WatchdogWidth-1:0] f_silent_q = '0;
+  always_ff @(posedge clk_i) begin
+    if (!rst_ni || frame_valid_i || !enabled_i) f_silent_q <= '0;
+    else if (tick_i && ~f_silent_q != '0) f_silent_q <= f_silent_q + 1'b1;
+  end
+
+  localparam int Skip = delta_board_pkg::FaultEncoderSkip, Following = delta_board_pkg::FaultFollowing;
+  localparam int Watchdog = delta_board_pkg::FaultWatchdog, Travel = delta_board_pkg::FaultTravel;
+  always_comb begin
+    fault_is_any_latched_cause: assert (fault_o == (fault_cause_o != '0));
+    fault_is_any_latched_cause_c: cover (fault_o && fault_cause_o != 4'b1111);
+  end
+  always_ff @(posedge clk_i) begin
+    if (f_past_valid && rst_ni && $past(rst_ni)) begin
+      // A latched cause stays until a clear: never clears, never re-enables by itself.
+      if ($past(fault_o) && !$past(clear_i)) cause_holds_until_a_clear: assert ((fault_cause_o & $past(fault_cause_o)) == $past(fault_cause_o));
+      cause_holds_until_a_clear_c: cover ($past(fault_o) && !$past(clear_i) && $past(step_error_i) == '0);
+      // A clear with no cause present in its cycle clears every cause (progress).
+      if ($past(clear_i) && $past(step_error_i) == '0 && !($past(enabled_i) && $past(checked_q)) &&
+          !($past(enabled_i) && $past(silent_periods_q) > WatchdogWidth'(WatchdogPeriods))) begin
+        clear_with_the_cause_gone_clears: assert (!fault_o);
+      end
+      clear_with_the_cause_gone_clears_c: cover ($past(fault_o) && $past(clear_i) && !fault_o);
+      // A cause present in the clear's own cycle still latches (a clear never hides a cause).
+      if ($past(step_error_i) != '0) encoder_skip_latches: assert (fault_cause_o[Skip]);
+      encoder_skip_latches_c: cover ($past(step_error_i) != '0 && $past(clear_i));
+      // Each cause rises only for its reason.
+      if (!$past(fault_cause_o[Skip]) && fault_cause_o[Skip]) skip_rises_only_on_a_skip: assert ($past(step_error_i) != '0);
+      skip_rises_only_on_a_skip_c: cover (!$past(fault_cause_o[Skip]) && fault_cause_o[Skip]);
+      // Watchdog: drives on and no valid frame for more than WatchdogPeriods ticks -> the cause
+      // latches in the next clock (joint_axes: the drives go off in the clock after).
+      if ($past(enabled_i) && $past(f_silent_q) > WatchdogWidth'(WatchdogPeriods)) watchdog_fires_after_the_watchdog_time: assert (fault_cause_o[Watchdog]);
+      watchdog_fires_after_the_watchdog_time_c: cover ($past(enabled_i) && $past(f_silent_q) > WatchdogWidth'(WatchdogPeriods));
+      if (!$past(fault_cause_o[Watchdog]) && fault_cause_o[Watchdog]) begin
+        watchdog_never_fires_early: assert ($past(enabled_i) && $past(f_silent_q) > WatchdogWidth'(WatchdogPeriods));
+      end
+      watchdog_never_fires_early_c: cover ($past(enabled_i) && $past(f_silent_q) == WatchdogWidth'(WatchdogPeriods) && !fault_cause_o[Watchdog]);
+    end
+    if (f_past2_valid && rst_ni && $past(rst_ni, 2)) begin
+      // Following and travel: judged on the values of the cycle after a period start, latched two
+      // cycles later when the drives are on.
+      if ($past(checked_q) && $past(enabled_i) && $past(f_outside, 2) != '0) reference_outside_the_travel_latches: assert (fault_cause_o[Travel]);
+      reference_outside_the_travel_latches_c: cover ($past(checked_q) && $past(enabled_i) && $past(f_outside, 2) != '0);
+      if ($past(checked_q) && $past(enabled_i) && $past(f_following & ~f_outside, 2) != '0) following_error_latches: assert (fault_cause_o[Following]);
+      following_error_latches_c: cover ($past(checked_q) && $past(enabled_i) && $past(f_following & ~f_outside, 2) != '0);
+      if (!$past(fault_cause_o[Travel]) && fault_cause_o[Travel]) begin
+        travel_rises_only_outside: assert ($past(checked_q) && $past(enabled_i) && $past(f_outside, 2) != '0);
+      end
+      travel_rises_only_outside_c: cover ($past(checked_q) && $past(enabled_i) && $past(f_outside, 2) == '0 && !fault_o);
+      if (!$past(fault_cause_o[Following]) && fault_cause_o[Following]) begin
+        following_rises_only_on_an_error: assert ($past(checked_q) && $past(enabled_i) && $past(f_following | f_outside, 2) != '0);
+      end
+      following_rises_only_on_an_error_c: cover ($past(checked_q) && $past(enabled_i) && $past(f_following | f_outside, 2) == '0 && !fault_o);
+      // active_o (a clear is refused while it is high): the conditions of the last checked period.
+      if ($past(checked_q)) begin
+        active_is_the_last_periods_condition: assert (($past(f_outside, 2) != '0) ? active_o : active_o == ($past(f_following, 2) != '0));
+      end else begin
+        active_holds_between_checks: assert (active_o == $past(active_o));
+      end
+      active_is_the_last_periods_condition_c: cover ($past(checked_q) && active_o && !$past(enabled_i));
+      active_holds_between_checks_c: cover (!$past(checked_q) && active_o);
+    end
+  end
+`endif
 endmodule

@@ -1,0 +1,218 @@
+#!/usr/bin/env bash
+# Formal proofs of the board's safety properties (docs/formal.md): the immediate assertions,
+# assumptions and covers in the RTL's `ifdef FORMAL` blocks, proved per module with Debian's
+# yosys 0.23, yosys-abc (PDR, unbounded) and yosys-smtbmc with z3 (counterexamples).
+#
+#   scripts/formal.sh [--out DIR] [--jobs N] [--timeout S] [--only JOB] [--rtl DIR] [--quiet]
+#                     [--stop-at-failure]
+#
+# One line per property: its verdict (proven: PDR, unbounded; passed to depth N: bounded, when PDR
+# ran out of time; FAILED) and the time. Every cover must be reached (a counterexample to its
+# negation) or the run fails: a property whose cover is unreachable would pass vacuously.
+# On a failure: DIR/<job>.<property>.vcd (waveform) and DIR/<job>.<property>_tb.v (testbench) from
+# yosys-smtbmc, and exit 1 (exit 3 when yosys cannot read the RTL). --rtl points at another copy
+# of rtl/ (the mutation run's mutants); --stop-at-failure ends at the first failure.
+set -euo pipefail
+
+here=$(cd "$(dirname "$0")/.." && pwd)
+rtl=$here/rtl
+out=$here/build/formal
+jobs=2
+timeout=60        # seconds of PDR per property before falling back to bounded model checking
+bmc_depth=40      # depth of that fallback (and the frames a cover may need beyond PDR's reach)
+only=
+quiet=0
+stop=0
+while [ $# -gt 0 ]; do
+  case $1 in
+    --out) out=$2; shift 2 ;;
+    --jobs) jobs=$2; shift 2 ;;
+    --timeout) timeout=$2; shift 2 ;;
+    --only) only=$2; shift 2 ;;
+    --rtl) rtl=$2; shift 2 ;;
+    --quiet) quiet=1; shift ;;
+    --stop-at-failure) stop=1; shift ;;
+    -h|--help) sed -n '2,13p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    *) echo "formal.sh: unknown argument '$1' (try --help)" >&2; exit 2 ;;
+  esac
+done
+for tool in yosys yosys-abc yosys-smtbmc z3; do
+  command -v $tool >/dev/null || { echo "formal.sh: $tool not found: run scripts/setup.sh" >&2; exit 2; }
+done
+mkdir -p "$out"
+work=$(mktemp -d "${TMPDIR:-/tmp}/formal.XXXXXX")
+[ -n "${FORMAL_KEEP:-}" ] || trap 'rm -rf "$work"' EXIT; [ -z "${FORMAL_KEEP:-}" ] || echo "formal.sh: work directory $work" >&2
+
+pkg="$rtl/board/delta_board_pkg.sv $rtl/joint/delta_joint_pkg.sv"
+
+# ---- the proof jobs: name, top module, sources, yosys commands after reading them ----------------
+# Submodules' assumptions become assertions in a composition (their environment is checked).
+# Blackboxed submodules (yosys `blackbox`) drive their outputs freely: a sound over-approximation.
+# job NAME TOP SOURCES [BLACKBOX_SOURCES] [TRUSTED]: BLACKBOX_SOURCES are read for their ports
+# only; TRUSTED submodules keep their assumptions (each is proved by another job, named there).
+job_names=()
+declare -A job_top job_src job_lib job_trusted
+job() { job_names+=("$1"); job_top[$1]=$2; job_src[$1]=$(echo $3); job_lib[$1]=$(echo ${4:-}); job_trusted[$1]=${5:-}; }
+
+job joint_safety joint_safety "$rtl/joint/joint_safety.sv"
+job joint_pwm joint_pwm "$rtl/joint/joint_pwm.sv"
+job setpoint_buffer setpoint_buffer "$rtl/board/setpoint_buffer.sv"
+job link_rx link_rx "$rtl/board/link_crc16.sv $rtl/board/link_rx.sv"
+# The board's command logic with joint_axes (fault latch, PWM, encoders) and the setpoint buffer;
+# link_rx (job link_rx) and the controllers' current clamp (job joint_controller) trusted.
+job board_core board_core "$rtl/network/delta_network_pkg.sv $rtl/board/board_core.sv $rtl/board/setpoint_buffer.sv $rtl/joint/joint_axes.sv
+    $rtl/joint/joint_safety.sv $rtl/joint/joint_pwm.sv $rtl/joint/quadrature_counter.sv" \
+  "$rtl/network/readmemh_table.sv $rtl/network/delta_network.sv $rtl/board/network_crossing.sv
+    $rtl/board/reference_interpolator.sv $rtl/board/link_tx.sv $rtl/board/uart_tx.sv $rtl/board/uart_rx.sv
+    $rtl/board/link_rx.sv $rtl/joint/joint_controller.sv" \
+  "setpoint_buffer joint_pwm"
+
+# ---- build the models: one AIGER per assertion and per cover (negated) ---------------------------
+cat >"$work/cover2assert.v" <<'EOF'
+module \$cover (A, EN);
+  input A, EN;
+  \$assert _TECHMAP_REPLACE_ (.A(!A), .EN(EN));
+endmodule
+EOF
+cat >"$work/aig.ys" <<'EOF'
+flatten
+async2sync
+memory_map
+opt -full
+techmap
+opt -fast
+dffunmap
+setundef -undriven -anyseq
+abc -g AND -fast
+opt_clean
+delete -output
+EOF
+cat >"$work/smt.ys" <<'EOF'
+flatten
+async2sync
+dffunmap
+setundef -undriven -anyseq
+opt_clean
+EOF
+
+build_job() {  # job -> $work/<job>/{model.il, props, <kind>.<name>.aig}
+  local j=$1 d=$work/$1
+  mkdir -p "$d"
+  local top=${job_top[$j]}
+  local lib=
+  local f
+  for f in ${job_lib[$j]}; do  # black boxes: the module header (ports) only
+    sed -n '/^module /,/^);/p' "$f" >"$d/stub.$(basename "$f")"
+    echo endmodule >>"$d/stub.$(basename "$f")"
+    lib="$lib read_verilog -lib -sv $d/stub.$(basename "$f");"
+  done
+  if ! yosys -q -l "$d/read.log" -p "read_verilog -formal -sv $pkg ${job_src[$j]}; $lib hierarchy -top $top;
+        prep -top $top; select -set keep $top ${job_trusted[$j]}; chformal -assume -assume2assert @keep %n;
+        flatten; opt_clean;
+        write_rtlil $d/model.il;
+        tee -q -o $d/asserts select -list t:\$assert; tee -q -o $d/covers select -list t:\$cover" >/dev/null 2>&1; then
+    echo "formal.sh: yosys could not read job $j (log: $d/read.log):" >&2
+    grep -m3 ERROR "$d/read.log" >&2 || true
+    return 1
+  fi
+  # Lower once (covers turned into assertions of their negation: a counterexample reaches them),
+  # turn every assertion into an output (its failure), write one AIGER; each check takes the cone
+  # of its output.
+  yosys -q -l "$d/lower.log" -p "read_rtlil $d/model.il; techmap -map $work/cover2assert.v t:\$cover;
+      script $work/aig.ys; write_rtlil $d/lowered.il" >/dev/null 2>&1 ||
+    { echo "formal.sh: yosys failed on job $j (log: $d/lower.log)" >&2; return 1; }
+  python3 "$here/scripts/formal_outputs.py" "$d/lowered.il" "$d/outputs.il" "$d/outputs" &&
+    yosys -q -l "$d/aiger.log" -p "read_rtlil $d/outputs.il; write_aiger -zinit $d/model.aig" >/dev/null 2>&1 ||
+    { echo "formal.sh: yosys failed on job $j (log: $d/aiger.log)" >&2; return 1; }
+  : >"$d/props"
+  local index=0 name
+  while read -r name; do
+    if grep -qx "[^/]*/$name" "$d/covers"; then echo "cover $name $index"; else echo "assert $name $index"; fi >>"$d/props"
+    index=$((index + 1))
+  done <"$d/outputs"
+}
+
+# ---- check one property: prints "job kind name verdict seconds" ------------------------------------
+check() {
+  local j=$1 kind=$2 name=$3 index=$4 d=$work/$1
+  local aig="$d/model.aig; fold; strash; cone -O $index -s" t0 t1 log verdict frame
+  t0=$(date +%s.%N)
+  log=$(timeout $((timeout + 30)) yosys-abc -c "read_aiger $aig; scorr; pdr -T $timeout" 2>&1 || true)
+  if grep -q "Property proved" <<<"$log"; then
+    verdict=proven
+  elif frame=$(grep -o "asserted in frame [0-9]*" <<<"$log" | grep -o "[0-9]*$"); then
+    verdict="cex@$frame"
+  else
+    # PDR ran out of time: bounded model checking to bmc_depth frames.
+    log=$(timeout $((timeout * 3)) yosys-abc -c "read_aiger $aig; bmc3 -F $bmc_depth -T $((timeout * 2))" 2>&1 || true)
+    if frame=$(grep -o "asserted in frame [0-9]*" <<<"$log" | grep -o "[0-9]*$"); then
+      verdict="cex@$frame"
+    elif grep -q "No output asserted in $bmc_depth frames" <<<"$log"; then
+      verdict="depth@$bmc_depth"
+    else
+      verdict="depth@$(grep -o "No output asserted in [0-9]* frames" <<<"$log" | grep -o "[0-9]*" | head -1)"
+      [ "$verdict" != "depth@" ] || verdict=unknown
+    fi
+  fi
+  t1=$(date +%s.%N)
+  printf '%s %s %s %s %.2f\n' "$j" "$kind" "$name" "$verdict" "$(echo "$t1 - $t0" | bc)"
+  # --stop-at-failure: exit status 255 makes xargs stop.
+  if [ "$stop" = 1 ] && { { [ $kind = assert ] && [[ $verdict != proven && $verdict != depth@* ]]; } ||
+                          { [ $kind = cover ] && [[ $verdict != cex@* ]]; }; }; then exit 255; fi
+}
+export -f check
+export work timeout bmc_depth stop
+
+# ---- counterexample: waveform and testbench from yosys-smtbmc ---------------------------------------
+counterexample() {
+  local j=$1 name=$2 frame=$3 d=$work/$1
+  local safe=${name//[^A-Za-z0-9_.]/_}
+  yosys -q -p "read_rtlil $d/model.il; chformal -cover -remove; chformal -assert -remove t:\$assert n:$name %d;
+      script $work/smt.ys; write_smt2 -wires $d/cex.$safe.smt2" >/dev/null 2>&1 || return 0
+  yosys-smtbmc -s z3 -t $((frame + 2)) --dump-vcd "$out/$j.$safe.vcd" --dump-tb "$out/$j.${safe}_tb.v" \
+      "$d/cex.$safe.smt2" >"$out/$j.$safe.smtbmc.log" 2>&1 || true
+  echo "  counterexample: $out/$j.$safe.vcd, testbench $out/$j.${safe}_tb.v"
+}
+
+selected=()
+for j in "${job_names[@]}"; do
+  if [ -z "$only" ] || [ "$j" = "$only" ]; then selected+=("$j"); fi
+done
+[ ${#selected[@]} -gt 0 ] || { echo "formal.sh: no job named '$only'" >&2; exit 2; }
+
+start=$(date +%s.%N)
+for j in "${selected[@]}"; do build_job "$j" || exit 3; done
+for j in "${selected[@]}"; do
+  while read -r kind name index; do echo "$j $kind $name $index"; done <"$work/$j/props"
+done | xargs -P "$jobs" -L 1 bash -c 'check "$0" "$1" "$2" "$3"' >"$work/results" 2>/dev/null || true
+
+failed=0 proven=0 bounded=0 reached=0 props=0 covers=0
+while read -r j kind name verdict seconds; do
+  line=
+  if [ "$kind" = assert ]; then
+    props=$((props + 1))
+    case $verdict in
+      proven) line="proven"; proven=$((proven + 1)) ;;
+      depth@*) line="passed to depth ${verdict#depth@}"; bounded=$((bounded + 1)) ;;
+      cex@*) line="FAILED (counterexample in frame ${verdict#cex@})"; failed=$((failed + 1)) ;;
+      *) line="FAILED (no verdict)"; failed=$((failed + 1)) ;;
+    esac
+  else
+    covers=$((covers + 1))
+    case $verdict in
+      cex@*) line="reached in frame ${verdict#cex@}"; reached=$((reached + 1)) ;;
+      proven) line="FAILED (unreachable: the property it covers is vacuous)"; failed=$((failed + 1)) ;;
+      *) line="FAILED (not reached within $bmc_depth frames)"; failed=$((failed + 1)) ;;
+    esac
+  fi
+  if [ $quiet = 0 ] || [[ $line == FAILED* ]]; then
+    printf '%-7s %-14s %-58s %-52s %7.2f s\n' "$kind" "$j" "$name" "$line" "$seconds"
+  fi
+  if [ "$kind" = assert ] && [[ $verdict == cex@* ]] && [ $quiet = 0 ]; then
+    counterexample "$j" "$name" "${verdict#cex@}"
+  fi
+done < <(sort -k1,1 -k2,2 -s "$work/results")
+end=$(date +%s.%N)
+printf 'formal: %d properties: %d proven (unbounded), %d passed to a depth, %d covers reached of %d; %d failed; %.1f s\n' \
+  "$props" "$proven" "$bounded" "$reached" "$covers" "$failed" "$(echo "$end - $start" | bc)"
+[ $failed = 0 ]

@@ -1,0 +1,100 @@
+#!/usr/bin/env bash
+# Mutation score of the formal properties (docs/formal.md): each mutant is a copy of rtl/ with one
+# operator changed in the synthesised logic (never in an `ifdef FORMAL` block) of a checked module;
+# scripts/formal.sh proves that module's job on it. A mutant is killed when a property fails or a
+# cover becomes unreachable; a mutant yosys cannot read is not counted.
+#
+#   scripts/formal_mutation.sh [--out DIR] [--per-module N] [--timeout S] [--seed K]
+#
+# Writes DIR/score.txt (one line per mutant: module, line, change, killed by / survived) and
+# prints the score. N mutants per module (default 12), drawn with the printed seed.
+set -euo pipefail
+
+here=$(cd "$(dirname "$0")/.." && pwd)
+out=$here/build/formal/mutation
+per_module=12
+timeout=10
+seed=1
+while [ $# -gt 0 ]; do
+  case $1 in
+    --out) out=$2; shift 2 ;;
+    --per-module) per_module=$2; shift 2 ;;
+    --timeout) timeout=$2; shift 2 ;;
+    --seed) seed=$2; shift 2 ;;
+    -h|--help) sed -n '2,11p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    *) echo "formal_mutation.sh: unknown argument '$1' (try --help)" >&2; exit 2 ;;
+  esac
+done
+mkdir -p "$out"
+work=$(mktemp -d "${TMPDIR:-/tmp}/mutation.XXXXXX")
+trap 'rm -rf "$work"' EXIT
+echo "formal_mutation: seed $seed, $per_module mutants per module, PDR timeout $timeout s"
+
+# module file -> the proof job that checks it
+modules="joint/joint_safety.sv:joint_safety joint/joint_pwm.sv:joint_pwm board/setpoint_buffer.sv:setpoint_buffer
+board/link_rx.sv:link_rx board/link_crc16.sv:link_rx board/board_core.sv:board_core"
+
+# The mutants: one operator per line of synthesised logic (python3: the line list, the operators).
+python3 - "$here/rtl" "$per_module" "$seed" "$modules" >"$work/mutants" <<'EOF'
+import random, re, sys
+rtl, per_module, seed, modules = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), sys.argv[4].split()
+swaps = [(' == ', ' != '), (' != ', ' == '), (' <= ', ' < '), (' < ', ' <= '), (' >= ', ' > '), (' > ', ' >= '),
+         (' && ', ' || '), (' || ', ' && '), ("1'b1", "1'b0"), ("1'b0", "1'b1"), (' + ', ' - '), (' - ', ' + '),
+         ('(!', '('), (' !', ' '), ("6'd4", "6'd5"), ("6'd3", "6'd2"), ("4'd0", "4'd1")]
+rng = random.Random(seed)
+for entry in modules:
+    path, job = entry.split(':')
+    lines = open(f'{rtl}/{path}').read().split('\n')
+    candidates, formal = [], False
+    for number, line in enumerate(lines):
+        code = line.split('//')[0]
+        if code.strip().startswith('`ifdef FORMAL'): formal = True
+        if code.strip().startswith('`endif'): formal = False
+        if formal or not code.strip() or code.strip().startswith(('module', 'parameter', 'input', 'output', 'localparam', 'logic')):
+            continue
+        for old, new in swaps:
+            start = code.find(old)
+            if start < 0:
+                continue
+            prefix = code[:start]
+            if old == ' <= ' and prefix.count('(') == prefix.count(')'):
+                continue  # a non-blocking assignment, not a comparison
+            candidates.append((number, old, new, start))
+    rng.shuffle(candidates)
+    for number, old, new, start in candidates[:per_module]:
+        print(f'{path}\t{job}\t{number + 1}\t{old.strip()}\t{new.strip()}\t{start}')
+EOF
+
+killed=0 survived=0 invalid=0
+: >"$out/score.txt"
+while IFS=$'\t' read -r path job line old new column; do
+  rm -rf "$work/rtl" && cp -r "$here/rtl" "$work/rtl"
+  python3 - "$work/rtl/$path" "$line" "$column" "$old" "$new" <<'EOF'
+import sys
+path, line, column, old, new = sys.argv[1], int(sys.argv[2]) - 1, int(sys.argv[3]), sys.argv[4], sys.argv[5]
+lines = open(path).read().split('\n')
+text = lines[line]
+# the operator at its column (the swaps carry their surrounding spaces)
+at = text.find(old, max(0, column - 1))
+lines[line] = text[:at] + new + text[at + len(old):]
+open(path, 'w').write('\n'.join(lines))
+EOF
+  set +e
+  result=$("$here/scripts/formal.sh" --rtl "$work/rtl" --only "$job" --jobs 2 --timeout "$timeout" --quiet --stop-at-failure 2>&1)
+  rc=$?
+  set -e
+  what="$path:$line '$old' -> '$new'"
+  if [ $rc = 3 ]; then
+    invalid=$((invalid + 1)); verdict="not valid SystemVerilog for yosys (not counted)"
+  elif [ $rc = 0 ]; then
+    survived=$((survived + 1)); verdict="SURVIVED"
+  else
+    killed=$((killed + 1))
+    verdict="killed by $(grep -m1 -o '^\(assert\|cover\) *[a-z_]* *[A-Za-z_.]*' <<<"$result" | awk '{print $1, $3}')"
+  fi
+  printf '%-60s %s\n' "$what" "$verdict" | tee -a "$out/score.txt"
+done <"$work/mutants"
+total=$((killed + survived))
+[ $total -gt 0 ] || { echo "formal_mutation: no mutants" >&2; exit 1; }
+printf 'formal_mutation: %d of %d mutants killed (%d %%), %d survived, %d not readable\n' \
+  "$killed" "$total" "$((100 * killed / total))" "$survived" "$invalid" | tee -a "$out/score.txt"
