@@ -90,7 +90,9 @@ void StreamingLoop::run() {
   result_.realtime_note = make_thread_realtime(options_.priority);
   const double code_m = std::ldexp(1.0, -network_.formats.input_fraction_bits);
   link::TelemetryPayload t = *session_.last_telemetry();
-  link::SetpointPacer pacer(options_.session, t.sample_index + t.fill, plan_.size(), plan_.capacity());
+  // From the board's next sample: the enable started on an empty buffer (the board takes setpoints
+  // only with the drives on), so nothing stale is counted as sent or played.
+  link::SetpointPacer pacer(options_.session, t.sample_index, plan_.size(), plan_.capacity());
   result_.first_index = pacer.first_index();
   result_.first = t;
   result_.planned = plan_.size();

@@ -207,7 +207,11 @@ StreamReport LinkSession::stream(std::size_t samples, const SetpointSource& sour
   while (!unread_telemetry_.empty()) next_telemetry();
   if (!last_telemetry_) next_telemetry();
   TelemetryPayload t = *last_telemetry_;
-  SetpointPacer pacer(options_, t.sample_index + t.fill, samples);
+  if (t.fill != 0) {  // setpoints are taken only with the drives on: these are not this stream's
+    throw LinkError(LinkError::Kind::kRefused, "the board holds " + std::to_string(t.fill) +
+                                                   " setpoints this session did not send; disable it first");
+  }
+  SetpointPacer pacer(options_, t.sample_index, samples);
   report.first_index = pacer.first_index();
   bool first_played = false;
   auto send_some = [&](const TelemetryPayload& now) {
