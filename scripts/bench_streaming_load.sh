@@ -51,7 +51,7 @@ stop_board() {
   board=""
 }
 run_args() {  # $1: run name
-  echo host run --port "$work/$1.tty" --weights "$weights" --trajectory experiment1 --duration "$seconds" \
+  echo "$deltactl" host run --port "$work/$1.tty" --weights "$weights" --trajectory experiment1 --duration "$seconds" \
     --record "$work/$1.csv"
 }
 underruns() { sed -n 's/.*underruns while streaming \([0-9]*\).*/\1/p' "$1" | head -1; }
@@ -79,9 +79,9 @@ set +e
 $(run_args stop100) > "$work/stop100.out" 2> "$work/stop100.err" &
 host=$!
 sleep "$(awk -v s="$seconds" 'BEGIN { print s / 2 }')"
-kill -STOP "$host"
+kill -STOP "$host" || true
 sleep 0.1
-kill -CONT "$host"
+kill -CONT "$host" || true
 wait "$host"
 code=$?
 set -e
@@ -93,7 +93,7 @@ start_board kill
 $(run_args kill) > "$work/kill.out" 2> "$work/kill.err" &
 host=$!
 sleep "$(awk -v s="$seconds" 'BEGIN { print s / 2 }')"
-kill -KILL "$host"
+kill -KILL "$host" || true
 killed_at=$(now)
 wait "$host" 2>/dev/null || true
 sleep 1

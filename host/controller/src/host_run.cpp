@@ -135,6 +135,9 @@ void StreamingLoop::run() {
   bool resume_wanted = false;       // asked while still slowing down: resumed once held
   std::uint64_t command_frame = 0;  // telemetry frames since the last hold or enable sent
   std::uint32_t held_since_tick = 0;
+  // A primed start (RunJob enables, then holds): the lead is sent while the board holds, then
+  // enable (again every 4 frames until it plays), so the first plays never find the buffer short.
+  bool priming = t.has(link::TelemetryFlag::kHolding), priming_enable_sent = false;
   try {
     const std::uint64_t resent_before = pacer.resent();
     pacer.update(t, send);
@@ -213,6 +216,14 @@ void StreamingLoop::run() {
             result_.held_s += static_cast<double>(t.tick - held_since_tick) / 1e4;
             feed = FeedState::kResuming;
           }
+        }
+        if (priming && !t.has(link::TelemetryFlag::kHolding)) {
+          priming = false;
+        } else if (priming && pacer.next() >= std::min<std::size_t>(options_.session.target_fill, pacer.samples()) &&
+                   (!priming_enable_sent || command_frame >= 4)) {
+          session_.send_command(link::Command::kEnable);
+          command_frame = 0;
+          priming_enable_sent = true;
         }
         if (feed == FeedState::kStopping && t.has(link::TelemetryFlag::kHolding)) {
           result_.outcome = StreamingResult::Outcome::kStopped;

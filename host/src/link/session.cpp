@@ -258,7 +258,9 @@ std::string describe_fault(std::uint8_t fault_cause) {
   auto add = [&out](const char* what) { out += (out.empty() ? "" : ", ") + std::string(what); };
   if (fault_cause & mask(FaultCause::kEncoderSkip)) add("encoder skipped a state");
   if (fault_cause & mask(FaultCause::kFollowing)) add("following error");
-  if (fault_cause & mask(FaultCause::kWatchdog)) add("watchdog (no valid frame for 50 ms)");
+  static const std::string watchdog =
+      "watchdog (no valid frame for " + std::to_string(board::kWatchdogPeriods * 1000 / board::kControlRateHz) + " ms)";
+  if (fault_cause & mask(FaultCause::kWatchdog)) add(watchdog.c_str());
   if (fault_cause & mask(FaultCause::kTravel)) add("reference outside the travel");
   return out.empty() ? "none" : out;
 }
