@@ -19,6 +19,7 @@
 #include <CLI/CLI.hpp>
 
 #include "delta/command.hpp"
+#include "delta/controller/realtime.hpp"
 #include "delta/cosim/board_inputs.hpp"
 #include "delta/cosim/virtual_board.hpp"
 #include "delta/gateware.hpp"
@@ -35,6 +36,7 @@ namespace delta::cosim {
 namespace {
 
 volatile std::sig_atomic_t stop_requested = 0;
+constexpr int kPacedPriority = 70;  // SCHED_FIFO of a paced board (the host controller's loop: 80)
 void request_stop(int) { stop_requested = 1; }
 
 struct VirtualBoardCommandOptions {
@@ -119,9 +121,15 @@ void run_virtual_board(const VirtualBoardCommandOptions& options) {
   sigemptyset(&action.sa_mask);
   for (int signal_number : {SIGINT, SIGTERM, SIGHUP}) ::sigaction(signal_number, &action, nullptr);
 
+  // A paced board runs as the real board's hardware does, whatever else the PC runs: SCHED_FIFO
+  // (below the host controller's 80) when permitted, so that a busy PC does not stop its clock.
+  const std::string scheduling = paced ? controller::make_thread_realtime(kPacedPriority) : "";
   std::cout << "virtual-board: ready on " << options.link << " (" << pty->slave_path() << "), "
             << (model ? "model" : "RTL") << " fidelity" << (paced ? " (real time)" : "") << ", weights CRC "
             << golden::hex_word(weights_crc(quantised), 32) << ", gateware " << golden::hex_word(kGatewareBuildId, 32)
+            << (!paced               ? ""
+                : scheduling.empty() ? ", SCHED_FIFO " + std::to_string(kPacedPriority)
+                                     : ", normal scheduling (" + scheduling + ")")
             << std::endl;
 
   // One control period of board time per turn (100 us): the pty's bytes join the line at the board's
@@ -208,7 +216,8 @@ const RegisterCommand command("virtual-board", 72, [](CLI::App& root) {
       "it can, about 0.4 x real time: a host paces itself by the board's telemetry, never by its\n"
       "own clock. --fidelity model runs the C++ model board instead (bit-exact with the RTL at its\n"
       "pins: the same bytes, PWM and encoder counts), kept to wall-clock time unless --free-run (over\n"
-      "100 x real time with nobody reading). Board time is real time, as on the real board: a paced\n"
+      "100 x real time with nobody reading), as SCHED_FIFO 70 when permitted (the board's hardware\n"
+      "never waits for the PC). Board time is real time, as on the real board: a paced\n"
       "board that falls behind, its process not scheduled, catches up on the bytes that arrived\n"
       "meanwhile and sends the telemetry of the time it missed at once; the largest lag is printed\n"
       "on exit. The board's receive queue holds 4 KiB (the FT2232H's buffer): a program writing\n"
