@@ -14,7 +14,7 @@ delta_add_gtest(host_controller_tests
   LIBRARIES delta::controller delta::golden delta::nn delta::host
   LABELS host host_controller virtual_board
   # Alone on the machine: the virtual board and the host's 1 kHz streaming thread each need a core,
-  # and a starved host lets the board's 50 ms watchdog fault the run (as it would on the robot).
+  # and a host starved beyond its 200 ms lead lets the board's watchdog fault the run (as it would on the robot).
   PROPERTIES RUN_SERIAL TRUE)
 
 # `host serve` and `host ctl` against the model-fidelity virtual board (kept to real time).

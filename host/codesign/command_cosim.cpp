@@ -8,6 +8,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "delta/board_facts.hpp"
 #include "delta/command.hpp"
 #include "delta/cosim/board_cosim.hpp"
 #include "delta/cosim/board_inputs.hpp"
@@ -278,9 +279,10 @@ const RegisterCommand command("cosim", 70, [](CLI::App& root) {
                   "rtl: the Verilated board core; model: the C++ model board (bit-exact, faster)")
       ->capture_default_str()
       ->check(CLI::IsMember({"rtl", "model"}));
-  sub->add_option("--fill", options->target_fill, "setpoints the host keeps ahead of the board (1 .. 64)")
+  sub->add_option("--fill", options->target_fill,
+                  "setpoints the host keeps ahead of the board (1 .. its buffer's depth)")
       ->capture_default_str()
-      ->check(CLI::Range(1, 64));
+      ->check(CLI::Range(1, static_cast<int>(board::kSetpointDepth)));
   sub->add_option("--out", options->out, "CSV of the run at 1 kHz");
   sub->add_option("--plot", options->plot, "PNG: plate error, joint tracking, currents");
   sub->callback([options] {

@@ -6,6 +6,7 @@
 #include <poll.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <csignal>
@@ -18,6 +19,7 @@
 #include <CLI/CLI.hpp>
 
 #include "delta/command.hpp"
+#include "delta/controller/realtime.hpp"
 #include "delta/cosim/board_inputs.hpp"
 #include "delta/cosim/virtual_board.hpp"
 #include "delta/gateware.hpp"
@@ -34,6 +36,7 @@ namespace delta::cosim {
 namespace {
 
 volatile std::sig_atomic_t stop_requested = 0;
+constexpr int kPacedPriority = 70;  // SCHED_FIFO of a paced board (the host controller's loop: 80)
 void request_stop(int) { stop_requested = 1; }
 
 struct VirtualBoardCommandOptions {
@@ -118,9 +121,15 @@ void run_virtual_board(const VirtualBoardCommandOptions& options) {
   sigemptyset(&action.sa_mask);
   for (int signal_number : {SIGINT, SIGTERM, SIGHUP}) ::sigaction(signal_number, &action, nullptr);
 
+  // A paced board runs as the real board's hardware does, whatever else the PC runs: SCHED_FIFO
+  // (below the host controller's 80) when permitted, so that a busy PC does not stop its clock.
+  const std::string scheduling = paced ? controller::make_thread_realtime(kPacedPriority) : "";
   std::cout << "virtual-board: ready on " << options.link << " (" << pty->slave_path() << "), "
             << (model ? "model" : "RTL") << " fidelity" << (paced ? " (real time)" : "") << ", weights CRC "
             << golden::hex_word(weights_crc(quantised), 32) << ", gateware " << golden::hex_word(kGatewareBuildId, 32)
+            << (!paced               ? ""
+                : scheduling.empty() ? ", SCHED_FIFO " + std::to_string(kPacedPriority)
+                                     : ", normal scheduling (" + scheduling + ")")
             << std::endl;
 
   // One control period of board time per turn (100 us): the pty's bytes join the line at the board's
@@ -129,23 +138,32 @@ void run_virtual_board(const VirtualBoardCommandOptions& options) {
   // The model board free-running: a millisecond of board time per turn (the pty's read and write
   // per turn cost more than the model board's periods; a host's bytes join the line within 1 ms of
   // board time). The RTL board, slower than real time, keeps to a period per turn.
-  // A paced board that fell behind (this process not scheduled) does not catch up by running fast,
-  // which no real board does: the lag beyond 2 ms is dropped from its clock and counted.
+  // Board time is real time, as on the real board: a paced board that fell behind (this process
+  // not scheduled) catches up, a millisecond per turn, on the bytes that arrived meanwhile (at
+  // most as late as they really came) and sends its telemetry of the time it missed at once, as a
+  // real board's would reach a host that could not read. The largest lag is printed on exit.
+  // The host's bytes wait in the pty while the line holds kReceiveQueueBytes (the FT2232H's 4 KiB
+  // buffer): a writer faster than the line is slowed down and finally blocked, as by a real port.
+  constexpr std::size_t kReceiveQueueBytes = 4096;
   const auto start = std::chrono::steady_clock::now();
-  auto origin = start;
-  std::chrono::steady_clock::duration dropped_lag{};
+  const auto origin = start;
+  std::chrono::steady_clock::duration largest_lag{};
   auto last_flush = start;
-  std::uint64_t bytes_in = 0, bytes_out = 0, bytes_dropped = 0;
-  bool pty_full = false;
-  std::uint8_t buffer[4096];
+  std::uint64_t bytes_in = 0, bytes_out = 0, bytes_dropped = 0, turns = 0;
+  bool pty_full = false, behind = false;
+  std::uint8_t buffer[kReceiveQueueBytes];
   const int fd = pty->fd();
   while (!stop_requested) {
-    const ssize_t got = ::read(fd, buffer, sizeof buffer);
-    if (got > 0) {
-      board.write(buffer, static_cast<std::size_t>(got));
-      bytes_in += static_cast<std::uint64_t>(got);
+    const std::size_t queued = board.bytes_to_board();
+    if (queued < kReceiveQueueBytes) {
+      const ssize_t got = ::read(fd, buffer, kReceiveQueueBytes - queued);
+      if (got > 0) {
+        board.write(buffer, static_cast<std::size_t>(got));
+        bytes_in += static_cast<std::uint64_t>(got);
+      }
     }
-    board.step(model && !paced ? kClocksPerMillisecond : kClocksPerTick);
+    if (++turns % 128 == 0) pty->release_exclusive();
+    board.step((model && !paced) || behind ? kClocksPerMillisecond : kClocksPerTick);
     const std::size_t out = board.read(buffer, sizeof buffer);
     if (out > 0) {
       const std::size_t written = write_what_fits(fd, buffer, out, &pty_full);
@@ -156,12 +174,12 @@ void run_virtual_board(const VirtualBoardCommandOptions& options) {
     if (paced) {
       const auto due = origin + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                                     std::chrono::duration<double>(board.time_s()));
+      behind = now - due > std::chrono::milliseconds(1);
       if (due > now) {
         std::this_thread::sleep_until(due);
         now = std::chrono::steady_clock::now();
-      } else if (now - due > std::chrono::milliseconds(2)) {
-        dropped_lag += now - due;
-        origin += now - due;
+      } else {
+        largest_lag = std::max(largest_lag, now - due);
       }
     }
     if (truth.is_open() && now - last_flush >= std::chrono::milliseconds(500)) {
@@ -176,8 +194,8 @@ void run_virtual_board(const VirtualBoardCommandOptions& options) {
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   std::cerr << "virtual-board: stopped after " << fixed(board.time_s(), 3) << " s of board time in " << fixed(wall, 1)
             << " s wall"
-            << (paced ? "; behind the wall clock " + fixed(std::chrono::duration<double>(dropped_lag).count(), 3) +
-                            " s (dropped)"
+            << (paced ? "; at most " + fixed(std::chrono::duration<double>(largest_lag).count() * 1e3, 1) +
+                            " ms behind the wall clock (caught up)"
                       : "")
             << "; " << bytes_in << " bytes from the host, " << bytes_out << " to it, " << bytes_dropped
             << " dropped (nobody reading)\n";
@@ -198,10 +216,15 @@ const RegisterCommand command("virtual-board", 72, [](CLI::App& root) {
       "it can, about 0.4 x real time: a host paces itself by the board's telemetry, never by its\n"
       "own clock. --fidelity model runs the C++ model board instead (bit-exact with the RTL at its\n"
       "pins: the same bytes, PWM and encoder counts), kept to wall-clock time unless --free-run (over\n"
-      "100 x real time with nobody reading). A paced board that falls behind, its process not\n"
-      "scheduled, drops the lag rather than catching up faster than real time, as no real board can;\n"
-      "the lag dropped is printed on exit.\n"
+      "100 x real time with nobody reading), as SCHED_FIFO 70 when permitted (the board's hardware\n"
+      "never waits for the PC). Board time is real time, as on the real board: a paced\n"
+      "board that falls behind, its process not scheduled, catches up on the bytes that arrived\n"
+      "meanwhile and sends the telemetry of the time it missed at once; the largest lag is printed\n"
+      "on exit. The board's receive queue holds 4 KiB (the FT2232H's buffer): a program writing\n"
+      "faster than the line is slowed down and blocked, as by a real port.\n"
       "Bytes the board sends while nobody reads PATH are dropped once the pty is full.\n"
+      "A program's exclusive mode on PATH (TIOCEXCL) ends when it closes PATH, as on a serial port.\n"
+      "A --link that names a live virtual board's link is refused.\n"
       "Prints one line naming PATH when ready; runs until SIGINT or SIGTERM, then removes PATH.\n"
       "--truth: CSV at 1 kHz of board time, written as it runs (flushed twice a second, complete on\n"
       "exit): t_s (board time since reset), x/y/z_m (the plate as the measuring stage sees it),\n"

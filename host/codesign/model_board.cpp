@@ -24,7 +24,13 @@ constexpr int kClocksPerPeriod = static_cast<int>(board::kClocksPerPeriod);
 constexpr int kRingBytes = static_cast<int>(board::kRxRingBytes);
 constexpr int kDepth = static_cast<int>(board::kSetpointDepth);
 constexpr int kTelemetryWords = static_cast<int>(board::kTelemetryPayloadBytes / 2);
-constexpr int kWatchdogMax = 511;  // $clog2(WatchdogPeriods + 2) = 9 bits
+// joint_safety.sv's silent-period counter saturates at all ones: $clog2(WatchdogPeriods + 2) bits.
+constexpr int watchdog_max() {
+  int bits = 0;
+  while ((1LL << bits) < board::kWatchdogPeriods + 2) ++bits;
+  return (1 << bits) - 1;
+}
+constexpr int kWatchdogMax = watchdog_max();
 constexpr int kJointCycles = 355;  // joint_controller.sv: a joint's datapath run
 constexpr int kLoadCycles = 6;     // ap_start seen (idle) to ap_ready; the currents stored at 6 + 355 (j + 1)
 // The clock (cycles after ap_start was seen) in which joint j's PWM duty is set: the RTL stores
@@ -1115,7 +1121,8 @@ void ModelBoard::clock(int encoder_a, int encoder_b) {
   // ---- setpoint buffer ----
   const std::uint32_t next_index = s.sample_index + static_cast<std::uint32_t>(s.fill);
   const bool write_enable = is_setpoint && payload_valid && payload_index >= 4 && !s.full_at_start;
-  const bool commit = frame_ok && is_setpoint && s.index_match && !s.full_at_start && !s.vetoed && !flush;
+  const bool accept = s.enabled && !fault;  // setpoints only with the drives on
+  const bool commit = frame_ok && is_setpoint && accept && s.index_match && !s.full_at_start && !s.vetoed && !flush;
   const bool setpoint_refused = frame_ok && is_setpoint && !commit;
   const bool pop = play && !s.starting && s.fill != 0;
   const bool underrun = play && s.fill == 0;

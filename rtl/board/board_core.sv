@@ -14,9 +14,10 @@
 // references of the next period are computed.
 //
 // Safety: the drives run only after an accepted enable (homed, no fault); a fault (encoder skip,
-// following error, travel, watchdog: no valid frame for 50 ms with the drives on) stops the
+// following error, travel, watchdog: no valid frame for 250 ms with the drives on) stops the
 // torque, turns the enable off and flushes the buffer; clear fault is refused while a cause
-// persists and never re-enables.
+// persists and never re-enables. Setpoints are taken only with the drives on (a disable and a
+// fault flush), so an enable always starts on an empty buffer.
 //
 // Two clocks from one PLL. clk_network_i (46.5 MHz) runs the network alone: its 92-cycle latency
 // is 1.98 us there. clk_i (half of it, 23.25 MHz) runs everything else. network_crossing is the
@@ -197,6 +198,7 @@ module board_core #(
     .payload_byte_i (payload_byte),
     .frame_ok_i     (frame_ok),
     .refused_o      (setpoint_refused),
+    .accept_i       (enabled_q && !fault),
     .flush_i        (flush),
     .play_i         (play),
     .underrun_o     (underrun),

@@ -42,7 +42,8 @@ package delta_board_pkg;
   // Setpoints: 1 kHz, addressed by sample index, into a buffer of SetpointDepth entries.
   localparam int SetpointRateHz /*verilator public*/ = 1_000;
   localparam int PeriodsPerSetpoint /*verilator public*/ = 10;  // ControlRateHz / SetpointRateHz
-  localparam int SetpointDepth /*verilator public*/ = 64;  // entries (64 ms)
+  localparam int SetpointDepth /*verilator public*/ = 256;  // entries (256 ms; one block RAM per 16-bit lane)
+  localparam int StreamLeadSetpoints /*verilator public*/ = 200;  // the host keeps 200 ms sent ahead (< SetpointDepth)
   localparam int SetpointIndexOffset /*verilator public*/ = 0;  // u32 sample index
   localparam int SetpointPositionOffset /*verilator public*/ = 4;  // 3 x i32 network input codes x, y, z
 
@@ -53,7 +54,7 @@ package delta_board_pkg;
 
   // Command byte values (payload of a command frame).
   localparam int CommandEnable /*verilator public*/ = 1;  // drives on (homed, no fault); resumes after hold
-  localparam int CommandDisable /*verilator public*/ = 2;  // drives off, buffer flushed
+  localparam int CommandDisable /*verilator public*/ = 2;  // drives off, buffer flushed (setpoints refused while off)
   localparam int CommandHold /*verilator public*/ = 3;  // stop taking setpoints, hold the reference
   localparam int CommandClearFault /*verilator public*/ = 4;  // refused while a cause persists
   localparam int CommandSetHome /*verilator public*/ = 5;  // counts := HomeCount (drives off only)
@@ -102,14 +103,14 @@ package delta_board_pkg;
 
   // ---- joint safety (joint_axes.sv, "Safety") ----
   localparam int FollowingBits /*verilator public*/ = 9;  // following error limit: -512 .. 511 counts (5.12 deg)
-  localparam int WatchdogPeriods /*verilator public*/ = 500;  // drives on and no valid frame for 500 periods (50 ms): fault
+  localparam int WatchdogPeriods /*verilator public*/ = 2_500;  // drives on and no valid frame for 2500 periods (250 ms): fault
   localparam int MinTravelBlock /*verilator public*/ = -1;  // reference travel in 1024-count blocks:
   localparam int MaxTravelBlock /*verilator public*/ = 8;  //   -1024 .. 9215 counts (-10.24 .. 92.15 deg)
 
   // Fault cause bits (fault_cause_o of joint_axes, joint_fault_cause_o of board_core).
   localparam int FaultEncoderSkip /*verilator public*/ = 0;  // an encoder skipped a quadrature state
   localparam int FaultFollowing /*verilator public*/ = 1;  // reference - encoder outside the following limit
-  localparam int FaultWatchdog /*verilator public*/ = 2;  // no valid frame for 50 ms with the drives on
+  localparam int FaultWatchdog /*verilator public*/ = 2;  // no valid frame for 250 ms with the drives on
   localparam int FaultTravel /*verilator public*/ = 3;  // a reference outside the travel
   localparam int FaultCauseBits /*verilator public*/ = 4;
 

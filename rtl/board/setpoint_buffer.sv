@@ -4,9 +4,11 @@
 // Filling: link_rx presents a setpoint frame's payload byte by byte; the sample index (bytes 0..3)
 // is compared with the next free index (sample_index_o + fill_o) as it passes, and the position
 // codes (bytes 4..15) are written into the next free slot (not yet part of the buffer, so the
-// reader never sees them). On frame_ok_i the entry is committed if the index matched and the
-// buffer was not full when the frame began; otherwise refused_o pulses. flush_i empties the
-// buffer (the sample index stays) and vetoes the commit of a frame in flight.
+// reader never sees them). On frame_ok_i the entry is committed if the index matched, the
+// buffer was not full when the frame began and accept_i (drives on) holds; otherwise refused_o
+// pulses. flush_i empties the buffer (the sample index stays) and vetoes the commit of a frame in
+// flight. With the drives off nothing is taken and every way off flushes, so the buffer is empty
+// at each enable: the board never plays a setpoint from before it.
 //
 // Playback: play_i (the first period of a segment, drives on, not holding) pops the entry at
 // sample_index_o: the RAM reads it into inputs_o (held until the next pop, long after done) and
@@ -25,6 +27,7 @@ module setpoint_buffer #(
   input  logic [7:0]  payload_byte_i,
   input  logic        frame_ok_i,
   output logic        refused_o,        // pulse: a checked setpoint frame was not taken
+  input  logic        accept_i,         // drives on: setpoints are taken (refused while off)
   input  logic        flush_i,
   // playback into the network (ap_ctrl_hs through network_crossing)
   input  logic        play_i,
@@ -75,7 +78,7 @@ module setpoint_buffer #(
   assign write_lane    = 4'(payload_index_i - 6'd4);
 
   logic commit;
-  assign commit    = frame_ok_i && is_setpoint_i && index_match_q && !full_at_start_q && !vetoed_q && !flush_i;
+  assign commit    = frame_ok_i && is_setpoint_i && accept_i && index_match_q && !full_at_start_q && !vetoed_q && !flush_i;
   assign refused_o = frame_ok_i && is_setpoint_i && !commit;
 
   // ---- playback ---------------------------------------------------------------------------------

@@ -138,7 +138,7 @@ TEST(JointAxes, EncoderCountsReferencesAndPwmFollowTheGoldenController) {
 // ---- Safety: every fault stops the torque and stays latched ------------------------------------
 
 // joint_axes with its default safety parameters (following error -512..511 counts, WatchdogPeriods
-// 500, reference travel -1024..9215 counts), encoders driven by position, references in degrees.
+// 2500, reference travel -1024..9215 counts), encoders driven by position, references in degrees.
 // Each reference comes with a valid link frame (the watchdog's kick) and the drives enabled.
 class SafetyBench {
  public:
@@ -258,7 +258,7 @@ TEST(JointAxesSafety, WatchdogStopsTorqueWhenTheFramesStop) {
   }
   EXPECT_EQ(bench.top().fault_o, 0);
   bench.send_reference({30.0, 30.0, 30.0});
-  bench.periods(499);
+  bench.periods(board::kWatchdogPeriods - 1);
   EXPECT_EQ(bench.top().fault_o, 0);
   EXPECT_EQ(bench.top().drive_enable_o, 1);
   bench.periods(3);
@@ -320,11 +320,11 @@ TEST(JointAxesSafety, SetHomeLoadsTheHomeCountAndTheEncodersKeepCounting) {
 
 TEST(JointAxesSafety, WatchdogIsDisarmedWithTheDrivesOff) {
   SafetyBench bench;
-  bench.periods(1000);  // no frame for 100 ms, drives never enabled
+  bench.periods(board::kWatchdogPeriods + 100);  // no frame beyond the bound, drives never enabled
   EXPECT_EQ(bench.top().fault_o, 0);
   bench.send_reference({30.0, 30.0, 30.0});
   bench.set_enabled(false);
-  bench.periods(1000);
+  bench.periods(board::kWatchdogPeriods + 100);
   EXPECT_EQ(bench.top().fault_o, 0);
 }
 

@@ -277,6 +277,82 @@ TEST(ModelBoard, EqualsTheRtlBoardWithCorruptedBytesToTheBoard) {
   expect_same_runs(model, checked);
 }
 
+// Setpoints sent while the drives are off (any program on the port can leave them) are never
+// played: identify, set home, 64 setpoints 8 mm away from the plate (indices 0..63, the drives
+// off), then enable and 30 ms in which the host sends nothing. The board refused them all (fill 0,
+// the refused counter up by 64), the enable starts on an empty buffer, the references and the
+// joints stay where they were; the RTL board and the model board identical throughout.
+struct StaleRun {
+  std::vector<link::TelemetryPayload> telemetry;
+  std::vector<PeriodRecord> periods;
+  link::TelemetryPayload before, enabled;
+};
+
+StaleRun run_stale_setpoints(cosim::BoardFidelity fidelity, const golden::QuantisedNetwork& q,
+                             const std::string& mem_dir) {
+  StaleRun out;
+  cosim::VirtualBoardOptions options;
+  options.fidelity = fidelity;
+  options.network = &q;
+  options.mem_dir = mem_dir;
+  options.effects = read_effect_file(kEffects);
+  cosim::VirtualBoard board(options);
+  board.observe_periods([&out](std::uint64_t clocks, const cosim::BoardPins& pins, const RobotWorld& world) {
+    out.periods.push_back({clocks, world.current_a(), world.encoder_deg(), world.true_alpha_deg(), pins});
+  });
+  cosim::VirtualBoardStream stream(board);
+  link::LinkSession session(stream);
+  session.identify();
+  const link::TelemetryPayload homed = session.set_home();
+  const auto code = golden::encode_position(q.formats, Vec3(0.006, 0.0055, -0.0706));
+  for (std::uint32_t i = 0; i < 64; ++i) {
+    session.send_setpoint(
+        homed.sample_index + i,
+        {static_cast<std::int32_t>(code[0]), static_cast<std::int32_t>(code[1]), static_cast<std::int32_t>(code[2])});
+  }
+  for (int i = 0; i < 30; ++i) out.before = session.next_telemetry();  // the line carries them in 15 ms
+  out.enabled = session.enable();
+  for (int i = 0; i < 30; ++i) session.next_telemetry();
+  session.disable();
+  out.telemetry = session.telemetry();
+  return out;
+}
+
+TEST(ModelBoard, NeitherBoardPlaysSetpointsSentWhileTheDrivesWereOff) {
+  const golden::QuantisedNetwork q = deployed_network();
+  const std::string mem_dir = fresh_directory("model_board_stale_mem");
+  golden::write_export(q, mem_dir);
+  const StaleRun rtl = run_stale_setpoints(cosim::BoardFidelity::kRtl, q, mem_dir);
+  const StaleRun model = run_stale_setpoints(cosim::BoardFidelity::kModel, q, mem_dir);
+  for (const StaleRun* run : {&rtl, &model}) {
+    const char* name = run == &rtl ? "RTL" : "model";
+    EXPECT_EQ(run->before.fill, 0) << name << ": setpoints taken with the drives off";
+    EXPECT_GE(run->before.rejected, 64) << name << ": the 64 setpoints refused";
+    EXPECT_TRUE(run->enabled.has(link::TelemetryFlag::kDriveEnable)) << name;
+    EXPECT_EQ(run->enabled.fill, 0) << name;
+    // From the enable on: nothing played, the references and the joints where they were.
+    bool after_enable = false;
+    for (const link::TelemetryPayload& t : run->telemetry) {
+      if (t.tick == run->enabled.tick) after_enable = true;
+      if (!after_enable || !t.has(link::TelemetryFlag::kDriveEnable)) continue;
+      ASSERT_EQ(t.sample_index, run->enabled.sample_index) << name << " tick " << t.tick << ": a setpoint played";
+      ASSERT_EQ(t.references, run->enabled.references) << name << " tick " << t.tick << ": the reference moved";
+    }
+    ASSERT_FALSE(run->periods.empty());
+    const Vec3 first = run->periods.front().true_alpha_deg;
+    double moved_deg = 0.0;
+    for (const PeriodRecord& p : run->periods)
+      moved_deg = std::max(moved_deg, (p.true_alpha_deg - first).cwiseAbs().maxCoeff());
+    std::cout << name << ": joints moved at most " << moved_deg << " deg; refused " << run->before.rejected << "\n";
+    EXPECT_LT(moved_deg, 0.5) << name << ": motion the host did not command";
+  }
+  ASSERT_EQ(model.telemetry.size(), rtl.telemetry.size());
+  for (std::size_t i = 0; i < rtl.telemetry.size(); ++i) {
+    ASSERT_EQ(link::encode(model.telemetry[i]), link::encode(rtl.telemetry[i])) << "telemetry frame " << i;
+  }
+  expect_same_periods(rtl.periods, model.periods);
+}
+
 // The RTL board's idle-network skip (rtl::IdleNetworkSkip: board clocks without the network
 // clock's edges while the network is idle and provably stays so) against the same board clocked
 // on every edge: the fault session above, every telemetry frame and every period identical. The

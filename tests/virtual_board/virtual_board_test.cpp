@@ -1,9 +1,11 @@
 // `deltactl virtual-board` with the host's link session over its pseudo-terminal: the session
 // opens PATH as a serial port (io::SerialPort), identifies the board, homes, enables, streams a
 // short trajectory paced by telemetry, holds and disables; and the command's refusals.
+#include <fcntl.h>
 #include <gtest/gtest.h>
 #include <poll.h>
 #include <signal.h>
+#include <sys/ioctl.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -16,6 +18,7 @@
 #include <sstream>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "../support/run_command.hpp"
 #include "../support/virtual_board_process.hpp"
@@ -223,6 +226,109 @@ TEST(VirtualBoard, FreeRunningModelBoardLeftAloneStillTalksToAHostThatComesLater
   // Free-running: board time runs ahead of the wall clock, which a paced board never does (how far
   // ahead depends on the machine's load, so no speed is asserted here: scripts/bench_boards.sh).
   EXPECT_GT(board_s, wall_s);
+  std::filesystem::remove_all(dir);
+}
+
+// Board time is real time, as on the real board: a paced model board whose process could not run
+// for 300 ms (SIGSTOP) catches up afterwards instead of dropping the lag. Its truth (a row per
+// millisecond of board time) covers the wall time since its ready line, less than one 100 ms
+// allowance, and never runs ahead of it.
+TEST(VirtualBoard, StarvedModelBoardCatchesUpWithTheWallClock) {
+  const std::string dir = ::testing::TempDir() + "virtual_board_starved_" + std::to_string(::getpid());
+  std::filesystem::create_directories(dir);
+  const std::string link = dir + "/tty";
+  const std::string truth = dir + "/truth.csv";
+  VirtualBoardProcess board(link, {"--weights", kWeights, "--truth", truth, "--fidelity", "model"});
+  ASSERT_NE(board.ready_line(60'000).find("real time"), std::string::npos);
+  const auto start = std::chrono::steady_clock::now();
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  ::kill(board.pid(), SIGSTOP);
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  ::kill(board.pid(), SIGCONT);
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_EQ(board.terminate(), 0);
+  std::size_t rows = 0;
+  std::istringstream lines(read_text(truth));
+  for (std::string line; std::getline(lines, line);) ++rows;
+  const double board_s = static_cast<double>(rows - 1) * 1e-3;
+  std::cout << "board " << board_s << " s of board time in " << wall_s << " s wall (300 ms of it stopped)\n";
+  EXPECT_GT(board_s, wall_s - 0.1) << "the lag was dropped, not caught up";
+  EXPECT_LT(board_s, wall_s + 0.1);
+  std::filesystem::remove_all(dir);
+}
+
+// The board's receive queue is bounded like a real port's: a writer faster than the line (1 Mbaud)
+// is slowed down until its non-blocking writes fail, after at most the queue, the pty's buffer and
+// a little more than the line carried meanwhile; then an identify still gets its answer.
+TEST(VirtualBoard, AWriterFasterThanTheLineIsHeldBack) {
+  const std::string dir = ::testing::TempDir() + "virtual_board_flood_" + std::to_string(::getpid());
+  std::filesystem::create_directories(dir);
+  const std::string link = dir + "/tty";
+  VirtualBoardProcess board(link, {"--weights", kWeights, "--fidelity", "model"});
+  ASSERT_NE(board.ready_line(60'000).find(link), std::string::npos);
+  std::size_t accepted = 0;
+  {
+    const int fd = ::open(link.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK);
+    ASSERT_GE(fd, 0);
+    std::vector<std::uint8_t> junk(4096, 0x55);  // no sync byte: nothing but bytes to drop
+    const auto start = std::chrono::steady_clock::now();
+    while (std::chrono::steady_clock::now() - start < std::chrono::seconds(2) && accepted < (64u << 20)) {
+      const ssize_t n = ::write(fd, junk.data(), junk.size());
+      if (n > 0)
+        accepted += static_cast<std::size_t>(n);
+      else
+        ::usleep(1000);
+    }
+    ::close(fd);
+  }
+  std::cout << "accepted " << accepted << " bytes in 2 s (the line carries 200,000)\n";
+  EXPECT_LT(accepted, 600'000u) << "the board took bytes far faster than its line";
+  io::SerialPort port(link, static_cast<int>(board::kLinkBaud));
+  link::SessionOptions options;
+  options.frame_timeout_ms = 5000;  // the queued bytes drain first
+  link::LinkSession session(port, options);
+  EXPECT_EQ(session.identify().protocol_version, board::kProtocolVersion);
+  EXPECT_EQ(board.terminate(), 0);
+  std::filesystem::remove_all(dir);
+}
+
+// Exclusive mode (TIOCEXCL, which io::SerialPort sets) ends when the program that set it closes
+// PATH, as on a serial port, though the board keeps its side open; a second board on the same
+// --link is refused and leaves the first's link alone, which still answers.
+TEST(VirtualBoard, ExclusiveModeEndsWithItsProgramAndASecondBoardCannotTakeTheLink) {
+  const std::string dir = ::testing::TempDir() + "virtual_board_excl_" + std::to_string(::getpid());
+  std::filesystem::create_directories(dir);
+  const std::string link = dir + "/tty";
+  VirtualBoardProcess board(link, {"--weights", kWeights, "--fidelity", "model"});
+  ASSERT_NE(board.ready_line(60'000).find(link), std::string::npos);
+  const std::string target = std::filesystem::read_symlink(link).string();
+  {
+    io::SerialPort port(link, static_cast<int>(board::kLinkBaud));
+    int exclusive = 0;
+    ASSERT_EQ(::ioctl(port.fd(), TIOCGEXCL, &exclusive), 0);
+    EXPECT_EQ(exclusive, 1) << "the serial port sets exclusive mode";
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  {
+    const int fd = ::open(link.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK);
+    ASSERT_GE(fd, 0);
+    int exclusive = 1;
+    ASSERT_EQ(::ioctl(fd, TIOCGEXCL, &exclusive), 0);
+    EXPECT_EQ(exclusive, 0) << "exclusive mode outlived the program that set it";
+    ::close(fd);
+  }
+  const CommandResult second = run_deltactl("virtual-board --fidelity model --link " + link);
+  EXPECT_EQ(second.exit_code, 2) << second.err;
+  EXPECT_NE(second.err.find("live"), std::string::npos) << second.err;
+  EXPECT_EQ(std::filesystem::read_symlink(link).string(), target) << "the second board took the link";
+  {
+    io::SerialPort port(link, static_cast<int>(board::kLinkBaud));
+    link::LinkSession session(port);
+    EXPECT_EQ(session.identify().protocol_version, board::kProtocolVersion);
+  }
+  EXPECT_EQ(board.terminate(), 0);
+  EXPECT_FALSE(std::filesystem::exists(std::filesystem::symlink_status(link))) << "the board left its link";
   std::filesystem::remove_all(dir);
 }
 

@@ -84,7 +84,7 @@ Connected connect(link::LinkSession& session) {
 struct StatusOptions {
   std::string port;
   bool json = false;
-  int link_timeout_ms = 100;
+  int link_timeout_ms = link::kLinkTimeoutMs;
 };
 
 void run_status(const StatusOptions& options) {
@@ -132,7 +132,7 @@ void run_status(const StatusOptions& options) {
 // ---------------------------------------------------------------------------------------------
 struct HomeOptions {
   std::string port;
-  int link_timeout_ms = 100;
+  int link_timeout_ms = link::kLinkTimeoutMs;
 };
 
 void run_home(const HomeOptions& options) {
@@ -158,7 +158,7 @@ struct RunOptions {
   std::string trajectory;
   double duration_s = 0.0;
   std::string record;
-  int link_timeout_ms = 100;
+  int link_timeout_ms = link::kLinkTimeoutMs;
   double following_error_deg = 2.0;
 };
 
@@ -202,7 +202,7 @@ void run_run(const RunOptions& options) {
 struct ServeCliOptions {
   std::string config;
   std::string port, weights, socket, record_folder;
-  int link_timeout_ms = 100;
+  int link_timeout_ms = link::kLinkTimeoutMs;
 };
 
 void run_serve(const ServeCliOptions& cli) {

@@ -90,7 +90,9 @@ void StreamingLoop::run() {
   result_.realtime_note = make_thread_realtime(options_.priority);
   const double code_m = std::ldexp(1.0, -network_.formats.input_fraction_bits);
   link::TelemetryPayload t = *session_.last_telemetry();
-  link::SetpointPacer pacer(options_.session, t.sample_index + t.fill, plan_.size(), plan_.capacity());
+  // From the board's next sample: the enable started on an empty buffer (the board takes setpoints
+  // only with the drives on), so nothing stale is counted as sent or played.
+  link::SetpointPacer pacer(options_.session, t.sample_index, plan_.size(), plan_.capacity());
   result_.first_index = pacer.first_index();
   result_.first = t;
   result_.planned = plan_.size();
@@ -133,6 +135,9 @@ void StreamingLoop::run() {
   bool resume_wanted = false;       // asked while still slowing down: resumed once held
   std::uint64_t command_frame = 0;  // telemetry frames since the last hold or enable sent
   std::uint32_t held_since_tick = 0;
+  // A primed start (RunJob enables, then holds): the lead is sent while the board holds, then
+  // enable (again every 4 frames until it plays), so the first plays never find the buffer short.
+  bool priming = t.has(link::TelemetryFlag::kHolding), priming_enable_sent = false;
   try {
     const std::uint64_t resent_before = pacer.resent();
     pacer.update(t, send);
@@ -211,6 +216,14 @@ void StreamingLoop::run() {
             result_.held_s += static_cast<double>(t.tick - held_since_tick) / 1e4;
             feed = FeedState::kResuming;
           }
+        }
+        if (priming && !t.has(link::TelemetryFlag::kHolding)) {
+          priming = false;
+        } else if (priming && pacer.next() >= std::min<std::size_t>(options_.session.target_fill, pacer.samples()) &&
+                   (!priming_enable_sent || command_frame >= 4)) {
+          session_.send_command(link::Command::kEnable);
+          command_frame = 0;
+          priming_enable_sent = true;
         }
         if (feed == FeedState::kStopping && t.has(link::TelemetryFlag::kHolding)) {
           result_.outcome = StreamingResult::Outcome::kStopped;

@@ -61,6 +61,7 @@ std::unique_ptr<io::SerialPort> open_board_port(const std::string& port) {
 link::SessionOptions host_session_options(int link_timeout_ms) {
   link::SessionOptions options;
   options.frame_timeout_ms = link_timeout_ms;
+  options.target_fill = static_cast<std::uint32_t>(board::kStreamLeadSetpoints);
   options.keep_telemetry = false;
   return options;
 }
@@ -223,10 +224,27 @@ RunOutcome RunJob::execute(link::LinkSession& session, const std::string& port_n
 
   // ---- homed -> running ----
   const std::string lock_note = lock_memory();
+  link::TelemetryPayload enabled;
   try {
-    session.enable();
+    enabled = session.enable();
   } catch (const link::LinkError& error) {
     throw HostFailure(link_error_code(error), error.what());
+  }
+  auto disable_and_fail = [&](int code, const std::string& why) {
+    try {
+      session.send_command(link::Command::kDisable);
+    } catch (const link::LinkError&) {
+    }
+    throw HostFailure(code, port_name + ": " + why + "; disabled, nothing streamed");
+  };
+  if (enabled.fill != 0) {  // the board takes setpoints only with the drives on (docs/board_link.md)
+    disable_and_fail(kExitFault, "the board holds " + std::to_string(enabled.fill) +
+                                     " setpoints this host did not send (gateware older than the link's contract?)");
+  }
+  try {
+    session.hold();  // the streaming loop sends the lead, then enables: the buffer is full when play starts
+  } catch (const link::LinkError& error) {
+    disable_and_fail(link_error_code(error), error.what());
   }
   log(std::string("homed -> running: ") + std::to_string(plan.size()) + " samples (" +
       std::to_string(plan.approach_samples()) + " to the start, then " + request_.trajectory + " for " +

@@ -207,7 +207,11 @@ StreamReport LinkSession::stream(std::size_t samples, const SetpointSource& sour
   while (!unread_telemetry_.empty()) next_telemetry();
   if (!last_telemetry_) next_telemetry();
   TelemetryPayload t = *last_telemetry_;
-  SetpointPacer pacer(options_, t.sample_index + t.fill, samples);
+  if (t.fill != 0) {  // setpoints are taken only with the drives on: these are not this stream's
+    throw LinkError(LinkError::Kind::kRefused, "the board holds " + std::to_string(t.fill) +
+                                                   " setpoints this session did not send; disable it first");
+  }
+  SetpointPacer pacer(options_, t.sample_index, samples);
   report.first_index = pacer.first_index();
   bool first_played = false;
   auto send_some = [&](const TelemetryPayload& now) {
@@ -254,7 +258,9 @@ std::string describe_fault(std::uint8_t fault_cause) {
   auto add = [&out](const char* what) { out += (out.empty() ? "" : ", ") + std::string(what); };
   if (fault_cause & mask(FaultCause::kEncoderSkip)) add("encoder skipped a state");
   if (fault_cause & mask(FaultCause::kFollowing)) add("following error");
-  if (fault_cause & mask(FaultCause::kWatchdog)) add("watchdog (no valid frame for 50 ms)");
+  static const std::string watchdog =
+      "watchdog (no valid frame for " + std::to_string(board::kWatchdogPeriods * 1000 / board::kControlRateHz) + " ms)";
+  if (fault_cause & mask(FaultCause::kWatchdog)) add(watchdog.c_str());
   if (fault_cause & mask(FaultCause::kTravel)) add("reference outside the travel");
   return out.empty() ? "none" : out;
 }

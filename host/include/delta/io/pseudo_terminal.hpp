@@ -1,7 +1,8 @@
 // A pseudo-terminal whose slave side is linked at a path of the user's choice, so that any
 // program that opens PATH as a serial port talks to whoever holds the master side (the virtual
 // board). Both sides raw (no echo, no line discipline). The link is removed when this object
-// goes; a stale link (to a pty that is gone) is replaced, anything else at PATH is refused.
+// goes (if it is still ours); a stale link (to a pty that is gone) is replaced, anything else at
+// PATH, a live pty's link included, is refused.
 #pragma once
 
 #include <string>
@@ -23,12 +24,18 @@ class PseudoTerminal : public ByteStream {
   int fd() const override { return master_fd_; }
   const std::string& name() const override { return link_path_; }
   const std::string& slave_path() const { return slave_path_; }  // /dev/pts/N
+  // Call now and then: once the last other program that opened PATH has closed it, clears the
+  // exclusive mode (TIOCEXCL) it may have set, as a serial port's last close does (this object
+  // keeps the pty open). Returns true when it cleared it.
+  bool release_exclusive();
 
  private:
   std::string link_path_;
   std::string slave_path_;
   int master_fd_ = -1;
   int slave_fd_ = -1;  // held open so that a client's close does not hang up the master
+  int opens_fd_ = -1;  // inotify: other programs' opens and closes of the slave
+  int openers_ = 0;
 };
 
 }  // namespace delta::io

@@ -42,6 +42,16 @@ namespace delta::link {
 constexpr std::int64_t kTicksPerSetpoint = board::kPeriodsPerSetpoint;
 constexpr double kTickSeconds = 1.0 / static_cast<double>(board::kControlRateHz);
 
+// The host controller's streaming budget (docs/board_link.md, "Streaming budget"): it keeps
+// board::kStreamLeadSetpoints samples (200 ms) sent ahead, within the board's buffer, and calls
+// the link lost after as long without telemetry; the board's watchdog waits longer still, so a
+// host that stalls for less than the lead loses nothing and one that dies stops the drives within
+// the watchdog's bound of its last frame.
+constexpr int kLinkTimeoutMs = static_cast<int>(board::kStreamLeadSetpoints * 1000 / board::kSetpointRateHz);
+static_assert(board::kStreamLeadSetpoints < board::kSetpointDepth, "the lead must fit the board's buffer");
+static_assert(kLinkTimeoutMs * board::kControlRateHz / 1000 < board::kWatchdogPeriods,
+              "the board's watchdog must outwait the host's link bound");
+
 class LinkError : public std::runtime_error {
  public:
   enum class Kind {
@@ -60,7 +70,7 @@ class LinkError : public std::runtime_error {
 struct SessionOptions {
   int frame_timeout_ms = 1000;      // no frame for this long (the stream's clock): link lost
   int command_timeout_frames = 20;  // telemetry frames to wait for a command's effect
-  std::uint32_t target_fill = 20;   // samples kept sent ahead of the board's next sample
+  std::uint32_t target_fill = 20;   // samples kept sent ahead of the board's next sample (host: the lead)
   std::uint32_t max_setpoints_per_frame = 4;
   std::uint32_t resend_after_frames = 3;
   bool keep_telemetry = true;  // collect every telemetry frame (telemetry())

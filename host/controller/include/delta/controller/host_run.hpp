@@ -8,7 +8,7 @@
 //                                          any -> fault (latched by the board; never re-enabled here)
 //
 // Supervision in every cycle: no telemetry for link_timeout_ms of wall time (or the device hung
-// up) is link loss: the loop ends and nothing is enabled again (the board's 50 ms watchdog stops
+// up) is link loss: the loop ends and nothing is enabled again (the board's watchdog stops
 // the torque). A telemetry frame with the fault flag ends the loop with the board's cause. A stop
 // request (SIGINT, SIGTERM, or request(kStop)) ends the plan by a ramp of the path's rate to 0
 // (StreamPlan::stop_from).
@@ -65,9 +65,9 @@ class RecordQueue {
 };
 
 struct StreamingOptions {
-  int link_timeout_ms = 100;  // wall time without telemetry: link lost
-  int period_us = 1000;       // the loop's period (absolute deadlines)
-  int priority = 80;          // SCHED_FIFO priority when permitted
+  int link_timeout_ms = link::kLinkTimeoutMs;  // wall time without telemetry: link lost
+  int period_us = 1000;                        // the loop's period (absolute deadlines)
+  int priority = 80;                           // SCHED_FIFO priority when permitted
   // The host's own following-error bound (|encoder - joint reference|, any joint, drives on),
   // tighter than the board's 5.12 deg: exceeded, the run ends as a fault and the drives go off.
   double following_error_deg = 2.0;

@@ -58,7 +58,7 @@ struct RunRequest {
   std::string trajectory;  // NAME of `deltactl simulate` or FILE.csv
   double duration_s = 0.0;
   std::string record;  // OUT.csv
-  int link_timeout_ms = 100;
+  int link_timeout_ms = link::kLinkTimeoutMs;
   double following_error_deg = 2.0;  // the host's bound (StreamingOptions)
   StreamLimits limits;
 };

@@ -27,6 +27,7 @@
 #include <string>
 
 #include "delta/controller/stream_plan.hpp"
+#include "delta/link/session.hpp"
 
 namespace delta::controller {
 
@@ -35,7 +36,7 @@ struct ServeOptions {
   std::string weights_path;   // W.json the board must run
   std::string socket_path;    // the control socket
   std::string record_folder;  // where runs without "record" are recorded
-  int link_timeout_ms = 100;
+  int link_timeout_ms = link::kLinkTimeoutMs;
   double following_error_deg = 2.0;
   StreamLimits limits;
 };

@@ -17,7 +17,7 @@ struct Check {
 
 const char* verdict_name(Verdict verdict);
 
-// LinuxCNC's latency-test bands for the worst wake-up latency (max jitter), microseconds.
+// The worst wake-up latency (max jitter, microseconds) judged against the host's streaming budget.
 std::string latency_band(double max_us);
 Verdict latency_verdict(double max_us);
 
