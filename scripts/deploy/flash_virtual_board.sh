@@ -4,11 +4,13 @@
 # board that comes back. Checks: the programmer ran exactly once with the bitstream as its only
 # argument, and flash verified the board's identify against the bitstream's identify.mem (exit 0);
 # with a board holding other weights than the bitstream (WEIGHTS with one output bias changed),
-# flash fails (exit 1) after programming.
-# Usage: scripts/deploy/flash_virtual_board.sh DELTACTL WEIGHTS
+# flash fails (exit 1) after programming. The bitstream is an empty design of the UP5K's layout
+# (BLANK_BITSTREAM_TOOL): flash refuses anything that is not an iCE40 UP5K bitstream.
+# Usage: scripts/deploy/flash_virtual_board.sh DELTACTL WEIGHTS BLANK_BITSTREAM_TOOL
 set -euo pipefail
-deltactl=${1:?usage: flash_virtual_board.sh DELTACTL WEIGHTS}
-weights=${2:?usage: flash_virtual_board.sh DELTACTL WEIGHTS}
+deltactl=${1:?usage: flash_virtual_board.sh DELTACTL WEIGHTS BLANK_BITSTREAM_TOOL}
+weights=${2:?usage: flash_virtual_board.sh DELTACTL WEIGHTS BLANK_BITSTREAM_TOOL}
+blank_tool=${3:?usage: flash_virtual_board.sh DELTACTL WEIGHTS BLANK_BITSTREAM_TOOL}
 fail() { echo "FAIL: $*" >&2; exit 1; }
 work=$(mktemp -d)
 board_pid=""
@@ -29,7 +31,7 @@ printf '#!/bin/sh\necho "$@" >>"%s/programmer.log"\n' "$work" >"$work/bin/icepro
 chmod +x "$work/bin/iceprog"
 "$deltactl" quantise --weights "$weights" --out-dir "$work/bits" >/dev/null 2>"$work/quantise.err" ||
   fail "quantise: $(cat "$work/quantise.err")"
-head -c 104090 /dev/zero >"$work/bits/icebreaker_top.bin"
+"$blank_tool" "$work/bits/icebreaker_top.bin"
 printf '[board]\nport = %s\n[network]\nweights = %s\nbitstream = bits/icebreaker_top.bin\n' "$work/tty" "$weights" \
   >"$work/deltactl.conf"
 

@@ -249,7 +249,9 @@ struct CtlOptions {
 // The socket: --socket, else the config file's [service] socket, else systemd's default.
 std::string control_socket(const CtlOptions& options) {
   if (!options.socket.empty()) return options.socket;
-  if (::access(options.config.c_str(), R_OK) == 0) return deploy::read_config(options.config).socket;
+  if (::access(options.config.c_str(), R_OK) == 0) {
+    return deploy::read_config(options.config, deploy::FileChecks::kNone).socket;  // the weights are serve's
+  }
   return deploy::DeployConfig{}.socket;
 }
 

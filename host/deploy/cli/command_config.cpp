@@ -15,11 +15,14 @@ const RegisterCommand kRegister("config", 90, [](CLI::App& root) {
   auto* config = root.add_subcommand("config", "Check the lab PC's configuration file (/etc/deltactl/deltactl.conf)");
   config->require_subcommand(1, 1);
   auto* check = config->add_subcommand(
-      "check", "Read and validate the configuration file; print it resolved, or FILE:LINE: reason and exit 2");
+      "check",
+      "Read and validate the configuration file and load its weights as the service does; print it resolved, or "
+      "FILE:LINE: reason and exit 2");
   auto path = std::make_shared<std::string>(deploy::kDefaultConfigPath);
   check->add_option("--config", *path, "configuration file")->capture_default_str();
   check->callback([path] {
     const deploy::DeployConfig config = deploy::read_config(*path);
+    deploy::check_service_can_run(config);
     std::cout << "# " << config.path << ": valid\n" << deploy::describe(config);
   });
 });

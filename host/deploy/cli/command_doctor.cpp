@@ -1,6 +1,6 @@
 // deltactl doctor: checks a lab PC for the controller and prints a table (check, verdict, what was
 // found, fix). Checks that need hardware or an installed file say so (skip) instead of failing.
-// Exit 0 when no check fails, 1 otherwise; a bad --config is bad input (exit 2).
+// Exit 0 when no check fails, 1 otherwise; a bad configuration is a failed check like the others.
 #include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/utsname.h>
@@ -26,6 +26,8 @@
 #include "delta/deploy/config.hpp"
 #include "delta/deploy/doctor.hpp"
 #include "delta/gateware.hpp"
+#include "delta/input_error.hpp"
+#include "delta/options.hpp"
 
 namespace delta {
 namespace {
@@ -84,7 +86,7 @@ Check check_device(const std::string& port) {
   } else if (::access(port.c_str(), R_OK | W_OK) != 0) {
     check.verdict = Verdict::kFail;
     check.detail += ": no read/write access";
-    check.fix = "sudo adduser $USER dialout (then log in again); the service's user deltactl has it";
+    check.fix = "sudo adduser $USER deltactl (then log in again): the board's UART is group deltactl's";
   }
   return check;
 }
@@ -141,7 +143,7 @@ Check check_rtprio() {
                  (::geteuid() == 0 ? " (root: not limited)" : "");
   if (::geteuid() != 0 && limit.rlim_cur < 80) {
     check.verdict = Verdict::kFail;
-    check.fix = "the service has LimitRTPRIO=90; for a shell: '@dialout - rtprio 90' in /etc/security/limits.d/";
+    check.fix = "the service has LimitRTPRIO=90; for a shell: '@deltactl - rtprio 90' in /etc/security/limits.d/";
   }
   return check;
 }
@@ -155,7 +157,7 @@ Check check_memlock() {
   constexpr rlim_t kNeeded = 64ull << 20;
   if (::geteuid() != 0 && limit.rlim_cur != RLIM_INFINITY && limit.rlim_cur < kNeeded) {
     check.verdict = Verdict::kWarn;
-    check.fix = "the service has LimitMEMLOCK=infinity; for a shell: '@dialout - memlock unlimited' in limits.d";
+    check.fix = "the service has LimitMEMLOCK=infinity; for a shell: '@deltactl - memlock unlimited' in limits.d";
   }
   return check;
 }
@@ -273,18 +275,32 @@ void print_table(const std::vector<Check>& checks) {
 }
 
 void doctor(const DoctorOptions& options) {
+  // A bad configuration is a FAIL line, not the end: the other checks still run (the port falls
+  // back to the default when the file does not parse; the weights are compared only when they load).
   std::unique_ptr<deploy::DeployConfig> config;
+  std::string config_port = deploy::kDefaultPort;
   std::string config_note;
+  Check config_check{"config", Verdict::kOk, "", ""};
   struct stat info {};
   if (options.config_given || ::stat(options.config.c_str(), &info) == 0) {
-    config = std::make_unique<deploy::DeployConfig>(deploy::read_config(options.config));  // bad: exit 2
+    try {
+      const deploy::DeployConfig parsed = deploy::read_config(options.config);
+      config_port = parsed.port;
+      deploy::check_service_can_run(parsed);
+      config = std::make_unique<deploy::DeployConfig>(parsed);
+      config_check.detail = config->path + ": valid";
+    } catch (const InputError& error) {
+      config_check = {"config", Verdict::kFail, error.what(),
+                      "correct what it names (deltactl config check --config " + options.config + ")"};
+      config_note = "the configuration is invalid";
+    }
   } else {
     config_note = "no " + options.config + " (install the package or pass --config)";
+    config_check = {"config", Verdict::kWarn, config_note, "sudo apt install ./deltactl_*.deb"};
   }
-  const std::string port = !options.port.empty() ? options.port : config ? config->port : deploy::kDefaultPort;
+  const std::string port = !options.port.empty() ? options.port : config_port;
   std::vector<Check> checks;
-  checks.push_back(config ? Check{"config", Verdict::kOk, config->path + ": valid", ""}
-                          : Check{"config", Verdict::kWarn, config_note, "sudo apt install ./deltactl_*.deb"});
+  checks.push_back(config_check);
   checks.push_back(check_device(port));
   checks.push_back(check_latency_timer(port));
   checks.push_back(check_modem_manager());
@@ -322,7 +338,7 @@ const RegisterCommand kRegister("doctor", 92, [](CLI::App& root) {
       ->each([options](const std::string&) { options->config_given = true; });
   sub->add_option("--port", options->port, "board device (default: [board] port of the config, /dev/delta-board)");
   sub->add_option("--latency-seconds", options->latency_s, "duration of the 1 kHz wake-latency probe")
-      ->check(CLI::Range(0.1, 600.0))
+      ->check(options::real_number(0.1, 600.0))
       ->capture_default_str();
   sub->add_flag("--json", options->json, "print the checks as JSON");
   sub->callback([options] { doctor(*options); });

@@ -2,7 +2,6 @@
 // -b ice40_generic), waits for the board's UART to come back and checks its identify against the
 // bitstream's (identify.mem beside it) and the configured W.json. --dry-run prints the plan only.
 #include <spawn.h>
-#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -16,6 +15,7 @@
 #include <CLI/CLI.hpp>
 
 #include "delta/command.hpp"
+#include "delta/deploy/bitstream.hpp"
 #include "delta/deploy/board_probe.hpp"
 #include "delta/deploy/config.hpp"
 #include "delta/gateware.hpp"
@@ -54,10 +54,7 @@ void flash(const FlashOptions& options) {
   if (bitstream.empty()) {
     throw InputError(options.config, 0, "network.bitstream is empty and no --bitstream was given");
   }
-  struct stat info {};
-  if (::stat(bitstream.c_str(), &info) != 0 || !S_ISREG(info.st_mode)) {
-    throw InputError(bitstream, 0, "no such bitstream file");
-  }
+  const deploy::BitstreamSummary layout = deploy::check_up5k_bitstream_file(bitstream);  // refuses any other file
   const auto identify_path = deploy::identify_mem_beside(bitstream);
   if (!identify_path) {
     throw InputError(bitstream, 0,
@@ -71,7 +68,8 @@ void flash(const FlashOptions& options) {
   } else {
     command = {"openFPGALoader", "-b", "ice40_generic", "-f", bitstream};
   }
-  std::cout << "bitstream: " << bitstream << "\n"
+  std::cout << "bitstream: " << bitstream << ": iCE40 UP5K, " << layout.bytes << " bytes, CRC " << std::hex
+            << layout.crc << std::dec << "\n"
             << "  identify.mem: " << *identify_path << ": gateware build id " << deploy::hex32(expected.build_id)
             << ", weights CRC-32 " << deploy::hex32(expected.weights_crc) << "\n"
             << "configured weights: " << config.weights << ": weights CRC-32 " << deploy::hex32(configured_crc) << "\n"
@@ -86,7 +84,15 @@ void flash(const FlashOptions& options) {
     std::cout << "warning: the bitstream was built from other weights than " << config.weights << " (--force)\n";
   }
   if (expected.build_id != static_cast<std::uint32_t>(kGatewareBuildId)) {
-    std::cout << "warning: the bitstream's gateware build id differs from this deltactl's\n";
+    // This deltactl speaks the link of its own gateware only: after such a flash every run fails.
+    if (!options.force) {
+      throw InputError(
+          *identify_path, 0,
+          "the bitstream's gateware build id " + deploy::hex32(expected.build_id) + " is not this deltactl's " +
+              deploy::hex32(kGatewareBuildId) +
+              " (flash the bitstream built with this deltactl, install the matching deltactl, or --force)");
+    }
+    std::cout << "warning: the bitstream's gateware build id differs from this deltactl's (--force)\n";
   }
   std::cout << "command:";
   for (const std::string& arg : command) std::cout << ' ' << arg;
@@ -126,7 +132,9 @@ const RegisterCommand kRegister("flash", 91, [](CLI::App& root) {
   auto options = std::make_shared<FlashOptions>();
   auto* sub = root.add_subcommand("flash", "Write the bitstream to the iCEBreaker's flash and verify its identify");
   sub->footer(
-      "\nThe bitstream's identify.mem (beside it) must hold the configured W.json's weights CRC, or --force.\n"
+      "\nThe bitstream must be an iCE40 UP5K bitstream (sync word, the UP5K's configuration banks, its CRC);\n"
+      "its identify.mem (beside it) must hold this deltactl's gateware build id and the configured W.json's\n"
+      "weights CRC, or --force.\n"
       "Example: deltactl flash --dry-run");
   sub->add_option("--config", options->config, "configuration file")->capture_default_str();
   sub->add_option("--bitstream", options->bitstream, "bitstream (.bin; default: network.bitstream of the config)");
@@ -137,7 +145,9 @@ const RegisterCommand kRegister("flash", 91, [](CLI::App& root) {
       ->check(CLI::Range(1, 120))
       ->capture_default_str();
   sub->add_flag("--dry-run", options->dry_run, "print the programmer command and the verification, write nothing");
-  sub->add_flag("--force", options->force, "flash a bitstream built from other weights than the configured ones");
+  sub->add_flag(
+      "--force", options->force,
+      "flash a bitstream built from other weights, or another gateware, than this deltactl's and the config's");
   sub->callback([options] { flash(*options); });
 });
 

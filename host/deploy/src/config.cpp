@@ -6,15 +6,24 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <map>
 #include <set>
 #include <sstream>
 
 #include "delta/board_facts.hpp"
+#include "delta/controller/board_network.hpp"
+#include "delta/golden/setpoint_interpolation.hpp"
 #include "delta/input_error.hpp"
 
 namespace delta::deploy {
+
+const double kEncoderCountDeg = board::kEncoderCountMicrodeg * 1e-6;
+const double kBoardSlewDegS = static_cast<double>((1 << (golden::interpolation::kDeltaBits - 1)) - 1) /
+                              (1 << golden::interpolation::kReferenceFractionBits) * kEncoderCountDeg *
+                              board::kSetpointRateHz;
+
 namespace {
 
 std::string trim(const std::string& text) {
@@ -28,15 +37,20 @@ enum class Kind { kPath, kNumber, kInteger };
 
 struct KeySpec {
   Kind kind;
-  double min;  // numbers: the open lower bound (value > min)
-  double max;  // numbers: the closed upper bound (value <= max)
+  double min;               // numbers: the lower bound
+  double max;               // numbers: the closed upper bound (value <= max)
+  bool min_closed = false;  // value >= min (else value > min)
+  const char* why = "";     // what the bounds are, for the message
 };
 
 const std::map<std::string, std::map<std::string, KeySpec>>& schema() {
   static const std::map<std::string, std::map<std::string, KeySpec>> keys = {
       {"board", {{"port", {Kind::kPath, 0, 0}}, {"baud", {Kind::kInteger, 0, 12e6}}}},
       {"network", {{"weights", {Kind::kPath, 0, 0}}, {"bitstream", {Kind::kPath, 0, 0}}}},
-      {"limits", {{"following_error_deg", {Kind::kNumber, 0, 45}}, {"velocity_deg_s", {Kind::kNumber, 0, 3600}}}},
+      {"limits",
+       {{"following_error_deg", {Kind::kNumber, kEncoderCountDeg, 45, true, " (one encoder count to 45 deg)"}},
+        {"velocity_deg_s",
+         {Kind::kNumber, kMinVelocityDegS, kBoardSlewDegS, true, " (the board's slew limit is the top)"}}}},
       {"service", {{"socket", {Kind::kPath, 0, 0}}}},
   };
   return keys;
@@ -69,7 +83,8 @@ double parse_number(const std::string& value, const std::string& file, std::size
 
 }  // namespace
 
-DeployConfig parse_config(const std::string& text, const std::string& path) {
+DeployConfig parse_config(const std::string& text, const std::string& path, FileChecks files) {
+  const bool check_files = files == FileChecks::kExist;
   DeployConfig config;
   config.path = path;
   std::istringstream lines(text);
@@ -127,11 +142,13 @@ DeployConfig parse_config(const std::string& text, const std::string& path) {
           if (value[0] != '/') throw InputError(path, line, name + ": not an absolute path: " + quoted_excerpt(value));
           config.socket = value;
         } else if (key == "weights") {
-          if (!is_regular_file(resolved)) throw InputError(path, line, name + ": no such file: " + resolved);
+          if (check_files && !is_regular_file(resolved)) {
+            throw InputError(path, line, name + ": no such file: " + resolved);
+          }
           config.weights = resolved;
           weights_line = line;
         } else {
-          if (!value.empty() && !is_regular_file(resolved)) {
+          if (check_files && !value.empty() && !is_regular_file(resolved)) {
             throw InputError(path, line, name + ": no such file: " + resolved);
           }
           config.bitstream = resolved;
@@ -145,9 +162,11 @@ DeployConfig parse_config(const std::string& text, const std::string& path) {
         if (spec->second.kind == Kind::kInteger && number != std::floor(number)) {
           throw InputError(path, line, name + ": not a whole number: " + quoted_excerpt(value));
         }
-        if (!(number > spec->second.min && number <= spec->second.max)) {
+        const KeySpec& bounds = spec->second;
+        if (!((bounds.min_closed ? number >= bounds.min : number > bounds.min) && number <= bounds.max)) {
           std::ostringstream reason;
-          reason << name << ": " << value << " out of range (" << spec->second.min << ", " << spec->second.max << "]";
+          reason << name << ": " << value << " out of range " << (bounds.min_closed ? "[" : "(") << bounds.min << ", "
+                 << bounds.max << "]" << bounds.why;
           throw InputError(path, line, reason.str());
         }
         if (key == "baud") {
@@ -174,13 +193,27 @@ DeployConfig parse_config(const std::string& text, const std::string& path) {
   return config;
 }
 
-DeployConfig read_config(const std::string& path) {
+DeployConfig read_config(const std::string& path, FileChecks files) {
+  struct stat info {};
+  if (::stat(path.c_str(), &info) != 0) {
+    throw InputError(path, 0, std::string("cannot open configuration file: ") + std::strerror(errno));
+  }
+  if (S_ISDIR(info.st_mode)) throw InputError(path, 0, "is a folder, not a configuration file");
+  if (!S_ISREG(info.st_mode)) throw InputError(path, 0, "not a regular file (a device, FIFO or socket)");
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path, 0, "cannot open configuration file");
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (text.str().find('\0') != std::string::npos) throw InputError(path, 0, "not a text file (NUL byte)");
-  return parse_config(text.str(), path);
+  if (!in) throw InputError(path, 0, std::string("cannot open configuration file: ") + std::strerror(errno));
+  std::string text(kMaxConfigBytes + 1, '\0');
+  in.read(text.data(), static_cast<std::streamsize>(text.size()));
+  text.resize(static_cast<std::size_t>(in.gcount()));
+  if (text.size() > kMaxConfigBytes) {
+    throw InputError(path, 0, "larger than " + std::to_string(kMaxConfigBytes >> 10) + " KiB: not a configuration");
+  }
+  if (text.find('\0') != std::string::npos) throw InputError(path, 0, "not a text file (NUL byte)");
+  return parse_config(text, path, files);
+}
+
+void check_service_can_run(const DeployConfig& config) {
+  controller::read_board_weights(config.weights);  // InputError: the weights file, the reason
 }
 
 std::string describe(const DeployConfig& config) {
