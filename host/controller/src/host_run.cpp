@@ -10,6 +10,9 @@ namespace delta::controller {
 namespace {
 
 constexpr double kCountDeg = board::kEncoderCountMicrodeg * 1e-6;
+// A controlled stop ends within about 0.4 s (the lead, the ramp to rest); past 1 s something else
+// keeps the board from playing: the loop ends and the caller holds and disables.
+constexpr std::uint32_t kStopBoundTicks = static_cast<std::uint32_t>(board::kControlRateHz);
 
 }  // namespace
 
@@ -133,6 +136,7 @@ void StreamingLoop::run() {
   bool resume_wanted = false;       // asked while still slowing down: resumed once held
   std::uint64_t command_frame = 0;  // telemetry frames since the last hold or enable sent
   std::uint32_t held_since_tick = 0;
+  std::uint32_t stop_tick = 0;  // when the stop was taken
   try {
     const std::uint64_t resent_before = pacer.resent();
     pacer.update(t, send);
@@ -173,7 +177,20 @@ void StreamingLoop::run() {
           finished = true;
           break;
         }
-        if (t.has(link::TelemetryFlag::kDriveEnable) && options_.following_error_deg > 0.0) {
+        if (!t.has(link::TelemetryFlag::kDriveEnable)) {
+          result_.outcome = StreamingResult::Outcome::kDrivesOff;
+          result_.cause = "the drives went off without a fault (" + link::describe_state(t) +
+                          "): a disable from another program on the port, or a board reset";
+          finished = true;
+          break;
+        }
+        if (feed == FeedState::kStopping && t.tick - stop_tick > kStopBoundTicks) {
+          result_.outcome = StreamingResult::Outcome::kStopped;
+          result_.cause = "the controlled stop did not end within 1 s of board time";
+          finished = true;
+          break;
+        }
+        if (options_.following_error_deg > 0.0) {
           for (int j = 0; j < 3 && !finished; ++j) {
             const double error = (t.counts[j] - t.references[j] / 256.0) * kCountDeg;
             if (std::abs(error) > options_.following_error_deg) {
@@ -195,6 +212,7 @@ void StreamingLoop::run() {
             set_plan(plan_.stop_from(pacer.next()));
           }
           feed = FeedState::kStopping;
+          stop_tick = t.tick;
         } else if (request == FeedRequest::kHold && (feed == FeedState::kStreaming || feed == FeedState::kResuming)) {
           set_plan(plan_.hold_from(pacer.next()));
           feed = FeedState::kHolding;
