@@ -72,8 +72,12 @@ Path load_moves(const std::string& spec, const motion::MotionLimits& limits) {
     const Vec3 from = points[w - 1], delta = points[w] - from;
     const double distance = delta.norm();
     if (distance < 1e-9) continue;
-    const motion::JerkLimitedProfile move(distance, limits);
     const double t0 = path.samples.back().t_s;
+    if (!(t0 + distance / limits.velocity <= kMaxRunSeconds)) {  // at least that long: refused before the profile
+      throw InputError(spec, w + 1,
+                       "the moves last more than " + fixed_seconds(kMaxRunSeconds) + " (the longest run); split them");
+    }
+    const motion::JerkLimitedProfile move(distance, limits);
     if (!(t0 + move.duration() <= kMaxRunSeconds)) {  // before anything is allocated for it
       throw InputError(spec, w + 1,
                        "the moves last more than " + fixed_seconds(kMaxRunSeconds) + " (the longest run); split them");
@@ -126,8 +130,8 @@ Path load_path(const std::string& name_or_file, double duration_s) {
     if (!(row[0] - t0 <= kMaxRunSeconds)) {  // before the 1 kHz samples are allocated
       throw InputError(name_or_file, table.line_numbers[i],
                        "the trajectory spans more than " + fixed_seconds(kMaxRunSeconds) +
-                           " (t = " + std::to_string(row[0]) + " s after a start at " + std::to_string(t0) +
-                           " s); a run lasts at most that: cut it with --duration or split the file");
+                           " (t = " + fixed_seconds(row[0]) + " after a start at " + fixed_seconds(t0) +
+                           "); a run lasts at most that: cut it with --duration or split the file");
     }
     points.push_back({row[0] - t0, Vec3(row[1], row[2], row[3]), table.line_numbers[i]});
   }
