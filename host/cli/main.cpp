@@ -7,6 +7,7 @@
 #include "delta/command.hpp"
 #include "delta/input_error.hpp"
 #include "delta/run_files.hpp"
+#include "delta/utf8_text.hpp"
 
 namespace delta {
 std::vector<CommandSpec>& command_registry() {
@@ -45,15 +46,15 @@ int main(int argc, char** argv) {
     std::cerr << "deltactl: error: " << error.what() << " (see '" << where << " --help')\n";
     return delta::kExitBadInput;
   } catch (const delta::InputError& error) {
-    std::cerr << "deltactl: error: " << error.what() << '\n';
+    std::cerr << "deltactl: error: " << delta::escape_invalid_utf8(error.what()) << '\n';
     return delta::kExitBadInput;
   } catch (const delta::CommandExit& exit) {
     return exit.code;
   } catch (const std::invalid_argument& error) {
-    std::cerr << "deltactl: error: " << error.what() << '\n';
+    std::cerr << "deltactl: error: " << delta::escape_invalid_utf8(error.what()) << '\n';
     return delta::kExitBadInput;
   } catch (const std::exception& error) {
-    std::cerr << "deltactl: failed: " << error.what() << '\n';
+    std::cerr << "deltactl: failed: " << delta::escape_invalid_utf8(error.what()) << '\n';
     return delta::kExitFailure;
   }
   return delta::kExitOk;

@@ -2,6 +2,7 @@
 // across back ends and equal to the golden model, deterministic export, refusals, bad input.
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <sstream>
 
 #include "delta/csv.hpp"
@@ -120,6 +121,17 @@ TEST(FixedCli, AccuracyReportsTheBoundOnASmallGrid) {
   const CommandResult strict =
       run_deltactl("accuracy --weights " + kWeights + " --grid-points 5 --no-sweep --bound-deg 1e-9");
   EXPECT_EQ(strict.exit_code, 1);
+}
+
+TEST(FixedCli, AccuracyRefusesAPlotWithoutTheSweep) {
+  // The plot draws the word-length sweep: asked without it, refused (exit 2), no file written.
+  const std::string png = temp_path("no_sweep.png");
+  std::remove(png.c_str());
+  const CommandResult result =
+      run_deltactl("accuracy --weights " + kWeights + " --grid-points 5 --no-sweep --plot " + png);
+  EXPECT_EQ(result.exit_code, 2) << result.out << result.err;
+  EXPECT_NE(result.err.find("--plot"), std::string::npos) << result.err;
+  EXPECT_FALSE(file_exists(png));
 }
 
 TEST(FixedCli, HelpTeachesWithAnExample) {

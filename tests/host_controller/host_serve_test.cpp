@@ -59,12 +59,14 @@ struct Server {
     }
     return false;
   }
+  // `record`: a name in the controller's recordings folder (recorded(record) is its path).
   std::unique_ptr<HostProcess> start_run(double duration_s, const std::string& record) const {
     return std::make_unique<HostProcess>(
         std::vector<std::string>{"host", "ctl", "--socket", socket, "run", "--trajectory", "experiment1", "--duration",
                                  std::to_string(duration_s), "--record", record},
-        record + ".ctl");
+        bench.dir + "/" + record + ".ctl");
   }
+  std::string recorded(const std::string& record) const { return bench.dir + "/runs/" + record; }
 };
 
 std::size_t played(const nlohmann::json& status) {
@@ -77,8 +79,8 @@ TEST(HostServe, CtlRunWithAFeedHoldRestsOnThePathThenFinishesIt) {
   ASSERT_EQ(home.exit_code, 0) << home.err;
   EXPECT_EQ(server.status().value("state", ""), "homed");
 
-  const std::string record = server.bench.dir + "/out.csv";
-  auto run = server.start_run(2.0, record);
+  auto run = server.start_run(2.0, "out.csv");
+  const std::string record = server.recorded("out.csv");
   ASSERT_TRUE(server.wait_for([](const nlohmann::json& s) { return played(s) > 1200; }, 120)) << server.serve->err();
   const CommandResult hold = server.ctl("hold");
   ASSERT_EQ(hold.exit_code, 0) << hold.err;
@@ -174,7 +176,7 @@ TEST(HostServe, StopRequestAndSigtermEndRunsAtRestWithTheDrivesOff) {
   Server server("serve_stop");
   ASSERT_EQ(server.ctl("home").exit_code, 0);
   // A stop by request: the run ends at rest, exit 0, outcome stopped.
-  auto run = server.start_run(3.0, server.bench.dir + "/stopped.csv");
+  auto run = server.start_run(3.0, "stopped.csv");
   ASSERT_TRUE(server.wait_for([](const nlohmann::json& s) { return played(s) > 800; }, 120));
   ASSERT_EQ(server.ctl("stop").exit_code, 0);
   ASSERT_EQ(run->wait(120), 0) << run->err();
@@ -182,7 +184,7 @@ TEST(HostServe, StopRequestAndSigtermEndRunsAtRestWithTheDrivesOff) {
   EXPECT_EQ(server.status().value("state", ""), "homed");
 
   // SIGTERM to the controller while it runs: a controlled stop, the drives off, exit 0.
-  auto second = server.start_run(3.0, server.bench.dir + "/terminated.csv");
+  auto second = server.start_run(3.0, "terminated.csv");
   ASSERT_TRUE(server.wait_for([](const nlohmann::json& s) { return played(s) > 800; }, 120));
   ::kill(server.serve->pid(), SIGTERM);
   const int code = server.serve->wait(60);
@@ -195,7 +197,7 @@ TEST(HostServe, StopRequestAndSigtermEndRunsAtRestWithTheDrivesOff) {
 
   // Both recordings (the streams' telemetry) end at rest; the truth ends with the drives off.
   for (const std::string name : {"stopped", "terminated"}) {
-    const Table out = read_table(server.bench.dir + "/" + name + ".csv");
+    const Table out = read_table(server.recorded(name + ".csv"));
     ASSERT_GT(out.rows.size(), 100u) << name;
     const std::size_t last = out.rows.size() - 1;
     double change = 0.0;

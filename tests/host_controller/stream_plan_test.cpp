@@ -107,6 +107,40 @@ TEST(StreamPlan, HoldDuringTheApproachFinishesItAndResumeStartsThePath) {
   EXPECT_NEAR(plan.tau(plan.size() - 1), path.duration_s(), 1e-9);
 }
 
+TEST(StreamPlan, StopDuringALongApproachComesToRestWithinHalfASecond) {
+  // From a corner of the trained range: the straight move alone lasts most of a second. A stop in
+  // it (a signal, ctl stop) must not wait for its end: the plate comes to rest on the line.
+  const BoardWeights weights = read_board_weights(kWeights);
+  const Path path = load_path("experiment1", 1.0);
+  const StreamLimits limits;
+  const Vec3 start = weights.trained_min_m + Vec3::Constant(0.0005);
+  StreamPlan plan(path, start, limits);
+  const StreamPlan reference(path, start, limits);
+  ASSERT_GT(plan.approach_samples(), 600u);
+  const std::size_t k = plan.approach_samples() / 3;
+  const std::size_t stopped = plan.stop_from(k);
+  std::cout << "approach " << plan.approach_samples() << " samples; stopped at sample " << k << ", at rest after "
+            << stopped - k << " more\n";
+  EXPECT_LE(stopped - k, 400u);
+  EXPECT_LT(stopped, plan.approach_samples());
+  EXPECT_FALSE(plan.resumable());
+  EXPECT_EQ(plan.resume(), 0u);
+  // The samples before k unchanged; at rest at the end; on the line, never beyond the unstopped move.
+  for (std::size_t i = 0; i <= k; ++i) ASSERT_EQ(plan.position(i), reference.position(i)) << i;
+  EXPECT_LT((plan.position(stopped - 1) - plan.position(stopped - 2)).norm(), 1e-9);
+  EXPECT_LE(largest_step(plan, 0, stopped), largest_step(reference, 0, reference.size()) + 1e-12);
+  EXPECT_FALSE(check_plan(plan, "experiment1", weights.trained_min_m, weights.trained_max_m, limits))
+      << *check_plan(plan, "experiment1", weights.trained_min_m, weights.trained_max_m, limits);
+}
+
+TEST(StreamPlan, RunsBeyondTheLongestAreRefusedBeforeAllocating) {
+  // A named trajectory's duration, a move's length: refused before the samples are made.
+  EXPECT_THROW(load_path("experiment1", kMaxRunSeconds + 1.0), std::invalid_argument);
+  EXPECT_THROW(load_path("experiment1", 1e300), std::invalid_argument);
+  EXPECT_THROW(load_path("move:0,0,-0.075;1e300,0,-0.075", 0.0), InputError);
+  EXPECT_NO_THROW(load_path("experiment1", 2.0));
+}
+
 TEST(StreamPlan, AtTheEndOfThePathThereIsNothingToResume) {
   const Path path = load_path("experiment1", 1.0);
   StreamPlan plan(path, path.samples.front().position_m, StreamLimits{});

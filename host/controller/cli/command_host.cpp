@@ -4,6 +4,7 @@
 // disables, recording every telemetry frame (delta/controller/run_job.hpp); `serve` is the
 // long-running controller with its control socket and `ctl` its client (serve.hpp); `latency`
 // measures the 1 kHz loop's wake latency. Read delta/controller/host_run.hpp first.
+#include <poll.h>
 #include <sys/socket.h>
 #include <sys/un.h>
 #include <unistd.h>
@@ -38,7 +39,9 @@
 #include "delta/io/serial_port.hpp"
 #include "delta/options.hpp"
 #include "delta/output_file.hpp"
+#include "delta/run_files.hpp"
 #include "delta/table.hpp"
+#include "delta/utf8_text.hpp"
 
 namespace delta::controller {
 namespace {
@@ -46,17 +49,22 @@ namespace {
 constexpr double kCountDeg = board::kEncoderCountMicrodeg * 1e-6;
 
 volatile std::sig_atomic_t stop_signal = 0;
-void request_stop(int signal_number) { stop_signal = signal_number; }
-// SIGINT and SIGTERM become a stop request (a controlled stop), not the end of the process.
+void request_stop(int signal_number) {
+  if (stop_signal == 0) stop_signal = signal_number;
+}
+// SIGINT, SIGTERM, SIGHUP (a closed terminal or SSH session) and SIGQUIT become a stop request (a
+// controlled stop, the drives off, the recording kept), not the end of the process. SIGPIPE (a
+// closed stdout) is ignored: the run goes on to its end.
 void install_stop_handlers() {
   struct sigaction action {};
   action.sa_handler = request_stop;
   sigemptyset(&action.sa_mask);
-  for (int signal_number : {SIGINT, SIGTERM}) ::sigaction(signal_number, &action, nullptr);
+  for (int signal_number : {SIGINT, SIGTERM, SIGHUP, SIGQUIT}) ::sigaction(signal_number, &action, nullptr);
+  ::signal(SIGPIPE, SIG_IGN);
 }
 
 [[noreturn]] void fail(int code, const std::string& message) {
-  std::cerr << "deltactl: error: " << message << '\n';
+  std::cerr << "deltactl: error: " << escape_invalid_utf8(message) << '\n';
   throw CommandExit{code};
 }
 
@@ -193,7 +201,7 @@ void run_run(const RunOptions& options) {
           next_print += std::chrono::seconds(5);
         });
   });
-  std::cout << outcome.summary;
+  std::cout << escape_invalid_utf8(outcome.summary);
   if (!outcome.error.empty()) fail(outcome.code, outcome.error);
   if (outcome.code != kExitOk) throw CommandExit{outcome.code};
 }
@@ -227,6 +235,7 @@ void run_serve(const ServeCliOptions& cli) {
     const char* state = std::getenv("STATE_DIRECTORY");  // systemd's StateDirectory=deltactl
     options.record_folder = std::string(state && *state ? state : ".") + "/runs";
   }
+  track_run_files(false);  // many runs over its life: each is checked on its own
   install_stop_handlers();
   auto server = or_exit([&] { return std::make_unique<HostServer>(options); });
   std::cerr << "host serve: board " << options.port << ", weights " << options.weights_path << ", control socket "
@@ -255,20 +264,8 @@ std::string control_socket(const CtlOptions& options) {
   return deploy::DeployConfig{}.socket;
 }
 
-void run_ctl(const CtlOptions& options) {
-  const std::string path = control_socket(options);
-  nlohmann::json request = {{"cmd", options.command}};
-  if (options.command == "run") {
-    // Paths as the controller sees them: absolute (it runs elsewhere, maybe as another user).
-    auto absolute = [](const std::string& file) { return std::filesystem::absolute(file).lexically_normal().string(); };
-    request["trajectory"] =
-        options.trajectory.find('/') != std::string::npos || options.trajectory.find(".csv") != std::string::npos
-            ? absolute(options.trajectory)
-            : options.trajectory;
-    if (options.duration_s > 0.0) request["duration"] = options.duration_s;
-    if (!options.record.empty()) request["record"] = absolute(options.record);
-    request["wait"] = !options.no_wait;
-  }
+// A connection to the controller; exits 4 when it cannot be reached.
+int connect_controller(const std::string& path) {
   const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
   sockaddr_un address{};
   address.sun_family = AF_UNIX;
@@ -280,16 +277,63 @@ void run_ctl(const CtlOptions& options) {
     fail(kExitLinkLost, path + ": cannot reach the controller (" + why +
                             "); is it running? systemctl status deltactl, or deltactl host serve");
   }
+  return fd;
+}
+
+bool send_request(int fd, const nlohmann::json& request) {
   const std::string line = request.dump() + "\n";
-  if (::send(fd, line.data(), line.size(), MSG_NOSIGNAL) != static_cast<ssize_t>(line.size())) {
+  return ::send(fd, line.data(), line.size(), MSG_NOSIGNAL) == static_cast<ssize_t>(line.size());
+}
+
+// A stop for the run the controller streams, on a connection of its own (the run's connection
+// waits for its end); its answer read and dropped.
+void ask_stop(const std::string& path) {
+  const int fd = connect_controller(path);
+  if (send_request(fd, {{"cmd", "stop"}})) {
+    pollfd p{fd, POLLIN, 0};
+    char chunk[512];
+    if (::poll(&p, 1, 2000) > 0) (void)::recv(fd, chunk, sizeof chunk, 0);
+  }
+  ::close(fd);
+}
+
+void run_ctl(const CtlOptions& options) {
+  const std::string path = control_socket(options);
+  nlohmann::json request = {{"cmd", options.command}};
+  const bool waits = options.command == "run" && !options.no_wait;
+  if (options.command == "run") {
+    // The trajectory as the controller sees it: absolute (it runs elsewhere, maybe as another
+    // user). The recording's name as given: the controller writes it in its recordings folder.
+    auto absolute = [](const std::string& file) { return std::filesystem::absolute(file).lexically_normal().string(); };
+    request["trajectory"] =
+        options.trajectory.find('/') != std::string::npos || options.trajectory.find(".csv") != std::string::npos
+            ? absolute(options.trajectory)
+            : options.trajectory;
+    if (options.duration_s > 0.0) request["duration"] = options.duration_s;
+    if (!options.record.empty()) request["record"] = options.record;
+    request["wait"] = !options.no_wait;
+  }
+  // While a run streams for this client: Ctrl-C (and SIGTERM, SIGHUP, SIGQUIT) stops it at rest.
+  if (waits) install_stop_handlers();
+  const int fd = connect_controller(path);
+  if (!send_request(fd, request)) {
     ::close(fd);
     fail(kExitLinkLost, path + ": the controller closed the connection");
   }
   std::string buffer;
   char chunk[4096];
+  bool stop_sent = false;
   for (;;) {
     std::size_t end;
     while ((end = buffer.find('\n')) == std::string::npos) {
+      if (waits && stop_signal != 0 && !stop_sent) {
+        std::cerr << "host ctl: signal " << stop_signal
+                  << ": asking the controller to stop the run (at rest, drives off)\n";
+        ask_stop(path);
+        stop_sent = true;
+      }
+      pollfd p{fd, POLLIN, 0};
+      if (::poll(&p, 1, 100) <= 0) continue;  // a signal or nothing yet
       const ssize_t n = ::recv(fd, chunk, sizeof chunk, 0);
       if (n <= 0) {
         ::close(fd);
@@ -297,7 +341,13 @@ void run_ctl(const CtlOptions& options) {
       }
       buffer.append(chunk, static_cast<std::size_t>(n));
     }
-    const nlohmann::json reply = nlohmann::json::parse(buffer.substr(0, end));
+    nlohmann::json reply;
+    try {
+      reply = nlohmann::json::parse(buffer.substr(0, end));
+    } catch (const nlohmann::json::exception&) {
+      ::close(fd);
+      fail(kExitFailure, path + ": the controller's reply is not JSON");
+    }
     buffer.erase(0, end + 1);
     const std::string event = reply.value("event", std::string());
     if (options.json) std::cout << reply.dump() << '\n' << std::flush;
@@ -314,7 +364,8 @@ void run_ctl(const CtlOptions& options) {
       continue;
     }
     ::close(fd);
-    const int code = reply.value("exit", reply.value("ok", false) ? 0 : kExitFailure);
+    int code = reply.value("exit", reply.value("ok", false) ? 0 : kExitFailure);
+    if (stop_sent && code == 0 && reply.value("outcome", std::string()) == "stopped") code = 128 + stop_signal;
     if (!options.json) {
       if (options.command == "status" && reply.value("ok", false)) {
         std::cout << "controller: " << reply.value("state", std::string()) << " ("
@@ -333,7 +384,7 @@ void run_ctl(const CtlOptions& options) {
         }
       } else if (reply.contains("summary")) {
         std::cout << reply["summary"].get<std::string>();
-        if (code == 0) std::cerr << "host ctl: run " << reply.value("outcome", std::string()) << '\n';
+        if (code == 0 || code > 128) std::cerr << "host ctl: run " << reply.value("outcome", std::string()) << '\n';
       } else if (code == 0) {
         std::cout << options.command << ": ok"
                   << (reply.contains("state") ? " (" + reply["state"].get<std::string>() + ")" : "")
@@ -341,7 +392,9 @@ void run_ctl(const CtlOptions& options) {
       }
     }
     if (code != 0) {
-      if (!options.json) std::cerr << "deltactl: error: " << reply.value("error", std::string("refused")) << '\n';
+      const std::string error = reply.value("error", std::string());
+      if (!options.json && !error.empty()) std::cerr << "deltactl: error: " << error << '\n';
+      if (!options.json && error.empty() && code <= 128) std::cerr << "deltactl: error: refused\n";
       throw CommandExit{code};
     }
     return;
@@ -386,7 +439,8 @@ const RegisterCommand command("host", 75, [](CLI::App& root) {
       "1 Mbaud, exclusively, with the driver's low-latency flag where it has one.\n"
       "Exit codes: 0 completed; 2 bad input, found before any motion; 3 the board faulted or is not\n"
       "ready (the cause is printed); 4 the link was lost (or the port cannot be opened); 5 the board's\n"
-      "gateware or weights differ from W.json; 128+N after a controlled stop on signal N (SIGINT, SIGTERM).");
+      "gateware or weights differ from W.json; 128+N after a controlled stop on signal N (SIGINT,\n"
+      "SIGTERM, SIGHUP, SIGQUIT).");
 
   auto status = std::make_shared<StatusOptions>();
   CLI::App* s = host->add_subcommand("status", "Identify the board and print its state");
@@ -413,10 +467,14 @@ const RegisterCommand command("host", 75, [](CLI::App& root) {
       "travel, joint velocity <= 100 deg/s, acceleration <= 1e4 deg/s^2, jerk <= 1e6 deg/s^3; the first\n"
       "offending sample is named (FILE:LINE: reason), exit 2, no byte sent. The board must be homed and\n"
       "free of faults. The plate moves in a jerk-limited straight line to the trajectory's start, then\n"
-      "along it, its time ramped in and out (0.3 s); SIGINT or SIGTERM ramps it to rest on the path,\n"
-      "then holds and disables. A streaming thread with 1 ms absolute deadlines (SCHED_FIFO and locked\n"
+      "along it, its time ramped in and out (0.3 s); Ctrl-C (SIGINT), SIGTERM, SIGHUP (the terminal or\n"
+      "SSH session closed) or SIGQUIT ramps it to rest (within about 0.5 s), then holds and disables.\n"
+      "The drives going off by another cause (a disable from another program, a board reset) ends the\n"
+      "run at once (exit 3). A streaming thread with 1 ms absolute deadlines (SCHED_FIFO and locked\n"
       "memory when permitted) sends setpoints paced by the board's telemetry; no telemetry for\n"
-      "--link-timeout-ms of wall time is link loss (exit 4). OUT.csv: one row per telemetry frame.");
+      "--link-timeout-ms of wall time is link loss (exit 4). OUT.csv: one row per telemetry frame up to\n"
+      "the final hold and disable, written under its name from the enable on (whatever ends the\n"
+      "process, the rows so far are there). A run lasts at most 600 s of trajectory time.");
   r->add_option("--port", run->port, "serial port")->required();
   r->add_option("--weights", run->weights, "W.json the board must run (its CRC and this checkout's gateware)")
       ->required();
@@ -424,14 +482,14 @@ const RegisterCommand command("host", 75, [](CLI::App& root) {
                 "a trajectory of 'deltactl simulate' (experiment1, ...), FILE.csv with t_s,x_m,y_m,z_m, or "
                 "move:X,Y,Z[;X,Y,Z...] (point-to-point, jerk-limited, metres)")
       ->required();
-  r->add_option("--duration", run->duration_s, "seconds of trajectory time (default: all of it)")
-      ->check(options::real_number(0, 86400, true));
+  r->add_option("--duration", run->duration_s, "seconds of trajectory time (default: all of it; at most 600)")
+      ->check(options::real_number(0, kMaxRunSeconds, true));
   r->add_option("--record", run->record, "OUT.csv: one row per telemetry frame")->required();
   r->add_option("--link-timeout-ms", run->link_timeout_ms, "wall time without telemetry: link lost")
       ->check(options::whole_number(10, 60000))
       ->capture_default_str();
   r->add_option("--following-error-deg", run->following_error_deg,
-                "the host's own bound on |encoder - joint reference| (the board's is 5.12 deg); 0: off")
+                "the host's own bound on |encoder - joint reference|, > 0 and <= 45 deg (the board's own is 5.12 deg)")
       ->check(options::real_number(0, 45, true))
       ->capture_default_str();
   r->callback([run] { run_run(*run); });
@@ -443,8 +501,11 @@ const RegisterCommand command("host", 75, [](CLI::App& root) {
       "enables by itself), and answers JSON lines on a local socket: status, run, hold, resume, stop,\n"
       "home, enable, disable, clear-fault ('deltactl host ctl' is its client; the protocol is in\n"
       "host/controller/include/delta/controller/serve.hpp). Runs are those of 'host run', recorded\n"
-      "where the request says or in --record-folder. Under systemd (deltactl.service): READY=1, STATUS=\n"
-      "and WATCHDOG=1 by sd_notify. SIGTERM or SIGINT: a run stops at rest, the drives go off, exit 0.");
+      "in --record-folder (a client names a file there, never elsewhere, and never replaces one; runs\n"
+      "that name none get a new run-TIME.csv). Under systemd (deltactl.service): READY=1, STATUS= and\n"
+      "WATCHDOG=1 by sd_notify. SIGTERM, SIGINT, SIGHUP or SIGQUIT: a run stops at rest, the drives go\n"
+      "off, exit 0. After 'enable' the drives hold the arms where they are until 'disable' (the\n"
+      "controller keeps the link alive meanwhile).");
   sv->add_option("--config", serve->config, "the lab PC's configuration (port, weights, limits, socket)");
   sv->add_option("--port", serve->port, "serial port (overrides the config)");
   sv->add_option("--weights", serve->weights, "W.json the board must run (overrides the config)");
@@ -462,8 +523,11 @@ const RegisterCommand command("host", 75, [](CLI::App& root) {
       "\nCOMMAND: status | run | hold | resume | stop | home | enable | disable | clear-fault.\n"
       "run streams --trajectory (NAME or FILE.csv) through the controller and prints its progress every\n"
       "second and its summary; hold and resume are a feed hold (the plate slows to rest on the path,\n"
-      "then comes back to speed); stop ends the run at rest and disables. Exit codes as 'host run'; 4 when\n"
-      "the controller cannot be reached.");
+      "then comes back to speed); stop ends the run at rest and disables. Ctrl-C (or SIGTERM, SIGHUP,\n"
+      "SIGQUIT) during a run sends stop: the run ends at rest, exit 128+N; a run also stops when its\n"
+      "client goes away (use --no-wait to leave it running). enable turns the drives on holding the arms\n"
+      "where they are; disable turns them off. Exit codes as 'host run'; 4 when the controller cannot be\n"
+      "reached.");
   c->add_option("command", ctl->command, "what to ask")
       ->required()
       ->check(CLI::IsMember({"status", "run", "hold", "resume", "stop", "home", "enable", "disable", "clear-fault"}));
@@ -471,9 +535,10 @@ const RegisterCommand command("host", 75, [](CLI::App& root) {
   c->add_option("--config", ctl->config, "configuration file naming the socket")->capture_default_str();
   c->add_flag("--json", ctl->json, "print the controller's JSON replies as they come");
   c->add_option("--trajectory", ctl->trajectory, "run: NAME, FILE.csv or move:X,Y,Z[;...] (as 'host run')");
-  c->add_option("--duration", ctl->duration_s, "run: seconds of trajectory time")
-      ->check(options::real_number(0, 86400, true));
-  c->add_option("--record", ctl->record, "run: OUT.csv (default: a new file in the controller's recordings folder)");
+  c->add_option("--duration", ctl->duration_s, "run: seconds of trajectory time (at most 600)")
+      ->check(options::real_number(0, kMaxRunSeconds, true));
+  c->add_option("--record", ctl->record,
+                "run: NAME.csv in the controller's recordings folder, a new name (default: a new run-TIME.csv)");
   c->add_flag("--no-wait", ctl->no_wait, "run: return once queued");
   c->callback([ctl] {
     if (ctl->command == "run" && ctl->trajectory.empty()) fail(kExitBadInput, "host ctl run: needs --trajectory");

@@ -10,6 +10,9 @@ namespace delta::controller {
 namespace {
 
 constexpr double kCountDeg = board::kEncoderCountMicrodeg * 1e-6;
+// A controlled stop ends within about 0.4 s (the lead, the ramp to rest); past 1 s something else
+// keeps the board from playing: the loop ends and the caller holds and disables.
+constexpr std::uint32_t kStopBoundTicks = static_cast<std::uint32_t>(board::kControlRateHz);
 
 }  // namespace
 
@@ -138,6 +141,7 @@ void StreamingLoop::run() {
   // A primed start (RunJob enables, then holds): the lead is sent while the board holds, then
   // enable (again every 4 frames until it plays), so the first plays never find the buffer short.
   bool priming = t.has(link::TelemetryFlag::kHolding), priming_enable_sent = false;
+  std::uint32_t stop_tick = 0;  // when the stop was taken
   try {
     const std::uint64_t resent_before = pacer.resent();
     pacer.update(t, send);
@@ -178,7 +182,20 @@ void StreamingLoop::run() {
           finished = true;
           break;
         }
-        if (t.has(link::TelemetryFlag::kDriveEnable) && options_.following_error_deg > 0.0) {
+        if (!t.has(link::TelemetryFlag::kDriveEnable)) {
+          result_.outcome = StreamingResult::Outcome::kDrivesOff;
+          result_.cause = "the drives went off without a fault (" + link::describe_state(t) +
+                          "): a disable from another program on the port, or a board reset";
+          finished = true;
+          break;
+        }
+        if (feed == FeedState::kStopping && t.tick - stop_tick > kStopBoundTicks) {
+          result_.outcome = StreamingResult::Outcome::kStopped;
+          result_.cause = "the controlled stop did not end within 1 s of board time";
+          finished = true;
+          break;
+        }
+        if (options_.following_error_deg > 0.0) {
           for (int j = 0; j < 3 && !finished; ++j) {
             const double error = (t.counts[j] - t.references[j] / 256.0) * kCountDeg;
             if (std::abs(error) > options_.following_error_deg) {
@@ -200,6 +217,7 @@ void StreamingLoop::run() {
             set_plan(plan_.stop_from(pacer.next()));
           }
           feed = FeedState::kStopping;
+          stop_tick = t.tick;
         } else if (request == FeedRequest::kHold && (feed == FeedState::kStreaming || feed == FeedState::kResuming)) {
           set_plan(plan_.hold_from(pacer.next()));
           feed = FeedState::kHolding;

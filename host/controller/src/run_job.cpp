@@ -2,9 +2,15 @@
 #include "delta/controller/run_job.hpp"
 
 #include <dirent.h>
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
+#include <cerrno>
 #include <chrono>
 #include <cmath>
+#include <cstring>
+#include <filesystem>
 #include <optional>
 #include <sstream>
 #include <system_error>
@@ -14,7 +20,9 @@
 #include "delta/command.hpp"
 #include "delta/gateware.hpp"
 #include "delta/golden/export.hpp"
+#include "delta/input_error.hpp"
 #include "delta/output_file.hpp"
+#include "delta/run_files.hpp"
 #include "delta/table.hpp"
 
 namespace delta::controller {
@@ -88,34 +96,152 @@ void check_board_identity(const link::IdentifyPayload& identify, const BoardWeig
   }
 }
 
+// The recording: its name checked (and reserved, kNew*) at construction; created (kReplace:
+// replaced) just before the enable; rows appended to a buffer off the streaming thread and written
+// to the file every few milliseconds, so that whatever ends the process leaves them under the name.
+class RecordingFile {
+ public:
+  RecordingFile(const std::string& path, RecordMode mode) : path_(path) {
+    if (path.empty()) throw InputError("(empty path)", 0, "a recording needs a file name");
+    struct stat target {};
+    const bool exists = ::lstat(path.c_str(), &target) == 0;
+    if (exists && S_ISDIR(target.st_mode)) throw InputError(path, 0, "is a folder, not a file");
+    if (exists && mode != RecordMode::kReplace && !S_ISREG(target.st_mode) && !S_ISLNK(target.st_mode)) {
+      throw InputError(path, 0, "is not a regular file; a recording is one");
+    }
+    if (mode == RecordMode::kReplace) {
+      if (exists && ::stat(path.c_str(), &target) == 0 && !S_ISREG(target.st_mode)) {
+        throw InputError(path, 0, "is not a regular file (a FIFO, a device, ...); a recording is one");
+      }
+      if (exists && ::access(path.c_str(), W_OK) != 0) throw InputError(path, 0, "is read-only; not overwritten");
+      const std::string folder = std::filesystem::path(path).parent_path().string();
+      if (::access(folder.empty() ? "." : folder.c_str(), W_OK | X_OK) != 0) {
+        throw InputError(path, 0,
+                         std::string("cannot write here (") + std::strerror(errno) + "; does the folder exist?)");
+      }
+      note_output_file(path_);
+      noted_ = true;
+      return;
+    }
+    // Created now, exclusively, not through a link: a name is never taken from another file.
+    const std::filesystem::path name(path);
+    for (int n = 1; n <= 10000; ++n) {
+      const std::string candidate =
+          n == 1 ? path
+                 : (name.parent_path() / (name.stem().string() + "-" + std::to_string(n) + name.extension().string()))
+                       .string();
+      fd_ = ::open(candidate.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0666);
+      if (fd_ >= 0) {
+        path_ = candidate;
+        reserved_ = true;
+        return;
+      }
+      if (errno != EEXIST) break;
+      if (mode == RecordMode::kNew) {
+        throw InputError(path, 0, "exists; a recording never replaces a file (choose another name)");
+      }
+    }
+    throw InputError(path, 0, std::string("cannot be created (") + std::strerror(errno) + ")");
+  }
+  ~RecordingFile() {
+    if (fd_ >= 0) {
+      flush();
+      ::close(fd_);
+    }
+    if (reserved_ && !opened_) ::unlink(path_.c_str());  // never used: no empty file left
+    if (noted_) forget_output_file(path_);
+  }
+  RecordingFile(const RecordingFile&) = delete;
+  RecordingFile& operator=(const RecordingFile&) = delete;
+
+  const std::string& path() const { return path_; }
+  bool opened() const { return opened_; }
+  // Just before the enable: the file exists under its name from the first motion on.
+  void open(const std::string& header) {
+    if (fd_ < 0) {
+      fd_ = ::open(path_.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+      if (fd_ < 0) throw InputError(path_, 0, std::string("cannot be written (") + std::strerror(errno) + ")");
+    }
+    opened_ = true;
+    buffer_ = header;
+    flush();
+  }
+  std::string& buffer() { return buffer_; }
+  void flush() {
+    std::size_t done = 0;
+    while (fd_ >= 0 && error_.empty() && done < buffer_.size()) {
+      const ssize_t n = ::write(fd_, buffer_.data() + done, buffer_.size() - done);
+      if (n < 0 && errno == EINTR) continue;
+      if (n <= 0) {
+        error_ = std::strerror(errno);
+        break;
+      }
+      done += static_cast<std::size_t>(n);
+    }
+    buffer_.clear();
+  }
+  // Written out and closed; "" or why the recording is incomplete (disk full, ...).
+  std::string close() {
+    flush();
+    if (fd_ >= 0) {
+      if (::fdatasync(fd_) != 0 && error_.empty() && errno != EINVAL) error_ = std::strerror(errno);
+      if (::close(fd_) != 0 && error_.empty()) error_ = std::strerror(errno);
+      fd_ = -1;
+    }
+    return error_;
+  }
+
+ private:
+  std::string path_;
+  int fd_ = -1;
+  bool reserved_ = false;  // created at construction
+  bool opened_ = false;    // open() called: the run's file, kept whatever happens
+  bool noted_ = false;
+  std::string buffer_;
+  std::string error_;
+};
+
 // The recording's rows, off the streaming thread.
 struct RunJob::Recorder {
-  OutputFile file;
+  RecordingFile file;
   TrackingStatistics tracking;
   std::uint64_t rows = 0;
   std::optional<std::uint16_t> underruns_at_first_play;
   std::uint16_t underruns_at_end = 0;
+  std::optional<TelemetryRecord> last;
 
-  explicit Recorder(const std::string& path) : file(path) {
-    file.stream() << "# deltactl host run: one row per board telemetry frame (1 kHz of board time)\n"
-                     "# t_s: board time; *_ref_m: the position sent for the sample whose answer is the joint\n"
-                     "# reference at t_s; alpha*_ref_deg: the board's joint references; alpha*_deg: encoders\n"
-                     "t_s,x_ref_m,y_ref_m,z_ref_m,alpha1_ref_deg,alpha2_ref_deg,alpha3_ref_deg,alpha1_deg,alpha2_deg,"
-                     "alpha3_deg,current1_a,current2_a,current3_a,fault_bits,flags,drives_enabled,sample_index,fill,"
-                     "tau_s,stream_sample,bad_frames,underruns,rejected,slew_limits\n";
+  Recorder(const std::string& path, RecordMode mode) : file(path, mode) {}
+  void open() {
+    file.open(
+        "# deltactl host run: one row per board telemetry frame (1 kHz of board time), up to the final\n"
+        "# hold and disable\n"
+        "# t_s: board time; *_ref_m: the position sent for the sample whose answer is the joint\n"
+        "# reference at t_s; alpha*_ref_deg: the board's joint references; alpha*_deg: encoders\n"
+        "t_s,x_ref_m,y_ref_m,z_ref_m,alpha1_ref_deg,alpha2_ref_deg,alpha3_ref_deg,alpha1_deg,alpha2_deg,"
+        "alpha3_deg,current1_a,current2_a,current3_a,fault_bits,flags,drives_enabled,sample_index,fill,"
+        "tau_s,stream_sample,bad_frames,underruns,rejected,slew_limits\n");
   }
   void write(const TelemetryRecord& r) {
     const link::TelemetryPayload& t = r.telemetry;
-    std::ostream& out = file.stream();
-    out << format_number(t.tick / 1e4);
-    for (int k = 0; k < 3; ++k) out << ',' << format_number(r.reference_m[k]);
-    for (int k = 0; k < 3; ++k) out << ',' << format_number(t.references[k] / 256.0 * kCountDeg);
-    for (int k = 0; k < 3; ++k) out << ',' << format_number(t.counts[k] * kCountDeg);
-    for (int k = 0; k < 3; ++k) out << ',' << format_number(t.currents[k] * kCurrentCodeA);
-    out << ',' << int(t.fault_cause) << ',' << int(t.flags) << ',' << (t.has(link::TelemetryFlag::kDriveEnable) ? 1 : 0)
-        << ',' << t.sample_index << ',' << t.fill << ',' << format_number(r.tau_s) << ',' << r.stream_sample << ','
-        << t.bad_frames << ',' << t.underruns << ',' << t.rejected << ',' << t.slew_limits << '\n';
+    std::string& out = file.buffer();
+    out += format_number(t.tick / 1e4);
+    for (int k = 0; k < 3; ++k) out += ',' + format_number(r.reference_m[k]);
+    for (int k = 0; k < 3; ++k) out += ',' + format_number(t.references[k] / 256.0 * kCountDeg);
+    for (int k = 0; k < 3; ++k) out += ',' + format_number(t.counts[k] * kCountDeg);
+    for (int k = 0; k < 3; ++k) out += ',' + format_number(t.currents[k] * kCurrentCodeA);
+    for (const long long value : {static_cast<long long>(t.fault_cause), static_cast<long long>(t.flags),
+                                  static_cast<long long>(t.has(link::TelemetryFlag::kDriveEnable) ? 1 : 0),
+                                  static_cast<long long>(t.sample_index), static_cast<long long>(t.fill)}) {
+      out += ',' + std::to_string(value);
+    }
+    out += ',' + format_number(r.tau_s) + ',' + std::to_string(r.stream_sample);
+    for (const long long value : {static_cast<long long>(t.bad_frames), static_cast<long long>(t.underruns),
+                                  static_cast<long long>(t.rejected), static_cast<long long>(t.slew_limits)}) {
+      out += ',' + std::to_string(value);
+    }
+    out += '\n';
     ++rows;
+    last = r;
     if (r.stream_sample >= 0 && t.has(link::TelemetryFlag::kDriveEnable)) {
       tracking.add(t);
       if (!underruns_at_first_play) underruns_at_first_play = t.underruns;
@@ -134,7 +260,7 @@ std::string summary_text(const StreamingResult& s, const link::LinkSession& sess
   const std::uint64_t host_bad = link.decoder.bad_crc + link.decoder.bad_length + link.decoder.unknown_type;
   std::ostringstream out;
   out << "stream: " << s.played << " of " << s.planned << " samples played from board index " << s.first_index << " ("
-      << fixed((s.last.tick - s.first.tick) / 1e4, 3) << " s of board time, " << fixed(wall_s, 1) << " s wall)";
+      << fixed(board_seconds_between(s.first, s.last), 3) << " s of board time, " << fixed(wall_s, 1) << " s wall)";
   if (s.holds > 0) out << "; " << s.holds << " feed holds, " << fixed(s.held_s, 3) << " s held";
   out << "\nlink: " << link.telemetry_frames << " telemetry frames (lost " << link.lost_telemetry << ", skipped "
       << link.skipped_telemetry << "), longest gap " << fixed(s.longest_telemetry_gap_ms, 1)
@@ -158,6 +284,11 @@ std::string summary_text(const StreamingResult& s, const link::LinkSession& sess
 
 }  // namespace
 
+double board_seconds_between(const link::TelemetryPayload& from, const link::TelemetryPayload& to) {
+  const auto ticks = static_cast<std::int32_t>(to.tick - from.tick);  // modulo 2^32: across a wrap
+  return ticks > 0 ? ticks * link::kTickSeconds : 0.0;
+}
+
 RunJob::RunJob(const BoardWeights& weights, const RunRequest& request)
     : weights_(weights), request_(request), path_(load_path(request.trajectory, request.duration_s)) {
   // The path alone (from its own start): the approach is checked once the pose is known.
@@ -166,25 +297,35 @@ RunJob::RunJob(const BoardWeights& weights, const RunRequest& request)
           check_plan(plan, request_.trajectory, weights_.trained_min_m, weights_.trained_max_m, request_.limits)) {
     throw HostFailure(kExitBadInput, *violation + "; nothing sent");
   }
-  recorder_ = std::make_unique<Recorder>(request_.record);  // refuses a bad path before the port
+  // Refuses a bad path before the port (kNew*: the name is reserved now).
+  recorder_ = std::make_unique<Recorder>(request_.record, request_.record_mode);
 }
 
 RunJob::~RunJob() = default;
 
+const std::string& RunJob::record_path() const { return recorder_->file.path(); }
+
 bool RunJob::request(FeedRequest request) {
-  StreamingLoop* loop = loop_.load();
-  if (!loop) return false;
-  loop->request(request);
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (finished_) return false;
+  if (!loop_) {
+    if (request != FeedRequest::kStop) return false;
+    stop_pending_ = true;  // taken before the enable, or by the loop at its first frame
+    return true;
+  }
+  loop_->request(request);
   return true;
 }
 
 RunProgress RunJob::progress() const {
+  std::lock_guard<std::mutex> lock(mutex_);
   RunProgress p;
-  if (StreamingLoop* loop = loop_.load()) {
-    p.played = loop->played();
-    p.planned = loop->planned();
-    p.feed = loop->feed();
+  if (loop_) {
+    p.played = loop_->played();
+    p.planned = loop_->planned();
+    p.feed = loop_->feed();
   }
+  p.telemetry = newest_;
   return p;
 }
 
@@ -192,6 +333,14 @@ RunOutcome RunJob::execute(link::LinkSession& session, const std::string& port_n
                            const volatile std::sig_atomic_t& stop_signal,
                            const std::function<void(const std::string&)>& log,
                            const std::function<void(const RunProgress&)>& progress) {
+  struct Finished {  // whatever way execute() ends, later requests are refused
+    RunJob& job;
+    ~Finished() {
+      std::lock_guard<std::mutex> lock(job.mutex_);
+      job.loop_ = nullptr;
+      job.finished_ = true;
+    }
+  } finished{*this};
   log(std::string(state_name(HostState::kDisconnected)) + " -> " + state_name(state_of(t0)) + " (" +
       link::describe_state(t0) + ")");
   if (t0.has(link::TelemetryFlag::kFault)) {
@@ -222,12 +371,29 @@ RunOutcome RunJob::execute(link::LinkSession& session, const std::string& port_n
     throw HostFailure(kExitBadInput, *violation + " (from the encoders' pose; no motion)");
   }
 
+  RunOutcome out;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (stop_signal != 0 || stop_pending_) {  // stopped before anything moved
+      out.outcome = "stopped";
+      out.code = stop_signal != 0 ? 128 + static_cast<int>(stop_signal) : kExitOk;
+      out.summary = "stopped before the enable: nothing moved, nothing recorded\n";
+      return out;
+    }
+  }
+
   // ---- homed -> running ----
   const std::string lock_note = lock_memory();
+  recorder_->open();  // under its name before the first motion
+  out.record = recorder_->file.path();
   link::TelemetryPayload enabled;
   try {
     enabled = session.enable();
   } catch (const link::LinkError& error) {
+    try {
+      session.send_command(link::Command::kDisable);  // whatever the enable did
+    } catch (const link::LinkError&) {
+    }
     throw HostFailure(link_error_code(error), error.what());
   }
   auto disable_and_fail = [&](int code, const std::string& why) {
@@ -262,13 +428,28 @@ RunOutcome RunJob::execute(link::LinkSession& session, const std::string& port_n
     loop.run();
     streaming_done.store(true);
   });
-  loop_.store(&loop);
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    loop_ = &loop;
+    if (stop_pending_) loop.request(FeedRequest::kStop);
+  }
   // This thread: the recording and the progress.
   TelemetryRecord r;
+  auto write_queued = [&] {
+    bool any = false;
+    while (queue.pop(r)) {
+      recorder_->write(r);
+      any = true;
+    }
+    if (!any) return;
+    recorder_->file.flush();
+    std::lock_guard<std::mutex> lock(mutex_);
+    newest_ = r.telemetry;
+  };
   auto next_progress = wall_start + std::chrono::milliseconds(200);
   bool warned = false;
   while (!streaming_done.load()) {
-    while (queue.pop(r)) recorder_->write(r);
+    write_queued();
     if (!warned && !loop.result().realtime_note.empty() && loop.result().cycles > 0) {
       log("warning: real-time scheduling not granted (" + loop.result().realtime_note +
           (lock_note.empty() ? "" : "; " + lock_note) + "): running with normal priority");
@@ -281,39 +462,95 @@ RunOutcome RunJob::execute(link::LinkSession& session, const std::string& port_n
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
   streamer.join();
-  loop_.store(nullptr);
-  while (queue.pop(r)) recorder_->write(r);
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    loop_ = nullptr;
+  }
+  write_queued();
   const StreamingResult& result = loop.result();
-  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
 
-  // ---- stop: hold and disable (nothing is ever re-enabled here) ----
-  RunOutcome out;
+  // ---- stop: hold (after a completed or stopped run) and disable, always; nothing is ever
+  // re-enabled here. Every frame meanwhile goes into the recording: it ends with the drives off.
+  TelemetryRecord final_row;
+  if (recorder_->last) {
+    final_row = *recorder_->last;
+  } else {
+    final_row.reference_m = start;
+  }
+  auto record_frame = [&](const link::TelemetryPayload& t) {
+    final_row.telemetry = t;
+    recorder_->write(final_row);
+    recorder_->file.flush();
+    std::lock_guard<std::mutex> lock(mutex_);
+    newest_ = t;
+  };
+  auto command = [&](link::Command command, const std::function<bool(const link::TelemetryPayload&)>& done) {
+    session.poll_frames();
+    while (auto frame = session.take_telemetry()) record_frame(*frame);
+    session.command(command, [&](const link::TelemetryPayload& t) {
+      record_frame(t);
+      return done(t);
+    });
+  };
+  auto drives_off = [](const link::TelemetryPayload& t) { return !t.has(link::TelemetryFlag::kDriveEnable); };
+  auto disable = [&]() -> std::string {  // "" once the telemetry shows the drives off
+    try {
+      command(link::Command::kDisable, drives_off);
+      return "";
+    } catch (const link::LinkError& error) {
+      try {
+        session.send_command(link::Command::kDisable);  // once more, in case the line is still there
+      } catch (const link::LinkError&) {
+      }
+      return error.what();
+    }
+  };
   switch (result.outcome) {
     case StreamingResult::Outcome::kCompleted:
-    case StreamingResult::Outcome::kStopped:
+    case StreamingResult::Outcome::kStopped: {
       out.outcome = result.outcome == StreamingResult::Outcome::kCompleted ? "completed" : "stopped";
+      std::string failed;
       try {
-        session.hold();
-        session.disable();
-        log("running -> homed (drives off)");
+        command(link::Command::kHold, [](const link::TelemetryPayload& t) {
+          return t.has(link::TelemetryFlag::kHolding) || !t.has(link::TelemetryFlag::kDriveEnable);
+        });
       } catch (const link::LinkError& error) {
         out.code = link_error_code(error);
-        out.error = std::string("stopping: ") + error.what();
+        failed = std::string("the board did not hold: ") + error.what();
+      }
+      const std::string disabled = disable();  // even when the hold failed
+      if (disabled.empty()) {
+        log("running -> homed (drives off)");
+        if (!failed.empty()) {
+          out.code = kExitFault;  // the link is up: the drives went off by the disable
+          out.error = "stopping: " + failed + "; the drives are off (disable sent)";
+        }
+      } else {
+        out.code = kExitLinkLost;
+        out.error = "stopping: " + (failed.empty() ? std::string() : failed + "; ") + "disable: " + disabled;
+      }
+      if (out.code == kExitOk && !result.cause.empty()) {
+        out.code = kExitFault;
+        out.error = port_name + ": " + result.cause + "; drives off";
       }
       if (out.code == kExitOk && result.outcome == StreamingResult::Outcome::kStopped && stop_signal != 0) {
         log("stopped by signal " + std::to_string(stop_signal) + " (controlled stop, drives off)");
         out.code = 128 + static_cast<int>(stop_signal);
       }
       break;
+    }
     case StreamingResult::Outcome::kFault:
       out.outcome = "fault";
       out.code = kExitFault;
       out.error = port_name + ": the board faulted: " + result.cause + " (" + link::describe_state(result.last) +
                   "); drives off, nothing re-enabled";
-      try {
-        session.send_command(link::Command::kDisable);
-      } catch (const link::LinkError&) {
-      }
+      disable();
+      break;
+    case StreamingResult::Outcome::kDrivesOff:
+      out.outcome = "drives off";
+      out.code = kExitFault;
+      out.error = port_name + ": " + result.cause + "; the run ended, disable sent, nothing re-enabled";
+      disable();
       break;
     case StreamingResult::Outcome::kLinkLost:
       out.outcome = "link lost";
@@ -326,10 +563,12 @@ RunOutcome RunJob::execute(link::LinkSession& session, const std::string& port_n
       }
       break;
   }
-  recorder_->file.commit();
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  const std::string record_error = recorder_->file.close();
   const std::uint64_t underruns =
       recorder_->underruns_at_first_play ? recorder_->underruns_at_end - *recorder_->underruns_at_first_play : 0;
-  out.summary = summary_text(result, session, recorder_->tracking, underruns, recorder_->rows, request_.record, wall);
+  out.summary = summary_text(result, session, recorder_->tracking, underruns, recorder_->rows, out.record, wall);
+  if (!record_error.empty()) out.summary += "warning: the recording is incomplete: " + record_error + "\n";
   if (queue.dropped() > 0)
     out.summary += "warning: " + std::to_string(queue.dropped()) + " telemetry records not recorded\n";
   out.played = result.played;

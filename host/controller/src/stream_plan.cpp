@@ -1,6 +1,8 @@
 // What host run streams, planned and checked whole (see stream_plan.hpp).
 #include "delta/controller/stream_plan.hpp"
 
+#include <sys/stat.h>
+
 #include <algorithm>
 #include <cmath>
 #include <sstream>
@@ -15,6 +17,12 @@ namespace delta::controller {
 namespace {
 
 constexpr double kDt = 1.0 / kStreamRateHz;
+
+std::string fixed_seconds(double seconds) {
+  std::ostringstream text;
+  text << seconds << " s";
+  return text.str();
+}
 
 bool is_named(const std::string& name) {
   for (const auto& entry : trajectory_catalogue()) {
@@ -64,9 +72,17 @@ Path load_moves(const std::string& spec, const motion::MotionLimits& limits) {
     const Vec3 from = points[w - 1], delta = points[w] - from;
     const double distance = delta.norm();
     if (distance < 1e-9) continue;
-    const motion::JerkLimitedProfile move(distance, limits);
-    const auto count = static_cast<std::size_t>(std::ceil(move.duration() * kStreamRateHz));
     const double t0 = path.samples.back().t_s;
+    if (!(t0 + distance / limits.velocity <= kMaxRunSeconds)) {  // at least that long: refused before the profile
+      throw InputError(spec, w + 1,
+                       "the moves last more than " + fixed_seconds(kMaxRunSeconds) + " (the longest run); split them");
+    }
+    const motion::JerkLimitedProfile move(distance, limits);
+    if (!(t0 + move.duration() <= kMaxRunSeconds)) {  // before anything is allocated for it
+      throw InputError(spec, w + 1,
+                       "the moves last more than " + fixed_seconds(kMaxRunSeconds) + " (the longest run); split them");
+    }
+    const auto count = static_cast<std::size_t>(std::ceil(move.duration() * kStreamRateHz));
     for (std::size_t k = 1; k <= count; ++k) {
       const double s = move.at(static_cast<double>(k) * kDt).position / distance;
       path.samples.push_back({t0 + static_cast<double>(k) * kDt, from + s * delta, w + 1});
@@ -78,6 +94,10 @@ Path load_moves(const std::string& spec, const motion::MotionLimits& limits) {
 
 Path load_path(const std::string& name_or_file, double duration_s) {
   if (name_or_file.rfind("move:", 0) == 0) return load_moves(name_or_file, StreamLimits{}.approach);
+  if (!(duration_s <= kMaxRunSeconds)) {
+    throw std::invalid_argument("a run lasts at most " + fixed_seconds(kMaxRunSeconds) + " of trajectory time (asked " +
+                                std::to_string(duration_s) + " s)");
+  }
   Path path;
   path.source = name_or_file;
   if (is_named(name_or_file)) {
@@ -91,6 +111,11 @@ Path load_path(const std::string& name_or_file, double duration_s) {
     }
     return path;
   }
+  // A FIFO, a device or a folder would block or never end: refused before it is opened.
+  struct stat file {};
+  if (::stat(name_or_file.c_str(), &file) == 0 && !S_ISREG(file.st_mode)) {
+    throw InputError(name_or_file, 0, "not a regular file (a FIFO, a device or a folder); a trajectory is a CSV file");
+  }
   const CsvTable table = read_csv(name_or_file, {"t_s", "x_m", "y_m", "z_m"});
   std::vector<motion::TrajectoryPoint> points;
   const double t0 = table.rows.front()[0];
@@ -102,6 +127,12 @@ Path load_path(const std::string& name_or_file, double duration_s) {
                            std::to_string(table.rows[i - 1][0]) + " s)");
     }
     if (duration_s > 0.0 && row[0] - t0 > duration_s + 1e-9) break;
+    if (!(row[0] - t0 <= kMaxRunSeconds)) {  // before the 1 kHz samples are allocated
+      throw InputError(name_or_file, table.line_numbers[i],
+                       "the trajectory spans more than " + fixed_seconds(kMaxRunSeconds) +
+                           " (t = " + fixed_seconds(row[0]) + " after a start at " + fixed_seconds(t0) +
+                           "); a run lasts at most that: cut it with --duration or split the file");
+    }
     points.push_back({row[0] - t0, Vec3(row[1], row[2], row[3]), table.line_numbers[i]});
   }
   if (points.size() < 2 || points.back().t_s <= 0.0) {
@@ -154,12 +185,17 @@ StreamPlan::StreamPlan(const Path& path, const Vec3& start_m, const StreamLimits
   const Vec3 first = path.samples.front().position_m;
   const Vec3 delta = first - start_m;
   const double distance = delta.norm();
+  approach_from_ = start_m;
+  approach_delta_ = delta;
   if (distance > 1e-9) {
-    const motion::JerkLimitedProfile move(distance, limits.approach);
+    approach_move_.emplace(distance, limits.approach);
+    const motion::JerkLimitedProfile& move = *approach_move_;
+    if (!(move.duration() <= kMaxRunSeconds)) {
+      throw std::invalid_argument("the move to the start lasts more than " + fixed_seconds(kMaxRunSeconds));
+    }
     const auto count = static_cast<std::size_t>(std::ceil(move.duration() * kStreamRateHz));
     for (std::size_t k = 1; k <= count; ++k) {
-      const double s = move.at(static_cast<double>(k) * kDt).position / distance;
-      position_.push_back(start_m + s * delta);
+      position_.push_back(approach_at(static_cast<double>(k) * kDt));
       tau_.push_back(-1.0);
       rate_.push_back(0.0);
       line_.push_back(path.samples.front().source_line);
@@ -203,7 +239,14 @@ void StreamPlan::append_path(double tau, double rate) {
   }
 }
 
+Vec3 StreamPlan::approach_at(double u) const {
+  if (!approach_move_) return approach_from_;
+  const double s = approach_move_->at(std::min(u, approach_move_->duration())).position / approach_move_->distance();
+  return approach_from_ + s * approach_delta_;
+}
+
 bool StreamPlan::resumable() const {
+  if (stopped_in_approach_) return false;
   if (position_.size() <= approach_samples_) return true;  // held at the path's start
   return rate_.back() == 0.0 && tau_.back() < path_.duration_s() - 1e-9;
 }
@@ -227,8 +270,29 @@ std::size_t StreamPlan::resume() {
   return position_.size();
 }
 
-std::size_t StreamPlan::stop_from(std::size_t k) {
+std::size_t StreamPlan::cut(std::size_t k, bool stop_in_approach) {
   if (k >= position_.size()) return position_.size();
+  if (k < approach_samples_ && stop_in_approach) {
+    // The move's own time (sample j is at u = (j + 1) dt) ramps to rest from full rate.
+    TimeScaling scaling(limits_.rate);
+    scaling.set_rate(1.0);
+    scaling.ramp_to(0.0);
+    double u = static_cast<double>(k + 1) * kDt;
+    std::size_t i = k;
+    while (i < approach_samples_) {
+      position_[i] = approach_at(u);
+      ++i;
+      if (!scaling.ramping()) break;
+      u += scaling.step(kDt) * kDt;
+    }
+    position_.resize(i);
+    tau_.resize(i);
+    rate_.resize(i);
+    line_.resize(i);
+    final_ramp_ = ~std::size_t{0};
+    stopped_in_approach_ = true;
+    return i;
+  }
   if (k < approach_samples_) {
     // In the straight move: finish it (rest to rest, already checked) and end there.
     position_.resize(approach_samples_);  // shrinking: no allocation

@@ -345,8 +345,9 @@ const RegisterCommand command("accuracy", 46, [](CLI::App& root) {
   sub->add_option("--bound-deg", options->bound_deg, "accuracy bound [deg]")
       ->capture_default_str()
       ->check(options::real_number(0, 10, true));
-  sub->add_option("--plot", options->plot, "PNG of the word-length sweep");
-  sub->add_flag("!--no-sweep", options->sweep, "skip the word-length sweep");
+  CLI::Option* plot = sub->add_option("--plot", options->plot, "PNG of the word-length sweep");
+  sub->add_flag("!--no-sweep", options->sweep, "skip the word-length sweep (no --plot then: it draws the sweep)")
+      ->excludes(plot);
   sub->callback([options] { run_accuracy(*options); });
 });
 

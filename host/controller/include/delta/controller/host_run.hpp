@@ -9,9 +9,12 @@
 //
 // Supervision in every cycle: no telemetry for link_timeout_ms of wall time (or the device hung
 // up) is link loss: the loop ends and nothing is enabled again (the board's watchdog stops
-// the torque). A telemetry frame with the fault flag ends the loop with the board's cause. A stop
-// request (SIGINT, SIGTERM, or request(kStop)) ends the plan by a ramp of the path's rate to 0
-// (StreamPlan::stop_from).
+// the torque). A telemetry frame with the fault flag ends the loop with the board's cause; one with
+// the drives off and no fault (a disable from another program, a board reset) ends it at once
+// (kDrivesOff: the board plays nothing more, waiting would never end). A stop request (SIGINT,
+// SIGTERM, SIGHUP, SIGQUIT, or request(kStop)) ends the plan by a ramp of the path's rate to 0
+// (StreamPlan::stop_from); a stop not done after 1 s of board time ends the loop anyway (the caller
+// holds and disables).
 //
 // Feed hold (request(kHold)): the same ramp to rest on the path, then the board's hold command
 // (sent again every 4 frames while held: it is idempotent and keeps the board's watchdog fed);
@@ -75,7 +78,7 @@ struct StreamingOptions {
 };
 
 struct StreamingResult {
-  enum class Outcome { kCompleted, kStopped, kFault, kLinkLost };
+  enum class Outcome { kCompleted, kStopped, kFault, kLinkLost, kDrivesOff };
   Outcome outcome = Outcome::kCompleted;
   std::string cause;          // fault or link loss, one line
   std::string realtime_note;  // "" or why SCHED_FIFO was not granted

@@ -2,14 +2,23 @@
 // trajectory and the recording checked before any byte is sent, then, on an identified board, the
 // state checks, the plan from the pose the encoders report (checked again), enable, the streaming
 // loop (host_run.hpp) with the recording written off its thread, and the stop: hold and disable
-// after a completed or stopped run, disable after a fault or a link loss. Nothing is ever enabled
-// again after a fault or a link loss. Also the port: found by path or /dev/serial/by-id name.
+// after a completed or stopped run, disable after a fault, a link loss or the drives going off by
+// another cause (a disable from another program, a board reset); disable is sent even when the hold
+// fails. Nothing is ever enabled again after a fault or a link loss. Also the port: found by path or
+// /dev/serial/by-id name.
+//
+// The recording is written under its own name from just before the enable on, flushed every few
+// milliseconds and again after each frame of the final hold and disable: every way out of a run,
+// even SIGKILL, leaves it there complete up to the last telemetry it got. A run refused before the
+// enable leaves no file (a name reserved for it is removed).
 #pragma once
 
 #include <atomic>
 #include <csignal>
 #include <functional>
 #include <memory>
+#include <mutex>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -54,10 +63,16 @@ Connected connect_board(link::LinkSession& session);
 void check_board_identity(const link::IdentifyPayload& identify, const BoardWeights& weights,
                           const std::string& weights_path, const std::string& port_name);
 
+// How the recording's name is taken: kReplace (host run: the file is replaced when the drives are
+// about to go on), kNew (created now, never replacing a file), kNewNumbered (created now; a name
+// taken gets -2, -3, ... before its extension: default names never collide).
+enum class RecordMode { kReplace, kNew, kNewNumbered };
+
 struct RunRequest {
   std::string trajectory;  // NAME of `deltactl simulate` or FILE.csv
   double duration_s = 0.0;
   std::string record;  // OUT.csv
+  RecordMode record_mode = RecordMode::kReplace;
   int link_timeout_ms = link::kLinkTimeoutMs;
   double following_error_deg = 2.0;  // the host's bound (StreamingOptions)
   StreamLimits limits;
@@ -66,8 +81,9 @@ struct RunRequest {
 struct RunOutcome {
   int code = 0;         // 0, 3, 4, or 128 + N after a controlled stop on signal N
   std::string error;    // one line when code is 3 or 4
-  std::string outcome;  // completed, stopped, fault, link lost
+  std::string outcome;  // completed, stopped, fault, link lost, drives off
   std::string summary;  // the run summary (several lines)
+  std::string record;   // the recording's path ("" when the run was refused before the enable)
   std::size_t played = 0, planned = 0;
 };
 
@@ -75,11 +91,16 @@ struct RunOutcome {
 struct RunProgress {
   std::size_t played = 0, planned = 0;
   FeedState feed = FeedState::kStreaming;
+  std::optional<link::TelemetryPayload> telemetry;  // the newest frame recorded (a few ms old)
 };
+
+// Board time from one telemetry frame to a later one, seconds: the 10 kHz tick is a u32 (it wraps
+// after 4.97 days); a later frame that shows an earlier tick (a restarted board) gives 0.
+double board_seconds_between(const link::TelemetryPayload& from, const link::TelemetryPayload& to);
 
 class RunJob {
  public:
-  // Checks the trajectory whole (from its own start) and opens the recording before any byte is
+  // Checks the trajectory whole (from its own start) and the recording's path before any byte is
   // sent: InputError (a file's line) or HostFailure (the plan's first offending sample), exit 2.
   RunJob(const BoardWeights& weights, const RunRequest& request);
   ~RunJob();
@@ -91,8 +112,11 @@ class RunJob {
                      const volatile std::sig_atomic_t& stop_signal, const std::function<void(const std::string&)>& log,
                      const std::function<void(const RunProgress&)>& progress);
 
-  // From another thread while execute() streams: hold, resume, stop. False when not streaming.
+  // From another thread: hold, resume, stop. A stop before the stream starts ends the run before the
+  // enable (nothing moves); hold and resume return false when not streaming, stop when finished.
   bool request(FeedRequest request);
+  // The recording's path (with the number a taken default name got).
+  const std::string& record_path() const;
   // The plan's samples (0 before the plan is made) and those played so far.
   RunProgress progress() const;
 
@@ -102,7 +126,11 @@ class RunJob {
   RunRequest request_;
   Path path_;
   std::unique_ptr<Recorder> recorder_;
-  std::atomic<StreamingLoop*> loop_{nullptr};
+  mutable std::mutex mutex_;  // guards what follows
+  StreamingLoop* loop_ = nullptr;
+  bool stop_pending_ = false;  // a stop asked before the stream started
+  bool finished_ = false;
+  std::optional<link::TelemetryPayload> newest_;
 };
 
 }  // namespace delta::controller

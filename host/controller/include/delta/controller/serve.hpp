@@ -6,20 +6,31 @@
 // must run this checkout's gateware and W.json's weights), reads telemetry while idle (no
 // telemetry for the link bound: disconnected, the port closed and opened again every second), and
 // executes the clients' commands and runs one at a time (RunJob, the same as `host run`). Each
-// client has a thread; feed hold, resume and stop go straight to the running job. The main thread
-// accepts clients, tells systemd READY=1, STATUS= and WATCHDOG=1 (only while the board thread is
-// alive), and on SIGTERM/SIGINT stops a run in a controlled way, disables the drives, then exits.
+// client has a thread, at most kMaxClients at once (one more is answered "busy" and closed; a
+// client silent for kClientIdleSeconds is closed), each ended and freed when its client goes: any
+// number of connections over time costs no memory. Feed hold, resume and stop go straight to the
+// running job. The main thread accepts clients, tells systemd READY=1, STATUS= and WATCHDOG=1 (only
+// while the board thread is alive), and on SIGTERM/SIGINT/SIGHUP/SIGQUIT stops a run in a
+// controlled way, disables the drives, then exits (in bounded time: a run ends within about 1 s).
 // Nothing enables the drives except an `enable` or `run` request; never after a fault, a
-// reconnect or a restart by itself.
+// reconnect or a restart by itself. After `enable` the drives hold the arms where they are and
+// the idle board thread keeps the link alive (a hold every few ms feeds the board's watchdog)
+// until `disable`, a run, a fault or a link loss.
 //
-// Protocol: one JSON object per line each way. Requests: {"cmd": C, ...} with C one of
+// Protocol: one JSON object per line each way (at most 64 KiB; any bytes: a line that is not a
+// JSON object of the right types is answered with exit 2; text in replies is valid UTF-8, bytes
+// that were not shown as \xHH). Requests: {"cmd": C, ...} with C one of
 //   status | home | enable | disable | clear-fault | hold | resume | stop
-//   run {"trajectory": NAME|/abs/FILE.csv, "duration": S, "record": /abs/OUT.csv (default: a
-//       new file in the recordings folder), "wait": true}
+//   run {"trajectory": NAME|/abs/FILE.csv|move:..., "duration": S (0 < S <= kMaxRunSeconds; 0 or
+//       absent: all of it), "record": NAME.csv (in the recordings folder: a relative name is taken
+//       there, an absolute one must lie inside it; an existing file is never replaced; default: a
+//       new run-TIME.csv, numbered if taken), "wait": true|false}
 // Replies: {"ok": true|false, "exit": CODE, "error": "...", ...}; a run with "wait" answers
-// {"event": "started", ...}, then {"event": "progress", "played", "planned", "feed"} every second,
-// then {"event": "finished", "ok", "exit", "outcome", "error", "summary", "record"}. CODE is what
-// `host run` would exit with (0, 2 bad request, 3 fault/not ready/refused, 4 link lost, 5 mismatch).
+// {"event": "started", "record"}, then {"event": "progress", "played", "planned", "feed"} every
+// second, then {"event": "finished", "ok", "exit", "outcome", "error", "summary", "record"}; the run
+// stops at rest if that client goes away (closes its socket) before the end. Without "wait":
+// {"ok": true, "event": "queued", "record"}. CODE is what `host run` would exit with (0, 2 bad
+// request, 3 fault/not ready/refused/busy, 4 link lost, 5 mismatch).
 #pragma once
 
 #include <csignal>
@@ -41,17 +52,25 @@ struct ServeOptions {
   StreamLimits limits;
 };
 
+constexpr int kMaxClients = 32;
+constexpr int kClientIdleSeconds = 60;
+
 class HostServer {
  public:
-  // Reads the weights (InputError), binds the socket (HostFailure, exit 1 if it is in use).
+  // Reads the weights (InputError), makes the recordings folder, binds the socket (HostFailure:
+  // exit 1 if another controller serves there; exit 2 if the path is something else than a socket,
+  // which is never removed).
   explicit HostServer(const ServeOptions& options);
-  ~HostServer();
+  ~HostServer();  // removes the socket if it is still the one bound here
   // Serves until `stop_signal` becomes non-zero; returns the exit code (0 after a clean stop).
   int run(const volatile std::sig_atomic_t& stop_signal);
+  // One request line answered as the socket answers it (a run is queued: "wait" is taken as
+  // false); one reply line without the newline. For other front ends (a dashboard) while run() serves.
+  std::string handle(const std::string& request_line);
 
  private:
   struct Impl;
-  std::unique_ptr<Impl> impl_;
+  std::shared_ptr<Impl> impl_;  // shared with the client threads
 };
 
 // systemd's sd_notify(3) without libsystemd: one datagram to $NOTIFY_SOCKET (nothing when unset).

@@ -29,6 +29,10 @@ constexpr double kStreamRateHz = 1000.0;  // one setpoint per board setpoint per
 // Samples reserved for feed holds: each hold and resume lengthens the plan by about the two ramps'
 // extra time (~0.3 s), so a run takes about 200 of them.
 constexpr std::size_t kHoldReserveSamples = 60'000;
+// The longest run: trajectory time (a named trajectory's --duration, a FILE.csv's span, the moves
+// of move:) is checked against it before anything is allocated for the plan. The plan and its check
+// take about 200 bytes per 1 kHz sample: 600 s is about 120 MB.
+constexpr double kMaxRunSeconds = 600.0;
 
 // The limits every streamed sample is checked against (joint angles from the nominal model).
 struct StreamLimits {
@@ -54,8 +58,10 @@ struct Path {
 // NAME (a trajectory of `deltactl simulate`) sampled at 1 kHz over [0, duration] (duration <= 0:
 // its default length), or "move:X,Y,Z[;X,Y,Z...]" (point-to-point: rest-to-rest jerk-limited
 // straight moves through the waypoints, metres, at the approach's limits), or FILE.csv read (InputError naming file,
-// line, reason: missing columns, non-numeric or non-finite fields, time going back), shifted to start at tau = 0, cut
-// at `duration_s` (if > 0) and resampled at 1 kHz.
+// line, reason: missing columns, non-numeric or non-finite fields, time going back, a span beyond kMaxRunSeconds;
+// not a regular file: a FIFO or a device is refused before it is opened), shifted to start at tau = 0, cut
+// at `duration_s` (if > 0) and resampled at 1 kHz. A duration_s beyond kMaxRunSeconds (or not a
+// number) is std::invalid_argument; moves lasting longer are an InputError.
 Path load_path(const std::string& name_or_file, double duration_s);
 
 // The time scaling of the path: the rate of path time, ramped by a jerk-limited profile.
@@ -95,10 +101,13 @@ class StreamPlan {
   std::size_t source_line(std::size_t k) const { return line_[k]; }
 
   // A controlled stop from sample k on (the samples before k are sent): the rate ramps to 0 from
-  // where it is at k and the plan ends there; returns the new size. No allocation.
-  std::size_t stop_from(std::size_t k);
-  // A feed hold from sample k on: as stop_from, but the plan can be resumed; returns the new size.
-  std::size_t hold_from(std::size_t k) { return stop_from(k); }
+  // where it is at k and the plan ends there; returns the new size. No allocation. In the straight
+  // move to the start, the move's own time is ramped to 0 the same way (the plate comes to rest on
+  // the line within about 0.3 s; such a plan is not resumable).
+  std::size_t stop_from(std::size_t k) { return cut(k, true); }
+  // A feed hold from sample k on: as stop_from, but the plan can be resumed (a hold during the
+  // straight move lets the move finish at the path's start); returns the new size.
+  std::size_t hold_from(std::size_t k) { return cut(k, false); }
   // Resumes a plan that ends at rest (after hold_from): the rate ramps from 0 to 1 from the last
   // sample's path time, then the rest of the path, ending at rest at its end. Returns the new size,
   // or 0 when the reserve is used up or the plan is not at rest on its path (nothing changed).
@@ -114,12 +123,18 @@ class StreamPlan {
  private:
   // Appends the path from tau with the rate ramping from `rate` to 1, then out to rest at the end.
   void append_path(double tau, double rate);
+  std::size_t cut(std::size_t k, bool stop_in_approach);
+  // The straight move at its own time u (s): where the plate is.
+  Vec3 approach_at(double u) const;
 
   const Path& path_;
   StreamLimits limits_;
   std::size_t capacity_ = 0;
   std::size_t approach_samples_ = 0;
   std::size_t final_ramp_ = ~std::size_t{0};  // the sample where the ramp to the end starts
+  Vec3 approach_from_ = Vec3::Zero(), approach_delta_ = Vec3::Zero();
+  std::optional<motion::JerkLimitedProfile> approach_move_;
+  bool stopped_in_approach_ = false;
   std::vector<Vec3> position_;
   std::vector<double> tau_;
   std::vector<double> rate_;
