@@ -21,7 +21,6 @@ namespace delta::controller {
 namespace {
 
 constexpr double kCountDeg = board::kEncoderCountMicrodeg * 1e-6;
-constexpr double kCurrentCodeA = board::kCurrentFullScaleMilliamp / 1000.0 / board::kCurrentLimitCode;
 
 std::string hex(std::uint32_t value) { return golden::hex_word(value, 32); }
 
@@ -171,8 +170,9 @@ RunJob::RunJob(const BoardWeights& weights, const RunRequest& request)
 RunJob::~RunJob() = default;
 
 bool RunJob::request(FeedRequest request) {
+  if (request == FeedRequest::kEstop) estop_.store(true);
   StreamingLoop* loop = loop_.load();
-  if (!loop) return false;
+  if (!loop) return request == FeedRequest::kEstop;
   loop->request(request);
   return true;
 }
@@ -223,6 +223,7 @@ RunOutcome RunJob::execute(link::LinkSession& session, const std::string& port_n
 
   // ---- homed -> running ----
   const std::string lock_note = lock_memory();
+  if (estop_.load()) throw HostFailure(kExitFault, port_name + ": e-stop before the run started; nothing enabled");
   try {
     session.enable();
   } catch (const link::LinkError& error) {
@@ -245,12 +246,16 @@ RunOutcome RunJob::execute(link::LinkSession& session, const std::string& port_n
     streaming_done.store(true);
   });
   loop_.store(&loop);
+  if (estop_.load()) loop.request(FeedRequest::kEstop);  // asked between the enable and now
   // This thread: the recording and the progress.
   TelemetryRecord r;
   auto next_progress = wall_start + std::chrono::milliseconds(200);
   bool warned = false;
   while (!streaming_done.load()) {
-    while (queue.pop(r)) recorder_->write(r);
+    while (queue.pop(r)) {
+      recorder_->write(r);
+      if (tap_) tap_(r);
+    }
     if (!warned && !loop.result().realtime_note.empty() && loop.result().cycles > 0) {
       log("warning: real-time scheduling not granted (" + loop.result().realtime_note +
           (lock_note.empty() ? "" : "; " + lock_note) + "): running with normal priority");
@@ -264,7 +269,10 @@ RunOutcome RunJob::execute(link::LinkSession& session, const std::string& port_n
   }
   streamer.join();
   loop_.store(nullptr);
-  while (queue.pop(r)) recorder_->write(r);
+  while (queue.pop(r)) {
+    recorder_->write(r);
+    if (tap_) tap_(r);
+  }
   const StreamingResult& result = loop.result();
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
 
@@ -275,7 +283,7 @@ RunOutcome RunJob::execute(link::LinkSession& session, const std::string& port_n
     case StreamingResult::Outcome::kStopped:
       out.outcome = result.outcome == StreamingResult::Outcome::kCompleted ? "completed" : "stopped";
       try {
-        session.hold();
+        if (!estop_.load()) session.hold();  // an e-stop asked as the run ended: no hold first
         session.disable();
         log("running -> homed (drives off)");
       } catch (const link::LinkError& error) {

@@ -27,6 +27,7 @@
 
 #include "delta/board_facts.hpp"
 #include "delta/command.hpp"
+#include "delta/controller/dashboard.hpp"
 #include "delta/controller/run_job.hpp"
 #include "delta/gateware.hpp"
 #include "delta/golden/export.hpp"
@@ -117,6 +118,14 @@ struct HostServer::Impl {
   };
   std::deque<std::shared_ptr<Work>> queue;
   std::condition_variable work_done;
+  std::unique_ptr<Dashboard> dashboard;  // --http: fed telemetry by the board thread
+
+  void observed(const link::TelemetryPayload& t) {
+    if (!dashboard) return;
+    TelemetryRecord record;
+    record.telemetry = t;
+    dashboard->on_telemetry(record);
+  }
 
   void beat() { heartbeat_ns.store(Clock::now().time_since_epoch().count()); }
 
@@ -259,6 +268,7 @@ struct HostServer::Impl {
         std::optional<link::TelemetryPayload> newest;
         while (auto frame = session->take_telemetry()) newest = *frame;
         if (newest) {
+          observed(*newest);
           last_frame = Clock::now();
           std::lock_guard<std::mutex> lock(mutex);
           telemetry = newest;
@@ -324,6 +334,7 @@ struct HostServer::Impl {
     } else if (work.command == "run") {
       const link::TelemetryPayload t0 = fresh_telemetry(session);
       static const volatile std::sig_atomic_t no_signal = 0;
+      if (dashboard) work.job->observe([this](const TelemetryRecord& r) { dashboard->on_telemetry(r); });
       const RunOutcome outcome = work.job->execute(
           session, name, t0, stop_signal ? *stop_signal : no_signal, [](const std::string&) {},
           [this](const RunProgress&) { beat(); });
@@ -392,6 +403,7 @@ struct HostServer::Impl {
       if (!job || !job->request(feed)) return send_line(fd, failure(kExitFault, "no run is streaming"));
       return send_line(fd, success());
     }
+    if (command == "estop") return send_line(fd, estop());
     if (command == "home" || command == "enable" || command == "disable" || command == "clear-fault") {
       auto work = std::make_shared<Work>();
       work->command = command;
@@ -399,8 +411,51 @@ struct HostServer::Impl {
     }
     if (command == "run") return answer_run(fd, request);
     return send_line(fd, failure(kExitBadInput, "unknown command '" + command +
-                                                    "' (status, run, hold, resume, stop, home, enable, disable, "
-                                                    "clear-fault)"));
+                                                    "' (status, run, hold, resume, stop, estop, home, enable, "
+                                                    "disable, clear-fault)"));
+  }
+
+  // The drives off ahead of anything queued; a run queued but not started never enables.
+  json estop() {
+    std::shared_ptr<RunJob> job;
+    auto work = std::make_shared<Work>();
+    work->command = "disable";
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      job = running;
+      if (!job) queue.push_front(work);
+    }
+    if (job) {
+      job->request(FeedRequest::kEstop);
+      json reply = success();
+      reply["event"] = "estop: the run's loop disables the drives";
+      return reply;
+    }
+    std::unique_lock<std::mutex> lock(mutex);
+    work_done.wait_for(lock, std::chrono::seconds(2), [&] { return work->done || shutting_down.load(); });
+    return work->done ? work->reply : failure(kExitLinkLost, "estop: the board thread did not answer within 2 s");
+  }
+
+  // One control-socket request through the same dispatch (answer()), for the dashboard.
+  json dispatch(const json& request) {
+    int fds[2];
+    if (::socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0, fds) != 0) {
+      return failure(kExitFailure, std::string("socketpair: ") + std::strerror(errno));
+    }
+    answer(fds[0], request.dump());  // replies are one short line (no "wait"): within the buffer
+    ::close(fds[0]);
+    std::string text;
+    char chunk[4096];
+    ssize_t n;
+    while ((n = ::recv(fds[1], chunk, sizeof chunk, 0)) > 0) text.append(chunk, static_cast<std::size_t>(n));
+    ::close(fds[1]);
+    while (!text.empty() && text.back() == '\n') text.pop_back();
+    const auto last = text.rfind('\n');
+    try {
+      return json::parse(last == std::string::npos ? text : text.substr(last + 1));
+    } catch (const json::exception&) {
+      return failure(kExitFailure, "no reply from the dispatch");
+    }
   }
 
   bool answer_run(int fd, const json& request) {
@@ -491,6 +546,22 @@ HostServer::HostServer(const ServeOptions& options) : impl_(std::make_unique<Imp
   }
   ::chmod(options.socket_path.c_str(), 0660);
   impl_->listen_fd = fd;
+  if (!options.http.empty()) {
+    try {
+      DashboardOptions http;
+      parse_http_address(options.http, http);
+      http.token_file = options.http_token_file;
+      http.record_folder = options.record_folder;
+      Impl* s = impl_.get();
+      impl_->dashboard = std::make_unique<Dashboard>(
+          http,
+          DashboardBackend{[s] { return s->status(); }, [s](const json& request) { return s->dispatch(request); }});
+    } catch (...) {
+      ::close(fd);
+      ::unlink(options.socket_path.c_str());
+      throw;
+    }
+  }
 }
 
 HostServer::~HostServer() {
@@ -500,11 +571,14 @@ HostServer::~HostServer() {
   }
 }
 
+std::string HostServer::dashboard_url() const { return impl_->dashboard ? impl_->dashboard->url() : ""; }
+
 int HostServer::run(const volatile std::sig_atomic_t& stop_signal) {
   Impl& s = *impl_;
   s.stop_signal = &stop_signal;
   s.beat();
   std::thread board([&s] { s.board_thread(); });
+  if (s.dashboard) s.dashboard->start();
   std::list<std::thread> clients;
   notify_systemd("READY=1\nSTATUS=serving on " + s.options.socket_path);
   std::int64_t watchdog_us = 0;
@@ -551,6 +625,7 @@ int HostServer::run(const volatile std::sig_atomic_t& stop_signal) {
       }
     }
   }
+  if (s.dashboard) s.dashboard->stop();
   s.shutting_down.store(true);
   s.work_done.notify_all();
   board.join();

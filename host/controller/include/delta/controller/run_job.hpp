@@ -13,6 +13,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "delta/board_facts.hpp"
 #include "delta/controller/board_network.hpp"
 #include "delta/controller/host_run.hpp"
 #include "delta/controller/stream_plan.hpp"
@@ -20,6 +21,9 @@
 #include "delta/link/session.hpp"
 
 namespace delta::controller {
+
+// Amperes per telemetry current code.
+constexpr double kCurrentCodeA = board::kCurrentFullScaleMilliamp / 1000.0 / board::kCurrentLimitCode;
 
 // The exit codes of `deltactl host` besides 0 and 2 (bad input, an InputError).
 constexpr int kExitFault = 3;     // the board faulted or is not ready (the cause is printed)
@@ -92,7 +96,11 @@ class RunJob {
                      const std::function<void(const RunProgress&)>& progress);
 
   // From another thread while execute() streams: hold, resume, stop. False when not streaming.
+  // kEstop is taken at any time (true): before the enable, execute() refuses to run; while
+  // streaming, the loop disables at once; after it, the stop disables without the hold.
   bool request(FeedRequest request);
+  // Every telemetry record, from the thread that called execute() (never the streaming thread).
+  void observe(std::function<void(const TelemetryRecord&)> tap) { tap_ = std::move(tap); }
   // The plan's samples (0 before the plan is made) and those played so far.
   RunProgress progress() const;
 
@@ -103,6 +111,8 @@ class RunJob {
   Path path_;
   std::unique_ptr<Recorder> recorder_;
   std::atomic<StreamingLoop*> loop_{nullptr};
+  std::atomic<bool> estop_{false};
+  std::function<void(const TelemetryRecord&)> tap_;
 };
 
 }  // namespace delta::controller

@@ -13,13 +13,15 @@
 // reconnect or a restart by itself.
 //
 // Protocol: one JSON object per line each way. Requests: {"cmd": C, ...} with C one of
-//   status | home | enable | disable | clear-fault | hold | resume | stop
+//   status | home | enable | disable | clear-fault | hold | resume | stop | estop
 //   run {"trajectory": NAME|/abs/FILE.csv, "duration": S, "record": /abs/OUT.csv (default: a
 //       new file in the recordings folder), "wait": true}
 // Replies: {"ok": true|false, "exit": CODE, "error": "...", ...}; a run with "wait" answers
 // {"event": "started", ...}, then {"event": "progress", "played", "planned", "feed"} every second,
 // then {"event": "finished", "ok", "exit", "outcome", "error", "summary", "record"}. CODE is what
 // `host run` would exit with (0, 2 bad request, 3 fault/not ready/refused, 4 link lost, 5 mismatch).
+// estop: the drives off ahead of anything queued (a streaming run's loop disables at its next
+// cycle; otherwise a disable goes first in the board thread's queue); never refused as busy.
 #pragma once
 
 #include <csignal>
@@ -38,6 +40,8 @@ struct ServeOptions {
   int link_timeout_ms = 100;
   double following_error_deg = 2.0;
   StreamLimits limits;
+  std::string http;             // the dashboard's ADDR:PORT ("": none; dashboard.hpp)
+  std::string http_token_file;  // its bearer token (created 0600 when absent)
 };
 
 class HostServer {
@@ -47,6 +51,8 @@ class HostServer {
   ~HostServer();
   // Serves until `stop_signal` becomes non-zero; returns the exit code (0 after a clean stop).
   int run(const volatile std::sig_atomic_t& stop_signal);
+  // The dashboard's "http://ADDR:PORT" as bound ("" without --http).
+  std::string dashboard_url() const;
 
  private:
   struct Impl;
