@@ -13,6 +13,8 @@ packages=(
   python3-serial socat                     # independent serial clients for the link tests
   lintian systemd                          # the Debian package: lintian, systemd-analyze verify of the unit
   clang-14 libclang-rt-14-dev              # libFuzzer harnesses of the readers (scripts/fuzz.sh)
+  libcpp-httplib-dev                       # the dashboard's HTTP server (host serve --http)
+  chromium                                 # the dashboard's real-browser test (headless)
 )
 
 missing=()

@@ -1,5 +1,6 @@
 // gnuplot back end for PNG plots: the script, data inline, goes to gnuplot's input; no temporary folder.
 #include "delta/plot.hpp"
+#include "delta/plot_marks.hpp"
 
 #include <spawn.h>
 #include <sys/wait.h>
@@ -92,7 +93,9 @@ void render_gnuplot_png(const std::string& png_path, const std::string& script) 
   output.commit();
 }
 
-void write_plot(const std::string& png_path, const PlotSpec& spec) {
+void write_plot(const std::string& png_path, const PlotSpec& spec) { write_plot(png_path, spec, PlotMarks{}); }
+
+void write_plot(const std::string& png_path, const PlotSpec& spec, const PlotMarks& marks) {
   std::ostringstream script;
   const int height = spec.panel_height_px * static_cast<int>(spec.panels.size()) + 60;
   for (std::size_t p = 0; p < spec.panels.size(); ++p) {
@@ -105,9 +108,20 @@ void write_plot(const std::string& png_path, const PlotSpec& spec) {
       script << "EOD\n";
     }
   }
-  script << "set terminal pngcairo size " << spec.width_px << "," << height << " font 'sans,10'\n"
+  script << "set terminal pngcairo " << (marks.as_written ? "noenhanced " : "") << "size " << spec.width_px << ","
+         << height << " font 'sans,10'\n"
          << "set multiplot layout " << spec.panels.size() << ",1 title " << quoted(spec.title) << "\n"
          << "set grid\nset key outside right top\n";
+  std::vector<std::string> span_labels;  // one legend entry per label, in first-seen order
+  for (std::size_t k = 0; k < marks.spans.size(); ++k) {
+    const PlotSpan& span = marks.spans[k];
+    script << "set object " << k + 1 << " rect from first " << format_number(span.from) << ", graph 0 to first "
+           << format_number(span.to) << ", graph 1 behind fillcolor rgb " << quoted(span.colour)
+           << " fillstyle transparent solid 0.18 noborder\n";
+    if (std::find(span_labels.begin(), span_labels.end(), span.label) == span_labels.end()) {
+      span_labels.push_back(span.label);
+    }
+  }
   for (std::size_t p = 0; p < spec.panels.size(); ++p) {
     const PlotPanel& panel = spec.panels[p];
     script << "set title " << quoted(panel.title) << "\nset xlabel " << quoted(panel.x_label) << "\nset ylabel "
@@ -116,7 +130,15 @@ void write_plot(const std::string& png_path, const PlotSpec& spec) {
     for (std::size_t s = 0; s < panel.series.size(); ++s) {
       const PlotSeries& series = panel.series[s];
       script << (s ? ", " : "") << "$panel" << p << "_" << s << " using 1:2 with "
-             << (series.points ? "linespoints pt 7 ps 0.6" : "lines") << " lw 1.2 title " << quoted(series.label);
+             << (series.points ? "linespoints pt 7 ps 0.6" : "lines") << " lw 1.2 "
+             << (p < marks.styles.size() && s < marks.styles[p].size() ? marks.styles[p][s] : "") << " title "
+             << quoted(series.label);
+    }
+    for (const std::string& label : span_labels) {
+      const auto span =
+          std::find_if(marks.spans.begin(), marks.spans.end(), [&](const PlotSpan& s) { return s.label == label; });
+      script << ", keyentry with boxes fillcolor rgb " << quoted(span->colour)
+             << " fillstyle transparent solid 0.18 noborder title " << quoted(label);
     }
     script << "\n";
   }

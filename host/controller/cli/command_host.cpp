@@ -209,7 +209,7 @@ void run_run(const RunOptions& options) {
 // ---------------------------------------------------------------------------------------------
 struct ServeCliOptions {
   std::string config;
-  std::string port, weights, socket, record_folder;
+  std::string port, weights, socket, record_folder, http, http_token_file;
   int link_timeout_ms = link::kLinkTimeoutMs;
 };
 
@@ -224,6 +224,8 @@ void run_serve(const ServeCliOptions& cli) {
     options.following_error_deg = config.following_error_deg;
     options.limits.joint_velocity_deg_s = config.velocity_deg_s;
   }
+  if (!cli.http.empty()) options.http = cli.http;
+  if (!cli.http_token_file.empty()) options.http_token_file = cli.http_token_file;
   if (!cli.port.empty()) options.port = cli.port;
   if (!cli.weights.empty()) options.weights_path = cli.weights;
   if (!cli.socket.empty()) options.socket_path = cli.socket;
@@ -236,10 +238,18 @@ void run_serve(const ServeCliOptions& cli) {
     options.record_folder = std::string(state && *state ? state : ".") + "/runs";
   }
   track_run_files(false);  // many runs over its life: each is checked on its own
+  if (!options.http.empty() && options.http_token_file.empty()) {
+    const char* state = std::getenv("STATE_DIRECTORY");
+    options.http_token_file = std::string(state && *state ? state : ".") + "/http-token";
+  }
   install_stop_handlers();
   auto server = or_exit([&] { return std::make_unique<HostServer>(options); });
   std::cerr << "host serve: board " << options.port << ", weights " << options.weights_path << ", control socket "
             << options.socket_path << ", recordings in " << options.record_folder << '\n';
+  if (!options.http.empty()) {
+    std::cerr << "host serve: dashboard on " << server->dashboard_url() << "/ (token in " << options.http_token_file
+              << ")" << std::endl;
+  }
   const int code = server->run(stop_signal);
   std::cerr << "host serve: stopped by signal " << stop_signal << " (drives off)\n";
   if (code != kExitOk) throw CommandExit{code};
@@ -505,7 +515,11 @@ const RegisterCommand command("host", 75, [](CLI::App& root) {
       "that name none get a new run-TIME.csv). Under systemd (deltactl.service): READY=1, STATUS= and\n"
       "WATCHDOG=1 by sd_notify. SIGTERM, SIGINT, SIGHUP or SIGQUIT: a run stops at rest, the drives go\n"
       "off, exit 0. After 'enable' the drives hold the arms where they are until 'disable' (the\n"
-      "controller keeps the link alive meanwhile).");
+      "controller keeps the link alive meanwhile).\n"
+      "--http ADDR:PORT also serves the operator's dashboard (a page with live plots and the controls,\n"
+      "docs/dashboard.md); loopback unless told otherwise. Every changing request needs the token of\n"
+      "--http-token-file (created with mode 0600 when absent) as 'Authorization: Bearer TOKEN'.\n"
+      "Example: deltactl host serve --config /etc/deltactl/deltactl.conf --http 127.0.0.1:8080");
   sv->add_option("--config", serve->config, "the lab PC's configuration (port, weights, limits, socket)");
   sv->add_option("--port", serve->port, "serial port (overrides the config)");
   sv->add_option("--weights", serve->weights, "W.json the board must run (overrides the config)");
@@ -515,12 +529,15 @@ const RegisterCommand command("host", 75, [](CLI::App& root) {
   sv->add_option("--link-timeout-ms", serve->link_timeout_ms, "wall time without telemetry: link lost")
       ->check(options::whole_number(10, 60000))
       ->capture_default_str();
+  sv->add_option("--http", serve->http, "the dashboard's ADDR:PORT, e.g. 127.0.0.1:8080 (overrides the config)");
+  sv->add_option("--http-token-file", serve->http_token_file,
+                 "the dashboard's token (default: $STATE_DIRECTORY/http-token, else ./http-token)");
   sv->callback([serve] { run_serve(*serve); });
 
   auto ctl = std::make_shared<CtlOptions>();
   CLI::App* c = host->add_subcommand("ctl", "Talk to a running 'host serve': status, run, hold, resume, stop, ...");
   c->footer(
-      "\nCOMMAND: status | run | hold | resume | stop | home | enable | disable | clear-fault.\n"
+      "\nCOMMAND: status | run | hold | resume | stop | estop | home | enable | disable | clear-fault.\n"
       "run streams --trajectory (NAME or FILE.csv) through the controller and prints its progress every\n"
       "second and its summary; hold and resume are a feed hold (the plate slows to rest on the path,\n"
       "then comes back to speed); stop ends the run at rest and disables. Ctrl-C (or SIGTERM, SIGHUP,\n"

@@ -165,6 +165,12 @@ void StreamingLoop::run() {
                         " ms (bound " + std::to_string(options_.link_timeout_ms) + " ms)";
         break;
       }
+      if (estop_.load()) {  // ahead of anything else: the drives off now
+        session_.send_command(link::Command::kDisable);
+        result_.outcome = StreamingResult::Outcome::kFault;
+        result_.cause = "e-stop on request: drives off";
+        break;
+      }
       session_.poll_frames();
       bool finished = false, fresh = false;
       while (auto frame = session_.take_telemetry()) {

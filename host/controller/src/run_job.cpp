@@ -29,7 +29,6 @@ namespace delta::controller {
 namespace {
 
 constexpr double kCountDeg = board::kEncoderCountMicrodeg * 1e-6;
-constexpr double kCurrentCodeA = board::kCurrentFullScaleMilliamp / 1000.0 / board::kCurrentLimitCode;
 
 std::string hex(std::uint32_t value) { return golden::hex_word(value, 32); }
 
@@ -307,8 +306,10 @@ const std::string& RunJob::record_path() const { return recorder_->file.path(); 
 
 bool RunJob::request(FeedRequest request) {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (finished_) return false;
+  if (request == FeedRequest::kEstop) estop_.store(true);
+  if (finished_) return request == FeedRequest::kEstop;
   if (!loop_) {
+    if (request == FeedRequest::kEstop) return true;  // execute() refuses to enable
     if (request != FeedRequest::kStop) return false;
     stop_pending_ = true;  // taken before the enable, or by the loop at its first frame
     return true;
@@ -384,6 +385,7 @@ RunOutcome RunJob::execute(link::LinkSession& session, const std::string& port_n
 
   // ---- homed -> running ----
   const std::string lock_note = lock_memory();
+  if (estop_.load()) throw HostFailure(kExitFault, port_name + ": e-stop before the run started; nothing enabled");
   recorder_->open();  // under its name before the first motion
   out.record = recorder_->file.path();
   link::TelemetryPayload enabled;
@@ -432,6 +434,7 @@ RunOutcome RunJob::execute(link::LinkSession& session, const std::string& port_n
     std::lock_guard<std::mutex> lock(mutex_);
     loop_ = &loop;
     if (stop_pending_) loop.request(FeedRequest::kStop);
+    if (estop_.load()) loop.request(FeedRequest::kEstop);  // asked between the enable and now
   }
   // This thread: the recording and the progress.
   TelemetryRecord r;
@@ -439,6 +442,7 @@ RunOutcome RunJob::execute(link::LinkSession& session, const std::string& port_n
     bool any = false;
     while (queue.pop(r)) {
       recorder_->write(r);
+      if (tap_) tap_(r);
       any = true;
     }
     if (!any) return;
@@ -511,9 +515,11 @@ RunOutcome RunJob::execute(link::LinkSession& session, const std::string& port_n
       out.outcome = result.outcome == StreamingResult::Outcome::kCompleted ? "completed" : "stopped";
       std::string failed;
       try {
-        command(link::Command::kHold, [](const link::TelemetryPayload& t) {
-          return t.has(link::TelemetryFlag::kHolding) || !t.has(link::TelemetryFlag::kDriveEnable);
-        });
+        if (!estop_.load()) {  // an e-stop asked as the run ended: no hold first
+          command(link::Command::kHold, [](const link::TelemetryPayload& t) {
+            return t.has(link::TelemetryFlag::kHolding) || !t.has(link::TelemetryFlag::kDriveEnable);
+          });
+        }
       } catch (const link::LinkError& error) {
         out.code = link_error_code(error);
         failed = std::string("the board did not hold: ") + error.what();

@@ -27,6 +27,7 @@
 
 #include "delta/board_facts.hpp"
 #include "delta/command.hpp"
+#include "delta/controller/dashboard.hpp"
 #include "delta/controller/run_job.hpp"
 #include "delta/gateware.hpp"
 #include "delta/golden/export.hpp"
@@ -152,6 +153,14 @@ struct HostServer::Impl {
   };
   std::deque<std::shared_ptr<Work>> queue;
   std::condition_variable work_done;
+  std::unique_ptr<Dashboard> dashboard;  // --http: fed telemetry by the board thread
+
+  void observed(const link::TelemetryPayload& t) {
+    if (!dashboard) return;
+    TelemetryRecord record;
+    record.telemetry = t;
+    dashboard->on_telemetry(record);
+  }
 
   void beat() { heartbeat_ns.store(Clock::now().time_since_epoch().count()); }
 
@@ -293,6 +302,7 @@ struct HostServer::Impl {
           std::optional<link::TelemetryPayload> newest;
           while (auto frame = session->take_telemetry()) newest = *frame;
           if (newest) {
+            observed(*newest);
             last_frame = Clock::now();
             std::lock_guard<std::mutex> lock(mutex);
             telemetry = newest;
@@ -398,6 +408,7 @@ struct HostServer::Impl {
     } else if (work.command == "run") {
       const link::TelemetryPayload t0 = fresh_telemetry(session);
       static const volatile std::sig_atomic_t no_signal = 0;
+      if (dashboard) work.job->observe([this](const TelemetryRecord& r) { dashboard->on_telemetry(r); });
       const RunOutcome outcome = work.job->execute(
           session, name, t0, stop_signal ? *stop_signal : no_signal, [](const std::string&) {},
           [this](const RunProgress&) { beat(); });
@@ -497,6 +508,7 @@ struct HostServer::Impl {
         if (!job || !job->request(feed)) return failure(kExitFault, "no run is streaming");
         return success();
       }
+      if (command == "estop") return estop();
       if (command == "home" || command == "enable" || command == "disable" || command == "clear-fault") {
         auto work = std::make_shared<Work>();
         work->command = command;
@@ -518,10 +530,38 @@ struct HostServer::Impl {
         return reply;
       }
       return failure(kExitBadInput, "unknown command '" + command +
-                                        "' (status, run, hold, resume, stop, home, enable, disable, clear-fault)");
+                                        "' (status, run, hold, resume, stop, estop, home, enable, disable, clear-fault)");
     } catch (const std::exception& error) {
       return failure(kExitFailure, error.what());
     }
+  }
+
+  // The drives off ahead of anything queued; a run queued but not started never enables.
+  json estop() {
+    std::shared_ptr<RunJob> job;
+    auto work = std::make_shared<Work>();
+    work->command = "disable";
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      job = running;
+      if (!job) queue.push_front(work);
+    }
+    if (job) {
+      job->request(FeedRequest::kEstop);
+      json reply = success();
+      reply["event"] = "estop: the run's loop disables the drives";
+      return reply;
+    }
+    std::unique_lock<std::mutex> lock(mutex);
+    work_done.wait_for(lock, std::chrono::seconds(2), [&] { return work->done || shutting_down.load(); });
+    return work->done ? work->reply : failure(kExitLinkLost, "estop: the board thread did not answer within 2 s");
+  }
+
+  // One control-socket request through the same dispatch (a run is queued: no "wait"), for the dashboard.
+  json dispatch(const json& request) {
+    json refusal;
+    const std::optional<json> checked = parse_request(request.dump(), refusal);
+    return checked ? reply_to(*checked) : refusal;
   }
 
   // A run request checked whole (types, ranges, the trajectory, the recording's name); false with
@@ -662,7 +702,26 @@ HostServer::HostServer(const ServeOptions& options) : impl_(std::make_shared<Imp
     impl_->socket_inode = bound.st_ino;
   }
   impl_->listen_fd = fd;
+  if (!options.http.empty()) {
+    try {
+      DashboardOptions http;
+      parse_http_address(options.http, http);
+      http.token_file = options.http_token_file;
+      http.record_folder = options.record_folder;
+      Impl* s = impl_.get();
+      impl_->dashboard = std::make_unique<Dashboard>(
+          http,
+          DashboardBackend{[s] { return s->status(); }, [s](const json& request) { return s->dispatch(request); }});
+    } catch (...) {
+      ::close(fd);
+      impl_->listen_fd = -1;
+      ::unlink(options.socket_path.c_str());
+      throw;
+    }
+  }
 }
+
+std::string HostServer::dashboard_url() const { return impl_->dashboard ? impl_->dashboard->url() : ""; }
 
 HostServer::~HostServer() {
   if (impl_->listen_fd >= 0) {
@@ -687,6 +746,7 @@ int HostServer::run(const volatile std::sig_atomic_t& stop_signal) {
   s.stop_signal = &stop_signal;
   s.beat();
   std::thread board([&s] { s.board_thread(); });
+  if (s.dashboard) s.dashboard->start();
   notify_systemd("READY=1\nSTATUS=serving on " + s.options.socket_path);
   std::int64_t watchdog_us = 0;
   if (const char* usec = std::getenv("WATCHDOG_USEC")) watchdog_us = std::atoll(usec);
@@ -757,6 +817,7 @@ int HostServer::run(const volatile std::sig_atomic_t& stop_signal) {
     if (Clock::now() > give_up) break;
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
+  if (s.dashboard) s.dashboard->stop();
   s.shutting_down.store(true);
   s.work_done.notify_all();
   board.join();

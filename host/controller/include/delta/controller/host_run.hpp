@@ -96,7 +96,9 @@ struct StreamingResult {
   double held_s = 0.0;      // board time spent held
 };
 
-enum class FeedRequest : int { kNone, kHold, kResume, kStop };
+// kEstop: the drives off at the next cycle (the disable command goes out before any further
+// setpoint); the run ends as a fault with the cause "e-stop". Sticky: no later request undoes it.
+enum class FeedRequest : int { kNone, kHold, kResume, kStop, kEstop };
 enum class FeedState : int { kStreaming, kHolding, kHeld, kResuming, kStopping };
 const char* feed_name(FeedState state);
 
@@ -115,7 +117,12 @@ class StreamingLoop {
   FeedState feed() const { return static_cast<FeedState>(feed_.load()); }
   // From another thread; taken at the next telemetry frame. Hold is ignored unless streaming (or
   // resuming); resume unless holding or held; a stop always ends the run at rest.
-  void request(FeedRequest request) { request_.store(static_cast<int>(request)); }
+  void request(FeedRequest request) {
+    if (request == FeedRequest::kEstop)
+      estop_.store(true);
+    else
+      request_.store(static_cast<int>(request));
+  }
 
  private:
   link::LinkSession& session_;
@@ -129,6 +136,7 @@ class StreamingLoop {
   std::atomic<std::size_t> played_{0}, planned_{0};
   std::atomic<int> feed_{static_cast<int>(FeedState::kStreaming)};
   std::atomic<int> request_{static_cast<int>(FeedRequest::kNone)};
+  std::atomic<bool> estop_{false};
 };
 
 // Tracking of a run from its telemetry (encoder count - joint reference, degrees), off the loop.

@@ -22,6 +22,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "delta/board_facts.hpp"
 #include "delta/controller/board_network.hpp"
 #include "delta/controller/host_run.hpp"
 #include "delta/controller/stream_plan.hpp"
@@ -29,6 +30,9 @@
 #include "delta/link/session.hpp"
 
 namespace delta::controller {
+
+// Amperes per telemetry current code.
+constexpr double kCurrentCodeA = board::kCurrentFullScaleMilliamp / 1000.0 / board::kCurrentLimitCode;
 
 // The exit codes of `deltactl host` besides 0 and 2 (bad input, an InputError).
 constexpr int kExitFault = 3;     // the board faulted or is not ready (the cause is printed)
@@ -112,11 +116,15 @@ class RunJob {
                      const volatile std::sig_atomic_t& stop_signal, const std::function<void(const std::string&)>& log,
                      const std::function<void(const RunProgress&)>& progress);
 
-  // From another thread: hold, resume, stop. A stop before the stream starts ends the run before the
-  // enable (nothing moves); hold and resume return false when not streaming, stop when finished.
+  // From another thread: hold, resume, stop, e-stop. A stop before the stream starts ends the run
+  // before the enable (nothing moves); hold and resume return false when not streaming, stop when
+  // finished. kEstop is taken at any time (true): before the enable, execute() refuses to run; while
+  // streaming, the loop disables at once; after it, the stop disables without the hold.
   bool request(FeedRequest request);
   // The recording's path (with the number a taken default name got).
   const std::string& record_path() const;
+  // Every telemetry record, from the thread that called execute() (never the streaming thread).
+  void observe(std::function<void(const TelemetryRecord&)> tap) { tap_ = std::move(tap); }
   // The plan's samples (0 before the plan is made) and those played so far.
   RunProgress progress() const;
 
@@ -131,6 +139,8 @@ class RunJob {
   bool stop_pending_ = false;  // a stop asked before the stream started
   bool finished_ = false;
   std::optional<link::TelemetryPayload> newest_;
+  std::atomic<bool> estop_{false};
+  std::function<void(const TelemetryRecord&)> tap_;
 };
 
 }  // namespace delta::controller

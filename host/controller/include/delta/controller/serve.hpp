@@ -20,7 +20,7 @@
 // Protocol: one JSON object per line each way (at most 64 KiB; any bytes: a line that is not a
 // JSON object of the right types is answered with exit 2; text in replies is valid UTF-8, bytes
 // that were not shown as \xHH). Requests: {"cmd": C, ...} with C one of
-//   status | home | enable | disable | clear-fault | hold | resume | stop
+//   status | home | enable | disable | clear-fault | hold | resume | stop | estop
 //   run {"trajectory": NAME|/abs/FILE.csv|move:..., "duration": S (0 < S <= kMaxRunSeconds; 0 or
 //       absent: all of it), "record": NAME.csv (in the recordings folder: a relative name is taken
 //       there, an absolute one must lie inside it; an existing file is never replaced; default: a
@@ -31,6 +31,8 @@
 // stops at rest if that client goes away (closes its socket) before the end. Without "wait":
 // {"ok": true, "event": "queued", "record"}. CODE is what `host run` would exit with (0, 2 bad
 // request, 3 fault/not ready/refused/busy, 4 link lost, 5 mismatch).
+// estop: the drives off ahead of anything queued (a streaming run's loop disables at its next
+// cycle; otherwise a disable goes first in the board thread's queue); never refused as busy.
 #pragma once
 
 #include <csignal>
@@ -50,6 +52,8 @@ struct ServeOptions {
   int link_timeout_ms = link::kLinkTimeoutMs;
   double following_error_deg = 2.0;
   StreamLimits limits;
+  std::string http;             // the dashboard's ADDR:PORT ("": none; dashboard.hpp)
+  std::string http_token_file;  // its bearer token (created 0600 when absent)
 };
 
 constexpr int kMaxClients = 32;
@@ -67,6 +71,8 @@ class HostServer {
   // One request line answered as the socket answers it (a run is queued: "wait" is taken as
   // false); one reply line without the newline. For other front ends (a dashboard) while run() serves.
   std::string handle(const std::string& request_line);
+  // The dashboard's "http://ADDR:PORT" as bound ("" without --http).
+  std::string dashboard_url() const;
 
  private:
   struct Impl;

@@ -1,0 +1,29 @@
+// A picture of any recording the project writes (`deltactl plot`, and the dashboard's recordings):
+// the kind is told from the columns, and the panels are those the columns support.
+//
+//   joint angles     alpha*_ref_deg / net*_deg (reference), alpha*_deg / encoder*_deg (encoders),
+//                    true_alpha*_deg / true*_deg (the plant's true angles)
+//   tracking error   encoder - reference (or encoder - true angle when there is no reference)
+//   currents         current*_a
+//   plate            x_m,y_m,z_m (measured, stage or truth) against x_ref_m.. / ref_x_m..
+//   time marks       drives_enabled = 0 (drives off), flags' holding and fault bits, fault_bits != 0,
+//                    an underruns counter going up
+//   other            any other numeric column, except the link's counters and indices
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace delta {
+
+struct RecordingPlot {
+  std::string kind;                 // e.g. "host run recording", "virtual-board truth"
+  std::size_t rows = 0;             // data rows read
+  std::vector<std::string> panels;  // panel titles, top to bottom
+};
+
+// Reads `csv_path` (SPEC recording rules: FILE:LINE: reason as InputError, including time going
+// backwards and a file with no column to plot) and writes the PNG atomically (nothing on error).
+RecordingPlot plot_recording(const std::string& csv_path, const std::string& png_path);
+
+}  // namespace delta

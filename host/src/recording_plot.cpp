@@ -1,0 +1,339 @@
+// deltactl plot's picture of a recording (see recording_plot.hpp): columns to panels, PNG via gnuplot.
+#include "delta/recording_plot.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <functional>
+#include <map>
+#include <optional>
+#include <set>
+
+#include "delta/board_facts.hpp"
+#include "delta/csv.hpp"
+#include "delta/input_error.hpp"
+#include "delta/output_file.hpp"
+#include "delta/plot.hpp"
+#include "delta/plot_marks.hpp"
+
+namespace delta {
+namespace {
+
+// The header's column names (the first line that is not a comment), or none when the file cannot
+// be read (read_csv then says why).
+std::vector<std::string> header_of(const std::string& path) {
+  std::ifstream in(path);
+  std::string line;
+  while (std::getline(in, line)) {
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.empty() || line[0] == '#') continue;
+    std::vector<std::string> names;
+    std::size_t start = 0;
+    while (true) {
+      const std::size_t comma = line.find(',', start);
+      std::string name = line.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
+      const auto first = name.find_first_not_of(" \t");
+      const auto last = name.find_last_not_of(" \t");
+      names.push_back(first == std::string::npos ? "" : name.substr(first, last - first + 1));
+      if (comma == std::string::npos) break;
+      start = comma + 1;
+    }
+    return names;
+  }
+  return {};
+}
+
+struct Columns {
+  const CsvTable& table;
+  std::map<std::string, std::size_t> index;
+  explicit Columns(const CsvTable& t) : table(t) {
+    for (std::size_t k = 0; k < t.columns.size(); ++k) {
+      if (t.present[k]) index[t.columns[k]] = k;
+    }
+  }
+  bool has(const std::string& name) const { return index.count(name) != 0; }
+  // The first of `names` present.
+  std::optional<std::string> first(std::initializer_list<std::string> names) const {
+    for (const std::string& name : names) {
+      if (has(name)) return name;
+    }
+    return std::nullopt;
+  }
+  double at(std::size_t row, const std::string& name) const { return table.rows[row][index.at(name)]; }
+};
+
+// At most about 2 * kBuckets points: the minimum and the maximum of each bucket, in time order, so
+// a spike survives the thinning of a long 1 kHz recording.
+constexpr std::size_t kBuckets = 1500;
+
+PlotSeries series_of(const std::string& label, const std::vector<double>& t, const std::vector<double>& y) {
+  PlotSeries s{label, {}, {}, false};
+  const std::size_t n = std::min(t.size(), y.size());
+  const std::size_t bucket = n > 2 * kBuckets ? (n + kBuckets - 1) / kBuckets : 1;
+  for (std::size_t begin = 0; begin < n; begin += bucket) {
+    const std::size_t end = std::min(n, begin + bucket);
+    if (bucket == 1) {
+      s.x.push_back(t[begin]);
+      s.y.push_back(y[begin]);
+      continue;
+    }
+    const auto [low, high] = std::minmax_element(y.begin() + static_cast<std::ptrdiff_t>(begin),
+                                                 y.begin() + static_cast<std::ptrdiff_t>(end));
+    const auto a = std::min(low, high), b = std::max(low, high);
+    s.x.push_back(t[static_cast<std::size_t>(a - y.begin())]);
+    s.y.push_back(*a);
+    if (b != a) {
+      s.x.push_back(t[static_cast<std::size_t>(b - y.begin())]);
+      s.y.push_back(*b);
+    }
+  }
+  return s;
+}
+
+// Spans of rows where `on(row)` holds, as [t_first, t_last] (a single row: a short band).
+void add_spans(std::vector<PlotSpan>& spans, const std::vector<double>& t, const std::function<bool(std::size_t)>& on,
+               const std::string& label, const std::string& colour) {
+  const double tick = t.size() > 1 ? std::max((t.back() - t.front()) / 500.0, 1e-4) : 1e-3;
+  std::optional<std::size_t> start;
+  for (std::size_t i = 0; i <= t.size(); ++i) {
+    const bool active = i < t.size() && on(i);
+    if (active && !start) start = i;
+    if (!active && start) {
+      const double from = t[*start], to = std::max(t[i - 1], from + tick);
+      if (!spans.empty() && spans.back().label == label && from - spans.back().to < tick) {
+        spans.back().to = to;  // flicker: one band
+      } else {
+        spans.push_back({from, to, label, colour});
+      }
+      start.reset();
+    }
+  }
+}
+
+const std::set<std::string>& not_plotted() {
+  // Indices, counters and bit fields: marks on the time axis, or nothing a curve would show.
+  static const std::set<std::string> names = {"t_s",         "sample_index", "stream_sample", "fill",
+                                              "tau_s",       "bad_frames",   "rejected",      "slew_limits",
+                                              "flags",       "fault_bits",   "underruns",     "drives_enabled",
+                                              "saturations", "fault",        "holding",       "tick"};
+  return names;
+}
+
+}  // namespace
+
+RecordingPlot plot_recording(const std::string& csv_path, const std::string& png_path) {
+  std::vector<std::string> header = header_of(csv_path);
+  std::vector<std::string> optional;
+  std::set<std::string> seen;
+  for (const std::string& name : header) {
+    if (name != "t_s" && !name.empty() && seen.insert(name).second) optional.push_back(name);
+  }
+  const CsvTable table = read_csv(csv_path, {"t_s"}, optional);
+  const Columns c(table);
+  const std::size_t n = table.rows.size();
+  std::vector<double> t(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    t[i] = c.at(i, "t_s");
+    if (i > 0 && t[i] < t[i - 1]) {
+      throw InputError(csv_path, table.line_numbers[i],
+                       "t_s goes backwards (" + format_number(t[i]) + " after " + format_number(t[i - 1]) + ")");
+    }
+  }
+  auto column = [&](const std::string& name) {
+    std::vector<double> v(n);
+    for (std::size_t i = 0; i < n; ++i) v[i] = c.at(i, name);
+    return v;
+  };
+  std::set<std::string> used;
+  auto joint_column = [&](int j, std::initializer_list<std::string> patterns) -> std::optional<std::string> {
+    for (std::string pattern : patterns) {
+      pattern.replace(pattern.find('#'), 1, std::to_string(j));
+      if (c.has(pattern)) return pattern;
+    }
+    return std::nullopt;
+  };
+
+  RecordingPlot out;
+  out.rows = n;
+  PlotSpec spec;
+  PlotMarks marks;
+  marks.as_written = true;
+  std::map<std::string, std::string> style_of;  // by series label (unique in a recording's plot)
+  auto styled = [&](const std::string& label, const std::vector<double>& x, const std::vector<double>& y,
+                    const std::string& style = "") {
+    style_of[label] = style;
+    return series_of(label, x, y);
+  };
+  const std::string joint_style[3] = {"linecolor rgb '#1f77b4'", "linecolor rgb '#d62728'", "linecolor rgb '#2ca02c'"};
+
+  // ---- joint angles ----
+  PlotPanel joints{"Joint angles", "board time t [s]", "angle [deg]", {}, false};
+  PlotPanel tracking{"Tracking error", "board time t [s]", "error [deg]", {}, false};
+  bool any_reference = false, any_encoder = false, any_true = false;
+  for (int j = 1; j <= 3; ++j) {
+    const auto reference = joint_column(j, {"alpha#_ref_deg", "net#_deg"});
+    const auto encoder = joint_column(j, {"alpha#_deg", "encoder#_deg"});
+    const auto truth = joint_column(j, {"true_alpha#_deg", "true#_deg"});
+    const std::string& style = joint_style[j - 1];
+    const std::string name = "alpha" + std::to_string(j);
+    if (reference) {
+      joints.series.push_back(
+          styled(name + " reference (" + *reference + ")", t, column(*reference), style + " dashtype 2"));
+      used.insert(*reference);
+      any_reference = true;
+    }
+    if (encoder) {
+      joints.series.push_back(styled(name + " encoder (" + *encoder + ")", t, column(*encoder), style));
+      used.insert(*encoder);
+      any_encoder = true;
+    }
+    if (truth) {
+      joints.series.push_back(styled(name + " true (" + *truth + ")", t, column(*truth), style + " dashtype 3"));
+      used.insert(*truth);
+      any_true = true;
+    }
+    const auto against = reference ? reference : truth;
+    if (encoder && against) {
+      const std::vector<double> e = column(*encoder), r = column(*against);
+      std::vector<double> error(n);
+      for (std::size_t i = 0; i < n; ++i) error[i] = e[i] - r[i];
+      tracking.series.push_back(styled(*encoder + " - " + *against, t, error, style));
+    }
+  }
+  if (!joints.series.empty()) spec.panels.push_back(joints);
+  if (!tracking.series.empty()) {
+    if (!any_reference) tracking.title = "Encoder error (encoder - true angle)";
+    spec.panels.push_back(tracking);
+  }
+
+  // ---- currents ----
+  PlotPanel currents{"Drive currents", "board time t [s]", "current [A]", {}, false};
+  for (int j = 1; j <= 3; ++j) {
+    if (const auto name = joint_column(j, {"current#_a"})) {
+      currents.series.push_back(styled(*name, t, column(*name), joint_style[j - 1]));
+      used.insert(*name);
+    }
+  }
+  if (!currents.series.empty()) spec.panels.push_back(currents);
+
+  // ---- the plate ----
+  const char* axis[3] = {"x", "y", "z"};
+  PlotPanel plate{"Plate position", "board time t [s]", "position [mm]", {}, false};
+  PlotPanel plate_error{"Plate error (measured - reference)", "board time t [s]", "error [um]", {}, false};
+  bool measured = false, referenced = false;
+  for (int k = 0; k < 3; ++k) {
+    const std::string a = axis[k];
+    const auto position = c.first({a + "_m"});
+    const auto reference = c.first({a + "_ref_m", "ref_" + a + "_m"});
+    std::vector<double> p, r;
+    if (position) {
+      p = column(*position);
+      std::vector<double> mm(n);
+      for (std::size_t i = 0; i < n; ++i) mm[i] = p[i] * 1e3;
+      plate.series.push_back(styled(*position, t, mm, joint_style[k]));
+      used.insert(*position);
+      measured = true;
+    }
+    if (reference) {
+      r = column(*reference);
+      std::vector<double> mm(n);
+      for (std::size_t i = 0; i < n; ++i) mm[i] = r[i] * 1e3;
+      plate.series.push_back(styled(*reference, t, mm, joint_style[k] + " dashtype 2"));
+      used.insert(*reference);
+      referenced = true;
+    }
+    if (position && reference) {
+      std::vector<double> um(n);
+      for (std::size_t i = 0; i < n; ++i) um[i] = (p[i] - r[i]) * 1e6;
+      plate_error.series.push_back(styled(*position + " - " + *reference, t, um, joint_style[k]));
+    }
+  }
+  if (!plate.series.empty()) {
+    plate.title = measured && referenced ? "Plate position against its reference"
+                  : referenced           ? "Plate reference (sent to the board)"
+                                         : "Plate position (measured)";
+    spec.panels.push_back(plate);
+  }
+  if (!plate_error.series.empty()) spec.panels.push_back(plate_error);
+
+  // ---- anything else numeric ----
+  PlotPanel other{"Other columns", "board time t [s]", "value", {}, false};
+  for (std::size_t k = 0; k < table.columns.size(); ++k) {
+    const std::string& name = table.columns[k];
+    if (!table.present[k] || used.count(name) || not_plotted().count(name)) continue;
+    if (other.series.size() == 8) break;
+    other.series.push_back(styled(name, t, column(name)));
+  }
+  if (!other.series.empty()) spec.panels.push_back(other);
+
+  if (spec.panels.empty()) {
+    throw InputError(csv_path, 1,
+                     "no column to plot besides t_s (expected e.g. alpha1_deg, alpha1_ref_deg, current1_a, x_m, "
+                     "x_ref_m)");
+  }
+
+  // ---- marks on the time axis ----
+  const std::string drives = c.first({"drives_enabled"}).value_or("");
+  if (!drives.empty()) {
+    const std::vector<double> d = column(drives);
+    add_spans(
+        marks.spans, t, [&](std::size_t i) { return d[i] == 0.0; }, "drives off", "#808080");
+  }
+  if (c.has("flags")) {
+    const std::vector<double> f = column("flags");
+    add_spans(
+        marks.spans, t,
+        [&](std::size_t i) { return (static_cast<long long>(f[i]) & (1LL << board::kFlagHolding)) != 0; }, "feed hold",
+        "#1f77b4");
+    add_spans(
+        marks.spans, t, [&](std::size_t i) { return (static_cast<long long>(f[i]) & (1LL << board::kFlagFault)) != 0; },
+        "fault", "#d62728");
+  }
+  if (c.has("holding")) {
+    const std::vector<double> h = column("holding");
+    add_spans(
+        marks.spans, t, [&](std::size_t i) { return h[i] != 0.0; }, "feed hold", "#1f77b4");
+  }
+  for (const std::string fault : {"fault_bits", "fault"}) {
+    if (!c.has(fault)) continue;
+    const std::vector<double> f = column(fault);
+    add_spans(
+        marks.spans, t, [&](std::size_t i) { return f[i] != 0.0; }, "fault", "#d62728");
+  }
+  if (c.has("underruns")) {
+    const std::vector<double> u = column("underruns");
+    add_spans(
+        marks.spans, t, [&](std::size_t i) { return i > 0 && u[i] > u[i - 1]; }, "underrun", "#ff7f0e");
+  }
+  if (marks.spans.size() > 400) marks.spans.resize(400);  // gnuplot's objects: enough to see a pattern
+
+  // ---- the kind, from the columns ----
+  if (any_reference && c.has("x_ref_m")) {
+    out.kind = "host run recording";
+  } else if (any_true && c.has("drives_enabled") && !any_reference) {
+    out.kind = "virtual-board truth";
+  } else if (c.has("net1_deg") || c.has("ref_x_m")) {
+    out.kind = "co-simulation samples";
+  } else if (any_encoder && measured) {
+    out.kind = "recording (simulate, merge)";
+  } else if (any_encoder) {
+    out.kind = "telemetry recording (host record)";
+  } else {
+    out.kind = "recording";
+  }
+  std::string name = csv_path;
+  if (const auto slash = name.rfind('/'); slash != std::string::npos) name = name.substr(slash + 1);
+  const double span_s = n > 0 ? t.back() - t.front() : 0.0;
+  spec.title = name + ": " + out.kind + ", " + std::to_string(n) + " rows, " +
+               format_number(std::round(span_s * 1e3) / 1e3) + " s";
+  spec.panel_height_px = 300;
+  for (const PlotPanel& panel : spec.panels) out.panels.push_back(panel.title);
+  for (const PlotPanel& panel : spec.panels) {
+    marks.styles.emplace_back();
+    for (const PlotSeries& series : panel.series) marks.styles.back().push_back(style_of[series.label]);
+  }
+  write_plot(png_path, spec, marks);
+  return out;
+}
+
+}  // namespace delta

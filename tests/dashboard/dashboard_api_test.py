@@ -1,0 +1,158 @@
+#!/usr/bin/env python3
+"""The dashboard's API against a model virtual board (kept to real time): status, refused requests
+(no token, a wrong token, a foreign Origin or Host) that change nothing, home, a run streamed with
+>= 20 telemetry events per second of board time, hold and resume as `host ctl`'s, the run
+completed; an e-stop during a run: the truth shows the drives off within 100 ms of board time; the
+recordings listed, plotted (PNG) and downloaded; the history sent again to a new client.
+Usage: dashboard_api_test.py DELTACTL WEIGHTS"""
+import os
+import stat
+import sys
+import time
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from dashboard_bench import Bench, EventReader, Failure, check  # noqa: E402
+
+
+def main():
+    deltactl, weights = sys.argv[1], sys.argv[2]
+    bench = Bench(deltactl, weights, "api")
+    try:
+        run_checks(bench)
+    except Failure:
+        print("serve's log:\n" + bench.serve_log())
+        return 1
+    finally:
+        bench.close()
+    bench.remove()
+    return 0
+
+
+def run_checks(bench):
+    mode = stat.S_IMODE(os.stat(bench.token_file).st_mode)
+    check(mode == 0o600, "the token file was created with mode 0600 (is %o)" % mode)
+    status = bench.status()
+    for key in ("state", "homed", "drives_enabled", "fault", "run"):
+        check(key in status, "GET /api/status has '%s'" % key)
+    check(status["state"] == "idle" and status["homed"] is False and status["fault"] is None,
+          "a fresh board: idle, not homed, no fault (%s)" % status["state"])
+
+    # ---- refused: nothing changes ----
+    code, body = bench.post("home", token=False)
+    check(code == 401, "POST /api/home without a token: 401 (%d)" % code)
+    code, body = bench.post("home", token="0" * 48)
+    check(code == 401, "POST /api/home with a wrong token: 401 (%d)" % code)
+    code, body = bench.post("home", headers={"Origin": "http://evil.example"})
+    check(code == 403, "POST /api/home with the token and a foreign Origin: 403 (%d)" % code)
+    code, body = bench.post("home", headers={"Host": "evil.example:%d" % bench.port,
+                                             "Origin": "http://evil.example:%d" % bench.port})
+    check(code == 403, "POST /api/home through another Host name (DNS rebinding): 403 (%d)" % code)
+    code, body = bench.request("GET", "/api/status", token=False, headers={"Host": "evil.example"})
+    check(code == 403, "GET /api/status through another Host name: 403 (%d)" % code)
+    time.sleep(0.3)
+    check(bench.status()["homed"] is False, "after the refused requests the board is still not homed")
+
+    code, body = bench.post("home")
+    check(code == 200 and body.get("ok"), "POST /api/home with the token: 200 (%d %s)" % (code, body))
+    bench.wait_for(lambda s: s["state"] == "homed" and s["homed"], 5, "homed")
+
+    records_before = set(os.listdir(bench.records)) if os.path.isdir(bench.records) else set()
+    code, body = bench.post("run", {"trajectory": "experiment1", "duration": 5},
+                            headers={"Origin": "http://evil.example"})
+    check(code == 403, "POST /api/run with a foreign Origin: 403 (%d)" % code)
+    code, body = bench.post("run", {"trajectory": "experiment1", "duration": 5}, token=False)
+    check(code == 401, "POST /api/run without a token: 401 (%d)" % code)
+    time.sleep(0.5)
+    status = bench.status()
+    check(status["run"] is None and not status["drives_enabled"], "no run started, drives off")
+    now = set(os.listdir(bench.records)) if os.path.isdir(bench.records) else set()
+    check(now == records_before, "no recording started")
+
+    # ---- a run with a feed hold ----
+    reader = EventReader(bench.port)
+    reader.start()
+    code, body = bench.post("run", {"trajectory": "experiment1", "duration": 8})
+    check(code == 200 and body.get("ok"), "POST /api/run: 200 (%d %s)" % (code, body))
+    bench.wait_for(lambda s: s["run"] and s["run"]["feed"] == "streaming" and s["run"]["played"] > 1500, 20,
+                   "the run streaming for 1.5 s")
+    first = len(reader.data_events())
+    time.sleep(2.0)
+    window = reader.data_events()[first:]
+    times = [s[0] for e in window for s in e[2]["samples"]]
+    check(len(window) > 10 and times, "telemetry events arrive during the run (%d)" % len(window))
+    board_s = max(times) - min(times)
+    rate = len(window) / max(board_s, 1e-3)
+    check(rate >= 20.0, "telemetry: %.1f data events per second of board time during the run (>= 20)" % rate)
+    check(all(e[2]["status"]["state"] == "running" for e in window[-5:]), "the events' status says running")
+
+    code, body = bench.post("hold")
+    check(code == 200, "POST /api/hold: 200 (%d %s)" % (code, body))
+    held = bench.wait_for(lambda s: s["run"] and s["run"]["feed"] == "held", 10, "held")
+    check(held["state"] == "holding", "status while held: holding (%s)" % held["state"])
+    played = held["run"]["played"]
+    time.sleep(1.0)
+    still = bench.status()
+    check(still["run"]["played"] == played, "nothing played while held (%d, %d)" % (played, still["run"]["played"]))
+    recent = [s for e in reader.data_events()[-10:] for s in e[2]["samples"]]
+    plate = {tuple(s[10:13]) for s in recent}
+    check(len(plate) == 1, "the plate reference at rest while held (%d distinct)" % len(plate))
+    code, body = bench.post("resume")
+    check(code == 200, "POST /api/resume: 200 (%d %s)" % (code, body))
+    bench.wait_for(lambda s: s["run"] and s["run"]["feed"] == "streaming", 10, "streaming again")
+    done = bench.wait_for(lambda s: s["run"] is None and s.get("last_run"), 30, "the run's end")
+    check(done["last_run"].get("outcome") == "completed" and done["last_run"].get("exit") == 0,
+          "the run completed after the hold and resume (%s)" % done["last_run"].get("outcome"))
+    check(not done["drives_enabled"], "drives off after the run")
+    reader.stopped = True
+
+    # ---- e-stop during a run ----
+    code, body = bench.post("run", {"trajectory": "experiment1", "duration": 20})
+    check(code == 200, "POST /api/run (20 s): 200")
+    bench.wait_for(lambda s: s["run"] and s["run"]["played"] > 1000 and s["drives_enabled"], 20, "the run going")
+    code, body = bench.post("estop", token=False)
+    check(code == 401, "POST /api/estop without a token: 401, the run goes on (%d)" % code)
+    check(bench.status()["drives_enabled"], "drives still on after the refused e-stop")
+    asked = bench.status()["board_time_s"]  # the newest telemetry's board time: before the e-stop
+    code, body = bench.post("estop")
+    check(code == 200 and body.get("ok"), "POST /api/estop: 200 (%d %s)" % (code, body))
+    stopped = bench.wait_for(lambda s: s["run"] is None and s.get("last_run"), 10, "the run's end after the e-stop")
+    check(stopped["last_run"].get("exit") == 3 and "e-stop" in stopped["last_run"].get("error", ""),
+          "the run ended by the e-stop (exit 3: %s)" % stopped["last_run"].get("error"))
+    check(not stopped["drives_enabled"], "status: drives off")
+    time.sleep(1.5)  # the truth is flushed every second
+    rows = bench.truth_rows()
+    on = [r for r in rows if r["t_s"] <= asked]
+    check(on and on[-1]["drives_enabled"] == 1, "truth: drives on at board time %.3f s before the e-stop" % asked)
+    off = [r["t_s"] for r in rows if r["t_s"] > asked and r["drives_enabled"] == 0]
+    check(off, "truth: drives off after the e-stop")
+    delay_ms = (off[0] - asked) * 1e3
+    check(delay_ms <= 100.0, "truth: drives off %.1f ms of board time after the newest telemetry before the "
+          "e-stop (<= 100)" % delay_ms)
+    code, body = bench.post("estop")
+    check(code == 200 and body.get("ok"), "POST /api/estop with no run: 200 (the drives off first in the queue)")
+
+    # ---- recordings ----
+    code, listing = bench.request("GET", "/api/recordings", token=False)
+    check(code == 200 and len(listing) >= 2, "GET /api/recordings lists the two runs (%d)" % len(listing))
+    code, png = bench.request("GET", listing[0]["plot"], token=False)
+    check(code == 200 and png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 20000,
+          "a recording's plot is a PNG (%d bytes)" % len(png))
+    code, csv = bench.request("GET", listing[0]["csv"], token=False)
+    check(code == 200 and b"t_s,x_ref_m" in csv, "a recording downloads as CSV (%d bytes)" % len(csv))
+    code, body = bench.request("GET", "/api/recordings/..%2Fhttp-token.csv", token=False)
+    check(code == 404, "a recording name outside the folder: 404 (%d)" % code)
+
+    # ---- the history for a new client (a reload) ----
+    again = EventReader(bench.port)
+    again.start()
+    time.sleep(1.0)
+    again.stopped = True
+    history = [e for e in again.events if e[1] == "history"]
+    check(history, "a new telemetry client gets the history first")
+    samples = history[0][2]["samples"]
+    span = samples[-1][0] - samples[0][0] if samples else 0
+    check(span >= 15.0, "the history covers the runs (%.1f s of board time)" % span)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
