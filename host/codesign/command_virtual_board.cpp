@@ -9,18 +9,22 @@
 #include <algorithm>
 #include <cerrno>
 #include <chrono>
+#include <cmath>
 #include <csignal>
 #include <fstream>
 #include <iostream>
 #include <memory>
+#include <random>
 #include <system_error>
 #include <thread>
+#include <tuple>
 
 #include <CLI/CLI.hpp>
 
 #include "delta/command.hpp"
 #include "delta/controller/realtime.hpp"
 #include "delta/cosim/board_inputs.hpp"
+#include "delta/cosim/measuring_stage.hpp"
 #include "delta/cosim/virtual_board.hpp"
 #include "delta/gateware.hpp"
 #include "delta/golden/export.hpp"
@@ -47,7 +51,32 @@ struct VirtualBoardCommandOptions {
   std::string fidelity = "rtl";
   double inject_encoder_skip_at_s = -1.0;
   bool free_run = false;
+  std::string stage;  // --stage drag:NAME|drag:FILE.csv|follow
+  std::string stage_log;
+  std::string stage_clock = "0,0";
+  double stage_rate_hz = 1000.0;
+  double stage_noise_m = 20e-9;
+  std::int64_t stage_seed = -1;
 };
+
+// --stage-clock OFFSET_S,PPM.
+std::pair<double, double> parse_stage_clock(const std::string& text) {
+  const auto comma = text.find(',');
+  try {
+    if (comma == std::string::npos) throw std::invalid_argument(text);
+    std::size_t used = 0;
+    const double offset = std::stod(text.substr(0, comma), &used);
+    if (used != comma) throw std::invalid_argument(text);
+    const std::string ppm_text = text.substr(comma + 1);
+    const double ppm = std::stod(ppm_text, &used);
+    if (used != ppm_text.size() || !std::isfinite(offset) || !std::isfinite(ppm) || std::abs(ppm) > 1e5) {
+      throw std::invalid_argument(text);
+    }
+    return {offset, ppm};
+  } catch (const std::logic_error&) {
+    throw InputError("--stage-clock", 0, "'" + text + "': give OFFSET_S,PPM, e.g. 12.5,-80");
+  }
+}
 
 // Writes what fits into the pty without waiting: with no program reading PATH the board's bytes
 // are dropped, as an FTDI chip drops them with no host attached. Once the pty was full, a poll
@@ -90,7 +119,31 @@ void run_virtual_board(const VirtualBoardCommandOptions& options) {
   board_options.mem_dir = mem.path();
   board_options.effects = effects;
   board_options.inject_encoder_skip_at_s = options.inject_encoder_skip_at_s;
+  std::unique_ptr<MeasuringStage> stage;
+  if (!options.stage.empty() || !options.stage_log.empty()) {
+    if (options.stage.empty() || options.stage_log.empty()) {
+      throw InputError("--stage", 0, "--stage and --stage-log go together");
+    }
+    StageOptions stage_options;
+    stage_options.mode = options.stage;
+    stage_options.log_path = options.stage_log;
+    std::tie(stage_options.clock_offset_s, stage_options.clock_ppm) = parse_stage_clock(options.stage_clock);
+    stage_options.rate_hz = options.stage_rate_hz;
+    stage_options.noise_m = options.stage_noise_m;
+    stage_options.seed = options.stage_seed >= 0 ? static_cast<std::uint64_t>(options.stage_seed)
+                                                 : static_cast<std::uint64_t>(std::random_device{}()) & 0xffffffffu;
+    stage = std::make_unique<MeasuringStage>(stage_options, effects, Geometry::nominal());
+    if (stage->drags()) board_options.drag = [s = stage.get()](double t) { return s->drag(t); };
+    std::cout << "virtual-board: stage " << options.stage << ", log " << options.stage_log << " on its clock "
+              << options.stage_clock << " (offset s, ppm) at " << format_number(options.stage_rate_hz) << " Hz, noise "
+              << format_number(options.stage_noise_m) << " m RMS, seed " << stage_options.seed << std::endl;
+  }
   VirtualBoard board(board_options);
+  if (stage) {
+    board.observe_periods([s = stage.get(), &board](std::uint64_t clocks, const BoardPins&, const RobotWorld& world) {
+      s->sample(static_cast<double>(clocks) / kBoardClockHz, 1.0 / board::kControlRateHz, world);
+    });
+  }
 
   std::ofstream truth;
   if (!options.truth.empty()) {
@@ -159,6 +212,7 @@ void run_virtual_board(const VirtualBoardCommandOptions& options) {
       const ssize_t got = ::read(fd, buffer, kReceiveQueueBytes - queued);
       if (got > 0) {
         board.write(buffer, static_cast<std::size_t>(got));
+        if (stage) stage->host_bytes(buffer, static_cast<std::size_t>(got), board.time_s());
         bytes_in += static_cast<std::uint64_t>(got);
       }
     }
@@ -182,14 +236,25 @@ void run_virtual_board(const VirtualBoardCommandOptions& options) {
         largest_lag = std::max(largest_lag, now - due);
       }
     }
-    if (truth.is_open() && now - last_flush >= std::chrono::milliseconds(500)) {
-      truth.flush();
+    if (now - last_flush >= std::chrono::milliseconds(500)) {
+      if (truth.is_open()) truth.flush();
+      if (stage) stage->flush();
       last_flush = now;
     }
   }
   if (truth.is_open()) {
     truth.close();
     if (!truth) std::cerr << "deltactl: error: " << options.truth << ": write failed\n";
+  }
+  if (stage) {
+    if (!stage->finish()) std::cerr << "deltactl: error: " << options.stage_log << ": write failed\n";
+    std::cerr << "virtual-board: stage: " << stage->samples() << " samples logged"
+              << (stage->drags()
+                      ? (stage->drag_start_s() < 0 ? "; no valid frame came, the plate never moved"
+                                                   : "; drag from board time " + fixed(stage->drag_start_s(), 4) +
+                                                         " s, " + fixed(stage->path_duration_s(), 1) + " s long")
+                      : "")
+              << '\n';
   }
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   std::cerr << "virtual-board: stopped after " << fixed(board.time_s(), 3) << " s of board time in " << fixed(wall, 1)
@@ -234,6 +299,14 @@ const RegisterCommand command("virtual-board", 72, [](CLI::App& root) {
       "(sim/paper_like_effects.json); --effects '' is the nominal robot.\n"
       "--inject-encoder-skip-at S: at board time S joint 1's A and B lines both invert (a skipped\n"
       "quadrature state: the board latches fault cause 0, encoder skip), for the host's fault tests.\n"
+      "--stage: a measuring stage beside the robot (SPEC.md, \"The lab's measurements\"). drag:NAME or\n"
+      "drag:FILE.csv (t_s,x_m,y_m,z_m): with the drives off the stage moves the plate, the arms following\n"
+      "through the true geometry and every effect; from one second of board time after the board's\n"
+      "first valid frame (a quintic move to the start during that second) along the trajectory, then\n"
+      "holds it at the end. follow: it only measures. --stage-log gets the stage controller's own log,\n"
+      "t_s,x_m,y_m,z_m, on its clock (t_stage = OFFSET + (1 + PPM 1e-6) t_board) at --stage-rate, the\n"
+      "plate through the frame misalignment with --stage-noise, quantised to 6.87 nm; the seed is printed.\n"
+      "Merge it with a host recording: deltactl merge (docs/lab_loop.md).\n"
       "Example: deltactl virtual-board --link /tmp/delta-tty --truth truth.csv &\n"
       "         deltactl host status --port /tmp/delta-tty");
   sub->add_option("--link", options->link, "path at which to link the pseudo-terminal (a serial port to open)")
@@ -250,6 +323,20 @@ const RegisterCommand command("virtual-board", 72, [](CLI::App& root) {
   sub->add_option("--inject-encoder-skip-at", options->inject_encoder_skip_at_s,
                   "fault injection: from this board time [s] joint 1's encoder skips a quadrature state")
       ->check(options::real_number(0, 1e6));
+  sub->add_option("--stage", options->stage,
+                  "measuring stage: drag:NAME|drag:FILE.csv (drags the plate, drives off) or follow")
+      ->type_name("MODE");
+  sub->add_option("--stage-log", options->stage_log, "STAGE.csv: the stage's own log (t_s,x_m,y_m,z_m)");
+  sub->add_option("--stage-clock", options->stage_clock, "OFFSET_S,PPM: t_stage = OFFSET + (1 + PPM 1e-6) t_board")
+      ->capture_default_str();
+  sub->add_option("--stage-rate", options->stage_rate_hz, "stage samples per second of its clock")
+      ->check(options::real_number(1, 100000))
+      ->capture_default_str();
+  sub->add_option("--stage-noise", options->stage_noise_m, "stage noise, RMS per axis [m]")
+      ->check(options::real_number(0, 1e-3))
+      ->capture_default_str();
+  sub->add_option("--stage-seed", options->stage_seed, "seed of the stage's noise (default: drawn, printed)")
+      ->check(options::whole_number(0, 4294967295LL));
   sub->callback([options] { run_virtual_board(*options); });
 });
 

@@ -60,6 +60,7 @@ VirtualBoard::VirtualBoard(const VirtualBoardOptions& options) : core_(std::make
     encoder_skip_clock_ = static_cast<std::uint64_t>(options.inject_encoder_skip_at_s * kBoardClockHz);
   }
   world_ = std::make_unique<RobotWorld>(board_interface, options.effects, options.nominal, options.plant);
+  world_->set_drag(options.drag);
   if (core_->board) return;  // the model starts in its reset state
 
   Vboard_core& core = *core_->model;

@@ -73,7 +73,8 @@ RobotWorld::RobotWorld(const BoardInterface& board, const EffectSet& effects, co
       effects_(effects),
       stage_frame_(effects),
       true_geometry_(apply_geometry_effects(nominal, effects)),
-      sensors_(effects) {
+      sensors_(effects),
+      plant_parameters_(plant) {
   if (!(board.board_clock_hz > 0.0) || board.pwm_period_cycles <= 0 || board.plant_divider <= 0 ||
       board.plant_lead < 0 || board.plant_lead >= board.plant_divider) {
     throw std::invalid_argument(
@@ -156,6 +157,17 @@ void RobotWorld::step(const DrivePins& pins) {
       drive_sum_[j] = 0;
       plants_[j]->advance(current_a_[j], plant_step_s_);
       true_alpha_deg_[j] = plants_[j]->shaft_angle_deg();
+    }
+    if (drag_) {
+      if (const std::optional<Vec3> plate = drag_(time_s())) {
+        const IkSolution arms = inverse_kinematics(true_geometry_, *plate);
+        if (!arms.ok()) {
+          throw std::runtime_error("the stage drags the plate out of reach at t = " + std::to_string(time_s()) +
+                                   " s: " + arms.reason());
+        }
+        for (int j = 0; j < 3; ++j) *plants_[j] = JointPlant(plant_parameters_, arms.alpha_deg[j]);
+        true_alpha_deg_ = arms.alpha_deg;
+      }
     }
     reading_deg_ = sensors_.update(true_alpha_deg_);
     for (int j = 0; j < 3; ++j) {

@@ -13,7 +13,10 @@ const std::vector<std::pair<std::string, std::string>>& trajectory_catalogue() {
       {"validation", "paper's trajectory (1): x,y sinusoids of 5 mm, z down 10 mm; 13333 samples at 10 Hz"},
       {"experiment1", "paper's experiment 1: ellipse 4.5 x 3 mm, z +-2 mm about -75 mm, 0.2 Hz; 5000 at 100 Hz"},
       {"experiment2", "paper's experiment 2: figure-eight 3 x 3 mm at z = -75 mm, 0.2 Hz; 5000 at 100 Hz"},
-      {"sweep", "Lissajous sweep of the 10 mm cube, frequencies and phases drawn from --seed; 6000 at 10 Hz"}};
+      {"sweep", "Lissajous sweep of the 10 mm cube, frequencies and phases drawn from --seed; 6000 at 10 Hz"},
+      {"calibration",
+       "slow Lissajous over +-12 mm in x, y and 16 mm of z (the wide angles that separate arm "
+       "lengths, radius and encoder scale); 9000 at 10 Hz"}};
   return catalogue;
 }
 
@@ -60,9 +63,20 @@ Trajectory make_trajectory(const std::string& name, std::uint64_t seed) {
       return Vec3(0.005 * std::sin(two_pi * f.x() * t + p.x()), 0.005 * std::sin(two_pi * f.y() * t + p.y()),
                   -0.07584 + 0.005 * std::sin(two_pi * f.z() * t + p.z()));
     };
+  } else if (name == "calibration") {
+    // Wider than the paper's 10 mm cube: the joint angles span about twice the range, so the
+    // length, radius and encoder-scale families bend the angles differently enough to be told
+    // apart; slow enough (1.3 mm/s at most) for a stage to drag the plate with the drives off.
+    trajectory.rate_hz = 10.0;
+    trajectory.samples = 9000;
+    trajectory.position_m = [two_pi](double t) {
+      const double start = quintic_blend(t / 20.0);  // from the middle, without a jump
+      return Vec3(start * 0.012 * std::sin(two_pi * 0.0113 * t), start * 0.012 * std::sin(two_pi * 0.0171 * t),
+                  -0.080 + start * 0.008 * std::sin(two_pi * 0.0071 * t));
+    };
   } else {
     throw std::invalid_argument("unknown trajectory '" + name +
-                                "' (choose validation, experiment1, experiment2 or sweep)");
+                                "' (choose validation, experiment1, experiment2, sweep or calibration)");
   }
   return trajectory;
 }

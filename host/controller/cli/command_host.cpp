@@ -1,9 +1,9 @@
 // deltactl host: the host controller on the lab PC (SPEC.md, "The board and the lab PC"): `status`
 // identifies the board and prints its state, `home` sets the encoders' home with the arms on their
-// fixture, `run` checks a trajectory whole, enables, streams it paced by telemetry, stops and
-// disables, recording every telemetry frame (delta/controller/run_job.hpp); `serve` is the
-// long-running controller with its control socket and `ctl` its client (serve.hpp); `latency`
-// measures the 1 kHz loop's wake latency. Read delta/controller/host_run.hpp first.
+// fixture, `record` records the telemetry with the drives off (the calibration drag), `run` checks a trajectory whole,
+// enables, streams it paced by telemetry, stops and disables, recording every telemetry frame
+// (delta/controller/run_job.hpp); `serve` is the long-running controller with its control socket and `ctl` its client
+// (serve.hpp); `latency` measures the 1 kHz loop's wake latency. Read delta/controller/host_run.hpp first.
 #include <poll.h>
 #include <sys/socket.h>
 #include <sys/un.h>
@@ -202,6 +202,32 @@ void run_run(const RunOptions& options) {
         });
   });
   std::cout << escape_invalid_utf8(outcome.summary);
+  if (!outcome.error.empty()) fail(outcome.code, outcome.error);
+  if (outcome.code != kExitOk) throw CommandExit{outcome.code};
+}
+
+// ---------------------------------------------------------------------------------------------
+struct RecordOptions {
+  std::string port;
+  std::string out;
+  double duration_s = 0.0;
+  int link_timeout_ms = 100;
+};
+
+void run_record(const RecordOptions& options) {
+  RecordRequest request;
+  request.record = options.out;
+  request.duration_s = options.duration_s;
+  RecordJob job(request);  // the recording's path refused before the port is opened
+  auto port = open_port(options.port);
+  link::LinkSession session(*port, session_options(options.link_timeout_ms));
+  const Connected c = connect(session);
+  install_stop_handlers();
+  const RunOutcome outcome = or_exit([&] {
+    return job.execute(session, port->name(), c.telemetry, stop_signal,
+                       [](const std::string& line) { std::cerr << "host: " << line << '\n'; });
+  });
+  std::cout << outcome.summary;
   if (!outcome.error.empty()) fail(outcome.code, outcome.error);
   if (outcome.code != kExitOk) throw CommandExit{outcome.code};
 }
@@ -503,6 +529,25 @@ const RegisterCommand command("host", 75, [](CLI::App& root) {
       ->check(options::real_number(0, 45, true))
       ->capture_default_str();
   r->callback([run] { run_run(*run); });
+
+  auto record = std::make_shared<RecordOptions>();
+  CLI::App* rec =
+      host->add_subcommand("record", "Record the board's telemetry with the drives off (a calibration drag)");
+  rec->footer(
+      "\nThe lab's calibration run: the drives stay off (nothing but identify is sent) while the measuring\n"
+      "stage drags the plate; every telemetry frame becomes one row of RUN.csv (t_s board time,\n"
+      "alpha*_deg encoders, alpha*_ref_deg, currents, fault_bits, flags, drives_enabled, counters) for\n"
+      "--duration seconds of board time (default: until SIGINT or SIGTERM). Then merge it with the\n"
+      "stage's own log: deltactl merge --run RUN.csv --stage STAGE.csv --out DATA.csv (docs/lab_loop.md).\n"
+      "Exit codes as 'host run' (3 also when the drives are on, or go on during the recording).");
+  rec->add_option("--port", record->port, "serial port")->required();
+  rec->add_option("--out", record->out, "RUN.csv: one row per telemetry frame")->required();
+  rec->add_option("--duration", record->duration_s, "seconds of board time (default: until a signal)")
+      ->check(options::real_number(0, 1e6, true));
+  rec->add_option("--link-timeout-ms", record->link_timeout_ms, "wall time without telemetry: link lost")
+      ->check(options::whole_number(10, 60000))
+      ->capture_default_str();
+  rec->callback([record] { run_record(*record); });
 
   auto serve = std::make_shared<ServeCliOptions>();
   CLI::App* sv = host->add_subcommand("serve", "The long-running controller: owns the port, answers a control socket");

@@ -201,7 +201,7 @@ class RecordingFile {
 };
 
 // The recording's rows, off the streaming thread.
-struct RunJob::Recorder {
+struct TelemetryRecorder {
   RecordingFile file;
   TrackingStatistics tracking;
   std::uint64_t rows = 0;
@@ -209,22 +209,32 @@ struct RunJob::Recorder {
   std::uint16_t underruns_at_end = 0;
   std::optional<TelemetryRecord> last;
 
-  Recorder(const std::string& path, RecordMode mode) : file(path, mode) {}
+  // streaming: a run's rows (the positions sent and the stream's columns); else `host record`'s.
+  TelemetryRecorder(const std::string& path, RecordMode mode, bool streaming) : file(path, mode), streaming(streaming) {}
+  const bool streaming;
   void open() {
-    file.open(
-        "# deltactl host run: one row per board telemetry frame (1 kHz of board time), up to the final\n"
-        "# hold and disable\n"
-        "# t_s: board time; *_ref_m: the position sent for the sample whose answer is the joint\n"
-        "# reference at t_s; alpha*_ref_deg: the board's joint references; alpha*_deg: encoders\n"
-        "t_s,x_ref_m,y_ref_m,z_ref_m,alpha1_ref_deg,alpha2_ref_deg,alpha3_ref_deg,alpha1_deg,alpha2_deg,"
-        "alpha3_deg,current1_a,current2_a,current3_a,fault_bits,flags,drives_enabled,sample_index,fill,"
-        "tau_s,stream_sample,bad_frames,underruns,rejected,slew_limits\n");
+    std::string header =
+        streaming ? "# deltactl host run: one row per board telemetry frame (1 kHz of board time), up to the final\n"
+                    "# hold and disable\n"
+                    "# t_s: board time; *_ref_m: the position sent for the sample whose answer is the joint\n"
+                    "# reference at t_s; alpha*_ref_deg: the board's joint references; alpha*_deg: encoders\n"
+                    "t_s,x_ref_m,y_ref_m,z_ref_m,"
+                  : "# deltactl host record: one row per board telemetry frame (1 kHz of board time), drives off\n"
+                    "# t_s: board time; alpha*_deg: encoders; alpha*_ref_deg: the board's joint references\n"
+                    "t_s,";
+    header += "alpha1_ref_deg,alpha2_ref_deg,alpha3_ref_deg,alpha1_deg,alpha2_deg,alpha3_deg,current1_a,current2_a,"
+              "current3_a,fault_bits,flags,drives_enabled,sample_index,fill,";
+    if (streaming) header += "tau_s,stream_sample,";
+    header += "bad_frames,underruns,rejected,slew_limits\n";
+    file.open(header);
   }
   void write(const TelemetryRecord& r) {
     const link::TelemetryPayload& t = r.telemetry;
     std::string& out = file.buffer();
     out += format_number(t.tick / 1e4);
-    for (int k = 0; k < 3; ++k) out += ',' + format_number(r.reference_m[k]);
+    if (streaming) {
+      for (int k = 0; k < 3; ++k) out += ',' + format_number(r.reference_m[k]);
+    }
     for (int k = 0; k < 3; ++k) out += ',' + format_number(t.references[k] / 256.0 * kCountDeg);
     for (int k = 0; k < 3; ++k) out += ',' + format_number(t.counts[k] * kCountDeg);
     for (int k = 0; k < 3; ++k) out += ',' + format_number(t.currents[k] * kCurrentCodeA);
@@ -233,7 +243,7 @@ struct RunJob::Recorder {
                                   static_cast<long long>(t.sample_index), static_cast<long long>(t.fill)}) {
       out += ',' + std::to_string(value);
     }
-    out += ',' + format_number(r.tau_s) + ',' + std::to_string(r.stream_sample);
+    if (streaming) out += ',' + format_number(r.tau_s) + ',' + std::to_string(r.stream_sample);
     for (const long long value : {static_cast<long long>(t.bad_frames), static_cast<long long>(t.underruns),
                                   static_cast<long long>(t.rejected), static_cast<long long>(t.slew_limits)}) {
       out += ',' + std::to_string(value);
@@ -297,7 +307,7 @@ RunJob::RunJob(const BoardWeights& weights, const RunRequest& request)
     throw HostFailure(kExitBadInput, *violation + "; nothing sent");
   }
   // Refuses a bad path before the port (kNew*: the name is reserved now).
-  recorder_ = std::make_unique<Recorder>(request_.record, request_.record_mode);
+  recorder_ = std::make_unique<TelemetryRecorder>(request_.record, request_.record_mode, true);
 }
 
 RunJob::~RunJob() = default;
@@ -579,6 +589,78 @@ RunOutcome RunJob::execute(link::LinkSession& session, const std::string& port_n
     out.summary += "warning: " + std::to_string(queue.dropped()) + " telemetry records not recorded\n";
   out.played = result.played;
   out.planned = result.planned;
+  return out;
+}
+
+RecordJob::RecordJob(const RecordRequest& request)
+    : request_(request), recorder_(std::make_unique<TelemetryRecorder>(request.record, RecordMode::kReplace, false)) {}
+
+RecordJob::~RecordJob() = default;
+
+RunOutcome RecordJob::execute(link::LinkSession& session, const std::string& port_name,
+                              const link::TelemetryPayload& t0, const volatile std::sig_atomic_t& stop_signal,
+                              const std::function<void(const std::string&)>& log) {
+  log(std::string(state_name(HostState::kDisconnected)) + " -> " + state_name(state_of(t0)) + " (" +
+      link::describe_state(t0) + ")");
+  if (t0.has(link::TelemetryFlag::kDriveEnable)) {
+    throw HostFailure(kExitFault, port_name + ": the drives are on (another controller?); record only with them off");
+  }
+  RunOutcome out;
+  out.outcome = "completed";
+  const auto wall_start = std::chrono::steady_clock::now();
+  auto next_progress = wall_start + std::chrono::seconds(5);
+  const std::int64_t end_tick =
+      request_.duration_s > 0.0 ? static_cast<std::int64_t>(t0.tick) + std::llround(request_.duration_s * 1e4) : -1;
+  link::TelemetryPayload t = t0, first = t0;
+  std::uint64_t frames = 1;
+  recorder_->open();
+  TelemetryRecord r0;
+  r0.telemetry = t0;
+  recorder_->write(r0);
+  try {
+    for (;;) {
+      if (stop_signal != 0) {
+        out.outcome = "stopped";
+        out.code = 128 + static_cast<int>(stop_signal);
+        log("stopped by signal " + std::to_string(stop_signal) + " (the drives were off throughout)");
+        break;
+      }
+      t = session.next_telemetry();
+      if (end_tick >= 0 && static_cast<std::int64_t>(t.tick) > end_tick) break;
+      TelemetryRecord r;
+      r.telemetry = t;
+      recorder_->write(r);
+      if (++frames % 64 == 0) recorder_->file.flush();
+      if (t.has(link::TelemetryFlag::kDriveEnable)) {  // not this host's doing: stop recording, say so
+        out.outcome = "fault";
+        out.code = kExitFault;
+        out.error = port_name + ": the drives went on during the recording (another controller?)";
+        break;
+      }
+      if (std::chrono::steady_clock::now() >= next_progress) {
+        log(fixed((t.tick - first.tick) / 1e4, 1) + " s of board time recorded");
+        next_progress += std::chrono::seconds(5);
+      }
+    }
+  } catch (const link::LinkError& error) {
+    out.outcome = "link lost";
+    out.code = kExitLinkLost;
+    out.error = port_name + ": link lost: " + error.what();
+  }
+  const std::string incomplete = recorder_->file.close();
+  if (!incomplete.empty() && out.code == kExitOk) {
+    out.code = kExitBadInput;
+    out.error = request_.record + ": " + incomplete;
+  }
+  const link::LinkStatistics& link = session.statistics();
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  std::ostringstream summary;
+  summary << "record: " << frames << " telemetry frames over " << fixed((t.tick - first.tick) / 1e4, 3)
+          << " s of board time (" << fixed(wall, 1) << " s wall), drives off; lost on the line " << link.lost_telemetry
+          << ", skipped " << link.skipped_telemetry << "\nrecording: " << request_.record << " (" << recorder_->rows
+          << " rows)\n";
+  out.summary = summary.str();
+  out.played = frames;
   return out;
 }
 

@@ -18,6 +18,16 @@
 namespace delta::diagnosis {
 namespace {
 
+// Every k-th row, k the smallest that leaves at most `rows` (the first row kept).
+std::vector<Sample> thin_to(std::vector<Sample> samples, std::size_t rows) {
+  if (rows == 0 || samples.size() <= rows) return samples;
+  const std::size_t stride = (samples.size() + rows - 1) / rows;
+  std::vector<Sample> kept;
+  kept.reserve(rows);
+  for (std::size_t i = 0; i < samples.size(); i += stride) kept.push_back(samples[i]);
+  return kept;
+}
+
 // The nominal model scored on the kept CHECK rows, as a candidate the selection starts from.
 Candidate nominal_candidate(const std::vector<Sample>& check) {
   Candidate nominal;
@@ -253,8 +263,10 @@ Diagnosis diagnose(const std::vector<Sample>& fit, const std::vector<Sample>& ch
   diagnosis.outliers.insert(diagnosis.outliers.end(), check_outliers.begin(), check_outliers.end());
   PipelineData data;
   data.options = options;
-  data.fit = without_outliers(fit, fit_outliers);
-  data.check = without_outliers(check, check_outliers);
+  data.fit = thin_to(without_outliers(fit, fit_outliers), options.max_fit_rows);
+  data.check = thin_to(without_outliers(check, check_outliers), options.max_check_rows);
+  diagnosis.fit_rows_used = data.fit.size();
+  diagnosis.check_rows_used = data.check.size();
   data.thinned_fit = thin_out(data.fit, options.screening_stride);
   data.threshold_deg2 = options.significance * options.noise_floor_deg * options.noise_floor_deg;
   diagnosis.significance_threshold_deg2 = data.threshold_deg2;

@@ -17,17 +17,37 @@ struct MeanAndError {
   double mean = 0.0;
   double standard_error = 0.0;
   std::size_t blocks = 0;
+  double autocorrelation_rows = 1.0;  // integrated autocorrelation time, rows
 };
 
 // Mean of a series and its standard error by batch means: neighbouring rows are correlated
 // (a slowly moving quantised angle repeats its error), blocks of `batch_rows` rows much less so.
+// The blocks are at least batch_rows long and at least 5 integrated autocorrelation times of the
+// series (1 + 2 sum of its autocorrelations up to the first below 0.05): a 1 kHz recording of a slow
+// motion repeats its quantisation error over many rows, and blocks shorter than that would take
+// correlated rows for independent ones (too small a standard error).
 MeanAndError batch_mean(const std::vector<double>& series, std::size_t batch_rows) {
   MeanAndError result;
   if (series.empty()) return result;
   double total = 0.0;
   for (double value : series) total += value;
   result.mean = total / series.size();
-  const std::size_t size = std::max<std::size_t>(batch_rows, 1);
+  double variance = 0.0;
+  for (double value : series) variance += (value - result.mean) * (value - result.mean);
+  double tau = 1.0;
+  if (variance > 0.0) {
+    const std::size_t max_lag = std::min<std::size_t>(series.size() / 10, 2000);
+    for (std::size_t lag = 1; lag <= max_lag; ++lag) {
+      double c = 0.0;
+      for (std::size_t i = lag; i < series.size(); ++i)
+        c += (series[i] - result.mean) * (series[i - lag] - result.mean);
+      const double rho = c / variance;
+      if (rho < 0.05) break;
+      tau += 2.0 * rho;
+    }
+  }
+  result.autocorrelation_rows = tau;
+  const std::size_t size = std::max<std::size_t>({batch_rows, 1, static_cast<std::size_t>(std::ceil(5.0 * tau))});
   std::vector<double> means;
   for (std::size_t start = 0; start + size <= series.size(); start += size) {
     double sum = 0.0;
@@ -141,13 +161,23 @@ FloorTest floor_test(const std::vector<Sample>& check, const std::vector<Vec3>& 
   test.ratio = 1.0 + total.mean;
   test.z = z_of(total, 0.0);
   test.blocks = total.blocks;
+  test.effective_rows = static_cast<double>(check.size()) / total.autocorrelation_rows;
   for (int j = 0; j < 3; ++j) {
     const MeanAndError joint = batch_mean(joints[j], options.batch_rows);
     test.joint_ratio[j] = 1.0 + joint.mean;
     test.joint_z[j] = z_of(joint, 0.0);
   }
-  // Either the three joints together or one joint alone (Bonferroni over four tests, one-sided).
-  test.at_floor = test.z <= test.threshold && test.joint_z.maxCoeff() <= test.threshold + 0.5;
+  // Either the three joints together or one joint alone (Bonferroni over four tests, one-sided);
+  // and whatever the noise model says, no joint's held-out RMSE above rmse_cap floors (an extra
+  // noise estimated from FIT, e.g. a controller's dither the stage does not resolve, must not make
+  // a residual of several floors look like noise).
+  Vec3 square = Vec3::Zero();
+  for (std::size_t i = 0; i < check.size(); ++i) square += (check[i].alpha_deg - prediction[i]).cwiseAbs2();
+  test.joint_rmse_floors =
+      (square / static_cast<double>(std::max<std::size_t>(check.size(), 1))).cwiseSqrt() / options.noise_floor_deg;
+  test.rmse_cap_floors = options.rmse_cap_floors;
+  test.at_floor = test.z <= test.threshold && test.joint_z.maxCoeff() <= test.threshold + 0.5 &&
+                  test.joint_rmse_floors.maxCoeff() <= options.rmse_cap_floors;
   return test;
 }
 

@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <sstream>
 
 #include "delta/effect_file.hpp"
@@ -61,8 +62,12 @@ std::string joined_parameters(Family family, const Parameters& theta) {
     text << it.key() << " ";
     if (it.value().is_array()) {
       for (std::size_t j = 0; j < it.value().size(); ++j) {
-        text << (j ? ", " : "") << format_number(std::round(it.value()[j].get<double>() * 1e6) / 1e6);
+        text << (j ? ", " : "")
+             << (it.value()[j].is_null() ? std::string("inseparable")
+                                         : format_number(std::round(it.value()[j].get<double>() * 1e6) / 1e6));
       }
+    } else if (it.value().is_null()) {
+      text << "inseparable";
     } else {
       text << format_number(std::round(it.value().get<double>() * 1e6) / 1e6);
     }
@@ -121,14 +126,44 @@ void write_error_map(const std::string& png_path, const std::vector<Sample>& che
 }
 // Confidence half widths of a family laid out as parameters, so they print in the keys and units
 // of its parameters (the conversion to SPEC units is linear).
-Parameters confidence_theta(Family family, const Parameters& half_widths) {
+// A parameter the data cannot separate from others (a weak direction of the final model holds it)
+// has no interval of its own: NaN (null in the JSON, "inseparable" in the report).
+Parameters confidence_theta(Family family, const Parameters& half_widths, const Identifiability& identifiability) {
   Parameters theta = Parameters::Zero();
   for (int k : parameter_indices(single(family))) theta[k] = half_widths[k];
+  for (const WeakDirection& weak : identifiability.weak) {
+    for (const auto& [k, w] : weak.components) {
+      if (parameter_table()[static_cast<std::size_t>(k)].family == family)
+        theta[k] = std::numeric_limits<double>::quiet_NaN();
+    }
+  }
   return theta;
+}
+
+// The parameters of `family` in weak directions of the final model, with what they go with.
+json inseparable_json(Family family, const Identifiability& identifiability) {
+  json list = json::array();
+  for (const WeakDirection& weak : identifiability.weak) {
+    for (const auto& [k, w] : weak.components) {
+      if (parameter_table()[static_cast<std::size_t>(k)].family != family) continue;
+      json with = json::array();
+      for (const auto& [other, v] : weak.components) {
+        if (other != k) with.push_back(parameter_label(other));
+      }
+      list.push_back({{"parameter", parameter_label(k)},
+                      {"with", with},
+                      {"singular_value", weak.singular_value},
+                      {"separate_by", weak.advice}});
+    }
+  }
+  return list;
 }
 
 json floor_test_json(const FloorTest& test) {
   return {{"statistic_z", test.z},
+          {"effective_rows", test.effective_rows},
+          {"joint_rmse_floors", triple(test.joint_rmse_floors)},
+          {"rmse_cap_floors", test.rmse_cap_floors},
           {"threshold_z", test.threshold},
           {"ratio_to_noise_model", test.ratio},
           {"joint_ratio", triple(test.joint_ratio)},
@@ -187,6 +222,7 @@ json diagnosis_json(const Diagnosis& diagnosis) {
   json document;
   document["noise_floor_deg"] = diagnosis.noise_floor_deg;
   document["explained"] = diagnosis.explained;
+  document["rows_used"] = {{"fit", diagnosis.fit_rows_used}, {"check", diagnosis.check_rows_used}};
   document["explained_fraction"] = diagnosis.explained_fraction;
   json effects = json::array();
   for (const NewEffect& effect : diagnosis.new_effects) {
@@ -223,10 +259,15 @@ json diagnosis_json(const Diagnosis& diagnosis) {
                    {"holdout_rmse_deg", triple(finding.holdout_rmse_deg)},
                    {"holdout_gain_deg2", finding.holdout_gain_deg2}};
     if (finding.significant) {
-      // The final model's values and their 95 % intervals (value +- half width).
-      effect["final_parameters"] = family_parameters_json(finding.family, diagnosis.theta);
-      effect["confidence_95_half_width"] =
-          family_parameters_json(finding.family, confidence_theta(finding.family, diagnosis.confidence_95));
+      // The final model's values and their 95 % intervals (value +- half width; null: the data
+      // cannot separate the parameter from those `inseparable` names). The values when selection
+      // added the family stay in `selection_parameters`.
+      effect["parameters"] = family_parameters_json(finding.family, diagnosis.theta);
+      effect["final_parameters"] = effect["parameters"];
+      effect["selection_parameters"] = family_parameters_json(finding.family, finding.theta);
+      effect["confidence_95_half_width"] = family_parameters_json(
+          finding.family, confidence_theta(finding.family, diagnosis.confidence_95, diagnosis.final_model));
+      effect["inseparable"] = inseparable_json(finding.family, diagnosis.final_model);
     }
     effects.push_back(effect);
   }
@@ -475,9 +516,11 @@ void write_report(const std::string& markdown_path, const ReportInputs& inputs, 
     gain.precision(3);
     gain << finding.holdout_gain_deg2;
     ranking.add_row({std::to_string(r + 1), family_name(finding.family), subsystem_of(finding.family),
-                     finding.significant ? "yes" : "no", gain.str(), joined_parameters(finding.family, finding.theta),
+                     finding.significant ? "yes" : "no", gain.str(),
+                     joined_parameters(finding.family, finding.significant ? diagnosis.theta : finding.theta),
                      finding.significant
-                         ? joined_parameters(finding.family, confidence_theta(finding.family, diagnosis.confidence_95))
+                         ? joined_parameters(finding.family, confidence_theta(finding.family, diagnosis.confidence_95,
+                                                                              diagnosis.final_model))
                          : std::string("")});
   }
   ranking.print(out);

@@ -23,8 +23,22 @@ struct TrainOptions {
   TrainingOptions training;
 };
 
+// A high-rate recording (the host's 1 kHz telemetry merged with a stage, deltactl merge) is thinned
+// evenly to this many rows: neighbouring rows of a slow motion add little, and the time order the
+// play is identified in is kept.
+constexpr std::size_t kMaxTrainingRows = 20000;
+
 void run_train(const TrainOptions& options) {
-  const Recording recording = read_recording(options.data);
+  Recording recording = read_recording(options.data);
+  if (recording.samples.size() > kMaxTrainingRows) {
+    const std::size_t stride = (recording.samples.size() + kMaxTrainingRows - 1) / kMaxTrainingRows;
+    std::vector<Sample> kept;
+    for (std::size_t i = 0; i < recording.samples.size(); i += stride) kept.push_back(recording.samples[i]);
+    std::cerr << "train: " << recording.samples.size() << " rows thinned to every " << stride << "th (" << kept.size()
+              << ")\n";
+    recording.samples = std::move(kept);
+    recording.line_numbers.clear();
+  }
   OutputFile{options.out};  // an unwritable --out, or one that is the input, fails before training
   const auto start = std::chrono::steady_clock::now();
   const ModelTraining result = train_model(recording, options.model, options.training, [](const TrainingEpoch& epoch) {

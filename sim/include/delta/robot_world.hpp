@@ -13,7 +13,9 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "delta/effects.hpp"
@@ -94,6 +96,13 @@ class RobotWorld {
   const Geometry& true_geometry() const { return true_geometry_; }
   const EffectSet& effects() const { return effects_; }
 
+  // A measuring stage that drags the plate (the drives off): asked at every plant step with the
+  // time of that step, it returns where it holds the plate (true base frame), or nothing when it
+  // lets go. Held, the arms follow through the true geometry (the plants placed at rest there) and
+  // the sensors read them with every effect.
+  using Drag = std::function<std::optional<Vec3>(double t_s)>;
+  void set_drag(Drag drag) { drag_ = std::move(drag); }
+
  private:
   class Quadrature;
   double true_angle_for_reading(int joint, double reading_deg) const;
@@ -118,6 +127,8 @@ class RobotWorld {
   int plant_phase_ = 0;  // (cycle_ + plant_lead) mod plant_divider: the plant steps at plant_divider - 1
   int lines_a_ = 0;      // encoder_a(), encoder_b()
   int lines_b_ = 0;
+  JointPlantParameters plant_parameters_;
+  Drag drag_;
 };
 
 // Quadrature encoder lines `steps` counts from the start ({A, B} = 00 -> 10 -> 11 -> 01 counting

@@ -63,6 +63,8 @@ struct VirtualBoardOptions {
   // Model fidelity: check every run of clocks the model board takes at once against as many full
   // clocks (ModelBoard::check_runs; tests, about 50 x slower).
   bool check_model_runs = false;
+  // A measuring stage that drags the plate (RobotWorld::set_drag; measuring_stage.hpp); empty: none.
+  RobotWorld::Drag drag;
 };
 
 // What the world is, every 1 ms of board time (ground truth: no sensor saw it).

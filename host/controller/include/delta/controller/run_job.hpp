@@ -102,6 +102,8 @@ struct RunProgress {
 // after 4.97 days); a later frame that shows an earlier tick (a restarted board) gives 0.
 double board_seconds_between(const link::TelemetryPayload& from, const link::TelemetryPayload& to);
 
+struct TelemetryRecorder;  // the recording's rows (run_job.cpp)
+
 class RunJob {
  public:
   // Checks the trajectory whole (from its own start) and the recording's path before any byte is
@@ -129,11 +131,10 @@ class RunJob {
   RunProgress progress() const;
 
  private:
-  struct Recorder;
   const BoardWeights& weights_;
   RunRequest request_;
   Path path_;
-  std::unique_ptr<Recorder> recorder_;
+  std::unique_ptr<TelemetryRecorder> recorder_;
   mutable std::mutex mutex_;  // guards what follows
   StreamingLoop* loop_ = nullptr;
   bool stop_pending_ = false;  // a stop asked before the stream started
@@ -141,6 +142,30 @@ class RunJob {
   std::optional<link::TelemetryPayload> newest_;
   std::atomic<bool> estop_{false};
   std::function<void(const TelemetryRecord&)> tap_;
+};
+
+// `deltactl host record`: the drives stay off (nothing but identify is sent); every telemetry frame
+// is recorded for duration_s of board time (0: until a signal). The lab's calibration run, the
+// measuring stage dragging the plate (SPEC.md, "The lab's measurements").
+struct RecordRequest {
+  std::string record;       // RUN.csv
+  double duration_s = 0.0;  // board time from the first telemetry frame
+};
+
+class RecordJob {
+ public:
+  // Opens the recording before any byte is sent (InputError, exit 2).
+  explicit RecordJob(const RecordRequest& request);
+  ~RecordJob();
+  // On an identified board whose telemetry is t0 (drives off, else HostFailure exit 3): records
+  // until the duration or a signal (code 128 + N), a drive enable by anyone else (exit 3) or link
+  // loss (exit 4). The recording is committed.
+  RunOutcome execute(link::LinkSession& session, const std::string& port_name, const link::TelemetryPayload& t0,
+                     const volatile std::sig_atomic_t& stop_signal, const std::function<void(const std::string&)>& log);
+
+ private:
+  RecordRequest request_;
+  std::unique_ptr<TelemetryRecorder> recorder_;
 };
 
 }  // namespace delta::controller

@@ -25,7 +25,14 @@ struct DiagnosisOptions {
   // Floor test: one-sided z of the held-out mean of r^2 / sigma^2 - 1 (batch means over blocks of
   // `batch_rows` rows); above `floor_z` the residual is significantly above the noise floor.
   double floor_z = 4.0;
-  std::size_t batch_rows = 100;
+  std::size_t batch_rows = 100;  // at least; longer when the series is correlated over more rows
+  // `explained` never holds with a joint's held-out RMSE above this many noise floors.
+  double rmse_cap_floors = 1.5;
+  // High-rate recordings (the host's 1 kHz telemetry merged with a stage) are thinned evenly to at
+  // most this many FIT and CHECK rows after the outliers are found (neighbouring rows of a slow
+  // motion carry little new information; PRED.csv still has every CHECK row).
+  std::size_t max_fit_rows = 15000;
+  std::size_t max_check_rows = 8000;
   // Stopping rule and equivalence: a held-out MSE difference between two models counts only when
   // its paired z (batch means over the same CHECK rows) exceeds this.
   double paired_z = 3.0;
@@ -84,6 +91,9 @@ struct FloorTest {
   Vec3 joint_z = Vec3::Zero();
   double threshold = 0.0;  // z above this: significantly above the floor
   std::size_t rows = 0, blocks = 0;
+  double effective_rows = 0.0;            // rows / integrated autocorrelation time of r^2 / sigma^2
+  Vec3 joint_rmse_floors = Vec3::Zero();  // held-out RMSE per joint in noise floors
+  double rmse_cap_floors = 0.0;           // at_floor needs every joint at or below this
   bool at_floor = false;
 };
 
@@ -161,7 +171,8 @@ struct Diagnosis {
   UnexplainedResidual unexplained;        // filled when the floor test fails
   std::vector<Alternative> alternatives;  // statistically indistinguishable sets, best first
   std::vector<Outlier> outliers;
-  std::vector<NewEffect> new_effects;   // significant effects outside the vocabulary (final model)
+  std::size_t fit_rows_used = 0, check_rows_used = 0;  // after outliers and thinning
+  std::vector<NewEffect> new_effects;                  // significant effects outside the vocabulary (final model)
   Vec3 measuring_scale = Vec3::Zero();  // s per axis of a measuring_scale new effect; PRED uses p / (1 + s)
   // 1.96 standard errors of each fitted parameter (internal units), from the covariance of the
   // final fit: residual variance on FIT times the inverse of J^T J (with the weak prior).

@@ -1,0 +1,77 @@
+// The virtual measuring stage beside the virtual board (SPEC.md, "The lab's measurements"): a stage
+// controller with its own clock that either drags the plate along a trajectory with the drives off
+// (`drag`: the arms follow through the true geometry and every sensor effect) or measures the
+// plate wherever the robot carries it (`follow`), and writes its own log, t_s,x_m,y_m,z_m, as a
+// real stage does: on its clock t_stage = offset + (1 + ppm 1e-6) t_board, at its sample rate,
+// through the frame misalignment, with its noise, quantised to 6.87 nm.
+//
+// The drag starts one second of board time after the board first receives a valid frame: a
+// quintic move from where the plate rests to the trajectory's start during that second, then the
+// trajectory at its own time; at its end the stage holds the plate there.
+//
+// Wiring (deltactl virtual-board): the host's bytes go to host_bytes(), drag() to the world
+// (VirtualBoardOptions::drag), sample() to the board's period observer.
+#pragma once
+
+#include <cstdint>
+#include <fstream>
+#include <functional>
+#include <optional>
+#include <random>
+#include <string>
+
+#include "delta/effects.hpp"
+#include "delta/geometry.hpp"
+#include "delta/link/frame_codec.hpp"
+#include "delta/robot_world.hpp"
+
+namespace delta::cosim {
+
+struct StageOptions {
+  std::string mode;             // "drag:NAME", "drag:FILE.csv" or "follow"
+  std::string log_path;         // STAGE.csv
+  double clock_offset_s = 0.0;  // t_stage at board time 0
+  double clock_ppm = 0.0;       // the stage clock's rate error
+  double rate_hz = 1000.0;      // samples per second of stage time
+  double noise_m = 20e-9;       // RMS per axis
+  std::uint64_t seed = 1;
+};
+
+class MeasuringStage {
+ public:
+  // Reads the trajectory (InputError: a FILE.csv's line; an unknown NAME), checks every 10 ms of it
+  // reachable by the robot whose effects are given (InputError naming the first that is not), and
+  // opens the log (InputError when it cannot be written).
+  MeasuringStage(const StageOptions& options, const EffectSet& effects, const Geometry& nominal);
+
+  bool drags() const { return static_cast<bool>(path_); }
+  // Bytes the host sent, at board time t_s: the first valid frame starts the drag's clock.
+  void host_bytes(const std::uint8_t* data, std::size_t size, double t_s);
+  // The plate's true position held by the stage at board time t_s (nothing: not holding yet).
+  std::optional<Vec3> drag(double t_s) const;
+  // At the start of each control period [t_s, t_s + period_s): the stage's samples in it, of the
+  // world as it is now.
+  void sample(double t_s, double period_s, const RobotWorld& world);
+  // Flushes the log; false when writing failed.
+  bool finish();
+  void flush() { log_.flush(); }
+
+  std::uint64_t samples() const { return samples_; }
+  double drag_start_s() const { return start_s_ ? *start_s_ + 1.0 : -1.0; }
+  double path_duration_s() const { return duration_s_; }
+
+ private:
+  StageOptions options_;
+  std::function<Vec3(double)> path_;  // drag: the trajectory's true position at its own time
+  double duration_s_ = 0.0;
+  link::FrameDecoder decoder_{link::Receiver::kBoard};
+  std::optional<double> start_s_;  // board time of the first valid frame
+  std::optional<Vec3> rest_m_;     // where the plate rested then
+  std::ofstream log_;
+  std::mt19937_64 generator_;
+  std::normal_distribution<double> noise_;
+  std::int64_t next_ = 0;  // the next stage sample index (t_stage = next_ / rate)
+  std::uint64_t samples_ = 0;
+};
+
+}  // namespace delta::cosim

@@ -1,0 +1,90 @@
+// The virtual measuring stage (see measuring_stage.hpp).
+#include "delta/cosim/measuring_stage.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "delta/controller/stream_plan.hpp"
+#include "delta/input_error.hpp"
+#include "delta/kinematics.hpp"
+#include "delta/output_file.hpp"
+#include "delta/trajectory.hpp"
+
+namespace delta::cosim {
+
+MeasuringStage::MeasuringStage(const StageOptions& options, const EffectSet& effects, const Geometry& nominal)
+    : options_(options), generator_(options.seed), noise_(0.0, options.noise_m) {
+  if (options.mode.rfind("drag:", 0) == 0) {
+    const std::string source = options.mode.substr(5);
+    if (source.empty() || source.rfind("move:", 0) == 0) {
+      throw InputError("--stage", 0, "drag needs a trajectory: drag:NAME or drag:FILE.csv");
+    }
+    controller::Path path;
+    try {
+      path = controller::load_path(source, 0.0);
+    } catch (const std::invalid_argument& error) {
+      throw InputError("--stage", 0, error.what());
+    }
+    const Geometry robot = apply_geometry_effects(nominal, effects);
+    for (double t = 0.0;; t += 0.01) {
+      const double u = std::min(t, path.duration_s());
+      const IkSolution arms = inverse_kinematics(robot, path.at(u));
+      if (!arms.ok()) {
+        throw InputError(source, 0,
+                         "the stage would drag the plate out of the robot's reach at t = " + std::to_string(u) +
+                             " s: " + arms.reason());
+      }
+      if (u >= path.duration_s()) break;
+    }
+    duration_s_ = path.duration_s();
+    path_ = [path = std::move(path)](double tau) { return path.at(tau); };
+  } else if (options.mode != "follow") {
+    throw InputError("--stage", 0, "'" + options.mode + "': choose drag:NAME, drag:FILE.csv or follow");
+  }
+  log_.open(options.log_path, std::ios::trunc);
+  if (!log_) throw InputError(options.log_path, 0, "cannot be written");
+  log_ << "# deltactl virtual-board --stage " << options.mode << ": the measuring stage's own log on its own clock\n"
+       << "t_s,x_m,y_m,z_m\n";
+  // The first sample at or after board time 0, on the stage's grid of whole periods of its clock.
+  next_ = static_cast<std::int64_t>(std::ceil(options.clock_offset_s * options.rate_hz - 1e-9));
+}
+
+void MeasuringStage::host_bytes(const std::uint8_t* data, std::size_t size, double t_s) {
+  if (start_s_ || !path_) return;
+  if (!decoder_.feed(data, size).empty()) start_s_ = t_s;
+}
+
+std::optional<Vec3> MeasuringStage::drag(double t_s) const {
+  if (!start_s_ || !rest_m_ || t_s < *start_s_) return std::nullopt;
+  const double into = t_s - *start_s_ - 1.0;  // trajectory time
+  if (into >= 0.0) return path_(std::min(into, duration_s_));
+  const double s = quintic_blend(t_s - *start_s_);
+  return Vec3(*rest_m_ + s * (path_(0.0) - *rest_m_));
+}
+
+void MeasuringStage::sample(double t_s, double period_s, const RobotWorld& world) {
+  if (path_ && start_s_ && !rest_m_ && t_s >= *start_s_) {
+    const FkSolution plate = forward_kinematics(world.true_geometry(), world.true_alpha_deg());
+    if (plate.ok()) rest_m_ = plate.position_m;
+  }
+  const double scale = 1.0 + options_.clock_ppm * 1e-6;
+  for (;;) {
+    const double t_stage = static_cast<double>(next_) / options_.rate_hz;
+    const double t_board = (t_stage - options_.clock_offset_s) / scale;
+    if (t_board >= t_s + period_s) return;
+    ++next_;
+    if (t_board < t_s - period_s) continue;  // (before the board started)
+    const Vec3 p = world.measured_position_m();
+    log_ << format_number(t_stage);
+    for (int k = 0; k < 3; ++k) log_ << ',' << format_number(quantise(p[k] + noise_(generator_), kStageResolutionM));
+    log_ << '\n';
+    ++samples_;
+  }
+}
+
+bool MeasuringStage::finish() {
+  log_.close();
+  return static_cast<bool>(log_);
+}
+
+}  // namespace delta::cosim

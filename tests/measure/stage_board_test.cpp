@@ -1,0 +1,126 @@
+// The lab's calibration drag on the model board, free-running: `deltactl virtual-board --stage
+// drag:...` with a robot none of the project's files has, `deltactl host record` (drives off),
+// `deltactl merge` of the run with the stage's own log (its own clock), checked against the virtual
+// board's truth at each board time; and `merge`'s refusals of bad files (exit 2, one line, no output).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <iostream>
+#include <map>
+#include <random>
+#include <sstream>
+
+#include "../support/run_command.hpp"
+#include "../support/virtual_board_process.hpp"
+#include "delta/csv.hpp"
+
+namespace delta::test {
+namespace {
+
+const char* kOtherRobot = R"({
+  "joint_offset": [-0.21, 0.44, 0.37],
+  "backlash": [0.2, 0.05, 0.0],
+  "encoder_scale": [-0.001, 0.0, 0.0025],
+  "lower_arm_length": [-0.0002, 0.0001, 0.00025],
+  "chain_angle": [0.3, -0.2, 0.1],
+  "frame_misalignment": {"rx": -0.15, "ry": 0.3, "rz": 4.2, "tx": -0.0002, "ty": 0.0004, "tz": -0.0001}
+})";
+
+std::string folder() {
+  const std::string dir = ::testing::TempDir() + "measure_" + std::to_string(::getpid()) + "/";
+  std::system(("mkdir -p " + dir).c_str());
+  return dir;
+}
+
+struct Drag {
+  std::string run, stage, truth;
+};
+
+// The board dragged along `trajectory` for `seconds` of board time, recorded; the stage's clock
+// offset, rate error and sample rate as given.
+Drag record_drag(const std::string& dir, const std::string& trajectory, double seconds, double offset_s, double ppm,
+                 double rate_hz, std::uint64_t seed) {
+  Drag d{dir + "run.csv", dir + "stage.csv", dir + "truth.csv"};
+  write_text(dir + "robot.json", kOtherRobot);
+  std::ostringstream clock;
+  clock.precision(12);
+  clock << offset_s << ',' << ppm;
+  const std::string link = dir + "tty";
+  VirtualBoardProcess board(
+      link, {"--fidelity", "model", "--free-run", "--effects", dir + "robot.json", "--truth", d.truth, "--stage",
+             "drag:" + trajectory, "--stage-log", d.stage, "--stage-clock", clock.str(), "--stage-rate",
+             std::to_string(rate_hz), "--stage-seed", std::to_string(seed)});
+  const std::string stage_line = board.ready_line(20000);
+  std::cout << stage_line << '\n';
+  EXPECT_NE(stage_line.find("seed " + std::to_string(seed)), std::string::npos) << stage_line;
+  EXPECT_NE(board.ready_line(20000).find("ready"), std::string::npos);
+  const CommandResult record =
+      run_deltactl("host record --port " + link + " --out " + d.run + " --duration " + std::to_string(seconds));
+  std::cout << record.out << record.err;
+  EXPECT_EQ(record.exit_code, 0);
+  EXPECT_EQ(board.terminate(), 0);
+  return d;
+}
+
+// RMS per axis of merged - truth at the same board times (truth at 1 kHz, rows matched by the ms).
+Vec3 merged_error_rms(const std::string& data, const std::string& truth, std::size_t* rows) {
+  const CsvTable t = read_csv(truth, {"t_s", "x_m", "y_m", "z_m"});
+  std::map<long long, Vec3> truth_at;
+  for (const auto& row : t.rows) truth_at[std::llround(row[0] * 1e3)] = Vec3(row[1], row[2], row[3]);
+  const CsvTable m = read_csv(data, {"t_s", "x_m", "y_m", "z_m"});
+  Vec3 sum = Vec3::Zero();
+  *rows = 0;
+  for (const auto& row : m.rows) {
+    const auto found = truth_at.find(std::llround(row[0] * 1e3));
+    if (found == truth_at.end()) continue;
+    sum += (Vec3(row[1], row[2], row[3]) - found->second).cwiseAbs2();
+    ++*rows;
+  }
+  return (sum / static_cast<double>(std::max<std::size_t>(*rows, 1))).cwiseSqrt();
+}
+
+TEST(StageDrag, HostRecordAndMergeGiveThePlateWithinAMicrometreOfTheTruth) {
+  const std::uint64_t seed = std::random_device{}();
+  std::cout << "seed " << seed << '\n';
+  std::mt19937_64 draw(seed);
+  const double offset = std::uniform_real_distribution<double>(0.0, 60.0)(draw);
+  const double ppm = std::uniform_real_distribution<double>(-200.0, 200.0)(draw);
+  const double rate = std::uniform_real_distribution<double>(100.0, 1000.0)(draw);
+  const std::string dir = folder();
+  const Drag d = record_drag(dir, "sweep", 60.0, offset, ppm, rate, draw() % 100000);
+  const CommandResult merge = run_deltactl("merge --run " + d.run + " --stage " + d.stage + " --out " + dir +
+                                           "data.csv --report " + dir + "merge.json");
+  std::cout << merge.out << merge.err;
+  ASSERT_EQ(merge.exit_code, 0);
+  std::size_t rows = 0;
+  const Vec3 rms = merged_error_rms(dir + "data.csv", d.truth, &rows);
+  std::cout << "clock " << offset << " s, " << ppm << " ppm, " << rate << " Hz: " << rows
+            << " merged rows, error RMS x/y/z " << rms.transpose() * 1e6 << " um\n";
+  EXPECT_GT(rows, 45000u);
+  EXPECT_LT(rms.maxCoeff(), 1e-6);
+  const std::string report = read_text(dir + "merge.json");
+  EXPECT_NE(report.find("offset_sd_s"), std::string::npos);
+
+  // The same run with a truncated, a garbled and an at-rest stage log: exit 2, one line, no output.
+  const std::string stage_text = read_text(d.stage);
+  const std::size_t line_start = stage_text.find('\n', stage_text.size() / 2) + 1;
+  write_text(dir + "truncated.csv", stage_text.substr(0, stage_text.find(',', line_start) + 1));  // "t,"
+  std::string garbled = stage_text;
+  garbled[garbled.size() / 3] = 'x';
+  write_text(dir + "garbled.csv", garbled);
+  std::ostringstream rest;
+  rest << "t_s,x_m,y_m,z_m\n";
+  for (int k = 0; k < 20000; ++k) rest << k * 1e-3 << ",0.001,0.002,-0.07\n";
+  write_text(dir + "rest.csv", rest.str());
+  for (const std::string name : {"truncated", "garbled", "rest"}) {
+    const CommandResult bad =
+        run_deltactl("merge --run " + d.run + " --stage " + dir + name + ".csv --out " + dir + name + "_data.csv");
+    std::cout << name << ": exit " << bad.exit_code << ": " << bad.err;
+    EXPECT_EQ(bad.exit_code, 2) << name;
+    EXPECT_EQ(std::count(bad.err.begin(), bad.err.end(), '\n'), 1) << name;
+    EXPECT_FALSE(file_exists(dir + name + "_data.csv")) << name;
+  }
+}
+
+}  // namespace
+}  // namespace delta::test
