@@ -93,6 +93,8 @@ start_board kill
 $(run_args kill) > "$work/kill.out" 2> "$work/kill.err" &
 host=$!
 sleep "$(awk -v s="$seconds" 'BEGIN { print s / 2 }')"
+alive=yes
+kill -0 "$host" 2>/dev/null || alive="no: the run had ended before the kill, see $work/kill.err"
 kill -KILL "$host" || true
 killed_at=$(now)
 wait "$host" 2>/dev/null || true
@@ -101,5 +103,6 @@ stop_board
 kill_s=$(awk -v k="$killed_at" -v r="$ready_at" 'BEGIN { printf "%.4f", k - r }')
 off_s=$(awk -F, -v k="$kill_s" 'NR > 1 { if ($8 == 1) { on = $1; off = "" } else if (on != "" && off == "") off = $1 }
   END { print off }' "$work/kill.truth.csv")
+[[ $alive == yes ]] || echo "SIGKILL: host alive at the kill: $alive"
 printf '%-10s %5s %10s  %s\n' "SIGKILL" "-" "-" "drives off at $off_s s of board time, the kill at ~$kill_s s:" \
   "$(awk -v o="$off_s" -v k="$kill_s" 'BEGIN { printf "%.1f ms after it (bound 250.1 ms)", (o - k) * 1e3 }')"

@@ -338,11 +338,15 @@ TEST(ModelBoard, NeitherBoardPlaysSetpointsSentWhileTheDrivesWereOff) {
       ASSERT_EQ(t.sample_index, run->enabled.sample_index) << name << " tick " << t.tick << ": a setpoint played";
       ASSERT_EQ(t.references, run->enabled.references) << name << " tick " << t.tick << ": the reference moved";
     }
-    ASSERT_FALSE(run->periods.empty());
-    const Vec3 first = run->periods.front().true_alpha_deg;
+    // The joints from the enable (the first period with the drives on) to the disable.
+    std::size_t on = 0;
+    while (on < run->periods.size() && !run->periods[on].pins.drive_enable) ++on;
+    ASSERT_LT(on, run->periods.size()) << name << ": the drives never came on";
+    const Vec3 first = run->periods[on].true_alpha_deg;
     double moved_deg = 0.0;
-    for (const PeriodRecord& p : run->periods)
-      moved_deg = std::max(moved_deg, (p.true_alpha_deg - first).cwiseAbs().maxCoeff());
+    for (std::size_t i = on; i < run->periods.size() && run->periods[i].pins.drive_enable; ++i) {
+      moved_deg = std::max(moved_deg, (run->periods[i].true_alpha_deg - first).cwiseAbs().maxCoeff());
+    }
     std::cout << name << ": joints moved at most " << moved_deg << " deg; refused " << run->before.rejected << "\n";
     EXPECT_LT(moved_deg, 0.5) << name << ": motion the host did not command";
   }
