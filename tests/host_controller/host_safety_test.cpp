@@ -73,22 +73,20 @@ void expect_recording_ends_with_drives_off(const std::string& path) {
   EXPECT_GT(on, 100u) << path;
 }
 
-// Waits until the recording (or its hidden temporary) shows the drives on, i.e. the run moves.
-void wait_until_streaming(const std::string& truth, double timeout_s) {
+// Waits until the board's truth shows `frames` ms of board time with the drives on (board time, not
+// wall time: a board slowed by a loaded machine still gets that far into the run).
+void wait_until_streaming(const std::string& truth, double timeout_s, std::size_t frames = 300) {
   const auto start = Clock::now();
   while (seconds_since(start) < timeout_s) {
-    const std::string text = read_text(truth);
-    const std::size_t last = text.rfind('\n', text.size() >= 2 ? text.size() - 2 : 0);
-    if (last != std::string::npos && text.size() > 1000) {
-      // The truth's drives_enabled column: any row with the drives on after the header.
-      const Table t = read_table(truth);
-      for (std::size_t i = t.rows.size() > 50 ? t.rows.size() - 50 : 0; i < t.rows.size(); ++i) {
-        if (t.rows[i].size() == t.column.size() && t.at(i, "drives_enabled") == 1) return;
-      }
+    const Table t = read_table(truth);
+    std::size_t on = 0;
+    for (std::size_t i = 0; i < t.rows.size(); ++i) {
+      if (t.rows[i].size() == t.column.size() && t.at(i, "drives_enabled") == 1) ++on;
     }
+    if (on >= frames) return;
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
   }
-  FAIL() << "the run never turned the drives on";
+  FAIL() << "the run never turned the drives on for " << frames << " frames";
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -98,7 +96,6 @@ TEST(HostSafety, ForeignDisableEndsHostRunWithinASecondWithTheRecordingKept) {
   Bench bench("foreign_disable", {"--fidelity", "model"});
   HostProcess host(bench.run_arguments(bench.link, 3.0), bench.dir + "/host");
   wait_until_streaming(bench.truth, 60);
-  std::this_thread::sleep_for(std::chrono::milliseconds(500));
   send_foreign_command(bench.link, link::Command::kDisable);
   const auto sent = Clock::now();
   const int code = host.wait(10);
@@ -118,7 +115,6 @@ TEST(HostSafety, HangUpAndQuitStopHostRunAtRestAndKeepTheRecording) {
     Bench bench("signal_" + std::to_string(signal_number), {"--fidelity", "model"});
     HostProcess host(bench.run_arguments(bench.link, 3.0), bench.dir + "/host");
     wait_until_streaming(bench.truth, 60);
-    std::this_thread::sleep_for(std::chrono::milliseconds(500));
     ::kill(host.pid(), signal_number);
     const auto sent = Clock::now();
     const int code = host.wait(10);
@@ -139,8 +135,8 @@ TEST(HostSafety, HangUpAndQuitStopHostRunAtRestAndKeepTheRecording) {
 TEST(HostSafety, KilledHostRunLeavesItsRecordingUnderItsName) {
   Bench bench("sigkill", {"--fidelity", "model"});
   HostProcess host(bench.run_arguments(bench.link, 3.0), bench.dir + "/host");
-  wait_until_streaming(bench.truth, 60);
-  std::this_thread::sleep_for(std::chrono::milliseconds(800));
+  wait_until_streaming(bench.truth, 60, 500);
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));  // the recorder's flush (every 5 ms)
   ::kill(host.pid(), SIGKILL);
   host.wait(10);
   ASSERT_TRUE(std::filesystem::exists(bench.dir + "/out.csv"));
@@ -420,11 +416,13 @@ TEST(HostServeSafety, AnyBytesOnTheSocketAreAnsweredAndServeLives) {
   std::filesystem::remove_all(server.dir);
 }
 
-TEST(HostServeSafety, FiftyThousandConnectionsLeaveServeSmall) {
+TEST(HostServeSafety, ThousandsOfConnectionsLeaveServeSmall) {
+  // Each connection used to keep its thread's stack until shutdown (5,000: RSS 17 -> 259 MB; abort
+  // near 32,600). 5,000 here (scripts/serve_connections.sh makes the 50,000 of the acceptance).
   LonelyServer server("serve_many");
   ASSERT_TRUE(server.alive());
   const long rss_before = rss_kb(server.serve->pid());
-  constexpr int kConnections = 50'000;
+  constexpr int kConnections = 5'000;
   const auto start = Clock::now();
   int answered = 0;
   for (int i = 0; i < kConnections; ++i) {
@@ -436,7 +434,7 @@ TEST(HostServeSafety, FiftyThousandConnectionsLeaveServeSmall) {
   std::cout << answered << " connections in " << seconds_since(start) << " s; serve RSS " << rss_before << " -> "
             << rss_after << " kB, " << threads(server.serve->pid()) << " threads\n";
   EXPECT_EQ(answered, kConnections);
-  EXPECT_LT(rss_after, 100 * 1024);
+  EXPECT_LT(rss_after - rss_before, 10 * 1024) << "RSS grows with the connections";
   EXPECT_LE(threads(server.serve->pid()), 8);
   // Idle clients beyond the bound are answered "busy" at once; the controller stays reachable
   // once they go.

@@ -99,7 +99,8 @@ TEST(HostServe, CtlRunWithAFeedHoldRestsOnThePathThenFinishesIt) {
   EXPECT_EQ(server.status().value("state", ""), "homed");  // drives off after the run
 
   // The recording: a stretch of board time held (drives on, holding) with the references
-  // unchanged; no underrun while streaming; the run reaches the path's end.
+  // unchanged; no underrun while streaming; the run reaches the path's end. (The recording also
+  // holds the final hold and disable after the path: the feed hold is the first held stretch.)
   const Table out = read_table(record);
   ASSERT_GT(out.rows.size(), 2000u);
   std::size_t held_frames = 0;
@@ -109,6 +110,7 @@ TEST(HostServe, CtlRunWithAFeedHoldRestsOnThePathThenFinishesIt) {
     const int flags = static_cast<int>(out.at(i, "flags"));
     if ((flags & kFlagDrives) && (flags & kFlagHolding)) {
       if (held_frames == 0) first_held = i;
+      if (held_frames > 0 && i != first_held + held_frames) break;  // the final hold
       ++held_frames;
       for (int j = 1; j <= 3; ++j) {
         const std::string name = "alpha" + std::to_string(j) + "_ref_deg";
@@ -122,10 +124,16 @@ TEST(HostServe, CtlRunWithAFeedHoldRestsOnThePathThenFinishesIt) {
   std::size_t first_play = 0;
   while (first_play < out.rows.size() && out.at(first_play, "stream_sample") < 0) ++first_play;
   ASSERT_LT(first_play, out.rows.size());
+  double last_sample = 0.0;
+  for (std::size_t i = 0; i < out.rows.size(); ++i) last_sample = std::max(last_sample, out.at(i, "stream_sample"));
   double last_tau = 0.0;
   for (std::size_t i = first_play; i < out.rows.size(); ++i) {
     if (out.at(i, "drives_enabled") == 0) break;
-    EXPECT_EQ(out.at(i, "underruns"), out.at(first_play, "underruns")) << "underrun at t = " << out.at(i, "t_s");
+    if (out.at(i, "stream_sample") >= last_sample) break;  // the path played: the stop's hold and disable follow
+    EXPECT_EQ(out.at(i, "underruns"), out.at(first_play, "underruns"))
+        << "underrun at t = " << out.at(i, "t_s") << " (flags " << out.at(i, "flags") << ", stream sample "
+        << out.at(i, "stream_sample") << ", fill " << out.at(i, "fill") << ", rows " << i << " of " << out.rows.size()
+        << ")";
     last_tau = std::max(last_tau, out.at(i, "tau_s"));
     if (out.at(i, "underruns") != out.at(first_play, "underruns")) break;
   }
@@ -199,7 +207,9 @@ TEST(HostServe, StopRequestAndSigtermEndRunsAtRestWithTheDrivesOff) {
   for (const std::string name : {"stopped", "terminated"}) {
     const Table out = read_table(server.recorded(name + ".csv"));
     ASSERT_GT(out.rows.size(), 100u) << name;
-    const std::size_t last = out.rows.size() - 1;
+    EXPECT_EQ(out.at(out.rows.size() - 1, "drives_enabled"), 0) << name << ": the final disable is recorded";
+    std::size_t last = out.rows.size() - 1;  // the last frame with the drives on
+    while (last > 5 && out.at(last, "drives_enabled") == 0) --last;
     double change = 0.0;
     for (int j = 1; j <= 3; ++j) {
       const std::string column = "alpha" + std::to_string(j) + "_ref_deg";

@@ -9,6 +9,7 @@
 #include <random>
 
 #include "delta/controller/board_network.hpp"
+#include "delta/controller/run_job.hpp"
 #include "delta/controller/stream_plan.hpp"
 #include "delta/input_error.hpp"
 
@@ -139,6 +140,20 @@ TEST(StreamPlan, RunsBeyondTheLongestAreRefusedBeforeAllocating) {
   EXPECT_THROW(load_path("experiment1", 1e300), std::invalid_argument);
   EXPECT_THROW(load_path("move:0,0,-0.075;1e300,0,-0.075", 0.0), InputError);
   EXPECT_NO_THROW(load_path("experiment1", 2.0));
+}
+
+TEST(StreamPlan, RunSummaryBoardTimeSurvivesTheTickWrapAndAnEarlierFrame) {
+  // The summary's board time: the u32 tick wraps after 4.97 days; a frame that shows an earlier
+  // tick (taken from the queue after a newer one, or a restarted board) is 0 s, not 429496.7 s.
+  link::TelemetryPayload first, last;
+  first.tick = 0xFFFFFF00u;
+  last.tick = 0x00000100u;
+  EXPECT_NEAR(board_seconds_between(first, last), 512 / 1e4, 1e-12);
+  first.tick = 20'000;
+  last.tick = 19'990;
+  EXPECT_EQ(board_seconds_between(first, last), 0.0);
+  last.tick = 30'000;
+  EXPECT_NEAR(board_seconds_between(first, last), 1.0, 1e-12);
 }
 
 TEST(StreamPlan, AtTheEndOfThePathThereIsNothingToResume) {
