@@ -26,7 +26,7 @@ def one_run(bench, seconds, clients):
     if code != 200:
         sys.exit("run refused: %s" % body)
     time.sleep(2.0)
-    status = bench.wait_for(lambda s: s["run"] is None and s.get("last_run"), seconds + 60, "the run's end")
+    status = bench.wait_for(lambda s: s["run"] is None and s.get("last_run"), 4 * seconds + 120, "the run's end")
     for reader in readers:
         reader.stopped = True
     summary = status["last_run"].get("summary", "")

@@ -112,6 +112,7 @@ void write_plot(const std::string& png_path, const PlotSpec& spec, const PlotMar
          << height << " font 'sans,10'\n"
          << "set multiplot layout " << spec.panels.size() << ",1 title " << quoted(spec.title) << "\n"
          << "set grid\nset key outside right top\n";
+  if (marks.as_written) script << "set lmargin at screen 0.07\nset rmargin at screen 0.74\n";  // one time axis
   std::vector<std::string> span_labels;  // one legend entry per label, in first-seen order
   for (std::size_t k = 0; k < marks.spans.size(); ++k) {
     const PlotSpan& span = marks.spans[k];

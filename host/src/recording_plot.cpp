@@ -300,10 +300,11 @@ RecordingPlot plot_recording(const std::string& csv_path, const std::string& png
     add_spans(
         marks.spans, t, [&](std::size_t i) { return f[i] != 0.0; }, "fault", "#d62728");
   }
-  if (c.has("underruns")) {
+  if (c.has("underruns")) {  // while the drives are on (the counter also counts before a stream starts)
     const std::vector<double> u = column("underruns");
+    const std::vector<double> on = drives.empty() ? std::vector<double>(n, 1.0) : column(drives);
     add_spans(
-        marks.spans, t, [&](std::size_t i) { return i > 0 && u[i] > u[i - 1]; }, "underrun", "#ff7f0e");
+        marks.spans, t, [&](std::size_t i) { return i > 0 && u[i] > u[i - 1] && on[i] != 0.0; }, "underrun", "#ff7f0e");
   }
   if (marks.spans.size() > 400) marks.spans.resize(400);  // gnuplot's objects: enough to see a pattern
 

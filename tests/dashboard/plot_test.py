@@ -6,6 +6,7 @@ columns); each gives a real PNG of the width and the height its panels ask for, 
 series' colours drawn. Bad input: exit 2, one line naming the file (and the line), no PNG.
 Usage: plot_test.py DELTACTL WEIGHTS OUT_DIR (the PNGs stay there as artefacts)"""
 import os
+import re
 import struct
 import subprocess
 import sys
@@ -141,7 +142,8 @@ def main():
                             "experiment1", "--duration", "3", "--record", run, "--link-timeout-ms", "1000"],
                            check=True, capture_output=True, timeout=120)
             record = os.path.join(out, "host_record.csv")
-            has_record = subprocess.run([deltactl, "host", "record", "--help"], capture_output=True).returncode == 0
+            listed = subprocess.run([deltactl, "host", "--help"], capture_output=True, text=True).stdout
+            has_record = re.search(r"^\s+record\s", listed, re.M) is not None
             if has_record:
                 subprocess.run([deltactl, "host", "record", "--port", link, "--out", record, "--duration", "1"],
                                check=True, capture_output=True, timeout=60)

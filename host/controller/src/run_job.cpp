@@ -556,10 +556,11 @@ RunOutcome RunJob::execute(link::LinkSession& session, const std::string& port_n
       break;
     }
     case StreamingResult::Outcome::kFault:
-      out.outcome = "fault";
+      out.outcome = estop_.load() ? "e-stop" : "fault";
       out.code = kExitFault;
-      out.error = port_name + ": the board faulted: " + result.cause + " (" + link::describe_state(result.last) +
-                  "); drives off, nothing re-enabled";
+      out.error = estop_.load() ? port_name + ": e-stop on request: drives off, nothing re-enabled"
+                                : port_name + ": the board faulted: " + result.cause + " (" +
+                                      link::describe_state(result.last) + "); drives off, nothing re-enabled";
       disable();
       break;
     case StreamingResult::Outcome::kDrivesOff:
