@@ -67,6 +67,7 @@ run postrm purge
 [[ -f $state/runs/run-1.csv ]] || fail "purge deleted the recordings"
 [[ ! -e $state/other && ! -e $state/cache ]] || fail "purge kept more than the recordings: $(ls "$state")"
 called "chown -R root:root $state/runs" || fail "the kept recordings are not handed to root: $(cat "$log")"
+called "chown root:root $state" || fail "the kept $state is not handed to root: $(cat "$log")"
 grep -q "the recordings stay in $state/runs" "$work/out" || fail "purge does not say where the recordings are"
 called "deluser --quiet --system deltactl" || fail "purge keeps the user"
 DELTACTL_PURGE_RECORDINGS=yes run postrm purge
