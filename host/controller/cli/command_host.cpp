@@ -249,6 +249,8 @@ void run_serve(const ServeCliOptions& cli) {
     options.socket_path = config.socket;
     options.following_error_deg = config.following_error_deg;
     options.limits.joint_velocity_deg_s = config.velocity_deg_s;
+    options.http = config.http;
+    options.http_token_file = config.http_token_file;
   }
   if (!cli.http.empty()) options.http = cli.http;
   if (!cli.http_token_file.empty()) options.http_token_file = cli.http_token_file;

@@ -33,7 +33,7 @@ std::string trim(const std::string& text) {
   return text.substr(first, last - first + 1);
 }
 
-enum class Kind { kPath, kNumber, kInteger };
+enum class Kind { kPath, kNumber, kInteger, kAddress };
 
 struct KeySpec {
   Kind kind;
@@ -51,7 +51,8 @@ const std::map<std::string, std::map<std::string, KeySpec>>& schema() {
        {{"following_error_deg", {Kind::kNumber, kEncoderCountDeg, 45, true, " (one encoder count to 45 deg)"}},
         {"velocity_deg_s",
          {Kind::kNumber, kMinVelocityDegS, kBoardSlewDegS, true, " (the board's slew limit is the top)"}}}},
-      {"service", {{"socket", {Kind::kPath, 0, 0}}}},
+      {"service",
+       {{"socket", {Kind::kPath, 0, 0}}, {"http", {Kind::kAddress, 0, 0}}, {"http_token_file", {Kind::kPath, 0, 0}}}},
   };
   return keys;
 }
@@ -138,9 +139,9 @@ DeployConfig parse_config(const std::string& text, const std::string& path, File
           if (value[0] != '/')
             throw InputError(path, line, name + ": not an absolute device path: " + quoted_excerpt(value));
           config.port = value;
-        } else if (key == "socket") {
+        } else if (key == "socket" || key == "http_token_file") {
           if (value[0] != '/') throw InputError(path, line, name + ": not an absolute path: " + quoted_excerpt(value));
-          config.socket = value;
+          (key == "socket" ? config.socket : config.http_token_file) = value;
         } else if (key == "weights") {
           if (check_files && !is_regular_file(resolved)) {
             throw InputError(path, line, name + ": no such file: " + resolved);
@@ -154,6 +155,17 @@ DeployConfig parse_config(const std::string& text, const std::string& path, File
           config.bitstream = resolved;
           bitstream_line = line;
         }
+        break;
+      }
+      case Kind::kAddress: {  // ADDR:PORT, the port a whole number in [1, 65535]
+        const auto colon = value.rfind(':');
+        const std::string port = colon == std::string::npos ? "" : value.substr(colon + 1);
+        const bool digits =
+            !port.empty() && port.size() <= 5 && port.find_first_not_of("0123456789") == std::string::npos;
+        if (colon == 0 || !digits || std::stol(port) < 1 || std::stol(port) > 65535) {
+          throw InputError(path, line, name + ": expected ADDR:PORT (e.g. 127.0.0.1:8080): " + quoted_excerpt(value));
+        }
+        config.http = value;
         break;
       }
       case Kind::kNumber:
@@ -220,7 +232,8 @@ std::string describe(const DeployConfig& config) {
   std::ostringstream out;
   out << "[board]\nport = " << config.port << "\nbaud = " << config.baud << "\n[network]\nweights = " << config.weights
       << "\nbitstream = " << config.bitstream << "\n[limits]\nfollowing_error_deg = " << config.following_error_deg
-      << "\nvelocity_deg_s = " << config.velocity_deg_s << "\n[service]\nsocket = " << config.socket << "\n";
+      << "\nvelocity_deg_s = " << config.velocity_deg_s << "\n[service]\nsocket = " << config.socket
+      << "\nhttp = " << config.http << "\nhttp_token_file = " << config.http_token_file << "\n";
   return out.str();
 }
 

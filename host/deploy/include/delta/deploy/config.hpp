@@ -34,6 +34,8 @@ struct DeployConfig {
   double following_error_deg = 2.0;  // [limits] following_error_deg: [kEncoderCountDeg, 45]
   double velocity_deg_s = 100.0;     // [limits] velocity_deg_s: [kMinVelocityDegS, kBoardSlewDegS], every sample
   std::string socket = "/run/deltactl/deltactl.sock";  // [service] socket: absolute path
+  std::string http;                                    // [service] http: the dashboard's ADDR:PORT ("": no dashboard)
+  std::string http_token_file;  // [service] http_token_file: absolute path ("": the serve's default)
 };
 
 // What read_config checks of the files the configuration names.
