@@ -4,7 +4,7 @@
 # scripts/formal.sh proves that module's job on it. A mutant is killed when a property fails or a
 # cover becomes unreachable; a mutant yosys cannot read is not counted.
 #
-#   scripts/formal_mutation.sh [--out DIR] [--per-module N] [--timeout S] [--seed K]
+#   scripts/formal_mutation.sh [--out DIR] [--per-module N] [--timeout S] [--seed K] [--module NAME]...
 #
 # Writes DIR/score.txt (one line per mutant: module, line, change, killed by / survived) and
 # prints the score. N mutants per module (default 12), drawn with the printed seed.
@@ -15,12 +15,14 @@ out=$here/build/formal/mutation
 per_module=12
 timeout=10
 seed=1
+chosen=
 while [ $# -gt 0 ]; do
   case $1 in
     --out) out=$2; shift 2 ;;
     --per-module) per_module=$2; shift 2 ;;
     --timeout) timeout=$2; shift 2 ;;
     --seed) seed=$2; shift 2 ;;
+    --module) chosen="$chosen $2"; shift 2 ;;
     -h|--help) sed -n '2,11p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "formal_mutation.sh: unknown argument '$1' (try --help)" >&2; exit 2 ;;
   esac
@@ -33,6 +35,13 @@ echo "formal_mutation: seed $seed, $per_module mutants per module, PDR timeout $
 # module file -> the proof job that checks it
 modules="joint/joint_safety.sv:joint_safety joint/joint_pwm.sv:joint_pwm board/setpoint_buffer.sv:setpoint_buffer
 board/link_rx.sv:link_rx board/link_crc16.sv:link_rx board/board_core.sv:board_core"
+if [ -n "$chosen" ]; then
+  picked=
+  for m in $modules; do
+    for c in $chosen; do [ "$(basename "${m%%:*}" .sv)" != "$c" ] || picked="$picked $m"; done
+  done
+  modules=$picked
+fi
 
 # The mutants: one operator per line of synthesised logic (python3: the line list, the operators).
 python3 - "$here/rtl" "$per_module" "$seed" "$modules" >"$work/mutants" <<'EOF'
@@ -57,17 +66,19 @@ for entry in modules:
             if start < 0:
                 continue
             prefix = code[:start]
+            if old.endswith('!') and code[start + len(old):].startswith('='):
+                continue  # part of !=, not a negation
             if old == ' <= ' and prefix.count('(') == prefix.count(')'):
                 continue  # a non-blocking assignment, not a comparison
             candidates.append((number, old, new, start))
     rng.shuffle(candidates)
     for number, old, new, start in candidates[:per_module]:
-        print(f'{path}\t{job}\t{number + 1}\t{old.strip()}\t{new.strip()}\t{start}')
+        print('\x1f'.join([path, job, str(number + 1), old, new, str(start)]))
 EOF
 
 killed=0 survived=0 invalid=0
 : >"$out/score.txt"
-while IFS=$'\t' read -r path job line old new column; do
+while IFS=$'\x1f' read -r path job line old new column; do
   rm -rf "$work/rtl" && cp -r "$here/rtl" "$work/rtl"
   python3 - "$work/rtl/$path" "$line" "$column" "$old" "$new" <<'EOF'
 import sys
@@ -75,7 +86,7 @@ path, line, column, old, new = sys.argv[1], int(sys.argv[2]) - 1, int(sys.argv[3
 lines = open(path).read().split('\n')
 text = lines[line]
 # the operator at its column (the swaps carry their surrounding spaces)
-at = text.find(old, max(0, column - 1))
+at = text.find(old, column)
 lines[line] = text[:at] + new + text[at + len(old):]
 open(path, 'w').write('\n'.join(lines))
 EOF
