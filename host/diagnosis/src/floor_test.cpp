@@ -22,10 +22,8 @@ struct MeanAndError {
 
 // Mean of a series and its standard error by batch means: neighbouring rows are correlated
 // (a slowly moving quantised angle repeats its error), blocks of `batch_rows` rows much less so.
-// The blocks are at least batch_rows long and at least 5 integrated autocorrelation times of the
-// series (1 + 2 sum of its autocorrelations up to the first below 0.05): a 1 kHz recording of a slow
-// motion repeats its quantisation error over many rows, and blocks shorter than that would take
-// correlated rows for independent ones (too small a standard error).
+// Also the series' integrated autocorrelation time (1 + 2 sum of its autocorrelations up to the
+// first below 0.05), reported as the effective number of rows (the blocks stay batch_rows long).
 MeanAndError batch_mean(const std::vector<double>& series, std::size_t batch_rows) {
   MeanAndError result;
   if (series.empty()) return result;
@@ -47,7 +45,7 @@ MeanAndError batch_mean(const std::vector<double>& series, std::size_t batch_row
     }
   }
   result.autocorrelation_rows = tau;
-  const std::size_t size = std::max<std::size_t>({batch_rows, 1, static_cast<std::size_t>(std::ceil(5.0 * tau))});
+  const std::size_t size = std::max<std::size_t>(batch_rows, 1);
   std::vector<double> means;
   for (std::size_t start = 0; start + size <= series.size(); start += size) {
     double sum = 0.0;
