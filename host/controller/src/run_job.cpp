@@ -210,7 +210,8 @@ struct TelemetryRecorder {
   std::optional<TelemetryRecord> last;
 
   // streaming: a run's rows (the positions sent and the stream's columns); else `host record`'s.
-  TelemetryRecorder(const std::string& path, RecordMode mode, bool streaming) : file(path, mode), streaming(streaming) {}
+  TelemetryRecorder(const std::string& path, RecordMode mode, bool streaming)
+      : file(path, mode), streaming(streaming) {}
   const bool streaming;
   void open() {
     std::string header =
@@ -222,8 +223,9 @@ struct TelemetryRecorder {
                   : "# deltactl host record: one row per board telemetry frame (1 kHz of board time), drives off\n"
                     "# t_s: board time; alpha*_deg: encoders; alpha*_ref_deg: the board's joint references\n"
                     "t_s,";
-    header += "alpha1_ref_deg,alpha2_ref_deg,alpha3_ref_deg,alpha1_deg,alpha2_deg,alpha3_deg,current1_a,current2_a,"
-              "current3_a,fault_bits,flags,drives_enabled,sample_index,fill,";
+    header +=
+        "alpha1_ref_deg,alpha2_ref_deg,alpha3_ref_deg,alpha1_deg,alpha2_deg,alpha3_deg,current1_a,current2_a,"
+        "current3_a,fault_bits,flags,drives_enabled,sample_index,fill,";
     if (streaming) header += "tau_s,stream_sample,";
     header += "bad_frames,underruns,rejected,slew_limits\n";
     file.open(header);

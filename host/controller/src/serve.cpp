@@ -529,8 +529,9 @@ struct HostServer::Impl {
         reply["record"] = escape_invalid_utf8(work->record);
         return reply;
       }
-      return failure(kExitBadInput, "unknown command '" + command +
-                                        "' (status, run, hold, resume, stop, estop, home, enable, disable, clear-fault)");
+      return failure(kExitBadInput,
+                     "unknown command '" + command +
+                         "' (status, run, hold, resume, stop, estop, home, enable, disable, clear-fault)");
     } catch (const std::exception& error) {
       return failure(kExitFailure, error.what());
     }
