@@ -197,7 +197,9 @@ class HoldDroppingTap {
       }
       for (const link::Frame& frame : to_board.feed(buffer, n)) {
         const bool command = frame.type == link::FrameType::kCommand && frame.payload.size() == 1;
-        if (command && frame.payload[0] == static_cast<std::uint8_t>(link::Command::kHold)) {
+        if (frame.type == link::FrameType::kSetpoint) ++setpoints_;
+        // The primed start's hold (before the stream) passes; every hold after 300 setpoints is dropped.
+        if (command && frame.payload[0] == static_cast<std::uint8_t>(link::Command::kHold) && setpoints_ > 300) {
           ++holds_;
           continue;
         }
@@ -214,6 +216,7 @@ class HoldDroppingTap {
   io::SerialPort board_;
   std::atomic<bool> stop_{false};
   std::atomic<std::uint64_t> holds_{0}, disables_{0};
+  std::uint64_t setpoints_ = 0;
   std::thread thread_;
 };
 
