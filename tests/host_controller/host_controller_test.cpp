@@ -312,7 +312,10 @@ TEST(HostRun, SigintStopsAtRestThenDisablesAndExits130) {
   // still over its last 10 ms; then the truth shows the drives off.
   const Table out = read_table(bench.dir + "/out.csv");
   ASSERT_GT(out.rows.size(), 500u);
-  const std::size_t last = out.rows.size() - 1;
+  // The recording ends with the final hold and disable: the stream's last row is the last one
+  // with the drives on.
+  std::size_t last = out.rows.size() - 1;
+  while (last > 10 && out.at(last, "drives_enabled") == 0) --last;
   double change = 0.0, tau = 0.0;
   for (std::size_t i = 0; i <= last; ++i) tau = std::max(tau, out.at(i, "tau_s"));
   for (int j = 1; j <= 3; ++j) {
