@@ -490,6 +490,7 @@ RunOutcome RunJob::execute(link::LinkSession& session, const std::string& port_n
   TelemetryRecord final_row;
   if (recorder_->last) {
     final_row = *recorder_->last;
+    final_row.stream_sample = -1;  // the stop's frames are not the stream's (its statistics end with it)
   } else {
     final_row.reference_m = start;
   }
