@@ -43,7 +43,7 @@ start_board() {  # $1: run name; sets board, ready_at
     sleep 0.1
   done
   ready_at=$(now)
-  "$deltactl" host home --port "$work/$name.tty" --link-timeout-ms 2000 > /dev/null
+  "$deltactl" host home --port "$work/$name.tty" --weights "$weights" --link-timeout-ms 2000 --quiet > /dev/null
 }
 stop_board() {
   kill -INT "$board"

@@ -31,3 +31,11 @@ delta_add_gtest(host_safety_tests
   LIBRARIES delta::host nlohmann_json::nlohmann_json
   LABELS host host_controller virtual_board
   PROPERTIES RUN_SERIAL TRUE)
+
+# Homing against the references (docs/homing.md): random starts, a run stopped mid-path, a seized
+# arm and a missing switch, a board homed by hand.
+delta_add_gtest(homing_tests
+  SOURCES ${CMAKE_CURRENT_LIST_DIR}/host_controller/homing_test.cpp
+  LIBRARIES delta::host nlohmann_json::nlohmann_json
+  LABELS host host_controller virtual_board
+  PROPERTIES RUN_SERIAL TRUE)

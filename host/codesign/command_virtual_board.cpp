@@ -57,7 +57,39 @@ struct VirtualBoardCommandOptions {
   double stage_rate_hz = 1000.0;
   double stage_noise_m = 20e-9;
   std::int64_t stage_seed = -1;
+  std::string start_angles;  // A1,A2,A3 [deg], true shaft angles; empty: the home pose
+  int inject_seized_joint = 0;           // 1..3; 0: none
+  int inject_missing_home_switch = 0;    // 1..3; 0: none
 };
+
+// --start-angles A1,A2,A3: three true shaft angles within the board's travel.
+Vec3 parse_start_angles(const std::string& text) {
+  Vec3 angles = Vec3::Zero();
+  std::size_t at = 0;
+  for (int j = 0; j < 3; ++j) {
+    const std::size_t comma = j < 2 ? text.find(',', at) : text.size();
+    const std::string field = comma == std::string::npos ? "" : text.substr(at, comma - at);
+    double value = 0.0;
+    std::size_t used = 0;
+    try {
+      value = std::stod(field, &used);
+    } catch (const std::logic_error&) {
+      used = 0;
+    }
+    if (field.empty() || used != field.size() || !std::isfinite(value)) {
+      throw InputError("--start-angles", 0, "'" + text + "': give three angles in degrees, A1,A2,A3, e.g. 12.5,40,33");
+    }
+    const double low = board::kMinTravelBlock * 1024 * kCountDeg, high = ((board::kMaxTravelBlock + 1) * 1024 - 1) * kCountDeg;
+    if (value < low || value > high) {
+      throw InputError("--start-angles", 0,
+                       "joint " + std::to_string(j + 1) + " at " + field + " deg is outside the travel (" + fixed(low, 2) +
+                           " .. " + fixed(high, 2) + " deg)");
+    }
+    angles[j] = value;
+    at = comma + 1;
+  }
+  return angles;
+}
 
 // --stage-clock OFFSET_S,PPM.
 std::pair<double, double> parse_stage_clock(const std::string& text) {
@@ -119,6 +151,9 @@ void run_virtual_board(const VirtualBoardCommandOptions& options) {
   board_options.mem_dir = mem.path();
   board_options.effects = effects;
   board_options.inject_encoder_skip_at_s = options.inject_encoder_skip_at_s;
+  if (!options.start_angles.empty()) board_options.start_true_alpha_deg = parse_start_angles(options.start_angles);
+  board_options.inject_seized_joint = options.inject_seized_joint - 1;
+  board_options.inject_missing_home_switch = options.inject_missing_home_switch - 1;
   std::unique_ptr<MeasuringStage> stage;
   if (!options.stage.empty() || !options.stage_log.empty()) {
     if (options.stage.empty() || options.stage_log.empty()) {
@@ -138,7 +173,20 @@ void run_virtual_board(const VirtualBoardCommandOptions& options) {
               << options.stage_clock << " (offset s, ppm) at " << format_number(options.stage_rate_hz) << " Hz, noise "
               << format_number(options.stage_noise_m) << " m RMS, seed " << stage_options.seed << std::endl;
   }
-  VirtualBoard board(board_options);
+  const auto make_board = [&]() {
+    try {
+      return std::make_unique<VirtualBoard>(board_options);
+    } catch (const std::invalid_argument& error) {  // the arms placed where the plate has no pose
+      throw InputError("--start-angles", 0, "'" + options.start_angles + "': " + error.what());
+    }
+  };
+  const std::unique_ptr<VirtualBoard> board_owner = make_board();
+  VirtualBoard& board = *board_owner;
+  if (!options.start_angles.empty()) {
+    const Vec3& at = board.world().switch_true_alpha_deg();
+    std::cout << "virtual-board: arms at " << options.start_angles << " deg (true); home switches at "
+              << fixed(at[0], 3) << ", " << fixed(at[1], 3) << ", " << fixed(at[2], 3) << " deg (true)" << std::endl;
+  }
   if (stage) {
     board.observe_periods([s = stage.get(), &board](std::uint64_t clocks, const BoardPins&, const RobotWorld& world) {
       s->sample(static_cast<double>(clocks) / kBoardClockHz, 1.0 / board::kControlRateHz, world);
@@ -323,6 +371,16 @@ const RegisterCommand command("virtual-board", 72, [](CLI::App& root) {
   sub->add_option("--inject-encoder-skip-at", options->inject_encoder_skip_at_s,
                   "fault injection: from this board time [s] joint 1's encoder skips a quadrature state")
       ->check(options::real_number(0, 1e6));
+  sub->add_option("--start-angles", options->start_angles,
+                  "A1,A2,A3: true shaft angles [deg] the arms rest at when the board starts (default: the home pose, "
+                  "where the encoders read the home count); the board counts from its home count wherever they are: "
+                  "`deltactl host home` finds the references");
+  sub->add_option("--inject-seized-joint", options->inject_seized_joint,
+                  "J (1-3): that arm never moves, whatever the drive (a test's fault injection)")
+      ->check(CLI::Range(1, 3));
+  sub->add_option("--inject-missing-home-switch", options->inject_missing_home_switch,
+                  "J (1-3): that joint's home switch never closes (a test's fault injection)")
+      ->check(CLI::Range(1, 3));
   sub->add_option("--stage", options->stage,
                   "measuring stage: drag:NAME|drag:FILE.csv (drags the plate, drives off) or follow")
       ->type_name("MODE");

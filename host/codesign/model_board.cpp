@@ -55,7 +55,9 @@ constexpr std::uint64_t kTxByteDelay = kClocksPerBit / 2 + 9 * kClocksPerBit;
 // the last: a frame's bytes load that far apart from the first (which waits for the UART's last).
 constexpr std::uint64_t kTxByteClocks = 10 * kClocksPerBit + 1;
 
-std::uint16_t saturating_increment(std::uint16_t value) { return value == 0xFFFF ? value : value + 1; }
+// board_core's status counters (bad frames, underruns, slew limits, refused): StatusCounterBits wide.
+constexpr std::uint16_t kCounterMax = (1u << board::kStatusCounterBits) - 1;
+std::uint16_t saturating_increment(std::uint16_t value) { return value == kCounterMax ? value : value + 1; }
 
 // The link CRC-16 register after one more byte (link_crc16.sv; the host's link::crc16).
 std::uint16_t crc_byte(std::uint16_t crc, std::uint8_t data) { return link::crc16(&data, 1, crc); }
@@ -190,11 +192,22 @@ int quadrature_move(int previous, int ab) {
   }
 }
 
-// One quiet clock (no set-home) of the encoder synchronisers and quadrature counters, in place.
-// True if a joint skipped a state (its step error is set).
+// The home switches ride in bits kHomeSwitchShift.. of the A lines (ModelBoard::clock): board_core's
+// synchronisers and previous state. A rising edge while homing with the drives on references its
+// joint (switch_edge: a full clock's work, never a quiet one's).
+constexpr int kHomeSwitchShift = 3;
+template <typename Registers>
+int switch_edge(const Registers& s) {
+  if (!s.homing || !s.enabled || s.fault_cause != 0) return 0;
+  return ((s.enc_a >> kHomeSwitchShift) & 7) & ~s.switch_previous & ~s.referenced & 7;
+}
+
+// One quiet clock (no set-home, no switch edge) of the encoder synchronisers and quadrature
+// counters, in place. True if a joint skipped a state (its step error is set).
 template <typename Registers>
 bool count_encoders(Registers& s, int encoder_a, int encoder_b) {
   bool skipped = false;
+  s.switch_previous = (s.enc_a >> kHomeSwitchShift) & 7;
   for (int j = 0; j < 3; ++j) {
     const int ab = (((s.enc_a >> j) & 1) << 1) | ((s.enc_b >> j) & 1);
     const int move = quadrature_move(s.previous[j], ab);
@@ -216,7 +229,8 @@ bool count_encoders(Registers& s, int encoder_a, int encoder_b) {
 // The synchronisers and counters hold these pins: a clock with them changes nothing.
 template <typename Registers>
 bool encoders_settled(const Registers& s, int encoder_a, int encoder_b) {
-  if (s.enc_a_meta != encoder_a || s.enc_a != encoder_a || s.enc_b_meta != encoder_b || s.enc_b != encoder_b) {
+  if (s.enc_a_meta != encoder_a || s.enc_a != encoder_a || s.enc_b_meta != encoder_b || s.enc_b != encoder_b ||
+      s.switch_previous != ((encoder_a >> kHomeSwitchShift) & 7)) {
     return false;
   }
   for (int j = 0; j < 3; ++j) {
@@ -313,6 +327,8 @@ struct ModelBoard::State {
   // commands
   std::uint8_t command = 0;
   bool enabled = false, holding = false, homed = false;
+  bool homing = false;  // board_core's homing_q
+  int referenced = 0;   // bit j: joint j homed at its switch
   // schedule
   int tick = 0, phase = 9;
   std::uint32_t period_count = 0;
@@ -333,6 +349,7 @@ struct ModelBoard::State {
   // encoders
   int enc_a_meta = 0, enc_a = 0, enc_b_meta = 0, enc_b = 0;
   std::array<int, 3> previous{};
+  int switch_previous = 0;  // the home switches' previous synchronised state
   std::array<std::uint16_t, 3> count{};
   std::array<bool, 3> step_error{};
   // joint_axes
@@ -430,6 +447,7 @@ bool ModelBoard::quiet() const {
   const bool interpolating = s.busy && (s.step == 4 || s.step == 7);
   if (s.starting || interpolating || s.slew_limited || s.check || s.checked) return false;
   if (s.step_error[0] || s.step_error[1] || s.step_error[2]) return false;
+  if (switch_edge(s) != 0) return false;
   const bool fault = s.fault_cause != 0;
   if (fault && (s.enabled || s.holding)) return false;
   if (!s.enabled && s.silent_periods != 0) return false;
@@ -467,6 +485,9 @@ bool ModelBoard::quiet() const {
   X(enabled)                           \
   X(holding)                           \
   X(homed)                             \
+  X(homing)                            \
+  X(referenced)                        \
+  X(switch_previous)                   \
   X(tick)                              \
   X(phase)                             \
   X(period_count)                      \
@@ -661,6 +682,10 @@ std::uint64_t ModelBoard::quiet_run(std::uint64_t limit, int encoder_a, int enco
   // The synchronisers take the held encoder lines in three clocks, counting as they go; a clock
   // that meets a skipped state ends the run (the next one latches the error).
   for (std::uint64_t counted = 0; counted < clocks && !encoders_settled(s, encoder_a, encoder_b);) {
+    if (counted != 0 && switch_edge(s) != 0) {  // a home switch's edge: the next clock is a full one
+      clocks = counted;
+      break;
+    }
     ++counted;
     if (count_encoders(s, encoder_a, encoder_b)) clocks = counted;
   }
@@ -726,7 +751,7 @@ bool ModelBoard::micro_clock(int encoder_a, int encoder_b, std::uint64_t lines_h
   State& s = *state_;
   Memories& m = *memories_;
   const bool fault = s.fault_cause != 0;
-  if (s.step_error[0] || s.step_error[1] || s.step_error[2] || s.slew_limited || s.check ||
+  if (s.step_error[0] || s.step_error[1] || s.step_error[2] || s.slew_limited || s.check || switch_edge(s) != 0 ||
       (fault && (s.enabled || s.holding)) || (!s.enabled && s.silent_periods != 0) ||
       (s.enabled && s.silent_periods > board::kWatchdogPeriods) ||
       (s.tx_state == 0 && (s.telemetry_pending || s.identify_pending))) {
@@ -800,7 +825,7 @@ bool ModelBoard::micro_clock(int encoder_a, int encoder_b, std::uint64_t lines_h
     r = interpolator_enabled
             ? static_cast<std::int32_t>(static_cast<std::uint32_t>(s.r[j]) + static_cast<std::uint32_t>(step))
             : static_cast<std::int32_t>(static_cast<std::int16_t>(s.count[j])) * 256;
-    d = (!interpolator_enabled || k_next == 10) ? 0 : s.delta;
+    d = (!interpolator_enabled || (k_next == 10 && !s.homing)) ? 0 : s.delta;
     shift = interpolator_enabled ? reference_shift(s.net_outputs[j], s.r[j], half_plays_[j]) : std::int16_t{0};
   }
 
@@ -896,7 +921,7 @@ bool ModelBoard::micro_clock(int encoder_a, int encoder_b, std::uint64_t lines_h
       const std::int64_t step = reference_step(s.delta, s.phase);
       s.shift[j] = reference_shift(s.net_outputs[j], s.r[j], half_plays_[j]);
       s.r[j] = static_cast<std::int32_t>(static_cast<std::uint32_t>(s.r[j]) + static_cast<std::uint32_t>(step));
-      s.d[j] = s.phase == 9 ? 0 : s.delta;
+      s.d[j] = (s.phase == 9 && !s.homing) ? 0 : s.delta;
     }
     if (take) s.answer_pending = false;
     s.busy = false;
@@ -973,6 +998,8 @@ std::uint16_t ModelBoard::telemetry_word_of(const State& s) {
   if (s.holding) flags |= 1 << board::kFlagHolding;
   if (fault) flags |= 1 << board::kFlagFault;
   if (s.encoder_error != 0) flags |= 1 << board::kFlagEncoderError;
+  if (s.referenced == 7) flags |= 1 << board::kFlagReferenced;
+  if (s.homing) flags |= 1 << board::kFlagHoming;
   const int w = s.word_index;
   if (w == board::kTelemetrySampleIndexOffset / 2)
     return s.sample_index & 0xFFFF;
@@ -997,7 +1024,8 @@ std::uint16_t ModelBoard::telemetry_word_of(const State& s) {
   else if (w == board::kTelemetryRejectedOffset / 2)
     return s.refused;
   else if (w == board::kTelemetrySequenceOffset / 2)
-    return s.last_sequence;
+    return static_cast<std::uint16_t>((((s.referenced << 3) | ((s.enc_a >> kHomeSwitchShift) & 7)) << 8) |
+                                      s.last_sequence);
   else if (w >= reference_word && w < count_word && (w & 1) != (reference_word & 1))
     return s.peek_data >> 16;
   else
@@ -1067,7 +1095,9 @@ void ModelBoard::clock(int encoder_a, int encoder_b) {
   // ---- joint_axes: fault, commands ----
   const bool fault = s.fault_cause != 0;
   const bool command_ok = frame_ok && is_command;
-  bool flush = fault && s.enabled, home = false, clear_fault = false, command_refused = false;
+  const int edge = switch_edge(s);
+  bool flush = (fault && s.enabled) || edge != 0, home = false, home_start = false, clear_fault = false,
+       command_refused = false;
   if (command_ok) {
     switch (s.command) {
       case board::kCommandEnable:
@@ -1087,6 +1117,10 @@ void ModelBoard::clock(int encoder_a, int encoder_b) {
         command_refused = s.enabled;
         home = !s.enabled;
         break;
+      case board::kCommandHomeStart:
+        command_refused = s.enabled;
+        home_start = !s.enabled;
+        break;
       default:
         command_refused = true;
     }
@@ -1104,10 +1138,14 @@ void ModelBoard::clock(int encoder_a, int encoder_b) {
     if (s.command == board::kCommandHold) n.holding = true;
   }
   if (home) n.homed = true;
-  if (fault) {
+  if (home_start) n.homing = true;
+  n.referenced = (home_start ? 0 : s.referenced) | edge;
+  if ((!home_start && (s.referenced | edge) == 7) || (command_ok && s.command == board::kCommandHold)) n.homing = false;
+  if (fault || edge != 0) {
     n.enabled = false;
     n.holding = false;
   }
+  if (fault) n.homing = false;
 
   // ---- period schedule ----
   if (s.tick == 0) {
@@ -1186,7 +1224,7 @@ void ModelBoard::clock(int encoder_a, int encoder_b) {
       n.r[j] = interpolator_enabled
                    ? static_cast<std::int32_t>(static_cast<std::uint32_t>(s.r[j]) + static_cast<std::uint32_t>(step))
                    : static_cast<std::int32_t>(static_cast<std::int16_t>(s.count[j])) * 256;
-      n.d[j] = (!interpolator_enabled || k_next == 10) ? 0 : s.delta;
+      n.d[j] = (!interpolator_enabled || (k_next == 10 && !s.homing)) ? 0 : s.delta;
       n.shift[j] = interpolator_enabled ? reference_shift(s.net_outputs[j], s.r[j], half_plays_[j]) : std::int16_t{0};
       n.step = 0;
       n.joint = j + 1;
@@ -1199,6 +1237,7 @@ void ModelBoard::clock(int encoder_a, int encoder_b) {
   if (s.slew_limited) n.slew_limits = saturating_increment(s.slew_limits);
 
   // ---- encoders (synchronisers, quadrature counters) ----
+  n.switch_previous = (s.enc_a >> kHomeSwitchShift) & 7;
   n.enc_a_meta = encoder_a;
   n.enc_a = s.enc_a_meta;
   n.enc_b_meta = encoder_b;
@@ -1211,7 +1250,8 @@ void ModelBoard::clock(int encoder_a, int encoder_b) {
     const std::uint16_t count = static_cast<std::uint16_t>(s.count[j] + (error ? 0 : move));
     n.previous[j] = ab;
     n.step_error[j] = error;
-    n.count[j] = home ? static_cast<std::uint16_t>(board::kHomeCount) : count;
+    const bool load = (home && ((s.referenced >> j) & 1) == 0) || ((edge >> j) & 1) != 0;
+    n.count[j] = load ? static_cast<std::uint16_t>(board::kHomeCount) : count;
     if (s.step_error[j]) step_error_bits |= 1 << j;
   }
   n.encoder_error = s.encoder_error | step_error_bits;
@@ -1290,7 +1330,7 @@ void ModelBoard::clock(int encoder_a, int encoder_b) {
 
   // ---- counters ----
   if (frame_bad) n.bad_frames = saturating_increment(s.bad_frames);
-  if (underrun) n.underruns = saturating_increment(s.underruns);
+  if (underrun && !s.homing) n.underruns = saturating_increment(s.underruns);
   if (command_refused || setpoint_refused) n.refused = saturating_increment(s.refused);
   if (frame_ok) n.last_sequence = s.sequence;
 

@@ -15,6 +15,13 @@
 
 namespace delta::cosim {
 
+namespace {
+// The model board's A lines carry the home switches above the three encoder lines (model_board.hpp).
+int model_lines_a(const RobotWorld& world, int skipped) {
+  return (world.encoder_a() ^ skipped) | (world.home_switches() << 3);
+}
+}  // namespace
+
 // The Verilated model, its context (one per board: the plusarg names this board's .mem files)
 // and the serial line at its pins.
 // At model fidelity only `board` is set.
@@ -61,12 +68,16 @@ VirtualBoard::VirtualBoard(const VirtualBoardOptions& options) : core_(std::make
   }
   world_ = std::make_unique<RobotWorld>(board_interface, options.effects, options.nominal, options.plant);
   world_->set_drag(options.drag);
+  if (options.start_true_alpha_deg) world_->place_arms(*options.start_true_alpha_deg);
+  if (options.inject_seized_joint >= 0) world_->seize_joint(options.inject_seized_joint);
+  if (options.inject_missing_home_switch >= 0) world_->remove_home_switch(options.inject_missing_home_switch);
   if (core_->board) return;  // the model starts in its reset state
 
   Vboard_core& core = *core_->model;
   core.uart_rx_i = 1;
   core.encoder_a_i = 0;
   core.encoder_b_i = 0;
+  core.home_switch_i = 0;
   core.rst_ni = 0;
   core.rst_network_ni = 0;
   for (int i = 0; i < 4; ++i) rtl::clock_board(core);
@@ -118,6 +129,7 @@ void VirtualBoard::clock() {
   const int skipped = clocks_ >= encoder_skip_clock_ ? 1 : 0;  // joint 1's lines inverted
   core.encoder_a_i = world_->encoder_a() ^ skipped;
   core.encoder_b_i = world_->encoder_b() ^ skipped;
+  core.home_switch_i = world_->home_switches();
   core_->network_clock.clock(core);
   if (core_->line.sample_tx_pin(core.uart_tx_o)) from_board_.push_back(core_->line.byte());
   world_->step({core.drive_pwm_o, core.drive_dir_o, static_cast<bool>(core.drive_enable_o)});
@@ -142,7 +154,7 @@ void VirtualBoard::clock_model() {
   ModelBoard& board = *core_->board;
   if (truth_observer_ && millisecond_phase_ == 0) observe(board.pins().drive_enable);
   const int skipped = clocks_ >= encoder_skip_clock_ ? 1 : 0;
-  board.clock(world_->encoder_a() ^ skipped, world_->encoder_b() ^ skipped);
+  board.clock(model_lines_a(*world_, skipped), world_->encoder_b() ^ skipped);
   const ModelBoardPins& pins = board.pins();
   std::uint8_t byte = 0;
   while (board.take_tx_byte(&byte)) from_board_.push_back(byte);
@@ -177,7 +189,7 @@ bool VirtualBoard::skip_model(std::uint64_t limit, std::size_t needed_bytes) {
   const int skipped = clocks_ >= encoder_skip_clock_ ? 1 : 0;
   DrivePattern pattern;
   const std::uint64_t taken =
-      core.board->skip(clocks, world_->encoder_a() ^ skipped, world_->encoder_b() ^ skipped, &pattern);
+      core.board->skip(clocks, model_lines_a(*world_, skipped), world_->encoder_b() ^ skipped, &pattern);
   if (taken == 0) return false;
   std::uint8_t byte = 0;
   while (core.board->take_tx_byte(&byte)) from_board_.push_back(byte);

@@ -6,7 +6,7 @@
 // index) -> network_crossing -> network (ap_ctrl_hs) -> reference_interpolator (10 kHz
 // references between answers) -> joint_axes (controllers, PWM + direction, safety). Telemetry
 // (link_tx) reports the state once per setpoint period; commands (enable, disable, hold, clear
-// fault, set home) change it.
+// fault, set home, home start) change it.
 //
 // Period schedule (tick of joint_axes; phase k = 0..9 within the 1 kHz segment): tick 0 the
 // controllers start on the references; tick 1 of k = 0 a setpoint is played (network started);
@@ -18,6 +18,14 @@
 // torque, turns the enable off and flushes the buffer; clear fault is refused while a cause
 // persists and never re-enables. Setpoints are taken only with the drives on (a disable and a
 // fault flush), so an enable always starts on an empty buffer.
+//
+// Homing (delta_board_pkg, docs/homing.md): home start (drives off) forgets the references and
+// starts homing; set home gives the joints not referenced HomeCount. While homing with the drives
+// on, a joint's home switch closing (rising edge, synchronised) sets its count to HomeCount, marks
+// it referenced and turns the drives off (the buffer flushed); the interpolator keeps a segment's
+// change from one setpoint period to the next (a jog set by a setpoint). Homing ends when every
+// joint is referenced, at a hold (the jog stops) or at a fault; a disable keeps it (the counts of
+// the joints not referenced are set again between jogs).
 //
 // Two clocks from one PLL. clk_network_i (46.5 MHz) runs the network alone: its 92-cycle latency
 // is 1.98 us there. clk_i (half of it, 23.25 MHz) runs everything else. network_crossing is the
@@ -39,6 +47,7 @@ module board_core #(
   output logic       led_green_o,     // a frame was accepted in the last LED window
   input  logic [2:0] encoder_a_i,     // quadrature encoders, asynchronous
   input  logic [2:0] encoder_b_i,
+  input  logic [2:0] home_switch_i,   // home switches, asynchronous: 1 = arm j at or above its reference
   output logic [2:0] drive_pwm_o,     // drive current command: PWM duty = |current| / 0.5 A
   output logic [2:0] drive_dir_o,     // drive current command: sign (1 = negative)
   output logic       drive_enable_o,  // enabled and no fault
@@ -108,14 +117,17 @@ module board_core #(
 
   // ---- commands and the drive state ------------------------------------------------------------------
   logic       enabled_q, holding_q, homed_q, flush, home, clear_fault, command_refused;
+  logic       homing_q, home_start, homed_at_switch;
+  logic [2:0] referenced_q, switch_edge, switch_meta_q, switch_q, switch_previous_q;
   logic [7:0] command_q;
   logic       fault, fault_active;
   logic       command_ok;
   assign command_ok = frame_ok && is_command;
 
   always_comb begin
-    flush           = fault && enabled_q;  // a fault empties the buffer once, as it turns the drives off
+    flush           = (fault && enabled_q) || homed_at_switch;  // a fault or a reference empties the buffer
     home            = 1'b0;
+    home_start      = 1'b0;
     clear_fault     = 1'b0;
     command_refused = 1'b0;
     if (command_ok) begin
@@ -131,6 +143,10 @@ module board_core #(
           command_refused = enabled_q;
           home            = !enabled_q;
         end
+        8'(delta_board_pkg::CommandHomeStart): begin
+          command_refused = enabled_q;
+          home_start      = !enabled_q;
+        end
         default: command_refused = 1'b1;
       endcase
     end
@@ -142,6 +158,8 @@ module board_core #(
       enabled_q <= 1'b0;
       holding_q <= 1'b0;
       homed_q   <= 1'b0;
+      homing_q  <= 1'b0;
+      referenced_q <= '0;
     end else begin
       if (payload_valid && is_command) command_q <= payload_byte;
       if (command_ok && !command_refused) begin
@@ -156,12 +174,36 @@ module board_core #(
         if (command_q == 8'(delta_board_pkg::CommandHold)) holding_q <= 1'b1;
       end
       if (home) homed_q <= 1'b1;
-      if (fault) begin
+      if (home_start) homing_q <= 1'b1;
+      referenced_q <= (home_start ? 3'b000 : referenced_q) | switch_edge;
+      if ((!home_start && (referenced_q | switch_edge) == 3'b111) ||
+          (command_ok && command_q == 8'(delta_board_pkg::CommandHold))) begin
+        homing_q <= 1'b0;
+      end
+      if (fault || homed_at_switch) begin
         enabled_q <= 1'b0;
         holding_q <= 1'b0;
       end
+      if (fault) homing_q <= 1'b0;
     end
   end
+
+  // ---- home switches ---------------------------------------------------------------------------------
+  // Two-flip-flop synchronisers and the previous state: a rising edge while homing with the drives on
+  // references its joint (count := HomeCount) once.
+  always_ff @(posedge clk_i or negedge rst_ni) begin
+    if (!rst_ni) begin
+      switch_meta_q     <= '0;
+      switch_q          <= '0;
+      switch_previous_q <= '0;
+    end else begin
+      switch_meta_q     <= home_switch_i;
+      switch_q          <= switch_meta_q;
+      switch_previous_q <= switch_q;
+    end
+  end
+  assign switch_edge     = (switch_q & ~switch_previous_q & ~referenced_q) & {3{homing_q && enabled_q && !fault}};
+  assign homed_at_switch = switch_edge != '0;
 
   // ---- period schedule ---------------------------------------------------------------------------------
   logic [TickWidth-1:0] tick /*verilator public_flat_rd*/;
@@ -278,6 +320,7 @@ module board_core #(
     .update_i      (update),
     .phase_i       (phase_q),
     .enabled_i     (enabled_q && !fault),
+    .homing_i      (homing_q),
     .answer_i      (net_done),
     .outputs_i     (net_outputs),
     .counts_i      (counts),
@@ -315,7 +358,7 @@ module board_core #(
     .rst_ni,
     .encoder_a_i     (encoder_a_q),
     .encoder_b_i     (encoder_b_q),
-    .home_i          (home),
+    .home_i          ({3{home}} & ~referenced_q | switch_edge),
     .references_i    (references),
     .shift_write_i   (shift_write),
     .shift_joint_i   (shift_joint),
@@ -340,9 +383,10 @@ module board_core #(
   assign joint_fault_o   = fault;
 
   // ---- counters (saturating: a count never wraps back to small) ----------------------------------------
-  logic [15:0] bad_frames_q, underruns_q, slew_limits_q, refused_q;
+  localparam int unsigned CounterBits = delta_board_pkg::StatusCounterBits;
+  logic [CounterBits-1:0] bad_frames_q, underruns_q, slew_limits_q, refused_q;
   logic [7:0]  last_sequence_q;
-  function automatic logic [15:0] saturating_increment(logic [15:0] value);
+  function automatic logic [CounterBits-1:0] saturating_increment(logic [CounterBits-1:0] value);
     saturating_increment = (value == '1) ? value : value + 1'b1;
   endfunction
   always_ff @(posedge clk_i or negedge rst_ni) begin
@@ -354,7 +398,7 @@ module board_core #(
       last_sequence_q <= '0;
     end else begin
       if (frame_bad) bad_frames_q <= saturating_increment(bad_frames_q);
-      if (underrun) underruns_q <= saturating_increment(underruns_q);
+      if (underrun && !homing_q) underruns_q <= saturating_increment(underruns_q);
       if (slew_limited) slew_limits_q <= saturating_increment(slew_limits_q);
       if (command_refused || setpoint_refused) refused_q <= saturating_increment(refused_q);
       if (frame_ok) last_sequence_q <= frame_sequence;
@@ -398,6 +442,8 @@ module board_core #(
     flags[delta_board_pkg::FlagHolding]      = holding_q;
     flags[delta_board_pkg::FlagFault]        = fault;
     flags[delta_board_pkg::FlagEncoderError] = encoder_error_o != '0;
+    flags[delta_board_pkg::FlagReferenced]   = referenced_q == 3'b111;
+    flags[delta_board_pkg::FlagHoming]       = homing_q;
     unique case (5'(word_index_q))
       5'(delta_board_pkg::TelemetrySampleIndexOffset / 2):     telemetry_word = sample_index[15:0];
       5'(delta_board_pkg::TelemetrySampleIndexOffset / 2 + 1): telemetry_word = sample_index[31:16];
@@ -405,12 +451,12 @@ module board_core #(
       5'(delta_board_pkg::TelemetryTickOffset / 2 + 1):        telemetry_word = period_count_q[31:16];
       5'(delta_board_pkg::TelemetryFaultOffset / 2):           telemetry_word = {flags, 8'(joint_fault_cause_o)};
       5'(delta_board_pkg::TelemetryFillOffset / 2):            telemetry_word = fill;
-      5'(delta_board_pkg::TelemetryBadFramesOffset / 2):       telemetry_word = bad_frames_q;
-      5'(delta_board_pkg::TelemetryUnderrunsOffset / 2):       telemetry_word = underruns_q;
+      5'(delta_board_pkg::TelemetryBadFramesOffset / 2):       telemetry_word = 16'(bad_frames_q);
+      5'(delta_board_pkg::TelemetryUnderrunsOffset / 2):       telemetry_word = 16'(underruns_q);
       5'(delta_board_pkg::TelemetrySaturationsOffset / 2):     telemetry_word = joint_overflow_count;
-      5'(delta_board_pkg::TelemetrySlewLimitsOffset / 2):      telemetry_word = slew_limits_q;
-      5'(delta_board_pkg::TelemetryRejectedOffset / 2):        telemetry_word = refused_q;
-      5'(delta_board_pkg::TelemetrySequenceOffset / 2):        telemetry_word = {8'd0, last_sequence_q};
+      5'(delta_board_pkg::TelemetrySlewLimitsOffset / 2):      telemetry_word = 16'(slew_limits_q);
+      5'(delta_board_pkg::TelemetryRejectedOffset / 2):        telemetry_word = 16'(refused_q);
+      5'(delta_board_pkg::TelemetrySequenceOffset / 2):        telemetry_word = {2'd0, referenced_q, switch_q, last_sequence_q};
       default: begin  // references (low, high half), counts and currents (low half)
         telemetry_word = (word_index_q >= 5'(ReferenceWord) && word_index_q < 5'(CountWord) && word_index_q[0] != 1'(ReferenceWord))
                              ? peek_data[31:16] : peek_data[15:0];

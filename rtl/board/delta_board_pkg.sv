@@ -57,7 +57,8 @@ package delta_board_pkg;
   localparam int CommandDisable /*verilator public*/ = 2;  // drives off, buffer flushed (setpoints refused while off)
   localparam int CommandHold /*verilator public*/ = 3;  // stop taking setpoints, hold the reference
   localparam int CommandClearFault /*verilator public*/ = 4;  // refused while a cause persists
-  localparam int CommandSetHome /*verilator public*/ = 5;  // counts := HomeCount (drives off only)
+  localparam int CommandSetHome /*verilator public*/ = 5;  // counts of the joints not referenced := HomeCount (drives off only)
+  localparam int CommandHomeStart /*verilator public*/ = 6;  // drives off only: forget the references, start homing
 
   // Identify payload (u16/u32 little-endian).
   localparam int IdentifyProtocolOffset /*verilator public*/ = 0;  // u16 ProtocolVersion
@@ -80,21 +81,28 @@ package delta_board_pkg;
   localparam int TelemetryFaultOffset /*verilator public*/ = 32;  // u8 fault cause bits (Fault*)
   localparam int TelemetryFlagsOffset /*verilator public*/ = 33;  // u8 flags (Flag*)
   localparam int TelemetryFillOffset /*verilator public*/ = 34;  // u16 setpoints buffered
+  localparam int StatusCounterBits /*verilator public*/ = 12;  // bad frames, underruns, slew limits, refused: saturate at 4095
   localparam int TelemetryBadFramesOffset /*verilator public*/ = 36;  // u16 dropped frames (saturating)
   localparam int TelemetryUnderrunsOffset /*verilator public*/ = 38;  // u16 setpoint periods with an empty buffer
   localparam int TelemetrySaturationsOffset /*verilator public*/ = 40;  // u16 controller saturations (saturating)
   localparam int TelemetrySlewLimitsOffset /*verilator public*/ = 42;  // u16 reference changes limited (saturating)
   localparam int TelemetryRejectedOffset /*verilator public*/ = 44;  // u16 refused commands and setpoints (saturating)
   localparam int TelemetrySequenceOffset /*verilator public*/ = 46;  // u8 sequence of the last accepted frame
-  localparam int TelemetryReservedOffset /*verilator public*/ = 47;  // u8 zero
+  localparam int TelemetryHomeOffset /*verilator public*/ = 47;  // u8 home switches (bits 0-2), joints referenced (bits 3-5)
   localparam int FlagDriveEnable /*verilator public*/ = 0;
   localparam int FlagHomed /*verilator public*/ = 1;
   localparam int FlagHolding /*verilator public*/ = 2;
   localparam int FlagFault /*verilator public*/ = 3;
   localparam int FlagEncoderError /*verilator public*/ = 4;
+  localparam int FlagReferenced /*verilator public*/ = 5;  // every joint homed against its reference
+  localparam int FlagHoming /*verilator public*/ = 6;  // homing (CommandHomeStart .. every joint referenced, a hold, a fault)
 
   // ---- joints ----
-  localparam int HomeCount /*verilator public*/ = 3_000;  // encoder count at reset: 30.00 deg (0.01 deg per count)
+  // Homing (docs/homing.md): each upper arm closes its home switch at and above its reference angle.
+  // While homing with the drives on, a joint's switch closing sets its count to HomeCount, marks the
+  // joint referenced and turns the drives off (and flushes the buffer); a segment's reference change
+  // then persists from one setpoint period to the next (a jog at constant speed, set by a setpoint).
+  localparam int HomeCount /*verilator public*/ = 3_000;  // encoder count at reset and at the home switch: 30.00 deg (0.01 deg per count)
   localparam int EncoderCountMicrodeg /*verilator public*/ = 10_000;  // one encoder count: 0.01 deg
   localparam int PwmBits /*verilator public*/ = 10;  // PWM period 2^10 = 1024 board cycles (22.7 kHz)
   localparam int PwmPeriodCycles /*verilator public*/ = 1_024;  // 2^PwmBits

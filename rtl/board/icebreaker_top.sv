@@ -23,6 +23,7 @@ module icebreaker_top #(
   output logic       led_green_no,  // pin 37, low = on
   input  logic [2:0] encoder_a_i,   // PMOD1A pins 1, 3, 7 (4, 47, 3)
   input  logic [2:0] encoder_b_i,   // PMOD1A pins 2, 4, 8 (2, 45, 48)
+  input  logic [2:0] home_switch_i, // P1A9, P1A10, P1B10 (46, 44, 28): home switch j, 1 = at or above the reference
   output logic [2:0] drive_pwm_o,   // PMOD1B pins 1, 3, 7 (43, 34, 42)
   output logic [2:0] drive_dir_o,   // PMOD1B pins 2, 4, 8 (38, 31, 36)
   output logic       drive_enable_o,// PMOD1B pin 9 (32)
@@ -91,6 +92,7 @@ module icebreaker_top #(
     .led_green_o(led_green),
     .encoder_a_i,
     .encoder_b_i,
+    .home_switch_i,
     .drive_pwm_o,
     .drive_dir_o,
     .drive_enable_o,

@@ -9,7 +9,8 @@
 // segment) sets D = saturate_16(play(round_shift(25 y, 4) - r, H)) at the next update (r = B
 // then); slew_limited_o pulses when it saturates. A new segment starts with D = 0: without an
 // answer (underrun, hold) the reference holds. With enabled_i low the reference is the encoder
-// count. Each joint's update also works out its play shift for the next period (issue 15, below)
+// count. With homing_i high a segment's change D is kept for the next segment (a jog: the
+// reference moves D per setpoint period until an answer changes it). Each joint's update also works out its play shift for the next period (issue 15, below)
 // and hands it to the joint controllers (shift_write_o, shift_joint_o, shift_o).
 //
 // Backlash compensation (the deployed model, issue 15): play(d, H) = d - H for d > H, d + H for
@@ -32,6 +33,7 @@ module reference_interpolator #(
   input  logic        update_i,       // pulse: compute the references of the next period
   input  logic [3:0]  phase_i,        // k of the period now running (0..9)
   input  logic        enabled_i,      // drives on: interpolate; off: follow the encoders
+  input  logic        homing_i,       // keep D from segment to segment (board_core's homing)
   input  logic        answer_i,       // pulse: outputs_i holds a new network answer
   input  logic [71:0] outputs_i,      // y_j at [24j +: 24], Q10.14 degrees, held
   input  logic [47:0] counts_i,       // encoder counts, joint j at [16j +: 16]
@@ -206,7 +208,7 @@ module reference_interpolator #(
           r_q[2]  <= r_new;
           d_q[0]  <= d_q[1];
           d_q[1]  <= d_q[2];
-          d_q[2]  <= (!enabled_i || k_next == 4'd10) ? '0 : delta_q;
+          d_q[2]  <= (!enabled_i || (k_next == 4'd10 && !homing_i)) ? '0 : delta_q;
           if (joint_q == 2'd2) begin
             busy_q <= 1'b0;
             if (take_answer) answer_pending_q <= 1'b0;

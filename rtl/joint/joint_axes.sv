@@ -6,8 +6,8 @@
 // ClocksPerPeriod cycles (10 kHz, tick_o == 0) the encoder counts are latched and the controller
 // started (1072-cycle latency, see joint_controller.sv); each current command updates its PWM as
 // soon as it is stored (joint_pwm.sv). The drives are on while enabled_i and no fault; a fault
-// (joint_safety.sv) stops the torque and stays latched until clear_fault_i. home_i sets every
-// encoder count to HomeCount. Board facts (clock, home count, limits, cause bits): delta_board_pkg.
+// (joint_safety.sv) stops the torque and stays latched until clear_fault_i. home_i[j] sets joint
+// j's encoder count to HomeCount. Board facts (clock, home count, limits, cause bits): delta_board_pkg.
 module joint_axes #(
   parameter int unsigned ClocksPerPeriod = delta_board_pkg::ClocksPerPeriod,  // clk_i / 10 kHz
   parameter logic [15:0] HomeCount       = 16'(delta_board_pkg::HomeCount),   // encoder count at reset
@@ -20,7 +20,7 @@ module joint_axes #(
   input  logic        rst_ni,
   input  logic [2:0]  encoder_a_i,        // synchronised to clk_i
   input  logic [2:0]  encoder_b_i,
-  input  logic        home_i,             // set home: counts := HomeCount
+  input  logic [2:0]  home_i,             // set home: count j := HomeCount
   input  logic [95:0] references_i,       // Q24.8 counts, joint j at [32j +: 32]
   input  logic        shift_write_i,      // the next period's play shift of joint shift_joint_i
   input  logic [1:0]  shift_joint_i,      //   (reference_interpolator, while the controller is idle)
@@ -52,7 +52,7 @@ module joint_axes #(
       .rst_ni,
       .a_i    (encoder_a_i[j]),
       .b_i    (encoder_b_i[j]),
-      .home_i,
+      .home_i (home_i[j]),
       .count_o(counts[16 * j +: 16]),
       .error_o(step_error[j])
     );

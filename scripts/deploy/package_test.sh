@@ -89,7 +89,7 @@ if [[ -n $full_deltactl ]]; then
   board_pid=$!
   for _ in $(seq 600); do [[ -e $tty ]] && break; sleep 0.1; done
   [[ -e $tty ]] || { cat "$work/board.log" >&2; fail "virtual board never made $tty"; }
-  "$installed" host home --port "$tty" --link-timeout-ms 2000 >"$work/home.log" 2>&1 || { cat "$work/home.log" >&2; fail "installed host home"; }
+  "$installed" host home --port "$tty" --weights "$weights" --link-timeout-ms 2000 >"$work/home.log" 2>&1 || { cat "$work/home.log" >&2; fail "installed host home"; }
   if ! "$installed" host run --port "$tty" --weights "$weights" --trajectory experiment1 --duration 1 \
       --record "$work/run.csv" --link-timeout-ms 1000 >"$work/run.log" 2>&1; then
     cat "$work/run.log" >&2; fail "installed host run of 1 s"

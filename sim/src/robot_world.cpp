@@ -90,6 +90,11 @@ RobotWorld::RobotWorld(const BoardInterface& board, const EffectSet& effects, co
   const FkSolution home = forward_kinematics(true_geometry_, home_true_alpha_deg_);
   if (!home.ok()) throw std::runtime_error("the robot's home pose: " + home.reason());
   home_measured_m_ = apply_frame_misalignment(effects, home.position_m);
+  // The home switches: where the reading, coming from below through the backlash, is the home count.
+  for (int j = 0; j < 3; ++j) {
+    const double half_play = effects.backlash_deg ? 0.5 * (*effects.backlash_deg)[j] : 0.0;
+    switch_true_alpha_deg_[j] = true_angle_for_reading(j, board.home_count * board.count_deg + half_play);
+  }
 
   for (int j = 0; j < 3; ++j) {
     plants_[j] = std::make_unique<JointPlant>(plant, home_true_alpha_deg_[j]);  // solved exactly (advance)
@@ -99,9 +104,35 @@ RobotWorld::RobotWorld(const BoardInterface& board, const EffectSet& effects, co
   reading_deg_ = sensors_.update(true_alpha_deg_);  // the backlash starts centred at home
   for (auto& encoder : encoders_) encoder->step();  // the lines of the first board cycle
   update_lines();
+  update_switches();
 }
 
 RobotWorld::~RobotWorld() = default;
+
+void RobotWorld::place_arms(const Vec3& true_alpha_deg) {
+  if (cycle_ != 0) throw std::invalid_argument("RobotWorld::place_arms: the world has already run");
+  const FkSolution plate = forward_kinematics(true_geometry_, true_alpha_deg);
+  if (!plate.ok()) throw std::invalid_argument("the arms cannot rest at these angles: " + plate.reason());
+  sensors_.reset();
+  reading_deg_ = sensors_.update(true_alpha_deg);  // the backlash centred where they rest
+  for (int j = 0; j < 3; ++j) {
+    plants_[j] = std::make_unique<JointPlant>(plant_parameters_, true_alpha_deg[j]);
+    // The lines start at the board's reset state: the board counts from its home count.
+    const int count = static_cast<int>(std::lround(reading_deg_[j] / board_.count_deg));
+    encoders_[j] = std::make_unique<Quadrature>(count, count, board_.quadrature_dwell);
+    encoders_[j]->step();
+  }
+  true_alpha_deg_ = true_alpha_deg;
+  update_lines();
+  update_switches();
+}
+
+void RobotWorld::update_switches() {
+  switches_ = 0;
+  for (int j = 0; j < 3; ++j) {
+    if (true_alpha_deg_[j] >= switch_true_alpha_deg_[j] && ((switch_missing_ >> j) & 1) == 0) switches_ |= 1 << j;
+  }
+}
 
 // The true angle at which joint j's encoder reads `reading_deg`: secant steps from the reading
 // itself (the chain's slope is about 1), else bisection over +-20 deg.
@@ -155,6 +186,7 @@ void RobotWorld::step(const DrivePins& pins) {
     for (int j = 0; j < 3; ++j) {
       current_a_[j] = board_.current_full_scale_a * static_cast<double>(drive_sum_[j]) / board_.plant_divider;
       drive_sum_[j] = 0;
+      if (((seized_ >> j) & 1) != 0) continue;  // seized: the angle stays
       plants_[j]->advance(current_a_[j], plant_step_s_);
       true_alpha_deg_[j] = plants_[j]->shaft_angle_deg();
     }
@@ -170,6 +202,7 @@ void RobotWorld::step(const DrivePins& pins) {
       }
     }
     reading_deg_ = sensors_.update(true_alpha_deg_);
+    update_switches();
     for (int j = 0; j < 3; ++j) {
       encoders_[j]->set_target(static_cast<int>(std::lround(reading_deg_[j] / board_.count_deg)));
     }

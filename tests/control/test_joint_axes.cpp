@@ -150,7 +150,11 @@ class SafetyBench {
   }
   void frame() { pulse(board_.top().frame_valid_i); }
   void clear_fault() { pulse(board_.top().clear_fault_i); }
-  void set_home() { pulse(board_.top().home_i); }
+  void set_home() {  // every joint's count := HomeCount
+    board_.top().home_i = 7;
+    cycle();
+    board_.top().home_i = 0;
+  }
   void set_enabled(bool on) { board_.top().enabled_i = on ? 1 : 0; }
   // Moves joint j's encoder by `counts`, one quadrature state every 3 cycles.
   void move(int joint, int counts) {

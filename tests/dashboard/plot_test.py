@@ -135,7 +135,8 @@ def main():
                                  text=True)
         try:
             check(link in board.stdout.readline(), "the virtual board is ready")
-            subprocess.run([deltactl, "host", "home", "--port", link, "--link-timeout-ms", "2000"], check=True,
+            subprocess.run([deltactl, "host", "home", "--port", link, "--weights", weights, "--link-timeout-ms", "2000"],
+                           check=True,
                            capture_output=True, timeout=60)
             run = os.path.join(out, "host_run.csv")
             subprocess.run([deltactl, "host", "run", "--port", link, "--weights", weights, "--trajectory",

@@ -109,7 +109,7 @@ class HostProcess {
   bool exited_ = false;
 };
 
-// A virtual board, homed through `deltactl host home` unless told not to.
+// A virtual board, homed at its references through `deltactl host home` unless told not to.
 struct Bench {
   std::string dir, link, truth, weights;
   std::unique_ptr<VirtualBoardProcess> board;
@@ -125,7 +125,8 @@ struct Bench {
     const std::string ready = board->ready_line(60'000);
     if (ready.find(link) == std::string::npos) throw std::runtime_error("virtual board not ready: " + ready);
     if (!home_it) return;
-    const CommandResult home = run_deltactl("host home --port " + link + " --link-timeout-ms 2000");
+    const CommandResult home =
+        run_deltactl("host home --port " + link + " --weights " + weights + " --link-timeout-ms 2000 --quiet");
     if (home.exit_code != 0) throw std::runtime_error("host home: " + home.err);
   }
   std::vector<std::string> run_arguments(const std::string& port, double duration_s) const {

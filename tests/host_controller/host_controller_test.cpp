@@ -264,7 +264,7 @@ TEST(HostRun, HostStoppedForOneHundredMillisecondsLosesNothing) {
 TEST(HostRun, KilledHostsDrivesGoOffWithinTheWatchdogBound) {
   Bench bench("sigkill", {"--fidelity", "model"}, false);
   const auto ready = std::chrono::steady_clock::now();
-  const CommandResult home = run_deltactl("host home --port " + bench.link);
+  const CommandResult home = run_deltactl("host home --quiet --port " + bench.link + " --weights " + bench.weights);
   ASSERT_EQ(home.exit_code, 0) << home.err;
   HostProcess host(bench.run_arguments(bench.link, 3.0), bench.dir + "/host");
   std::this_thread::sleep_for(std::chrono::milliseconds(2000));

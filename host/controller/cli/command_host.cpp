@@ -1,6 +1,6 @@
 // deltactl host: the host controller on the lab PC (SPEC.md, "The board and the lab PC"): `status`
-// identifies the board and prints its state, `home` sets the encoders' home with the arms on their
-// fixture, `record` records the telemetry with the drives off (the calibration drag), `run` checks a trajectory whole,
+// identifies the board and prints its state, `home` homes against the robot's references (home
+// switches, delta/controller/homing.hpp) or, --by-hand, sets the counts where the arms are, `record` records the telemetry with the drives off (the calibration drag), `run` checks a trajectory whole,
 // enables, streams it paced by telemetry, stops and disables, recording every telemetry frame
 // (delta/controller/run_job.hpp); `serve` is the long-running controller with its control socket and `ctl` its client
 // (serve.hpp); `latency` measures the 1 kHz loop's wake latency. Read delta/controller/host_run.hpp first.
@@ -28,6 +28,8 @@
 #include "delta/board_facts.hpp"
 #include "delta/command.hpp"
 #include "delta/controller/board_network.hpp"
+#include "delta/controller/homing.hpp"
+#include "delta/controller/realtime.hpp"
 #include "delta/controller/host_run.hpp"
 #include "delta/controller/run_job.hpp"
 #include "delta/controller/serve.hpp"
@@ -117,6 +119,13 @@ void run_status(const StatusOptions& options) {
                           {"tick", t.tick},
                           {"sample_index", t.sample_index},
                           {"encoder_deg", {t.counts[0] * kCountDeg, t.counts[1] * kCountDeg, t.counts[2] * kCountDeg}},
+                          {"homed", t.has(link::TelemetryFlag::kHomed) || t.has(link::TelemetryFlag::kReferenced)},
+                          {"homed_by", t.has(link::TelemetryFlag::kReferenced) ? "reference"
+                                       : t.has(link::TelemetryFlag::kHomed)     ? "hand"
+                                                                                 : "none"},
+                          {"homing", t.has(link::TelemetryFlag::kHoming)},
+                          {"referenced", {t.referenced(0), t.referenced(1), t.referenced(2)}},
+                          {"home_switches", {t.home_switch(0), t.home_switch(1), t.home_switch(2)}},
                           {"bad_frames", t.bad_frames},
                           {"underruns", t.underruns},
                           {"rejected", t.rejected},
@@ -140,23 +149,58 @@ void run_status(const StatusOptions& options) {
 // ---------------------------------------------------------------------------------------------
 struct HomeOptions {
   std::string port;
+  std::string weights;
+  bool by_hand = false;
+  bool quiet = false;
+  HomingOptions homing;
   int link_timeout_ms = link::kLinkTimeoutMs;
 };
 
 void run_home(const HomeOptions& options) {
+  // The weights are read (and refused) before the port is opened.
+  std::optional<BoardWeights> weights;
+  if (!options.by_hand) {
+    if (options.weights.empty()) fail(kExitBadInput, "host home: needs --weights W.json (or --by-hand)");
+    weights = read_board_weights(options.weights);
+  }
+  install_stop_handlers();
   auto port = open_port(options.port);
   link::LinkSession session(*port, session_options(options.link_timeout_ms));
   const Connected c = connect(session);
   if (c.telemetry.has(link::TelemetryFlag::kDriveEnable)) {
-    fail(kExitFault, port->name() + ": the drives are on; home only with the drives off and the arms on their fixture");
+    fail(kExitFault, port->name() + ": the drives are on; home only with the drives off");
   }
-  try {
-    const link::TelemetryPayload t = session.set_home();
-    std::cout << "homed: encoders := " << fixed(board::kHomeCount * kCountDeg, 2) << " deg (" << link::describe_state(t)
-              << ")\n";
-  } catch (const link::LinkError& error) {
-    fail(error.kind() == link::LinkError::Kind::kLinkLost ? kExitLinkLost : kExitFault, error.what());
+  if (options.by_hand) {
+    try {
+      // Set home gives the joints not referenced the home count; referenced joints keep theirs.
+      const link::TelemetryPayload homed = session.set_home();
+      const int referenced = (homed.home >> 3) & 7;
+      std::cout << "homed by hand: encoders := " << fixed(board::kHomeCount * kCountDeg, 2) << " deg where the arms are"
+                << (referenced != 0 ? " (joints referenced at their switches keep their counts)" : "") << " ("
+                << link::describe_state(homed) << ")"
+                << (referenced == 7 ? "\n" : "; runs need --allow-unreferenced until 'deltactl host home' finds the "
+                                               "references\n");
+    } catch (const link::LinkError& error) {
+      fail(error.kind() == link::LinkError::Kind::kLinkLost ? kExitLinkLost : kExitFault, error.what());
+    }
+    return;
   }
+  or_exit([&] { check_board_identity(c.identify, *weights, options.weights, port->name()); });
+  const auto log = [&](const std::string& line) {
+    if (!options.quiet) std::cerr << line << std::endl;
+  };
+  // The jogs' watch loop reads every telemetry frame and feeds the board's watchdog: real time when
+  // permitted, as a run's streaming thread.
+  const std::string realtime_note = make_thread_realtime(80);
+  if (!realtime_note.empty() && !options.quiet) std::cerr << "host home: normal scheduling (" << realtime_note << ")\n";
+  const HomingReport report =
+      or_exit([&] { return home_at_references(session, *weights, options.homing, log, &stop_signal); });
+  const link::TelemetryPayload& t = report.final;
+  std::cout << "home: ok, every joint at its reference (" << link::describe_state(t) << "); encoders "
+            << fixed(t.counts[0] * kCountDeg, 2) << ", " << fixed(t.counts[1] * kCountDeg, 2) << ", "
+            << fixed(t.counts[2] * kCountDeg, 2) << " deg; moved " << fixed(report.travelled_deg[0], 1) << ", "
+            << fixed(report.travelled_deg[1], 1) << ", " << fixed(report.travelled_deg[2], 1) << " deg in "
+            << fixed(report.seconds, 1) << " s (" << report.enables << " jogs)\n";
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -168,6 +212,7 @@ struct RunOptions {
   std::string record;
   int link_timeout_ms = link::kLinkTimeoutMs;
   double following_error_deg = 2.0;
+  bool allow_unreferenced = false;
 };
 
 void run_run(const RunOptions& options) {
@@ -177,6 +222,7 @@ void run_run(const RunOptions& options) {
   request.trajectory = options.trajectory;
   request.duration_s = options.duration_s;
   request.record = options.record;
+  request.allow_unreferenced = options.allow_unreferenced;
   request.link_timeout_ms = options.link_timeout_ms;
   request.following_error_deg = options.following_error_deg;
   auto job = or_exit([&] { return std::make_unique<RunJob>(weights, request); });
@@ -490,8 +536,29 @@ const RegisterCommand command("host", 75, [](CLI::App& root) {
   s->callback([status] { run_status(*status); });
 
   auto home = std::make_shared<HomeOptions>();
-  CLI::App* h = host->add_subcommand("home", "Set the encoders' home count (arms on their home fixture, drives off)");
+  CLI::App* h = host->add_subcommand("home", "Home against the robot's references (its home switches)");
+  h->footer(
+      "\nWith the drives off: the board forgets its references; every arm moves down off its home switch\n"
+      "(0.5 deg below it), then up at --search-speed until its switch closes, where the board sets\n"
+      "that joint's encoder to the home count (30.00 deg) and stops the drives; the others go on.\n"
+      "Works from any start within the travel; the arms rest at their references at the end. A joint\n"
+      "that does not reach its switch (stuck, blocked, the switch missing) faults or runs out of travel:\n"
+      "exit 3 naming the joint, drives off. --by-hand instead sets the counts to 30.00 deg wherever the\n"
+      "arms are (the old fixture homing): 'host run' then needs --allow-unreferenced. docs/homing.md.");
   h->add_option("--port", home->port, "serial port")->required();
+  h->add_option("--weights", home->weights, "W.json the board runs (the jog's setpoints are its network's answers)");
+  h->add_flag("--by-hand", home->by_hand, "set the counts where the arms are (no motion; not a reference)");
+  h->add_option("--search-speed", home->homing.search_deg_s, "deg/s up toward the switches")
+      ->check(options::real_number(0.2, 20.0))
+      ->capture_default_str();
+  h->add_option("--max-travel", home->homing.max_travel_deg,
+                "deg a joint moves one way without finding its switch before homing gives up (default: the travel)")
+      ->check(options::real_number(1.0, 150.0))
+      ->capture_default_str();
+  h->add_option("--timeout", home->homing.timeout_s, "seconds for the whole homing")
+      ->check(options::real_number(5.0, 600.0))
+      ->capture_default_str();
+  h->add_flag("--quiet", home->quiet, "no progress lines on stderr");
   h->add_option("--link-timeout-ms", home->link_timeout_ms, "wall time without a frame: link lost")
       ->check(options::whole_number(10, 60000))
       ->capture_default_str();
@@ -503,8 +570,8 @@ const RegisterCommand command("host", 75, [](CLI::App& root) {
       "\nThe whole plan is checked before the port is opened (and again with the move from the pose the\n"
       "encoders report): every 1 kHz sample reachable, inside the network's trained range and the joint\n"
       "travel, joint velocity <= 100 deg/s, acceleration <= 1e4 deg/s^2, jerk <= 1e6 deg/s^3; the first\n"
-      "offending sample is named (FILE:LINE: reason), exit 2, no byte sent. The board must be homed and\n"
-      "free of faults. The plate moves in a jerk-limited straight line to the trajectory's start, then\n"
+      "offending sample is named (FILE:LINE: reason), exit 2, no byte sent. The board must be homed at\n"
+      "its references ('host home'; homed by hand only with --allow-unreferenced) and free of faults. The plate moves in a jerk-limited straight line to the trajectory's start, then\n"
       "along it, its time ramped in and out (0.3 s); Ctrl-C (SIGINT), SIGTERM, SIGHUP (the terminal or\n"
       "SSH session closed) or SIGQUIT ramps it to rest (within about 0.5 s), then holds and disables.\n"
       "The drives going off by another cause (a disable from another program, a board reset) ends the\n"
@@ -523,6 +590,8 @@ const RegisterCommand command("host", 75, [](CLI::App& root) {
   r->add_option("--duration", run->duration_s, "seconds of trajectory time (default: all of it; at most 600)")
       ->check(options::real_number(0, kMaxRunSeconds, true));
   r->add_option("--record", run->record, "OUT.csv: one row per telemetry frame")->required();
+  r->add_flag("--allow-unreferenced", run->allow_unreferenced,
+              "run on a board homed by hand ('host home --by-hand'), not at its references");
   r->add_option("--link-timeout-ms", run->link_timeout_ms, "wall time without telemetry: link lost")
       ->check(options::whole_number(10, 60000))
       ->capture_default_str();

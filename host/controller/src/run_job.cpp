@@ -364,9 +364,17 @@ RunOutcome RunJob::execute(link::LinkSession& session, const std::string& port_n
   if (t0.has(link::TelemetryFlag::kDriveEnable)) {
     throw HostFailure(kExitFault, port_name + ": the drives are already on (another controller?); refusing to run");
   }
-  if (!t0.has(link::TelemetryFlag::kHomed)) {
-    throw HostFailure(kExitFault,
-                      port_name + ": the board is not homed (put the arms on their fixture: deltactl host home)");
+  if (!t0.has(link::TelemetryFlag::kReferenced)) {
+    if (!t0.has(link::TelemetryFlag::kHomed)) {
+      throw HostFailure(kExitFault, port_name + ": the board is not homed (deltactl host home); nothing moved");
+    }
+    if (!request_.allow_unreferenced) {
+      throw HostFailure(kExitFault, port_name + ": the board was homed by hand, not at its references (" +
+                                        link::describe_state(t0) +
+                                        "): run deltactl host home, or allow it explicitly (--allow-unreferenced); "
+                                        "nothing moved");
+    }
+    log("the board was homed by hand (--allow-unreferenced): its counts are where the arms were then");
   }
 
   // ---- the approach from the pose the encoders report, checked with the rest ----

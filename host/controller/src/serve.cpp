@@ -19,6 +19,7 @@
 #include <deque>
 #include <filesystem>
 #include <functional>
+#include <iostream>
 #include <mutex>
 #include <optional>
 #include <thread>
@@ -28,6 +29,7 @@
 #include "delta/board_facts.hpp"
 #include "delta/command.hpp"
 #include "delta/controller/dashboard.hpp"
+#include "delta/controller/homing.hpp"
 #include "delta/controller/run_job.hpp"
 #include "delta/gateware.hpp"
 #include "delta/golden/export.hpp"
@@ -382,10 +384,12 @@ struct HostServer::Impl {
     if (work.command == "home") {
       const link::TelemetryPayload t = fresh_telemetry(session);
       if (t.has(link::TelemetryFlag::kDriveEnable)) {
-        return failure(kExitFault,
-                       name + ": the drives are on; home only with the drives off and the arms on their fixture");
+        return failure(kExitFault, name + ": the drives are on; home only with the drives off");
       }
-      session.set_home();
+      // Against the references (homing.hpp): the drives move the arms to their home switches.
+      home_at_references(session, weights, HomingOptions{}, [](const std::string& line) {
+        std::cerr << "host serve: " << line << std::endl;
+      });
     } else if (work.command == "enable") {
       // Drives on, holding the arms where they are; the idle loop keeps the hold alive.
       session.enable();

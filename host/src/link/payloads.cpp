@@ -112,6 +112,7 @@ void visit_telemetry(Payload& p, Visit&& visit) {
   visit(layout::kTelemetrySlewLimits, p.slew_limits);
   visit(layout::kTelemetrySequence, p.sequence);
   visit(layout::kTelemetryRejected, p.rejected);
+  visit(layout::kTelemetryHome, p.home);
 }
 
 void check_size(const char* what, const std::vector<std::uint8_t>& payload, long long expected) {
@@ -185,6 +186,7 @@ std::optional<Command> decode_command(const std::vector<std::uint8_t>& payload) 
     case board::kCommandHold:
     case board::kCommandClearFault:
     case board::kCommandSetHome:
+    case board::kCommandHomeStart:
       return static_cast<Command>(byte);
     default:
       return std::nullopt;

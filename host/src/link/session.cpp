@@ -28,6 +28,7 @@ void LinkSession::send_frame(const Frame& frame) {
 void LinkSession::take(const Frame& frame) {
   if (frame.type == FrameType::kIdentify) {
     ++statistics_.identify_frames;
+    if (unread_identify_.size() >= 16) unread_identify_.erase(unread_identify_.begin());  // keep-alive replies
     unread_identify_.push_back(decode_identify(frame.payload));
     return;
   }
@@ -104,6 +105,8 @@ void LinkSession::send_setpoint(std::uint32_t sample_index, const std::array<std
   send_frame(make_frame(sequence_++, setpoint));
   ++statistics_.setpoints_sent;
 }
+
+void LinkSession::send_identify_request() { send_frame(make_identify_request(sequence_++)); }
 
 void LinkSession::send_command(Command command) {
   send_frame(make_frame(sequence_++, command));
@@ -267,7 +270,14 @@ std::string describe_fault(std::uint8_t fault_cause) {
 
 std::string describe_state(const TelemetryPayload& t) {
   std::string out = t.has(TelemetryFlag::kDriveEnable) ? "drives on" : "drives off";
-  out += t.has(TelemetryFlag::kHomed) ? ", homed" : ", not homed";
+  if (t.has(TelemetryFlag::kReferenced)) {
+    out += ", homed at the references";
+  } else if (t.has(TelemetryFlag::kHomed)) {
+    out += ", homed by hand";
+  } else {
+    out += ", not homed";
+  }
+  if (t.has(TelemetryFlag::kHoming)) out += ", homing";
   if (t.has(TelemetryFlag::kHolding)) out += ", holding";
   if (t.has(TelemetryFlag::kEncoderError)) out += ", encoder error seen";
   if (t.has(TelemetryFlag::kFault)) out += "; fault: " + describe_fault(t.fault_cause);

@@ -6,6 +6,9 @@
 //   sensors: true angle -> encoder reading (encoder_scale, transmission_error, backlash,
 //     joint_offset, counts) -> quadrature A/B lines, one state per quadrature dwell at most
 //   plate: true geometry FK(true angles) -> frame_misalignment -> what the measuring stage sees
+//   home switches: joint j's closes at and above its reference angle, where the encoder, coming
+//     from below (the backlash's play taken up), reads the home count: the robot's joint_offset
+//     and the rest of its sensor chain are the reference's per-joint error (docs/homing.md)
 //
 // Plain C++/Eigen, no board model: the co-simulation and the virtual board bind it to an RTL
 // or a model of the board, whose facts (clock, PWM period, home count) come in BoardInterface.
@@ -80,6 +83,7 @@ class RobotWorld {
   void advance(std::uint64_t cycles, const DrivePattern& pattern);
 
   int encoder_a() const { return lines_a_; }  // bit j: joint j's A line for the next board cycle
+  int home_switches() const { return switches_; }  // bit j: joint j's home switch closed
   int encoder_b() const { return lines_b_; }
   std::uint64_t cycle() const { return cycle_; }
   double time_s() const { return static_cast<double>(cycle_) / board_.board_clock_hz; }
@@ -89,6 +93,14 @@ class RobotWorld {
   Vec3 encoder_deg() const;                             // the counts on the lines, in degrees
   Vec3 measured_position_m() const;                     // the plate as the stage sees it
   const Vec3& home_true_alpha_deg() const { return home_true_alpha_deg_; }
+  const Vec3& switch_true_alpha_deg() const { return switch_true_alpha_deg_; }  // the home switches' angles
+  // Before the first step: the arms rest at these true angles instead of the home pose (the board
+  // still starts at its home count: its encoders count from there). std::invalid_argument if the
+  // plate has no pose there or the world has run.
+  void place_arms(const Vec3& true_alpha_deg);
+  // Fault injection (tests): joint j's arm never moves (seized), or its home switch never closes.
+  void seize_joint(int joint) { seized_ |= 1 << joint; }
+  void remove_home_switch(int joint) { switch_missing_ |= 1 << joint; }
   const Vec3& home_measured_m() const { return home_measured_m_; }
   // Where the stage would see the plate if the encoders read `readings_deg` through the
   // backlash's present play (the play kept, the rest of the sensor chain inverted).
@@ -123,6 +135,11 @@ class RobotWorld {
   Vec3 current_a_ = Vec3::Zero();
   Vec3 home_true_alpha_deg_ = Vec3::Zero();
   Vec3 home_measured_m_ = Vec3::Zero();
+  Vec3 switch_true_alpha_deg_ = Vec3::Zero();
+  int switches_ = 0;
+  int seized_ = 0;          // bit j: joint j's arm does not move
+  int switch_missing_ = 0;  // bit j: joint j's home switch never closes
+  void update_switches();
   std::uint64_t cycle_ = 0;
   int plant_phase_ = 0;  // (cycle_ + plant_lead) mod plant_divider: the plant steps at plant_divider - 1
   int lines_a_ = 0;      // encoder_a(), encoder_b()

@@ -30,7 +30,8 @@ enum class Command : std::uint8_t {
   kDisable = board::kCommandDisable,
   kHold = board::kCommandHold,
   kClearFault = board::kCommandClearFault,
-  kSetHome = board::kCommandSetHome,
+  kSetHome = board::kCommandSetHome,    // the joints not referenced: count := home count
+  kHomeStart = board::kCommandHomeStart,  // forget the references, start homing (docs/homing.md)
 };
 
 // Identify (board -> host), the answer to an identify request.
@@ -56,6 +57,8 @@ enum class TelemetryFlag : std::uint8_t {
   kHolding = board::kFlagHolding,
   kFault = board::kFlagFault,  // a fault cause is latched
   kEncoderError = board::kFlagEncoderError,
+  kReferenced = board::kFlagReferenced,  // every joint homed against its reference
+  kHoming = board::kFlagHoming,
 };
 
 // Bits of TelemetryPayload::fault_cause.
@@ -85,6 +88,10 @@ struct TelemetryPayload {
   std::uint16_t slew_limits = 0;             // segments whose reference change was saturated, saturating
   std::uint8_t sequence = 0;                 // of the last accepted frame
   std::uint16_t rejected = 0;                // refused commands and setpoints, saturating
+  std::uint8_t home = 0;                     // bit j: joint j's home switch closed; bit 3 + j: joint j referenced
+
+  bool home_switch(int joint) const { return ((home >> joint) & 1) != 0; }
+  bool referenced(int joint) const { return ((home >> (3 + joint)) & 1) != 0; }
 
   bool has(TelemetryFlag flag) const { return (flags & mask(flag)) != 0; }
   bool has(FaultCause cause) const { return (fault_cause & mask(cause)) != 0; }
@@ -165,11 +172,11 @@ constexpr Field kTelemetrySaturations = field<std::uint16_t>(board::kTelemetrySa
 constexpr Field kTelemetrySlewLimits = field<std::uint16_t>(board::kTelemetrySlewLimitsOffset);
 constexpr Field kTelemetrySequence = field<std::uint8_t>(board::kTelemetrySequenceOffset);
 constexpr Field kTelemetryRejected = field<std::uint16_t>(board::kTelemetryRejectedOffset);
-constexpr Field kTelemetryReserved = field<std::uint8_t>(board::kTelemetryReservedOffset);
+constexpr Field kTelemetryHome = field<std::uint8_t>(board::kTelemetryHomeOffset);
 constexpr Field kTelemetry[] = {kTelemetrySampleIndex, kTelemetryTick,      kTelemetryReferences,  kTelemetryCounts,
                                 kTelemetryCurrents,    kTelemetryFault,     kTelemetryFlags,       kTelemetryFill,
                                 kTelemetryBadFrames,   kTelemetryUnderruns, kTelemetrySaturations, kTelemetrySlewLimits,
-                                kTelemetryRejected,    kTelemetrySequence,  kTelemetryReserved};
+                                kTelemetryRejected,    kTelemetrySequence,  kTelemetryHome};
 
 // True when the fields, in the order listed, start at 0, each begins where the previous ends, and
 // the last ends at `payload_bytes`: an exact tiling.

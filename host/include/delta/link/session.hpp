@@ -211,6 +211,9 @@ class LinkSession {
   std::optional<TelemetryPayload> take_telemetry();
   void send_setpoint(std::uint32_t sample_index, const std::array<std::int32_t, 3>& position_code);
   void send_command(Command command);
+  // An identify request: a valid frame that changes nothing (it feeds the board's watchdog); the
+  // reply is taken and dropped.
+  void send_identify_request();
   void count_resent(std::uint64_t setpoints) { statistics_.setpoints_resent += setpoints; }
 
   const LinkStatistics& statistics() const { return statistics_; }

@@ -56,7 +56,9 @@ class ModelBoard {
   // completions: the caller bounds it where it needs a byte.
   std::uint64_t tx_byte_cycle(std::size_t k) const;
 
-  // One board clock edge with the encoder lines as the board samples them.
+  // One board clock edge with the encoder lines as the board samples them: bit j of encoder_a and
+  // encoder_b joint j's A and B line, bit 3 + j of encoder_a joint j's home switch (board_core's
+  // home_switch_i).
   void clock(int encoder_a, int encoder_b);
   const ModelBoardPins& pins() const { return pins_; }
 

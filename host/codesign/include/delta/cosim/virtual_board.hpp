@@ -21,6 +21,7 @@
 #include <deque>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "delta/board_facts.hpp"
@@ -65,6 +66,12 @@ struct VirtualBoardOptions {
   bool check_model_runs = false;
   // A measuring stage that drags the plate (RobotWorld::set_drag; measuring_stage.hpp); empty: none.
   RobotWorld::Drag drag;
+  // The true shaft angles [deg] the arms rest at when the board starts (RobotWorld::place_arms);
+  // empty: the home pose (the encoders read the home count there).
+  std::optional<Vec3> start_true_alpha_deg;
+  // Fault injection (0-based joint, -1: none): an arm that never moves, a home switch that never closes.
+  int inject_seized_joint = -1;
+  int inject_missing_home_switch = -1;
 };
 
 // What the world is, every 1 ms of board time (ground truth: no sensor saw it).

@@ -77,6 +77,7 @@ struct RunRequest {
   double duration_s = 0.0;
   std::string record;  // OUT.csv
   RecordMode record_mode = RecordMode::kReplace;
+  bool allow_unreferenced = false;  // run on a board homed by hand (not at its references)
   int link_timeout_ms = link::kLinkTimeoutMs;
   double following_error_deg = 2.0;  // the host's bound (StreamingOptions)
   StreamLimits limits;

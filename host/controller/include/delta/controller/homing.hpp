@@ -1,0 +1,65 @@
+// Homing against the robot's references (docs/homing.md): each upper arm closes its home switch at
+// and above its reference angle; the board sets a joint's count to the home count on the switch's
+// rising edge while homing with the drives on, marks the joint referenced and turns the drives off
+// (board_core.sv). The host moves the arms with the board's jog: one setpoint sets each joint's
+// reference change per millisecond, which persists while homing (a hold ends homing and the jog;
+// a disable keeps homing on).
+//
+//   1. home start (drives off): the board forgets the references and starts homing;
+//   2. clear: every joint not referenced moves down until its switch has been open over
+//      `clear_margin_deg` of its own motion (so each approach comes from below, the backlash's play
+//      taken up the same way every time);
+//   3. search: every joint not referenced moves up at `search_deg_s` until its switch closes: the
+//      board references it and stops the drives; the others go on after the next enable.
+//
+// Before every enable, set home gives the joints not referenced the home count (the network's
+// range: the jog's setpoint is the network's answer at the arms' pose, located by
+// locate_plate), and the host watches every telemetry frame: a fault, a joint that moves
+// `max_travel_deg` one way without its switch, or the time running out stops the drives and ends
+// homing with HostFailure (exit 3) naming the joint and the cause. Provisional counts never leave
+// the network's range by more than `recentre_deg`: the drives stop, the counts are set again, and
+// the motion goes on.
+#pragma once
+
+#include <array>
+#include <csignal>
+#include <functional>
+#include <string>
+
+#include "delta/controller/board_network.hpp"
+#include "delta/link/session.hpp"
+
+namespace delta::controller {
+
+struct HomingOptions {
+  double search_deg_s = 4.0;       // up toward the switches
+  double clear_deg_s = 8.0;        // down off a closed switch
+  double clear_margin_deg = 0.5;   // below the switch before the approach
+  double recentre_deg = 15.0;      // provisional motion before the counts are set again
+  double max_travel_deg = 102.4;   // one way without the switch (the board's travel): no reference
+  double timeout_s = 120.0;        // the whole homing
+  int keep_alive_ms = 20;          // a frame to the board at least this often (its watchdog: 250 ms)
+};
+
+struct HomingReport {
+  link::TelemetryPayload final;             // drives off, every joint referenced
+  std::array<double, 3> travelled_deg{};    // each joint's motion (sum of |steps|)
+  int enables = 0;                          // jogs started
+  double seconds = 0.0;                     // wall time
+};
+
+// Homes the board; the drives are off and every joint referenced when it returns. `log` gets one
+// line per step (may be empty); a stop signal (non-zero *stop) ends homing with the drives off
+// (HostFailure, exit 128 + signal). HostFailure with kExitFault or kExitLinkLost otherwise.
+HomingReport home_at_references(link::LinkSession& session, const BoardWeights& weights, const HomingOptions& options,
+                                const std::function<void(const std::string&)>& log,
+                                const volatile std::sig_atomic_t* stop = nullptr);
+
+// The setpoint whose network answer moves each joint's reference by delta_q8[j] (Q24.8 counts per
+// setpoint period) from `references` (Q24.8), through the deployed model's play (half_plays,
+// Q24.8): the position codes, and in *actual the change the board will make.
+std::array<std::int32_t, 3> jog_setpoint(const BoardWeights& weights, const std::array<std::int32_t, 3>& references,
+                                         const std::array<std::int32_t, 3>& delta_q8,
+                                         std::array<std::int32_t, 3>* actual);
+
+}  // namespace delta::controller

@@ -1,0 +1,316 @@
+// Homing against the robot's references (see homing.hpp and docs/homing.md).
+#include "delta/controller/homing.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+
+#include <Eigen/Dense>
+
+#include "delta/board_facts.hpp"
+#include "delta/controller/run_job.hpp"
+#include "delta/golden/setpoint_interpolation.hpp"
+#include "delta/table.hpp"
+
+namespace delta::controller {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+constexpr double kCountDeg = board::kEncoderCountMicrodeg * 1e-6;
+constexpr double kQ8 = 256.0;
+
+std::string joint_name(int j) { return "joint " + std::to_string(j + 1); }
+
+int link_code(const link::LinkError& error) {
+  return error.kind() == link::LinkError::Kind::kLinkLost ? kExitLinkLost : kExitFault;
+}
+
+// Q24.8 counts per setpoint period for a speed in deg/s.
+std::int32_t q8_per_setpoint(double deg_s) {
+  return static_cast<std::int32_t>(std::lround(deg_s / board::kSetpointRateHz / kCountDeg * kQ8));
+}
+
+}  // namespace
+
+std::array<std::int32_t, 3> jog_setpoint(const BoardWeights& weights, const std::array<std::int32_t, 3>& references,
+                                         const std::array<std::int32_t, 3>& delta_q8,
+                                         std::array<std::int32_t, 3>* actual) {
+  const auto half_plays = golden::interpolation::half_play_counts(weights.network.compensation);
+  // The answer c the board turns into D = play(c - r, H): c = r + D + sign(D) H (D = 0: c = r, the
+  // play's middle).
+  Eigen::Vector3d target;
+  Vec3 target_deg;
+  for (int j = 0; j < 3; ++j) {
+    const std::int64_t sign = delta_q8[j] > 0 ? 1 : delta_q8[j] < 0 ? -1 : 0;
+    target[j] = static_cast<double>(std::int64_t{references[j]} + delta_q8[j] + sign * half_plays[j]);
+    target_deg[j] = target[j] / kQ8 * kCountDeg;
+  }
+  // The nominal model's inverse of the network, then Newton on the input codes themselves with the
+  // golden network (its answer in Q.8 counts, 25 y / 16 unrounded, as the function to zero).
+  const Vec3 p = locate_plate(weights.network, Geometry::nominal(), target_deg);
+  std::array<std::int64_t, 3> codes = golden::encode_position(weights.network.formats, p);
+  const auto answer = [&](const std::array<std::int64_t, 3>& at) {
+    const golden::RawOutput raw = golden::evaluate_raw(weights.network, at);
+    Eigen::Vector3d c;
+    for (int j = 0; j < 3; ++j) c[j] = 25.0 * static_cast<double>(raw.alpha[j]) / 16.0;
+    return c;
+  };
+  constexpr std::int64_t kProbe = 1 << 12;  // input LSBs for the Jacobian (a few nanometres... micrometres)
+  for (int iteration = 0; iteration < 8; ++iteration) {
+    const Eigen::Vector3d c = answer(codes);
+    const Eigen::Vector3d error = c - target;
+    if (std::getenv("DELTA_HOMING_DEBUG") != nullptr) {
+      std::fprintf(stderr, "jog %d: error %.2f %.2f %.2f codes %lld %lld %lld\n", iteration, error[0], error[1], error[2],
+                   static_cast<long long>(codes[0]), static_cast<long long>(codes[1]), static_cast<long long>(codes[2]));
+    }
+    if (error.cwiseAbs().maxCoeff() < 0.5) break;
+    Eigen::Matrix3d jacobian;
+    for (int k = 0; k < 3; ++k) {
+      std::array<std::int64_t, 3> probe = codes;
+      probe[k] += kProbe;
+      jacobian.col(k) = (answer(probe) - c) / static_cast<double>(kProbe);
+    }
+    const Eigen::Vector3d step = jacobian.colPivHouseholderQr().solve(-error);
+    for (int k = 0; k < 3; ++k) codes[k] += static_cast<std::int64_t>(std::llround(step[k]));
+  }
+  // The input codes are a lattice (an LSB moves the answer by about a Q.8 count): the best point of
+  // the neighbourhood, a held joint's change weighing 100 times a moving joint's error.
+  const auto changes = [&](const std::array<std::int64_t, 3>& at) {
+    const golden::RawOutput raw = golden::evaluate_raw(weights.network, at);
+    std::array<std::int32_t, 3> d{};
+    for (int j = 0; j < 3; ++j) {
+      const std::int64_t c = golden::interpolation::reference_counts(static_cast<std::int32_t>(raw.alpha[j]));
+      d[j] = static_cast<std::int32_t>(std::clamp<std::int64_t>(golden::play(c - references[j], half_plays[j]),
+                                                                golden::interpolation::kDeltaMin,
+                                                                golden::interpolation::kDeltaMax));
+    }
+    return d;
+  };
+  const auto cost = [&](const std::array<std::int32_t, 3>& d) {
+    double sum = 0.0;
+    for (int j = 0; j < 3; ++j) sum += (delta_q8[j] == 0 ? 100.0 : 1.0) * std::abs(d[j] - delta_q8[j]);
+    return sum;
+  };
+  std::array<std::int64_t, 3> best = codes;
+  double best_cost = cost(changes(codes));
+  constexpr int kRadius = 12;
+  for (int a = -kRadius; a <= kRadius; ++a) {
+    for (int b = -kRadius; b <= kRadius; ++b) {
+      for (int e = -kRadius; e <= kRadius; ++e) {
+        const std::array<std::int64_t, 3> at = {codes[0] + a, codes[1] + b, codes[2] + e};
+        const double c = cost(changes(at));
+        if (c < best_cost) {
+          best_cost = c;
+          best = at;
+        }
+      }
+    }
+  }
+  *actual = changes(best);
+  std::array<std::int32_t, 3> code{};
+  for (int j = 0; j < 3; ++j) code[j] = static_cast<std::int32_t>(best[j]);
+  return code;
+}
+
+HomingReport home_at_references(link::LinkSession& session, const BoardWeights& weights, const HomingOptions& options,
+                                const std::function<void(const std::string&)>& log,
+                                const volatile std::sig_atomic_t* stop) {
+  const auto say = [&](const std::string& line) {
+    if (log) log(line);
+  };
+  const std::string port = "the board";
+  const Clock::time_point start = Clock::now();
+  HomingReport report;
+  const auto drives_off = [&] {
+    try {
+      session.send_command(link::Command::kDisable);
+      session.disable();
+    } catch (const link::LinkError&) {
+    }
+  };
+  const auto fail = [&](int code, const std::string& why) {
+    drives_off();
+    throw HostFailure(code, "home: " + why + "; drives off, the board not referenced");
+  };
+  const auto checked = [&](auto&& body) {
+    try {
+      return body();
+    } catch (const link::LinkError& error) {
+      drives_off();
+      throw HostFailure(link_code(error), std::string("home: ") + error.what());
+    }
+  };
+
+  link::TelemetryPayload t = checked([&] { return session.next_telemetry(); });
+  if (t.has(link::TelemetryFlag::kFault)) {
+    throw HostFailure(kExitFault, "home: the board has a latched fault: " + link::describe_fault(t.fault_cause) +
+                                      " (clear it deliberately first)");
+  }
+  if (t.has(link::TelemetryFlag::kDriveEnable)) {
+    throw HostFailure(kExitFault, "home: the drives are on (another controller?); homing starts with the drives off");
+  }
+  t = checked([&] {
+    return session.command(link::Command::kHomeStart, [](const link::TelemetryPayload& frame) {
+      return frame.has(link::TelemetryFlag::kHoming) && (frame.home >> 3) == 0;
+    });
+  });
+  say("homing: references forgotten; switches " + std::to_string(t.home & 7) + " (bit j: joint j+1 closed)");
+
+  const std::int32_t search = q8_per_setpoint(options.search_deg_s);
+  const std::int32_t clear = q8_per_setpoint(options.clear_deg_s);
+  std::array<double, 3> open_run{};  // degrees moved down with the switch open (clear phase)
+  std::array<double, 3> one_way{};   // degrees moved the present way without the switch
+  bool clearing = true;
+  while (true) {
+    if (stop != nullptr && *stop != 0) fail(128 + static_cast<int>(*stop), "stopped by signal " + std::to_string(*stop));
+    t = *session.last_telemetry();
+    const int referenced = (t.home >> 3) & 7;
+    if (referenced == 7) break;
+    if (t.has(link::TelemetryFlag::kFault)) fail(kExitFault, "fault: " + link::describe_fault(t.fault_cause));
+    if (!t.has(link::TelemetryFlag::kHoming)) fail(kExitFault, "the board left homing (" + link::describe_state(t) + ")");
+    std::array<std::int32_t, 3> delta{};
+    if (clearing) {
+      bool any = false;
+      for (int j = 0; j < 3; ++j) {
+        const bool done = ((referenced >> j) & 1) != 0 || open_run[j] >= options.clear_margin_deg;
+        delta[j] = done ? 0 : -clear;
+        any = any || !done;
+      }
+      if (!any) {
+        clearing = false;
+        one_way = {};
+        say("homing: every arm below its switch; searching up at " + fixed(options.search_deg_s, 1) + " deg/s");
+        continue;
+      }
+    } else {
+      for (int j = 0; j < 3; ++j) delta[j] = ((referenced >> j) & 1) != 0 ? 0 : search;
+    }
+
+    // At rest first (a jog ends at speed): the counts still for 30 frames, at most 2 s.
+    {
+      link::TelemetryPayload before = checked([&] { return session.next_telemetry(); });
+      int still = 0;
+      for (int frames = 0; still < 30 && frames < 2000; ++frames) {
+        const link::TelemetryPayload f = checked([&] { return session.next_telemetry(); });
+        still = f.counts == before.counts ? still + 1 : 0;
+        before = f;
+      }
+      if (still < 30) fail(kExitFault, "the arms do not come to rest with the drives off");
+    }
+    // Counts set again (the joints not referenced); the jog's setpoint from the references the
+    // drives will start from (with the drives off they follow the counts); drives on; the setpoint.
+    const link::TelemetryPayload off = checked([&] { return session.set_home(); });
+    std::array<std::int32_t, 3> actual{};
+    std::array<std::int32_t, 3> code{};
+    try {
+      code = jog_setpoint(weights, off.references, delta, &actual);
+    } catch (const std::runtime_error& error) {
+      fail(kExitFault, std::string("no jog setpoint at the arms' pose: ") + error.what());
+    }
+    for (int j = 0; j < 3; ++j) {
+      // A joint held may creep by a few Q.8 counts per millisecond (an input code's LSB moves the
+      // answer by tens of them; its encoder keeps counting): at most 0.23 deg/s. A moving one goes its way at about its speed.
+      const bool held_ok = delta[j] == 0 && std::abs(actual[j]) <= 6;
+      const bool moving_ok = delta[j] != 0 && (actual[j] > 0) == (delta[j] > 0) &&
+                             std::abs(actual[j] - delta[j]) <= std::max(3, std::abs(delta[j]) / 10);
+      if (!held_ok && !moving_ok) {
+        fail(kExitFault, joint_name(j) + ": the network cannot move it as asked (" + std::to_string(actual[j]) +
+                             " instead of " + std::to_string(delta[j]) + " Q.8 counts per ms)");
+      }
+    }
+    const link::TelemetryPayload on = checked([&] { return session.enable(); });
+    ++report.enables;
+    for (int j = 0; j < 3; ++j) {
+      if (on.references[j] != off.references[j]) fail(kExitFault, joint_name(j) + " moved with the drives off");
+    }
+    checked([&] {
+      session.send_setpoint(on.sample_index + on.fill, code);
+      return 0;
+    });
+
+    // Watch until the drives stop (a switch), the phase's goal, a limit or a fault.
+    std::array<std::int16_t, 3> last = on.counts;
+    Clock::time_point last_frame_sent = Clock::now();
+    bool reached = false;
+    while (!reached) {
+      if (stop != nullptr && *stop != 0) fail(128 + static_cast<int>(*stop), "stopped by signal " + std::to_string(*stop));
+      const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
+      if (elapsed > options.timeout_s) fail(kExitFault, "not done within " + fixed(options.timeout_s, 0) + " s");
+      if (Clock::now() - last_frame_sent >= std::chrono::milliseconds(options.keep_alive_ms)) {
+        checked([&] {
+          session.send_identify_request();
+          return 0;
+        });
+        last_frame_sent = Clock::now();
+      }
+      const link::TelemetryPayload f = checked([&] { return session.next_telemetry(); });
+      if (f.has(link::TelemetryFlag::kFault)) {
+        // The moving joint furthest from its reference is the one that stuck.
+        int worst = 0;
+        double worst_error = -1.0;
+        for (int j = 0; j < 3; ++j) {
+          const double error = std::abs(f.references[j] / kQ8 - f.counts[j]) * kCountDeg;
+          if (delta[j] != 0 && error > worst_error) {
+            worst = j;
+            worst_error = error;
+          }
+        }
+        fail(kExitFault, joint_name(worst) + " " + (delta[worst] > 0 ? "moving up" : "moving down") + ": fault: " +
+                             link::describe_fault(f.fault_cause) + " (" + fixed(worst_error, 2) +
+                             " deg behind its reference: stuck, or blocked before its switch)");
+      }
+      for (int j = 0; j < 3; ++j) {
+        const double step = static_cast<std::int16_t>(f.counts[j] - last[j]) * kCountDeg;
+        report.travelled_deg[j] += std::abs(step);
+        if (delta[j] != 0) one_way[j] += std::abs(step);
+        if (clearing && delta[j] < 0) open_run[j] = f.home_switch(j) ? 0.0 : open_run[j] - step;
+      }
+      last = f.counts;
+      if (std::getenv("DELTA_HOMING_DEBUG") != nullptr) {
+        say("debug: idx " + std::to_string(f.sample_index) + " fill " + std::to_string(f.fill) + " counts " +
+            std::to_string(f.counts[0]) + " " + std::to_string(f.counts[1]) + " " + std::to_string(f.counts[2]) +
+            " refs " + std::to_string(f.references[0]) + " " + std::to_string(f.references[1]) + " " +
+            std::to_string(f.references[2]) + " flags " + std::to_string(f.flags) + " D " + std::to_string(actual[0]) +
+            " " + std::to_string(actual[1]) + " " + std::to_string(actual[2]) + " rej " + std::to_string(f.rejected));
+      }
+      if (!f.has(link::TelemetryFlag::kDriveEnable)) {  // a switch referenced its joint (or a disable)
+        const int now = (f.home >> 3) & 7;
+        for (int j = 0; j < 3; ++j) {
+          if (((now >> j) & 1) != 0 && ((referenced >> j) & 1) == 0) {
+            say("homing: " + joint_name(j) + " referenced (" + fixed(one_way[j], 2) + " deg up from below its switch)");
+            one_way[j] = 0.0;
+          }
+        }
+        break;
+      }
+      for (int j = 0; j < 3; ++j) {
+        if (delta[j] != 0 && one_way[j] > options.max_travel_deg) {
+          fail(kExitFault, joint_name(j) + ": no home switch within " + fixed(options.max_travel_deg, 0) + " deg " +
+                               (delta[j] > 0 ? "up" : "down") + " (switch missing or not wired?)");
+        }
+      }
+      bool goal = clearing;
+      for (int j = 0; j < 3; ++j) {
+        if (clearing && delta[j] != 0 && open_run[j] < options.clear_margin_deg) goal = false;
+      }
+      bool recentre = false;
+      for (int j = 0; j < 3; ++j) {
+        const double provisional = (f.counts[j] - board::kHomeCount) * kCountDeg;
+        if (delta[j] != 0 && std::abs(provisional) > options.recentre_deg) recentre = true;
+      }
+      if (goal || recentre) {
+        checked([&] { return session.disable(); });
+        reached = true;
+      }
+    }
+  }
+  checked([&] { return session.disable(); });
+  report.final = *session.last_telemetry();
+  report.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  return report;
+}
+
+}  // namespace delta::controller

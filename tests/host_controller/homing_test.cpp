@@ -1,0 +1,146 @@
+// Homing against the references (docs/homing.md) on the model virtual board, through `deltactl
+// host home` as a user runs it: from random start angles the board's counts end up the robot's own
+// (the encoder reading its sensor chain gives at the true pose, within one count); a seized arm or a
+// missing switch fails with the joint named, the drives off; a board homed by hand runs only when
+// told to.
+#include <chrono>
+#include <cstdio>
+#include <random>
+#include <thread>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "host_bench.hpp"
+
+namespace delta::test {
+namespace {
+
+nlohmann::json board_status(const std::string& link) {
+  const CommandResult status = run_deltactl("host status --json --port " + link);
+  if (status.exit_code != 0) throw std::runtime_error("host status: " + status.err);
+  return nlohmann::json::parse(status.out);
+}
+
+std::string home_command(const Bench& bench, const std::string& extra = "") {
+  return "host home --quiet --port " + bench.link + " --weights " + bench.weights + " --link-timeout-ms 2000 " + extra;
+}
+
+std::string angles_text(const std::array<double, 3>& a) {
+  char text[96];
+  std::snprintf(text, sizeof text, "%.3f,%.3f,%.3f", a[0], a[1], a[2]);
+  return text;
+}
+
+}  // namespace
+
+// From random starts within the travel (above and below the switches) every joint ends at its
+// reference, and the board's count is the world's encoder reading at the true pose: the count the
+// co-simulation's board has there (it starts at the home pose), so runs see the robot the network
+// was trained on. Counts at the end equal the truth's encoder within one count, every homing.
+TEST(Homing, FromRandomStartsTheCountsAreTheRobotsOwnWithinOneCount) {
+  const unsigned seed = std::random_device{}();
+  std::printf("seed %u\n", seed);
+  std::mt19937 random(seed);
+  std::uniform_real_distribution<double> centre(12.0, 55.0), spread(-6.0, 6.0);
+  for (int trial = 0; trial < 3; ++trial) {
+    const double c = centre(random);
+    const std::array<double, 3> start = {c + spread(random), c + spread(random), c + spread(random)};
+    SCOPED_TRACE("seed " + std::to_string(seed) + ", start " + angles_text(start));
+    Bench bench("homing" + std::to_string(trial), {"--fidelity", "model", "--start-angles", angles_text(start)}, false);
+    const nlohmann::json before = board_status(bench.link);
+    EXPECT_EQ(before.value("homed_by", ""), "none");
+    const CommandResult home = run_deltactl(home_command(bench));
+    ASSERT_EQ(home.exit_code, 0) << home.out << home.err;
+    EXPECT_NE(home.out.find("home: ok"), std::string::npos) << home.out;
+    const nlohmann::json after = board_status(bench.link);
+    EXPECT_EQ(after.value("homed_by", ""), "reference") << after.dump();
+    EXPECT_FALSE(after.value("homing", true));
+    ASSERT_EQ(bench.board->terminate(), 0);
+    const Table truth = read_table(bench.truth);
+    const std::size_t last = truth.rows.size() - 1;
+    for (int j = 0; j < 3; ++j) {
+      const double board_deg = after["encoder_deg"][j].get<double>();
+      const double world_deg = truth.at(last, "encoder" + std::to_string(j + 1) + "_deg");
+      EXPECT_NEAR(board_deg, world_deg, 0.0101) << "joint " << j + 1 << ": the board's count against the robot's";
+      EXPECT_EQ(truth.at(last, "drives_enabled"), 0.0);
+    }
+    std::filesystem::remove_all(bench.dir);
+  }
+}
+
+// A run stopped mid-path leaves the arms anywhere; homing again brings the same counts (none of the
+// old fixture homing's zeroing where the arms stand), and the run after it completes and ends with
+// the board's counts still the robot's own.
+TEST(Homing, AfterARunStoppedMidPathHomingAgainGivesTheSameCounts) {
+  Bench bench("homing_rerun", {"--fidelity", "model", "--start-angles", "41.5,22.25,35"}, false);
+  ASSERT_EQ(run_deltactl(home_command(bench)).exit_code, 0);
+  HostProcess host(bench.run_arguments(bench.link, 4.0), bench.dir + "/host");
+  std::this_thread::sleep_for(std::chrono::milliseconds(1800));
+  ::kill(host.pid(), SIGINT);
+  EXPECT_EQ(host.wait(20), 128 + SIGINT) << host.err();
+  const CommandResult again = run_deltactl(home_command(bench));
+  ASSERT_EQ(again.exit_code, 0) << again.err;
+  std::string run_line;
+  for (const std::string& argument : bench.run_arguments(bench.link, 1.0)) run_line += argument + " ";
+  const CommandResult run = run_deltactl(run_line);
+  EXPECT_EQ(run.exit_code, 0) << run.err;
+  const nlohmann::json after = board_status(bench.link);  // at rest, drives off
+  ASSERT_EQ(bench.board->terminate(), 0);
+  const Table truth = read_table(bench.truth);
+  const std::size_t last = truth.rows.size() - 1;
+  for (int j = 0; j < 3; ++j) {
+    EXPECT_NEAR(after["encoder_deg"][j].get<double>(), truth.at(last, "encoder" + std::to_string(j + 1) + "_deg"),
+                0.0101)
+        << "joint " << j + 1;
+  }
+  std::filesystem::remove_all(bench.dir);
+}
+
+// A seized arm: the board's following-error fault stops the drives and `host home` names the joint
+// (exit 3); a missing switch: the joint runs out of its search travel, exit 3 naming it; both end
+// with the drives off and the board not referenced, in bounded time.
+TEST(Homing, ASeizedArmOrAMissingSwitchFailsNamingTheJointWithTheDrivesOff) {
+  struct Case {
+    std::string injection, joint, expected, extra;
+  };
+  for (const Case& c : {Case{"--inject-seized-joint", "2", "joint 2", ""},
+                        Case{"--inject-missing-home-switch", "3", "joint 3", "--max-travel 8"}}) {
+    SCOPED_TRACE(c.injection);
+    Bench bench("homing_fault", {"--fidelity", "model", c.injection, c.joint}, false);
+    const auto start = std::chrono::steady_clock::now();
+    const CommandResult home = run_deltactl(home_command(bench, c.extra));
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    EXPECT_EQ(home.exit_code, 3) << home.out << home.err;
+    EXPECT_NE(home.err.find(c.expected), std::string::npos) << home.err;
+    EXPECT_LT(seconds, 60.0);
+    const nlohmann::json after = board_status(bench.link);
+    EXPECT_NE(after.value("homed_by", ""), "reference");
+    EXPECT_NE(after.value("state", ""), "running");
+    ASSERT_EQ(bench.board->terminate(), 0);
+    const Table truth = read_table(bench.truth);
+    EXPECT_EQ(truth.at(truth.rows.size() - 1, "drives_enabled"), 0.0);
+    std::filesystem::remove_all(bench.dir);
+  }
+}
+
+// Homed by hand: `host run` refuses before any motion (exit 3) unless --allow-unreferenced.
+TEST(Homing, ARunOnABoardHomedByHandIsRefusedUnlessAllowed) {
+  Bench bench("homing_hand", {"--fidelity", "model"}, false);
+  ASSERT_EQ(run_deltactl("host home --by-hand --port " + bench.link).exit_code, 0);
+  std::string run_line;
+  for (const std::string& argument : bench.run_arguments(bench.link, 0.5)) run_line += argument + " ";
+  const CommandResult refused = run_deltactl(run_line);
+  EXPECT_EQ(refused.exit_code, 3);
+  EXPECT_NE(refused.err.find("homed by hand"), std::string::npos) << refused.err;
+  const CommandResult allowed = run_deltactl(run_line + "--allow-unreferenced");
+  EXPECT_EQ(allowed.exit_code, 0) << allowed.err;
+  ASSERT_EQ(bench.board->terminate(), 0);
+  const Table truth = read_table(bench.truth);
+  // Nothing moved before the allowed run: the first enable comes after the refusal.
+  EXPECT_EQ(truth.at(0, "drives_enabled"), 0.0);
+  std::filesystem::remove_all(bench.dir);
+}
+
+}  // namespace delta::test
