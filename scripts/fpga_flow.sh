@@ -53,8 +53,10 @@ for source in "${sources[@]}"; do
 done
 read_sources=""
 for source in "${sources[@]}"; do read_sources+="read_verilog -defer -sv$includes $(realpath "$source"); "; done
-echo "fpga_flow: yosys synth_ice40 -dsp ($top)" >&2
-yosys -q -l "$out/yosys.log" -p "$read_sources $chparams synth_ice40 -dsp -top $top -json $out/$top.json" >/dev/null
+# shellcheck source=ice40_synth.sh
+source "$(dirname "$0")/ice40_synth.sh"
+echo "fpga_flow: yosys $ice40_synth ($top)" >&2
+yosys -q -l "$out/yosys.log" -p "$read_sources $chparams $ice40_synth -top $top -json $out/$top.json" >/dev/null
 
 # Place and route with one seed; writes timing.txt and sets timing_ok.
 place_and_route() {

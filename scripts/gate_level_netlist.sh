@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Synthesises an RTL top for the iCE40 UP5K with yosys (synth_ice40 -dsp, as the FPGA flow) and
+# Synthesises an RTL top for the iCE40 UP5K with yosys (ice40_synth.sh, as the FPGA flow) and
 # writes the gate-level netlist (SB_LUT4, SB_CARRY, SB_DFF*, SB_MAC16, SB_RAM40_4K cells, memories
 # filled from the .mem files) for simulation with yosys's cells_sim.v.
 #
@@ -31,7 +31,9 @@ done
 script=""
 for source in "${sources[@]}"; do script+="read_verilog -defer -sv$includes $(realpath "$source"); "; done
 for param in "${params[@]}"; do script+="chparam -set ${param%%=*} ${param#*=} $top; "; done
-script+="synth_ice40 -dsp -top $top; write_verilog -noattr $out.tmp"
+# shellcheck source=ice40_synth.sh
+source "$(dirname "$0")/ice40_synth.sh"
+script+="$ice40_synth -top $top; write_verilog -noattr $out.tmp"
 log="$out.yosys.log"
 yosys -q -l "$log" -p "$script" >/dev/null 2>&1 || { tail -5 "$log" >&2; echo "gate_level_netlist: yosys failed, see $log" >&2; exit 1; }
 if grep -E "is implicitly declared|out of bounds|multiple conflicting drivers" "$log" | grep -v "^$" >&2; then

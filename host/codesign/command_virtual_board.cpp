@@ -182,11 +182,6 @@ void run_virtual_board(const VirtualBoardCommandOptions& options) {
   };
   const std::unique_ptr<VirtualBoard> board_owner = make_board();
   VirtualBoard& board = *board_owner;
-  if (!options.start_angles.empty()) {
-    const Vec3& at = board.world().switch_true_alpha_deg();
-    std::cout << "virtual-board: arms at " << options.start_angles << " deg (true); home switches at "
-              << fixed(at[0], 3) << ", " << fixed(at[1], 3) << ", " << fixed(at[2], 3) << " deg (true)" << std::endl;
-  }
   if (stage) {
     board.observe_periods([s = stage.get(), &board](std::uint64_t clocks, const BoardPins&, const RobotWorld& world) {
       s->sample(static_cast<double>(clocks) / kBoardClockHz, 1.0 / board::kControlRateHz, world);

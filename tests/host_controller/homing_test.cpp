@@ -75,7 +75,8 @@ TEST(Homing, FromRandomStartsTheCountsAreTheRobotsOwnWithinOneCount) {
 // the board's counts still the robot's own.
 TEST(Homing, AfterARunStoppedMidPathHomingAgainGivesTheSameCounts) {
   Bench bench("homing_rerun", {"--fidelity", "model", "--start-angles", "41.5,22.25,35"}, false);
-  ASSERT_EQ(run_deltactl(home_command(bench)).exit_code, 0);
+  const CommandResult first = run_deltactl(home_command(bench));
+  ASSERT_EQ(first.exit_code, 0) << first.err;
   HostProcess host(bench.run_arguments(bench.link, 4.0), bench.dir + "/host");
   std::this_thread::sleep_for(std::chrono::milliseconds(1800));
   ::kill(host.pid(), SIGINT);

@@ -202,7 +202,17 @@ HomingReport home_at_references(link::LinkSession& session, const BoardWeights& 
     }
     // Counts set again (the joints not referenced); the jog's setpoint from the references the
     // drives will start from (with the drives off they follow the counts); drives on; the setpoint.
-    const link::TelemetryPayload off = checked([&] { return session.set_home(); });
+    // (Done when the telemetry shows it: the counts of the joints not referenced at the home count
+    // and the references following them; the homed flag may be there from before.)
+    const link::TelemetryPayload off = checked([&] {
+      return session.command(link::Command::kSetHome, [](const link::TelemetryPayload& f) {
+        for (int j = 0; j < 3; ++j) {
+          if (!f.referenced(j) && f.counts[j] != board::kHomeCount) return false;
+          if (f.references[j] != f.counts[j] * 256) return false;
+        }
+        return f.has(link::TelemetryFlag::kHomed);
+      });
+    });
     std::array<std::int32_t, 3> actual{};
     std::array<std::int32_t, 3> code{};
     try {
@@ -233,6 +243,7 @@ HomingReport home_at_references(link::LinkSession& session, const BoardWeights& 
 
     // Watch until the drives stop (a switch), the phase's goal, a limit or a fault.
     std::array<std::int16_t, 3> last = on.counts;
+    std::array<double, 3> lag{};  // |reference - count| [deg] in the last frame with the drives on
     Clock::time_point last_frame_sent = Clock::now();
     bool reached = false;
     while (!reached) {
@@ -248,14 +259,13 @@ HomingReport home_at_references(link::LinkSession& session, const BoardWeights& 
       }
       const link::TelemetryPayload f = checked([&] { return session.next_telemetry(); });
       if (f.has(link::TelemetryFlag::kFault)) {
-        // The moving joint furthest from its reference is the one that stuck.
+        // The moving joint furthest behind its reference before the fault is the one that stuck.
         int worst = 0;
         double worst_error = -1.0;
         for (int j = 0; j < 3; ++j) {
-          const double error = std::abs(f.references[j] / kQ8 - f.counts[j]) * kCountDeg;
-          if (delta[j] != 0 && error > worst_error) {
+          if (delta[j] != 0 && lag[j] > worst_error) {
             worst = j;
-            worst_error = error;
+            worst_error = lag[j];
           }
         }
         fail(kExitFault, joint_name(worst) + " " + (delta[worst] > 0 ? "moving up" : "moving down") + ": fault: " +
@@ -269,6 +279,9 @@ HomingReport home_at_references(link::LinkSession& session, const BoardWeights& 
         if (clearing && delta[j] < 0) open_run[j] = f.home_switch(j) ? 0.0 : open_run[j] - step;
       }
       last = f.counts;
+      if (f.has(link::TelemetryFlag::kDriveEnable)) {
+        for (int j = 0; j < 3; ++j) lag[j] = std::abs(f.references[j] / kQ8 - f.counts[j]) * kCountDeg;
+      }
       if (std::getenv("DELTA_HOMING_DEBUG") != nullptr) {
         say("debug: idx " + std::to_string(f.sample_index) + " fill " + std::to_string(f.fill) + " counts " +
             std::to_string(f.counts[0]) + " " + std::to_string(f.counts[1]) + " " + std::to_string(f.counts[2]) +
