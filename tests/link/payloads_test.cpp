@@ -112,7 +112,8 @@ TEST(LinkPayloads, TelemetryRoundTripsOnRandomValues) {
 
 TEST(LinkPayloads, EveryCommandRoundTripsAndOtherBytesAreNoCommand) {
   for (Command command :
-       {Command::kEnable, Command::kDisable, Command::kHold, Command::kClearFault, Command::kSetHome}) {
+       {Command::kEnable, Command::kDisable, Command::kHold, Command::kClearFault, Command::kSetHome,
+        Command::kHomeStart}) {
     const std::vector<std::uint8_t> bytes = encode(command);
     ASSERT_EQ(bytes.size(), static_cast<std::size_t>(board::kCommandPayloadBytes));
     EXPECT_EQ(decode_command(bytes), command);
@@ -120,7 +121,7 @@ TEST(LinkPayloads, EveryCommandRoundTripsAndOtherBytesAreNoCommand) {
   EXPECT_EQ(encode(Command::kHold), std::vector<std::uint8_t>{board::kCommandHold});
   int known = 0;
   for (int byte = 0; byte < 256; ++byte) known += decode_command({static_cast<std::uint8_t>(byte)}).has_value();
-  EXPECT_EQ(known, 5);
+  EXPECT_EQ(known, 6);
 }
 
 TEST(LinkPayloads, FieldsAreLittleEndianAtThePackagesOffsets) {
