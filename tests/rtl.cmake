@@ -69,6 +69,6 @@ delta_add_gtest(rtl_link_tests
   LABELS rtl)
 delta_add_gtest(rtl_model_board_tests
   SOURCES ${CMAKE_CURRENT_LIST_DIR}/rtl/test_model_board.cpp
-  LIBRARIES delta::board_cosim delta::golden delta::nn delta::host
+  LIBRARIES delta::board_cosim delta::controller delta::golden delta::nn delta::host
   LABELS rtl cosim)
 target_include_directories(rtl_model_board_tests PRIVATE ${CMAKE_CURRENT_LIST_DIR}/rtl)

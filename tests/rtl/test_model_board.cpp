@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "delta/controller/homing.hpp"
 #include "delta/cosim/board_cosim.hpp"
 #include "delta/effect_file.hpp"
 #include "delta/golden/export.hpp"
@@ -349,6 +350,98 @@ TEST(ModelBoard, NeitherBoardPlaysSetpointsSentWhileTheDrivesWereOff) {
     }
     std::cout << name << ": joints moved at most " << moved_deg << " deg; refused " << run->before.rejected << "\n";
     EXPECT_LT(moved_deg, 0.5) << name << ": motion the host did not command";
+  }
+  ASSERT_EQ(model.telemetry.size(), rtl.telemetry.size());
+  for (std::size_t i = 0; i < rtl.telemetry.size(); ++i) {
+    ASSERT_EQ(link::encode(model.telemetry[i]), link::encode(rtl.telemetry[i])) << "telemetry frame " << i;
+  }
+  expect_same_periods(rtl.periods, model.periods);
+}
+
+// Homing at the switches (docs/homing.md) on both boards, a host script that depends on nothing
+// but the telemetry (keep-alive frames every 20 frames, not by the wall clock): home start, then
+// per jog set home, the jog's setpoint, the drives on until a switch's rising edge references its
+// joint and turns them off. The arms start 0.2-0.9 deg below their switches. Every telemetry frame
+// and every period equal; the model's runs of clocks checked against its full clocks (the switch
+// edges end runs); every joint referenced at the end, its count the robot's encoder reading.
+struct HomingRun {
+  std::vector<link::TelemetryPayload> telemetry;
+  std::vector<PeriodRecord> periods;
+  Vec3 switches_deg = Vec3::Zero();
+  int jogs = 0;
+};
+
+HomingRun run_homing(cosim::BoardFidelity fidelity, const golden::QuantisedNetwork& q, const std::string& mem_dir) {
+  HomingRun out;
+  cosim::VirtualBoardOptions options;
+  options.fidelity = fidelity;
+  options.check_model_runs = fidelity == cosim::BoardFidelity::kModel;
+  options.network = &q;
+  options.mem_dir = mem_dir;
+  options.effects = read_effect_file(kEffects);
+  {
+    // Where the switches are (a world of this robot at the home pose), then the start below them.
+    BoardInterface probe;
+    probe.board_clock_hz = 1e6;
+    probe.pwm_period_cycles = 1024;
+    probe.current_full_scale_a = 0.5;
+    probe.home_count = static_cast<int>(board::kHomeCount);
+    const RobotWorld world(probe, options.effects, Geometry::nominal(), JointPlantParameters{});
+    out.switches_deg = world.switch_true_alpha_deg();
+  }
+  options.start_true_alpha_deg = out.switches_deg - Vec3(0.2, 0.9, 0.5);
+  cosim::VirtualBoard board(options);
+  board.observe_periods([&out](std::uint64_t clocks, const cosim::BoardPins& pins, const RobotWorld& world) {
+    out.periods.push_back({clocks, world.current_a(), world.encoder_deg(), world.true_alpha_deg(), pins});
+  });
+  cosim::VirtualBoardStream stream(board);
+  link::LinkSession session(stream);
+  session.identify();
+  session.command(link::Command::kHomeStart, [](const link::TelemetryPayload& t) {
+    return t.has(link::TelemetryFlag::kHoming) && (t.home >> 3) == 0;
+  });
+  controller::BoardWeights weights;
+  weights.network = q;
+  const std::int32_t search = 26;  // Q.8 counts per ms: 1 deg/s
+  for (int jog = 0; jog < 3 && ((session.last_telemetry()->home >> 3) & 7) != 7; ++jog) {
+    const link::TelemetryPayload off = session.command(link::Command::kSetHome, [](const link::TelemetryPayload& t) {
+      for (int j = 0; j < 3; ++j) {
+        if (!t.referenced(j) && t.counts[j] != board::kHomeCount) return false;
+      }
+      return t.has(link::TelemetryFlag::kHomed);
+    });
+    std::array<std::int32_t, 3> delta{}, actual{};
+    for (int j = 0; j < 3; ++j) delta[j] = off.referenced(j) ? 0 : search;
+    const std::array<std::int32_t, 3> code = controller::jog_setpoint(weights, off.references, delta, &actual);
+    const link::TelemetryPayload on = session.enable();
+    session.send_setpoint(on.sample_index + on.fill, code);
+    ++out.jogs;
+    for (int frame = 1; frame < 4000; ++frame) {
+      const link::TelemetryPayload t = session.next_telemetry();
+      if (!t.has(link::TelemetryFlag::kDriveEnable)) break;
+      if (frame % 20 == 0) session.send_identify_request();
+    }
+  }
+  for (int i = 0; i < 30; ++i) session.next_telemetry();
+  out.telemetry = session.telemetry();
+  return out;
+}
+
+TEST(ModelBoard, EqualsTheRtlBoardThroughAHomingAtTheSwitches) {
+  const golden::QuantisedNetwork q = deployed_network();
+  const std::string mem_dir = fresh_directory("model_board_homing_mem");
+  golden::write_export(q, mem_dir);
+  const HomingRun rtl = run_homing(cosim::BoardFidelity::kRtl, q, mem_dir);
+  const HomingRun model = run_homing(cosim::BoardFidelity::kModel, q, mem_dir);
+  std::cout << "RTL: " << rtl.telemetry.size() << " telemetry frames, " << rtl.jogs << " jogs\n";
+  ASSERT_FALSE(rtl.telemetry.empty());
+  const link::TelemetryPayload& last = rtl.telemetry.back();
+  EXPECT_TRUE(last.has(link::TelemetryFlag::kReferenced)) << link::describe_state(last);
+  EXPECT_FALSE(last.has(link::TelemetryFlag::kHoming));
+  EXPECT_FALSE(last.has(link::TelemetryFlag::kDriveEnable));
+  // Each joint's count is the robot's own reading (the world's encoder) at rest at the end.
+  for (int j = 0; j < 3; ++j) {
+    EXPECT_NEAR(last.counts[j] * cosim::kCountDeg, rtl.periods.back().encoder_deg[j], 1e-9) << "joint " << j + 1;
   }
   ASSERT_EQ(model.telemetry.size(), rtl.telemetry.size());
   for (std::size_t i = 0; i < rtl.telemetry.size(); ++i) {
