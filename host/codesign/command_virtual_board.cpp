@@ -57,9 +57,9 @@ struct VirtualBoardCommandOptions {
   double stage_rate_hz = 1000.0;
   double stage_noise_m = 20e-9;
   std::int64_t stage_seed = -1;
-  std::string start_angles;  // A1,A2,A3 [deg], true shaft angles; empty: the home pose
-  int inject_seized_joint = 0;           // 1..3; 0: none
-  int inject_missing_home_switch = 0;    // 1..3; 0: none
+  std::string start_angles;            // A1,A2,A3 [deg], true shaft angles; empty: the home pose
+  int inject_seized_joint = 0;         // 1..3; 0: none
+  int inject_missing_home_switch = 0;  // 1..3; 0: none
 };
 
 // --start-angles A1,A2,A3: three true shaft angles within the board's travel.
@@ -79,11 +79,12 @@ Vec3 parse_start_angles(const std::string& text) {
     if (field.empty() || used != field.size() || !std::isfinite(value)) {
       throw InputError("--start-angles", 0, "'" + text + "': give three angles in degrees, A1,A2,A3, e.g. 12.5,40,33");
     }
-    const double low = board::kMinTravelBlock * 1024 * kCountDeg, high = ((board::kMaxTravelBlock + 1) * 1024 - 1) * kCountDeg;
+    const double low = board::kMinTravelBlock * 1024 * kCountDeg,
+                 high = ((board::kMaxTravelBlock + 1) * 1024 - 1) * kCountDeg;
     if (value < low || value > high) {
       throw InputError("--start-angles", 0,
-                       "joint " + std::to_string(j + 1) + " at " + field + " deg is outside the travel (" + fixed(low, 2) +
-                           " .. " + fixed(high, 2) + " deg)");
+                       "joint " + std::to_string(j + 1) + " at " + field + " deg is outside the travel (" +
+                           fixed(low, 2) + " .. " + fixed(high, 2) + " deg)");
     }
     angles[j] = value;
     at = comma + 1;

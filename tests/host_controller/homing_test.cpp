@@ -6,8 +6,8 @@
 #include <chrono>
 #include <cstdio>
 #include <random>
-#include <thread>
 #include <string>
+#include <thread>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>

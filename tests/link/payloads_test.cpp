@@ -111,9 +111,8 @@ TEST(LinkPayloads, TelemetryRoundTripsOnRandomValues) {
 }
 
 TEST(LinkPayloads, EveryCommandRoundTripsAndOtherBytesAreNoCommand) {
-  for (Command command :
-       {Command::kEnable, Command::kDisable, Command::kHold, Command::kClearFault, Command::kSetHome,
-        Command::kHomeStart}) {
+  for (Command command : {Command::kEnable, Command::kDisable, Command::kHold, Command::kClearFault, Command::kSetHome,
+                          Command::kHomeStart}) {
     const std::vector<std::uint8_t> bytes = encode(command);
     ASSERT_EQ(bytes.size(), static_cast<std::size_t>(board::kCommandPayloadBytes));
     EXPECT_EQ(decode_command(bytes), command);

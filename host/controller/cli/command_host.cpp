@@ -1,9 +1,10 @@
 // deltactl host: the host controller on the lab PC (SPEC.md, "The board and the lab PC"): `status`
 // identifies the board and prints its state, `home` homes against the robot's references (home
-// switches, delta/controller/homing.hpp) or, --by-hand, sets the counts where the arms are, `record` records the telemetry with the drives off (the calibration drag), `run` checks a trajectory whole,
-// enables, streams it paced by telemetry, stops and disables, recording every telemetry frame
-// (delta/controller/run_job.hpp); `serve` is the long-running controller with its control socket and `ctl` its client
-// (serve.hpp); `latency` measures the 1 kHz loop's wake latency. Read delta/controller/host_run.hpp first.
+// switches, delta/controller/homing.hpp) or, --by-hand, sets the counts where the arms are, `record` records the
+// telemetry with the drives off (the calibration drag), `run` checks a trajectory whole, enables, streams it paced by
+// telemetry, stops and disables, recording every telemetry frame (delta/controller/run_job.hpp); `serve` is the
+// long-running controller with its control socket and `ctl` its client (serve.hpp); `latency` measures the 1 kHz loop's
+// wake latency. Read delta/controller/host_run.hpp first.
 #include <poll.h>
 #include <sys/socket.h>
 #include <sys/un.h>
@@ -29,8 +30,8 @@
 #include "delta/command.hpp"
 #include "delta/controller/board_network.hpp"
 #include "delta/controller/homing.hpp"
-#include "delta/controller/realtime.hpp"
 #include "delta/controller/host_run.hpp"
+#include "delta/controller/realtime.hpp"
 #include "delta/controller/run_job.hpp"
 #include "delta/controller/serve.hpp"
 #include "delta/controller/stream_plan.hpp"
@@ -121,8 +122,8 @@ void run_status(const StatusOptions& options) {
                           {"encoder_deg", {t.counts[0] * kCountDeg, t.counts[1] * kCountDeg, t.counts[2] * kCountDeg}},
                           {"homed", t.has(link::TelemetryFlag::kHomed) || t.has(link::TelemetryFlag::kReferenced)},
                           {"homed_by", t.has(link::TelemetryFlag::kReferenced) ? "reference"
-                                       : t.has(link::TelemetryFlag::kHomed)     ? "hand"
-                                                                                 : "none"},
+                                       : t.has(link::TelemetryFlag::kHomed)    ? "hand"
+                                                                               : "none"},
                           {"homing", t.has(link::TelemetryFlag::kHoming)},
                           {"referenced", {t.referenced(0), t.referenced(1), t.referenced(2)}},
                           {"home_switches", {t.home_switch(0), t.home_switch(1), t.home_switch(2)}},
@@ -178,8 +179,9 @@ void run_home(const HomeOptions& options) {
       std::cout << "homed by hand: encoders := " << fixed(board::kHomeCount * kCountDeg, 2) << " deg where the arms are"
                 << (referenced != 0 ? " (joints referenced at their switches keep their counts)" : "") << " ("
                 << link::describe_state(homed) << ")"
-                << (referenced == 7 ? "\n" : "; runs need --allow-unreferenced until 'deltactl host home' finds the "
-                                               "references\n");
+                << (referenced == 7 ? "\n"
+                                    : "; runs need --allow-unreferenced until 'deltactl host home' finds the "
+                                      "references\n");
     } catch (const link::LinkError& error) {
       fail(error.kind() == link::LinkError::Kind::kLinkLost ? kExitLinkLost : kExitFault, error.what());
     }
@@ -571,7 +573,8 @@ const RegisterCommand command("host", 75, [](CLI::App& root) {
       "encoders report): every 1 kHz sample reachable, inside the network's trained range and the joint\n"
       "travel, joint velocity <= 100 deg/s, acceleration <= 1e4 deg/s^2, jerk <= 1e6 deg/s^3; the first\n"
       "offending sample is named (FILE:LINE: reason), exit 2, no byte sent. The board must be homed at\n"
-      "its references ('host home'; homed by hand only with --allow-unreferenced) and free of faults. The plate moves in a jerk-limited straight line to the trajectory's start, then\n"
+      "its references ('host home'; homed by hand only with --allow-unreferenced) and free of faults. The plate moves "
+      "in a jerk-limited straight line to the trajectory's start, then\n"
       "along it, its time ramped in and out (0.3 s); Ctrl-C (SIGINT), SIGTERM, SIGHUP (the terminal or\n"
       "SSH session closed) or SIGQUIT ramps it to rest (within about 0.5 s), then holds and disables.\n"
       "The drives going off by another cause (a disable from another program, a board reset) ends the\n"

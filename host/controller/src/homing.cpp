@@ -63,8 +63,9 @@ std::array<std::int32_t, 3> jog_setpoint(const BoardWeights& weights, const std:
     const Eigen::Vector3d c = answer(codes);
     const Eigen::Vector3d error = c - target;
     if (std::getenv("DELTA_HOMING_DEBUG") != nullptr) {
-      std::fprintf(stderr, "jog %d: error %.2f %.2f %.2f codes %lld %lld %lld\n", iteration, error[0], error[1], error[2],
-                   static_cast<long long>(codes[0]), static_cast<long long>(codes[1]), static_cast<long long>(codes[2]));
+      std::fprintf(stderr, "jog %d: error %.2f %.2f %.2f codes %lld %lld %lld\n", iteration, error[0], error[1],
+                   error[2], static_cast<long long>(codes[0]), static_cast<long long>(codes[1]),
+                   static_cast<long long>(codes[2]));
     }
     if (error.cwiseAbs().maxCoeff() < 0.5) break;
     Eigen::Matrix3d jacobian;
@@ -165,12 +166,14 @@ HomingReport home_at_references(link::LinkSession& session, const BoardWeights& 
   std::array<double, 3> one_way{};   // degrees moved the present way without the switch
   bool clearing = true;
   while (true) {
-    if (stop != nullptr && *stop != 0) fail(128 + static_cast<int>(*stop), "stopped by signal " + std::to_string(*stop));
+    if (stop != nullptr && *stop != 0)
+      fail(128 + static_cast<int>(*stop), "stopped by signal " + std::to_string(*stop));
     t = *session.last_telemetry();
     const int referenced = (t.home >> 3) & 7;
     if (referenced == 7) break;
     if (t.has(link::TelemetryFlag::kFault)) fail(kExitFault, "fault: " + link::describe_fault(t.fault_cause));
-    if (!t.has(link::TelemetryFlag::kHoming)) fail(kExitFault, "the board left homing (" + link::describe_state(t) + ")");
+    if (!t.has(link::TelemetryFlag::kHoming))
+      fail(kExitFault, "the board left homing (" + link::describe_state(t) + ")");
     std::array<std::int32_t, 3> delta{};
     if (clearing) {
       bool any = false;
@@ -222,7 +225,8 @@ HomingReport home_at_references(link::LinkSession& session, const BoardWeights& 
     }
     for (int j = 0; j < 3; ++j) {
       // A joint held may creep by a few Q.8 counts per millisecond (an input code's LSB moves the
-      // answer by tens of them; its encoder keeps counting): at most 0.23 deg/s. A moving one goes its way at about its speed.
+      // answer by tens of them; its encoder keeps counting): at most 0.23 deg/s. A moving one goes its way at about its
+      // speed.
       const bool held_ok = delta[j] == 0 && std::abs(actual[j]) <= 6;
       const bool moving_ok = delta[j] != 0 && (actual[j] > 0) == (delta[j] > 0) &&
                              std::abs(actual[j] - delta[j]) <= std::max(3, std::abs(delta[j]) / 10);
@@ -247,7 +251,8 @@ HomingReport home_at_references(link::LinkSession& session, const BoardWeights& 
     Clock::time_point last_frame_sent = Clock::now();
     bool reached = false;
     while (!reached) {
-      if (stop != nullptr && *stop != 0) fail(128 + static_cast<int>(*stop), "stopped by signal " + std::to_string(*stop));
+      if (stop != nullptr && *stop != 0)
+        fail(128 + static_cast<int>(*stop), "stopped by signal " + std::to_string(*stop));
       const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
       if (elapsed > options.timeout_s) fail(kExitFault, "not done within " + fixed(options.timeout_s, 0) + " s");
       if (Clock::now() - last_frame_sent >= std::chrono::milliseconds(options.keep_alive_ms)) {
@@ -268,8 +273,8 @@ HomingReport home_at_references(link::LinkSession& session, const BoardWeights& 
             worst_error = lag[j];
           }
         }
-        fail(kExitFault, joint_name(worst) + " " + (delta[worst] > 0 ? "moving up" : "moving down") + ": fault: " +
-                             link::describe_fault(f.fault_cause) + " (" + fixed(worst_error, 2) +
+        fail(kExitFault, joint_name(worst) + " " + (delta[worst] > 0 ? "moving up" : "moving down") +
+                             ": fault: " + link::describe_fault(f.fault_cause) + " (" + fixed(worst_error, 2) +
                              " deg behind its reference: stuck, or blocked before its switch)");
       }
       for (int j = 0; j < 3; ++j) {

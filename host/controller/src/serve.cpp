@@ -387,9 +387,8 @@ struct HostServer::Impl {
         return failure(kExitFault, name + ": the drives are on; home only with the drives off");
       }
       // Against the references (homing.hpp): the drives move the arms to their home switches.
-      home_at_references(session, weights, HomingOptions{}, [](const std::string& line) {
-        std::cerr << "host serve: " << line << std::endl;
-      });
+      home_at_references(session, weights, HomingOptions{},
+                         [](const std::string& line) { std::cerr << "host serve: " << line << std::endl; });
     } else if (work.command == "enable") {
       // Drives on, holding the arms where they are; the idle loop keeps the hold alive.
       session.enable();

@@ -82,7 +82,7 @@ class RobotWorld {
   // as many step() calls with those pins do, the cycles before the last without calling step().
   void advance(std::uint64_t cycles, const DrivePattern& pattern);
 
-  int encoder_a() const { return lines_a_; }  // bit j: joint j's A line for the next board cycle
+  int encoder_a() const { return lines_a_; }       // bit j: joint j's A line for the next board cycle
   int home_switches() const { return switches_; }  // bit j: joint j's home switch closed
   int encoder_b() const { return lines_b_; }
   std::uint64_t cycle() const { return cycle_; }

@@ -30,7 +30,7 @@ enum class Command : std::uint8_t {
   kDisable = board::kCommandDisable,
   kHold = board::kCommandHold,
   kClearFault = board::kCommandClearFault,
-  kSetHome = board::kCommandSetHome,    // the joints not referenced: count := home count
+  kSetHome = board::kCommandSetHome,      // the joints not referenced: count := home count
   kHomeStart = board::kCommandHomeStart,  // forget the references, start homing (docs/homing.md)
 };
 

@@ -32,20 +32,20 @@
 namespace delta::controller {
 
 struct HomingOptions {
-  double search_deg_s = 4.0;       // up toward the switches
-  double clear_deg_s = 8.0;        // down off a closed switch
-  double clear_margin_deg = 0.5;   // below the switch before the approach
-  double recentre_deg = 15.0;      // provisional motion before the counts are set again
-  double max_travel_deg = 102.4;   // one way without the switch (the board's travel): no reference
-  double timeout_s = 120.0;        // the whole homing
-  int keep_alive_ms = 20;          // a frame to the board at least this often (its watchdog: 250 ms)
+  double search_deg_s = 4.0;      // up toward the switches
+  double clear_deg_s = 8.0;       // down off a closed switch
+  double clear_margin_deg = 0.5;  // below the switch before the approach
+  double recentre_deg = 15.0;     // provisional motion before the counts are set again
+  double max_travel_deg = 102.4;  // one way without the switch (the board's travel): no reference
+  double timeout_s = 120.0;       // the whole homing
+  int keep_alive_ms = 20;         // a frame to the board at least this often (its watchdog: 250 ms)
 };
 
 struct HomingReport {
-  link::TelemetryPayload final;             // drives off, every joint referenced
-  std::array<double, 3> travelled_deg{};    // each joint's motion (sum of |steps|)
-  int enables = 0;                          // jogs started
-  double seconds = 0.0;                     // wall time
+  link::TelemetryPayload final;           // drives off, every joint referenced
+  std::array<double, 3> travelled_deg{};  // each joint's motion (sum of |steps|)
+  int enables = 0;                        // jogs started
+  double seconds = 0.0;                   // wall time
 };
 
 // Homes the board; the drives are off and every joint referenced when it returns. `log` gets one
