@@ -225,9 +225,9 @@ HomingReport home_at_references(link::LinkSession& session, const BoardWeights& 
     }
     for (int j = 0; j < 3; ++j) {
       // A joint held may creep by a few Q.8 counts per millisecond (an input code's LSB moves the
-      // answer by tens of them; its encoder keeps counting): at most 0.23 deg/s. A moving one goes its way at about its
-      // speed.
-      const bool held_ok = delta[j] == 0 && std::abs(actual[j]) <= 6;
+      // answer by tens of them; a referenced joint's encoder keeps counting, so its count stays
+      // right): at most 16, 0.63 deg/s. A moving one goes its way at about its speed.
+      const bool held_ok = delta[j] == 0 && std::abs(actual[j]) <= 16;
       const bool moving_ok = delta[j] != 0 && (actual[j] > 0) == (delta[j] > 0) &&
                              std::abs(actual[j] - delta[j]) <= std::max(3, std::abs(delta[j]) / 10);
       if (!held_ok && !moving_ok) {
