@@ -106,7 +106,13 @@ opt_clean
 EOF
 
 build_job() {  # job [cover] -> $work/<job>[.cover]/{model.il, model.aig, props}
-  local j=$1 d=$work/$1 defines= params=
+  local j=$1 d=$work/$1 defines= params= lemmas=
+  if [ "${2:-}" = lemmas ]; then  # the proven assertions become assumptions (names in $work/<job>.proven)
+    d=$work/$1.lemmas
+    local name
+    while read -r name; do lemmas="$lemmas n:$name"; done <"$work/$1.proven"
+    lemmas="chformal -assert2assume $lemmas;"
+  fi
   if [ "${2:-}" = cover ]; then
     d=$work/$1.cover
     case ${job_cover[$j]} in
@@ -127,7 +133,7 @@ build_job() {  # job [cover] -> $work/<job>[.cover]/{model.il, model.aig, props}
   [ -z "$cut" ] || cut="delete $cut;"
   if ! yosys -q -l "$d/read.log" -p "read_verilog -formal -sv $defines $pkg ${job_src[$j]}; $lib $params hierarchy -top $top;
         prep -top $top; select -set keep $top ${job_trusted[$j]}; chformal -assume -assume2assert @keep %n;
-        flatten; $cut memory -nomap; delete t:\$mem_v2 t:\$mem; setundef -undriven -anyseq; opt_clean;
+        flatten; $cut $lemmas memory -nomap; delete t:\$mem_v2 t:\$mem; setundef -undriven -anyseq; opt_clean;
         write_rtlil $d/model.il;
         tee -q -o $d/asserts select -list t:\$assert; tee -q -o $d/covers select -list t:\$cover" >/dev/null 2>&1; then
     echo "formal.sh: yosys could not read job $j (log: $d/read.log):" >&2
@@ -199,7 +205,7 @@ counterexample() {
   local safe=${name//[^A-Za-z0-9_.]/_}
   yosys -q -p "read_rtlil $d/model.il; chformal -cover -remove; chformal -assert -remove t:\$assert n:$name %d;
       script $work/smt.ys; write_smt2 -wires $d/cex.$safe.smt2" >/dev/null 2>&1 || return 0
-  yosys-smtbmc -s z3 -t $((frame + 2)) --dump-vcd "$out/$j.$safe.vcd" --dump-tb "$out/$j.${safe}_tb.v" \
+  yosys-smtbmc -s z3 -t $((frame + 2)) --dump-vcd "$out/$j.$safe.vcd" --dump-vlogtb "$out/$j.${safe}_tb.v" \
       "$d/cex.$safe.smt2" >"$out/$j.$safe.smtbmc.log" 2>&1 || true
   echo "  counterexample: $out/$j.$safe.vcd, testbench $out/$j.${safe}_tb.v"
 }
@@ -220,6 +226,33 @@ done
 for j in "${selected[@]}"; do
   while read -r kind name index; do echo "$j $kind $name $index"; done <"$work/$j/props"
 done | xargs -P "$jobs" -L 1 bash -c 'check "$0" "$1" "$2" "$3"' >"$work/results" 2>/dev/null || true
+# An assertion yosys folds to a constant true (it holds by the logic's construction) has no output.
+for j in "${selected[@]}"; do
+  sed 's|^[^/]*/||' "$work/$j/asserts" | while read -r name; do
+    grep -qx "$name" "$work/$j/outputs" || echo "$j assert $name proven 0 construction"
+  done
+done >>"$work/results"
+
+# Second round: an assertion PDR did not finish is proved again with every assertion proven in
+# the first round assumed (sound: those hold in every reachable state of the same model). The
+# lemmas among the properties (docs/formal.md) are there for this.
+: >"$work/second"
+for j in "${selected[@]}"; do
+  awk -v j="$j" '$1 == j && $2 == "assert" && $4 == "proven" {print $3}' "$work/results" >"$work/$j.proven"
+  awk -v j="$j" '$1 == j && $2 == "assert" && $4 != "proven" && $4 !~ /^cex@/ {print $3}' "$work/results" >"$work/$j.undecided"
+  [ -s "$work/$j.undecided" ] && [ -s "$work/$j.proven" ] || continue
+  build_job "$j" lemmas || exit 3
+  while read -r name; do
+    echo "$j.lemmas assert $name $(awk -v n="$name" '$1 == "assert" && $2 == n {print $3}' "$work/$j.lemmas/props")"
+  done <"$work/$j.undecided" >>"$work/second"
+done
+xargs -P "$jobs" -L 1 bash -c 'check "$0" "$1" "$2" "$3"' <"$work/second" >"$work/results2" 2>/dev/null || true
+while read -r j kind name verdict seconds config; do
+  [ "$verdict" = proven ] || continue
+  awk -v j="${j%.lemmas}" -v n="$name" -v v="$verdict" -v s="$seconds" \
+    '$1 == j && $3 == n {$4 = v; $5 = $5 + s; $6 = "lemmas"} {print}' "$work/results" >"$work/results.new"
+  mv "$work/results.new" "$work/results"
+done <"$work/results2"
 
 failed=0 proven=0 bounded=0 reached=0 props=0 covers=0
 while read -r j kind name verdict seconds config; do
@@ -227,7 +260,8 @@ while read -r j kind name verdict seconds config; do
   if [ "$kind" = assert ]; then
     props=$((props + 1))
     case $verdict in
-      proven) line="proven"; proven=$((proven + 1)) ;;
+      proven) line="proven"; proven=$((proven + 1)); [ "$config" != lemmas ] || line="proven (with the proven lemmas)"
+              [ "$config" != construction ] || line="proven (constant: holds by construction)" ;;
       depth@*) line="passed to depth ${verdict#depth@}"; bounded=$((bounded + 1)) ;;
       cex@*) line="FAILED (counterexample in frame ${verdict#cex@})"; failed=$((failed + 1)) ;;
       *) line="FAILED (no verdict)"; failed=$((failed + 1)) ;;
