@@ -467,7 +467,12 @@ module board_core #(
   // Environment: reset in the first cycle only.
   logic f_past_valid = 1'b0;
   always_ff @(posedge clk_i) f_past_valid <= 1'b1;
-  always_comb reset_only_in_the_first_cycle: assume (rst_ni == f_past_valid);
+  always_comb begin
+    reset_only_in_the_first_cycle: assume (rst_ni == f_past_valid);
+    // link_rx's delivery of a command frame (job link_rx: a frame starts only when its length is
+    // its type's payload size, and presents exactly its payload bytes): one byte, index 0.
+    a_command_has_one_payload_byte: assume (!(payload_valid && is_command) || payload_index == 6'd0);
+  end
 
   // The command a CRC-valid command frame carries (its one payload byte), kept independently.
   logic [7:0] f_command_q = '0;

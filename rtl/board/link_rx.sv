@@ -224,8 +224,13 @@ module link_rx #(
   assign f_header_ok   = f_size(f_byte) != 8'hFF && f_length_q == f_size(f_byte);
   assign f_start       = fetched_q && f_pos_q == 8'd3 && f_header_ok;
   assign f_drop_header = fetched_q && f_pos_q == 8'd3 && !f_header_ok;
-  assign f_payload     = fetched_q && f_pos_q >= 8'd4 && f_pos_q < 8'd4 + f_length_q;
-  assign f_end         = fetched_q && f_pos_q == 8'd5 + f_length_q;
+  // Positions in 9 bits: a length byte up to 255 (dropped at the type, but the header's bytes are
+  // read before that) must not wrap 5 + length onto a header position.
+  logic [8:0]  f_pos9, f_payload_end;
+  assign f_pos9        = 9'(f_pos_q);
+  assign f_payload_end = 9'd4 + 9'(f_length_q);  // the CRC's high byte
+  assign f_payload     = fetched_q && f_pos9 >= 9'd4 && f_pos9 < f_payload_end;
+  assign f_end         = fetched_q && f_pos9 >= 9'd4 && f_pos9 == f_payload_end + 9'd1;
   assign f_crc_ok      = f_high_q == f_crc_q[15:8] && f_byte == f_crc_q[7:0];
   always_ff @(posedge clk_i) begin
     if (!rst_ni) begin
@@ -236,11 +241,11 @@ module link_rx #(
         f_crc_q <= 16'(delta_board_pkg::FrameCrcInit);
       end else begin
         f_pos_q <= f_drop_header || f_end ? 8'd0 : f_pos_q + 8'd1;
-        if (f_pos_q < 8'd4 + f_length_q) f_crc_q <= f_crc16(f_crc_q, f_byte);
+        if (f_pos9 < 9'd4 || f_pos9 < f_payload_end) f_crc_q <= f_crc16(f_crc_q, f_byte);
         if (f_pos_q == 8'd1) f_length_q <= f_byte;
         if (f_pos_q == 8'd2) f_sequence_q <= f_byte;
         if (f_pos_q == 8'd3) f_type_q <= f_byte;
-        if (f_pos_q == 8'd4 + f_length_q) f_high_q <= f_byte;
+        if (f_pos9 >= 9'd4 && f_pos9 == f_payload_end) f_high_q <= f_byte;
       end
     end
   end
