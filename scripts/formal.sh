@@ -19,7 +19,8 @@ rtl=$here/rtl
 out=$here/build/formal
 jobs=2
 timeout=60        # seconds of PDR per property before falling back to bounded model checking
-bmc_depth=40      # depth of that fallback (and the frames a cover may need beyond PDR's reach)
+bmc_depth=40      # depth of that fallback, and of the first search for a cover
+cover_depth=120   # depth of the search for a cover on the cover configuration (then PDR)
 only=
 quiet=0
 stop=0
@@ -46,7 +47,8 @@ work=$(mktemp -d "${TMPDIR:-/tmp}/formal.XXXXXX")
 pkg="$rtl/board/delta_board_pkg.sv $rtl/joint/delta_joint_pkg.sv"
 
 # ---- the proof jobs: name, top module, sources, yosys commands after reading them ----------------
-# Submodules' assumptions become assertions in a composition (their environment is checked).
+# Submodules' assumptions become assertions in a composition (their environment is checked); their
+# covers are dropped there (each is reached in the submodule's own job).
 # Blackboxed submodules (yosys `blackbox`) drive their outputs freely: a sound over-approximation.
 # job NAME TOP SOURCES [BLACKBOX_SOURCES] [TRUSTED]: BLACKBOX_SOURCES are read for their ports
 # only; TRUSTED submodules keep their assumptions (each is proved by another job, named there).
@@ -74,8 +76,7 @@ job board_core board_core "$rtl/network/delta_network_pkg.sv $rtl/board/board_co
   "setpoint_buffer joint_pwm"
 cover_config joint_safety "chparam -set WatchdogPeriods 3 joint_safety"
 cover_config setpoint_buffer "chparam -set Depth 4 setpoint_buffer"
-cover_config link_rx "define FORMAL_LINK_RX_BYTE_GAP 24"
-cover_config board_core "chparam -set WatchdogPeriods 3 joint_axes"
+cover_config link_rx "define FORMAL_LINK_RX_BYTE_GAP 3"
 
 # ---- build the models: one AIGER per assertion and per cover (negated) ---------------------------
 cat >"$work/cover2assert.v" <<'EOF'
@@ -132,7 +133,7 @@ build_job() {  # job [cover] -> $work/<job>[.cover]/{model.il, model.aig, props}
   done
   [ -z "$cut" ] || cut="delete $cut;"
   if ! yosys -q -l "$d/read.log" -p "read_verilog -formal -sv $defines $pkg ${job_src[$j]}; $lib $params hierarchy -top $top;
-        prep -top $top; select -set keep $top ${job_trusted[$j]}; chformal -assume -assume2assert @keep %n;
+        prep -top $top; select -set keep $top ${job_trusted[$j]}; chformal -assume -assume2assert @keep %n; chformal -cover -remove $top %n;
         flatten; $cut $lemmas memory -nomap; delete t:\$mem_v2 t:\$mem; setundef -undriven -anyseq; opt_clean;
         write_rtlil $d/model.il;
         tee -q -o $d/asserts select -list t:\$assert; tee -q -o $d/covers select -list t:\$cover" >/dev/null 2>&1; then
@@ -170,7 +171,7 @@ check() {
     d=$work/$j.cover config=cover
     index=$(awk -v n="$name" '$2 == n {print $3}' "$d/props")
     aig="$d/model.aig; fold; strash; cone -O $index -s; scleanup"
-    log=$(timeout $((timeout + 30)) yosys-abc -c "read_aiger $aig; bmc3 -F $bmc_depth -T $timeout" 2>&1 || true)
+    log=$(timeout $((timeout + 30)) yosys-abc -c "read_aiger $aig; bmc3 -F $cover_depth -T $timeout" 2>&1 || true)
   fi
   grep -q "asserted in frame" <<<"$log" ||
     log=$(timeout $((timeout + 30)) yosys-abc -c "read_aiger $aig; scorr; pdr -T $timeout" 2>&1 || true)
@@ -197,7 +198,7 @@ check() {
                           { [ $kind = cover ] && [[ $verdict != cex@* ]]; }; }; then exit 255; fi
 }
 export -f check
-export work timeout bmc_depth stop
+export work timeout bmc_depth cover_depth stop
 
 # ---- counterexample: waveform and testbench from yosys-smtbmc ---------------------------------------
 counterexample() {

@@ -271,7 +271,7 @@ module link_rx #(
     the_parser_reads_only_received_bytes_c: cover (fetched_q && f_pos_q == 8'd5);
     backlog_stays_within_a_frame: assert (PointerWidth'(write_q - read_q) <= PointerWidth'(FMaxFrame + 1) &&
         (f_pos_q == 8'd0 || PointerWidth'(write_q - start_q) <= PointerWidth'(FMaxFrame + 1)));
-    backlog_stays_within_a_frame_c: cover (PointerWidth'(write_q - read_q) == PointerWidth'(FMaxFrame - 1));
+    backlog_stays_within_a_frame_c: cover (f_pos_q != 8'd0 && PointerWidth'(write_q - start_q) == PointerWidth'(FMaxFrame));
   end
   always_ff @(posedge clk_i) begin
     if (f_past_valid && $past(rst_ni)) begin
