@@ -18,7 +18,7 @@ here=$(cd "$(dirname "$0")/.." && pwd)
 rtl=$here/rtl
 out=$here/build/formal
 jobs=2
-timeout=60        # seconds of PDR per property before falling back to bounded model checking
+timeout=60        # CPU seconds of PDR per property before falling back to bounded model checking
 bmc_depth=40      # depth of that fallback, and of the first search for a cover
 cover_depth=120   # depth of the search for a cover on the cover configuration (then PDR)
 only=
@@ -159,6 +159,10 @@ build_job() {  # job [cover] -> $work/<job>[.cover]/{model.il, model.aig, props}
 }
 
 # ---- check one property: prints "job kind name verdict seconds" ------------------------------------
+# yosys-abc with a budget of CPU seconds (ulimit), not of wall-clock time: a verdict must not
+# depend on how busy the machine is (a BMC killed by it still reports the frames it finished).
+abc_cpu() { (ulimit -t "$1"; yosys-abc -c "$2" 2>&1) || true; }
+export -f abc_cpu
 check() {
   local j=$1 kind=$2 name=$3 index=$4 d=$work/$1 config=shipped
   local aig="$d/model.aig; fold; strash; cone -O $index -s; scleanup" t0 t1 log verdict frame
@@ -166,22 +170,22 @@ check() {
   log=
   # A cover is usually reached in a few frames: bounded search first; a deep one on the job's
   # cover configuration when it has one, else PDR.
-  [ "$kind" != cover ] || log=$(timeout $((timeout + 30)) yosys-abc -c "read_aiger $aig; bmc3 -F $bmc_depth -T $timeout" 2>&1 || true)
+  [ "$kind" != cover ] || log=$(abc_cpu $timeout "read_aiger $aig; bmc3 -F $bmc_depth")
   if [ "$kind" = cover ] && ! grep -q "asserted in frame" <<<"$log" && [ -f "$work/$j.cover/props" ]; then
     d=$work/$j.cover config=cover
     index=$(awk -v n="$name" '$2 == n {print $3}' "$d/props")
     aig="$d/model.aig; fold; strash; cone -O $index -s; scleanup"
-    log=$(timeout $((timeout + 30)) yosys-abc -c "read_aiger $aig; bmc3 -F $cover_depth -T $timeout" 2>&1 || true)
+    log=$(abc_cpu $timeout "read_aiger $aig; bmc3 -F $cover_depth")
   fi
   grep -q "asserted in frame" <<<"$log" ||
-    log=$(timeout $((timeout + 30)) yosys-abc -c "read_aiger $aig; scorr; pdr -T $timeout" 2>&1 || true)
+    log=$(abc_cpu $timeout "read_aiger $aig; scorr; pdr")
   if grep -q "Property proved" <<<"$log"; then
     verdict=proven
   elif frame=$(grep -o "asserted in frame [0-9]*" <<<"$log" | grep -o "[0-9]*$"); then
     verdict="cex@$frame"
   else
     # PDR ran out of time: bounded model checking to bmc_depth frames.
-    log=$(timeout $((timeout * 3)) yosys-abc -c "read_aiger $aig; bmc3 -F $bmc_depth -T $((timeout * 2))" 2>&1 || true)
+    log=$(abc_cpu $((timeout * 3)) "read_aiger $aig; bmc3 -F $bmc_depth -T $((timeout * 2))")
     if frame=$(grep -o "asserted in frame [0-9]*" <<<"$log" | grep -o "[0-9]*$"); then
       verdict="cex@$frame"
     elif grep -q "No output asserted in $bmc_depth frames" <<<"$log"; then
