@@ -56,7 +56,7 @@ job_names=()
 declare -A job_top job_src job_lib job_trusted job_cover
 job() { job_names+=("$1"); job_top[$1]=$2; job_src[$1]=$(echo $3); job_lib[$1]=$(echo ${4:-}); job_trusted[$1]=${5:-}; }
 # cover_config JOB YOSYS_COMMANDS: the covers too deep for the shipped constants (a 2500-period
-# watchdog, a 256-entry buffer, a byte every 207 clocks) are searched on a second model of the
+# watchdog, a 256-entry buffer, a byte per 208 clocks, a play every 10 x 2325 clocks) are searched on a second model of the
 # same RTL with one time-scale constant made small (chparam, or a FORMAL-only define read before
 # the sources); the assertions are always proved on the shipped constants. docs/formal.md argues
 # why a cover reached there shows that the assertion it belongs to is not vacuous.
@@ -77,6 +77,7 @@ job board_core board_core "$rtl/network/delta_network_pkg.sv $rtl/board/board_co
 cover_config joint_safety "chparam -set WatchdogPeriods 3 joint_safety"
 cover_config setpoint_buffer "chparam -set Depth 4 setpoint_buffer"
 cover_config link_rx "define FORMAL_LINK_RX_BYTE_GAP 3"
+cover_config board_core "chparam -set ClocksPerPeriod 4 board_core"
 
 # ---- build the models: one AIGER per assertion and per cover (negated) ---------------------------
 cat >"$work/cover2assert.v" <<'EOF'

@@ -4,7 +4,7 @@
 # scripts/formal.sh proves that module's job on it. A mutant is killed when a property fails or a
 # cover becomes unreachable; a mutant yosys cannot read is not counted.
 #
-#   scripts/formal_mutation.sh [--out DIR] [--per-module N] [--timeout S] [--seed K] [--module NAME]...
+#   scripts/formal_mutation.sh [--out DIR] [--per-module N] [--timeout S] [--seed K] [--jobs N] [--module NAME]...
 #
 # Writes DIR/score.txt (one line per mutant: module, line, change, killed by / survived) and
 # prints the score. N mutants per module (default 6), drawn with the printed seed.
@@ -15,6 +15,7 @@ out=$here/build/formal/mutation
 per_module=6
 timeout=10
 seed=1
+jobs=2
 chosen=
 while [ $# -gt 0 ]; do
   case $1 in
@@ -22,6 +23,7 @@ while [ $# -gt 0 ]; do
     --per-module) per_module=$2; shift 2 ;;
     --timeout) timeout=$2; shift 2 ;;
     --seed) seed=$2; shift 2 ;;
+    --jobs) jobs=$2; shift 2 ;;
     --module) chosen="$chosen $2"; shift 2 ;;
     -h|--help) sed -n '2,11p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "formal_mutation.sh: unknown argument '$1' (try --help)" >&2; exit 2 ;;
@@ -95,7 +97,7 @@ lines[line] = text[:at] + new + text[at + len(old):]
 open(path, 'w').write('\n'.join(lines))
 EOF
   set +e
-  result=$("$here/scripts/formal.sh" --rtl "$work/rtl" --only "$job" --jobs 2 --timeout "$timeout" --quiet --stop-at-failure 2>&1)
+  result=$("$here/scripts/formal.sh" --rtl "$work/rtl" --only "$job" --jobs "$jobs" --timeout "$timeout" --quiet --stop-at-failure 2>&1)
   rc=$?
   set -e
   what="$path:$line '$old' -> '$new'"
