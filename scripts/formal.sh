@@ -160,9 +160,10 @@ build_job() {  # job [cover] -> $work/<job>[.cover]/{model.il, model.aig, props}
 }
 
 # ---- check one property: prints "job kind name verdict seconds" ------------------------------------
-# yosys-abc with a budget of CPU seconds (ulimit), not of wall-clock time: a verdict must not
-# depend on how busy the machine is (a BMC killed by it still reports the frames it finished).
-abc_cpu() { (ulimit -t "$1"; yosys-abc -c "$2" 2>&1) || true; }
+# yosys-abc with a budget of CPU seconds (ulimit), not of wall-clock time: a verdict should not
+# depend on how busy the machine is. Where the kernel does not enforce CPU limits (some sandboxes)
+# a wall-clock limit of FORMAL_WALL_FACTOR (default 4) times the budget stops it as well.
+abc_cpu() { (ulimit -t "$1"; timeout $(($1 * ${FORMAL_WALL_FACTOR:-4})) yosys-abc -c "$2" 2>&1) || true; }
 export -f abc_cpu
 check() {
   local j=$1 kind=$2 name=$3 index=$4 d=$work/$1 config=shipped
