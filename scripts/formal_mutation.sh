@@ -58,13 +58,17 @@ for entry in modules:
     path, job, *span = entry.split(':')
     lines = open(f'{rtl}/{path}').read().split('\n')
     first, last = (int(x) for x in span[0].split('-')) if span else (1, len(lines))
-    candidates, formal = [], False
+    candidates, formal = [], 0
     for number, line in enumerate(lines):
         if not first <= number + 1 <= last:
             continue
         code = line.split('//')[0]
-        if code.strip().startswith('`ifdef FORMAL'): formal = True
-        if code.strip().startswith('`endif'): formal = False
+        words = code.split()
+        if words[:2] == ['`ifdef', 'FORMAL']: formal = 1
+        elif formal and words[:1] in (['`ifdef'], ['`ifndef']): formal += 1  # nested, inside the block
+        elif formal and words[:1] == ['`endif']:
+            formal -= 1
+            continue
         if formal or not code.strip() or code.strip().startswith(('module', 'parameter', 'input', 'output', 'localparam', 'logic')):
             continue
         for old, new in swaps:
