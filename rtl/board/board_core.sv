@@ -513,7 +513,12 @@ module board_core #(
   // Environment: reset in the first cycle only.
   logic f_past_valid = 1'b0;
   always_ff @(posedge clk_i) f_past_valid <= 1'b1;
-  always_comb reset_only_in_the_first_cycle: assume (rst_ni == f_past_valid);
+  always_comb begin
+    reset_only_in_the_first_cycle: assume (rst_ni == f_past_valid);
+    // link_rx's delivery of a command frame (job link_rx: a frame starts only when its length is
+    // its type's payload size, and presents exactly its payload bytes): one byte, index 0.
+    a_command_has_one_payload_byte: assume (!(payload_valid && is_command) || payload_index == 6'd0);
+  end
 
   // The command a CRC-valid command frame carries (its one payload byte), kept independently.
   logic [7:0] f_command_q = '0;
@@ -548,24 +553,34 @@ module board_core #(
       if (!$past(drive_enable_o) && drive_enable_o) drives_on_only_a_clock_after_the_enable: assert ($past(enabled_q) && !$past(fault));
       drives_on_only_a_clock_after_the_enable_c: cover (!$past(drive_enable_o) && drive_enable_o);
       // Progress: a valid enable in the allowed state enables in the next clock.
-      if ($past(f_valid_enable) && $past(homed_q) && !$past(fault) && !($past(enabled_q) && !$past(holding_q))) begin
+      if ($past(f_valid_enable) && $past(homed_q) && !$past(fault) && !$past(homed_at_switch) &&
+          !($past(enabled_q) && !$past(holding_q))) begin
         a_valid_enable_homed_without_fault_enables: assert (enabled_q && !holding_q);
       end
       a_valid_enable_homed_without_fault_enables_c: cover ($past(f_valid_enable) && $past(homed_q) && $past(holding_q));
       // Commands act only on a CRC-valid command frame (a dropped frame changes no state); a fault
-      // is the only other way the drives go off, and nothing turns them on by itself.
+      // or a home switch referencing its joint are the only other ways the drives go off, and
+      // nothing turns them on by itself.
       if ($past(enabled_q) != enabled_q || $past(holding_q) != holding_q || $past(homed_q) != homed_q) begin
-        state_changes_only_on_a_valid_command_or_a_fault: assert ($past(frame_ok && is_command) || ($past(fault) && !enabled_q && !holding_q));
+        state_changes_only_on_a_valid_command_or_a_fault: assert ($past(frame_ok && is_command) || (($past(fault) || $past(homed_at_switch)) && !enabled_q && !holding_q));
       end
       state_changes_only_on_a_valid_command_or_a_fault_c: cover ($past(frame_bad) && $past(enabled_q) && enabled_q);
       if ($past(fault)) a_fault_turns_the_enable_off: assert (!enabled_q && !holding_q && !drive_enable_o);
       a_fault_turns_the_enable_off_c: cover ($past(fault) && $past(enabled_q));
       if ($past(f_valid_disable)) disable_turns_the_drives_off: assert (!enabled_q && !holding_q);
       disable_turns_the_drives_off_c: cover ($past(f_valid_disable) && $past(enabled_q));
-      if ($past(f_valid_hold) && $past(enabled_q) && !$past(fault)) hold_holds: assert (holding_q && enabled_q);
+      if ($past(f_valid_hold) && $past(enabled_q) && !$past(fault) && !$past(homed_at_switch)) hold_holds: assert (holding_q && enabled_q);
       hold_holds_c: cover ($past(f_valid_hold) && $past(enabled_q));
       if ($past(f_valid_disable) || $past(fault && enabled_q)) disable_or_fault_flushes_the_setpoints: assert (fill == '0);
       disable_or_fault_flushes_the_setpoints_c: cover ($past(f_valid_disable) && $past(fill) != '0);
+      // Homing (docs/homing.md): a switch references its joint only while homing with the drives on
+      // and no fault, and turns the drives off; a joint becomes referenced only at its switch's edge.
+      if ($past(homed_at_switch)) a_reference_turns_the_drives_off: assert (!enabled_q && !holding_q && fill == '0);
+      a_reference_turns_the_drives_off_c: cover ($past(homed_at_switch));
+      if ($past(homed_at_switch)) references_only_while_homing_with_the_drives_on: assert ($past(homing_q) && $past(enabled_q) && !$past(fault));
+      references_only_while_homing_with_the_drives_on_c: cover ($past(homed_at_switch) && $past(holding_q));
+      referenced_only_at_a_switch_edge: assert ((referenced_q & ~$past(referenced_q) & ~$past(switch_edge)) == '0);
+      referenced_only_at_a_switch_edge_c: cover (referenced_q == 3'b111);
     end
   end
 `endif

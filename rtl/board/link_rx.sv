@@ -178,8 +178,13 @@ module link_rx #(
 `ifdef FORMAL
   // ---- Formal properties (scripts/formal.sh; docs/formal.md) ----
   // Environment: reset in the first cycle only; uart_rx delivers a byte at most once per
-  // 9 bit times (a byte takes 10 on the line: start, 8 data bits, stop).
+  // 9 bit times (a byte takes 10 on the line: start, 8 data bits, stop). scripts/formal.sh reaches
+  // the covers (a whole frame is 7 to 22 bytes) with a shorter gap, FORMAL_LINK_RX_BYTE_GAP.
+`ifdef FORMAL_LINK_RX_BYTE_GAP
+  localparam int FByteGap = `FORMAL_LINK_RX_BYTE_GAP;
+`else
   localparam int FByteGap = 9 * delta_board_pkg::LinkClocksPerBit;
+`endif
   localparam int FMaxFrame = delta_board_pkg::FrameHeaderBytes + delta_board_pkg::SetpointPayloadBytes +
                              delta_board_pkg::FrameCrcBytes;  // the longest frame the board takes
   logic f_past_valid = 1'b0;
@@ -219,8 +224,13 @@ module link_rx #(
   assign f_header_ok   = f_size(f_byte) != 8'hFF && f_length_q == f_size(f_byte);
   assign f_start       = fetched_q && f_pos_q == 8'd3 && f_header_ok;
   assign f_drop_header = fetched_q && f_pos_q == 8'd3 && !f_header_ok;
-  assign f_payload     = fetched_q && f_pos_q >= 8'd4 && f_pos_q < 8'd4 + f_length_q;
-  assign f_end         = fetched_q && f_pos_q == 8'd5 + f_length_q;
+  // Positions in 9 bits: a length byte up to 255 (dropped at the type, but the header's bytes are
+  // read before that) must not wrap 5 + length onto a header position.
+  logic [8:0]  f_pos9, f_payload_end;
+  assign f_pos9        = 9'(f_pos_q);
+  assign f_payload_end = 9'd4 + 9'(f_length_q);  // the CRC's high byte
+  assign f_payload     = fetched_q && f_pos9 >= 9'd4 && f_pos9 < f_payload_end;
+  assign f_end         = fetched_q && f_pos9 >= 9'd4 && f_pos9 == f_payload_end + 9'd1;
   assign f_crc_ok      = f_high_q == f_crc_q[15:8] && f_byte == f_crc_q[7:0];
   always_ff @(posedge clk_i) begin
     if (!rst_ni) begin
@@ -231,11 +241,11 @@ module link_rx #(
         f_crc_q <= 16'(delta_board_pkg::FrameCrcInit);
       end else begin
         f_pos_q <= f_drop_header || f_end ? 8'd0 : f_pos_q + 8'd1;
-        if (f_pos_q < 8'd4 + f_length_q) f_crc_q <= f_crc16(f_crc_q, f_byte);
+        if (f_pos9 < 9'd4 || f_pos9 < f_payload_end) f_crc_q <= f_crc16(f_crc_q, f_byte);
         if (f_pos_q == 8'd1) f_length_q <= f_byte;
         if (f_pos_q == 8'd2) f_sequence_q <= f_byte;
         if (f_pos_q == 8'd3) f_type_q <= f_byte;
-        if (f_pos_q == 8'd4 + f_length_q) f_high_q <= f_byte;
+        if (f_pos9 >= 9'd4 && f_pos9 == f_payload_end) f_high_q <= f_byte;
       end
     end
   end
@@ -261,7 +271,7 @@ module link_rx #(
     the_parser_reads_only_received_bytes_c: cover (fetched_q && f_pos_q == 8'd5);
     backlog_stays_within_a_frame: assert (PointerWidth'(write_q - read_q) <= PointerWidth'(FMaxFrame + 1) &&
         (f_pos_q == 8'd0 || PointerWidth'(write_q - start_q) <= PointerWidth'(FMaxFrame + 1)));
-    backlog_stays_within_a_frame_c: cover (PointerWidth'(write_q - read_q) == PointerWidth'(FMaxFrame - 1));
+    backlog_stays_within_a_frame_c: cover (f_pos_q != 8'd0 && PointerWidth'(write_q - start_q) == PointerWidth'(FMaxFrame));
   end
   always_ff @(posedge clk_i) begin
     if (f_past_valid && $past(rst_ni)) begin

@@ -125,9 +125,10 @@ module setpoint_buffer #(
 `ifdef FORMAL
   // ---- Formal properties (scripts/formal.sh; docs/formal.md) ----
   // Environment: reset in the first cycle only, and link_rx's delivery protocol (link_rx.sv's
-  // header; in a composition with link_rx these assumptions are checked as assertions): a frame
-  // starts (frame_start_i) outside a frame, presents its payload bytes in order from index 0,
-  // and ends with frame_ok_i (all its bytes presented) or with a drop; the type holds meanwhile.
+  // header): a frame starts (frame_start_i; at any time, so a frame dropped after its start is
+  // simply followed by the next), presents its payload bytes in order from index 0, at most its
+  // type's payload size, and ends with frame_ok_i after all of them or with a drop (no ok); the
+  // type holds meanwhile; the network's ready only while it is started (ap_ctrl_hs).
   logic f_past_valid = 1'b0;
   always_ff @(posedge clk_i) f_past_valid <= 1'b1;
   logic       f_in_frame_q = 1'b0, f_setpoint_q = 1'b0, f_flushed_q = 1'b0, f_full_q = 1'b0;
@@ -149,15 +150,21 @@ module setpoint_buffer #(
   end
   always_comb begin
     reset_only_in_the_first_cycle: assume (rst_ni == f_past_valid);
-    a_frame_starts_outside_a_frame: assume (!frame_start_i || !f_in_frame_q || !rst_ni);
     payload_bytes_come_in_order_inside_a_frame: assume (!payload_valid_i || (f_in_frame_q && !frame_start_i && payload_index_i == f_bytes_q));
     a_frame_ends_ok_after_its_whole_payload: assume (!frame_ok_i || (f_in_frame_q && !frame_start_i &&
         f_bytes_q == (is_setpoint_i ? 6'(delta_board_pkg::SetpointPayloadBytes) : f_bytes_q)));
     the_type_holds_through_the_frame: assume (!f_in_frame_q || frame_start_i || is_setpoint_i == f_setpoint_q);
+    // A setpoint frame presents at most its payload size (link_rx starts a frame only when its
+    // length is its type's payload size: link_rx's start_only_for_a_valid_header).
+    a_setpoint_has_its_payload_size: assume (!payload_valid_i || !is_setpoint_i || payload_index_i < 6'(delta_board_pkg::SetpointPayloadBytes));
+    // ap_ctrl_hs: ready only while started (network_crossing's ready_o is start_i && !busy_q).
+    ready_only_while_started: assume (!ready_i || start_o);
   end
 
-  logic [31:0] f_next_index;
+  logic [31:0] f_next_index, f_seen_bytes;  // f_seen_bytes: the index bytes the frame has presented
   assign f_next_index = sample_index_q + 32'(fill_q);
+  assign f_seen_bytes = f_bytes_q >= 6'd4 ? 32'hFFFF_FFFF : f_bytes_q == 6'd3 ? 32'h00FF_FFFF :
+                        f_bytes_q == 6'd2 ? 32'h0000_FFFF : f_bytes_q == 6'd1 ? 32'h0000_00FF : 32'h0;
   always_comb begin
     // Playback: only an entry the buffer holds is played; an empty buffer underruns instead.
     plays_only_an_entry_it_holds: assert (!pop || fill_q != '0);
@@ -171,7 +178,7 @@ module setpoint_buffer #(
     if (commit) commits_only_the_next_index_with_room_and_no_flush: assert (frame_ok_i && f_setpoint_q &&
         f_index_q == f_next_index && !f_full_q && !f_flushed_q && !flush_i);
     commits_only_the_next_index_with_room_and_no_flush_c: cover (commit && fill_q == '0 && sample_index_q != '0);
-    if (frame_ok_i && is_setpoint_i && f_index_q == f_next_index && !f_full_q && !f_flushed_q && !flush_i) begin
+    if (frame_ok_i && is_setpoint_i && accept_i && f_index_q == f_next_index && !f_full_q && !f_flushed_q && !flush_i) begin
       a_valid_setpoint_is_taken: assert (commit);
     end
     a_valid_setpoint_is_taken_c: cover (commit && fill_q == FillWidth'(Depth - 1));
@@ -180,6 +187,15 @@ module setpoint_buffer #(
     if (write_enable) writes_only_a_free_slot: assert (fill_q < FillWidth'(Depth) && write_slot == f_next_index[SlotWidth-1:0] &&
         f_setpoint_q && payload_index_i >= 6'd4 && payload_index_i < 6'(delta_board_pkg::SetpointPayloadBytes));
     writes_only_a_free_slot_c: cover (write_enable && fill_q == FillWidth'(Depth - 1));
+    // Lemmas (each proved alone, then assumed by the proofs that PDR does not finish without them):
+    // the frame's registers follow the specification's, and the sample index bytes that have
+    // passed match the next free index while the frame is not vetoed.
+    if (f_in_frame_q && rst_ni) frame_state_follows_the_specification: assert (full_at_start_q == f_full_q && vetoed_q == f_flushed_q);
+    frame_state_follows_the_specification_c: cover (f_in_frame_q && rst_ni && vetoed_q && f_bytes_q == 6'd2);
+    if (f_in_frame_q && f_setpoint_q && rst_ni && index_match_q && !vetoed_q) begin
+      index_bytes_match_the_next_free_index: assert ((f_index_q & f_seen_bytes) == (f_next_index & f_seen_bytes));
+    end
+    index_bytes_match_the_next_free_index_c: cover (f_in_frame_q && f_setpoint_q && index_match_q && f_bytes_q == 6'd4 && sample_index_q != '0);
     if (write_enable && pop) never_writes_the_slot_it_plays: assert (write_slot != sample_index_q[SlotWidth-1:0]);
     never_writes_the_slot_it_plays_c: cover (write_enable && pop);
   end
