@@ -20,3 +20,5 @@ add_test(NAME Dashboard.Browser
 # Real time: the model board and the host's 1 kHz streaming thread each need a core.
 set_tests_properties(Dashboard.PlotEveryRecording Dashboard.Api Dashboard.Browser PROPERTIES
   LABELS "dashboard;host;virtual_board" RUN_SERIAL TRUE TIMEOUT 300 SKIP_RETURN_CODE 77)
+# Its waits follow the board's progress (a loaded machine slows the model board): more time in all.
+set_tests_properties(Dashboard.Browser PROPERTIES TIMEOUT 600)

@@ -271,16 +271,25 @@ class Tab:
             raise Failure("page script: %s: %s" % (expression, result["exceptionDetails"]))
         return result["result"].get("value")
 
-    def wait(self, expression, timeout_s, what):
-        deadline = time.time() + timeout_s
-        while time.time() < deadline:
+    def wait(self, expression, timeout_s, what, progress=None, limit_s=600):
+        """Until `expression` is true in the page: within timeout_s, or, with `progress` (an
+        expression such as the board's time), within timeout_s of its last change (a loaded machine
+        slows the model board down; a stopped one is still caught) and limit_s in all."""
+        start = time.time()
+        deadline, last = start + timeout_s, None
+        while time.time() < min(deadline, start + limit_s):
             try:
                 if self.js(expression):
                     return
+                if progress:
+                    now = self.js(progress)
+                    if now != last:
+                        deadline, last = time.time() + timeout_s, now
             except Failure:
                 pass
             time.sleep(0.1)
-        raise Failure("timed out in the browser waiting for " + what + " (" + expression + ")")
+        raise Failure("timed out in the browser waiting for %s (%s)%s" % (
+            what, expression, "; %s stayed at %s for %d s" % (progress, last, timeout_s) if progress else ""))
 
     def dom(self):
         """The document as it is now (the DOM, not the page's source)."""
