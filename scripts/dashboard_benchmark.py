@@ -73,7 +73,7 @@ def one_run(bench, seconds, kind, clients, chromium):
     if code != 200:
         sys.exit("run refused: %s" % body)
     time.sleep(2.0)
-    status = bench.wait_for(lambda s: s["run"] is None and s.get("last_run"), 4 * seconds + 120, "the run's end")
+    status = bench.wait_for(lambda s: s["run"] is None and s.get("last_run"), 10 * seconds + 120, "the run's end")
     serve_cpu = cpu_seconds([bench.serve.pid]) - serve_cpu
     browser_cpu = cpu_seconds(browser_pids) - browser_cpu
     load = max(load, os.getloadavg()[0])

@@ -180,7 +180,7 @@ class Browser:
     SCHED_FIFO and come first all the same (an idle browser at the lowest priority, behind a busy
     machine's compilers, answered nothing for minutes)."""
 
-    def __init__(self, executable, width=1280, height=1500, answer_timeout_s=60):
+    def __init__(self, executable, width=1280, height=1500, answer_timeout_s=180):
         self.answer_timeout_s = answer_timeout_s
         self.width, self.height = width, height
         self.profile = tempfile.mkdtemp(prefix="dash_chromium_")
