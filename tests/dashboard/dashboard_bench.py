@@ -1,9 +1,11 @@
-"""What the dashboard's tests and benchmark share: a model virtual board, `host serve --http` on it, HTTP calls
-and a Server-Sent Events reader (Python's standard library only)."""
+"""What the dashboard's tests and benchmark share: a model virtual board, `host serve --http` on it, HTTP calls,
+a Server-Sent Events reader and headless chromium (Python's standard library only)."""
+import base64
 import http.client
 import json
 import os
 import re
+import select
 import shutil
 import subprocess
 import tempfile
@@ -169,3 +171,132 @@ class EventReader(threading.Thread):
 
     def data_events(self):
         return [e for e in self.events if e[1] == "message"]
+
+
+class Browser:
+    """Debian's chromium, headless, driven through the DevTools protocol on a pipe (no extra package):
+    `--remote-debugging-pipe` reads commands on fd 3 and writes answers and events on fd 4. It runs at
+    normal priority, as a person's browser does: the virtual board and the host's streaming loop are
+    SCHED_FIFO and come first all the same (an idle browser at the lowest priority, behind a busy
+    machine's compilers, answered nothing for minutes)."""
+
+    def __init__(self, executable, width=1280, height=1500, answer_timeout_s=180):
+        self.answer_timeout_s = answer_timeout_s
+        self.width, self.height = width, height
+        self.profile = tempfile.mkdtemp(prefix="dash_chromium_")
+        to_browser_r, self.to_browser = os.pipe()
+        self.from_browser, from_browser_w = os.pipe()
+
+        def fds():  # copies first: a pipe's end may already be fd 3 or 4 (and close-on-exec)
+            commands, answers = os.dup(to_browser_r), os.dup(from_browser_w)
+            os.dup2(commands, 3)
+            os.dup2(answers, 4)
+
+        flags = ["--headless", "--disable-gpu", "--disable-quic", "--no-first-run", "--disable-background-networking",
+                 "--disable-component-update", "--disable-sync", "--disable-dev-shm-usage", "--mute-audio",
+                 "--disable-extensions", "--user-data-dir=" + self.profile, "--remote-debugging-pipe",
+                 "--window-size=%d,%d" % (width, height)]
+        if os.geteuid() == 0:
+            flags.append("--no-sandbox")  # chromium refuses to run as root with its sandbox
+        # The copies on 3 and 4 are not close-on-exec (dup2); close_fds would close them again.
+        self.process = subprocess.Popen([executable, *flags, "about:blank"], preexec_fn=fds,
+                                        close_fds=False, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        os.close(to_browser_r)
+        os.close(from_browser_w)
+        self.buffer = b""
+        self.next_id = 0
+
+    def send(self, method, params=None, session=None):
+        """The answer to one command (events arriving meanwhile are passed over)."""
+        self.next_id += 1
+        message = {"id": self.next_id, "method": method, "params": params or {}}
+        if session:
+            message["sessionId"] = session
+        os.write(self.to_browser, json.dumps(message).encode() + b"\0")
+        deadline = time.time() + self.answer_timeout_s
+        while True:
+            while b"\0" not in self.buffer:
+                if not select.select([self.from_browser], [], [], max(0.0, deadline - time.time()))[0]:
+                    raise Failure("chromium did not answer %s within %d s" % (method, self.answer_timeout_s))
+                chunk = os.read(self.from_browser, 1 << 16)
+                if not chunk:
+                    raise Failure("chromium closed its pipe")
+                self.buffer += chunk
+            raw, self.buffer = self.buffer.split(b"\0", 1)
+            reply = json.loads(raw)
+            if reply.get("id") == self.next_id:
+                if "error" in reply:
+                    raise Failure("%s: %s" % (method, reply["error"]))
+                return reply.get("result", {})
+
+    def open(self, url):
+        """A new tab showing `url`."""
+        target = self.send("Target.createTarget", {"url": "about:blank"})["targetId"]
+        tab = Tab(self, self.send("Target.attachToTarget", {"targetId": target, "flatten": True})["sessionId"])
+        tab.send("Page.enable")
+        tab.send("Runtime.enable")
+        tab.send("Emulation.setDeviceMetricsOverride", {"width": self.width, "height": self.height,
+                                                         "deviceScaleFactor": 1, "mobile": False})
+        tab.send("Page.navigate", {"url": url})
+        return tab
+
+    def close(self):
+        try:
+            self.send("Browser.close")
+        except (Failure, OSError):
+            pass
+        try:
+            self.process.wait(10)
+        except subprocess.TimeoutExpired:
+            self.process.kill()
+            self.process.wait()
+        for fd in (self.to_browser, self.from_browser):
+            os.close(fd)
+        shutil.rmtree(self.profile, ignore_errors=True)
+
+
+class Tab:
+    """One page in a Browser."""
+
+    def __init__(self, browser, session):
+        self.browser, self.session = browser, session
+
+    def send(self, method, params=None):
+        return self.browser.send(method, params, self.session)
+
+    def js(self, expression):
+        result = self.send("Runtime.evaluate", {"expression": expression, "returnByValue": True,
+                                                "awaitPromise": True})
+        if "exceptionDetails" in result:
+            raise Failure("page script: %s: %s" % (expression, result["exceptionDetails"]))
+        return result["result"].get("value")
+
+    def wait(self, expression, timeout_s, what, progress=None, limit_s=600):
+        """Until `expression` is true in the page: within timeout_s, or, with `progress` (an
+        expression such as the board's time), within timeout_s of its last change (a loaded machine
+        slows the model board down; a stopped one is still caught) and limit_s in all."""
+        start = time.time()
+        deadline, last = start + timeout_s, None
+        while time.time() < min(deadline, start + limit_s):
+            try:
+                if self.js(expression):
+                    return
+                if progress:
+                    now = self.js(progress)
+                    if now != last:
+                        deadline, last = time.time() + timeout_s, now
+            except Failure:
+                pass
+            time.sleep(0.1)
+        raise Failure("timed out in the browser waiting for %s (%s)%s" % (
+            what, expression, "; %s stayed at %s for %d s" % (progress, last, timeout_s) if progress else ""))
+
+    def dom(self):
+        """The document as it is now (the DOM, not the page's source)."""
+        root = self.send("DOM.getDocument", {"depth": -1})["root"]
+        return self.send("DOM.getOuterHTML", {"nodeId": root["nodeId"]})["outerHTML"]
+
+    def screenshot(self, path):
+        data = self.send("Page.captureScreenshot", {"format": "png"})["data"]
+        with open(path, "wb") as f:
+            f.write(base64.b64decode(data))

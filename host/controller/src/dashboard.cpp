@@ -65,6 +65,22 @@ json sample_json(const TelemetryRecord& r) {
   return row;
 }
 
+// A JSON array of elements that are JSON texts already.
+template <typename Iterator>
+std::string json_array(Iterator first, Iterator last) {
+  std::size_t size = 2;
+  for (Iterator it = first; it != last; ++it) size += it->size() + 1;
+  std::string text;
+  text.reserve(size);
+  text += '[';
+  for (Iterator it = first; it != last; ++it) {
+    if (it != first) text += ',';
+    text += *it;
+  }
+  text += ']';
+  return text;
+}
+
 bool is_loopback_address(const std::string& address) {
   return address.rfind("127.", 0) == 0 || address == "::1" || address.rfind("::ffff:127.", 0) == 0 ||
          address == "localhost";
@@ -184,7 +200,7 @@ struct Dashboard::Impl {
   // ---- out: the history (the kept minutes) and the event ring ----
   std::mutex out_mutex;
   std::condition_variable published;
-  std::deque<json> history;
+  std::deque<std::string> history;  // the kept samples, each as its JSON text (dumped once)
   std::deque<std::pair<std::uint64_t, std::shared_ptr<const std::string>>> events;
   std::uint64_t sequence = 0;
   std::mutex plot_mutex;  // one gnuplot at a time
@@ -239,13 +255,19 @@ struct Dashboard::Impl {
         std::lock_guard<std::mutex> lock(incoming_mutex);
         fresh.swap(incoming);
       }
-      json event = {{"status", enriched_status()}, {"samples", fresh}};
+      // One event for all clients: its text is made here once and shared (a client only writes it).
+      std::vector<std::string> texts;
+      texts.reserve(fresh.size());
+      for (const json& sample : fresh) texts.push_back(sample.dump());
+      const std::string status = enriched_status().dump();
       std::lock_guard<std::mutex> lock(out_mutex);
-      for (json& sample : fresh) history.push_back(std::move(sample));
+      const std::string seq = std::to_string(++sequence);
+      events.emplace_back(sequence, std::make_shared<const std::string>("id: " + seq + "\ndata: {\"seq\":" + seq +
+                                                                        ",\"status\":" + status + ",\"samples\":" +
+                                                                        json_array(texts.begin(), texts.end()) +
+                                                                        "}\n\n"));
+      for (std::string& text : texts) history.push_back(std::move(text));
       while (history.size() > keep) history.pop_front();
-      event["seq"] = ++sequence;
-      events.emplace_back(sequence, std::make_shared<const std::string>("id: " + std::to_string(sequence) +
-                                                                        "\ndata: " + event.dump() + "\n\n"));
       while (events.size() > kEventRing) events.pop_front();
       published.notify_all();
     }
@@ -464,13 +486,12 @@ struct Dashboard::Impl {
             std::string text;
             {
               std::lock_guard<std::mutex> lock(out_mutex);
-              json samples = json::array();
-              for (const json& sample : history) samples.push_back(sample);
               const json bits = {{"drive_enable", 1 << board::kFlagDriveEnable},
                                  {"homed", 1 << board::kFlagHomed},
                                  {"holding", 1 << board::kFlagHolding},
                                  {"fault", 1 << board::kFlagFault}};
-              text = "event: history\ndata: " + json{{"samples", samples}, {"flag_bits", bits}}.dump() + "\n\n";
+              text = "event: history\ndata: {\"flag_bits\":" + bits.dump() +
+                     ",\"samples\":" + json_array(history.begin(), history.end()) + "}\n\n";
               *cursor = sequence;
             }
             return sink.write(text.data(), text.size());

@@ -9,7 +9,7 @@ const T = 0, ENC = 1, REF = 4, CUR = 7, PLATE = 10, FLAGS = 13;
 
 const dash = {
   samples: [], status: null, bits: { drive_enable: 1, homed: 2, holding: 4, fault: 8 },
-  events: 0, lastEventAt: 0, connected: false, dirty: true, lastDraw: 0, draws: 0,
+  events: 0, lastEventAt: 0, connected: false, dirty: true, lastDraw: 0, lastAge: 0, draws: 0,
 };
 window.dashboard = dash;  // for the browser test and the curious
 
@@ -127,21 +127,25 @@ async function stream() {
 }
 
 // ---- the status bar and the controls ----
+// Written only when they change: an unchanged page costs the browser no layout and no paint.
+function setText(element, text) { if (element.textContent !== text) element.textContent = text; }
+function setClass(element, name) { if (element.className !== name) element.className = name; }
+
 function showStatus() {
   const s = dash.status;
   if (!s) return;
   const state = $('state');
-  state.textContent = s.state || '-';
-  state.className = 'badge ' + (s.state || '');
-  $('homed').textContent = s.homed ? 'yes' : 'no';
-  $('drives').textContent = s.drives_enabled ? 'ON' : 'off';
+  setText(state, s.state || '-');
+  setClass(state, 'badge ' + (s.state || ''));
+  setText($('homed'), s.homed ? 'yes' : 'no');
+  setText($('drives'), s.drives_enabled ? 'ON' : 'off');
   const fault = $('fault');
-  fault.textContent = s.fault ? s.fault : 'none';
-  fault.className = s.fault ? 'active' : '';
+  setText(fault, s.fault ? s.fault : 'none');
+  setClass(fault, s.fault ? 'active' : '');
   const run = s.run;
-  $('run').textContent = run && run.planned
+  setText($('run'), run && run.planned
     ? `${run.seconds.toFixed(1)} of ${run.total_s.toFixed(1)} s (${run.percent.toFixed(1)} %), ${run.feed}`
-    : run ? 'starting' : (s.last_run && s.last_run.outcome ? 'last run: ' + s.last_run.outcome : 'no run');
+    : run ? 'starting' : (s.last_run && s.last_run.outcome ? 'last run: ' + s.last_run.outcome : 'no run'));
   const connected = s.connection === 'connected';
   const feed = run ? run.feed : '';
   $('home').disabled = !(connected && !run && !s.drives_enabled && !s.fault);
@@ -151,24 +155,50 @@ function showStatus() {
   $('stop').disabled = !run;
   $('clear').disabled = !s.fault;
   const b = s.board || {};
-  $('identity').textContent = `${s.connection} (${s.note}); port ${s.port}; weights ${s.weights} ` +
+  setText($('identity'), `${s.connection} (${s.note}); port ${s.port}; weights ${s.weights} ` +
     `(CRC ${s.weights_crc}); board gateware ${b.gateware_build_id || '-'}, weights CRC ${b.weights_crc || '-'}` +
-    (s.counters ? `; underruns ${s.counters.underruns}, bad frames ${s.counters.bad_frames}` : '');
+    (s.counters ? `; underruns ${s.counters.underruns}, bad frames ${s.counters.bad_frames}` : ''));
 }
 
 function showAge() {
   const age = $('age');
   if (!dash.connected || !dash.status || dash.status.data_age_ms === null) {
-    age.textContent = dash.connected ? 'no data' : 'no stream';
-    age.className = 'stale';
+    setText(age, dash.connected ? 'no data' : 'no stream');
+    setClass(age, 'stale');
     return;
   }
   const ms = dash.status.data_age_ms + (performance.now() - dash.lastEventAt);
-  age.textContent = ms < 1000 ? `${Math.round(ms)} ms` : `${(ms / 1000).toFixed(1)} s`;
-  age.className = ms > 500 ? 'stale' : '';
+  setText(age, ms < 1000 ? `${Math.round(ms)} ms` : `${(ms / 1000).toFixed(1)} s`);
+  setClass(age, ms > 500 ? 'stale' : '');
 }
 
 // ---- plots ----
+// The samples to draw: all in the window, or, when there are more than two a pixel column (a long
+// window), the first, minimum and maximum of each column's samples, so a spike stays visible.
+function thinned(visible, lines, x) {
+  const column = (s) => Math.round(x(s[T]));
+  if (visible.length <= 2 * (column(visible[visible.length - 1]) - column(visible[0]) + 1)) return visible;
+  const keep = [];
+  for (let start = 0; start < visible.length;) {
+    let end = start;
+    while (end + 1 < visible.length && column(visible[end + 1]) === column(visible[start])) end += 1;
+    const chosen = new Set([start, end]);
+    for (const line of lines) {
+      let low = -1, high = -1;
+      for (let i = start; i <= end; i += 1) {
+        const v = line.value(visible[i]);
+        if (v === null || !isFinite(v)) continue;
+        if (low < 0 || v < line.value(visible[low])) low = i;
+        if (high < 0 || v > line.value(visible[high])) high = i;
+      }
+      if (low >= 0) chosen.add(low).add(high);
+    }
+    for (const i of [...chosen].sort((a, b) => a - b)) keep.push(visible[i]);
+    start = end + 1;
+  }
+  return keep;
+}
+
 function plot(canvas, lines, windowS) {
   const ctx = canvas.getContext('2d');
   const W = canvas.width, H = canvas.height, left = 60, right = 10, top = 6, bottom = 20;
@@ -178,17 +208,20 @@ function plot(canvas, lines, windowS) {
   const t1 = all[all.length - 1][T], t0 = t1 - windowS;
   let first = all.length - 1;
   while (first > 0 && all[first - 1][T] >= t0) first -= 1;
-  const visible = all.slice(first);
   const x = (t) => left + (t - t0) / windowS * (W - left - right);
-  // Bands: drives off, feed hold, fault (flags).
+  const visible = thinned(all.slice(first), lines, x);
+  // Bands: drives off, feed hold, fault (flags); one rectangle for each run of samples.
   const bands = [['#e0e0e0', (f) => !(f & dash.bits.drive_enable)], ['#cfe3f7', (f) => f & dash.bits.holding],
     ['#f8c9c9', (f) => f & dash.bits.fault]];
   for (const [colour, on] of bands) {
     ctx.fillStyle = colour;
     for (let i = 0; i < visible.length; i += 1) {
       if (!on(visible[i][FLAGS])) continue;
-      const next = i + 1 < visible.length ? visible[i + 1][T] : visible[i][T] + 0.02;
-      ctx.fillRect(x(visible[i][T]), top, Math.max(1, x(next) - x(visible[i][T])), H - top - bottom);
+      let j = i;
+      while (j + 1 < visible.length && on(visible[j + 1][FLAGS])) j += 1;
+      const end = j + 1 < visible.length ? visible[j + 1][T] : visible[j][T] + 0.02;
+      ctx.fillRect(x(visible[i][T]), top, Math.max(1, x(end) - x(visible[i][T])), H - top - bottom);
+      i = j;
     }
   }
   let lo = Infinity, hi = -Infinity;
@@ -228,6 +261,9 @@ function plot(canvas, lines, windowS) {
     ctx.stroke();
   }
   ctx.setLineDash([]);
+  // What was drawn, for a look from outside (the browser test reads these from the DOM).
+  canvas.dataset.points = String(visible.length);
+  canvas.dataset.newestS = t1.toFixed(2);
 }
 
 const joints = [], errors = [], currents = [], plate = [];
@@ -240,7 +276,10 @@ for (let j = 0; j < 3; j += 1) {
 }
 
 function frame(now) {
-  showAge();
+  if (now - dash.lastAge >= 100) {  // the age: ten times a second is enough to read
+    showAge();
+    dash.lastAge = now;
+  }
   if (dash.dirty && now - dash.lastDraw >= 40) {  // at most 25 redraws a second
     const w = Number($('window').value);
     plot($('plot-joints'), joints, w);

@@ -39,7 +39,7 @@ struct DashboardOptions {
   std::string token_file;     // the bearer token (created 0600 when absent)
   std::string record_folder;  // the recordings listed and plotted
   std::string web_root;       // "" : find_web_root()
-  int max_streams = 8;        // telemetry clients at once (more: 503)
+  int max_streams = 16;       // telemetry clients at once (more: 503)
   double history_s = 300.0;   // telemetry kept for a reload
 };
 
