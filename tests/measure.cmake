@@ -7,16 +7,18 @@ delta_add_gtest(measure_tests
 if(DELTA_HOST_ONLY)
   return()
 endif()
-# Not yet in the suite: the model board's drag through host record and merge (the merged plate is
-# still 2-30 um from the truth, not 1 um) and the virtual part of docs/lab_loop.md, run as written.
-# Both are kept here for the work that makes them pass:
-# delta_add_gtest(measure_board_tests
-#   SOURCES ${CMAKE_CURRENT_LIST_DIR}/measure/stage_board_test.cpp
-#   LIBRARIES delta::host
-#   LABELS measure virtual_board)
-#
-# # docs/lab_loop.md: its virtual part run as written (drag, record, merge, diagnose, train,
-# # quantise, a closed-loop run with the stage following, merge, compare).
+# The model board's calibration drag (60 s of the sweep) through host record and merge, checked
+# against the board's truth, and merge's refusals of a truncated, garbled or at-rest stage file.
+delta_add_gtest(measure_board_tests
+  SOURCES ${CMAKE_CURRENT_LIST_DIR}/measure/stage_board_test.cpp
+  LIBRARIES delta::host
+  LABELS measure virtual_board)
+
+# Not yet in the suite: docs/lab_loop.md's virtual part run as written (drag, record, merge,
+# diagnose, train, quantise, a closed-loop run with the stage following, merge, compare): its drags
+# take 500 s of board time (about 10 minutes on this machine), over the suite's budget for a test.
+# Run it by hand:
+#   bash tests/measure/lab_loop_doc.sh $PWD build/bin/deltactl build/tests/lab_loop_doc
 # add_test(NAME LabLoopDoc.VirtualPartRunsAsWritten
 #          COMMAND bash ${CMAKE_CURRENT_LIST_DIR}/measure/lab_loop_doc.sh ${PROJECT_SOURCE_DIR} $<TARGET_FILE:deltactl>
 #                  ${PROJECT_BINARY_DIR}/tests/lab_loop_doc)

@@ -4,6 +4,7 @@
 // board's truth at each board time; and `merge`'s refusals of bad files (exit 2, one line, no output).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <iostream>
 #include <map>
@@ -13,6 +14,7 @@
 #include "../support/run_command.hpp"
 #include "../support/virtual_board_process.hpp"
 #include "delta/csv.hpp"
+#include "delta/geometry.hpp"
 
 namespace delta::test {
 namespace {
@@ -97,9 +99,10 @@ TEST(StageDrag, HostRecordAndMergeGiveThePlateWithinAMicrometreOfTheTruth) {
   std::cout << "clock " << offset << " s, " << ppm << " ppm, " << rate << " Hz: " << rows
             << " merged rows, error RMS x/y/z " << rms.transpose() * 1e6 << " um\n";
   EXPECT_GT(rows, 45000u);
-  // A 60 s drag of the slow sweep is too short to fix the rate against the affine part of the
-  // alignment (measured: 8-32 um RMS); the acceptance's 600 s and longer drags are checked on logs
-  // made in process (Merge.AStageOnItsOwnClock...). Here: the path end to end, and no gross error.
+  // A 60 s drag of the slow sweep is too short to fix the rate against the nuisance part of the
+  // alignment (a 139 s drag of this machine's board: 3-7 um RMS); the acceptance's 600 s and longer
+  // drags are checked on logs made in process (Merge.AStageOnItsOwnClock...). Here: the path end to
+  // end, and no gross error.
   EXPECT_LT(rms.maxCoeff(), 100e-6);
   const std::string report = read_text(dir + "merge.json");
   EXPECT_NE(report.find("offset_sd_s"), std::string::npos);

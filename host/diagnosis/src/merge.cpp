@@ -18,8 +18,13 @@ namespace {
 constexpr double kCoarseBinS = 0.5;
 constexpr double kFineBinS = 0.05;
 constexpr double kBlockS = 2.0;              // residual blocks for the covariance
-constexpr std::size_t kMaxFitRows = 200000;  // rows of the fine fit (evenly thinned)
+constexpr std::size_t kMaxFitRows = 40000;  // rows of the fine fit (evenly thinned)
+constexpr int kMonomials = 20;              // 1, x, y, z, their products up to the third degree
+constexpr double kMonomialScaleM = 0.01;    // the monomials' unit: 10 mm
+constexpr double kKnotDeg = 1.25;           // the joint splines' knot spacing
+constexpr double kPlayMarginDeg = 1.0;      // the largest play taken out of a reading
 constexpr double kMinCorrelation = 0.9;
+constexpr double kPeakTie = 0.01;  // correlation peaks this close are told apart by their overlap
 constexpr double kMaxResidualM = 0.2e-3;
 constexpr double kMaxResidualOfMotion = 0.2;
 constexpr double kRestM = 5e-6;    // stage motion RMS below this: at rest
@@ -93,18 +98,34 @@ Correlation correlate(const Binned& run, const Binned& stage, std::int64_t lag, 
 }
 
 // The best lag in [lo, hi] with at least min_n overlapping bins; its sub-bin refinement (a parabola
-// through the neighbours) in *fraction.
+// through the neighbours) in *fraction. prefer_overlap: of the peaks within kPeakTie of the best
+// correlation, the one that overlaps most. A trajectory that repeats itself (the validation run:
+// x and y repeat every 133 s, z a slow ramp that the unknown geometry's offset hides) correlates
+// almost as well one period off, over a shorter overlap; the logs' ends (the rest before the drag)
+// tell the periods apart.
 Correlation best_lag(const Binned& run, const Binned& stage, std::int64_t lo, std::int64_t hi, std::size_t from,
-                     std::size_t to, std::size_t min_n, std::int64_t* lag, double* fraction) {
+                     std::size_t to, std::size_t min_n, std::int64_t* lag, double* fraction, bool prefer_overlap = false) {
   Correlation best;
   std::vector<double> r(static_cast<std::size_t>(hi - lo + 1), -2.0);
+  std::vector<std::size_t> overlap(r.size(), 0);
   for (std::int64_t l = lo; l <= hi; ++l) {
     const Correlation c = correlate(run, stage, l, from, to);
     if (c.n < min_n) continue;
     r[static_cast<std::size_t>(l - lo)] = c.r;
+    overlap[static_cast<std::size_t>(l - lo)] = c.n;
     if (c.r > best.r) {
       best = c;
       *lag = l;
+    }
+  }
+  if (prefer_overlap && best.r > -2.0) {
+    for (std::size_t k = 0; k < r.size(); ++k) {
+      const bool peak = (k == 0 || r[k] >= r[k - 1]) && (k + 1 == r.size() || r[k] >= r[k + 1]);
+      if (peak && r[k] >= best.r - kPeakTie && overlap[k] > best.n) {
+        best.r = r[k];
+        best.n = overlap[k];
+        *lag = lo + static_cast<std::int64_t>(k);
+      }
     }
   }
   *fraction = 0.0;
@@ -157,6 +178,34 @@ class StageCurve {
   const std::vector<Vec3>& p_;
   double max_gap_ = 0.0;
 };
+
+// Rows where a joint may sit inside its play, its reading telling nothing of the plate's motion:
+// from a reversal of the joint's true motion until the encoder follows again. Seen from the
+// encoders, a hold (the reading unchanged) that the joint does not enter and leave moving the same
+// way: a reversal, the hold before the first move, the hold at the end. Left in, the play's dead
+// band reads as a lag (the encoders stand still while the stage moves on) and biases the clock
+// offset by tens of milliseconds. Nothing is marked when that would leave less than a third of the
+// rows (a closed loop dithering by a count: every hold is a reversal).
+std::vector<bool> in_play(const std::vector<Vec3>& alpha_deg) {
+  const std::size_t n = alpha_deg.size();
+  std::vector<bool> marked(n, false);
+  for (int j = 0; j < 3; ++j) {
+    std::size_t start = 0;  // the hold's first row
+    double before = 0.0;    // the direction of the move into it (0: none yet)
+    for (std::size_t i = 1; i < n; ++i) {
+      const double step = alpha_deg[i][j] - alpha_deg[i - 1][j];
+      if (step == 0.0) continue;
+      const double after = step > 0 ? 1.0 : -1.0;
+      if (before != after) std::fill(marked.begin() + static_cast<std::ptrdiff_t>(start),
+                                     marked.begin() + static_cast<std::ptrdiff_t>(i), true);
+      before = after;
+      start = i;
+    }
+    std::fill(marked.begin() + static_cast<std::ptrdiff_t>(start), marked.end(), true);
+  }
+  if (static_cast<std::size_t>(std::count(marked.begin(), marked.end(), false)) < n / 3) marked.assign(n, false);
+  return marked;
+}
 
 [[noreturn]] void refuse(const std::string& path, const std::string& reason) { throw InputError(path, 0, reason); }
 
@@ -215,7 +264,7 @@ MergeResult merge_logs(const std::string& run_path, const std::vector<double>& r
   const std::int64_t hi_c = stage_c.first + static_cast<std::int64_t>(stage_c.mean.size()) - run_c.first;
   std::int64_t lag_c = 0;
   double frac = 0.0;
-  const Correlation coarse = best_lag(run_c, stage_c, lo_c, hi_c, 0, run_c.mean.size(), min_c, &lag_c, &frac);
+  const Correlation coarse = best_lag(run_c, stage_c, lo_c, hi_c, 0, run_c.mean.size(), min_c, &lag_c, &frac, true);
   if (coarse.r <= -2.0) {
     refuse(stage_path, "does not overlap " + run_path + " by " + fixed3(min_c * kCoarseBinS) +
                            " s at any clock offset (the logs must share at least half the shorter one)");
@@ -272,18 +321,17 @@ MergeResult merge_logs(const std::string& run_path, const std::vector<double>& r
   }
   std::vector<std::size_t> rows;
   {
-    std::size_t covered = 0;
-    for (std::size_t i = 0; i < n; ++i) {
+    const std::vector<bool> play_band = in_play(run_alpha_deg);
+    auto usable = [&](std::size_t i) {
       const double tau = offset + (1 + rate) * run_t[i];
-      if (std::isfinite(p_enc[i][0]) && tau > curve.first() + 1.0 && tau < curve.last() - 1.0) ++covered;
-    }
+      return !play_band[i] && std::isfinite(p_enc[i][0]) && tau > curve.first() + 1.0 && tau < curve.last() - 1.0;
+    };
+    std::size_t covered = 0;
+    for (std::size_t i = 0; i < n; ++i) covered += usable(i) ? 1 : 0;
     const std::size_t stride = std::max<std::size_t>(1, (covered + kMaxFitRows - 1) / kMaxFitRows);
     std::size_t seen = 0;
     for (std::size_t i = 0; i < n; ++i) {
-      const double tau = offset + (1 + rate) * run_t[i];
-      if (std::isfinite(p_enc[i][0]) && tau > curve.first() + 1.0 && tau < curve.last() - 1.0 && seen++ % stride == 0) {
-        rows.push_back(i);
-      }
+      if (usable(i) && seen++ % stride == 0) rows.push_back(i);
     }
   }
   if (rows.size() < 100 || run_t[rows.back()] - run_t[rows.front()] < kMinOverlapS) {
@@ -300,60 +348,156 @@ MergeResult merge_logs(const std::string& run_path, const std::vector<double>& r
     }
   }
   double t_mean = 0.0;
-  for (std::size_t i : rows) t_mean += run_t[i];
+  Vec3 p_mean = Vec3::Zero(), alpha_lo = run_alpha_deg[rows.front()], alpha_hi = alpha_lo;
+  for (std::size_t i : rows) {
+    t_mean += run_t[i];
+    p_mean += p_enc[i];
+    alpha_lo = alpha_lo.cwiseMin(run_alpha_deg[i]);
+    alpha_hi = alpha_hi.cwiseMax(run_alpha_deg[i]);
+  }
   t_mean /= static_cast<double>(rows.size());
-  double centre = offset + (1 + rate) * t_mean;  // tau at t_mean
-  constexpr int kParameters = 17;                // d centre, d rate, A (9), b (3), c (3)
-  using Matrix = Eigen::Matrix<double, kParameters, kParameters>;
-  using Vector = Eigen::Matrix<double, kParameters, 1>;
-  Vector theta = Vector::Zero();
-  Matrix h = Matrix::Zero();
-  auto design = [&](std::size_t r, const Vec3& velocity, int axis, Vector* x) {
+  p_mean /= static_cast<double>(rows.size());
+  alpha_lo -= Vec3::Constant(kPlayMarginDeg);  // the readings with their play taken out lie within
+  alpha_hi += Vec3::Constant(kPlayMarginDeg);
+  // The nuisance functions are evaluated at the readings with the play found so far taken out
+  // (alpha + play d): at the readings themselves, both directions of a joint would see a function
+  // at points b apart, a difference that follows the direction of motion and reads as a lag.
+  Vec3 play_deg = Vec3::Zero();
+  std::vector<Vec3> alpha_fit(rows.size()), p_fit(rows.size());
+  auto take_out_play = [&] {
+    for (std::size_t r = 0; r < rows.size(); ++r) {
+      const std::size_t i = rows[r];
+      Vec3 a = run_alpha_deg[i];
+      for (int j = 0; j < 3; ++j) a[j] += play_deg[j] * play[i][j];
+      alpha_fit[r] = a;
+      const FkSolution fk = forward_kinematics(nominal, a);
+      p_fit[r] = fk.ok() ? fk.position_m : p_enc[i];
+    }
+  };
+  take_out_play();
+  // The columns: 0 the centre, 1 the rate; the nuisance (the robot's unknown effects, smooth in
+  // position and joint angle, so that none of them reads as a lag): per axis the encoders' plate in
+  // the 20 monomials up to the third degree of its offset from the mean (frame, lengths, radii,
+  // chain angles); along each joint's column of the Jacobian its play (the direction of its last
+  // move) and a cubic B-spline of its reading, knots every kKnotDeg (offset, scale, transmission
+  // error).
+  std::array<int, 3> knots{}, spline_first{};
+  int columns = 2 + 3 * kMonomials + 3;
+  for (int j = 0; j < 3; ++j) {
+    knots[j] = std::max(1, static_cast<int>(std::ceil((alpha_hi[j] - alpha_lo[j]) / kKnotDeg)));
+    spline_first[j] = columns;
+    columns += knots[j] + 3;
+  }
+  using RowMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  // The design rows of run row r (one per axis) at the stage velocity v, the nuisance columns
+  // negated: x theta = -stage.
+  auto design = [&](std::size_t r, const Vec3& velocity, RowMatrix* x, Eigen::Index at) {
     const std::size_t i = rows[r];
-    x->setZero();
-    (*x)[0] = velocity[axis];
-    (*x)[1] = velocity[axis] * (run_t[i] - t_mean);
-    for (int b = 0; b < 3; ++b) (*x)[2 + 3 * axis + b] = -p_enc[i][b];
-    (*x)[11 + axis] = -1.0;
-    for (int j = 0; j < 3; ++j) (*x)[14 + j] = -jacobian[r][j][axis] * play[i][j];
+    const Vec3 q = (p_fit[r] - p_mean) / kMonomialScaleM;
+    const double m[kMonomials] = {1.0,
+                                  q[0],
+                                  q[1],
+                                  q[2],
+                                  q[0] * q[0],
+                                  q[0] * q[1],
+                                  q[0] * q[2],
+                                  q[1] * q[1],
+                                  q[1] * q[2],
+                                  q[2] * q[2],
+                                  q[0] * q[0] * q[0],
+                                  q[0] * q[0] * q[1],
+                                  q[0] * q[0] * q[2],
+                                  q[0] * q[1] * q[1],
+                                  q[0] * q[1] * q[2],
+                                  q[0] * q[2] * q[2],
+                                  q[1] * q[1] * q[1],
+                                  q[1] * q[1] * q[2],
+                                  q[1] * q[2] * q[2],
+                                  q[2] * q[2] * q[2]};
+    std::array<int, 3> first{};
+    std::array<std::array<double, 4>, 3> weight{};
+    for (int j = 0; j < 3; ++j) {
+      const double u = (alpha_fit[r][j] - alpha_lo[j]) / kKnotDeg;
+      const int k = std::clamp(static_cast<int>(std::floor(u)), 0, knots[j] - 1);
+      const double s = u - k, s2 = s * s, s3 = s2 * s;
+      first[j] = spline_first[j] + k;
+      weight[j] = {(1 - s) * (1 - s) * (1 - s) / 6, (3 * s3 - 6 * s2 + 4) / 6, (-3 * s3 + 3 * s2 + 3 * s + 1) / 6,
+                   s3 / 6};
+    }
+    for (int axis = 0; axis < 3; ++axis) {
+      auto row = x->row(at + axis);
+      row.setZero();
+      row[0] = velocity[axis];
+      row[1] = velocity[axis] * (run_t[i] - t_mean);
+      for (int k = 0; k < kMonomials; ++k) row[2 + kMonomials * axis + k] = -m[k];
+      for (int j = 0; j < 3; ++j) {
+        const double column = jacobian[r][j][axis];
+        row[2 + 3 * kMonomials + j] = -column * play[i][j];
+        for (int b = 0; b < 4; ++b) row[first[j] + b] = -column * weight[j][static_cast<std::size_t>(b)];
+      }
+    }
+  };
+  double centre = offset + (1 + rate) * t_mean;  // tau at t_mean
+  Eigen::VectorXd theta = Eigen::VectorXd::Zero(columns);
+  Eigen::MatrixXd h(columns, columns);
+  constexpr Eigen::Index kChunkRows = 3 * 1024;
+  RowMatrix x(kChunkRows, columns);
+  Eigen::VectorXd y(kChunkRows);
+  // Solves the normal equations with a ridge of 1e-9 of the diagonal on the nuisance (the monomials
+  // and the splines overlap: offsets, scales).
+  auto solve = [&](const Eigen::VectorXd& g) {
+    Eigen::MatrixXd regularised = h.selfadjointView<Eigen::Lower>();
+    for (Eigen::Index k = 2; k < columns; ++k) regularised(k, k) += 1e-9 * regularised(k, k) + 1e-300;
+    return Eigen::VectorXd(regularised.ldlt().solve(g));
   };
   bool converged = false;
-  for (int iteration = 0; iteration < 12 && !converged; ++iteration) {
+  for (int iteration = 0; iteration < 20 && !converged; ++iteration) {
     h.setZero();
-    Vector g = Vector::Zero();
+    Eigen::VectorXd g = Eigen::VectorXd::Zero(columns);
     std::size_t used = 0;
-    Vector x;
+    Eigen::Index filled = 0;
+    auto flush = [&] {
+      h.selfadjointView<Eigen::Lower>().rankUpdate(x.topRows(filled).transpose());
+      g.noalias() += x.topRows(filled).transpose() * y.head(filled);
+      filled = 0;
+    };
     for (std::size_t r = 0; r < rows.size(); ++r) {
       const double tau = centre + (1 + rate) * (run_t[rows[r]] - t_mean);
       Vec3 s, v;
       if (!curve.at(tau, &s, &v)) continue;
       ++used;
-      for (int axis = 0; axis < 3; ++axis) {
-        design(r, v, axis, &x);
-        h.noalias() += x * x.transpose();
-        g += x * (-s[axis]);
-      }
+      design(r, v, &x, filled);
+      y.segment<3>(filled) = -s;
+      filled += 3;
+      if (filled == kChunkRows) flush();
     }
+    if (filled > 0) flush();
     if (used < rows.size() / 2) {
       refuse(stage_path, "overlaps " + run_path + " by too little once aligned (" + std::to_string(used) + " rows)");
     }
-    theta = h.ldlt().solve(g);
+    theta = solve(g);
     const double d_centre = theta[0], d_rate = theta[1];
     centre += d_centre;
     rate += d_rate;
     if (std::abs(centre - (offset + (1 + rate) * t_mean)) > 5.0 || std::abs(rate) > 5e-3) {
       refuse(stage_path, "does not belong with " + run_path + ": the clock alignment does not converge");
     }
-    converged = std::abs(d_centre) < 1e-7 && std::abs(d_rate) < 1e-10;
+    const Vec3 d_play = theta.segment<3>(2 + 3 * kMonomials);
+    converged = std::abs(d_centre) < 1e-7 && std::abs(d_rate) < 1e-10 && d_play.cwiseAbs().maxCoeff() < 1e-4;
+    if (!converged && iteration < 19) {
+      play_deg = (play_deg + d_play).cwiseMax(-kPlayMarginDeg).cwiseMin(kPlayMarginDeg);
+      take_out_play();
+    }
   }
   // Residuals (at the final alignment, theta's nuisance part), the sandwich covariance over blocks.
-  Matrix meat = Matrix::Zero();
-  h.setZero();
+  // (h stays the last iteration's: the alignment moved by less than its convergence step since.)
+  Eigen::MatrixXd meat = Eigen::MatrixXd::Zero(columns, columns);
   double ss = 0.0, motion = 0.0;
   Vec3 mean = Vec3::Zero();
   std::size_t used = 0;
   {
-    Vector block = Vector::Zero(), x;
+    theta[0] = theta[1] = 0.0;  // the last step's, already applied
+    Eigen::VectorXd block = Eigen::VectorXd::Zero(columns);
     double block_start = run_t[rows.front()];
     std::vector<Vec3> positions;
     positions.reserve(rows.size());
@@ -369,14 +513,10 @@ MergeResult merge_logs(const std::string& run_path, const std::vector<double>& r
       }
       ++used;
       positions.push_back(s);
-      for (int axis = 0; axis < 3; ++axis) {
-        design(r, v, axis, &x);
-        x[0] = v[axis];
-        const double e = x.tail<15>().dot(theta.tail<15>()) + s[axis];  // stage - model
-        ss += e * e;
-        h.noalias() += x * x.transpose();
-        block += x * e;
-      }
+      design(r, v, &x, 0);
+      const Eigen::Vector3d e = x.topRows(3) * theta + s;  // stage - model
+      ss += e.squaredNorm();
+      block.noalias() += x.topRows(3).transpose() * e;
     }
     meat.noalias() += block * block.transpose();
     for (const Vec3& p : positions) mean += p;
@@ -386,8 +526,12 @@ MergeResult merge_logs(const std::string& run_path, const std::vector<double>& r
   out.fit_rows = used;
   out.residual_rms_m = std::sqrt(ss / (3.0 * used));
   out.motion_rms_m = std::sqrt(motion / (3.0 * used));
-  const Matrix inverse = h.ldlt().solve(Matrix::Identity());
-  const Matrix covariance = inverse * meat * inverse;
+  Eigen::MatrixXd unit = Eigen::MatrixXd::Zero(columns, 2);
+  unit(0, 0) = unit(1, 1) = 1.0;
+  Eigen::MatrixXd z(columns, 2);
+  z.col(0) = solve(unit.col(0));
+  z.col(1) = solve(unit.col(1));
+  const Eigen::Matrix2d covariance = z.transpose() * meat * z;
   out.rate_ppm = rate * 1e6;
   out.offset_s = centre - (1 + rate) * t_mean;
   out.rate_sd_ppm = std::sqrt(std::max(0.0, covariance(1, 1))) * 1e6;

@@ -6,13 +6,19 @@
 // The run's encoders imply the plate too, through the nominal forward kinematics; the robot's
 // unknown effects bend that image, but smoothly with position and direction, not with time.
 //   1. coarse: the normalised cross-correlation of the two plate paths on 0.5 s bins over every lag
-//      that overlaps at least half the shorter log, then on 50 ms bins near the best lag, and on
-//      the first and last thirds of the run for a first rate;
-//   2. fine: Gauss-Newton on every run row (at most 200000, evenly thinned) of
-//        stage(offset + (1 + rate) t) = A p_enc(t) + b + sum_j c_j J_j(t) d_j(t) + e
-//      with the stage interpolated (cubic Hermite), A (3x3) and b absorbing the frame and most of
-//      the geometry, c_j the play of joint j along its column J_j of the Jacobian and d_j the
-//      direction of its last move (backlash looks like a lag otherwise);
+//      that overlaps at least half the shorter log (of peaks within 0.01 of the best, the one that
+//      overlaps most: a repeating path correlates almost as well one period off), then on 50 ms bins
+//      near the best lag, and on the first and last thirds of the run for a first rate;
+//   2. fine: Gauss-Newton on the run's rows (at most 40000, evenly thinned), leaving out the rows
+//      where a joint may sit inside its play (an encoder hold that ends in a reversal), of
+//        stage(offset + (1 + rate) t) = P(p) + sum_j J_j(t) (c_j d_j(t) + S_j(alpha_j + c_j d_j)) + e
+//      with the stage interpolated (cubic Hermite), p the encoders' plate (nominal FK of the
+//      readings with the play found so far taken out), P a cubic polynomial per axis (frame,
+//      lengths, radii, chain angles), c_j the play of joint j along its column J_j of the Jacobian,
+//      d_j the direction of its last move, S_j a cubic spline of its reading (knots every 1.25 deg:
+//      offset, scale, transmission error). Everything the robot gets wrong must be smooth in
+//      position and angle, or it reads as a lag: the play's dead band and its direction-dependent
+//      shift of every other effect biased the offset by 9-35 ms with an affine map alone;
 //   3. uncertainty: the sandwich covariance with the residuals' gradients summed over 2 s blocks
 //      (the residuals of a slow, quantised motion are correlated; rows are not independent).
 // Refused (InputError, exit 2): a log that is not one (read_csv's reasons, times not increasing), a
