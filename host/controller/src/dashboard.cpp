@@ -262,10 +262,9 @@ struct Dashboard::Impl {
       const std::string status = enriched_status().dump();
       std::lock_guard<std::mutex> lock(out_mutex);
       const std::string seq = std::to_string(++sequence);
-      events.emplace_back(sequence, std::make_shared<const std::string>("id: " + seq + "\ndata: {\"seq\":" + seq +
-                                                                        ",\"status\":" + status + ",\"samples\":" +
-                                                                        json_array(texts.begin(), texts.end()) +
-                                                                        "}\n\n"));
+      events.emplace_back(sequence, std::make_shared<const std::string>(
+                                        "id: " + seq + "\ndata: {\"seq\":" + seq + ",\"status\":" + status +
+                                        ",\"samples\":" + json_array(texts.begin(), texts.end()) + "}\n\n"));
       for (std::string& text : texts) history.push_back(std::move(text));
       while (history.size() > keep) history.pop_front();
       while (events.size() > kEventRing) events.pop_front();

@@ -17,7 +17,7 @@ namespace {
 
 constexpr double kCoarseBinS = 0.5;
 constexpr double kFineBinS = 0.05;
-constexpr double kBlockS = 2.0;              // residual blocks for the covariance
+constexpr double kBlockS = 2.0;             // residual blocks for the covariance
 constexpr std::size_t kMaxFitRows = 40000;  // rows of the fine fit (evenly thinned)
 constexpr int kMonomials = 20;              // 1, x, y, z, their products up to the third degree
 constexpr double kMonomialScaleM = 0.01;    // the monomials' unit: 10 mm
@@ -104,7 +104,8 @@ Correlation correlate(const Binned& run, const Binned& stage, std::int64_t lag, 
 // almost as well one period off, over a shorter overlap; the logs' ends (the rest before the drag)
 // tell the periods apart.
 Correlation best_lag(const Binned& run, const Binned& stage, std::int64_t lo, std::int64_t hi, std::size_t from,
-                     std::size_t to, std::size_t min_n, std::int64_t* lag, double* fraction, bool prefer_overlap = false) {
+                     std::size_t to, std::size_t min_n, std::int64_t* lag, double* fraction,
+                     bool prefer_overlap = false) {
   Correlation best;
   std::vector<double> r(static_cast<std::size_t>(hi - lo + 1), -2.0);
   std::vector<std::size_t> overlap(r.size(), 0);
@@ -196,8 +197,9 @@ std::vector<bool> in_play(const std::vector<Vec3>& alpha_deg) {
       const double step = alpha_deg[i][j] - alpha_deg[i - 1][j];
       if (step == 0.0) continue;
       const double after = step > 0 ? 1.0 : -1.0;
-      if (before != after) std::fill(marked.begin() + static_cast<std::ptrdiff_t>(start),
-                                     marked.begin() + static_cast<std::ptrdiff_t>(i), true);
+      if (before != after)
+        std::fill(marked.begin() + static_cast<std::ptrdiff_t>(start), marked.begin() + static_cast<std::ptrdiff_t>(i),
+                  true);
       before = after;
       start = i;
     }
