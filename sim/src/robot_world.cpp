@@ -188,6 +188,10 @@ void RobotWorld::step(const DrivePins& pins) {
       drive_sum_[j] = 0;
       if (((seized_ >> j) & 1) != 0) continue;  // seized: the angle stays
       plants_[j]->advance(current_a_[j], plant_step_s_);
+      const double angle = plants_[j]->shaft_angle_deg();
+      if (angle < kEndStopLowDeg || angle > kEndStopHighDeg) {  // against a stop: at rest there
+        *plants_[j] = JointPlant(plant_parameters_, std::clamp(angle, kEndStopLowDeg, kEndStopHighDeg));
+      }
       true_alpha_deg_[j] = plants_[j]->shaft_angle_deg();
     }
     if (drag_) {

@@ -4,8 +4,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
 #include <string>
 
 #include <Eigen/Dense>
@@ -62,11 +60,6 @@ std::array<std::int32_t, 3> jog_setpoint(const BoardWeights& weights, const std:
   for (int iteration = 0; iteration < 8; ++iteration) {
     const Eigen::Vector3d c = answer(codes);
     const Eigen::Vector3d error = c - target;
-    if (std::getenv("DELTA_HOMING_DEBUG") != nullptr) {
-      std::fprintf(stderr, "jog %d: error %.2f %.2f %.2f codes %lld %lld %lld\n", iteration, error[0], error[1],
-                   error[2], static_cast<long long>(codes[0]), static_cast<long long>(codes[1]),
-                   static_cast<long long>(codes[2]));
-    }
     if (error.cwiseAbs().maxCoeff() < 0.5) break;
     Eigen::Matrix3d jacobian;
     for (int k = 0; k < 3; ++k) {
@@ -162,37 +155,15 @@ HomingReport home_at_references(link::LinkSession& session, const BoardWeights& 
 
   const std::int32_t search = q8_per_setpoint(options.search_deg_s);
   const std::int32_t clear = q8_per_setpoint(options.clear_deg_s);
-  std::array<double, 3> open_run{};  // degrees moved down with the switch open (clear phase)
-  std::array<double, 3> one_way{};   // degrees moved the present way without the switch
+  std::array<bool, 3> clear_first = {true, true, true};  // the joint moves down off its switch first
+  std::array<double, 3> open_run{};                      // degrees moved down with the switch open (clear phase)
+  std::array<double, 3> one_way{};                       // degrees moved the present way without the switch
   bool clearing = true;
   while (true) {
     if (stop != nullptr && *stop != 0)
       fail(128 + static_cast<int>(*stop), "stopped by signal " + std::to_string(*stop));
-    t = *session.last_telemetry();
-    const int referenced = (t.home >> 3) & 7;
-    if (referenced == 7) break;
-    if (t.has(link::TelemetryFlag::kFault)) fail(kExitFault, "fault: " + link::describe_fault(t.fault_cause));
-    if (!t.has(link::TelemetryFlag::kHoming))
-      fail(kExitFault, "the board left homing (" + link::describe_state(t) + ")");
-    std::array<std::int32_t, 3> delta{};
-    if (clearing) {
-      bool any = false;
-      for (int j = 0; j < 3; ++j) {
-        const bool done = ((referenced >> j) & 1) != 0 || open_run[j] >= options.clear_margin_deg;
-        delta[j] = done ? 0 : -clear;
-        any = any || !done;
-      }
-      if (!any) {
-        clearing = false;
-        one_way = {};
-        say("homing: every arm below its switch; searching up at " + fixed(options.search_deg_s, 1) + " deg/s");
-        continue;
-      }
-    } else {
-      for (int j = 0; j < 3; ++j) delta[j] = ((referenced >> j) & 1) != 0 ? 0 : search;
-    }
-
-    // At rest first (a jog ends at speed): the counts still for 30 frames, at most 2 s.
+    // At rest first (a jog ends at speed, and a switch read in motion may still change): the
+    // counts still for 30 frames, at most 2 s.
     {
       link::TelemetryPayload before = checked([&] { return session.next_telemetry(); });
       int still = 0;
@@ -202,7 +173,45 @@ HomingReport home_at_references(link::LinkSession& session, const BoardWeights& 
         before = f;
       }
       if (still < 30) fail(kExitFault, "the arms do not come to rest with the drives off");
+      t = before;
     }
+    const int referenced = (t.home >> 3) & 7;
+    if (referenced == 7) break;
+    if (t.has(link::TelemetryFlag::kFault)) fail(kExitFault, "fault: " + link::describe_fault(t.fault_cause));
+    if (!t.has(link::TelemetryFlag::kHoming))
+      fail(kExitFault, "the board left homing (" + link::describe_state(t) + ")");
+    // A joint not referenced whose switch is closed at rest passed its switch with the drives off
+    // (coasting after another joint's reference stopped them): the board takes a reference only on
+    // an edge with the drives on, so that joint goes down off its switch again.
+    if (!clearing) {
+      for (int j = 0; j < 3; ++j) {
+        if (((referenced >> j) & 1) == 0 && t.home_switch(j)) {
+          say("homing: " + joint_name(j) + " passed its switch with the drives off; clearing it again");
+          clear_first[j] = true;
+          open_run[j] = 0.0;
+          clearing = true;
+        }
+      }
+    }
+    std::array<std::int32_t, 3> delta{};
+    if (clearing) {
+      bool any = false;
+      for (int j = 0; j < 3; ++j) {
+        const bool done = ((referenced >> j) & 1) != 0 || !clear_first[j] || open_run[j] >= options.clear_margin_deg;
+        delta[j] = done ? 0 : -clear;
+        any = any || !done;
+      }
+      if (!any) {
+        clearing = false;
+        clear_first = {false, false, false};
+        one_way = {};
+        say("homing: every arm below its switch; searching up at " + fixed(options.search_deg_s, 1) + " deg/s");
+        continue;
+      }
+    } else {
+      for (int j = 0; j < 3; ++j) delta[j] = ((referenced >> j) & 1) != 0 ? 0 : search;
+    }
+
     // Counts set again (the joints not referenced); the jog's setpoint from the references the
     // drives will start from (with the drives off they follow the counts); drives on; the setpoint.
     // (Done when the telemetry shows it: the counts of the joints not referenced at the home count
@@ -250,6 +259,7 @@ HomingReport home_at_references(link::LinkSession& session, const BoardWeights& 
     std::array<double, 3> lag{};  // |reference - count| [deg] in the last frame with the drives on
     Clock::time_point last_frame_sent = Clock::now();
     bool reached = false;
+    std::array<int, 3> closed_frames{};  // frames a searching joint's switch is closed, not referenced
     while (!reached) {
       if (stop != nullptr && *stop != 0)
         fail(128 + static_cast<int>(*stop), "stopped by signal " + std::to_string(*stop));
@@ -287,13 +297,6 @@ HomingReport home_at_references(link::LinkSession& session, const BoardWeights& 
       if (f.has(link::TelemetryFlag::kDriveEnable)) {
         for (int j = 0; j < 3; ++j) lag[j] = std::abs(f.references[j] / kQ8 - f.counts[j]) * kCountDeg;
       }
-      if (std::getenv("DELTA_HOMING_DEBUG") != nullptr) {
-        say("debug: idx " + std::to_string(f.sample_index) + " fill " + std::to_string(f.fill) + " counts " +
-            std::to_string(f.counts[0]) + " " + std::to_string(f.counts[1]) + " " + std::to_string(f.counts[2]) +
-            " refs " + std::to_string(f.references[0]) + " " + std::to_string(f.references[1]) + " " +
-            std::to_string(f.references[2]) + " flags " + std::to_string(f.flags) + " D " + std::to_string(actual[0]) +
-            " " + std::to_string(actual[1]) + " " + std::to_string(actual[2]) + " rej " + std::to_string(f.rejected));
-      }
       if (!f.has(link::TelemetryFlag::kDriveEnable)) {  // a switch referenced its joint (or a disable)
         const int now = (f.home >> 3) & 7;
         for (int j = 0; j < 3; ++j) {
@@ -310,7 +313,17 @@ HomingReport home_at_references(link::LinkSession& session, const BoardWeights& 
                                (delta[j] > 0 ? "up" : "down") + " (switch missing or not wired?)");
         }
       }
+      // A switch closed under a joint still searching with the drives on, frames after its edge:
+      // the edge was missed (the board references within a few cycles); stop and clear it again.
+      for (int j = 0; j < 3; ++j) {
+        const bool missed = !clearing && delta[j] > 0 && f.has(link::TelemetryFlag::kDriveEnable) && f.home_switch(j) &&
+                            !f.referenced(j);
+        closed_frames[j] = missed ? closed_frames[j] + 1 : 0;
+      }
       bool goal = clearing;
+      for (int j = 0; j < 3; ++j) {
+        if (closed_frames[j] >= 5) goal = true;
+      }
       for (int j = 0; j < 3; ++j) {
         if (clearing && delta[j] != 0 && open_run[j] < options.clear_margin_deg) goal = false;
       }

@@ -101,6 +101,9 @@ class RobotWorld {
   // Fault injection (tests): joint j's arm never moves (seized), or its home switch never closes.
   void seize_joint(int joint) { seized_ |= 1 << joint; }
   void remove_home_switch(int joint) { switch_missing_ |= 1 << joint; }
+  // The upper arms' mechanical stops (true angles): an arm driven into one rests against it.
+  static constexpr double kEndStopLowDeg = -15.0;
+  static constexpr double kEndStopHighDeg = 95.0;
   const Vec3& home_measured_m() const { return home_measured_m_; }
   // Where the stage would see the plate if the encoders read `readings_deg` through the
   // backlash's present play (the play kept, the rest of the sensor chain inverted).
