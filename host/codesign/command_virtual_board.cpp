@@ -60,6 +60,7 @@ struct VirtualBoardCommandOptions {
   std::string start_angles;            // A1,A2,A3 [deg], true shaft angles; empty: the home pose
   int inject_seized_joint = 0;         // 1..3; 0: none
   int inject_missing_home_switch = 0;  // 1..3; 0: none
+  std::string inject_count_slip;       // J,COUNTS,S
 };
 
 // --start-angles A1,A2,A3: three true shaft angles within the board's travel.
@@ -90,6 +91,31 @@ Vec3 parse_start_angles(const std::string& text) {
     at = comma + 1;
   }
   return angles;
+}
+
+// --inject-count-slip J,COUNTS,S: the 0-based joint, the counts, the board time.
+std::tuple<int, int, double> parse_count_slip(const std::string& text) {
+  const auto fail = [&] {
+    return InputError("--inject-count-slip", 0,
+                      "'" + text + "': give J,COUNTS,S: a joint 1-3, whole counts, a time in s");
+  };
+  const auto first = text.find(','), second = first == std::string::npos ? first : text.find(',', first + 1);
+  if (second == std::string::npos) throw fail();
+  try {
+    std::size_t used_j = 0, used_c = 0, used_s = 0;
+    const std::string js = text.substr(0, first), cs = text.substr(first + 1, second - first - 1),
+                      ss = text.substr(second + 1);
+    const int joint = std::stoi(js, &used_j);
+    const int counts = std::stoi(cs, &used_c);
+    const double at = std::stod(ss, &used_s);
+    if (used_j != js.size() || used_c != cs.size() || used_s != ss.size() || joint < 1 || joint > 3 ||
+        !std::isfinite(at) || at < 0.0) {
+      throw fail();
+    }
+    return {joint - 1, counts, at};
+  } catch (const std::logic_error&) {
+    throw fail();
+  }
 }
 
 // --stage-clock OFFSET_S,PPM.
@@ -155,6 +181,10 @@ void run_virtual_board(const VirtualBoardCommandOptions& options) {
   if (!options.start_angles.empty()) board_options.start_true_alpha_deg = parse_start_angles(options.start_angles);
   board_options.inject_seized_joint = options.inject_seized_joint - 1;
   board_options.inject_missing_home_switch = options.inject_missing_home_switch - 1;
+  if (!options.inject_count_slip.empty()) {
+    std::tie(board_options.inject_slip_joint, board_options.inject_slip_counts, board_options.inject_slip_at_s) =
+        parse_count_slip(options.inject_count_slip);
+  }
   std::unique_ptr<MeasuringStage> stage;
   if (!options.stage.empty() || !options.stage_log.empty()) {
     if (options.stage.empty() || options.stage_log.empty()) {
@@ -377,6 +407,9 @@ const RegisterCommand command("virtual-board", 72, [](CLI::App& root) {
   sub->add_option("--inject-missing-home-switch", options->inject_missing_home_switch,
                   "J (1-3): that joint's home switch never closes (a test's fault injection)")
       ->check(CLI::Range(1, 3));
+  sub->add_option("--inject-count-slip", options->inject_count_slip,
+                  "J,COUNTS,S: at board time S joint J's encoder silently gains COUNTS (valid quadrature steps, as "
+                  "from noise; the board cannot see it): a test's fault injection");
   sub->add_option("--stage", options->stage,
                   "measuring stage: drag:NAME|drag:FILE.csv (drags the plate, drives off) or follow")
       ->type_name("MODE");

@@ -71,6 +71,10 @@ VirtualBoard::VirtualBoard(const VirtualBoardOptions& options) : core_(std::make
   if (options.start_true_alpha_deg) world_->place_arms(*options.start_true_alpha_deg);
   if (options.inject_seized_joint >= 0) world_->seize_joint(options.inject_seized_joint);
   if (options.inject_missing_home_switch >= 0) world_->remove_home_switch(options.inject_missing_home_switch);
+  if (options.inject_slip_joint >= 0) {
+    world_->slip_encoder(options.inject_slip_joint, options.inject_slip_counts,
+                         static_cast<std::uint64_t>(options.inject_slip_at_s * kBoardClockHz));
+  }
   if (core_->board) return;  // the model starts in its reset state
 
   Vboard_core& core = *core_->model;

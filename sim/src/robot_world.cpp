@@ -207,8 +207,12 @@ void RobotWorld::step(const DrivePins& pins) {
     }
     reading_deg_ = sensors_.update(true_alpha_deg_);
     update_switches();
+    if (slip_joint_ >= 0 && cycle_ >= slip_cycle_) {
+      slipped_[slip_joint_] += slip_counts_;
+      slip_joint_ = -1;
+    }
     for (int j = 0; j < 3; ++j) {
-      encoders_[j]->set_target(static_cast<int>(std::lround(reading_deg_[j] / board_.count_deg)));
+      encoders_[j]->set_target(static_cast<int>(std::lround(reading_deg_[j] / board_.count_deg)) + slipped_[j]);
     }
   }
   ++cycle_;

@@ -35,10 +35,16 @@ std::string angles_text(const std::array<double, 3>& a) {
 
 }  // namespace
 
+// The co-simulation's plate error for experiment 1 (paper-like robot, the plain shipped network,
+// RMS from path time 0.4 s; README.md, "Whole-robot co-simulation"): a run after homing is held to
+// 1.2 x this.
+constexpr double kCosimPlateRmsM = 89.57e-6;
+
 // From random starts within the travel (above and below the switches) every joint ends at its
 // reference, and the board's count is the world's encoder reading at the true pose: the count the
 // co-simulation's board has there (it starts at the home pose), so runs see the robot the network
-// was trained on. Counts at the end equal the truth's encoder within one count, every homing.
+// was trained on. Counts at the end equal the truth's encoder within one count, every homing; then
+// experiment 1 runs with the plate within 1.2 x the co-simulation's error.
 TEST(Homing, FromRandomStartsTheCountsAreTheRobotsOwnWithinOneCount) {
   const unsigned seed = std::random_device{}();
   std::printf("seed %u\n", seed);
@@ -57,15 +63,27 @@ TEST(Homing, FromRandomStartsTheCountsAreTheRobotsOwnWithinOneCount) {
     const nlohmann::json after = board_status(bench.link);
     EXPECT_EQ(after.value("homed_by", ""), "reference") << after.dump();
     EXPECT_FALSE(after.value("homing", true));
+    const double homed_s = after.value("tick", 0.0) / 10'000.0;  // board time at the status [s]
+    std::string run_line;
+    for (const std::string& argument : bench.run_arguments(bench.link, 5.0)) run_line += argument + " ";
+    const CommandResult run = run_deltactl(run_line);
+    ASSERT_EQ(run.exit_code, 0) << run.err;
     ASSERT_EQ(bench.board->terminate(), 0);
     const Table truth = read_table(bench.truth);
-    const std::size_t last = truth.rows.size() - 1;
+    std::size_t at_home = 0;  // the truth's row at the status after homing
+    while (at_home + 1 < truth.rows.size() && truth.at(at_home + 1, "t_s") <= homed_s) ++at_home;
     for (int j = 0; j < 3; ++j) {
       const double board_deg = after["encoder_deg"][j].get<double>();
-      const double world_deg = truth.at(last, "encoder" + std::to_string(j + 1) + "_deg");
+      const double world_deg = truth.at(at_home, "encoder" + std::to_string(j + 1) + "_deg");
       EXPECT_NEAR(board_deg, world_deg, 0.0101) << "joint " << j + 1 << ": the board's count against the robot's";
-      EXPECT_EQ(truth.at(last, "drives_enabled"), 0.0);
+      EXPECT_EQ(truth.at(at_home, "drives_enabled"), 0.0);
     }
+    const PlateError plate = plate_error_on_path(read_table(bench.dir + "/out.csv"), truth, 0.4);
+    std::printf(
+        "start %s: plate error on experiment 1 after homing: rms %.2f um, max %.2f um over %zu ms (bound %.2f)\n",
+        angles_text(start).c_str(), plate.rms_m * 1e6, plate.max_m * 1e6, plate.samples, 1.2 * kCosimPlateRmsM * 1e6);
+    EXPECT_GT(plate.samples, 4000u);
+    EXPECT_LT(plate.rms_m, 1.2 * kCosimPlateRmsM);
     std::filesystem::remove_all(bench.dir);
   }
 }
@@ -141,6 +159,37 @@ TEST(Homing, ARunOnABoardHomedByHandIsRefusedUnlessAllowed) {
   const Table truth = read_table(bench.truth);
   // Nothing moved before the allowed run: the first enable comes after the refusal.
   EXPECT_EQ(truth.at(0, "drives_enabled"), 0.0);
+  std::filesystem::remove_all(bench.dir);
+}
+
+// Counts gained or lost silently after homing (an encoder's noise taken for motion): the next run
+// sees the count on the wrong side of the joint's reference for its home switch and refuses before
+// any motion, naming the joint (exit 3); homing again puts the count right and the run goes.
+TEST(Homing, ACountSlipSinceHomingIsRefusedBeforeAnyMotionAndHomingAgainMendsIt) {
+  Bench bench("homing_slip", {"--fidelity", "model", "--inject-count-slip", "2,-150,2.5"}, false);
+  ASSERT_EQ(run_deltactl(home_command(bench)).exit_code, 0);
+  // The slip lands at 2.5 s of board time (real time on the model board).
+  for (int i = 0; i < 100 && board_status(bench.link).value("tick", 0.0) < 26'000.0; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  std::string run_line;
+  for (const std::string& argument : bench.run_arguments(bench.link, 0.5)) run_line += argument + " ";
+  const nlohmann::json slipped = board_status(bench.link);
+  const CommandResult refused = run_deltactl(run_line);
+  EXPECT_EQ(refused.exit_code, 3);
+  EXPECT_NE(refused.err.find("joint 2's encoder reads"), std::string::npos) << refused.err;
+  EXPECT_NE(refused.err.find("nothing moved"), std::string::npos) << refused.err;
+  const double refused_s = board_status(bench.link).value("tick", 0.0) / 10'000.0;
+  ASSERT_EQ(run_deltactl(home_command(bench)).exit_code, 0);
+  const CommandResult again = run_deltactl(run_line);
+  EXPECT_EQ(again.exit_code, 0) << again.err;
+  ASSERT_EQ(bench.board->terminate(), 0);
+  const Table truth = read_table(bench.truth);
+  EXPECT_NEAR(slipped["encoder_deg"][1].get<double>(), 28.5, 0.05) << slipped.dump();
+  for (std::size_t i = 0; i < truth.rows.size() && truth.at(i, "t_s") <= refused_s; ++i) {
+    if (truth.at(i, "t_s") < 2.5) continue;
+    ASSERT_EQ(truth.at(i, "drives_enabled"), 0.0) << "the drives were on at " << truth.at(i, "t_s") << " s";
+  }
   std::filesystem::remove_all(bench.dir);
 }
 

@@ -7,7 +7,9 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <map>
 #include <memory>
@@ -108,6 +110,33 @@ class HostProcess {
   pid_t pid_ = -1;
   bool exited_ = false;
 };
+
+// The plate's error on the path: the truth (board time, 1 ms; as the stage sees it) against the
+// reference due at the same tick in a `host run` recording, over path time tau >= from_tau_s.
+struct PlateError {
+  double rms_m = 0.0, max_m = 0.0;
+  std::size_t samples = 0;
+};
+inline PlateError plate_error_on_path(const Table& out, const Table& truth, double from_tau_s) {
+  std::map<long, std::size_t> truth_at;
+  for (std::size_t i = 0; i < truth.rows.size(); ++i) truth_at[std::lround(truth.at(i, "t_s") * 1e3)] = i;
+  PlateError e;
+  double sum_sq = 0.0;
+  for (std::size_t i = 0; i < out.rows.size(); ++i) {
+    if (out.at(i, "tau_s") < from_tau_s || out.at(i, "drives_enabled") == 0) continue;
+    const auto found = truth_at.find(std::lround(out.at(i, "t_s") * 1e3));
+    if (found == truth_at.end()) continue;
+    const std::size_t r = found->second;
+    const double dx = truth.at(r, "x_m") - out.at(i, "x_ref_m"), dy = truth.at(r, "y_m") - out.at(i, "y_ref_m"),
+                 dz = truth.at(r, "z_m") - out.at(i, "z_ref_m");
+    const double d_sq = dx * dx + dy * dy + dz * dz;
+    sum_sq += d_sq;
+    e.max_m = std::max(e.max_m, std::sqrt(d_sq));
+    ++e.samples;
+  }
+  if (e.samples > 0) e.rms_m = std::sqrt(sum_sq / static_cast<double>(e.samples));
+  return e;
+}
 
 // A virtual board, homed at its references through `deltactl host home` unless told not to.
 struct Bench {

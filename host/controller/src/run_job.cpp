@@ -29,6 +29,9 @@ namespace delta::controller {
 namespace {
 
 constexpr double kCountDeg = board::kEncoderCountMicrodeg * 1e-6;
+// How far (encoder counts) a referenced joint's count may be on the wrong side of its reference
+// for its home switch before a run is refused: the backlash's play and a count of quantisation.
+constexpr long long kSwitchMarginCounts = 50;
 
 std::string hex(std::uint32_t value) { return golden::hex_word(value, 32); }
 
@@ -375,6 +378,22 @@ RunOutcome RunJob::execute(link::LinkSession& session, const std::string& port_n
                                         "nothing moved");
     }
     log("the board was homed by hand (--allow-unreferenced): its counts are where the arms were then");
+  }
+
+  // ---- the counts against the robot: each home switch is closed above its reference, open below ----
+  for (int j = 0; j < 3; ++j) {
+    if (!t0.referenced(j)) continue;
+    const long long above = t0.counts[j] - board::kHomeCount;
+    const bool closed = t0.home_switch(j);
+    if ((above > kSwitchMarginCounts && !closed) || (above < -kSwitchMarginCounts && closed)) {
+      throw HostFailure(kExitFault, port_name + ": joint " + std::to_string(j + 1) + "'s encoder reads " +
+                                        fixed(t0.counts[j] * kCountDeg, 2) + " deg, " +
+                                        fixed(std::abs(above) * kCountDeg, 2) + " deg " +
+                                        (above > 0 ? "above" : "below") + " its reference, but its home switch is " +
+                                        (closed ? "closed" : "open") +
+                                        ": the counts are not where the arm is (counts lost or gained since "
+                                        "homing); run deltactl host home; nothing moved");
+    }
   }
 
   // ---- the approach from the pose the encoders report, checked with the rest ----

@@ -101,6 +101,13 @@ class RobotWorld {
   // Fault injection (tests): joint j's arm never moves (seized), or its home switch never closes.
   void seize_joint(int joint) { seized_ |= 1 << joint; }
   void remove_home_switch(int joint) { switch_missing_ |= 1 << joint; }
+  // Joint j's encoder silently gains `counts` (valid quadrature steps, as from electrical noise
+  // the decoder cannot tell from motion) at the first plant step at or after board cycle `cycle`.
+  void slip_encoder(int joint, int counts, std::uint64_t cycle) {
+    slip_joint_ = joint;
+    slip_counts_ = counts;
+    slip_cycle_ = cycle;
+  }
   // The upper arms' mechanical stops (true angles): an arm driven into one rests against it.
   static constexpr double kEndStopLowDeg = -15.0;
   static constexpr double kEndStopHighDeg = 95.0;
@@ -142,6 +149,10 @@ class RobotWorld {
   int switches_ = 0;
   int seized_ = 0;          // bit j: joint j's arm does not move
   int switch_missing_ = 0;  // bit j: joint j's home switch never closes
+  int slip_joint_ = -1;     // slip_encoder(): the joint, its counts, from this cycle
+  int slip_counts_ = 0;
+  std::uint64_t slip_cycle_ = 0;
+  std::array<int, 3> slipped_{};  // counts each encoder reads beyond the sensor chain
   void update_switches();
   std::uint64_t cycle_ = 0;
   int plant_phase_ = 0;  // (cycle_ + plant_lead) mod plant_divider: the plant steps at plant_divider - 1

@@ -72,6 +72,11 @@ struct VirtualBoardOptions {
   // Fault injection (0-based joint, -1: none): an arm that never moves, a home switch that never closes.
   int inject_seized_joint = -1;
   int inject_missing_home_switch = -1;
+  // Joint inject_slip_joint's encoder silently gains inject_slip_counts at board time
+  // inject_slip_at_s (RobotWorld::slip_encoder); -1: none.
+  int inject_slip_joint = -1;
+  int inject_slip_counts = 0;
+  double inject_slip_at_s = 0.0;
 };
 
 // What the world is, every 1 ms of board time (ground truth: no sensor saw it).
