@@ -206,7 +206,8 @@ class RecordingFile {
 // The recording's rows, off the streaming thread.
 struct TelemetryRecorder {
   RecordingFile file;
-  TrackingStatistics tracking;
+  TrackingStatistics tracking;  // the path (tau >= 0) with the drives on
+  TrackingStatistics ramp_in;   // from the enable to the path: the approach to its start
   std::uint64_t rows = 0;
   std::optional<std::uint16_t> underruns_at_first_play;
   std::uint16_t underruns_at_end = 0;
@@ -256,8 +257,11 @@ struct TelemetryRecorder {
     out += '\n';
     ++rows;
     last = r;
+    if (streaming && t.has(link::TelemetryFlag::kDriveEnable) && (r.stream_sample < 0 || r.tau_s < 0.0)) {
+      ramp_in.add(t);
+    }
     if (r.stream_sample >= 0 && t.has(link::TelemetryFlag::kDriveEnable)) {
-      tracking.add(t);
+      if (r.tau_s >= 0.0) tracking.add(t);
       if (!underruns_at_first_play) underruns_at_first_play = t.underruns;
       underruns_at_end = t.underruns;
     }
@@ -266,11 +270,18 @@ struct TelemetryRecorder {
 
 namespace {
 
+std::string tracking_line(const std::string& what, const TrackingStatistics& tracking) {
+  const Vec3 rms = tracking.rms_deg();
+  return what + ", " + std::to_string(tracking.frames) + " frames): rms " + fixed(rms[0], 4) + " / " +
+         fixed(rms[1], 4) + " / " + fixed(rms[2], 4) + " deg, max " + fixed(tracking.max_abs_deg[0], 3) + " / " +
+         fixed(tracking.max_abs_deg[1], 3) + " / " + fixed(tracking.max_abs_deg[2], 3) + " deg\n";
+}
+
 std::string summary_text(const StreamingResult& s, const link::LinkSession& session, const TrackingStatistics& tracking,
-                         std::uint64_t underruns, std::uint64_t rows, const std::string& record_path, double wall_s) {
+                         const TrackingStatistics& ramp_in, std::uint64_t underruns, std::uint64_t rows,
+                         const std::string& record_path, double wall_s) {
   const link::LinkStatistics& link = session.statistics();
   const link::TelemetryPayload& last = *session.last_telemetry();
-  const Vec3 rms = tracking.rms_deg();
   const std::uint64_t host_bad = link.decoder.bad_crc + link.decoder.bad_length + link.decoder.unknown_type;
   std::ostringstream out;
   out << "stream: " << s.played << " of " << s.planned << " samples played from board index " << s.first_index << " ("
@@ -288,11 +299,9 @@ std::string summary_text(const StreamingResult& s, const link::LinkSession& sess
       << fixed(s.latency.percentile_us(99), 0) << " us, p99.9 " << fixed(s.latency.percentile_us(99.9), 0)
       << " us, max " << fixed(s.latency.max_us(), 0) << " us; overruns " << s.overruns << " in " << s.cycles
       << " cycles\n"
-      << "tracking (encoder - joint reference while streaming, " << tracking.frames << " frames): rms "
-      << fixed(rms[0], 4) << " / " << fixed(rms[1], 4) << " / " << fixed(rms[2], 4) << " deg, max "
-      << fixed(tracking.max_abs_deg[0], 3) << " / " << fixed(tracking.max_abs_deg[1], 3) << " / "
-      << fixed(tracking.max_abs_deg[2], 3) << " deg\n"
-      << "recording: " << record_path << " (" << rows << " rows)\n";
+      << tracking_line("tracking (encoder - joint reference on the path", tracking)
+      << tracking_line("ramp-in (the same from the enable to the path's start", ramp_in) << "recording: " << record_path
+      << " (" << rows << " rows)\n";
   return out.str();
 }
 
@@ -614,7 +623,8 @@ RunOutcome RunJob::execute(link::LinkSession& session, const std::string& port_n
   const std::string record_error = recorder_->file.close();
   const std::uint64_t underruns =
       recorder_->underruns_at_first_play ? recorder_->underruns_at_end - *recorder_->underruns_at_first_play : 0;
-  out.summary = summary_text(result, session, recorder_->tracking, underruns, recorder_->rows, out.record, wall);
+  out.summary = summary_text(result, session, recorder_->tracking, recorder_->ramp_in, underruns, recorder_->rows,
+                             out.record, wall);
   if (!record_error.empty()) out.summary += "warning: the recording is incomplete: " + record_error + "\n";
   if (queue.dropped() > 0)
     out.summary += "warning: " + std::to_string(queue.dropped()) + " telemetry records not recorded\n";
