@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 
@@ -22,6 +23,7 @@
 #include <optional>
 #include <system_error>
 #include <thread>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
@@ -252,6 +254,39 @@ void run_run(const RunOptions& options) {
   std::cout << escape_invalid_utf8(outcome.summary);
   if (!outcome.error.empty()) fail(outcome.code, outcome.error);
   if (outcome.code != kExitOk) throw CommandExit{outcome.code};
+}
+
+// ---------------------------------------------------------------------------------------------
+struct ParkOptions {
+  std::string port;
+  std::string weights;
+  std::vector<double> pose_mm;  // empty: the middle of the network's trained range
+  std::string record;           // empty: a temporary recording, removed when the park succeeds
+  int link_timeout_ms = link::kLinkTimeoutMs;
+  bool allow_unreferenced = false;
+};
+
+void run_park(const ParkOptions& options) {
+  const BoardWeights weights = read_board_weights(options.weights);
+  Vec3 pose = 0.5 * (weights.trained_min_m + weights.trained_max_m);
+  if (!options.pose_mm.empty()) pose = Vec3(options.pose_mm[0], options.pose_mm[1], options.pose_mm[2]) * 1e-3;
+  char move[128];
+  std::snprintf(move, sizeof move, "move:%.9f,%.9f,%.9f", pose.x(), pose.y(), pose.z());
+  RunOptions run;
+  run.port = options.port;
+  run.weights = options.weights;
+  run.trajectory = move;
+  run.link_timeout_ms = options.link_timeout_ms;
+  run.allow_unreferenced = options.allow_unreferenced;
+  run.record = options.record;
+  if (run.record.empty()) {
+    run.record =
+        (std::filesystem::temp_directory_path() / ("deltactl-park-" + std::to_string(::getpid()) + ".csv")).string();
+  }
+  run_run(run);  // exits (keeping the recording) unless the plate is parked
+  if (options.record.empty()) std::filesystem::remove(run.record);
+  std::cout << "park: ok, the plate at " << fixed(pose.x() * 1e3, 3) << ", " << fixed(pose.y() * 1e3, 3) << ", "
+            << fixed(pose.z() * 1e3, 3) << " mm (the network's frame), drives off\n";
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -603,6 +638,29 @@ const RegisterCommand command("host", 75, [](CLI::App& root) {
       ->check(options::real_number(0, 45, true))
       ->capture_default_str();
   r->callback([run] { run_run(*run); });
+
+  auto park = std::make_shared<ParkOptions>();
+  CLI::App* pk = host->add_subcommand("park", "Move the plate to a rest pose and turn the drives off");
+  pk->footer(
+      "\nA 'host run' of one point: the plate moves in a jerk-limited straight line from where the encoders\n"
+      "say it is to --pose (default: the middle of the network's trained range, where the paper's\n"
+      "trajectories start from), holds, and the drives go off; every check of 'host run' applies (the\n"
+      "board homed at its references, the counts against the home switches, the move inside the\n"
+      "trained range). Park after a run stopped mid-path, before powering down, or before a drag\n"
+      "calibration, so the next run starts where it should. Exit codes as 'host run'.\n"
+      "Example: deltactl host park --port /dev/ttyUSB1 --weights weights/paper_like_deployed.json");
+  pk->add_option("--port", park->port, "serial port")->required();
+  pk->add_option("--weights", park->weights, "W.json the board must run")->required();
+  pk->add_option("--pose", park->pose_mm, "X,Y,Z: the rest pose [mm] (default: the middle of the trained range)")
+      ->delimiter(',')
+      ->expected(3);
+  pk->add_option("--record", park->record, "OUT.csv: keep the move's recording (default: kept only on a failure)");
+  pk->add_flag("--allow-unreferenced", park->allow_unreferenced,
+               "park a board homed by hand ('host home --by-hand'), not at its references");
+  pk->add_option("--link-timeout-ms", park->link_timeout_ms, "wall time without telemetry: link lost")
+      ->check(options::whole_number(10, 60000))
+      ->capture_default_str();
+  pk->callback([park] { run_park(*park); });
 
   auto record = std::make_shared<RecordOptions>();
   CLI::App* rec =
