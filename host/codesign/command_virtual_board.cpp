@@ -368,9 +368,10 @@ const RegisterCommand command("virtual-board", 72, [](CLI::App& root) {
       "--truth: CSV at 1 kHz of board time, written as it runs (flushed twice a second, complete on\n"
       "exit): t_s (board time since reset), x/y/z_m (the plate as the measuring stage sees it),\n"
       "true_alpha*_deg (plant angles), drives_enabled, encoder*_deg, current*_a.\n"
-      "Defaults: the plain network (weights/paper_like.json; the bitstream ships the deployed model,\n"
-      "--weights weights/paper_like_deployed.json) and the paper-like robot\n"
-      "(sim/paper_like_effects.json); --effects '' is the nominal robot.\n"
+      "Defaults: the deployed model the bitstream ships (weights/paper_like_deployed.json; the plain\n"
+      "network: --weights weights/paper_like.json) and the paper-like robot\n"
+      "(sim/paper_like_effects.json), both of the checkout deltactl was built from; --effects '' is the\n"
+      "nominal robot.\n"
       "--inject-encoder-skip-at S: at board time S joint 1's A and B lines both invert (a skipped\n"
       "quadrature state: the board latches fault cause 0, encoder skip), for the host's fault tests.\n"
       "--stage: a measuring stage beside the robot (SPEC.md, \"The lab's measurements\"). drag:NAME or\n"
@@ -385,10 +386,11 @@ const RegisterCommand command("virtual-board", 72, [](CLI::App& root) {
       "         deltactl host status --port /tmp/delta-tty");
   sub->add_option("--link", options->link, "path at which to link the pseudo-terminal (a serial port to open)")
       ->required();
-  sub->add_option("--effects", options->effects, "virtual robot's effects (JSON)")->capture_default_str();
+  sub->add_option("--effects", options->effects,
+                  "virtual robot's effects (JSON; default: the paper-like robot, sim/paper_like_effects.json)");
   sub->add_option("--weights", options->weights,
-                  "network weights the board runs (W.json: model 'deployed' or 'network', 25 hidden)")
-      ->capture_default_str();
+                  "network weights the board runs (W.json: model 'deployed' or 'network', 25 hidden; default: what "
+                  "the bitstream ships, weights/paper_like_deployed.json)");
   sub->add_option("--truth", options->truth, "CSV of the ground truth at 1 kHz of board time");
   sub->add_option("--fidelity", options->fidelity, "rtl: the Verilated board core; model: the C++ model board")
       ->capture_default_str()
