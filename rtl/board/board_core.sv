@@ -578,7 +578,7 @@ module board_core #(
       if ($past(homed_at_switch)) a_reference_turns_the_drives_off: assert (!enabled_q && !holding_q && fill == '0);
       a_reference_turns_the_drives_off_c: cover ($past(homed_at_switch));
       if ($past(homed_at_switch)) references_only_while_homing_with_the_drives_on: assert ($past(homing_q) && $past(enabled_q) && !$past(fault));
-      references_only_while_homing_with_the_drives_on_c: cover ($past(homed_at_switch) && $past(holding_q));
+      references_only_while_homing_with_the_drives_on_c: cover ($past(homed_at_switch) && $past(homing_q) && $past(enabled_q));
       referenced_only_at_a_switch_edge: assert ((referenced_q & ~$past(referenced_q) & ~$past(switch_edge)) == '0);
       referenced_only_at_a_switch_edge_c: cover (referenced_q == 3'b111);
     end
