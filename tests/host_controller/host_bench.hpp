@@ -112,18 +112,20 @@ class HostProcess {
 };
 
 // The plate's error on the path: the truth (board time, 1 ms; as the stage sees it) against the
-// reference due at the same tick in a `host run` recording, over path time tau >= from_tau_s.
+// reference due at the same tick in a `host run` recording, over path time from_tau_s <= tau <=
+// to_tau_s with the drives on.
 struct PlateError {
   double rms_m = 0.0, max_m = 0.0;
   std::size_t samples = 0;
 };
-inline PlateError plate_error_on_path(const Table& out, const Table& truth, double from_tau_s) {
+inline PlateError plate_error_on_path(const Table& out, const Table& truth, double from_tau_s, double to_tau_s = 1e9) {
   std::map<long, std::size_t> truth_at;
   for (std::size_t i = 0; i < truth.rows.size(); ++i) truth_at[std::lround(truth.at(i, "t_s") * 1e3)] = i;
   PlateError e;
   double sum_sq = 0.0;
   for (std::size_t i = 0; i < out.rows.size(); ++i) {
-    if (out.at(i, "tau_s") < from_tau_s || out.at(i, "drives_enabled") == 0) continue;
+    const double tau = out.at(i, "tau_s");
+    if (tau < from_tau_s || tau > to_tau_s || out.at(i, "drives_enabled") == 0) continue;
     const auto found = truth_at.find(std::lround(out.at(i, "t_s") * 1e3));
     if (found == truth_at.end()) continue;
     const std::size_t r = found->second;

@@ -169,23 +169,11 @@ TEST(HostRun, TheDeployedModelPlacesThePlateAsTheCosimulationDoes) {
   ASSERT_EQ(bench.board->terminate(), 0);
   const Table out = read_table(bench.dir + "/out.csv");
   const Table truth = read_table(bench.truth);
-  std::map<long, std::size_t> truth_at;
-  for (std::size_t i = 0; i < truth.rows.size(); ++i) truth_at[std::lround(truth.at(i, "t_s") * 1e3)] = i;
-  double distance_sq = 0.0;
-  std::size_t m = 0;
-  for (std::size_t i = 0; i < out.rows.size(); ++i) {
-    if (out.at(i, "tau_s") < 0.0 || out.at(i, "drives_enabled") == 0) continue;
-    const auto found = truth_at.find(std::lround(out.at(i, "t_s") * 1e3));
-    if (found == truth_at.end() || out.at(i, "tau_s") < 0.4 || out.at(i, "tau_s") > 5.0) continue;
-    const std::size_t r = found->second;
-    const Vec3 measured(truth.at(r, "x_m"), truth.at(r, "y_m"), truth.at(r, "z_m"));
-    const Vec3 reference(out.at(i, "x_ref_m"), out.at(i, "y_ref_m"), out.at(i, "z_ref_m"));
-    distance_sq += (measured - reference).squaredNorm();
-    ++m;
-  }
+  const PlateError plate = plate_error_on_path(out, truth, 0.4, 5.0);
+  const std::size_t m = plate.samples;
   ASSERT_GT(m, 4000u);
   const Vec3 joint_rms = joint_tracking_rms_deg(out);
-  const double plate_rms = std::sqrt(distance_sq / static_cast<double>(m));
+  const double plate_rms = plate.rms_m;
   std::cout << "deployed model: joint rms " << joint_rms.transpose() << " deg; plate error over path time 0.4..5 s "
             << plate_rms * 1e6 << " um RMS (" << m << " ms)\n";
   for (int j = 0; j < 3; ++j) EXPECT_LT(joint_rms[j], 0.01) << "joint " << j + 1;
