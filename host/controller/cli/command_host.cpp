@@ -269,7 +269,12 @@ struct ParkOptions {
 void run_park(const ParkOptions& options) {
   const BoardWeights weights = read_board_weights(options.weights);
   Vec3 pose = 0.5 * (weights.trained_min_m + weights.trained_max_m);
-  if (!options.pose_mm.empty()) pose = Vec3(options.pose_mm[0], options.pose_mm[1], options.pose_mm[2]) * 1e-3;
+  if (!options.pose_mm.empty()) {
+    for (const double v : options.pose_mm) {
+      if (!std::isfinite(v)) fail(kExitBadInput, "--pose: X,Y,Z in millimetres, finite numbers (e.g. 0,0,-75)");
+    }
+    pose = Vec3(options.pose_mm[0], options.pose_mm[1], options.pose_mm[2]) * 1e-3;
+  }
   char move[128];
   std::snprintf(move, sizeof move, "move:%.9f,%.9f,%.9f", pose.x(), pose.y(), pose.z());
   RunOptions run;
