@@ -22,8 +22,3 @@ set_tests_properties(Dashboard.PlotEveryRecording Dashboard.Api Dashboard.Browse
   LABELS "dashboard;host;virtual_board" RUN_SERIAL TRUE TIMEOUT 300 SKIP_RETURN_CODE 77)
 # Its waits follow the board's progress (a loaded machine slows the model board): more time in all.
 set_tests_properties(Dashboard.Browser PROPERTIES TIMEOUT 600)
-# Disabled in the suite until it passes reliably: on this 2-core machine with a build running beside
-# it, one run passed (the page live, the plots moving, hold and resume) and the next faulted on the
-# board's watchdog (a 348 ms gap in the stream with chromium, the board and a compiler on the cores).
-# By hand: python3 tests/dashboard/dashboard_browser_test.py build/bin/deltactl weights/paper_like.json DIR
-set_tests_properties(Dashboard.Browser PROPERTIES DISABLED TRUE)
