@@ -38,9 +38,9 @@ start_board() {  # $1: run name; sets board, ready_at
   "$deltactl" virtual-board --fidelity model --weights "$weights" --link "$work/$name.tty" \
     --truth "$work/$name.truth.csv" > "$work/$name.board.out" 2> "$work/$name.board.err" &
   board=$!
-  for ((t = 0; t < 600; t++)); do
+  for ((t = 0; t < 6000; t++)); do
     grep -q "ready" "$work/$name.board.out" 2>/dev/null && break
-    sleep 0.1
+    sleep 0.01
   done
   ready_at=$(now)
   "$deltactl" host home --port "$work/$name.tty" --weights "$weights" --link-timeout-ms 2000 --quiet > /dev/null
@@ -104,5 +104,5 @@ kill_s=$(awk -v k="$killed_at" -v r="$ready_at" 'BEGIN { printf "%.4f", k - r }'
 off_s=$(awk -F, -v k="$kill_s" 'NR > 1 { if ($8 == 1) { on = $1; off = "" } else if (on != "" && off == "") off = $1 }
   END { print off }' "$work/kill.truth.csv")
 [[ $alive == yes ]] || echo "SIGKILL: host alive at the kill: $alive"
-printf '%-10s %5s %10s  %s\n' "SIGKILL" "-" "-" "drives off at $off_s s of board time, the kill at ~$kill_s s:" \
+printf '%-10s %5s %10s  %s %s\n' "SIGKILL" "-" "-" "drives off at $off_s s of board time, the kill at ~$kill_s s:" \
   "$(awk -v o="$off_s" -v k="$kill_s" 'BEGIN { printf "%.1f ms after it (bound 250.1 ms)", (o - k) * 1e3 }')"

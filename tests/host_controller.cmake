@@ -28,7 +28,7 @@ delta_add_gtest(host_serve_tests
 # under any bytes and 50,000 connections, recordings confined and never overwritten.
 delta_add_gtest(host_safety_tests
   SOURCES ${CMAKE_CURRENT_LIST_DIR}/host_controller/host_safety_test.cpp
-  LIBRARIES delta::host nlohmann_json::nlohmann_json
+  LIBRARIES delta::controller delta::host nlohmann_json::nlohmann_json
   LABELS host host_controller virtual_board
   PROPERTIES RUN_SERIAL TRUE)
 

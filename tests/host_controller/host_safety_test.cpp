@@ -27,6 +27,7 @@
 #include <nlohmann/json.hpp>
 
 #include "delta/board_facts.hpp"
+#include "delta/controller/serve.hpp"
 #include "delta/io/pseudo_terminal.hpp"
 #include "delta/io/serial_port.hpp"
 #include "delta/link/frame_codec.hpp"
@@ -585,6 +586,48 @@ TEST(HostServeSafety, CtrlCOnCtlRunStopsTheRunAndStatusIsLive) {
   EXPECT_EQ(after.value("state", ""), "homed") << after.dump();
   EXPECT_EQ(after["last_run"].value("outcome", ""), "stopped") << after.dump();
   expect_recording_ends_with_drives_off(server.bench.dir + "/runs/interrupted.csv");
+  ::kill(server.serve->pid(), SIGTERM);
+  EXPECT_EQ(server.serve->wait(10), 0);
+  ASSERT_EQ(server.bench.board->terminate(), 0);
+  std::filesystem::remove_all(server.bench.dir);
+}
+
+// Idle clients filling every slot of the socket must not keep an operator from stopping the
+// robot: a second run is refused as busy before anything says it started; with all 32 slots
+// taken, Ctrl-C on `ctl run` still stops the run at rest and `ctl stop` is still answered.
+TEST(HostServeSafety, EveryClientSlotTakenStillLetsTheOperatorStopTheRun) {
+  BoardServer server("serve_slots");
+  auto run = server.ctl_run(6.0, "crowded.csv");
+  ASSERT_TRUE(server.wait_played(500, 60)) << server.serve->err();
+  {
+    Client second(server.socket);
+    ASSERT_TRUE(second.connected());
+    const std::vector<std::string> lines = second.request(R"({"cmd":"run","trajectory":"experiment1"})");
+    ASSERT_EQ(lines.size(), 1u) << "a busy run request got more than its refusal";
+    const nlohmann::json reply = nlohmann::json::parse(lines[0]);
+    EXPECT_FALSE(reply.value("ok", true)) << lines[0];
+    EXPECT_NE(reply.value("error", "").find("busy"), std::string::npos) << lines[0];
+  }
+  std::vector<std::unique_ptr<Client>> idle;
+  for (int i = 0; i < controller::kMaxClients + 8; ++i) idle.push_back(std::make_unique<Client>(server.socket));
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // every idle client accepted, the slots full
+  const nlohmann::json status = ask(server.socket, R"({"cmd":"status"})");
+  EXPECT_NE(status.value("error", "").find("busy"), std::string::npos) << "the slots are not full: " << status.dump();
+  ::kill(run->pid(), SIGINT);
+  const auto sent = Clock::now();
+  const int code = run->wait(10);
+  std::cout << run->out() << run->err() << "ctl ended " << seconds_since(sent) << " s after SIGINT, with "
+            << controller::kMaxClients + 8 << " idle clients connected\n";
+  EXPECT_EQ(code, 128 + SIGINT) << run->err();
+  EXPECT_LT(seconds_since(sent), 1.5);
+  const nlohmann::json stop = ask(server.socket, R"({"cmd":"stop"})");  // answered, though nothing streams now
+  EXPECT_TRUE(stop.is_object() && stop.contains("ok")) << stop.dump();
+  EXPECT_EQ(stop.value("error", ""), "no run is streaming") << stop.dump();
+  idle.clear();
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  const nlohmann::json after = server.status();
+  EXPECT_EQ(after["last_run"].value("outcome", ""), "stopped") << after.dump();
+  expect_recording_ends_with_drives_off(server.bench.dir + "/runs/crowded.csv");
   ::kill(server.serve->pid(), SIGTERM);
   EXPECT_EQ(server.serve->wait(10), 0);
   ASSERT_EQ(server.bench.board->terminate(), 0);

@@ -412,15 +412,31 @@ bool send_request(int fd, const nlohmann::json& request) {
 }
 
 // A stop for the run the controller streams, on a connection of its own (the run's connection
-// waits for its end); its answer read and dropped.
-void ask_stop(const std::string& path) {
+// waits for its end). "" when the controller took it, else why not.
+std::string ask_stop(const std::string& path) {
   const int fd = connect_controller(path);
+  std::string reply;
   if (send_request(fd, {{"cmd", "stop"}})) {
-    pollfd p{fd, POLLIN, 0};
-    char chunk[512];
-    if (::poll(&p, 1, 2000) > 0) (void)::recv(fd, chunk, sizeof chunk, 0);
+    char chunk[4096];
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(2);
+    while (reply.find('\n') == std::string::npos) {
+      const auto left =
+          std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+      pollfd p{fd, POLLIN, 0};
+      if (left.count() <= 0 || ::poll(&p, 1, static_cast<int>(left.count())) <= 0) break;
+      const ssize_t n = ::recv(fd, chunk, sizeof chunk, 0);
+      if (n <= 0) break;
+      reply.append(chunk, static_cast<std::size_t>(n));
+    }
   }
   ::close(fd);
+  if (reply.find('\n') == std::string::npos) return "no answer within 2 s";
+  try {
+    const nlohmann::json answer = nlohmann::json::parse(reply.substr(0, reply.find('\n')));
+    return answer.value("ok", false) ? "" : answer.value("error", std::string("refused"));
+  } catch (const nlohmann::json::exception&) {
+    return "the reply is not JSON";
+  }
 }
 
 void run_ctl(const CtlOptions& options) {
@@ -437,6 +453,15 @@ void run_ctl(const CtlOptions& options) {
             : options.trajectory;
     if (options.duration_s > 0.0) request["duration"] = options.duration_s;
     if (!options.record.empty()) request["record"] = options.record;
+    // The socket carries UTF-8 text only: a name with other bytes cannot reach the controller.
+    for (const auto& [flag, name] :
+         {std::pair{"--trajectory", request["trajectory"].get<std::string>()}, std::pair{"--record", options.record}}) {
+      if (escape_invalid_utf8(name) != name) {
+        fail(kExitBadInput,
+             std::string(flag) + " '" + escape_invalid_utf8(name) +
+                 "': the name is not UTF-8, and the control socket carries UTF-8 only (rename the file)");
+      }
+    }
     request["wait"] = !options.no_wait;
   }
   // While a run streams for this client: Ctrl-C (and SIGTERM, SIGHUP, SIGQUIT) stops it at rest.
@@ -448,15 +473,23 @@ void run_ctl(const CtlOptions& options) {
   }
   std::string buffer;
   char chunk[4096];
-  bool stop_sent = false;
+  bool stop_sent = false;    // the controller took the stop
+  std::string stop_refused;  // why it did not (asked again every 0.5 s)
+  auto next_ask = std::chrono::steady_clock::now();
   for (;;) {
     std::size_t end;
     while ((end = buffer.find('\n')) == std::string::npos) {
-      if (waits && stop_signal != 0 && !stop_sent) {
-        std::cerr << "host ctl: signal " << stop_signal
-                  << ": asking the controller to stop the run (at rest, drives off)\n";
-        ask_stop(path);
-        stop_sent = true;
+      if (waits && stop_signal != 0 && !stop_sent && std::chrono::steady_clock::now() >= next_ask) {
+        if (stop_refused.empty()) {
+          std::cerr << "host ctl: signal " << stop_signal
+                    << ": asking the controller to stop the run (at rest, drives off)\n";
+        }
+        const std::string why = ask_stop(path);
+        stop_sent = why.empty();
+        if (!stop_sent && why != stop_refused)
+          std::cerr << "host ctl: the stop was not taken: " << why << " (asking again)\n";
+        stop_refused = why;
+        next_ask = std::chrono::steady_clock::now() + std::chrono::milliseconds(500);
       }
       pollfd p{fd, POLLIN, 0};
       if (::poll(&p, 1, 100) <= 0) continue;  // a signal or nothing yet
@@ -492,6 +525,11 @@ void run_ctl(const CtlOptions& options) {
     ::close(fd);
     int code = reply.value("exit", reply.value("ok", false) ? 0 : kExitFailure);
     if (stop_sent && code == 0 && reply.value("outcome", std::string()) == "stopped") code = 128 + stop_signal;
+    if (waits && stop_signal != 0 && !stop_sent && code == 0) {  // interrupted, but the run went on to its end
+      std::cerr << "host ctl: the controller never took the stop (" << stop_refused << "); the run "
+                << reply.value("outcome", std::string("ended")) << '\n';
+      code = 128 + stop_signal;
+    }
     if (!options.json) {
       if (options.command == "status" && reply.value("ok", false)) {
         std::cout << "controller: " << reply.value("state", std::string()) << " ("
@@ -729,7 +767,8 @@ const RegisterCommand command("host", 75, [](CLI::App& root) {
       "reached.");
   c->add_option("command", ctl->command, "what to ask")
       ->required()
-      ->check(CLI::IsMember({"status", "run", "hold", "resume", "stop", "home", "enable", "disable", "clear-fault"}));
+      ->check(CLI::IsMember(
+          {"status", "run", "hold", "resume", "stop", "estop", "home", "enable", "disable", "clear-fault"}));
   c->add_option("--socket", ctl->socket, "control socket (default: the config's [service] socket)");
   c->add_option("--config", ctl->config, "configuration file naming the socket")->capture_default_str();
   c->add_flag("--json", ctl->json, "print the controller's JSON replies as they come");

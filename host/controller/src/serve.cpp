@@ -214,9 +214,18 @@ struct HostServer::Impl {
 
   // Waits for the board thread to take and finish `work`.
   json submit(const std::shared_ptr<Work>& work) {
-    std::unique_lock<std::mutex> lock(mutex);
+    if (std::optional<json> busy = enqueue(work)) return *busy;
+    return wait_for(work);
+  }
+  // The work queued for the board thread, or the reply that refuses it (busy).
+  std::optional<json> enqueue(const std::shared_ptr<Work>& work) {
+    std::lock_guard<std::mutex> lock(mutex);
     if (running || !queue.empty()) return failure(kExitFault, "busy: a run or command is going on (stop it first)");
     queue.push_back(work);
+    return std::nullopt;
+  }
+  json wait_for(const std::shared_ptr<Work>& work) {
+    std::unique_lock<std::mutex> lock(mutex);
     work_done.wait(lock, [&] { return work->done || shutting_down.load(); });
     return work->done ? work->reply : failure(kExitFault, "the controller is shutting down");
   }
@@ -466,6 +475,33 @@ struct HostServer::Impl {
     ::close(fd);
   }
 
+  // A client beyond kMaxClients, on the accepting thread: a stop, an e-stop or a feed hold is
+  // always answered (idle clients must never keep an operator from stopping the robot); anything
+  // else is refused as busy. Its request line must come within kOverflowWaitMs.
+  void answer_overflow(int fd) {
+    static constexpr int kOverflowWaitMs = 100;
+    const json busy = failure(kExitFault, "busy: " + std::to_string(kMaxClients) +
+                                              " clients are connected; try again later (stop, estop and hold are "
+                                              "always taken)");
+    std::string line;
+    char chunk[4096];
+    const auto deadline = Clock::now() + std::chrono::milliseconds(kOverflowWaitMs);
+    while (line.find('\n') == std::string::npos && line.size() < sizeof chunk) {
+      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()).count();
+      pollfd p{fd, POLLIN, 0};
+      if (left <= 0 || ::poll(&p, 1, static_cast<int>(left)) <= 0) break;
+      const ssize_t n = ::recv(fd, chunk, sizeof chunk - line.size(), 0);
+      if (n <= 0) break;
+      line.append(chunk, static_cast<std::size_t>(n));
+    }
+    const std::size_t end = line.find('\n');
+    json refusal;
+    const std::optional<json> request =
+        end == std::string::npos ? std::nullopt : parse_request(line.substr(0, end), refusal);
+    const std::string command = request ? (*request)["cmd"].get<std::string>() : std::string();
+    send_line(fd, command == "stop" || command == "estop" || command == "hold" ? reply_to(*request) : busy);
+  }
+
   // The request as a JSON object with a string "cmd", or the reply that refuses it.
   static std::optional<json> parse_request(const std::string& line, json& refusal) {
     json request;
@@ -630,11 +666,13 @@ struct HostServer::Impl {
     std::shared_ptr<Work> work;
     json refused;
     if (!make_run(request, work, refused)) return send_line(fd, refused);
+    // Busy is answered before anything says the run started.
+    if (std::optional<json> busy = enqueue(work)) return send_line(fd, *busy);
     std::atomic<bool> finished{false};
     json reply;
     std::thread waiter([&] {
       try {
-        reply = submit(work);
+        reply = wait_for(work);
       } catch (const std::exception& error) {
         reply = failure(kExitFailure, error.what());
       }
@@ -773,8 +811,7 @@ int HostServer::run(const volatile std::sig_atomic_t& stop_signal) {
           }
         }
         if (!admitted) {
-          send_line(client, failure(kExitFault, "busy: " + std::to_string(kMaxClients) +
-                                                    " clients are connected; try again later"));
+          s.answer_overflow(client);
           ::close(client);
         } else {
           try {

@@ -56,7 +56,10 @@ SerialPort::SerialPort(const std::string& path, int baud) : path_(path) {
   if (fd_ < 0) {
     const int error = errno;
     std::string advice;
-    if (error == ENOENT) advice = " (is the board plugged in? see /dev/serial/by-id/)";
+    if (error == ENOENT) {
+      advice = path.rfind("/dev/", 0) == 0 ? " (is the board plugged in? see /dev/serial/by-id/)"
+                                           : " (is the virtual board that makes it running?)";
+    }
     if (error == EACCES) advice = " (add the user to the dialout group, or run as the service user)";
     if (error == EBUSY) advice = " (another program holds it)";
     throw std::system_error(error, std::generic_category(), path + advice);

@@ -6,9 +6,10 @@
 // must run this checkout's gateware and W.json's weights), reads telemetry while idle (no
 // telemetry for the link bound: disconnected, the port closed and opened again every second), and
 // executes the clients' commands and runs one at a time (RunJob, the same as `host run`). Each
-// client has a thread, at most kMaxClients at once (one more is answered "busy" and closed; a
-// client silent for kClientIdleSeconds is closed), each ended and freed when its client goes: any
-// number of connections over time costs no memory. Feed hold, resume and stop go straight to the
+// client has a thread, at most kMaxClients at once (one more is answered "busy" and closed, but
+// its stop, estop or hold is carried out first; a client silent for kClientIdleSeconds is
+// closed), each ended and freed when its client goes: any number of connections over time costs
+// no memory. Feed hold, resume and stop go straight to the
 // running job. The main thread accepts clients, tells systemd READY=1, STATUS= and WATCHDOG=1 (only
 // while the board thread is alive), and on SIGTERM/SIGINT/SIGHUP/SIGQUIT stops a run in a
 // controlled way, disables the drives, then exits (in bounded time: a run ends within about 1 s).
