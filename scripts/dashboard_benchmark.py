@@ -2,8 +2,8 @@
 """Benchmark (not a test): does the dashboard disturb the real-time loop? Runs of experiment1 through
 `host serve --http` against the model virtual board, one after the other on the same server: with no
 dashboard client, with N telemetry clients (Server-Sent Events read in Python, one of them slowly:
-the server's side alone), and with N pages of the dashboard in headless chromium (one browser, N
-tabs, drawing the live plots: the server and the browsers' rendering). From each run's summary: the
+the server's side alone), and with N headless chromium browsers on the dashboard (a page each,
+drawing the live plots: the server and the browsers' rendering). From each run's summary: the
 underruns while streaming and the streaming loop's wake latency (p50, p99, p99.9, max); beside them
 the CPU time `host serve` and chromium used, and the events the clients received.
 Usage: scripts/dashboard_benchmark.py [--deltactl build/bin/deltactl] [--weights W.json] [--seconds 60]
@@ -55,18 +55,20 @@ def process_tree(pid):
 
 
 def one_run(bench, seconds, kind, clients, chromium):
-    readers, tabs, browser = [], [], None
+    readers, tabs, browsers = [], [], []
     if kind == "sse":
         readers = [EventReader(bench.port, slow_s=0.5 if k == 0 else 0.0) for k in range(clients)]
         for reader in readers:
             reader.start()
     elif kind == "chromium":
-        browser = Browser(chromium)
-        tabs = [browser.open("http://127.0.0.1:%d/?no-token-prompt" % bench.port) for _ in range(clients)]
+        # Separate browsers, one page each: a browser keeps at most 6 HTTP/1.1 connections to a host,
+        # and every page's telemetry stream holds one, so one browser's 7th page would never load.
+        browsers = [Browser(chromium) for _ in range(clients)]
+        tabs = [browser.open("http://127.0.0.1:%d/?no-token-prompt" % bench.port) for browser in browsers]
         for tab in tabs:
             tab.wait("window.dashboard && window.dashboard.events > 0", 120, "telemetry in every tab")
     time.sleep(2.0)
-    browser_pids = process_tree(browser.process.pid) if browser else []
+    browser_pids = [pid for browser in browsers for pid in process_tree(browser.process.pid)]
     serve_cpu, browser_cpu = cpu_seconds([bench.serve.pid]), cpu_seconds(browser_pids)
     load = os.getloadavg()[0]
     code, body = bench.post("run", {"trajectory": "experiment1", "duration": seconds})
@@ -88,7 +90,7 @@ def one_run(bench, seconds, kind, clients, chromium):
         received = "-"
     for reader in readers:
         reader.stopped = True
-    if browser:
+    for browser in browsers:
         browser.close()
     summary = status["last_run"].get("summary", "")
     underruns = re.search(r"underruns while streaming (\d+)", summary)
@@ -98,7 +100,7 @@ def one_run(bench, seconds, kind, clients, chromium):
         sys.exit("no wake latency in the run's summary: %s (%s)" % (summary, status["last_run"]))
     return {
         "what": {"none": "no client", "sse": "%d telemetry clients" % clients,
-                 "chromium": "%d chromium pages" % clients}[kind],
+                 "chromium": "%d chromium browsers" % clients}[kind],
         "outcome": status["last_run"].get("outcome"),
         "underruns": int(underruns.group(1)) if underruns else -1,
         "p50_us": int(latency.group(1)), "p99_us": int(latency.group(2)), "p999_us": int(latency.group(3)),
