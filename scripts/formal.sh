@@ -76,7 +76,7 @@ job board_core board_core "$rtl/network/delta_network_pkg.sv $rtl/board/board_co
   "setpoint_buffer joint_pwm"
 cover_config joint_safety "chparam -set WatchdogPeriods 3 joint_safety"
 cover_config setpoint_buffer "chparam -set Depth 4 setpoint_buffer"
-cover_config link_rx "define FORMAL_LINK_RX_BYTE_GAP 3"
+cover_config link_rx "define FORMAL_LINK_RX_BYTE_GAP 1"
 cover_config board_core "chparam -set ClocksPerPeriod 4 board_core"
 
 # ---- build the models: one AIGER per assertion and per cover (negated) ---------------------------

@@ -9,7 +9,8 @@
 // found: the same rule as the host's FrameDecoder (host/include/delta/link/frame_codec.hpp), and
 // BoardLink.* requires both to accept the same frames.
 //
-// Delivery: start_o pulses when a header passes (type_o, sequence_o hold from then to the end),
+// Delivery: start_o pulses when a header passes (sequence_o holds from then to the end, type_o
+// from the next cycle),
 // payload_valid_o presents each payload byte once (tentatively: the frame is not checked yet),
 // then ok_o pulses if the CRC matches (act on the frame) or bad_o if not. Consumers keep what the
 // payload says and act only on ok_o. The parser is far faster than the line (2 cycles per byte
@@ -262,9 +263,21 @@ module link_rx #(
     ok_only_with_a_matching_crc_c: cover (ok_o && f_length_q == 8'(delta_board_pkg::CommandPayloadBytes));
     bad_crc_or_header_drops_the_frame: assert (bad_o == (f_drop_header || (f_end && !f_crc_ok)));
     bad_crc_or_header_drops_the_frame_c: cover (bad_o && f_end);
-    if (start_o || payload_valid_o || ok_o) frame_fields_held_from_the_header: assert (type_o == (start_o ? f_byte : f_type_q) &&
-        sequence_o == f_sequence_q && (start_o || type_o == f_type_q));
+    // The sequence is there with start_o; the type from the next cycle (type_o is registered at
+    // the start) to the frame's end, so with every payload byte and with ok_o or bad_o.
+    if (start_o || f_pos9 >= 9'd4) frame_fields_held_from_the_header: assert (sequence_o == f_sequence_q &&
+        (start_o || type_o == f_type_q));
     frame_fields_held_from_the_header_c: cover (ok_o && type_o == 8'(delta_board_pkg::FrameTypeSetpoint));
+    // Lemma (proved alone, then assumed by the proofs PDR does not finish without it): the parser's
+    // registers are the specification's: position, the header's fields, the running CRC, the end
+    // and the first CRC byte's verdict, and the read pointer is the frame's start plus the position.
+    if (f_past_valid) the_parser_follows_the_specification: assert (f_pos_q == 8'(index_q) &&
+        (f_pos_q == 8'd0 || (crc == f_crc_q && read_q == start_q + PointerWidth'(f_pos_q))) &&
+        (f_pos_q < 8'd2 || length_q == f_length_q) && (f_pos_q < 8'd3 || sequence_q == f_sequence_q) &&
+        (f_pos9 < 9'd4 || (type_q == f_type_q && f_payload_end < 9'd64 && end_q == 6'(f_payload_end) &&
+                           f_pos9 <= f_payload_end + 9'd1)) &&
+        (f_pos9 < 9'd4 || f_pos9 != f_payload_end + 9'd1 || crc_high_ok_q == (f_high_q == f_crc_q[15:8])));
+    the_parser_follows_the_specification_c: cover (f_past_valid && f_pos9 >= 9'd4 && f_pos9 == f_payload_end + 9'd1);
     // The ring: the parser reads only received bytes and never falls a ring behind the receiver
     // (a frame it may still rescan is never overwritten).
     the_parser_reads_only_received_bytes: assert (!fetched_d || read_q != write_q);

@@ -128,10 +128,15 @@ module setpoint_buffer #(
   // header): a frame starts (frame_start_i; at any time, so a frame dropped after its start is
   // simply followed by the next), presents its payload bytes in order from index 0, at most its
   // type's payload size, and ends with frame_ok_i after all of them or with a drop (no ok); the
-  // type holds meanwhile; the network's ready only while it is started (ap_ctrl_hs).
+  // type holds from the cycle after the start to the end; the network's ready only while it is
+  // started (ap_ctrl_hs).
   logic f_past_valid = 1'b0;
   always_ff @(posedge clk_i) f_past_valid <= 1'b1;
   logic       f_in_frame_q = 1'b0, f_setpoint_q = 1'b0, f_flushed_q = 1'b0, f_full_q = 1'b0;
+  // The frame's type: link_rx's type_o is registered at the start, so it is the frame's from the
+  // first cycle after frame_start_i (f_typed_q low: taken from is_setpoint_i then, held after).
+  logic       f_typed_q = 1'b0, f_setpoint;
+  assign f_setpoint = f_typed_q ? f_setpoint_q : is_setpoint_i;
   logic [5:0] f_bytes_q = '0;
   logic [31:0] f_index_q = '0;  // the frame's sample index, bytes 0..3 little-endian
   always_ff @(posedge clk_i) begin
@@ -139,10 +144,14 @@ module setpoint_buffer #(
     else if (frame_start_i) f_in_frame_q <= 1'b1;
     if (frame_start_i) begin
       f_bytes_q   <= '0;
-      f_setpoint_q <= is_setpoint_i;
+      f_typed_q   <= 1'b0;
       f_flushed_q <= flush_i;
       f_full_q    <= fill_q == FillWidth'(Depth);
     end else begin
+      if (f_in_frame_q && !f_typed_q) begin
+        f_typed_q    <= 1'b1;
+        f_setpoint_q <= is_setpoint_i;
+      end
       if (payload_valid_i) f_bytes_q <= f_bytes_q + 6'd1;
       if (flush_i) f_flushed_q <= 1'b1;
     end
@@ -153,7 +162,7 @@ module setpoint_buffer #(
     payload_bytes_come_in_order_inside_a_frame: assume (!payload_valid_i || (f_in_frame_q && !frame_start_i && payload_index_i == f_bytes_q));
     a_frame_ends_ok_after_its_whole_payload: assume (!frame_ok_i || (f_in_frame_q && !frame_start_i &&
         f_bytes_q == (is_setpoint_i ? 6'(delta_board_pkg::SetpointPayloadBytes) : f_bytes_q)));
-    the_type_holds_through_the_frame: assume (!f_in_frame_q || frame_start_i || is_setpoint_i == f_setpoint_q);
+    the_type_holds_through_the_frame: assume (!f_in_frame_q || frame_start_i || is_setpoint_i == f_setpoint);
     // A setpoint frame presents at most its payload size (link_rx starts a frame only when its
     // length is its type's payload size: link_rx's start_only_for_a_valid_header).
     a_setpoint_has_its_payload_size: assume (!payload_valid_i || !is_setpoint_i || payload_index_i < 6'(delta_board_pkg::SetpointPayloadBytes));
@@ -175,7 +184,7 @@ module setpoint_buffer #(
     fill_never_exceeds_the_depth_c: cover (fill_q == FillWidth'(Depth));
     // Filling: an entry is taken only from a CRC-valid setpoint frame that carries the next free
     // sample index, began with room and met no flush; the bytes go into the next free slot.
-    if (commit) commits_only_the_next_index_with_room_and_no_flush: assert (frame_ok_i && f_setpoint_q &&
+    if (commit) commits_only_the_next_index_with_room_and_no_flush: assert (frame_ok_i && f_setpoint &&
         f_index_q == f_next_index && !f_full_q && !f_flushed_q && !flush_i);
     commits_only_the_next_index_with_room_and_no_flush_c: cover (commit && fill_q == '0 && sample_index_q != '0);
     if (frame_ok_i && is_setpoint_i && accept_i && f_index_q == f_next_index && !f_full_q && !f_flushed_q && !flush_i) begin
@@ -185,17 +194,17 @@ module setpoint_buffer #(
     refused_exactly_when_not_taken: assert (refused_o == (frame_ok_i && is_setpoint_i && !commit));
     refused_exactly_when_not_taken_c: cover (refused_o && f_index_q == f_next_index);
     if (write_enable) writes_only_a_free_slot: assert (fill_q < FillWidth'(Depth) && write_slot == f_next_index[SlotWidth-1:0] &&
-        f_setpoint_q && payload_index_i >= 6'd4 && payload_index_i < 6'(delta_board_pkg::SetpointPayloadBytes));
+        f_setpoint && payload_index_i >= 6'd4 && payload_index_i < 6'(delta_board_pkg::SetpointPayloadBytes));
     writes_only_a_free_slot_c: cover (write_enable && fill_q == FillWidth'(Depth - 1));
     // Lemmas (each proved alone, then assumed by the proofs that PDR does not finish without them):
     // the frame's registers follow the specification's, and the sample index bytes that have
     // passed match the next free index while the frame is not vetoed.
     if (f_in_frame_q && rst_ni) frame_state_follows_the_specification: assert (full_at_start_q == f_full_q && vetoed_q == f_flushed_q);
     frame_state_follows_the_specification_c: cover (f_in_frame_q && rst_ni && vetoed_q && f_bytes_q == 6'd2);
-    if (f_in_frame_q && f_setpoint_q && rst_ni && index_match_q && !vetoed_q) begin
+    if (f_in_frame_q && f_setpoint && rst_ni && index_match_q && !vetoed_q) begin
       index_bytes_match_the_next_free_index: assert ((f_index_q & f_seen_bytes) == (f_next_index & f_seen_bytes));
     end
-    index_bytes_match_the_next_free_index_c: cover (f_in_frame_q && f_setpoint_q && index_match_q && f_bytes_q == 6'd4 && sample_index_q != '0);
+    index_bytes_match_the_next_free_index_c: cover (f_in_frame_q && f_setpoint && index_match_q && f_bytes_q == 6'd4 && sample_index_q != '0);
     if (write_enable && pop) never_writes_the_slot_it_plays: assert (write_slot != sample_index_q[SlotWidth-1:0]);
     never_writes_the_slot_it_plays_c: cover (write_enable && pop);
   end

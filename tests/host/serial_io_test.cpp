@@ -75,6 +75,13 @@ TEST(SerialIo, MissingDeviceNamesThePathAndWhatToCheck) {
     const std::string message = error.what();
     EXPECT_NE(message.find(path), std::string::npos) << message;
     EXPECT_NE(message.find("plugged in"), std::string::npos) << message;
+    EXPECT_NE(message.find("virtual board"), std::string::npos) << message;  // not under /dev: maybe a pty
+  }
+  try {
+    SerialPort port("/dev/serial/by-id/no-such-board", 115200);
+    FAIL() << "opened a missing device";
+  } catch (const std::system_error& error) {
+    EXPECT_NE(std::string(error.what()).find("see /dev/serial/by-id/"), std::string::npos) << error.what();
   }
   EXPECT_THROW(SerialPort(path, 123456), std::invalid_argument);  // no termios constant
 }

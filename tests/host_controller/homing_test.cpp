@@ -200,7 +200,8 @@ TEST(Homing, ACountSlipSinceHomingIsRefusedBeforeAnyMotionAndHomingAgainMendsIt)
   EXPECT_EQ(again.exit_code, 0) << again.err;
   ASSERT_EQ(bench.board->terminate(), 0);
   const Table truth = read_table(bench.truth);
-  EXPECT_NEAR(slipped["encoder_deg"][1].get<double>(), 28.5, 0.05) << slipped.dump();
+  // 30.00 at homing, 1.50 deg slipped; the arm may settle a few counts with the drives off.
+  EXPECT_NEAR(slipped["encoder_deg"][1].get<double>(), 28.5, 0.1) << slipped.dump();
   for (std::size_t i = 0; i < truth.rows.size() && truth.at(i, "t_s") <= refused_s; ++i) {
     if (truth.at(i, "t_s") < 2.5) continue;
     ASSERT_EQ(truth.at(i, "drives_enabled"), 0.0) << "the drives were on at " << truth.at(i, "t_s") << " s";

@@ -83,10 +83,15 @@ std::string confined_record_path(const std::string& folder, const std::string& n
   std::error_code error;
   const fs::path parent = fs::canonical(asked.parent_path(), error);
   const std::string inside = parent.string() + "/";
-  if (error || inside.compare(0, folder.size() + 1, folder + "/") != 0) {
+  if (error) {
     throw InputError(name, 0,
-                     "recordings are written in the controller's recordings folder " + folder +
-                         " (name a file there, or a relative name)");
+                     "no folder " + asked.parent_path().string() + " (the controller makes none: name a file in " +
+                         folder + ", or in a folder that is there)");
+  }
+  if (inside.compare(0, folder.size() + 1, folder + "/") != 0) {
+    throw InputError(
+        name, 0,
+        "recordings are written in the controller's recordings folder " + folder + " (a plain file name goes there)");
   }
   return (parent / file).string();
 }

@@ -58,7 +58,7 @@ SerialPort::SerialPort(const std::string& path, int baud) : path_(path) {
     std::string advice;
     if (error == ENOENT) {
       advice = path.rfind("/dev/", 0) == 0 ? " (is the board plugged in? see /dev/serial/by-id/)"
-                                           : " (is the virtual board that makes it running?)";
+                                           : " (is the board plugged in, or the virtual board that makes it running?)";
     }
     if (error == EACCES) advice = " (add the user to the dialout group, or run as the service user)";
     if (error == EBUSY) advice = " (another program holds it)";
