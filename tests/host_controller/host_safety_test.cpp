@@ -14,6 +14,7 @@
 #include <sys/un.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -420,6 +421,25 @@ TEST(HostServeSafety, AnyBytesOnTheSocketAreAnsweredAndServeLives) {
   ASSERT_TRUE(server.alive()) << server.serve->err();
   ::kill(server.serve->pid(), SIGTERM);
   EXPECT_EQ(server.serve->wait(10), 0) << server.serve->err();
+  std::filesystem::remove_all(server.dir);
+}
+
+// A trajectory whose file name is Latin-1, not UTF-8 (an honest user's "caf\xe9.csv"): the
+// control socket carries JSON text only, so `ctl run` refuses it in one line naming the flag and
+// the byte (exit 2), instead of failing inside the JSON encoder.
+TEST(HostServeSafety, CtlRunWithANameThatIsNotUtf8IsRefusedNamingIt) {
+  LonelyServer server("serve_latin1");
+  const std::string file = server.dir + "/caf\xe9.csv";
+  write_text(file, "t_s,x_m,y_m,z_m\n0,0,0,-0.075\n1,0.001,0,-0.075\n");
+  const CommandResult result =
+      run_deltactl("host ctl --socket " + server.socket + " run --trajectory '" + file + "' --duration 1");
+  std::cout << result.err;
+  EXPECT_EQ(result.exit_code, 2) << result.err;
+  EXPECT_NE(result.err.find("--trajectory"), std::string::npos) << result.err;
+  EXPECT_NE(result.err.find("caf\\xe9.csv"), std::string::npos) << result.err;  // the byte shown, not raw
+  EXPECT_NE(result.err.find("not UTF-8"), std::string::npos) << result.err;
+  EXPECT_EQ(std::count(result.err.begin(), result.err.end(), '\n'), 1) << result.err;
+  EXPECT_TRUE(server.alive());
   std::filesystem::remove_all(server.dir);
 }
 
