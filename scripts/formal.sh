@@ -53,7 +53,7 @@ pkg="$rtl/board/delta_board_pkg.sv $rtl/joint/delta_joint_pkg.sv"
 # job NAME TOP SOURCES [BLACKBOX_SOURCES] [TRUSTED]: BLACKBOX_SOURCES are read for their ports
 # only; TRUSTED submodules keep their assumptions (each is proved by another job, named there).
 job_names=()
-declare -A job_top job_src job_lib job_trusted job_cover
+declare -A job_top job_src job_lib job_trusted job_cover job_setup
 job() { job_names+=("$1"); job_top[$1]=$2; job_src[$1]=$(echo $3); job_lib[$1]=$(echo ${4:-}); job_trusted[$1]=${5:-}; }
 # cover_config JOB YOSYS_COMMANDS: the covers too deep for the shipped constants (a 2500-period
 # watchdog, a 256-entry buffer, a byte per 208 clocks, a play every 10 x 2325 clocks) are searched on a second model of the
@@ -61,11 +61,18 @@ job() { job_names+=("$1"); job_top[$1]=$2; job_src[$1]=$(echo $3); job_lib[$1]=$
 # the sources); the assertions are always proved on the shipped constants. docs/formal.md argues
 # why a cover reached there shows that the assertion it belongs to is not vacuous.
 cover_config() { job_cover[$1]=$2; }
+# job_config JOB YOSYS_COMMANDS: the job's own model (shipped and cover configurations) is read
+# with these (a FORMAL-only define or a chparam), e.g. to pick the environment its properties need.
+job_config() { job_setup[$1]=$2; }
 
 job joint_safety joint_safety "$rtl/joint/joint_safety.sv"
 job joint_pwm joint_pwm "$rtl/joint/joint_pwm.sv"
 job setpoint_buffer setpoint_buffer "$rtl/board/setpoint_buffer.sv"
 job link_rx link_rx "$rtl/board/link_crc16.sv $rtl/board/link_rx.sv"
+# The UART receiver twice: under an 8N1 transmitter, and under any line at all.
+job uart_rx uart_rx "$rtl/board/uart_rx.sv"
+job uart_rx_any_line uart_rx "$rtl/board/uart_rx.sv"
+job_config uart_rx_any_line "define FORMAL_UART_RX_ANY_LINE 1"
 # The board's command logic with joint_axes (fault latch, PWM, encoders) and the setpoint buffer;
 # link_rx (job link_rx) and the controllers' current clamp (job joint_controller) trusted.
 job board_core board_core "$rtl/network/delta_network_pkg.sv $rtl/board/board_core.sv $rtl/board/setpoint_buffer.sv $rtl/joint/joint_axes.sv
@@ -77,6 +84,8 @@ job board_core board_core "$rtl/network/delta_network_pkg.sv $rtl/board/board_co
 cover_config joint_safety "chparam -set WatchdogPeriods 3 joint_safety"
 cover_config setpoint_buffer "chparam -set Depth 4 setpoint_buffer"
 cover_config link_rx "define FORMAL_LINK_RX_BYTE_GAP 1"
+cover_config uart_rx "chparam -set ClocksPerBit 4 uart_rx"
+cover_config uart_rx_any_line "chparam -set ClocksPerBit 4 uart_rx"
 cover_config board_core "chparam -set ClocksPerPeriod 4 board_core"
 
 # ---- build the models: one AIGER per assertion and per cover (negated) ---------------------------
@@ -115,13 +124,15 @@ build_job() {  # job [cover] -> $work/<job>[.cover]/{model.il, model.aig, props}
     while read -r name; do lemmas="$lemmas n:$name"; done <"$work/$1.proven"
     lemmas="chformal -assert2assume $lemmas;"
   fi
-  if [ "${2:-}" = cover ]; then
-    d=$work/$1.cover
-    case ${job_cover[$j]} in
-      define\ *) set -- ${job_cover[$j]}; defines="-D$2=$3" ;;
-      *) params="${job_cover[$j]};" ;;
+  local config mode=${2:-}
+  for config in "${job_setup[$j]:-}" "$([ "$mode" != cover ] || echo "${job_cover[$j]}")"; do
+    case $config in
+      '') ;;
+      define\ *) set -- $config; defines="$defines -D$2=$3" ;;
+      *) params="$params $config;" ;;
     esac
-  fi
+  done
+  [ "$mode" != cover ] || d=$work/$j.cover
   mkdir -p "$d"
   local top=${job_top[$j]}
   local lib=

@@ -7,7 +7,8 @@
 #   scripts/formal_mutation.sh [--out DIR] [--per-module N] [--timeout S] [--seed K] [--jobs N] [--module NAME]...
 #
 # Writes DIR/score.txt (one line per mutant: module, line, change, killed by / survived) and
-# prints the score. N mutants per module (default 6), drawn with the printed seed.
+# prints the score. N mutants per module (default 6), drawn with the printed seed, and for link_rx
+# four hand-made ones in the ring's addressing.
 set -euo pipefail
 
 here=$(cd "$(dirname "$0")/.." && pwd)
@@ -37,7 +38,7 @@ echo "formal_mutation: seed $seed, $per_module mutants per module, PDR timeout $
 # module file -> the proof job that checks it [-> the lines mutated: board_core's commands and drive
 # state; the rest of board_core (telemetry, LEDs, counters) is checked by simulation, not here]
 modules="joint/joint_safety.sv:joint_safety joint/joint_pwm.sv:joint_pwm board/setpoint_buffer.sv:setpoint_buffer
-board/link_rx.sv:link_rx board/link_crc16.sv:link_rx board/board_core.sv:board_core:109-165"
+board/link_rx.sv:link_rx board/link_crc16.sv:link_rx board/uart_rx.sv:uart_rx board/board_core.sv:board_core:109-165"
 if [ -n "$chosen" ]; then
   picked=
   for m in $modules; do
@@ -84,6 +85,15 @@ for entry in modules:
     rng.shuffle(candidates)
     for number, old, new, start in candidates[:per_module]:
         print('\x1f'.join([path, job, str(number + 1), old, new, str(start)]))
+    # Hand-made, always run: the link ring's addressing, which no operator swap reaches (a pointer
+    # that skips a slot, a write or read one slot off, the data changed on its way into the RAM).
+    handmade = {'board/link_rx.sv': [("write_q <= write_q + 1'b1;", " + 1'b1", " + 2'd2"),
+                                     ("assign ring_write_addr = write_q;", "write_q;", "write_q + 1'b1;"),
+                                     ("assign ring_read_addr  = read_q;", "read_q;", "read_q + 1'b1;"),
+                                     ("assign ring_write_data = rx_data_i;", "rx_data_i;", "rx_data_i ^ 8'h01;")]}
+    for line_text, old, new in handmade.get(path, []):
+        number = next(n for n, line in enumerate(lines) if line_text in line)
+        print('\x1f'.join([path, job, str(number + 1), old, new, str(lines[number].find(old))]))
 EOF
 
 killed=0 survived=0 invalid=0

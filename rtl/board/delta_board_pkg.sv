@@ -15,7 +15,7 @@ package delta_board_pkg;
   localparam int ControlRateHz /*verilator public*/ = 10_000;  // joint control period: 100 us
   localparam int ClocksPerPeriod /*verilator public*/ = 2_325;  // BoardClockHz / ControlRateHz
 
-  // ---- host link v2, 8N1 UART (issue 12): the one description of the frames is docs/board_link.md; every number
+  // ---- host link v2, 8N1 UART: the one description of the frames is docs/board_link.md; every number
   // it uses is here. RTL: rtl/board/link_*.sv; C++ codec: host/include/delta/link/*.hpp.
   // A frame is sync, length (payload bytes), sequence, type, payload, CRC-16 (high byte first) over
   // length..payload; CRC-16/CCITT-FALSE: polynomial 0x1021, initial value 0xFFFF.

@@ -36,13 +36,20 @@ module link_rx #(
 
   // ---- ring -------------------------------------------------------------------------------------
   // no_rw_check: no read-during-write logic; a byte is read only once written (read_q != write_q).
+  // The RAM's ports are named once: the RAM below and the formal model of it read the same
+  // signals.
   (* no_rw_check *) logic [7:0] ring_q [RingBytes];
-  logic [7:0]              ring_data_q;
-  logic [PointerWidth-1:0] write_q, read_q;
+  logic [7:0]              ring_data_q, ring_write_data;
+  logic [PointerWidth-1:0] write_q, read_q, ring_write_addr, ring_read_addr;
+  logic                    ring_write;
+  assign ring_write      = rx_valid_i;
+  assign ring_write_addr = write_q;
+  assign ring_write_data = rx_data_i;
+  assign ring_read_addr  = read_q;
 
   always_ff @(posedge clk_i) begin
-    if (rx_valid_i) ring_q[write_q] <= rx_data_i;
-    ring_data_q <= ring_q[read_q];
+    if (ring_write) ring_q[ring_write_addr] <= ring_write_data;
+    ring_data_q <= ring_q[ring_read_addr];
   end
   always_ff @(posedge clk_i or negedge rst_ni) begin
     if (!rst_ni) write_q <= '0;
@@ -286,6 +293,44 @@ module link_rx #(
         (f_pos_q == 8'd0 || PointerWidth'(write_q - start_q) <= PointerWidth'(FMaxFrame + 1)));
     backlog_stays_within_a_frame_c: cover (f_pos_q != 8'd0 && PointerWidth'(write_q - start_q) == PointerWidth'(FMaxFrame));
   end
+  // The ring, followed through one slot chosen freely (f_slot, any of them). The proofs cut the
+  // block RAM out (a read returns a free byte), so the properties state a RAM's contract instead:
+  // a read of the slot returns what the RAM's own write port last wrote there, unless nothing was
+  // written yet or the slot is written in the same cycle (f_ram_*: the RAM's side). The
+  // specification counts the bytes as they arrive and keeps the last one whose arrival falls on
+  // the slot (f_slot_byte_q).
+  (* anyconst *) logic [PointerWidth-1:0] f_slot;
+  logic [7:0]              f_ram_slot_q = '0, f_slot_byte_q = '0;
+  logic                    f_ram_slot_written_q = 1'b0, f_ram_read_slot_q = 1'b0, f_slot_received_q = 1'b0;
+  logic [PointerWidth-1:0] f_arrivals_q = '0;  // bytes received since the reset, modulo the ring
+  always_ff @(posedge clk_i) begin
+    if (ring_write && ring_write_addr == f_slot) begin
+      f_ram_slot_q         <= ring_write_data;
+      f_ram_slot_written_q <= 1'b1;
+    end
+    f_ram_read_slot_q <= ring_read_addr == f_slot && f_ram_slot_written_q && !(ring_write && ring_write_addr == f_slot);
+    if (rx_valid_i) begin
+      if (f_arrivals_q == f_slot) begin
+        f_slot_byte_q     <= rx_data_i;
+        f_slot_received_q <= 1'b1;
+      end
+      f_arrivals_q <= f_arrivals_q + 1'b1;
+    end
+  end
+  always_comb begin
+    // Every received byte, and nothing else, is written at its arrival's slot.
+    the_ring_is_written_in_arrival_order: assert (ring_write == rx_valid_i &&
+        (!ring_write || (ring_write_addr == f_arrivals_q && ring_write_data == rx_data_i)));
+    the_ring_is_written_in_arrival_order_c: cover (ring_write && ring_write_addr == f_slot && f_arrivals_q != '0);
+    // The byte the parser consumes from a slot (ring_data_q) is, by the RAM's contract, the last
+    // byte received into it: the read was of a written slot, with no write to it in that cycle,
+    // and the RAM holds that byte there (with the backlog bound below, a byte of the current
+    // frame: the parser sees the bytes as they arrived).
+    if (fetched_q && read_q == f_slot && f_slot_received_q) the_parser_reads_the_bytes_received: assert (
+        f_ram_read_slot_q && f_ram_slot_q == f_slot_byte_q);
+    the_parser_reads_the_bytes_received_c: cover (fetched_q && read_q == f_slot && f_slot_received_q && f_pos_q == 8'd3);
+  end
+
   always_ff @(posedge clk_i) begin
     if (f_past_valid && $past(rst_ni)) begin
       if (fetched_q) the_byte_read_is_at_the_read_pointer: assert ($past(fetched_d) && read_q == $past(read_q));

@@ -10,10 +10,10 @@
 // then); slew_limited_o pulses when it saturates. A new segment starts with D = 0: without an
 // answer (underrun, hold) the reference holds. With enabled_i low the reference is the encoder
 // count. With homing_i high a segment's change D is kept for the next segment (a jog: the
-// reference moves D per setpoint period until an answer changes it). Each joint's update also works out its play shift for the next period (issue 15, below)
+// reference moves D per setpoint period until an answer changes it). Each joint's update also works out its play shift for the next period (below)
 // and hands it to the joint controllers (shift_write_o, shift_joint_o, shift_o).
 //
-// Backlash compensation (the deployed model, issue 15): play(d, H) = d - H for d > H, d + H for
+// Backlash compensation (the deployed model): play(d, H) = d - H for d > H, d + H for
 // d < -H, else 0: the segment's target moves only when the answer leaves the play of half-width
 // H_j (half_plays_i, Q.8 counts) around the reference the joint holds, and then trails it by H_j.
 // With H = 25 h / 16 (h: the model's half-play in output LSBs, a whole number of 16) the target

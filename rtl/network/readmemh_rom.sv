@@ -2,8 +2,8 @@
 //
 // The file is MemDir/MemFile (+delta_mem_dir=DIR in simulation; a missing file is fatal, see
 // readmemh_load.svh). The registered read and `ram_style = "block"` put every ROM in iCE40 block
-// RAM: left to its cost model, yosys 0.23 built the small weight and tanh ROMs from 503 LUT4s
-// (issue 12: 5009 -> 4479 logic cells, 11 -> 18 EBRs, network Fmax 48.38 -> 52.25 MHz).
+// RAM: left to its cost model, yosys 0.23 builds the small weight and tanh ROMs from about 500
+// LUT4s, which the device has no room for.
 module readmemh_rom #(
   parameter int unsigned Depth   = 32,
   parameter int unsigned Width   = 16,

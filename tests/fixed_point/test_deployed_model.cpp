@@ -1,4 +1,4 @@
-// Issue 15's acceptance on the paper-like robot, through deltactl: the deployed model that `train`
+// The deployed model's acceptance on the paper-like robot, through deltactl: the deployed model that `train`
 // makes by default from the 13333-sample validation run, held out on the paper's three kinds of
 // trajectory (a sweep of the cube, experiments 1 and 2) through `ik --backend fixed` in row order,
 // against the encoder's noise floor; with the time-ordered parts off (--pose-wise) against the best

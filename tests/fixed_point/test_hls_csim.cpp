@@ -97,7 +97,7 @@ TEST(HlsCsim, EveryRawCodeMatchesGoldenOnStressNetwork) {
   EXPECT_GT(saturated[2], 0u);
 }
 
-// The shipped weights, once issue 3 has committed them.
+// The shipped weights.
 TEST(HlsCsim, EveryRawCodeMatchesGoldenOnShippedWeights) {
   const std::string path = std::string(DELTA_SOURCE_DIR) + "/weights/paper_like.json";
   if (!std::ifstream(path)) GTEST_SKIP() << path << " not present";

@@ -1,4 +1,4 @@
-// deltactl against hostile and careless input (issue 17): one test per defect, then the bad-input
+// deltactl against hostile and careless input: one test per defect, then the bad-input
 // table that runs every command on one shared set of malformed files. Each asserts exit code 2, a
 // one-line message naming the file, line or option, and outputs left exactly as they were.
 #include <gtest/gtest.h>

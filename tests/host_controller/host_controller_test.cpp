@@ -1,5 +1,5 @@
 // `deltactl host` against `deltactl virtual-board` through a pseudo-terminal, the acceptance of
-// issue 13: experiment 1 streamed and followed (joints and plate), the host stopped (SIGSTOP: the
+// experiment 1 streamed and followed (joints and plate), the host stopped (SIGSTOP: the
 // board's watchdog, then exit 4 without re-enabling), 1 % of the bytes corrupted by a tap, an
 // encoder skip (exit 3), the board killed (exit 4 within 100 ms), and bad trajectories refused
 // before any byte is sent (exit 2). The virtual board runs at ~0.1-0.3 x real time: the host is
@@ -154,7 +154,7 @@ TEST(HostRun, ExperimentOneFollowsTheNetworkReferencesAndThePlateTheCosimulation
   std::filesystem::remove_all(bench.dir);
 }
 
-// Issue 15's deployed model (weights/paper_like_deployed.json, what the board ships) through the
+// The deployed model (weights/paper_like_deployed.json, what the board ships) through the
 // same pty against the model board in real time: the host drives it unchanged, the joints follow
 // their (compensated) references as closely, and the plate is within 1.2 x the co-simulation's
 // 14.49 um RMS (README.md; the plain network: 89.9 um). Measured: 15.7 um (the host streams

@@ -1,4 +1,4 @@
-// The host's plan under feed holds (issue 13): a hold slows the plate to rest on the path within
+// The host's plan under feed holds: a hold slows the plate to rest on the path within
 // the checked limits, a resume brings it back to speed and on to the path's end, a run with holds
 // covers the same path as one without, the plan never outgrows the capacity reserved for holds
 // (the streaming thread does not allocate), and a stop during a hold ends the plan where it rests.

@@ -236,7 +236,7 @@ TEST(SetpointInterpolation, TheBoardsPlayEqualsTheGoldenCompensationOfTheAnswers
   EXPECT_EQ(play(-101, 100), -1);
 }
 
-// The play shift (issue 15) against its definition, for every half-play the format can carry
+// The play shift against its definition, for every half-play the format can carry
 // (whole numbers of 16 output LSBs, H = 25 h / 16): s = floor((clamp(d, -H, H) + g) / 256),
 // non-decreasing in d, 0 for H = 0, within 10 bits; and at both ends of the play it does not move
 // while the answer wobbles up to a quarter count inward (63 Q.8), so a steady motion, which sits

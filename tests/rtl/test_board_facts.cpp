@@ -64,7 +64,7 @@ TEST(BoardFacts, DerivedFactsAreConsistent) {
   EXPECT_EQ(kLinkClocksPerBit, std::llround(static_cast<double>(kBoardClockHz) / kLinkBaud));
   EXPECT_LT(std::abs(static_cast<double>(kBoardClockHz) / kLinkClocksPerBit / kLinkBaud - 1.0), 0.015)
       << "UART rate error above 1.5 %";
-  EXPECT_GE(kLinkBaud, 1'000'000) << "issue 12: 1 Mbaud or more";
+  EXPECT_GE(kLinkBaud, 1'000'000) << "the link must run at 1 Mbaud or more";
   EXPECT_EQ(3'000'000 % kLinkBaud, 0) << "the FT2232H makes 3 MHz / n exactly";
   EXPECT_EQ(kControlRateHz, kSetpointRateHz * kPeriodsPerSetpoint);
   EXPECT_EQ(kPwmPeriodCycles, 1LL << kPwmBits);

@@ -112,7 +112,7 @@ TEST(Cosim, PaperLikeRobotFollowsExperimentOneOverTheLink) {
   std::filesystem::remove_all(mem_dir);
 }
 
-// Issue 15: experiment 1 (5.3 s, the README's co-simulation) on the model board, the plain
+// Experiment 1 (5.3 s, the README's co-simulation) on the model board, the plain
 // network against the deployed model (static network + the board's backlash compensation in the
 // interpolator, and the play shift that lets the controller see the motor while the answer
 // crosses the play). Measured: plate 89.9 um RMS plain, 14.5 um deployed (16.0 without the play
@@ -142,7 +142,7 @@ TEST(Cosim, TheDeployedModelPlacesThePlateFiveTimesCloserOnExperimentOne) {
             << plain.board_joint_rms_deg.transpose() << ", deployed " << deployed.board_joint_rms_deg.transpose()
             << " deg\n";
   EXPECT_GT(plain.closed_loop.rms_distance_m, 80e-6);
-  EXPECT_LT(deployed.closed_loop.rms_distance_m, 15e-6);  // issue 15's bound (14.5 measured)
+  EXPECT_LT(deployed.closed_loop.rms_distance_m, 15e-6);  // the deployed model's bound
   EXPECT_LT(deployed.closed_loop.rms_distance_m, plain.closed_loop.rms_distance_m / 5.0);
   for (int j = 0; j < 3; ++j) {
     EXPECT_LT(deployed.board_joint_rms_deg[j], 0.005) << "joint " << j + 1;

@@ -129,7 +129,7 @@ void add_anchors(const EffectSet& effects, const JointResiduals& maps, std::vect
 
 // A recording of a slow path at 10 Hz repeats nearly the same pose from one sample to the next:
 // the deployed network learns from every stride-th recorded sample (about kThinnedSamples of
-// them: 13333 -> every third), which keeps its training under its time budget (issue 15: under 20 s with the
+// them: 13333 -> every third), which keeps its training under its time budget (under 20 s with the
 // identification for 13333 samples) at no measurable cost in held-out accuracy. Anchors stay.
 constexpr std::size_t kThinnedSamples = 4000;
 

@@ -1,4 +1,4 @@
-// The whole trajectory checked before any motion (issue 13): resampled at the streaming rate,
+// The whole trajectory checked before any motion: resampled at the streaming rate,
 // every sample must be reachable, inside the network's trained range and the joints' travel, and
 // the joint motion (finite differences of the inverse kinematics at the rate) within the
 // velocity, acceleration and jerk limits. The first offending sample is named with the source

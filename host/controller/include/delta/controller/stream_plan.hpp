@@ -1,4 +1,4 @@
-// What `deltactl host run` streams, planned and checked whole before any byte is sent (issue 13):
+// What `deltactl host run` streams, planned and checked whole before any byte is sent:
 // the trajectory (a named one of `deltactl simulate`, or FILE.csv of t_s,x_m,y_m,z_m resampled at
 // 1 kHz), entered and left by jerk-limited time scaling (the path's time runs at a rate that rises
 // from 0 to 1 and falls back, so the plate starts and ends at rest on the path), preceded by a
@@ -141,7 +141,7 @@ class StreamPlan {
   std::vector<std::size_t> line_;
 };
 
-// The check of issue 13 on a plan: reachable, inside the trained range, joint travel (the board's
+// The whole-plan check: reachable, inside the trained range, joint travel (the board's
 // -10.24 .. 92.15 deg), velocity, acceleration and jerk. The first offending sample as
 // "SOURCE:LINE: reason (sample k, t = ... s)", or nothing.
 std::optional<std::string> check_plan(const StreamPlan& plan, const std::string& source, const Vec3& trained_min_m,
