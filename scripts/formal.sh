@@ -61,6 +61,9 @@ job() { job_names+=("$1"); job_top[$1]=$2; job_src[$1]=$(echo $3); job_lib[$1]=$
 # the sources); the assertions are always proved on the shipped constants. docs/formal.md argues
 # why a cover reached there shows that the assertion it belongs to is not vacuous.
 cover_config() { job_cover[$1]=$2; }
+# job_depth JOB N: the depth of the bounded fallback for this job's assertions, where 40 clocks
+# see too little (link_rx: a byte every 208 clocks; 450 clocks hold two).
+job_depth() { echo "$2" >"$work/$1.depth"; }
 # job_config JOB YOSYS_COMMANDS: the job's own model (shipped and cover configurations) is read
 # with these (a FORMAL-only define or a chparam), e.g. to pick the environment its properties need.
 job_config() { job_setup[$1]=$2; }
@@ -84,6 +87,7 @@ job board_core board_core "$rtl/network/delta_network_pkg.sv $rtl/board/board_co
 cover_config joint_safety "chparam -set WatchdogPeriods 3 joint_safety"
 cover_config setpoint_buffer "chparam -set Depth 4 setpoint_buffer"
 cover_config link_rx "define FORMAL_LINK_RX_BYTE_GAP 1"
+job_depth link_rx 450
 cover_config uart_rx "chparam -set ClocksPerBit 4 uart_rx"
 cover_config uart_rx_any_line "chparam -set ClocksPerBit 4 uart_rx"
 cover_config board_core "chparam -set ClocksPerPeriod 4 board_core"
@@ -197,12 +201,14 @@ check() {
   elif frame=$(grep -o "asserted in frame [0-9]*" <<<"$log" | grep -o "[0-9]*$"); then
     verdict="cex@$frame"
   else
-    # PDR ran out of time: bounded model checking to bmc_depth frames.
-    log=$(abc_cpu $((timeout * 3)) "read_aiger $aig; bmc3 -F $bmc_depth -T $((timeout * 2))")
+    # PDR ran out of time: bounded model checking to the job's depth (bmc_depth, or job_depth's).
+    local depth=$bmc_depth
+    [ ! -f "$work/${j%.lemmas}.depth" ] || depth=$(cat "$work/${j%.lemmas}.depth")
+    log=$(abc_cpu $((timeout * 3)) "read_aiger $aig; bmc3 -F $depth -T $((timeout * 2))")
     if frame=$(grep -o "asserted in frame [0-9]*" <<<"$log" | grep -o "[0-9]*$"); then
       verdict="cex@$frame"
-    elif grep -q "No output asserted in $bmc_depth frames" <<<"$log"; then
-      verdict="depth@$bmc_depth"
+    elif grep -q "No output asserted in $depth frames" <<<"$log"; then
+      verdict="depth@$depth"
     else
       verdict="depth@$(grep -o "No output asserted in [0-9]* frames" <<<"$log" | grep -o "[0-9]*" | head -1)"
       [ "$verdict" != "depth@" ] || verdict=unknown

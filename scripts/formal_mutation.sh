@@ -2,7 +2,8 @@
 # Mutation score of the formal properties (docs/formal.md): each mutant is a copy of rtl/ with one
 # operator changed in the synthesised logic (never in an `ifdef FORMAL` block) of a checked module;
 # scripts/formal.sh proves that module's job on it. A mutant is killed when a property fails or a
-# cover becomes unreachable; a mutant yosys cannot read is not counted.
+# cover becomes unreachable; a mutant yosys cannot read, or whose only failure is a cover not reached
+# in the time, is not counted.
 #
 #   scripts/formal_mutation.sh [--out DIR] [--per-module N] [--timeout S] [--seed K] [--jobs N] [--module NAME]...
 #
@@ -26,7 +27,7 @@ while [ $# -gt 0 ]; do
     --seed) seed=$2; shift 2 ;;
     --jobs) jobs=$2; shift 2 ;;
     --module) chosen="$chosen $2"; shift 2 ;;
-    -h|--help) sed -n '2,11p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,12p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "formal_mutation.sh: unknown argument '$1' (try --help)" >&2; exit 2 ;;
   esac
 done
@@ -119,6 +120,9 @@ EOF
     invalid=$((invalid + 1)); verdict="not valid SystemVerilog for yosys (not counted)"
   elif [ $rc = 0 ]; then
     survived=$((survived + 1)); verdict="SURVIVED"
+  elif grep -q "FAILED (not reached within" <<<"$result" && ! grep -q "FAILED (\(counterexample\|unreachable\)" <<<"$result"; then
+    # a cover the bounded search did not reach in its time: no verdict (raise --timeout)
+    invalid=$((invalid + 1)); verdict="undecided: a cover not reached within the time (not counted)"
   else
     killed=$((killed + 1))
     verdict="killed by $(grep -m1 -o '^\(assert\|cover\) *[a-z_]* *[A-Za-z_.]*' <<<"$result" | awk '{print $1, $3}')"
@@ -127,5 +131,5 @@ EOF
 done <"$work/mutants"
 total=$((killed + survived))
 [ $total -gt 0 ] || { echo "formal_mutation: no mutants" >&2; exit 1; }
-printf 'formal_mutation: %d of %d mutants killed (%d %%), %d survived, %d not readable\n' \
+printf 'formal_mutation: %d of %d mutants killed (%d %%), %d survived, %d not counted (unreadable or undecided)\n' \
   "$killed" "$total" "$((100 * killed / total))" "$survived" "$invalid" | tee -a "$out/score.txt"
