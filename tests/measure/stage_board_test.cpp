@@ -25,6 +25,7 @@ const char* kOtherRobot = R"({
   "encoder_scale": [-0.001, 0.0, 0.0025],
   "lower_arm_length": [-0.0002, 0.0001, 0.00025],
   "chain_angle": [0.3, -0.2, 0.1],
+  "transmission_error": {"amplitude_deg": [0.03, 0.0, 0.02], "period_deg": [4.0, 10.0, 12.0], "phase_rad": [0.5, 0.0, 2.0]},
   "frame_misalignment": {"rx": -0.15, "ry": 0.3, "rz": 4.2, "tx": -0.0002, "ty": 0.0004, "tz": -0.0001}
 })";
 
@@ -81,31 +82,30 @@ Vec3 merged_error_rms(const std::string& data, const std::string& truth, std::si
   return (sum / static_cast<double>(std::max<std::size_t>(*rows, 1))).cwiseSqrt();
 }
 
-// Disabled: on its short drag `merge` does not converge ("the clock alignment does not converge",
-// exit 2); the merge's fit of the backlash's play is not yet good enough on every drag (docs/lab_loop.md).
-TEST(StageDrag, DISABLED_HostRecordAndMergeGiveThePlateWithinAMicrometreOfTheTruth) {
+// The acceptance's drag: 600 s of the validation trajectory or a sweep (drawn), the stage 0-60 s
+// ahead, +-200 ppm, 100-1000 Hz; the merged plate within 1 um RMS per axis of the truth at each
+// board time. The rate needs a drag that comes back to the same joint angles at other times: on a
+// 2 minute one `merge` may miss by a micrometre (docs/lab_loop.md). About 40 s on 2 cores.
+TEST(StageDrag, HostRecordAndMergeGiveThePlateWithinAMicrometreOfTheTruth) {
   const std::uint64_t seed = std::random_device{}();
   std::cout << "seed " << seed << '\n';
   std::mt19937_64 draw(seed);
   const double offset = std::uniform_real_distribution<double>(0.0, 60.0)(draw);
   const double ppm = std::uniform_real_distribution<double>(-200.0, 200.0)(draw);
   const double rate = std::uniform_real_distribution<double>(100.0, 1000.0)(draw);
+  const std::string trajectory = draw() % 2 == 0 ? "sweep" : "validation";
   const std::string dir = folder();
-  const Drag d = record_drag(dir, "sweep", 60.0, offset, ppm, rate, draw() % 100000);
+  const Drag d = record_drag(dir, trajectory, 600.0, offset, ppm, rate, draw() % 100000);
   const CommandResult merge = run_deltactl("merge --run " + d.run + " --stage " + d.stage + " --out " + dir +
                                            "data.csv --report " + dir + "merge.json");
   std::cout << merge.out << merge.err;
   ASSERT_EQ(merge.exit_code, 0);
   std::size_t rows = 0;
   const Vec3 rms = merged_error_rms(dir + "data.csv", d.truth, &rows);
-  std::cout << "clock " << offset << " s, " << ppm << " ppm, " << rate << " Hz: " << rows
+  std::cout << trajectory << ", clock " << offset << " s, " << ppm << " ppm, " << rate << " Hz: " << rows
             << " merged rows, error RMS x/y/z " << rms.transpose() * 1e6 << " um\n";
-  EXPECT_GT(rows, 45000u);
-  // A 60 s drag of the slow sweep is too short to fix the rate against the nuisance part of the
-  // alignment (a 139 s drag of this machine's board: 3-7 um RMS); the acceptance's 600 s and longer
-  // drags are checked on logs made in process (Merge.AStageOnItsOwnClock...). Here: the path end to
-  // end, and no gross error.
-  EXPECT_LT(rms.maxCoeff(), 100e-6);
+  EXPECT_GT(rows, 590000u);
+  EXPECT_LT(rms.maxCoeff(), 1e-6);
   const std::string report = read_text(dir + "merge.json");
   EXPECT_NE(report.find("offset_sd_s"), std::string::npos);
 
@@ -128,6 +128,8 @@ TEST(StageDrag, DISABLED_HostRecordAndMergeGiveThePlateWithinAMicrometreOfTheTru
     EXPECT_EQ(std::count(bad.err.begin(), bad.err.end(), '\n'), 1) << name;
     EXPECT_FALSE(file_exists(dir + name + "_data.csv")) << name;
   }
+  // Some 250 MB of logs: kept only when something failed.
+  if (!::testing::Test::HasFailure()) std::system(("rm -rf " + dir).c_str());
 }
 
 }  // namespace

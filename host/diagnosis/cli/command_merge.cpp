@@ -17,6 +17,10 @@
 namespace delta {
 namespace {
 
+// Below this fraction of the offset's or the rate's signal left by the nuisance (10 minute drags:
+// about 0.1 and 0.5; 2 minute ones below 0.01), the summary says the clocks are poorly fixed.
+constexpr double kSignalLeast = 0.01;
+
 struct MergeOptions {
   std::string run, stage, out, report;
 };
@@ -86,6 +90,8 @@ void run_merge(const MergeOptions& options) {
                               {"offset_sd_s", m.offset_sd_s},
                               {"rate_ppm", m.rate_ppm},
                               {"rate_sd_ppm", m.rate_sd_ppm},
+                              {"offset_signal_left", m.offset_signal_left},
+                              {"rate_signal_left", m.rate_signal_left},
                               {"residual_rms_m", m.residual_rms_m},
                               {"motion_rms_m", m.motion_rms_m},
                               {"correlation", m.correlation},
@@ -107,6 +113,13 @@ void run_merge(const MergeOptions& options) {
             << fixed(m.rate_ppm, 3) << " ppm) t_board; uncertainty " << fixed(m.offset_sd_s * 1e6, 1) << " us, "
             << fixed(m.rate_sd_ppm, 3) << " ppm; residual " << fixed(m.residual_rms_m * 1e6, 2) << " um RMS -> "
             << options.out << '\n';
+  if (m.offset_signal_left < kSignalLeast || m.rate_signal_left < kSignalLeast) {
+    std::cout << "merge: the logs fix the clocks poorly (the robot's unknown effects absorb "
+              << fixed(100.0 * (1.0 - m.offset_signal_left), 1) << " % of the offset's signal and "
+              << fixed(100.0 * (1.0 - m.rate_signal_left), 1)
+              << " % of the rate's; the uncertainties are larger than stated): drag longer, 5 minutes or more of "
+                 "the validation run or a sweep\n";
+  }
 }
 
 const RegisterCommand command("merge", 61, [](CLI::App& root) {
@@ -117,15 +130,21 @@ const RegisterCommand command("merge", 61, [](CLI::App& root) {
       "\nRUN.csv: a 'deltactl host record' or 'host run' recording (t_s board time, alpha*_deg encoders).\n"
       "STAGE.csv: the stage controller's log (t_s on its own clock, x_m,y_m,z_m). No shared clock: the\n"
       "stage's clock is found as t_stage = offset + (1 + rate 1e-6) t_board from the data alone, by\n"
-      "matching the plate the stage saw with the plate the encoders imply (nominal forward kinematics;\n"
-      "a cubic polynomial of the plate, the joints' play and a spline of each reading absorbing the\n"
-      "robot's unknown effects): a cross-correlation over every offset, then a least-squares fit of\n"
-      "offset and rate on the rows (at most 40000) where no joint sits inside its play.\n"
+      "matching the plate the stage saw with the plate the encoders imply (nominal forward kinematics\n"
+      "of the readings interpolated between their counts; an affine map, a cubic polynomial of the\n"
+      "plate, the joints' play and a spline of each reading absorbing the robot's unknown effects): a\n"
+      "cross-correlation over every offset, then a least-squares fit of offset and rate on the rows (at\n"
+      "most 20000) where no joint sits inside its play, outliers dropped. The rate needs a drag that\n"
+      "comes back to the same joint angles at other times (5 minutes or more of the validation run or\n"
+      "a sweep); on a shorter one (or a single ellipse, such as experiment1) the summary says the\n"
+      "clocks are poorly fixed.\n"
       "DATA.csv: a SPEC recording (t_s,alpha1..3_deg,x_m,y_m,z_m, plus drives_enabled and the run's\n"
       "references when present) with the run's rows the stage covers, the stage interpolated (cubic) at\n"
       "the aligned instants; compare, diagnose, train and table1 take it. MERGE.json: offset_s,\n"
       "rate_ppm, their standard uncertainties (offset_sd_s, rate_sd_ppm; residuals correlated over 2 s\n"
-      "blocks), the residual (residual_rms_m) and the overlap.\n"
+      "blocks), offset_signal_left and rate_signal_left (the fractions of their signal the robot's\n"
+      "effects leave: about 0.1 and 0.5 on a 10 minute drag; below 0.01 the clocks are poorly fixed),\n"
+      "the residual (residual_rms_m) and the overlap.\n"
       "Refused (exit 2, one line, no output): a file that is not such a log, a plate at rest, logs\n"
       "that overlap by less than half the shorter one or 10 s, logs that do not belong together.\n"
       "Example: deltactl merge --run run.csv --stage stage.csv --out data.csv --report merge.json");
