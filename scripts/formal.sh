@@ -62,7 +62,8 @@ job() { job_names+=("$1"); job_top[$1]=$2; job_src[$1]=$(echo $3); job_lib[$1]=$
 # why a cover reached there shows that the assertion it belongs to is not vacuous.
 cover_config() { job_cover[$1]=$2; }
 # job_depth JOB N: the depth of the bounded fallback for this job's assertions, where 40 clocks
-# see too little (link_rx: a byte every 208 clocks; 450 clocks hold two).
+# see too little (link_rx: a byte every 208 clocks; 450 clocks hold two). Kept in a file, not an
+# array like the others: check() reads it in the xargs workers, which inherit no arrays.
 job_depth() { echo "$2" >"$work/$1.depth"; }
 # job_config JOB YOSYS_COMMANDS: the job's own model (shipped and cover configurations) is read
 # with these (a FORMAL-only define or a chparam), e.g. to pick the environment its properties need.
