@@ -2,6 +2,9 @@
 #include "alternatives.hpp"
 
 #include <algorithm>
+#include <cmath>
+
+#include <Eigen/Eigenvalues>
 
 #include "identifiability.hpp"
 #include "initial_guess.hpp"
@@ -18,10 +21,115 @@ std::string separation(const PipelineData& data, FamilySet chosen, const Paramet
   for (int k : parameter_indices(alternative.families & ~chosen)) theta[k] = alternative.theta[k];
   for (int j = 0; j < 3; ++j) theta[slot::backlash + j] = std::max(theta[slot::backlash + j], 0.01);
   const Identifiability identifiability = analyse_identifiability(data.thinned_fit, both, theta);
+  // An exact gauge (frame yaw against a common chain rotation) is in both sets' reach whenever the
+  // frame is: the advice of the weakest direction that is not one, if any.
+  for (const WeakDirection& weak : identifiability.weak) {
+    if (weak.singular_value > 1e-6) return weak.advice;
+  }
   if (!identifiability.weak.empty()) return identifiability.weak.front().advice;
   std::vector<std::pair<int, double>> components;
   for (int k : parameter_indices(both & ~(chosen & alternative.families))) components.push_back({k, 1.0});
   return advice_for(components);
+}
+
+// A realistic upper magnitude of each parameter in the internal unit (the blind suite's largest
+// draws: 1 deg of joint zero, 0.5 mm of length or radius, 0.5 deg of chain angle or frame
+// rotation, 0.5 mm of frame shift, 0.3 deg of play, 1 % of encoder scale); 0 for the
+// transmission error, whose ripple is no single direction.
+double realistic_magnitude(int k) {
+  switch (parameter_table()[k].family) {
+    case Family::joint_offset:
+      return 1.0;
+    case Family::upper_arm_length:
+    case Family::lower_arm_length:
+    case Family::radius_offset:
+      return 0.5;
+    case Family::chain_angle:
+      return 0.5;
+    case Family::frame_misalignment:
+      return 0.5;
+    case Family::backlash:
+      return 0.3;
+    case Family::encoder_scale:
+      return 0.01;
+    default:
+      return 0.0;
+  }
+}
+
+// The families outside the chosen set that the chosen set absorbs on these rows: whatever
+// realistic size of such a family's parameters (their vector at most the realistic magnitudes
+// in norm), what of its signal the chosen families cannot imitate carries less held-out mean
+// square than the stopping rule's threshold. To first order at the chosen parameters: the Schur
+// complement of the chosen columns in J^T J, scaled by the magnitudes, its largest eigenvalue
+// over the rows' 3 N residuals. Such a family could be on the robot unseen: the chosen set with it
+// is as good an explanation, and the data cannot say whether it is there.
+std::vector<Family> absorbed_families(const PipelineData& data, FamilySet chosen, const Parameters& chosen_theta) {
+  std::vector<Family> absorbed;
+  if (data.thinned_fit.empty()) return absorbed;
+  FamilySet candidates;
+  for (int f = 0; f < kFamilyCount; ++f) {
+    if (!chosen[f] && family_at(f) != Family::transmission_error) candidates.set(f);
+  }
+  if (candidates.none()) return absorbed;
+  Parameters probe = chosen_theta;
+  // Backlash of exactly zero hides its column's sign; a tiny width makes the direction visible.
+  for (int j = 0; j < 3; ++j) probe[slot::backlash + j] = std::max(probe[slot::backlash + j], 0.01);
+  const NormalEquations equations = evaluate(probe, chosen | candidates, data.thinned_fit, true);
+  if (!equations.ok) return absorbed;
+  std::vector<int> kept;
+  for (int k : parameter_indices(chosen)) {
+    if (equations.jtj(k, k) > 1e-300) kept.push_back(k);
+  }
+  const int c = static_cast<int>(kept.size());
+  Eigen::MatrixXd chosen_block(c, c);
+  for (int a = 0; a < c; ++a) {
+    for (int b = 0; b < c; ++b) chosen_block(a, b) = equations.jtj(kept[a], kept[b]);
+  }
+  // Column scaling, then a pseudo-inverse (gauges such as frame yaw against a common chain
+  // rotation are exact).
+  Eigen::VectorXd scale(c);
+  for (int a = 0; a < c; ++a) scale[a] = 1.0 / std::sqrt(chosen_block(a, a));
+  const Eigen::MatrixXd normalised = scale.asDiagonal() * chosen_block * scale.asDiagonal();
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(normalised);
+  Eigen::MatrixXd inverse = Eigen::MatrixXd::Zero(c, c);
+  for (int a = 0; a < c; ++a) {
+    if (eigen.eigenvalues()[a] > 1e-10 * eigen.eigenvalues().maxCoeff()) {
+      inverse += eigen.eigenvectors().col(a) * eigen.eigenvectors().col(a).transpose() / eigen.eigenvalues()[a];
+    }
+  }
+  inverse = scale.asDiagonal() * inverse * scale.asDiagonal();
+  const double residuals = 3.0 * static_cast<double>(data.thinned_fit.size());
+  for (int f = 0; f < kFamilyCount; ++f) {
+    if (!candidates[f]) continue;
+    const std::vector<int> own = parameter_indices(single(family_at(f)));
+    const int n = static_cast<int>(own.size());
+    Eigen::MatrixXd own_block(n, n), cross(c, n);
+    for (int a = 0; a < n; ++a) {
+      for (int b = 0; b < n; ++b) own_block(a, b) = equations.jtj(own[a], own[b]);
+      for (int b = 0; b < c; ++b) cross(b, a) = equations.jtj(kept[b], own[a]);
+    }
+    Eigen::MatrixXd left = own_block - cross.transpose() * inverse * cross;
+    Eigen::VectorXd magnitude(n);
+    for (int a = 0; a < n; ++a) magnitude[a] = realistic_magnitude(own[a]);
+    left = magnitude.asDiagonal() * left * magnitude.asDiagonal();
+    const double largest = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(left).eigenvalues().maxCoeff();
+    if (largest / residuals < data.threshold_deg2) absorbed.push_back(family_at(f));
+  }
+  return absorbed;
+}
+
+// A fitted candidate as an alternative to the chosen set (whose held-out MSE is chosen_mse).
+Alternative alternative_of(FamilySet families, const Candidate& candidate, const PairedDifference& difference,
+                           double chosen_mse, bool at_floor) {
+  Alternative alternative;
+  alternative.families = families;
+  alternative.theta = candidate.fit.theta;
+  alternative.holdout_rmse_deg = candidate.holdout_rmse;
+  alternative.mse_difference_deg2 = mean_square(candidate.holdout_rmse) - chosen_mse;
+  alternative.paired_z = difference.z;
+  alternative.at_floor = at_floor;
+  return alternative;
 }
 
 }  // namespace
@@ -71,18 +179,43 @@ std::vector<Alternative> find_alternatives(const PipelineData& data, FamilySet c
     if (!close) continue;
     const FloorTest test = floor_test(data.check, results[r].check_prediction, noise, data.options);
     if (chosen_at_floor && !test.at_floor) continue;
-    Alternative alternative;
-    alternative.families = sets[r];
-    alternative.theta = results[r].fit.theta;
-    alternative.holdout_rmse_deg = results[r].holdout_rmse;
-    alternative.mse_difference_deg2 = mean_square(results[r].holdout_rmse) - chosen_mse;
-    alternative.paired_z = difference.z;
-    alternative.at_floor = test.at_floor;
-    alternatives.push_back(alternative);
+    alternatives.push_back(alternative_of(sets[r], results[r], difference, chosen_mse, test.at_floor));
   }
   std::sort(alternatives.begin(), alternatives.end(),
             [](const Alternative& a, const Alternative& b) { return a.mse_difference_deg2 < b.mse_difference_deg2; });
   if (alternatives.size() > 5) alternatives.resize(5);
+
+  // The chosen set with a family it absorbs: listed (after the swaps, at most three) when CHECK
+  // cannot tell it from the chosen set either way; it never replaces the chosen set (its gain on
+  // CHECK is within the threshold or not significant).
+  std::vector<FamilySet> supersets;
+  std::vector<Job> superset_jobs;
+  for (Family family : absorbed_families(data, chosen_families, chosen_theta)) {
+    const FamilySet families = chosen_families | single(family);
+    supersets.push_back(families);
+    superset_jobs.push_back([&data, families, &chosen_theta] { return fit_and_check(data, families, chosen_theta); });
+  }
+  const std::vector<Candidate> superset_results = run_parallel(superset_jobs, data.options.threads);
+  std::vector<Alternative> absorbed;
+  for (std::size_t r = 0; r < superset_results.size(); ++r) {
+    if (!superset_results[r].ok) continue;
+    const PairedDifference difference =
+        paired_difference(data.check, superset_results[r].check_prediction, chosen, data.options.batch_rows);
+    // As the swaps: not worse than the chosen set by more than the threshold or not significantly;
+    // nor better by more than the threshold and significantly (the selection would have added it).
+    const bool close =
+        difference.z >= -data.options.paired_z &&
+        (std::abs(difference.mean_deg2) <= data.threshold_deg2 || std::abs(difference.z) <= data.options.paired_z);
+    if (!close) continue;
+    const FloorTest test = floor_test(data.check, superset_results[r].check_prediction, noise, data.options);
+    if (test.at_floor != chosen_at_floor) continue;
+    absorbed.push_back(alternative_of(supersets[r], superset_results[r], difference, chosen_mse, test.at_floor));
+  }
+  std::sort(absorbed.begin(), absorbed.end(), [](const Alternative& a, const Alternative& b) {
+    return std::abs(a.mse_difference_deg2) < std::abs(b.mse_difference_deg2);
+  });
+  if (absorbed.size() > 3) absorbed.resize(3);
+  alternatives.insert(alternatives.end(), absorbed.begin(), absorbed.end());
   for (Alternative& alternative : alternatives) {
     alternative.separate_by = separation(data, chosen_families, chosen_theta, alternative);
   }

@@ -38,9 +38,11 @@ void forward_selection(const PipelineData& data, Selection& selection) {
     step.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - round_started).count();
     int best = -1;
     selection.last_round.clear();
+    const bool first = selection.families.none();
     for (std::size_t c = 0; c < candidates.size(); ++c) {
       if (!results[c].ok) continue;
       selection.last_round.push_back({candidates[c], results[c]});
+      if (first) selection.first_round.push_back({candidates[c], results[c]});
       step.candidate_mse.push_back({candidates[c], mean_square(results[c].holdout_rmse)});
       if (best < 0 || mean_square(results[c].holdout_rmse) < mean_square(results[best].holdout_rmse)) {
         best = static_cast<int>(c);
@@ -183,6 +185,46 @@ void swap_search(const PipelineData& data, Selection& selection) {
   }
 }
 
+// Forward selection can stop far above the floor after a first pick that takes a share of several
+// effects and leaves none of them a significant gain alone (radius offsets picked before a 5 deg
+// frame and joint offsets: 25 floors, no single family helps). Then the selection is run again
+// from each of the next two first picks, and the path that ends lowest on CHECK (by more than the
+// threshold) is kept.
+void restart_from_runners_up(const PipelineData& data, Selection& selection) {
+  if (near_floor(selection.model, data.options) || selection.order.empty()) return;
+  std::vector<std::pair<Family, Candidate>> first = selection.first_round;
+  std::sort(first.begin(), first.end(), [](const auto& a, const auto& b) {
+    return mean_square(a.second.holdout_rmse) < mean_square(b.second.holdout_rmse);
+  });
+  const Family first_pick = selection.order.front();
+  int tried = 0;
+  for (const auto& [family, candidate] : first) {
+    if (family == first_pick) continue;
+    if (tried++ == 2) break;
+    Selection other;
+    other.families = single(family);
+    other.order = {family};
+    other.model = candidate;
+    other.theta = candidate.fit.theta;
+    other.forward_path = {candidate};
+    other.first_round = selection.first_round;
+    other.steps = {selection.steps.front()};
+    other.steps.front().chosen = index_of(family);
+    other.steps.front().note = "restarted from this first pick (the first path stopped far above the floor)";
+    forward_selection(data, other);
+    if (mean_square(other.model.holdout_rmse) + data.threshold_deg2 < mean_square(selection.model.holdout_rmse)) {
+      for (Family dropped : selection.order) {
+        if (!other.families[index_of(dropped)]) {
+          other.eliminated.push_back(std::string(family_name(dropped)) +
+                                     " (a first path that stopped far above the floor)");
+        }
+      }
+      other.path_changed = true;
+      selection = std::move(other);
+    }
+  }
+}
+
 }  // namespace
 
 Selection select_families(const PipelineData& data, const Candidate& nominal) {
@@ -190,6 +232,7 @@ Selection select_families(const PipelineData& data, const Candidate& nominal) {
   selection.theta = neutral_parameters();
   selection.model = nominal;
   forward_selection(data, selection);
+  restart_from_runners_up(data, selection);
   restart_ripple(data, selection);
   backward_elimination(data, selection);
   swap_search(data, selection);

@@ -11,12 +11,13 @@ namespace delta::diagnosis {
 
 struct Selection {
   FamilySet families;
-  std::vector<Family> order;                             // kept families in the order they were added
-  Parameters theta;                                      // fitted on the (thinned) FIT rows
-  Candidate model;                                       // the kept model and its held-out prediction
-  std::vector<Candidate> forward_path;                   // the model after each kept family
-  std::vector<std::pair<Family, Candidate>> last_round;  // the round that stopped
-  bool path_changed = false;                             // the ripple restart changed the forward path's end
+  std::vector<Family> order;                              // kept families in the order they were added
+  Parameters theta;                                       // fitted on the (thinned) FIT rows
+  Candidate model;                                        // the kept model and its held-out prediction
+  std::vector<Candidate> forward_path;                    // the model after each kept family
+  std::vector<std::pair<Family, Candidate>> last_round;   // the round that stopped
+  std::vector<std::pair<Family, Candidate>> first_round;  // every family alone (from the nominal model)
+  bool path_changed = false;                              // the ripple restart changed the forward path's end
   std::vector<SelectionStep> steps;
   std::vector<std::string> eliminated;
 };
