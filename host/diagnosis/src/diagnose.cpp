@@ -5,6 +5,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
+
+#include "delta/kinematics.hpp"
 
 #include "alternatives.hpp"
 #include "attribution.hpp"
@@ -18,14 +21,59 @@
 namespace delta::diagnosis {
 namespace {
 
-// Every k-th row, k the smallest that leaves at most `rows` (the first row kept).
+// A joint's turn between two kept rows that a play can hold: the angle goes beyond both ends by
+// more than this (a tenth of an encoder count; a stage's noise moves the angle by 1e-5 deg).
+constexpr double kTurnDeg = 0.001;
+
+// Every k-th row, plus, between two kept rows, the rows where a joint's angle (nominal inverse
+// kinematics of the plate) turns beyond both of them by more than kTurnDeg: a play's state
+// follows the input's extremes, and a closed-loop run's plate turns back and forth inside the play
+// every few milliseconds (the controller's dither), far more often than every k-th row sees. A
+// drag moves one way between kept rows and adds nothing. k is the smallest that leaves at most
+// `rows` rows with the turns (the first row kept).
 std::vector<Sample> thin_to(std::vector<Sample> samples, std::size_t rows) {
   if (rows == 0 || samples.size() <= rows) return samples;
-  const std::size_t stride = (samples.size() + rows - 1) / rows;
-  std::vector<Sample> kept;
-  kept.reserve(rows);
-  for (std::size_t i = 0; i < samples.size(); i += stride) kept.push_back(samples[i]);
-  return kept;
+  const std::size_t n = samples.size();
+  const Geometry nominal = Geometry::nominal();
+  std::vector<Vec3> angle(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const IkSolution ik = inverse_kinematics(nominal, samples[i].position_m);
+    angle[i] = ik.ok() ? ik.alpha_deg : Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
+  }
+  auto thin = [&](std::size_t stride) {
+    std::vector<std::size_t> kept = {0};
+    for (std::size_t end = stride; end < n + stride; end += stride) {
+      const std::size_t last = std::min(end, n - 1), begin = kept.back();
+      if (last <= begin) break;
+      std::vector<std::size_t> turns;
+      for (int j = 0; j < 3; ++j) {
+        const double a = angle[begin][j], b = angle[last][j];
+        if (!std::isfinite(a) || !std::isfinite(b)) continue;
+        std::size_t high = begin, low = begin;
+        for (std::size_t i = begin + 1; i < last; ++i) {
+          if (angle[i][j] > angle[high][j]) high = i;
+          if (angle[i][j] < angle[low][j]) low = i;
+        }
+        if (angle[high][j] > std::max(a, b) + kTurnDeg) turns.push_back(high);
+        if (angle[low][j] < std::min(a, b) - kTurnDeg) turns.push_back(low);
+      }
+      std::sort(turns.begin(), turns.end());
+      turns.erase(std::unique(turns.begin(), turns.end()), turns.end());
+      kept.insert(kept.end(), turns.begin(), turns.end());
+      if (end < n) kept.push_back(last);
+    }
+    return kept;
+  };
+  std::size_t stride = (n + rows - 1) / rows;
+  std::vector<std::size_t> kept = thin(stride);
+  while (kept.size() > rows) {
+    stride = stride * kept.size() / rows + 1;
+    kept = thin(stride);
+  }
+  std::vector<Sample> result;
+  result.reserve(kept.size());
+  for (std::size_t i : kept) result.push_back(samples[i]);
+  return result;
 }
 
 // The nominal model scored on the kept CHECK rows, as a candidate the selection starts from.

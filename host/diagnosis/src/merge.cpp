@@ -85,11 +85,12 @@ Binned bin_run(const std::vector<double>& t, const std::vector<Vec3>& alpha_deg,
   b.mean.assign(size, Vec3::Zero());
   b.count.assign(size, 0);
   std::vector<Vec3> alpha(size, Vec3::Zero()), d(size, Vec3::Zero());
-  std::vector<char> spoilt(size, 0);
+  std::vector<std::size_t> spoilt(size, 0), rows(size, 0);
   for (std::size_t i = 0; i < t.size(); ++i) {
     const auto k = static_cast<std::size_t>(static_cast<std::int64_t>(std::floor(t[i] / dt)) - b.first);
+    ++rows[k];
     if (play_band[i] || !std::isfinite(p[i][0])) {
-      spoilt[k] = 1;
+      ++spoilt[k];
       continue;
     }
     b.mean[k] += p[i];
@@ -97,9 +98,19 @@ Binned bin_run(const std::vector<double>& t, const std::vector<Vec3>& alpha_deg,
     d[k] += Vec3(direction[i][0], direction[i][1], direction[i][2]);
     ++b.count[k];
   }
+  // A bin with any row inside a play is left out, unless that leaves fewer than half the bins: a
+  // closed-loop run's controller dithers the readings by a count, and the reversals of the dither
+  // mark rows all along the run; then a bin counts when at least half its rows are clear (their
+  // mean).
+  std::size_t occupied = 0, clean = 0;
+  for (std::size_t k = 0; k < size; ++k) {
+    occupied += rows[k] > 0 ? 1 : 0;
+    clean += rows[k] > 0 && spoilt[k] == 0 ? 1 : 0;
+  }
+  const bool lenient = 2 * clean < occupied;
   b.play.assign(size, {Vec3::Zero(), Vec3::Zero(), Vec3::Zero()});
   for (std::size_t k = 0; k < size; ++k) {
-    if (spoilt[k]) b.count[k] = 0;
+    if (lenient ? 2 * spoilt[k] > rows[k] : spoilt[k] > 0) b.count[k] = 0;
     if (b.count[k] == 0) continue;
     b.mean[k] /= b.count[k];
     alpha[k] /= b.count[k];
