@@ -216,6 +216,7 @@ bool count_encoders(Registers& s, int encoder_a, int encoder_b) {
       skipped = true;
     } else {
       s.count[j] = static_cast<std::uint16_t>(s.count[j] + move);
+      if (move != 0) s.rising[j] = move > 0;
     }
     s.previous[j] = ab;
   }
@@ -278,10 +279,19 @@ std::int32_t segment_delta(std::int32_t answer, std::int32_t r, std::int32_t hal
       *saturated ? (diff < 0 ? golden::interpolation::kDeltaMin : golden::interpolation::kDeltaMax) : diff);
 }
 
-// Step 7: the play's shift of the reference r toward its answer (reference_interpolator.sv).
-std::int16_t reference_shift(std::int32_t answer, std::int32_t r, std::int32_t half_play) {
-  return golden::interpolation::play_shift(std::int64_t{golden::interpolation::reference_counts(answer)} - r,
-                                           half_play);
+// Step 7: the play's shift of the reference r toward its answer once one has come since the
+// enable, else the resting shift on the side joint j's count last stepped to (reference_interpolator.sv).
+// Bit j: joint j's count last stepped up (the telemetry's play sides).
+template <typename Registers>
+int rising_bits(const Registers& s) {
+  return (s.rising[0] ? 1 : 0) | (s.rising[1] ? 2 : 0) | (s.rising[2] ? 4 : 0);
+}
+
+template <typename Registers>
+std::int16_t reference_shift(const Registers& s, int j, std::int32_t half_play) {
+  if (!s.answered) return golden::interpolation::resting_shift(s.rising[j], half_play);
+  return golden::interpolation::play_shift(
+      std::int64_t{golden::interpolation::reference_counts(s.net_outputs[j])} - s.r[j], half_play);
 }
 
 // Step 7: the reference's change over the period from weight K_phase to K_phase+1 of D.
@@ -339,6 +349,7 @@ struct ModelBoard::State {
   // network (its answer, held) and the interpolator
   std::array<std::int32_t, 3> net_outputs{};
   bool answer_pending = false;
+  bool answered = false;  // an answer came since the drives came on (the interpolator's answered_q)
   bool busy = false;
   int step = 0, joint = 0;
   std::array<std::int32_t, 3> r{}, d{};
@@ -351,6 +362,7 @@ struct ModelBoard::State {
   std::array<int, 3> previous{};
   int switch_previous = 0;  // the home switches' previous synchronised state
   std::array<std::uint16_t, 3> count{};
+  std::array<bool, 3> rising{true, true, true};  // the count last stepped up (quadrature_counter's rising_q)
   std::array<bool, 3> step_error{};
   // joint_axes
   bool start_q = false;
@@ -450,6 +462,7 @@ bool ModelBoard::quiet() const {
   if (switch_edge(s) != 0) return false;
   const bool fault = s.fault_cause != 0;
   if (fault && (s.enabled || s.holding)) return false;
+  if (s.answered && (!s.enabled || fault)) return false;  // the interpolator forgets the answer
   if (!s.enabled && s.silent_periods != 0) return false;
   if (s.enabled && s.silent_periods > board::kWatchdogPeriods) return false;
   if (s.running) {
@@ -499,6 +512,7 @@ bool ModelBoard::quiet() const {
   X(starting)                          \
   X(net_outputs)                       \
   X(answer_pending)                    \
+  X(answered)                          \
   X(busy)                              \
   X(step)                              \
   X(joint)                             \
@@ -513,6 +527,7 @@ bool ModelBoard::quiet() const {
   X(enc_b)                             \
   X(previous)                          \
   X(count)                             \
+  X(rising)                            \
   X(step_error)                        \
   X(start_q)                           \
   X(counts_q)                          \
@@ -752,8 +767,8 @@ bool ModelBoard::micro_clock(int encoder_a, int encoder_b, std::uint64_t lines_h
   Memories& m = *memories_;
   const bool fault = s.fault_cause != 0;
   if (s.step_error[0] || s.step_error[1] || s.step_error[2] || s.slew_limited || s.check || switch_edge(s) != 0 ||
-      (fault && (s.enabled || s.holding)) || (!s.enabled && s.silent_periods != 0) ||
-      (s.enabled && s.silent_periods > board::kWatchdogPeriods) ||
+      (fault && (s.enabled || s.holding)) || (s.answered && (!s.enabled || fault)) ||
+      (!s.enabled && s.silent_periods != 0) || (s.enabled && s.silent_periods > board::kWatchdogPeriods) ||
       (s.tx_state == 0 && (s.telemetry_pending || s.identify_pending))) {
     return false;
   }
@@ -826,7 +841,7 @@ bool ModelBoard::micro_clock(int encoder_a, int encoder_b, std::uint64_t lines_h
             ? static_cast<std::int32_t>(static_cast<std::uint32_t>(s.r[j]) + static_cast<std::uint32_t>(step))
             : static_cast<std::int32_t>(static_cast<std::int16_t>(s.count[j])) * 256;
     d = (!interpolator_enabled || (k_next == 10 && !s.homing)) ? 0 : s.delta;
-    shift = interpolator_enabled ? reference_shift(s.net_outputs[j], s.r[j], half_plays_[j]) : std::int16_t{0};
+    shift = reference_shift(s, j, half_plays_[j]);
   }
 
   // ---- joint controller ----
@@ -919,7 +934,7 @@ bool ModelBoard::micro_clock(int encoder_a, int encoder_b, std::uint64_t lines_h
       s.delta = segment_delta(s.net_outputs[j], s.r[j], half_plays_[j], take, s.d[j], &saturated);
       if (take && saturated) s.slew_limits = saturating_increment(s.slew_limits);
       const std::int64_t step = reference_step(s.delta, s.phase);
-      s.shift[j] = reference_shift(s.net_outputs[j], s.r[j], half_plays_[j]);
+      s.shift[j] = reference_shift(s, j, half_plays_[j]);
       s.r[j] = static_cast<std::int32_t>(static_cast<std::uint32_t>(s.r[j]) + static_cast<std::uint32_t>(step));
       s.d[j] = (s.phase == 9 && !s.homing) ? 0 : s.delta;
     }
@@ -1010,7 +1025,8 @@ std::uint16_t ModelBoard::telemetry_word_of(const State& s) {
   else if (w == board::kTelemetryTickOffset / 2 + 1)
     return s.period_count >> 16;
   else if (w == board::kTelemetryFaultOffset / 2)
-    return static_cast<std::uint16_t>((flags << 8) | s.fault_cause);
+    return static_cast<std::uint16_t>((flags << 8) | (rising_bits(s) << board::kTelemetryPlaySideShift) |
+                                      s.fault_cause);
   else if (w == board::kTelemetryFillOffset / 2)
     return static_cast<std::uint16_t>(s.fill);
   else if (w == board::kTelemetryBadFramesOffset / 2)
@@ -1204,6 +1220,8 @@ void ModelBoard::clock(int encoder_a, int encoder_b) {
 
   // ---- reference interpolator ----
   const bool interpolator_enabled = s.enabled && !fault;
+  // An answer since the enable: the network's answer to a pop arrives before the next update reads it.
+  n.answered = interpolator_enabled && (s.answered || pop);
   n.slew_limited = false;
   const bool take_answer = s.answer_pending && s.phase == 0;
   const int k_next = s.phase == 9 ? 10 : s.phase + 1;
@@ -1225,7 +1243,7 @@ void ModelBoard::clock(int encoder_a, int encoder_b) {
                    ? static_cast<std::int32_t>(static_cast<std::uint32_t>(s.r[j]) + static_cast<std::uint32_t>(step))
                    : static_cast<std::int32_t>(static_cast<std::int16_t>(s.count[j])) * 256;
       n.d[j] = (!interpolator_enabled || (k_next == 10 && !s.homing)) ? 0 : s.delta;
-      n.shift[j] = interpolator_enabled ? reference_shift(s.net_outputs[j], s.r[j], half_plays_[j]) : std::int16_t{0};
+      n.shift[j] = reference_shift(s, j, half_plays_[j]);
       n.step = 0;
       n.joint = j + 1;
       if (j == 2) {
@@ -1250,6 +1268,7 @@ void ModelBoard::clock(int encoder_a, int encoder_b) {
     const std::uint16_t count = static_cast<std::uint16_t>(s.count[j] + (error ? 0 : move));
     n.previous[j] = ab;
     n.step_error[j] = error;
+    if (!error && move != 0) n.rising[j] = move > 0;
     const bool load = (home && ((s.referenced >> j) & 1) == 0) || ((edge >> j) & 1) != 0;
     n.count[j] = load ? static_cast<std::uint16_t>(board::kHomeCount) : count;
     if (s.step_error[j]) step_error_bits |= 1 << j;

@@ -302,6 +302,7 @@ module board_core #(
   logic [1:0]  shift_joint;
   logic [delta_joint_pkg::ShiftBits-1:0] shift;
   logic [47:0] counts;
+  logic [2:0]  counts_rising;  // bit j: joint j's count last stepped up (the side its play was taken up on)
   logic        slew_limited;
   // The deployed model's backlash half-plays H_j (Q.8 counts; zero for the plain network): constants
   // from the weights' half_play.mem.
@@ -324,6 +325,7 @@ module board_core #(
     .answer_i      (net_done),
     .outputs_i     (net_outputs),
     .counts_i      (counts),
+    .rising_i      (counts_rising),
     .half_plays_i  (half_plays),
     .references_o  (references),
     .shift_write_o (shift_write),
@@ -368,6 +370,7 @@ module board_core #(
     .clear_fault_i   (clear_fault),
     .tick_o          (tick),
     .counts_o        (counts),
+    .counts_rising_o (counts_rising),
     .peek_address_i  ({peek_joint, peek_slot}),
     .peek_data_o     (peek_data),
     .drive_pwm_o,
@@ -449,7 +452,7 @@ module board_core #(
       5'(delta_board_pkg::TelemetrySampleIndexOffset / 2 + 1): telemetry_word = sample_index[31:16];
       5'(delta_board_pkg::TelemetryTickOffset / 2):            telemetry_word = period_count_q[15:0];
       5'(delta_board_pkg::TelemetryTickOffset / 2 + 1):        telemetry_word = period_count_q[31:16];
-      5'(delta_board_pkg::TelemetryFaultOffset / 2):           telemetry_word = {flags, 8'(joint_fault_cause_o)};
+      5'(delta_board_pkg::TelemetryFaultOffset / 2):           telemetry_word = {flags, 1'b0, counts_rising, 4'(joint_fault_cause_o)};
       5'(delta_board_pkg::TelemetryFillOffset / 2):            telemetry_word = fill;
       5'(delta_board_pkg::TelemetryBadFramesOffset / 2):       telemetry_word = 16'(bad_frames_q);
       5'(delta_board_pkg::TelemetryUnderrunsOffset / 2):       telemetry_word = 16'(underruns_q);

@@ -78,7 +78,8 @@ package delta_board_pkg;
   localparam int TelemetryReferencesOffset /*verilator public*/ = 8;  // 3 x i32 joint references, Q24.8 counts
   localparam int TelemetryCountsOffset /*verilator public*/ = 20;  // 3 x i16 encoder counts
   localparam int TelemetryCurrentsOffset /*verilator public*/ = 26;  // 3 x i16 applied currents, Q1.15 A
-  localparam int TelemetryFaultOffset /*verilator public*/ = 32;  // u8 fault cause bits (Fault*)
+  localparam int TelemetryFaultOffset /*verilator public*/ = 32;  // u8 fault cause bits (Fault*, bits 0-3), play sides (bits 4-6)
+  localparam int TelemetryPlaySideShift /*verilator public*/ = 4;  // bit 4 + j of the fault byte: joint j's count last stepped up
   localparam int TelemetryFlagsOffset /*verilator public*/ = 33;  // u8 flags (Flag*)
   localparam int TelemetryFillOffset /*verilator public*/ = 34;  // u16 setpoints buffered
   localparam int StatusCounterBits /*verilator public*/ = 12;  // bad frames, underruns, slew limits, refused: saturate at 4095

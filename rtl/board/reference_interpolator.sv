@@ -37,11 +37,12 @@ module reference_interpolator #(
   input  logic        answer_i,       // pulse: outputs_i holds a new network answer
   input  logic [71:0] outputs_i,      // y_j at [24j +: 24], Q10.14 degrees, held
   input  logic [47:0] counts_i,       // encoder counts, joint j at [16j +: 16]
+  input  logic [2:0]  rising_i,       // bit j: joint j's count last stepped up (quadrature_counter)
   input  logic [3*HalfPlayBits-1:0] half_plays_i,  // H_j at [HalfPlayBits j +: HalfPlayBits], constant
   output logic [95:0] references_o,   // r_j at [32j +: 32], Q24.8 counts, stable between updates
   output logic        shift_write_o,  // pulse: shift_o is joint shift_joint_o's play shift for the next period
   output logic [1:0]  shift_joint_o,
-  output logic [delta_joint_pkg::ShiftBits-1:0] shift_o,  // s, whole counts (0 with enabled_i low)
+  output logic [delta_joint_pkg::ShiftBits-1:0] shift_o,  // s, whole counts (the resting shift until an answer)
   output logic        slew_limited_o  // pulse: a segment's change was saturated
 );
   localparam int unsigned Shift = delta_board_pkg::InterpolationShift;
@@ -122,7 +123,14 @@ module reference_interpolator #(
   // (-H <= d < H: the signs of d and d -/+ H differ) (d >> 8) + (d[7] if g), above it the constant
   // floor((H + g) / 256), below it floor((g - H) / 256), per joint (folded by synthesis). Written
   // into the controller's state memory at step 7 of each joint. HalfPlayBits = 17: 10 bits.
-  logic       in_play, half_up;
+  // Until the first answer since the drives came on (answered_q), and with the drives off, s is the
+  // resting shift (golden interpolation::resting_shift): the end of the play on the side the
+  // joint's count last stepped to, where the play was last taken up. So the controller's previous
+  // shift at the enable is the one it starts with, and a first answer the host aims at the count
+  // plus that end (the telemetry reports the side) keeps it: the enable moves no joint.
+  logic answered_q;
+  logic pick_end, end_up;
+  logic       in_play, half_up, rising;
   logic [9:0] shift_new, shift_above, shift_below, above [3], below [3];
   logic [2:0] rounds;
   for (genvar j = 0; j < 3; j++) begin : g_ends  // per joint, before the multiplexer: constants
@@ -139,15 +147,17 @@ module reference_interpolator #(
   end
   always_comb begin
     unique case (joint_q)
-      2'd1:    {shift_above, shift_below, half_up} = {above[1], below[1], rounds[1]};
-      2'd2:    {shift_above, shift_below, half_up} = {above[2], below[2], rounds[2]};
-      default: {shift_above, shift_below, half_up} = {above[0], below[0], rounds[0]};
+      2'd1:    {shift_above, shift_below, half_up, rising} = {above[1], below[1], rounds[1], rising_i[1]};
+      2'd2:    {shift_above, shift_below, half_up, rising} = {above[2], below[2], rounds[2], rising_i[2]};
+      default: {shift_above, shift_below, half_up, rising} = {above[0], below[0], rounds[0], rising_i[0]};
     endcase
   end
   assign in_play   = played_q[32] != diff_q[32];
   logic round_bit;
   assign round_bit = half_up && diff_q[7];
-  assign shift_new = in_play ? diff_q[17:8] + {9'd0, round_bit} : diff_q[32] ? shift_below : shift_above;
+  assign pick_end  = !answered_q || !in_play;
+  assign end_up    = answered_q ? !diff_q[32] : rising;
+  assign shift_new = pick_end ? (end_up ? shift_above : shift_below) : diff_q[17:8] + {9'd0, round_bit};
 
   // round_shift(p, 14) = (p >> 14) + p[13]; |D K| < 2^29, so 17 bits above the shift suffice.
   logic        take_answer;
@@ -183,6 +193,7 @@ module reference_interpolator #(
       step_q           <= '0;
       joint_q          <= '0;
       answer_pending_q <= 1'b0;
+      answered_q       <= 1'b0;
       slew_limited_o   <= 1'b0;
       for (int j = 0; j < 3; j++) begin
         r_q[j] <= '0;
@@ -191,6 +202,8 @@ module reference_interpolator #(
     end else begin
       slew_limited_o <= 1'b0;
       if (answer_i) answer_pending_q <= 1'b1;
+      if (!enabled_i) answered_q <= 1'b0;
+      else if (answer_i) answered_q <= 1'b1;
       if (update_i && !busy_q) begin
         busy_q  <= 1'b1;
         step_q  <= '0;
@@ -221,5 +234,5 @@ module reference_interpolator #(
   assign references_o = {r_q[2], r_q[1], r_q[0]};
   assign shift_write_o = busy_q && step_q == 4'd7;
   assign shift_joint_o = joint_q;
-  assign shift_o       = enabled_i ? shift_new : '0;
+  assign shift_o       = shift_new;
 endmodule

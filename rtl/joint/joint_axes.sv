@@ -30,6 +30,7 @@ module joint_axes #(
   input  logic        clear_fault_i,      // clear the latched causes
   output logic [$clog2(ClocksPerPeriod)-1:0] tick_o,  // cycle within the control period
   output logic [47:0] counts_o,           // live encoder counts, joint j at [16j +: 16]
+  output logic [2:0]  counts_rising_o,    // bit j: joint j's count last stepped up (quadrature_counter)
   input  logic [4:0]  peek_address_i,     // {joint, slot}: the controller's state of the last period
   output logic [31:0] peek_data_o,        //   one cycle later, while it is idle (board telemetry)
   output logic [2:0]  drive_pwm_o,
@@ -53,8 +54,9 @@ module joint_axes #(
       .a_i    (encoder_a_i[j]),
       .b_i    (encoder_b_i[j]),
       .home_i (home_i[j]),
-      .count_o(counts[16 * j +: 16]),
-      .error_o(step_error[j])
+      .count_o (counts[16 * j +: 16]),
+      .error_o (step_error[j]),
+      .rising_o(counts_rising_o[j])
     );
   end
 

@@ -3,6 +3,8 @@
 // Inputs must already be synchronised to clk_i. Every edge of A or B is one count (x4 decoding);
 // a step of both channels at once (a lost state) is not counted but flagged on error_o for one
 // cycle. The counter starts at HomeCount: the joint is assumed at its home angle at reset.
+// rising_o says which way the count last stepped (1: up; 1 from reset): behind a joint's play it
+// is the side the play was last taken up on (reference_interpolator.sv's resting shift).
 module quadrature_counter #(
   parameter logic [15:0] HomeCount = 16'd3000  // 30.00 deg, the paper's start pose
 ) (
@@ -12,19 +14,28 @@ module quadrature_counter #(
   input  logic        b_i,
   input  logic        home_i,   // set home: the count becomes HomeCount (wins over a step)
   output logic [15:0] count_o,  // two's complement counts, wraps at +-32768 (+-327 deg)
-  output logic        error_o
+  output logic        error_o,
+  output logic        rising_o   // the last step was up (set at reset)
 );
   logic [1:0]  previous_q;
   logic [15:0] count_q, count_d;
   logic        error_d, error_q;
+  logic        rising_d, rising_q;
 
   always_comb begin
-    count_d = count_q;
-    error_d = 1'b0;
+    count_d  = count_q;
+    error_d  = 1'b0;
+    rising_d = rising_q;
     // {A, B} in Gray order 00 -> 10 -> 11 -> 01 -> 00 (A leads B) counts up.
     unique case ({previous_q, a_i, b_i})
-      4'b00_10, 4'b10_11, 4'b11_01, 4'b01_00: count_d = count_q + 16'd1;
-      4'b00_01, 4'b01_11, 4'b11_10, 4'b10_00: count_d = count_q - 16'd1;
+      4'b00_10, 4'b10_11, 4'b11_01, 4'b01_00: begin
+        count_d  = count_q + 16'd1;
+        rising_d = 1'b1;
+      end
+      4'b00_01, 4'b01_11, 4'b11_10, 4'b10_00: begin
+        count_d  = count_q - 16'd1;
+        rising_d = 1'b0;
+      end
       4'b00_11, 4'b11_00, 4'b01_10, 4'b10_01: error_d = 1'b1;
       default: ;  // no change
     endcase
@@ -34,9 +45,11 @@ module quadrature_counter #(
     if (!rst_ni) begin
       previous_q <= 2'b00;
       error_q    <= 1'b0;
+      rising_q   <= 1'b1;
     end else begin
       previous_q <= {a_i, b_i};
       error_q    <= error_d;
+      rising_q   <= rising_d;
     end
   end
   // The count loads HomeCount synchronously, at reset (released synchronously by the top) and on
@@ -48,4 +61,5 @@ module quadrature_counter #(
 
   assign count_o = count_q;
   assign error_o = error_q;
+  assign rising_o = rising_q;
 endmodule

@@ -70,6 +70,27 @@ TEST(LinkPayloads, IdentifyRoundTripsOnRandomValues) {
   }
 }
 
+// The fault byte: the causes in its low bits, joint j's play side (its count last stepped up) in bit
+// TelemetryPlaySideShift + j; a side is never read as a fault.
+TEST(LinkPayloads, TheFaultByteCarriesThePlaySidesApartFromTheCauses) {
+  TelemetryPayload sent;
+  sent.rising = 0b101;
+  std::vector<std::uint8_t> bytes = encode(sent);
+  EXPECT_EQ(bytes[board::kTelemetryFaultOffset], 0b101 << board::kTelemetryPlaySideShift);
+  TelemetryPayload received = decode_telemetry(bytes);
+  EXPECT_EQ(received.fault_cause, 0);
+  EXPECT_EQ(received.play_side(0), 1);
+  EXPECT_EQ(received.play_side(1), -1);
+  EXPECT_EQ(received.play_side(2), 1);
+  bytes[board::kTelemetryFaultOffset] =
+      static_cast<std::uint8_t>((0b010 << board::kTelemetryPlaySideShift) | (1 << board::kFaultWatchdog));
+  received = decode_telemetry(bytes);
+  EXPECT_EQ(received.fault_cause, 1 << board::kFaultWatchdog);
+  EXPECT_EQ(received.rising, 0b010);
+  static_assert(board::kTelemetryPlaySideShift >= board::kFaultCauseBits, "the sides above the causes");
+  static_assert(board::kTelemetryPlaySideShift + 3 <= 8, "three sides in the byte");
+}
+
 TEST(LinkPayloads, TelemetryRoundTripsOnRandomValues) {
   std::cout << "seed " << kSeed + 2 << "\n";
   std::mt19937_64 random(kSeed + 2);
@@ -80,7 +101,8 @@ TEST(LinkPayloads, TelemetryRoundTripsOnRandomValues) {
     fill(random, sent.counts);
     fill(random, sent.references);  // i32 Q24.8 counts
     fill(random, sent.currents);
-    sent.fault_cause = random_value<std::uint8_t>(random);
+    sent.fault_cause = random_value<std::uint8_t>(random) & ((1u << board::kFaultCauseBits) - 1);
+    sent.rising = random_value<std::uint8_t>(random) & 7;
     sent.flags = random_value<std::uint8_t>(random);
     sent.fill = random_value<std::uint16_t>(random);
     sent.bad_frames = random_value<std::uint16_t>(random);
@@ -98,6 +120,7 @@ TEST(LinkPayloads, TelemetryRoundTripsOnRandomValues) {
     ASSERT_EQ(received.references, sent.references);
     ASSERT_EQ(received.currents, sent.currents);
     ASSERT_EQ(received.fault_cause, sent.fault_cause);
+    ASSERT_EQ(received.rising, sent.rising);
     ASSERT_EQ(received.flags, sent.flags);
     ASSERT_EQ(received.fill, sent.fill);
     ASSERT_EQ(received.bad_frames, sent.bad_frames);

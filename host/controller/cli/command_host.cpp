@@ -129,6 +129,7 @@ void run_status(const StatusOptions& options) {
                           {"homing", t.has(link::TelemetryFlag::kHoming)},
                           {"referenced", {t.referenced(0), t.referenced(1), t.referenced(2)}},
                           {"home_switches", {t.home_switch(0), t.home_switch(1), t.home_switch(2)}},
+                          {"play_sides", {t.play_side(0), t.play_side(1), t.play_side(2)}},
                           {"bad_frames", t.bad_frames},
                           {"underruns", t.underruns},
                           {"rejected", t.rejected},

@@ -18,8 +18,10 @@
 
 #include "delta/board_facts.hpp"
 #include "delta/command.hpp"
+#include "delta/controller/homing.hpp"
 #include "delta/gateware.hpp"
 #include "delta/golden/export.hpp"
+#include "delta/golden/setpoint_interpolation.hpp"
 #include "delta/input_error.hpp"
 #include "delta/output_file.hpp"
 #include "delta/run_files.hpp"
@@ -37,6 +39,27 @@ std::string hex(std::uint32_t value) { return golden::hex_word(value, 32); }
 
 int link_error_code(const link::LinkError& error) {
   return error.kind() == link::LinkError::Kind::kLinkLost ? kExitLinkLost : kExitFault;
+}
+
+// With the deployed model's backlash compensation the board holds each joint, from the enable to
+// its first answer, at the end of the play on the side where the play was last taken up (the
+// telemetry's play sides; reference_interpolator.sv). The approach starts where that answer keeps
+// it: C - r = side (H + a sixteenth of a count), so the enable moves no joint. The plain network
+// (H = 0): `located`, the network's inverse at the counts.
+Vec3 resting_start(const BoardWeights& weights, const link::TelemetryPayload& t0, const Vec3& located) {
+  const auto half_plays = golden::interpolation::half_play_counts(weights.network.compensation);
+  if (half_plays == std::array<std::int32_t, 3>{}) return located;
+  constexpr std::int32_t kBeyondTheEnd = 16;  // Q.8 counts: past the end, so the answer's LSBs never re-enter the play
+  std::array<std::int32_t, 3> references{}, delta{}, actual{};
+  for (int j = 0; j < 3; ++j) {
+    references[j] = golden::interpolation::encoder_reference(t0.counts[j]);
+    delta[j] = half_plays[j] == 0 ? 0 : t0.play_side(j) * kBeyondTheEnd;
+  }
+  const std::array<std::int32_t, 3> codes = jog_setpoint(weights, references, delta, &actual);
+  Vec3 start;
+  for (int k = 0; k < 3; ++k)
+    start[k] = std::ldexp(static_cast<double>(codes[k]), -weights.network.formats.input_fraction_bits);
+  return start;
 }
 
 }  // namespace
@@ -414,6 +437,7 @@ RunOutcome RunJob::execute(link::LinkSession& session, const std::string& port_n
   } catch (const std::runtime_error& error) {
     throw HostFailure(kExitFault, port_name + ": the encoders' pose: " + error.what());
   }
+  start = resting_start(weights_, t0, start);
   StreamPlan plan(path_, start, request_.limits);
   if (auto violation =
           check_plan(plan, request_.trajectory, weights_.trained_min_m, weights_.trained_max_m, request_.limits)) {

@@ -163,9 +163,15 @@ std::vector<std::uint8_t> encode(const IdentifyPayload& payload) {
   return bytes;
 }
 
+// The fault byte carries the fault causes (low bits) and the play sides (TelemetryPlaySideShift..).
+constexpr int kFaultCauseMask = (1 << board::kFaultCauseBits) - 1;
+
 std::vector<std::uint8_t> encode(const TelemetryPayload& payload) {
   std::vector<std::uint8_t> bytes(board::kTelemetryPayloadBytes);
-  visit_telemetry(payload, [&bytes](const layout::Field& field, const auto& value) { write(bytes, field, value); });
+  TelemetryPayload packed = payload;
+  packed.fault_cause = static_cast<std::uint8_t>((payload.fault_cause & kFaultCauseMask) |
+                                                 ((payload.rising & 7) << board::kTelemetryPlaySideShift));
+  visit_telemetry(packed, [&bytes](const layout::Field& field, const auto& value) { write(bytes, field, value); });
   return bytes;
 }
 
@@ -204,6 +210,8 @@ TelemetryPayload decode_telemetry(const std::vector<std::uint8_t>& payload) {
   check_size("telemetry", payload, board::kTelemetryPayloadBytes);
   TelemetryPayload telemetry;
   visit_telemetry(telemetry, [&payload](const layout::Field& field, auto& value) { read(payload, field, value); });
+  telemetry.rising = static_cast<std::uint8_t>((telemetry.fault_cause >> board::kTelemetryPlaySideShift) & 7);
+  telemetry.fault_cause = static_cast<std::uint8_t>(telemetry.fault_cause & kFaultCauseMask);
   return telemetry;
 }
 

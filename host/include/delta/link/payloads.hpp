@@ -79,7 +79,8 @@ struct TelemetryPayload {
   std::array<std::int16_t, 3> counts{};      // encoder counts, 0.01 deg
   std::array<std::int32_t, 3> references{};  // joint references, Q24.8 encoder counts (converted, interpolated answers)
   std::array<std::int16_t, 3> currents{};    // current commands, Q1.15 A
-  std::uint8_t fault_cause = 0;              // FaultCause bits
+  std::uint8_t fault_cause = 0;              // FaultCause bits (the fault byte's low bits)
+  std::uint8_t rising = 0;                   // bit j: joint j's count last stepped up (the fault byte's play sides)
   std::uint8_t flags = 0;                    // TelemetryFlag bits
   std::uint16_t fill = 0;                    // setpoints waiting in the buffer
   std::uint16_t bad_frames = 0;              // saturating
@@ -92,6 +93,8 @@ struct TelemetryPayload {
 
   bool home_switch(int joint) const { return ((home >> joint) & 1) != 0; }
   bool referenced(int joint) const { return ((home >> (3 + joint)) & 1) != 0; }
+  // Where joint j's play was last taken up: +1 above (its count last stepped up), -1 below.
+  int play_side(int joint) const { return ((rising >> joint) & 1) != 0 ? 1 : -1; }
 
   bool has(TelemetryFlag flag) const { return (flags & mask(flag)) != 0; }
   bool has(FaultCause cause) const { return (fault_cause & mask(cause)) != 0; }

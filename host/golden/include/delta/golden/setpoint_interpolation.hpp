@@ -130,11 +130,11 @@ inline SegmentDelta segment_delta(std::int32_t target, std::int32_t start, std::
 // (delta/golden/joint_fixed.hpp), sees the motor, in counts as a motor encoder would, rather than
 // the encoder behind the play. While the play is closed s is constant (nothing changes); while the
 // answer crosses it s follows the answer count by count and moves the joint although the encoder
-// holds. 0 with the drives off or H = 0. The grid offset g (play_shift_offset) keeps both ends of
-// the play, -H and +H, at least a quarter count from a count boundary, so an answer wobbling by a
-// few LSBs at the end of the play, where every steady motion sits, never flips s: with g = 0 a
-// round play (H a whole number of counts plus the 2^-10 deg quantisation) would sit right at one.
-// The board computes s every period in the interpolator's update (reference_interpolator.sv).
+// holds. The resting shift (below) with the drives off; 0 for H = 0. The grid offset g (play_shift_offset) keeps both
+// ends of the play, -H and +H, at least a quarter count from a count boundary, so an answer wobbling by a few LSBs at
+// the end of the play, where every steady motion sits, never flips s: with g = 0 a round play (H a whole number of
+// counts plus the 2^-10 deg quantisation) would sit right at one. The board computes s every period in the
+// interpolator's update (reference_interpolator.sv).
 constexpr std::int32_t play_shift_offset(std::int32_t half_play) {
   const std::int32_t quarter = (half_play >> 6) & 3;  // which quarter of a count H mod 256 is in
   return quarter == 1 || quarter == 2 ? 0 : 128;      // ends at +-(H mod 256), or at 128 +- it
@@ -142,6 +142,14 @@ constexpr std::int32_t play_shift_offset(std::int32_t half_play) {
 inline std::int16_t play_shift(std::int64_t difference, std::int32_t half_play) {
   const std::int64_t place = difference < -half_play ? -half_play : difference > half_play ? half_play : difference;
   return static_cast<std::int16_t>((place + play_shift_offset(half_play)) >> 8);  // arithmetic shift: floor
+}
+// The resting shift: s at the end of the play on the side where it was last taken up (`rising`:
+// the joint's encoder count last stepped up). The board writes it with the drives off and after
+// the enable until the first answer (reference_interpolator.sv), so the controller's shift does
+// not step at the enable; a first answer at the count plus that end (C - r = +-H) keeps it. 0 for
+// H = 0.
+inline std::int16_t resting_shift(bool rising, std::int32_t half_play) {
+  return play_shift(rising ? half_play : -half_play, half_play);
 }
 static_assert(((kWidestHalfPlay + 128) >> 8) < (1 << (control::kShiftBits - 1)),
               "the play shift of the widest half-play must fit control::kShiftBits");
