@@ -90,15 +90,17 @@ std::vector<Family> absorbed_families(const PipelineData& data, FamilySet chosen
   // rotation are exact).
   Eigen::VectorXd scale(c);
   for (int a = 0; a < c; ++a) scale[a] = 1.0 / std::sqrt(chosen_block(a, a));
-  const Eigen::MatrixXd normalised = scale.asDiagonal() * chosen_block * scale.asDiagonal();
-  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(normalised);
-  Eigen::MatrixXd inverse = Eigen::MatrixXd::Zero(c, c);
-  for (int a = 0; a < c; ++a) {
-    if (eigen.eigenvalues()[a] > 1e-10 * eigen.eigenvalues().maxCoeff()) {
-      inverse += eigen.eigenvectors().col(a) * eigen.eigenvectors().col(a).transpose() / eigen.eigenvalues()[a];
+  Eigen::MatrixXd inverse = Eigen::MatrixXd::Zero(c, c);  // none chosen (a nominal robot): nothing to imitate with
+  if (c > 0) {
+    const Eigen::MatrixXd normalised = scale.asDiagonal() * chosen_block * scale.asDiagonal();
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(normalised);
+    for (int a = 0; a < c; ++a) {
+      if (eigen.eigenvalues()[a] > 1e-10 * eigen.eigenvalues().maxCoeff()) {
+        inverse += eigen.eigenvectors().col(a) * eigen.eigenvectors().col(a).transpose() / eigen.eigenvalues()[a];
+      }
     }
+    inverse = scale.asDiagonal() * inverse * scale.asDiagonal();
   }
-  inverse = scale.asDiagonal() * inverse * scale.asDiagonal();
   const double residuals = 3.0 * static_cast<double>(data.thinned_fit.size());
   for (int f = 0; f < kFamilyCount; ++f) {
     if (!candidates[f]) continue;
