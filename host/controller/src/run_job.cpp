@@ -428,16 +428,33 @@ RunOutcome RunJob::execute(link::LinkSession& session, const std::string& port_n
     }
   }
 
+  // ---- the arms at rest: a run that follows another (or a drag) within milliseconds finds them still
+  // settling with the drives off; enabled in motion, a joint's last counts land after the first
+  // answer and its correction crosses the play. The counts still for 30 frames, at most 2 s. ----
+  link::TelemetryPayload rest = t0;
+  try {
+    int still = 0;
+    for (int frames = 0; still < 30 && frames < 2000; ++frames) {
+      const link::TelemetryPayload f = session.next_telemetry();
+      still = f.counts == rest.counts ? still + 1 : 0;
+      rest = f;
+    }
+    if (still < 30)
+      throw HostFailure(kExitFault, port_name + ": the arms do not come to rest with the drives off; nothing moved");
+  } catch (const link::LinkError& error) {
+    throw HostFailure(link_error_code(error), error.what());
+  }
+
   // ---- the approach from the pose the encoders report, checked with the rest ----
   Vec3 counts_deg;
-  for (int j = 0; j < 3; ++j) counts_deg[j] = t0.counts[j] * kCountDeg;
+  for (int j = 0; j < 3; ++j) counts_deg[j] = rest.counts[j] * kCountDeg;
   Vec3 start;
   try {
     start = locate_plate(weights_.network, Geometry::nominal(), counts_deg);
   } catch (const std::runtime_error& error) {
     throw HostFailure(kExitFault, port_name + ": the encoders' pose: " + error.what());
   }
-  start = resting_start(weights_, t0, start);
+  start = resting_start(weights_, rest, start);
   StreamPlan plan(path_, start, request_.limits);
   if (auto violation =
           check_plan(plan, request_.trajectory, weights_.trained_min_m, weights_.trained_max_m, request_.limits)) {
