@@ -279,14 +279,14 @@ std::int32_t segment_delta(std::int32_t answer, std::int32_t r, std::int32_t hal
       *saturated ? (diff < 0 ? golden::interpolation::kDeltaMin : golden::interpolation::kDeltaMax) : diff);
 }
 
-// Step 7: the play's shift of the reference r toward its answer once one has come since the
-// enable, else the resting shift on the side joint j's count last stepped to (reference_interpolator.sv).
 // Bit j: joint j's count last stepped up (the telemetry's play sides).
 template <typename Registers>
 int rising_bits(const Registers& s) {
   return (s.rising[0] ? 1 : 0) | (s.rising[1] ? 2 : 0) | (s.rising[2] ? 4 : 0);
 }
 
+// Step 7: the play's shift of the reference r toward its answer once one has come since the
+// enable, else the resting shift on the side joint j's count last stepped to (reference_interpolator.sv).
 template <typename Registers>
 std::int16_t reference_shift(const Registers& s, int j, std::int32_t half_play) {
   if (!s.answered) return golden::interpolation::resting_shift(s.rising[j], half_play);

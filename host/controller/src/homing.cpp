@@ -33,6 +33,18 @@ std::int32_t q8_per_setpoint(double deg_s) {
 
 }  // namespace
 
+std::optional<link::TelemetryPayload> arms_at_rest(link::LinkSession& session) {
+  link::TelemetryPayload before = session.next_telemetry();
+  int still = 0;
+  for (int frames = 0; still < 30 && frames < 2000; ++frames) {
+    const link::TelemetryPayload f = session.next_telemetry();
+    still = f.counts == before.counts ? still + 1 : 0;
+    before = f;
+  }
+  if (still < 30) return std::nullopt;
+  return before;
+}
+
 std::array<std::int32_t, 3> jog_setpoint(const BoardWeights& weights, const std::array<std::int32_t, 3>& references,
                                          const std::array<std::int32_t, 3>& delta_q8,
                                          std::array<std::int32_t, 3>* actual) {
@@ -162,18 +174,11 @@ HomingReport home_at_references(link::LinkSession& session, const BoardWeights& 
   while (true) {
     if (stop != nullptr && *stop != 0)
       fail(128 + static_cast<int>(*stop), "stopped by signal " + std::to_string(*stop));
-    // At rest first (a jog ends at speed, and a switch read in motion may still change): the
-    // counts still for 30 frames, at most 2 s.
+    // At rest first (a jog ends at speed, and a switch read in motion may still change).
     {
-      link::TelemetryPayload before = checked([&] { return session.next_telemetry(); });
-      int still = 0;
-      for (int frames = 0; still < 30 && frames < 2000; ++frames) {
-        const link::TelemetryPayload f = checked([&] { return session.next_telemetry(); });
-        still = f.counts == before.counts ? still + 1 : 0;
-        before = f;
-      }
-      if (still < 30) fail(kExitFault, "the arms do not come to rest with the drives off");
-      t = before;
+      const std::optional<link::TelemetryPayload> rest = checked([&] { return arms_at_rest(session); });
+      if (!rest) fail(kExitFault, "the arms do not come to rest with the drives off");
+      t = *rest;
     }
     const int referenced = (t.home >> 3) & 7;
     if (referenced == 7) break;

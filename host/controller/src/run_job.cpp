@@ -430,20 +430,16 @@ RunOutcome RunJob::execute(link::LinkSession& session, const std::string& port_n
 
   // ---- the arms at rest: a run that follows another (or a drag) within milliseconds finds them still
   // settling with the drives off; enabled in motion, a joint's last counts land after the first
-  // answer and its correction crosses the play. The counts still for 30 frames, at most 2 s. ----
-  link::TelemetryPayload rest = t0;
+  // answer and its correction crosses the play (arms_at_rest: still for 30 frames, at most 2 s). ----
+  std::optional<link::TelemetryPayload> at_rest;
   try {
-    int still = 0;
-    for (int frames = 0; still < 30 && frames < 2000; ++frames) {
-      const link::TelemetryPayload f = session.next_telemetry();
-      still = f.counts == rest.counts ? still + 1 : 0;
-      rest = f;
-    }
-    if (still < 30)
-      throw HostFailure(kExitFault, port_name + ": the arms do not come to rest with the drives off; nothing moved");
+    at_rest = arms_at_rest(session);
   } catch (const link::LinkError& error) {
     throw HostFailure(link_error_code(error), error.what());
   }
+  if (!at_rest)
+    throw HostFailure(kExitFault, port_name + ": the arms do not come to rest with the drives off; nothing moved");
+  const link::TelemetryPayload& rest = *at_rest;
 
   // ---- the approach from the pose the encoders report, checked with the rest ----
   Vec3 counts_deg;

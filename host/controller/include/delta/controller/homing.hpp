@@ -24,6 +24,7 @@
 #include <array>
 #include <csignal>
 #include <functional>
+#include <optional>
 #include <string>
 
 #include "delta/controller/board_network.hpp"
@@ -54,6 +55,11 @@ struct HomingReport {
 HomingReport home_at_references(link::LinkSession& session, const BoardWeights& weights, const HomingOptions& options,
                                 const std::function<void(const std::string&)>& log,
                                 const volatile std::sig_atomic_t* stop = nullptr);
+
+// Reads telemetry until the counts have been still for 30 frames (the arms at rest with the drives
+// off), at most 2000 frames: that last frame, or nothing if they never came to rest. LinkError
+// propagates.
+std::optional<link::TelemetryPayload> arms_at_rest(link::LinkSession& session);
 
 // The setpoint whose network answer moves each joint's reference by delta_q8[j] (Q24.8 counts per
 // setpoint period) from `references` (Q24.8), through the deployed model's play (half_plays,
