@@ -2,7 +2,7 @@
 # flash --dry-run, doctor; the udev rules, the systemd unit, the Debian package (cpack, lintian,
 # installed into a scratch root), and doctor against the virtual board (full build only).
 delta_add_gtest(deploy_tests
-  SOURCES ${CMAKE_CURRENT_LIST_DIR}/deploy/deploy_test.cpp
+  SOURCES ${CMAKE_CURRENT_LIST_DIR}/deploy/test_deploy.cpp
   LIBRARIES delta::deploy delta::controller delta::host
   LABELS deploy host)
 # The stand-in bitstream (an empty design of the UP5K's layout) of the flash and package tests.

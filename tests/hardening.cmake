@@ -1,7 +1,7 @@
 # Hardening: every bad input, option and output path handled per SPEC.
 pkg_check_modules(hardening_matio REQUIRED IMPORTED_TARGET matio)  # writes a compressed .mat bomb
 delta_add_gtest(hardening_tests
-  SOURCES hardening/output_file_test.cpp hardening/bad_input_test.cpp
+  SOURCES hardening/test_output_file.cpp hardening/test_bad_input.cpp
   LIBRARIES delta::host PkgConfig::hardening_matio)
 
 # Fuzzing in CI: build the libFuzzer harnesses with clang (skipped, exit 77, without clang), then

@@ -1,6 +1,6 @@
 # The host controller's plan under feed holds (no board needed).
 delta_add_gtest(stream_plan_tests
-  SOURCES ${CMAKE_CURRENT_LIST_DIR}/host_controller/stream_plan_test.cpp
+  SOURCES ${CMAKE_CURRENT_LIST_DIR}/host_controller/test_stream_plan.cpp
   LIBRARIES delta::controller
   LABELS host host_controller)
 
@@ -10,7 +10,7 @@ if(DELTA_HOST_ONLY)
   return()
 endif()
 delta_add_gtest(host_controller_tests
-  SOURCES ${CMAKE_CURRENT_LIST_DIR}/host_controller/host_controller_test.cpp
+  SOURCES ${CMAKE_CURRENT_LIST_DIR}/host_controller/test_host_controller.cpp
   LIBRARIES delta::controller delta::golden delta::nn delta::host
   LABELS host host_controller virtual_board
   # Alone on the machine: the virtual board and the host's 1 kHz streaming thread each need a core,
@@ -19,7 +19,7 @@ delta_add_gtest(host_controller_tests
 
 # `host serve` and `host ctl` against the model-fidelity virtual board (kept to real time).
 delta_add_gtest(host_serve_tests
-  SOURCES ${CMAKE_CURRENT_LIST_DIR}/host_controller/host_serve_test.cpp
+  SOURCES ${CMAKE_CURRENT_LIST_DIR}/host_controller/test_host_serve.cpp
   LIBRARIES delta::host nlohmann_json::nlohmann_json
   LABELS host host_controller virtual_board
   PROPERTIES RUN_SERIAL TRUE)
@@ -27,7 +27,7 @@ delta_add_gtest(host_serve_tests
 # Every way out of a run (a foreign disable, signals, SIGKILL, ctl interrupted) and `host serve`
 # under any bytes and 50,000 connections, recordings confined and never overwritten.
 delta_add_gtest(host_safety_tests
-  SOURCES ${CMAKE_CURRENT_LIST_DIR}/host_controller/host_safety_test.cpp
+  SOURCES ${CMAKE_CURRENT_LIST_DIR}/host_controller/test_host_safety.cpp
   LIBRARIES delta::controller delta::host nlohmann_json::nlohmann_json
   LABELS host host_controller virtual_board
   PROPERTIES RUN_SERIAL TRUE)
@@ -35,7 +35,7 @@ delta_add_gtest(host_safety_tests
 # Homing against the references (docs/homing.md): random starts, a run stopped mid-path, a seized
 # arm and a missing switch, a board homed by hand.
 delta_add_gtest(homing_tests
-  SOURCES ${CMAKE_CURRENT_LIST_DIR}/host_controller/homing_test.cpp
+  SOURCES ${CMAKE_CURRENT_LIST_DIR}/host_controller/test_homing.cpp
   LIBRARIES delta::host nlohmann_json::nlohmann_json
   LABELS host host_controller virtual_board
   PROPERTIES RUN_SERIAL TRUE)

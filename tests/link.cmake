@@ -3,10 +3,10 @@
 # setpoint interpolation. Host-only: neither SystemC nor Verilator.
 delta_add_gtest(link_tests
   SOURCES
-    ${CMAKE_CURRENT_LIST_DIR}/link/payloads_test.cpp
-    ${CMAKE_CURRENT_LIST_DIR}/link/crc32_test.cpp
-    ${CMAKE_CURRENT_LIST_DIR}/link/identify_test.cpp
-    ${CMAKE_CURRENT_LIST_DIR}/link/setpoint_interpolation_test.cpp
+    ${CMAKE_CURRENT_LIST_DIR}/link/test_payloads.cpp
+    ${CMAKE_CURRENT_LIST_DIR}/link/test_crc32.cpp
+    ${CMAKE_CURRENT_LIST_DIR}/link/test_identify.cpp
+    ${CMAKE_CURRENT_LIST_DIR}/link/test_setpoint_interpolation.cpp
   LIBRARIES delta::host delta::golden delta::gateware
   LABELS link)
 target_include_directories(link_tests PRIVATE ${CMAKE_CURRENT_LIST_DIR})  # support/run_command.hpp

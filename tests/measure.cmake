@@ -1,7 +1,7 @@
 # The lab's measurement path: `deltactl merge` (clocks aligned from the data), the virtual measuring
 # stage and `deltactl host record` against the model board (SPEC.md, "The lab's measurements").
 delta_add_gtest(measure_tests
-  SOURCES ${CMAKE_CURRENT_LIST_DIR}/measure/merge_test.cpp
+  SOURCES ${CMAKE_CURRENT_LIST_DIR}/measure/test_merge.cpp
   LIBRARIES delta::diagnosis delta::sim delta::host
   LABELS measure diagnosis)
 if(DELTA_HOST_ONLY)
@@ -11,7 +11,7 @@ endif()
 # wall time) through host record and merge, checked against the board's truth within 1 um RMS, and
 # merge's refusals of a truncated, garbled or at-rest stage file.
 delta_add_gtest(measure_board_tests
-  SOURCES ${CMAKE_CURRENT_LIST_DIR}/measure/stage_board_test.cpp
+  SOURCES ${CMAKE_CURRENT_LIST_DIR}/measure/test_stage_board.cpp
   LIBRARIES delta::host
   LABELS measure virtual_board)
 

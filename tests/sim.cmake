@@ -1,4 +1,4 @@
 # Robot model: kinematics, effects, virtual robot.
 delta_add_gtest(sim_tests
-  SOURCES sim/kinematics_test.cpp sim/effects_test.cpp sim/robot_world_test.cpp
+  SOURCES sim/test_kinematics.cpp sim/test_effects.cpp sim/test_robot_world.cpp
   LIBRARIES delta::sim)

@@ -1,10 +1,10 @@
-# The virtual board (host/codesign: Verilated board core + robot world + UART line) behind
+# The virtual board (host/cosim: Verilated board core + robot world + UART line) behind
 # `deltactl virtual-board`, and the host's link session over its pseudo-terminal. Needs Verilator.
 if(DELTA_HOST_ONLY)
   return()
 endif()
 delta_add_gtest(virtual_board_tests
-  SOURCES ${CMAKE_CURRENT_LIST_DIR}/virtual_board/virtual_board_test.cpp
+  SOURCES ${CMAKE_CURRENT_LIST_DIR}/virtual_board/test_virtual_board.cpp
   LIBRARIES delta::board_cosim delta::golden delta::nn delta::host delta::gateware
   LABELS virtual_board cosim)
 

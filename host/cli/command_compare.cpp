@@ -4,7 +4,7 @@
 
 #include <CLI/CLI.hpp>
 
-#include "delta/command.hpp"
+#include "command.hpp"
 #include "delta/model_error.hpp"
 #include "delta/plot.hpp"
 #include "delta/recording.hpp"

@@ -4,7 +4,7 @@
 
 #include <CLI/CLI.hpp>
 
-#include "delta/command.hpp"
+#include "command.hpp"
 #include "delta/csv.hpp"
 #include "delta/ik_backend.hpp"
 #include "delta/input_error.hpp"

@@ -4,7 +4,7 @@
 
 #include <CLI/CLI.hpp>
 
-#include "delta/command.hpp"
+#include "command.hpp"
 #include "delta/recording_plot.hpp"
 
 namespace delta {

@@ -4,11 +4,11 @@
 
 #include <CLI/CLI.hpp>
 
-#include "delta/command.hpp"
+#include "command.hpp"
 #include "delta/effect_file.hpp"
-#include "delta/options.hpp"
 #include "delta/recording.hpp"
 #include "delta/virtual_robot.hpp"
+#include "options.hpp"
 
 namespace delta {
 namespace {

@@ -4,7 +4,7 @@
 
 #include <CLI/CLI.hpp>
 
-#include "delta/command.hpp"
+#include "command.hpp"
 #include "delta/input_error.hpp"
 #include "delta/run_files.hpp"
 #include "delta/utf8_text.hpp"

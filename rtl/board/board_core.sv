@@ -10,8 +10,8 @@
 //
 // Period schedule (tick of joint_axes; phase k = 0..9 within the 1 kHz segment): tick 0 the
 // controllers start on the references; tick 1 of k = 0 a setpoint is played (network started);
-// tick ClocksPerPeriod/2 of k = 0 the telemetry snapshot; tick ClocksPerPeriod - 100 the
-// references of the next period are computed.
+// tick ClocksPerPeriod/2 of k = 0 the telemetry snapshot; tick ClocksPerPeriod - InterpolationLeadClocks
+// the references of the next period are computed (delta_board_pkg's schedule facts).
 //
 // Safety: the drives run only after an accepted enable (homed, no fault); a fault (encoder skip,
 // following error, travel, watchdog: no valid frame for 250 ms with the drives on) stops the
@@ -212,16 +212,16 @@ module board_core #(
   logic                 play, update, snapshot;
   always_ff @(posedge clk_i or negedge rst_ni) begin
     if (!rst_ni) begin
-      phase_q        <= 4'd9;
+      phase_q        <= 4'(delta_board_pkg::PeriodsPerSetpoint - 1);
       period_count_q <= '0;
     end else if (tick == '0) begin
-      phase_q        <= (phase_q == 4'd9) ? 4'd0 : phase_q + 1'b1;
+      phase_q        <= (phase_q == 4'(delta_board_pkg::PeriodsPerSetpoint - 1)) ? 4'd0 : phase_q + 1'b1;
       period_count_q <= period_count_q + 1'b1;
     end
   end
-  assign play     = tick == TickWidth'(1) && phase_q == 4'd0 && enabled_q && !holding_q && !fault;
+  assign play     = tick == TickWidth'(delta_board_pkg::PlayTick) && phase_q == 4'd0 && enabled_q && !holding_q && !fault;
   assign snapshot = tick == TickWidth'(ClocksPerPeriod / 2) && phase_q == 4'd0;
-  assign update   = tick == TickWidth'(ClocksPerPeriod - 100);
+  assign update   = tick == TickWidth'(ClocksPerPeriod - delta_board_pkg::InterpolationLeadClocks);
 
   // ---- setpoints and the network --------------------------------------------------------------------
   logic                              net_start, net_done, net_ready, underrun, setpoint_refused;

@@ -15,6 +15,17 @@ package delta_board_pkg;
   localparam int ControlRateHz /*verilator public*/ = 10_000;  // joint control period: 100 us
   localparam int ClocksPerPeriod /*verilator public*/ = 2_325;  // BoardClockHz / ControlRateHz
 
+  // ---- the control period's schedule (board_core.sv; tick 0 .. ClocksPerPeriod - 1 of joint_axes) ----
+  // Tick 0 starts a period (the controllers' ap_start, the safety check); the telemetry snapshot is
+  // at tick ClocksPerPeriod / 2 of phase 0. The C++ model board (host/cosim/model_board.cpp) keeps
+  // to these.
+  localparam int PlayTick /*verilator public*/ = 1;  // tick of phase 0 that plays a setpoint (the network starts)
+  localparam int InterpolationLeadClocks /*verilator public*/ = 100;  // the update of the next period's references starts at tick ClocksPerPeriod - 100
+  localparam int InterpolatorDeltaStep /*verilator public*/ = 4;  // reference_interpolator.sv: a joint's step that takes its segment change D
+  localparam int InterpolatorReferenceStep /*verilator public*/ = 7;  // reference_interpolator.sv: a joint's last step (r', D', the play shift, then the next joint): 8 clocks a joint
+  localparam int JointControllerLoadCycles /*verilator public*/ = 6;  // joint_controller.sv: ap_start seen to ap_ready (the inputs copied)
+  localparam int JointControllerJointCycles /*verilator public*/ = 355;  // joint_controller.sv: one joint's microprogram (5 x 3 + 11 x 30 + 5 x 2)
+
   // ---- host link v2, 8N1 UART: the one description of the frames is docs/board_link.md; every number
   // it uses is here. RTL: rtl/board/link_*.sv; C++ codec: host/include/delta/link/*.hpp.
   // A frame is sync, length (payload bytes), sequence, type, payload, CRC-16 (high byte first) over
@@ -38,6 +49,8 @@ package delta_board_pkg;
   localparam int IdentifyPayloadBytes /*verilator public*/ = 24;
   localparam int TelemetryPayloadBytes /*verilator public*/ = 48;
   localparam int RxRingBytes /*verilator public*/ = 512;  // received bytes kept for the rescan after a drop
+  localparam int LinkTxWords /*verilator public*/ = 256;  // link_tx.sv's payload RAM: 16-bit words (identify from word 0)
+  localparam int LinkTxTelemetryWord /*verilator public*/ = 16;  // link_tx.sv's payload RAM: the telemetry payload's first word
 
   // Setpoints: 1 kHz, addressed by sample index, into a buffer of SetpointDepth entries.
   localparam int SetpointRateHz /*verilator public*/ = 1_000;

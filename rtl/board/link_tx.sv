@@ -28,13 +28,13 @@ module link_tx #(
   input  logic       tx_ready_i
 );
   localparam int unsigned TelemetryWords = delta_board_pkg::TelemetryPayloadBytes / 2;
-  localparam logic [7:0]  TelemetryBase  = 8'd16;
+  localparam logic [7:0]  TelemetryBase  = 8'(delta_board_pkg::LinkTxTelemetryWord);
   localparam logic [7:0]  Sync           = 8'(delta_board_pkg::FrameSync);
 
   // ---- payload RAM ------------------------------------------------------------------------------
   // no_rw_check: no read-during-write logic; the snapshot never writes while telemetry is sent and
   // the identify words are never written.
-  (* no_rw_check *) logic [15:0] words [256];
+  (* no_rw_check *) logic [15:0] words [delta_board_pkg::LinkTxWords];
 `include "readmemh_load.svh"
   logic [7:0]  read_address, write_address;
   logic [15:0] read_data_q;

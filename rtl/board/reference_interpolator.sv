@@ -84,7 +84,8 @@ module reference_interpolator #(
   logic [15:0]        count;
   logic [HalfPlayBits-1:0] half_play;
 
-  assign k_next = (phase_i == 4'd9) ? 4'd10 : phase_i + 4'd1;
+  assign k_next = (phase_i == 4'(delta_board_pkg::PeriodsPerSetpoint - 1)) ? 4'(delta_board_pkg::PeriodsPerSetpoint)
+                                                                         : phase_i + 4'd1;
   always_comb begin
     unique case (joint_q)
       2'd1: begin
@@ -212,8 +213,8 @@ module reference_interpolator #(
         // step 0: 9 y; 1: 25 y + 8; 2: c - r; 3: c - r -/+ H; 4: D; 5: D K_k; 6: its rounding
         // held, D K_(k+1); 7: r' and rotate.
         step_q <= step_q + 1'b1;
-        if (step_q == 4'd4 && take_answer && saturated && enabled_i) slew_limited_o <= 1'b1;
-        if (step_q == 4'd7) begin
+        if (step_q == 4'(delta_board_pkg::InterpolatorDeltaStep) && take_answer && saturated && enabled_i) slew_limited_o <= 1'b1;
+        if (step_q == 4'(delta_board_pkg::InterpolatorReferenceStep)) begin
           step_q  <= '0;
           joint_q <= joint_q + 1'b1;
           r_q[0]  <= r_q[1];
@@ -221,7 +222,7 @@ module reference_interpolator #(
           r_q[2]  <= r_new;
           d_q[0]  <= d_q[1];
           d_q[1]  <= d_q[2];
-          d_q[2]  <= (!enabled_i || (k_next == 4'd10 && !homing_i)) ? '0 : delta_q;
+          d_q[2]  <= (!enabled_i || (k_next == 4'(delta_board_pkg::PeriodsPerSetpoint) && !homing_i)) ? '0 : delta_q;
           if (joint_q == 2'd2) begin
             busy_q <= 1'b0;
             if (take_answer) answer_pending_q <= 1'b0;
@@ -232,7 +233,7 @@ module reference_interpolator #(
   end
 
   assign references_o = {r_q[2], r_q[1], r_q[0]};
-  assign shift_write_o = busy_q && step_q == 4'd7;
+  assign shift_write_o = busy_q && step_q == 4'(delta_board_pkg::InterpolatorReferenceStep);
   assign shift_joint_o = joint_q;
   assign shift_o       = shift_new;
 endmodule

@@ -1,4 +1,4 @@
-// Whole-robot co-simulation (host/codesign/board_cosim.cpp): a host streaming experiment 1 over the link v2 to the
+// Whole-robot co-simulation (host/cosim/board_cosim.cpp): a host streaming experiment 1 over the link v2 to the
 // virtual board (the Verilated board core as built, three joint plants, the paper-like robot's effects).
 #include <gtest/gtest.h>
 

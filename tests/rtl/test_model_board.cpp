@@ -1,4 +1,4 @@
-// The model board (host/codesign/model_board.hpp) against the RTL board: the same host session
+// The model board (host/cosim/include/delta/cosim/model_board.hpp) against the RTL board: the same host session
 // (experiment 1 with the paper-like robot over link v2) through both virtual boards must give the
 // same board: every telemetry frame equal in every field, and at every 10 kHz control period the
 // same drive currents the world applies, encoder lines, plant angles and status pins.
@@ -400,7 +400,7 @@ HomingRun run_homing(cosim::BoardFidelity fidelity, const golden::QuantisedNetwo
   session.command(link::Command::kHomeStart, [](const link::TelemetryPayload& t) {
     return t.has(link::TelemetryFlag::kHoming) && (t.home >> 3) == 0;
   });
-  controller::BoardWeights weights;
+  golden::BoardWeights weights;
   weights.network = q;
   const std::int32_t search = 26;  // Q.8 counts per ms: 1 deg/s
   for (int jog = 0; jog < 3 && ((session.last_telemetry()->home >> 3) & 7) != 7; ++jog) {

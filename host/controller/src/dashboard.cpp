@@ -25,8 +25,8 @@
 #include <thread>
 
 #include "delta/board_facts.hpp"
-#include "delta/command.hpp"
 #include "delta/controller/run_job.hpp"
+#include "delta/exit_codes.hpp"
 #include "delta/input_error.hpp"
 #include "delta/recording_plot.hpp"
 #include "delta/trajectory.hpp"

@@ -45,7 +45,8 @@ std::optional<link::TelemetryPayload> arms_at_rest(link::LinkSession& session) {
   return before;
 }
 
-std::array<std::int32_t, 3> jog_setpoint(const BoardWeights& weights, const std::array<std::int32_t, 3>& references,
+std::array<std::int32_t, 3> jog_setpoint(const golden::BoardWeights& weights,
+                                         const std::array<std::int32_t, 3>& references,
                                          const std::array<std::int32_t, 3>& delta_q8,
                                          std::array<std::int32_t, 3>* actual) {
   const auto half_plays = golden::interpolation::half_play_counts(weights.network.compensation);
@@ -60,7 +61,7 @@ std::array<std::int32_t, 3> jog_setpoint(const BoardWeights& weights, const std:
   }
   // The nominal model's inverse of the network, then Newton on the input codes themselves with the
   // golden network (its answer in Q.8 counts, 25 y / 16 unrounded, as the function to zero).
-  const Vec3 p = locate_plate(weights.network, Geometry::nominal(), target_deg);
+  const Vec3 p = golden::locate_plate(weights.network, Geometry::nominal(), target_deg);
   std::array<std::int64_t, 3> codes = golden::encode_position(weights.network.formats, p);
   const auto answer = [&](const std::array<std::int64_t, 3>& at) {
     const golden::RawOutput raw = golden::evaluate_raw(weights.network, at);
@@ -121,8 +122,8 @@ std::array<std::int32_t, 3> jog_setpoint(const BoardWeights& weights, const std:
   return code;
 }
 
-HomingReport home_at_references(link::LinkSession& session, const BoardWeights& weights, const HomingOptions& options,
-                                const std::function<void(const std::string&)>& log,
+HomingReport home_at_references(link::LinkSession& session, const golden::BoardWeights& weights,
+                                const HomingOptions& options, const std::function<void(const std::string&)>& log,
                                 const volatile std::sig_atomic_t* stop) {
   const auto say = [&](const std::string& line) {
     if (log) log(line);

@@ -17,8 +17,8 @@
 #include <thread>
 
 #include "delta/board_facts.hpp"
-#include "delta/command.hpp"
 #include "delta/controller/homing.hpp"
+#include "delta/exit_codes.hpp"
 #include "delta/gateware.hpp"
 #include "delta/golden/export.hpp"
 #include "delta/golden/setpoint_interpolation.hpp"
@@ -46,7 +46,7 @@ int link_error_code(const link::LinkError& error) {
 // telemetry's play sides; reference_interpolator.sv). The approach starts where that answer keeps
 // it: C - r = side (H + a sixteenth of a count), so the enable moves no joint. The plain network
 // (H = 0): `located`, the network's inverse at the counts.
-Vec3 resting_start(const BoardWeights& weights, const link::TelemetryPayload& t0, const Vec3& located) {
+Vec3 resting_start(const golden::BoardWeights& weights, const link::TelemetryPayload& t0, const Vec3& located) {
   const auto half_plays = golden::interpolation::half_play_counts(weights.network.compensation);
   if (half_plays == std::array<std::int32_t, 3>{}) return located;
   constexpr std::int32_t kBeyondTheEnd = 16;  // Q.8 counts: past the end, so the answer's LSBs never re-enter the play
@@ -110,7 +110,7 @@ Connected connect_board(link::LinkSession& session) {
   }
 }
 
-void check_board_identity(const link::IdentifyPayload& identify, const BoardWeights& weights,
+void check_board_identity(const link::IdentifyPayload& identify, const golden::BoardWeights& weights,
                           const std::string& weights_path, const std::string& port_name) {
   const std::uint32_t crc = weights_crc(weights.network);
   if (identify.build_id != kGatewareBuildId || identify.weights_crc != crc) {
@@ -335,7 +335,7 @@ double board_seconds_between(const link::TelemetryPayload& from, const link::Tel
   return ticks > 0 ? ticks * link::kTickSeconds : 0.0;
 }
 
-RunJob::RunJob(const BoardWeights& weights, const RunRequest& request)
+RunJob::RunJob(const golden::BoardWeights& weights, const RunRequest& request)
     : weights_(weights), request_(request), path_(load_path(request.trajectory, request.duration_s)) {
   // The path alone (from its own start): the approach is checked once the pose is known.
   const StreamPlan plan(path_, path_.samples.front().position_m, request_.limits);
@@ -446,7 +446,7 @@ RunOutcome RunJob::execute(link::LinkSession& session, const std::string& port_n
   for (int j = 0; j < 3; ++j) counts_deg[j] = rest.counts[j] * kCountDeg;
   Vec3 start;
   try {
-    start = locate_plate(weights_.network, Geometry::nominal(), counts_deg);
+    start = golden::locate_plate(weights_.network, Geometry::nominal(), counts_deg);
   } catch (const std::runtime_error& error) {
     throw HostFailure(kExitFault, port_name + ": the encoders' pose: " + error.what());
   }

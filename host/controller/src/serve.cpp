@@ -27,10 +27,10 @@
 #include <nlohmann/json.hpp>
 
 #include "delta/board_facts.hpp"
-#include "delta/command.hpp"
 #include "delta/controller/dashboard.hpp"
 #include "delta/controller/homing.hpp"
 #include "delta/controller/run_job.hpp"
+#include "delta/exit_codes.hpp"
 #include "delta/gateware.hpp"
 #include "delta/golden/export.hpp"
 #include "delta/input_error.hpp"
@@ -125,7 +125,7 @@ void notify_systemd(const std::string& message) {
 
 struct HostServer::Impl {
   ServeOptions options;
-  BoardWeights weights;
+  golden::BoardWeights weights;
   std::string record_folder;  // canonical
   int listen_fd = -1;
   dev_t socket_device = 0;  // the socket bound here (removed at the end only if still it)
@@ -711,7 +711,7 @@ struct HostServer::Impl {
 
 HostServer::HostServer(const ServeOptions& options) : impl_(std::make_shared<Impl>()) {
   impl_->options = options;
-  impl_->weights = read_board_weights(options.weights_path);
+  impl_->weights = golden::read_board_weights(options.weights_path);
   std::error_code error;
   std::filesystem::create_directories(options.record_folder, error);
   impl_->record_folder = std::filesystem::canonical(options.record_folder, error).string();

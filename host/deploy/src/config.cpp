@@ -13,7 +13,7 @@
 #include <sstream>
 
 #include "delta/board_facts.hpp"
-#include "delta/controller/board_network.hpp"
+#include "delta/golden/board_network.hpp"
 #include "delta/golden/setpoint_interpolation.hpp"
 #include "delta/input_error.hpp"
 
@@ -225,7 +225,7 @@ DeployConfig read_config(const std::string& path, FileChecks files) {
 }
 
 void check_service_can_run(const DeployConfig& config) {
-  controller::read_board_weights(config.weights);  // InputError: the weights file, the reason
+  golden::read_board_weights(config.weights);  // InputError: the weights file, the reason
 }
 
 std::string describe(const DeployConfig& config) {

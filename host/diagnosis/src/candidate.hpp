@@ -17,7 +17,8 @@ struct PipelineData {
   std::vector<Sample> thinned_fit;  // every options.screening_stride-th of them
   std::vector<Sample> check;        // every CHECK row kept
   DiagnosisOptions options;
-  double threshold_deg2 = 0.0;  // the stopping rule's minimum held-out MSE gain
+  double threshold_deg2 = 0.0;   // the stopping rule's minimum held-out MSE gain
+  bool fit_closed_loop = false;  // FIT is closed-loop telemetry, its readings less their lead
 };
 
 struct Candidate {

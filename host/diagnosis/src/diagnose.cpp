@@ -12,6 +12,7 @@
 #include "alternatives.hpp"
 #include "attribution.hpp"
 #include "candidate.hpp"
+#include "closed_loop.hpp"
 #include "floor_test.hpp"
 #include "identifiability.hpp"
 #include "measuring_scale.hpp"
@@ -24,6 +25,22 @@ namespace {
 // A joint's turn between two kept rows that a play can hold: the angle goes beyond both ends by
 // more than this (a tenth of an encoder count; a stage's noise moves the angle by 1e-5 deg).
 constexpr double kTurnDeg = 0.001;
+
+// Closed-loop telemetry (closed_loop.hpp): the model is fitted to (or judged on) the angle behind
+// each reading, the reading less the lead the controller holds it at. Whether a recording is one
+// is told from its readings (a drag's seldom turn back; 10 Hz recordings are never telemetry).
+bool correct_closed_loop(std::vector<Sample>& samples, double count_deg) {
+  std::vector<double> t(samples.size());
+  std::vector<Vec3> reading(samples.size());
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    t[i] = samples[i].t_s;
+    reading[i] = samples[i].alpha_deg;
+  }
+  const closed_loop::Readings readings = closed_loop::read_closed_loop(t, reading, count_deg);
+  if (!readings.closed_loop) return false;
+  for (std::size_t i = 0; i < samples.size(); ++i) samples[i].alpha_deg = readings.angle_deg[i];
+  return true;
+}
 
 // Every k-th row, plus, between two kept rows, the rows where a joint's angle (nominal inverse
 // kinematics of the plate) turns beyond both of them by more than kTurnDeg: a play's state
@@ -132,7 +149,8 @@ FinalModel finish_model(const PipelineData& data, FamilySet families, const Para
       explained_fraction(diagnosis.holdout_rmse_nominal_deg, diagnosis.holdout_rmse_after_deg, options.noise_floor_deg);
 
   // The floor test decides `explained`; an excess is located.
-  const NoiseModel noise = noise_model(data.fit, model.fit_prediction, data.check, options.noise_floor_deg);
+  const NoiseModel noise =
+      noise_model(data.fit, model.fit_prediction, data.check, options.noise_floor_deg, !data.fit_closed_loop);
   diagnosis.floor_test = floor_test(data.check, model.check_prediction, noise, options);
   diagnosis.explained = diagnosis.floor_test.at_floor;
   diagnosis.unexplained =
@@ -171,8 +189,8 @@ bool adopt_measuring_scale(const PipelineData& data, const std::vector<Sample>& 
                            const std::vector<Vec3>& chosen_check, const std::optional<ScaleModel>& model) {
   if (!model) return false;
   const DiagnosisOptions& options = data.options;
-  const NoiseModel noise =
-      noise_model(unscaled(data.fit, model->scale), model->fit_prediction, data.check, options.noise_floor_deg);
+  const NoiseModel noise = noise_model(unscaled(data.fit, model->scale), model->fit_prediction, data.check,
+                                       options.noise_floor_deg, !data.fit_closed_loop);
   const FloorTest test = floor_test(data.check, model->check_prediction, noise, options);
   const PairedDifference difference =
       paired_difference(data.check, model->check_prediction, chosen_check, options.batch_rows);
@@ -311,8 +329,12 @@ Diagnosis diagnose(const std::vector<Sample>& fit, const std::vector<Sample>& ch
   diagnosis.outliers.insert(diagnosis.outliers.end(), check_outliers.begin(), check_outliers.end());
   PipelineData data;
   data.options = options;
-  data.fit = thin_to(without_outliers(fit, fit_outliers), options.max_fit_rows);
-  data.check = thin_to(without_outliers(check, check_outliers), options.max_check_rows);
+  data.fit = without_outliers(fit, fit_outliers);
+  data.check = without_outliers(check, check_outliers);
+  data.fit_closed_loop = correct_closed_loop(data.fit, encoder_step_deg);
+  correct_closed_loop(data.check, encoder_step_deg);
+  data.fit = thin_to(std::move(data.fit), options.max_fit_rows);
+  data.check = thin_to(std::move(data.check), options.max_check_rows);
   diagnosis.fit_rows_used = data.fit.size();
   diagnosis.check_rows_used = data.check.size();
   data.thinned_fit = thin_out(data.fit, options.screening_stride);

@@ -93,7 +93,7 @@ Vec3 stage_variance_deg2(const Vec3& position_m) {
 }  // namespace
 
 NoiseModel noise_model(const std::vector<Sample>& fit, const std::vector<Vec3>& fit_prediction,
-                       const std::vector<Sample>& check, double noise_floor_deg) {
+                       const std::vector<Sample>& check, double noise_floor_deg, bool fit_quantised) {
   NoiseModel noise;
   noise.encoder_variance_deg2 = noise_floor_deg * noise_floor_deg;
   const double step_deg = noise_floor_deg * std::sqrt(12.0);  // encoder resolution q
@@ -102,7 +102,7 @@ NoiseModel noise_model(const std::vector<Sample>& fit, const std::vector<Vec3>& 
   // difference of residuals; averaged over the joints.
   const double usual_s = usual_interval_s(fit);
   std::vector<double> excess;
-  for (std::size_t i = 1; i < fit.size(); ++i) {
+  for (std::size_t i = 1; fit_quantised && i < fit.size(); ++i) {
     if (!regular_step(fit, i, usual_s)) continue;
     const Vec3 stage = stage_variance_deg2(fit[i].position_m);
     double sum = 0.0;

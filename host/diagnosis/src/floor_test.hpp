@@ -23,8 +23,10 @@ struct NoiseModel {
 // `fit_prediction` is the final model on the FIT rows: the extra noise is what the differences of
 // neighbouring FIT residuals carry beyond what quantisation of the predicted motion explains
 // (a quantised angle moving by d between rows differs by f (q - f) in mean square, f = d mod q).
+// fit_quantised false (closed-loop telemetry, its readings less their lead: not quantised, and
+// their errors the controller's, not the measurement's): no extra noise is taken from FIT.
 NoiseModel noise_model(const std::vector<Sample>& fit, const std::vector<Vec3>& fit_prediction,
-                       const std::vector<Sample>& check, double noise_floor_deg);
+                       const std::vector<Sample>& check, double noise_floor_deg, bool fit_quantised = true);
 
 // Mean of r^2 / sigma^2 over the held-out rows against 1, standard error by batch means.
 FloorTest floor_test(const std::vector<Sample>& check, const std::vector<Vec3>& prediction, const NoiseModel& noise,

@@ -12,6 +12,8 @@
 #include "delta/input_error.hpp"
 #include "delta/kinematics.hpp"
 
+#include "closed_loop.hpp"
+
 namespace delta::diagnosis {
 namespace {
 
@@ -514,7 +516,10 @@ MergeResult merge_logs(const std::string& run_path, const std::vector<double>& r
   // direction of play and the rows where a joint may sit inside its play ----
   const Geometry nominal = Geometry::nominal();
   const std::size_t n = run_t.size();
-  const std::vector<Vec3> alpha = dequantise(run_t, run_alpha_deg);
+  // Closed-loop telemetry: the angle behind each reading is the reading less the lead the
+  // controller holds it at (closed_loop.hpp), not one interpolated between crossings.
+  const closed_loop::Readings readings = closed_loop::read_closed_loop(run_t, run_alpha_deg, kEncoderResolutionDeg);
+  const std::vector<Vec3> alpha = readings.closed_loop ? readings.angle_deg : dequantise(run_t, run_alpha_deg);
   std::vector<Vec3> p_enc(n);
   for (std::size_t i = 0; i < n; ++i) {
     const FkSolution fk = forward_kinematics(nominal, alpha[i]);

@@ -27,7 +27,7 @@
 #include <optional>
 #include <string>
 
-#include "delta/controller/board_network.hpp"
+#include "delta/golden/board_network.hpp"
 #include "delta/link/session.hpp"
 
 namespace delta::controller {
@@ -52,8 +52,8 @@ struct HomingReport {
 // Homes the board; the drives are off and every joint referenced when it returns. `log` gets one
 // line per step (may be empty); a stop signal (non-zero *stop) ends homing with the drives off
 // (HostFailure, exit 128 + signal). HostFailure with kExitFault or kExitLinkLost otherwise.
-HomingReport home_at_references(link::LinkSession& session, const BoardWeights& weights, const HomingOptions& options,
-                                const std::function<void(const std::string&)>& log,
+HomingReport home_at_references(link::LinkSession& session, const golden::BoardWeights& weights,
+                                const HomingOptions& options, const std::function<void(const std::string&)>& log,
                                 const volatile std::sig_atomic_t* stop = nullptr);
 
 // Reads telemetry until the counts have been still for 30 frames (the arms at rest with the drives
@@ -64,7 +64,8 @@ std::optional<link::TelemetryPayload> arms_at_rest(link::LinkSession& session);
 // The setpoint whose network answer moves each joint's reference by delta_q8[j] (Q24.8 counts per
 // setpoint period) from `references` (Q24.8), through the deployed model's play (half_plays,
 // Q24.8): the position codes, and in *actual the change the board will make.
-std::array<std::int32_t, 3> jog_setpoint(const BoardWeights& weights, const std::array<std::int32_t, 3>& references,
+std::array<std::int32_t, 3> jog_setpoint(const golden::BoardWeights& weights,
+                                         const std::array<std::int32_t, 3>& references,
                                          const std::array<std::int32_t, 3>& delta_q8,
                                          std::array<std::int32_t, 3>* actual);
 

@@ -23,9 +23,9 @@
 #include <string>
 
 #include "delta/board_facts.hpp"
-#include "delta/controller/board_network.hpp"
 #include "delta/controller/host_run.hpp"
 #include "delta/controller/stream_plan.hpp"
+#include "delta/golden/board_network.hpp"
 #include "delta/io/serial_port.hpp"
 #include "delta/link/session.hpp"
 
@@ -64,7 +64,7 @@ struct Connected {
 };
 Connected connect_board(link::LinkSession& session);
 // HostFailure (exit 5) unless the board runs this checkout's gateware and the weights' CRC.
-void check_board_identity(const link::IdentifyPayload& identify, const BoardWeights& weights,
+void check_board_identity(const link::IdentifyPayload& identify, const golden::BoardWeights& weights,
                           const std::string& weights_path, const std::string& port_name);
 
 // How the recording's name is taken: kReplace (host run: the file is replaced when the drives are
@@ -109,7 +109,7 @@ class RunJob {
  public:
   // Checks the trajectory whole (from its own start) and the recording's path before any byte is
   // sent: InputError (a file's line) or HostFailure (the plan's first offending sample), exit 2.
-  RunJob(const BoardWeights& weights, const RunRequest& request);
+  RunJob(const golden::BoardWeights& weights, const RunRequest& request);
   ~RunJob();
 
   // On an identified board whose telemetry is t0: not faulted, drives off, homed (HostFailure,
@@ -132,7 +132,7 @@ class RunJob {
   RunProgress progress() const;
 
  private:
-  const BoardWeights& weights_;
+  const golden::BoardWeights& weights_;
   RunRequest request_;
   Path path_;
   std::unique_ptr<TelemetryRecorder> recorder_;

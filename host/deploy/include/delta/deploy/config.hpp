@@ -49,7 +49,7 @@ enum class FileChecks {
 DeployConfig read_config(const std::string& path, FileChecks files = FileChecks::kExist);
 
 // What `deltactl config check` adds to read_config: the weights file loaded with the loader the
-// service uses (controller::read_board_weights: readable, valid JSON, a network the board runs).
+// service uses (golden::read_board_weights: readable, valid JSON, a network the board runs).
 // InputError names the weights file and the reason.
 void check_service_can_run(const DeployConfig& config);
 

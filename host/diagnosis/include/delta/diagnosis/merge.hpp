@@ -10,7 +10,13 @@
 //   0. the readings between their counts: a reading changes when the angle crosses the boundary
 //      between two counts, so between two crossings the angle is interpolated in time (the
 //      encoders' quantisation, 2.5 um RMS of plate, falls to about 0.1 um); rows where a joint may
-//      sit inside its play (a hold that ends in a reversal) are left out;
+//      sit inside its play (a hold that ends in a reversal) are left out. Closed-loop telemetry
+//      (rows at most 5 ms apart, a joint whose reading turns back at more than 0.5 % of its
+//      steps) instead takes each reading less the lead the controller holds it at (the angle
+//      behind it stops just past the boundary it crossed last: 0.0043 deg when slow, none above
+//      7 deg/s; host/diagnosis/src/closed_loop.hpp); what is left there is the arm falling back
+//      inside its play by an amount that changes with the speed, 0.4-3.6 ms of clock offset on
+//      the model board's runs (docs/lab_loop.md);
 //   1. coarse: the normalised cross-correlation of the two plate paths on 0.5 s bins over every lag
 //      (of peaks within 0.01 of the best, the one that overlaps most: a repeating path correlates
 //      almost as well one period off); then, on 50 ms bins within 1 s of it, the lag that leaves the

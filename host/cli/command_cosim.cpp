@@ -1,0 +1,297 @@
+// deltactl cosim: the whole robot around the board RTL (see delta/cosim/board_cosim.hpp).
+#include <chrono>
+#include <cmath>
+#include <iostream>
+#include <memory>
+
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+
+#include "command.hpp"
+#include "delta/board_facts.hpp"
+#include "delta/cosim/board_cosim.hpp"
+#include "delta/cosim/board_inputs.hpp"
+#include "delta/golden/export.hpp"
+#include "delta/golden/fixed_network.hpp"
+#include "delta/output_file.hpp"
+#include "delta/plot.hpp"
+#include "delta/table.hpp"
+#include "delta/temporary_directory.hpp"
+#include "delta/trajectory.hpp"
+#include "options.hpp"
+
+namespace delta::cosim {
+namespace {
+
+struct CosimCommandOptions {
+  std::string weights;
+  std::string effects;
+  std::string trajectory = "experiment1";
+  std::uint64_t seed = 1;
+  double duration_s = 2.0;
+  double blend_s = 0.3;
+  double settle_s = 0.1;
+  std::uint32_t target_fill = 20;
+  std::string out;
+  std::string plot;
+  std::string fidelity = "rtl";
+};
+
+std::string micrometres(double metres) { return fixed(metres * 1e6, 2); }
+
+void write_samples(const std::string& path, const CosimResult& result, const std::string& command_line) {
+  OutputFile file(path);
+  std::ostream& out = file.stream();
+  out << "# " << command_line << "\n"
+      << "# alpha*_deg: encoder readings; x/y/z_m: measured plate position; ref_*: the host's reference;\n"
+      << "# net*_deg: the network's answer for the reference (the joint reference due); true*_deg: plant angles; "
+         "current*_a: drive currents;\n"
+      << "# netideal_*, bookideal_*: the plate if the encoders read the network's answer or the textbook IK\n"
+      << "t_s,alpha1_deg,alpha2_deg,alpha3_deg,x_m,y_m,z_m,ref_x_m,ref_y_m,ref_z_m,net1_deg,net2_deg,net3_deg,"
+         "true1_deg,true2_deg,true3_deg,current1_a,current2_a,current3_a,"
+         "netideal_x_m,netideal_y_m,netideal_z_m,bookideal_x_m,bookideal_y_m,bookideal_z_m,drives_enabled\n";
+  for (const CosimSample& s : result.samples) {
+    out << format_number(s.t_s);
+    for (const Vec3* v : {&s.encoder_deg, &s.position_m, &s.reference_m, &s.network_deg, &s.true_alpha_deg,
+                          &s.current_a, &s.network_ideal_m, &s.textbook_ideal_m}) {
+      for (int k = 0; k < 3; ++k) out << ',' << format_number((*v)[k]);
+    }
+    out << ',' << (s.drives_enabled ? 1 : 0) << '\n';
+  }
+  file.commit();
+}
+
+void write_cosim_plot(const std::string& path, const CosimResult& result, const std::string& title) {
+  PlotPanel position{"Plate position error (measured - reference)", "t [s]", "error [um]", {}, false};
+  PlotPanel joints{"Joint tracking (encoder - network reference)", "t [s]", "error [deg]", {}, false};
+  PlotPanel currents{"Drive currents", "t [s]", "current [A]", {}, false};
+  const char* axis[3] = {"x", "y", "z"};
+  for (int k = 0; k < 3; ++k) {
+    PlotSeries p{axis[k], {}, {}, false}, j{"alpha" + std::to_string(k + 1), {}, {}, false},
+        c{"joint " + std::to_string(k + 1), {}, {}, false};
+    for (const CosimSample& s : result.samples) {
+      p.x.push_back(s.t_s);
+      p.y.push_back((s.position_m[k] - s.reference_m[k]) * 1e6);
+      j.x.push_back(s.t_s);
+      j.y.push_back(s.encoder_deg[k] - s.network_deg[k]);
+      c.x.push_back(s.t_s);
+      c.y.push_back(s.current_a[k]);
+    }
+    position.series.push_back(p);
+    joints.series.push_back(j);
+    currents.series.push_back(c);
+  }
+  PlotSpec spec;
+  spec.title = title;
+  spec.panels = {position, joints, currents};
+  write_plot(path, spec);
+}
+
+void run_cosim_command(const CosimCommandOptions& options, const std::string& command_line) {
+  if (!(options.duration_s > 0.0) || !(options.blend_s >= 0.0) || !(options.settle_s >= 0.0)) {
+    std::cerr << "deltactl: error: --duration must be > 0, --blend and --settle >= 0\n";
+    throw CommandExit{kExitBadInput};
+  }
+  const golden::QuantisedNetwork quantised = read_board_network(options.weights);
+  const EffectSet effects = read_board_effects(options.effects);
+  Trajectory trajectory;
+  try {
+    trajectory = make_trajectory(options.trajectory, options.seed);
+  } catch (const std::invalid_argument& error) {
+    std::cerr << "deltactl: error: --trajectory: " << error.what() << '\n';
+    throw CommandExit{kExitBadInput};
+  }
+  // Probe the output paths before minutes of simulation (OutputFile refuses an unwritable folder).
+  if (!options.out.empty()) OutputFile probe(options.out);
+  if (!options.plot.empty()) OutputFile probe(options.plot);
+
+  const TemporaryDirectory mem("deltactl_cosim");  // the network's .mem files and identify.mem
+  golden::write_export(quantised, mem.path());
+  CosimOptions cosim;
+  cosim.fidelity = options.fidelity == "model" ? BoardFidelity::kModel : BoardFidelity::kRtl;
+  cosim.mem_dir = mem.path();
+  cosim.network = &quantised;
+  cosim.effects = effects;
+  cosim.trajectory = trajectory.position_m;
+  cosim.duration_s = options.duration_s;
+  cosim.blend_s = options.blend_s;
+  cosim.session.target_fill = options.target_fill;
+  const auto start = std::chrono::steady_clock::now();
+  auto wall_s = [&start] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
+  // On a terminal the progress line rewrites itself; in a log, one line per simulated second.
+  const bool terminal = ::isatty(2) != 0;
+  cosim.progress = [&, terminal](double simulated_s) {
+    const long tenths = std::lround(simulated_s * 10.0);
+    if (!terminal && tenths % 10 != 0) return;
+    std::cerr << (terminal ? "\r" : "") << "cosim: " << fixed(simulated_s, 1) << " / " << fixed(options.duration_s, 1)
+              << " s simulated, " << fixed(wall_s(), 0) << " s wall" << (terminal ? "" : "\n") << std::flush;
+  };
+  std::cerr << "cosim: host over link v2 -> virtual board ("
+            << (options.fidelity == "model" ? "C++ model board" : "board core RTL, Verilator")
+            << ") + 3 joint plants + virtual robot ("
+            << (options.effects.empty() ? std::string("nominal") : options.effects) << "), '" << options.trajectory
+            << "' for " << options.duration_s << " s\n";
+  CosimResult result;
+  try {
+    result = run_cosim(cosim);
+  } catch (const std::runtime_error& error) {
+    std::cerr << (terminal ? "\n" : "") << "deltactl: error: " << error.what() << '\n';
+    throw CommandExit{kExitFailure};
+  }
+  const double wall = wall_s();
+  std::cerr << (terminal ? "\r" : "") << "cosim: " << fixed(options.duration_s, 1) << " s simulated in "
+            << fixed(wall, 1) << " s wall (" << fixed(result.board_cycles / kBoardClockHz, 3) << " s of board time, "
+            << fixed(result.board_cycles / wall / 1e6, 2) << " M board cycles/s)\n";
+  if (result.board_busy_s > 0.0) {  // the board and the world without the host and the truth recording
+    const double alone = result.board_cycles / result.board_busy_s;
+    std::cerr << "cosim: the board and the world alone: " << fixed(result.board_busy_s, 2) << " s wall, "
+              << fixed(alone / 1e6, 2) << " M board cycles/s, " << fixed(alone / kBoardClockHz, 1)
+              << " x real time (the rest: the host, the truth recording)\n";
+  }
+
+  const double from_s = options.blend_s + options.settle_s;
+  const TrackingSummary summary = summarise(result, from_s);
+  std::cout << "Co-simulation: '" << options.trajectory << "', " << options.duration_s << " s, smooth start over "
+            << options.blend_s << " s; statistics from t = " << from_s << " s (" << summary.samples
+            << " samples at 1 kHz)\n\n";
+  Table plate({"plate error (measured - reference)", "rms x [um]", "rms y [um]", "rms z [um]", "rms distance [um]",
+               "max distance [um]"});
+  auto add = [&plate](const std::string& label, const ErrorStats& e) {
+    plate.add_row({label, micrometres(e.rms_m.x()), micrometres(e.rms_m.y()), micrometres(e.rms_m.z()),
+                   micrometres(e.rms_distance_m), micrometres(e.max_distance_m)});
+  };
+  add(options.fidelity == "model" ? "closed loop: model board, plants, effects"
+                                  : "closed loop: board RTL, plants, effects",
+      summary.closed_loop);
+  add(quantised.compensation.any() ? "network + backlash compensation, joints exact" : "network answers, joints exact",
+      summary.network_ideal);
+  add("textbook IK, joints exact", summary.textbook_ideal);
+  plate.print(std::cout);
+  std::cout << '\n';
+  Table joints({"joint tracking", "alpha_1", "alpha_2", "alpha_3"});
+  joints.add_row({quantised.compensation.any() ? "encoder - compensated answer due [deg rms] (truth, 1 kHz)"
+                                               : "encoder - network answer due [deg rms] (truth, 1 kHz)",
+                  fixed(summary.joint_rms_deg[0], 4), fixed(summary.joint_rms_deg[1], 4),
+                  fixed(summary.joint_rms_deg[2], 4)});
+  joints.add_row({"count - joint reference [deg rms] (telemetry)", fixed(summary.board_joint_rms_deg[0], 4),
+                  fixed(summary.board_joint_rms_deg[1], 4), fixed(summary.board_joint_rms_deg[2], 4)});
+  joints.print(std::cout);
+  std::cout << '\n';
+  const link::LinkStatistics& s = result.link;
+  const link::StreamReport& r = result.stream;
+  Table link({"link v2 and board", "value"});
+  link.add_row({"identify: protocol, build id, weights CRC", std::to_string(result.identify.protocol_version) + ", " +
+                                                                 golden::hex_word(result.identify.build_id, 32) + ", " +
+                                                                 golden::hex_word(result.identify.weights_crc, 32) +
+                                                                 " (match the host's)"});
+  link.add_row({"setpoints played / streamed", std::to_string(r.played) + " / " + std::to_string(r.samples)});
+  link.add_row({"setpoint frames sent (resent)",
+                std::to_string(s.setpoints_sent) + " (" + std::to_string(s.setpoints_resent) + ")"});
+  link.add_row({"telemetry frames received (lost, skipped)", std::to_string(s.telemetry_frames) + " (" +
+                                                                 std::to_string(s.lost_telemetry) + ", " +
+                                                                 std::to_string(s.skipped_telemetry) + ")"});
+  link.add_row({"host decoder drops / skipped bytes",
+                std::to_string(s.decoder.bad_crc + s.decoder.bad_length + s.decoder.unknown_type) + " / " +
+                    std::to_string(s.decoder.skipped_bytes)});
+  link.add_row(
+      {"board: bad frames, refused", std::to_string(result.bad_frames) + ", " + std::to_string(result.rejected)});
+  link.add_row({"board: underruns before the first sample / while streaming",
+                std::to_string(r.underruns_at_first_play) + " / " +
+                    std::to_string(r.underruns_at_last_play - r.underruns_at_first_play)});
+  link.add_row({"board: slew limits, controller saturations",
+                std::to_string(result.slew_limits) + ", " + std::to_string(result.saturations)});
+  link.add_row(
+      {"latency compensated: setpoint sent for its reach time [ms]",
+       "1 (network, interpolation) + buffer wait (target fill " + std::to_string(cosim.session.target_fill) + ")"});
+  link.add_row({"references clamped to the input code", std::to_string(result.clamped_positions)});
+  link.add_row({"trajectory starts at board time [ms]", fixed(1e3 * result.t0_s, 1)});
+  link.add_row({"start pose found by the host (network inverted at the home count) [mm]",
+                fixed(result.start_position_m.x() * 1e3, 4) + ", " + fixed(result.start_position_m.y() * 1e3, 4) +
+                    ", " + fixed(result.start_position_m.z() * 1e3, 4)});
+  link.add_row({"encoder errors (sticky, bit per joint)", std::to_string(result.pins.encoder_error_bits)});
+  link.add_row({"joint controller saturations (sticky)", result.pins.joint_limited ? "yes" : "no"});
+  link.add_row({"joint fault, torque off (causes: 1 encoder, 2 following, 4 watchdog, 8 travel)",
+                result.pins.fault_cause_bits ? std::to_string(result.pins.fault_cause_bits) : "none"});
+  link.add_row({"samples with a current at the 0.5 A limit", std::to_string(result.full_scale_current_samples)});
+  link.print(std::cout);
+
+  if (!options.out.empty()) {
+    write_samples(options.out, result, command_line);
+    std::cout << "\nrecording: " << options.out << '\n';
+  }
+  if (!options.plot.empty()) {
+    write_cosim_plot(options.plot, result,
+                     std::string("Co-simulation: ") + (options.fidelity == "model" ? "model board" : "board RTL") +
+                         " + plants + virtual robot, " + options.trajectory);
+    std::cout << "plot: " << options.plot << '\n';
+  }
+  if (r.outcome != link::StreamReport::Outcome::kCompleted || r.played != r.samples ||
+      result.pins.encoder_error_bits != 0 || result.pins.fault_cause_bits != 0) {
+    std::cerr << "deltactl: cosim: the stream did not complete, or the encoders or the joint safety faulted (see the "
+                 "table)\n";
+    throw CommandExit{kExitFailure};
+  }
+}
+
+const RegisterCommand command("cosim", 70, [](CLI::App& root) {
+  auto options = std::make_shared<CosimCommandOptions>();
+  CLI::App* sub = root.add_subcommand(
+      "cosim", "Co-simulate the whole robot: the board RTL (network, joint controllers) with plants and effects");
+  sub->footer(
+      "\nA host streams the trajectory's plate positions as 1 kHz setpoints over the board link v2\n"
+      "(docs/board_link.md) to the virtual board: the Verilated board core as built for the iCEBreaker\n"
+      "(23.25 MHz board clock, 46.5 MHz network clock, 1 Mbaud link; rtl/board/board_core.sv: link,\n"
+      "setpoint buffer, network, 10 kHz interpolation, three joint controllers, PWM) driving three joint\n"
+      "plants (sim/joint_plant: motor, 66:1 gearbox, friction, gravity); their angles pass the virtual\n"
+      "robot's sensor effects into quadrature encoder signals, and the plate position is the true\n"
+      "geometry's forward kinematics seen through the frame misalignment. About 4 s of wall time per\n"
+      "simulated second; --fidelity model (the C++ model board, bit-exact with the RTL) about 0.4 s.\n"
+      "The host knows only the link: it identifies the board (weights CRC and build id must match),\n"
+      "sets home, enables, finds the plate by inverting its network at the encoder counts, and paces\n"
+      "the setpoints by telemetry (--fill ahead). Each sample carries the position for the time its\n"
+      "answer becomes the joint reference (1 ms after the board plays it). The trajectory blends from\n"
+      "that start pose over --blend seconds; t = 0 is when the first sample reaches the joints.\n"
+      "Output: tables on stdout; --out: a CSV with the SPEC recording columns (t_s, alpha*_deg = encoder\n"
+      "readings, x/y/z_m = measured plate) plus references, network answers, plant angles, currents.\n"
+      "Exit 1 when the stream does not complete, an encoder skips a state or the board's joint safety\n"
+      "stops the torque (following error, watchdog, travel limits).\n"
+      "Example: deltactl cosim --weights weights/paper_like.json --effects sim/paper_like_effects.json \\\n"
+      "           --duration 2 --out cosim.csv --plot cosim.png");
+  sub->add_option("--weights", options->weights, "network weights (W.json: model 'deployed' or 'network', 25 hidden)")
+      ->required();
+  sub->add_option("--effects", options->effects, "virtual robot's effects (JSON); none: the nominal robot");
+  sub->add_option("--trajectory", options->trajectory, "experiment1, experiment2, validation or sweep")
+      ->capture_default_str();
+  sub->add_option("--seed", options->seed, "seed of the sweep trajectory")
+      ->capture_default_str()
+      ->check(options::seed());
+  sub->add_option("--duration", options->duration_s, "simulated seconds")
+      ->capture_default_str()
+      ->check(options::real_number(0, 3600, true));
+  sub->add_option("--blend", options->blend_s, "smooth start from the home pose [s]")
+      ->capture_default_str()
+      ->check(options::real_number(0, 60));
+  sub->add_option("--settle", options->settle_s, "statistics start at blend + settle [s]")
+      ->capture_default_str()
+      ->check(options::real_number(0, 3600));
+  sub->add_option("--fidelity", options->fidelity,
+                  "rtl: the Verilated board core; model: the C++ model board (bit-exact, faster)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"rtl", "model"}));
+  sub->add_option("--fill", options->target_fill,
+                  "setpoints the host keeps ahead of the board (1 .. its buffer's depth)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, static_cast<int>(board::kSetpointDepth)));
+  sub->add_option("--out", options->out, "CSV of the run at 1 kHz");
+  sub->add_option("--plot", options->plot, "PNG: plate error, joint tracking, currents");
+  sub->callback([options] {
+    run_cosim_command(*options, "deltactl cosim --weights " + options->weights +
+                                    (options->effects.empty() ? "" : " --effects " + options->effects) +
+                                    " --trajectory " + options->trajectory + " --duration " +
+                                    format_number(options->duration_s));
+  });
+});
+
+}  // namespace
+}  // namespace delta::cosim

@@ -1,0 +1,104 @@
+// deltactl train: fit the inverse-kinematics model (deployed by default, or the plain network, or the
+// hybrid) to a recording -> W.json.
+#include <chrono>
+#include <iostream>
+#include <memory>
+
+#include <CLI/CLI.hpp>
+
+#include "command.hpp"
+#include "delta/nn/model_training.hpp"
+#include "delta/output_file.hpp"
+#include "delta/table.hpp"
+#include "options.hpp"
+#include "training_options.hpp"
+
+namespace delta::nn {
+namespace {
+
+struct TrainOptions {
+  std::string data;
+  std::string out;
+  std::string model = "deployed";
+  TrainingOptions training;
+};
+
+// A high-rate recording (the host's 1 kHz telemetry merged with a stage, deltactl merge) is thinned
+// evenly to this many rows: neighbouring rows of a slow motion add little, and the time order the
+// play is identified in is kept.
+constexpr std::size_t kMaxTrainingRows = 20000;
+
+void run_train(const TrainOptions& options) {
+  Recording recording = read_recording(options.data);
+  if (recording.samples.size() > kMaxTrainingRows) {
+    const std::size_t stride = (recording.samples.size() + kMaxTrainingRows - 1) / kMaxTrainingRows;
+    std::vector<Sample> kept;
+    for (std::size_t i = 0; i < recording.samples.size(); i += stride) kept.push_back(recording.samples[i]);
+    std::cerr << "train: " << recording.samples.size() << " rows thinned to every " << stride << "th (" << kept.size()
+              << ")\n";
+    recording.samples = std::move(kept);
+    recording.line_numbers.clear();
+  }
+  OutputFile{options.out};  // an unwritable --out, or one that is the input, fails before training
+  const auto start = std::chrono::steady_clock::now();
+  const ModelTraining result = train_model(recording, options.model, options.training, [](const TrainingEpoch& epoch) {
+    std::cerr << "train: " << describe_epoch(epoch) << '\n';
+  });
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  write_weights_file(options.out, result.weights);
+  if (result.effect_fit) {
+    const EffectFit& fit = *result.effect_fit;
+    std::cerr << "train: math model fitted in " << fit.iterations << " iterations, RMSE per joint "
+              << fixed(fit.rmse_before_deg[0], 4) << ' ' << fixed(fit.rmse_before_deg[1], 4) << ' '
+              << fixed(fit.rmse_before_deg[2], 4) << " -> " << fixed(fit.rmse_after_deg[0], 4) << ' '
+              << fixed(fit.rmse_after_deg[1], 4) << ' ' << fixed(fit.rmse_after_deg[2], 4) << " deg\n";
+  }
+  const TrainingResult& training = result.training;
+  if (result.restart_seed) {
+    std::cerr << "train: the first training stalled above " << kStallFloors << " encoder floors ("
+              << fixed(result.floor_deg, 5) << " deg); restarted from seed " << *result.restart_seed << ", kept the "
+              << (result.restart_kept ? "restart" : "first") << '\n';
+  }
+  std::cerr << "train: " << options.model << " 3-" << options.training.hidden << "-3 on " << training.training_samples
+            << " samples (+" << training.validation_samples << " validation), " << training.epochs
+            << " epochs, stopped by " << training.stop_reason << ", best epoch " << training.best_epoch
+            << ", validation RMSE " << fixed(std::sqrt(training.validation_mse_deg2), 5) << " deg, "
+            << fixed(seconds, 1) << " s -> " << options.out << '\n';
+}
+
+const RegisterCommand command("train", 40, [](CLI::App& root) {
+  auto options = std::make_shared<TrainOptions>();
+  CLI::App* sub = root.add_subcommand("train", "Train the inverse-kinematics network on a recording (-> W.json)");
+  sub->footer(
+      "\nLevenberg-Marquardt (MATLAB trainlm's damping schedule) on the sum of squared joint-angle errors in\n"
+      "degrees, analytic Jacobian, inputs and outputs scaled to [-1, 1] from the data (mapminmax).\n"
+      "A seeded share of the samples (--validation) is held out: training stops when it has not improved\n"
+      "for 6 epochs in a row, when the training error has plateaued (< 1 % over 25 epochs), or at\n"
+      "--max-epochs; the weights with the best validation error are kept. One line per epoch on stderr.\n"
+      "--model deployed (the default: what the board runs) first fits the math model's effects (geometry\n"
+      "per chain, joint offsets, encoder scales, frame tilt and shift, backlash; in time order), trains the\n"
+      "network on the recording without the identified backlash, and keeps the identified half-play: in\n"
+      "time order (ik on rows with t_s, the board's setpoints) each joint's answer passes that play.\n"
+      "--model network is the paper's plain network on the recording as it is.\n"
+      "--model hybrid fits the same effects and trains the network on what they leave (a PC reference).\n"
+      "The same data, seed and options give the same W.json, byte for byte, with any thread count.\n"
+      "Example: deltactl train --data rec.csv --out W.json --seed 1 --hidden 25");
+  sub->add_option("--data", options->data, "recording to fit (SPEC CSV)")->required();
+  sub->add_option("--out", options->out, "weights file to write (W.json)")->required();
+  add_training_options(sub, options->training);
+  sub->add_option("--model", options->model,
+                  "deployed (static network + backlash compensation), network (the paper's) or hybrid (math model + "
+                  "network)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"deployed", "network", "hybrid"}));
+  sub->add_option("--validation", options->training.validation_fraction, "share of samples held out for early stopping")
+      ->capture_default_str()
+      ->check(options::real_number(0, 0.5));
+  sub->add_option("--threads", options->training.threads, "worker threads (0: all cores; same result for any)")
+      ->capture_default_str()
+      ->check(options::whole_number(0, 256));
+  sub->callback([options] { run_train(*options); });
+});
+
+}  // namespace
+}  // namespace delta::nn

@@ -1,0 +1,433 @@
+// deltactl virtual-board: the virtual robot with its board behind a pseudo-terminal (SPEC.md, "The
+// board and the lab PC"), so any program that opens PATH as a serial port talks to it as to the
+// iCEBreaker. RTL fidelity (the Verilated board) or model fidelity (the C++ model board,
+// bit-exact with it): delta/cosim/virtual_board.hpp, model_board.hpp.
+#include <fcntl.h>
+#include <poll.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <random>
+#include <system_error>
+#include <thread>
+#include <tuple>
+
+#include <CLI/CLI.hpp>
+
+#include "command.hpp"
+#include "delta/controller/realtime.hpp"
+#include "delta/cosim/board_inputs.hpp"
+#include "delta/cosim/measuring_stage.hpp"
+#include "delta/cosim/virtual_board.hpp"
+#include "delta/gateware.hpp"
+#include "delta/golden/export.hpp"
+#include "delta/golden/fixed_network.hpp"
+#include "delta/input_error.hpp"
+#include "delta/io/pseudo_terminal.hpp"
+#include "delta/output_file.hpp"
+#include "delta/table.hpp"
+#include "delta/temporary_directory.hpp"
+#include "options.hpp"
+
+namespace delta::cosim {
+namespace {
+
+volatile std::sig_atomic_t stop_requested = 0;
+constexpr int kPacedPriority = 70;  // SCHED_FIFO of a paced board (the host controller's loop: 80)
+void request_stop(int) { stop_requested = 1; }
+
+struct VirtualBoardCommandOptions {
+  std::string link;
+  std::string effects = DELTA_SHIPPED_EFFECTS;
+  std::string weights = DELTA_SHIPPED_WEIGHTS;
+  std::string truth;
+  std::string fidelity = "rtl";
+  double inject_encoder_skip_at_s = -1.0;
+  bool free_run = false;
+  std::string stage;  // --stage drag:NAME|drag:FILE.csv|follow
+  std::string stage_log;
+  std::string stage_clock = "0,0";
+  double stage_rate_hz = 1000.0;
+  double stage_noise_m = 20e-9;
+  std::int64_t stage_seed = -1;
+  std::string start_angles;            // A1,A2,A3 [deg], true shaft angles; empty: the home pose
+  int inject_seized_joint = 0;         // 1..3; 0: none
+  int inject_missing_home_switch = 0;  // 1..3; 0: none
+  std::string inject_count_slip;       // J,COUNTS,S
+};
+
+// --start-angles A1,A2,A3: three true shaft angles within the board's travel.
+Vec3 parse_start_angles(const std::string& text) {
+  Vec3 angles = Vec3::Zero();
+  std::size_t at = 0;
+  for (int j = 0; j < 3; ++j) {
+    const std::size_t comma = j < 2 ? text.find(',', at) : text.size();
+    const std::string field = comma == std::string::npos ? "" : text.substr(at, comma - at);
+    double value = 0.0;
+    std::size_t used = 0;
+    try {
+      value = std::stod(field, &used);
+    } catch (const std::logic_error&) {
+      used = 0;
+    }
+    if (field.empty() || used != field.size() || !std::isfinite(value)) {
+      throw InputError("--start-angles", 0, "'" + text + "': give three angles in degrees, A1,A2,A3, e.g. 12.5,40,33");
+    }
+    const double low = board::kMinTravelBlock * 1024 * kCountDeg,
+                 high = ((board::kMaxTravelBlock + 1) * 1024 - 1) * kCountDeg;
+    if (value < low || value > high) {
+      throw InputError("--start-angles", 0,
+                       "joint " + std::to_string(j + 1) + " at " + field + " deg is outside the travel (" +
+                           fixed(low, 2) + " .. " + fixed(high, 2) + " deg)");
+    }
+    angles[j] = value;
+    at = comma + 1;
+  }
+  return angles;
+}
+
+// --inject-count-slip J,COUNTS,S: the 0-based joint, the counts, the board time.
+std::tuple<int, int, double> parse_count_slip(const std::string& text) {
+  const auto fail = [&] {
+    return InputError("--inject-count-slip", 0,
+                      "'" + text + "': give J,COUNTS,S: a joint 1-3, whole counts, a time in s");
+  };
+  const auto first = text.find(','), second = first == std::string::npos ? first : text.find(',', first + 1);
+  if (second == std::string::npos) throw fail();
+  try {
+    std::size_t used_j = 0, used_c = 0, used_s = 0;
+    const std::string js = text.substr(0, first), cs = text.substr(first + 1, second - first - 1),
+                      ss = text.substr(second + 1);
+    const int joint = std::stoi(js, &used_j);
+    const int counts = std::stoi(cs, &used_c);
+    const double at = std::stod(ss, &used_s);
+    if (used_j != js.size() || used_c != cs.size() || used_s != ss.size() || joint < 1 || joint > 3 ||
+        !std::isfinite(at) || at < 0.0) {
+      throw fail();
+    }
+    return {joint - 1, counts, at};
+  } catch (const std::logic_error&) {
+    throw fail();
+  }
+}
+
+// --stage-clock OFFSET_S,PPM.
+std::pair<double, double> parse_stage_clock(const std::string& text) {
+  const auto comma = text.find(',');
+  try {
+    if (comma == std::string::npos) throw std::invalid_argument(text);
+    std::size_t used = 0;
+    const double offset = std::stod(text.substr(0, comma), &used);
+    if (used != comma) throw std::invalid_argument(text);
+    const std::string ppm_text = text.substr(comma + 1);
+    const double ppm = std::stod(ppm_text, &used);
+    if (used != ppm_text.size() || !std::isfinite(offset) || !std::isfinite(ppm) || std::abs(ppm) > 1e5) {
+      throw std::invalid_argument(text);
+    }
+    return {offset, ppm};
+  } catch (const std::logic_error&) {
+    throw InputError("--stage-clock", 0, "'" + text + "': give OFFSET_S,PPM, e.g. 12.5,-80");
+  }
+}
+
+// Writes what fits into the pty without waiting: with no program reading PATH the board's bytes
+// are dropped, as an FTDI chip drops them with no host attached. Once the pty was full, a poll
+// asks whether it has room before a write: a write into a full pty still wakes the kernel's
+// worker that moves its bytes (most of a free-running board's time with nobody reading).
+std::size_t write_what_fits(int fd, const std::uint8_t* data, std::size_t size, bool* full) {
+  if (*full) {
+    pollfd room{fd, POLLOUT, 0};
+    if (::poll(&room, 1, 0) <= 0 || !(room.revents & POLLOUT)) return 0;
+    *full = false;
+  }
+  std::size_t written = 0;
+  while (written < size) {
+    const ssize_t n = ::write(fd, data + written, size - written);
+    if (n > 0) {
+      written += static_cast<std::size_t>(n);
+    } else if (n < 0 && errno == EINTR) {
+      continue;
+    } else {
+      *full = true;  // EAGAIN: the pty's buffer is full
+      break;
+    }
+  }
+  return written;
+}
+
+void run_virtual_board(const VirtualBoardCommandOptions& options) {
+  const bool model = options.fidelity == "model";
+  // The model keeps to wall-clock time unless told to run free; the RTL cannot keep up anyway.
+  const bool paced = model && !options.free_run;
+  // Everything is checked before PATH or TRUTH appear.
+  const golden::QuantisedNetwork quantised = read_board_network(options.weights);
+  const EffectSet effects = read_board_effects(options.effects);
+
+  const TemporaryDirectory mem("deltactl_virtual_board");  // the network's .mem files and identify.mem
+  golden::write_export(quantised, mem.path());
+  VirtualBoardOptions board_options;
+  board_options.fidelity = model ? BoardFidelity::kModel : BoardFidelity::kRtl;
+  board_options.network = &quantised;
+  board_options.mem_dir = mem.path();
+  board_options.effects = effects;
+  board_options.inject_encoder_skip_at_s = options.inject_encoder_skip_at_s;
+  if (!options.start_angles.empty()) board_options.start_true_alpha_deg = parse_start_angles(options.start_angles);
+  board_options.inject_seized_joint = options.inject_seized_joint - 1;
+  board_options.inject_missing_home_switch = options.inject_missing_home_switch - 1;
+  if (!options.inject_count_slip.empty()) {
+    std::tie(board_options.inject_slip_joint, board_options.inject_slip_counts, board_options.inject_slip_at_s) =
+        parse_count_slip(options.inject_count_slip);
+  }
+  std::unique_ptr<MeasuringStage> stage;
+  if (!options.stage.empty() || !options.stage_log.empty()) {
+    if (options.stage.empty() || options.stage_log.empty()) {
+      throw InputError("--stage", 0, "--stage and --stage-log go together");
+    }
+    StageOptions stage_options;
+    stage_options.mode = options.stage;
+    stage_options.log_path = options.stage_log;
+    std::tie(stage_options.clock_offset_s, stage_options.clock_ppm) = parse_stage_clock(options.stage_clock);
+    stage_options.rate_hz = options.stage_rate_hz;
+    stage_options.noise_m = options.stage_noise_m;
+    stage_options.seed = options.stage_seed >= 0 ? static_cast<std::uint64_t>(options.stage_seed)
+                                                 : static_cast<std::uint64_t>(std::random_device{}()) & 0xffffffffu;
+    stage = std::make_unique<MeasuringStage>(stage_options, effects, Geometry::nominal());
+    if (stage->drags()) board_options.drag = [s = stage.get()](double t) { return s->drag(t); };
+    std::cout << "virtual-board: stage " << options.stage << ", log " << options.stage_log << " on its clock "
+              << options.stage_clock << " (offset s, ppm) at " << format_number(options.stage_rate_hz) << " Hz, noise "
+              << format_number(options.stage_noise_m) << " m RMS, seed " << stage_options.seed << std::endl;
+  }
+  const auto make_board = [&]() {
+    try {
+      return std::make_unique<VirtualBoard>(board_options);
+    } catch (const std::invalid_argument& error) {  // the arms placed where the plate has no pose
+      throw InputError("--start-angles", 0, "'" + options.start_angles + "': " + error.what());
+    }
+  };
+  const std::unique_ptr<VirtualBoard> board_owner = make_board();
+  VirtualBoard& board = *board_owner;
+  if (stage) {
+    board.observe_periods([s = stage.get(), &board](std::uint64_t clocks, const BoardPins&, const RobotWorld& world) {
+      s->sample(static_cast<double>(clocks) / kBoardClockHz, 1.0 / board::kControlRateHz, world);
+    });
+  }
+
+  std::ofstream truth;
+  if (!options.truth.empty()) {
+    truth.open(options.truth, std::ios::trunc);
+    if (!truth) throw InputError(options.truth, 0, "cannot be written");
+    truth << "t_s,x_m,y_m,z_m,true_alpha1_deg,true_alpha2_deg,true_alpha3_deg,drives_enabled,"
+             "encoder1_deg,encoder2_deg,encoder3_deg,current1_a,current2_a,current3_a\n";
+    board.observe_truth([&truth](const TruthSample& s, const RobotWorld&) {
+      truth << format_number(s.t_s);
+      for (int k = 0; k < 3; ++k) truth << ',' << format_number(s.position_m[k]);
+      for (int k = 0; k < 3; ++k) truth << ',' << format_number(s.true_alpha_deg[k]);
+      truth << ',' << (s.drives_enabled ? 1 : 0);
+      for (int k = 0; k < 3; ++k) truth << ',' << format_number(s.encoder_deg[k]);
+      for (int k = 0; k < 3; ++k) truth << ',' << format_number(s.current_a[k]);
+      truth << '\n';
+    });
+  }
+
+  std::unique_ptr<io::PseudoTerminal> pty;
+  try {
+    pty = std::make_unique<io::PseudoTerminal>(options.link);
+  } catch (const std::system_error& error) {
+    std::cerr << "deltactl: error: --link " << error.what() << '\n';
+    throw CommandExit{kExitBadInput};
+  }
+  struct sigaction action {};
+  action.sa_handler = request_stop;
+  sigemptyset(&action.sa_mask);
+  for (int signal_number : {SIGINT, SIGTERM, SIGHUP}) ::sigaction(signal_number, &action, nullptr);
+
+  // A paced board runs as the real board's hardware does, whatever else the PC runs: SCHED_FIFO
+  // (below the host controller's 80) when permitted, so that a busy PC does not stop its clock.
+  const std::string scheduling = paced ? controller::make_thread_realtime(kPacedPriority) : "";
+  std::cout << "virtual-board: ready on " << options.link << " (" << pty->slave_path() << "), "
+            << (model ? "model" : "RTL") << " fidelity" << (paced ? " (real time)" : "") << ", weights CRC "
+            << golden::hex_word(weights_crc(quantised), 32) << ", gateware " << golden::hex_word(kGatewareBuildId, 32)
+            << (!paced               ? ""
+                : scheduling.empty() ? ", SCHED_FIFO " + std::to_string(kPacedPriority)
+                                     : ", normal scheduling (" + scheduling + ")")
+            << std::endl;
+
+  // One control period of board time per turn (100 us): the pty's bytes join the line at the board's
+  // bit timing, the board's bytes go out as they complete. Paced: each turn waits until its board
+  // time is due on the wall clock (a board that behaves like the real one for a host in a dry run).
+  // The model board free-running: a millisecond of board time per turn (the pty's read and write
+  // per turn cost more than the model board's periods; a host's bytes join the line within 1 ms of
+  // board time). The RTL board, slower than real time, keeps to a period per turn.
+  // Board time is real time, as on the real board: a paced board that fell behind (this process
+  // not scheduled) catches up, a millisecond per turn, on the bytes that arrived meanwhile (at
+  // most as late as they really came) and sends its telemetry of the time it missed at once, as a
+  // real board's would reach a host that could not read. The largest lag is printed on exit.
+  // The host's bytes wait in the pty while the line holds kReceiveQueueBytes (the FT2232H's 4 KiB
+  // buffer): a writer faster than the line is slowed down and finally blocked, as by a real port.
+  constexpr std::size_t kReceiveQueueBytes = 4096;
+  const auto start = std::chrono::steady_clock::now();
+  const auto origin = start;
+  std::chrono::steady_clock::duration largest_lag{};
+  auto last_flush = start;
+  std::uint64_t bytes_in = 0, bytes_out = 0, bytes_dropped = 0, turns = 0;
+  bool pty_full = false, behind = false;
+  std::uint8_t buffer[kReceiveQueueBytes];
+  const int fd = pty->fd();
+  while (!stop_requested) {
+    const std::size_t queued = board.bytes_to_board();
+    if (queued < kReceiveQueueBytes) {
+      const ssize_t got = ::read(fd, buffer, kReceiveQueueBytes - queued);
+      if (got > 0) {
+        board.write(buffer, static_cast<std::size_t>(got));
+        if (stage) stage->host_bytes(buffer, static_cast<std::size_t>(got), board.time_s());
+        bytes_in += static_cast<std::uint64_t>(got);
+      }
+    }
+    if (++turns % 128 == 0) pty->release_exclusive();
+    board.step((model && !paced) || behind ? kClocksPerMillisecond : kClocksPerTick);
+    const std::size_t out = board.read(buffer, sizeof buffer);
+    if (out > 0) {
+      const std::size_t written = write_what_fits(fd, buffer, out, &pty_full);
+      bytes_out += written;
+      bytes_dropped += out - written;
+    }
+    auto now = std::chrono::steady_clock::now();
+    if (paced) {
+      const auto due = origin + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                    std::chrono::duration<double>(board.time_s()));
+      behind = now - due > std::chrono::milliseconds(1);
+      if (due > now) {
+        std::this_thread::sleep_until(due);
+        now = std::chrono::steady_clock::now();
+      } else {
+        largest_lag = std::max(largest_lag, now - due);
+      }
+    }
+    if (now - last_flush >= std::chrono::milliseconds(500)) {
+      if (truth.is_open()) truth.flush();
+      if (stage) stage->flush();
+      last_flush = now;
+    }
+  }
+  if (truth.is_open()) {
+    truth.close();
+    if (!truth) std::cerr << "deltactl: error: " << options.truth << ": write failed\n";
+  }
+  if (stage) {
+    if (!stage->finish()) std::cerr << "deltactl: error: " << options.stage_log << ": write failed\n";
+    std::cerr << "virtual-board: stage: " << stage->samples() << " samples logged"
+              << (stage->drags()
+                      ? (stage->drag_start_s() < 0 ? "; no valid frame came, the plate never moved"
+                                                   : "; drag from board time " + fixed(stage->drag_start_s(), 4) +
+                                                         " s, " + fixed(stage->path_duration_s(), 1) + " s long")
+                      : "")
+              << '\n';
+  }
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  std::cerr << "virtual-board: stopped after " << fixed(board.time_s(), 3) << " s of board time in " << fixed(wall, 1)
+            << " s wall"
+            << (paced ? "; at most " + fixed(std::chrono::duration<double>(largest_lag).count() * 1e3, 1) +
+                            " ms behind the wall clock (caught up)"
+                      : "")
+            << "; " << bytes_in << " bytes from the host, " << bytes_out << " to it, " << bytes_dropped
+            << " dropped (nobody reading)\n";
+  pty.reset();  // removes PATH
+}
+
+const RegisterCommand command("virtual-board", 72, [](CLI::App& root) {
+  auto options = std::make_shared<VirtualBoardCommandOptions>();
+  CLI::App* sub = root.add_subcommand(
+      "virtual-board", "The virtual robot and its board behind a pseudo-terminal at PATH (talk to it as to the board)");
+  sub->footer(
+      "\nCreates a pseudo-terminal (raw, no echo) whose slave is linked at PATH; any program that opens\n"
+      "PATH as a serial port talks the board link v2 (docs/board_link.md) to the virtual board: the\n"
+      "Verilated board core as built for the iCEBreaker (23.25 MHz board clock, 46.5 MHz network\n"
+      "clock, 23 clocks per bit at 1 Mbaud) with the robot world (three joint plants, the effects'\n"
+      "sensor chain, quadrature encoders, PWM averaging). Bytes from PATH enter the board's UART at its\n"
+      "bit timing; the board's bytes come back as they leave its TX pin. The simulation runs as fast as\n"
+      "it can, about 0.4 x real time: a host paces itself by the board's telemetry, never by its\n"
+      "own clock. --fidelity model runs the C++ model board instead (bit-exact with the RTL at its\n"
+      "pins: the same bytes, PWM and encoder counts), kept to wall-clock time unless --free-run (over\n"
+      "100 x real time with nobody reading), as SCHED_FIFO 70 when permitted (the board's hardware\n"
+      "never waits for the PC). Board time is real time, as on the real board: a paced\n"
+      "board that falls behind, its process not scheduled, catches up on the bytes that arrived\n"
+      "meanwhile and sends the telemetry of the time it missed at once; the largest lag is printed\n"
+      "on exit. The board's receive queue holds 4 KiB (the FT2232H's buffer): a program writing\n"
+      "faster than the line is slowed down and blocked, as by a real port.\n"
+      "Bytes the board sends while nobody reads PATH are dropped once the pty is full.\n"
+      "A program's exclusive mode on PATH (TIOCEXCL) ends when it closes PATH, as on a serial port.\n"
+      "A --link that names a live virtual board's link is refused.\n"
+      "Prints one line naming PATH when ready; runs until SIGINT or SIGTERM, then removes PATH.\n"
+      "--truth: CSV at 1 kHz of board time, written as it runs (flushed twice a second, complete on\n"
+      "exit): t_s (board time since reset), x/y/z_m (the plate as the measuring stage sees it),\n"
+      "true_alpha*_deg (plant angles), drives_enabled, encoder*_deg, current*_a.\n"
+      "Defaults: the deployed model the bitstream ships (weights/paper_like_deployed.json; the plain\n"
+      "network: --weights weights/paper_like.json) and the paper-like robot\n"
+      "(sim/paper_like_effects.json), both of the checkout deltactl was built from; --effects '' is the\n"
+      "nominal robot.\n"
+      "--inject-encoder-skip-at S: at board time S joint 1's A and B lines both invert (a skipped\n"
+      "quadrature state: the board latches fault cause 0, encoder skip), for the host's fault tests.\n"
+      "--stage: a measuring stage beside the robot (SPEC.md, \"The lab's measurements\"). drag:NAME or\n"
+      "drag:FILE.csv (t_s,x_m,y_m,z_m): with the drives off the stage moves the plate, the arms following\n"
+      "through the true geometry and every effect; from one second of board time after the board's\n"
+      "first valid frame (a quintic move to the start during that second) along the trajectory, then\n"
+      "holds it at the end. follow: it only measures. --stage-log gets the stage controller's own log,\n"
+      "t_s,x_m,y_m,z_m, on its clock (t_stage = OFFSET + (1 + PPM 1e-6) t_board) at --stage-rate, the\n"
+      "plate through the frame misalignment with --stage-noise, quantised to 6.87 nm; the seed is printed.\n"
+      "Merge it with a host recording: deltactl merge (docs/lab_loop.md).\n"
+      "Example: deltactl virtual-board --link /tmp/delta-tty --truth truth.csv &\n"
+      "         deltactl host status --port /tmp/delta-tty");
+  sub->add_option("--link", options->link, "path at which to link the pseudo-terminal (a serial port to open)")
+      ->required();
+  sub->add_option("--effects", options->effects,
+                  "virtual robot's effects (JSON; default: the paper-like robot, sim/paper_like_effects.json)");
+  sub->add_option("--weights", options->weights,
+                  "network weights the board runs (W.json: model 'deployed' or 'network', 25 hidden; default: what "
+                  "the bitstream ships, weights/paper_like_deployed.json)");
+  sub->add_option("--truth", options->truth, "CSV of the ground truth at 1 kHz of board time");
+  sub->add_option("--fidelity", options->fidelity, "rtl: the Verilated board core; model: the C++ model board")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"rtl", "model"}));
+  sub->add_flag("--free-run", options->free_run, "model fidelity: run as fast as possible, not at real time");
+  sub->add_option("--inject-encoder-skip-at", options->inject_encoder_skip_at_s,
+                  "fault injection: from this board time [s] joint 1's encoder skips a quadrature state")
+      ->check(options::real_number(0, 1e6));
+  sub->add_option("--start-angles", options->start_angles,
+                  "A1,A2,A3: true shaft angles [deg] the arms rest at when the board starts (default: the home pose, "
+                  "where the encoders read the home count); the board counts from its home count wherever they are: "
+                  "`deltactl host home` finds the references");
+  sub->add_option("--inject-seized-joint", options->inject_seized_joint,
+                  "J (1-3): that arm never moves, whatever the drive (a test's fault injection)")
+      ->check(CLI::Range(1, 3));
+  sub->add_option("--inject-missing-home-switch", options->inject_missing_home_switch,
+                  "J (1-3): that joint's home switch never closes (a test's fault injection)")
+      ->check(CLI::Range(1, 3));
+  sub->add_option("--inject-count-slip", options->inject_count_slip,
+                  "J,COUNTS,S: at board time S joint J's encoder silently gains COUNTS (valid quadrature steps, as "
+                  "from noise; the board cannot see it): a test's fault injection");
+  sub->add_option("--stage", options->stage,
+                  "measuring stage: drag:NAME|drag:FILE.csv (drags the plate, drives off) or follow")
+      ->type_name("MODE");
+  sub->add_option("--stage-log", options->stage_log, "STAGE.csv: the stage's own log (t_s,x_m,y_m,z_m)");
+  sub->add_option("--stage-clock", options->stage_clock, "OFFSET_S,PPM: t_stage = OFFSET + (1 + PPM 1e-6) t_board")
+      ->capture_default_str();
+  sub->add_option("--stage-rate", options->stage_rate_hz, "stage samples per second of its clock")
+      ->check(options::real_number(1, 100000))
+      ->capture_default_str();
+  sub->add_option("--stage-noise", options->stage_noise_m, "stage noise, RMS per axis [m]")
+      ->check(options::real_number(0, 1e-3))
+      ->capture_default_str();
+  sub->add_option("--stage-seed", options->stage_seed, "seed of the stage's noise (default: drawn, printed)")
+      ->check(options::whole_number(0, 4294967295LL));
+  sub->callback([options] { run_virtual_board(*options); });
+});
+
+}  // namespace
+}  // namespace delta::cosim

@@ -1,0 +1,143 @@
+// The board at model fidelity: board_core's behaviour in C++ without Verilator, one board clock
+// per step with the RTL's event times, for the virtual board (virtual_board.hpp, --fidelity
+// model). The small control logic (uart_rx/tx, link_rx with its ring and rescan, the setpoint
+// buffer, commands, counters, link_tx, quadrature counters, joint_safety, joint_pwm) is stepped
+// per clock as a register-level translation; the arithmetic runs once per event on the golden
+// models, bit for bit what the RTL computes:
+//   network (golden::evaluate_raw) when a setpoint is played (tick PlayTick = 1 of phase 0),
+//   reference interpolation (setpoint_interpolation.hpp's rule) at tick ClocksPerPeriod -
+//     InterpolationLeadClocks (2225), joint j's reference written in its step
+//     InterpolatorReferenceStep (8 clocks a joint),
+//   joint controllers (control::fixed_update, fixed_rest_state after a period with the drives
+//     off) started at tick 1, joint j's PWM duty stored JointControllerLoadCycles +
+//     JointControllerJointCycles (j + 1) + 1 clocks later (shown from tick 364 + 355 j;
+//     joint_controller.sv's 1072-cycle schedule stores the current a clock before, the model
+//     stores both at once); the play shift (interpolation::play_shift) written with each
+//     joint's reference update, for the next period.
+// Every schedule fact is a board fact (delta/board_facts.hpp, from rtl/board/delta_board_pkg.sv).
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <deque>
+#include <memory>
+#include <string>
+
+#include "delta/golden/fixed_network.hpp"
+#include "delta/robot_world.hpp"
+
+namespace delta::cosim {
+
+struct ModelBoardPins {
+  int drive_pwm = 0;
+  int drive_dir = 0;
+  bool drive_enable = false;
+  int encoder_error = 0;
+  bool joint_limited = false;
+  int fault_cause = 0;
+};
+
+class ModelBoard {
+ public:
+  // identify_mem: the path of identify.mem (12 lines of one 16-bit hex word).
+  ModelBoard(const golden::QuantisedNetwork& network, const std::string& identify_mem);
+  ~ModelBoard();
+  ModelBoard(const ModelBoard&) = delete;
+  ModelBoard& operator=(const ModelBoard&) = delete;
+
+  // The serial line at the RX pin, byte by byte (8N1, kLinkClocksPerBit clocks a bit): the bytes
+  // go onto the line behind what it still sends, the first now (before the next clock), and
+  // uart_rx hands each to link_rx in the clock the RTL's does.
+  void receive(const std::uint8_t* data, std::size_t size);
+  std::size_t bytes_on_line();  // received and not yet fully on the line
+  // The line at the TX pin: the next byte it completed in a clock already run (at the stop bit's
+  // middle, as rtl::UartLine decodes the pin), once.
+  bool take_tx_byte(std::uint8_t* byte);
+  // The clock in which the line completes the k-th byte not yet taken (k = 0: the next), as far as
+  // link_tx has started its frame; ~0 if not yet known. A run of clocks (skip) goes past
+  // completions: the caller bounds it where it needs a byte.
+  std::uint64_t tx_byte_cycle(std::size_t k) const;
+
+  // One board clock edge with the encoder lines as the board samples them: bit j of encoder_a and
+  // encoder_b joint j's A and B line, bit 3 + j of encoder_a joint j's home switch (board_core's
+  // home_switch_i).
+  void clock(int encoder_a, int encoder_b);
+  const ModelBoardPins& pins() const { return pins_; }
+
+  // Up to `limit` clocks at once with the pins held, if they are clocks that only count: the
+  // UARTs inside a byte (a run ends at the clock uart_rx hands over a byte, uart_tx's last bit
+  // ends or the TX line completes a byte), the tick between the period's events, the controller
+  // between its stores, the PWM phase, the synchronisers taking the held pins (the quadrature
+  // counters counting a change of the encoder lines; a skipped state ends the run). Returns how
+  // many it took (0: none, clock() the next one) and the drive pins it showed in them
+  // (`pattern`); the state after them is exactly what as many clock() calls leave.
+  std::uint64_t skip(std::uint64_t limit, int encoder_a, int encoder_b, DrivePattern* pattern);
+
+  // The run check (tests): every skip() runs its clocks again as full clocks from the same state
+  // and throws std::logic_error naming the first register, block RAM, drive pin or line byte that
+  // differs (the quiet runs and micro clocks must be exactly the full clocks they stand for).
+  void check_runs(bool on) { check_runs_ = on; }
+
+ private:
+  struct State;
+  std::uint64_t skip_run(std::uint64_t limit, int encoder_a, int encoder_b, DrivePattern* pattern);
+  static const char* differing_register(const State& a, const State& b);
+  void settle();
+  bool quiet() const;
+  bool quiet_clock(int encoder_a, int encoder_b);
+  std::uint64_t quiet_run(std::uint64_t limit, int encoder_a, int encoder_b);
+  void count_clock(int encoder_a, int encoder_b);
+  struct MicroClock;
+  bool micro_clock(int encoder_a, int encoder_b, std::uint64_t lines_hold);
+  bool plan_micro_clock(int encoder_a, int encoder_b, std::uint64_t lines_hold, MicroClock& c) const;
+  void micro_link_rx(const MicroClock& c);
+  void micro_interpolator(const MicroClock& c);
+  static std::uint16_t telemetry_word_of(const State& s);
+  void start_frame(State& n, std::uint64_t start);
+
+  // The full clock by module, in board_core's order: each module's next values in n from the
+  // present ones in s and the wires the modules before it set this clock (board_core's nets).
+  struct Wires;
+  void uart_rx_next(const State& s, State& n);
+  void link_rx_next(const State& s, State& n, Wires& w);
+  static void commands_next(const State& s, State& n, Wires& w);
+  static void schedule_next(const State& s, State& n, Wires& w);
+  void setpoint_buffer_next(const State& s, State& n, Wires& w);
+  void interpolator_next(const State& s, State& n, const Wires& w) const;
+  static void encoders_next(const State& s, State& n, int encoder_a, int encoder_b, Wires& w);
+  static void joint_controller_next(const State& s, State& n);
+  static void joint_safety_next(const State& s, State& n, const Wires& w);
+  static void joint_pwm_next(const State& s, State& n);
+  static void counters_next(const State& s, State& n, const Wires& w);
+  void link_tx_next(const State& s, State& n, const Wires& w);
+  void telemetry_capture_next(const State& s, State& n, std::uint16_t word, bool snapshot, bool sending_telemetry);
+  void setpoint_payload_next(const State& s, State& n, bool frame_start, bool payload_valid, int payload_index,
+                             std::uint8_t byte);
+
+  struct Memories;
+  golden::QuantisedNetwork network_;
+  std::array<std::int32_t, 3> half_plays_{};  // H_j, Q24.8 counts (half_play.mem): constant
+  std::unique_ptr<Memories> memories_;
+  std::unique_ptr<State> state_;
+  std::unique_ptr<State> next_state_;  // clock()'s next values
+  ModelBoardPins pins_;
+  bool check_runs_ = false;
+  bool checking_ = false;  // replaying a run as full clocks
+  // The RX line: each byte with the clock in which uart_rx sets valid; when each leaves the line.
+  struct RxByte {
+    std::uint64_t valid_cycle;
+    std::uint8_t byte;
+  };
+  std::deque<RxByte> rx_line_;
+  std::deque<std::uint64_t> line_end_;
+  std::uint64_t line_free_cycle_ = 0;
+  // The TX line: the bytes of the frames link_tx sends and the clock in which the line completes each.
+  struct TxByte {
+    std::uint64_t cycle;
+    std::uint8_t byte;
+  };
+  std::deque<TxByte> tx_line_;
+};
+
+}  // namespace delta::cosim

@@ -1,0 +1,1588 @@
+// The board at model fidelity (see model_board.hpp): board_core as a register-level C++ model of
+// its control logic with the golden models for the arithmetic. Every register below is named as
+// in the RTL (module prefix where two modules share a name); each clock computes the next values
+// from the present ones, then commits them, as the RTL's always_ff blocks do.
+#include "delta/cosim/model_board.hpp"
+
+#include <algorithm>
+#include <fstream>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "delta/board_facts.hpp"
+#include "delta/golden/joint_fixed.hpp"
+#include "delta/golden/setpoint_interpolation.hpp"
+#include "delta/link/frame_codec.hpp"
+
+namespace delta::cosim {
+namespace {
+
+constexpr int kClocksPerBit = static_cast<int>(board::kLinkClocksPerBit);
+constexpr int kClocksPerPeriod = static_cast<int>(board::kClocksPerPeriod);
+constexpr int kRingBytes = static_cast<int>(board::kRxRingBytes);
+constexpr int kDepth = static_cast<int>(board::kSetpointDepth);
+constexpr int kTelemetryWords = static_cast<int>(board::kTelemetryPayloadBytes / 2);
+constexpr int kJoints = 3;
+constexpr int kAllJoints = (1 << kJoints) - 1;  // a bit per joint, all set
+// The all-ones mask of a counter that counts 0 .. count - 1 in the fewest bits (the RTL's
+// $clog2(count) wide registers wrap there).
+constexpr int counter_mask(long long count) {
+  int bits = 0;
+  while ((1LL << bits) < count) ++bits;
+  return (1 << bits) - 1;
+}
+// joint_safety.sv's silent-period counter saturates at all ones: $clog2(WatchdogPeriods + 2) bits.
+constexpr int kWatchdogMax = counter_mask(board::kWatchdogPeriods + 2);
+
+// ---- the period schedule (board_core.sv; tick 0 .. ClocksPerPeriod - 1, phase 0 .. 9) ----
+// The last phase k of a 1 kHz segment (board_core's phase_q wraps to 0 after it; reset value).
+constexpr int kLastPhase = static_cast<int>(board::kPeriodsPerSetpoint) - 1;
+// The tick of phase 0 that plays a setpoint; the controllers see ap_start (start_q, set at tick 0)
+// in the same tick.
+constexpr int kPlayTick = static_cast<int>(board::kPlayTick);
+// The telemetry snapshot: the middle of phase 0's period (board_core.sv's snapshot).
+constexpr int kSnapshotTick = kClocksPerPeriod / 2;
+// The tick at which the interpolator starts computing the next period's references.
+constexpr int kUpdateTick = kClocksPerPeriod - static_cast<int>(board::kInterpolationLeadClocks);
+// The period's last tick: with the drives off the controllers are reset in it.
+constexpr int kLastTick = kClocksPerPeriod - 1;
+// The phase k after a period start.
+constexpr int next_phase(int phase) { return phase == kLastPhase ? 0 : phase + 1; }
+
+// ---- reference_interpolator.sv's update: kInterpolatorStepsPerJoint clocks per joint ----
+constexpr int kDeltaStep = static_cast<int>(board::kInterpolatorDeltaStep);          // D from the answer
+constexpr int kReferenceStep = static_cast<int>(board::kInterpolatorReferenceStep);  // r', d', the shift
+constexpr int kStepsPerJoint = kReferenceStep + 1;                                   // step 7 rotates
+constexpr std::uint64_t kUpdateClocks = static_cast<std::uint64_t>(kStepsPerJoint * kJoints);
+
+// ---- joint_controller.sv's schedule after it sees ap_start ----
+constexpr int kJointCycles = static_cast<int>(board::kJointControllerJointCycles);  // one joint's datapath run
+constexpr int kLoadCycles = static_cast<int>(board::kJointControllerLoadCycles);    // ap_start seen (idle) to ap_ready
+// The clock (cycles after ap_start was seen) in which joint j's PWM duty is set: the RTL stores
+// current_q a clock before (at kLoadCycles + kJointCycles (j + 1)), which nothing but joint_pwm
+// reads; the model stores both here.
+constexpr std::uint64_t duty_cycle(int j) {
+  return static_cast<std::uint64_t>(kLoadCycles + kJointCycles * (j + 1) + 1);
+}
+constexpr std::uint64_t kRunCycles = duty_cycle(2);  // ap_done (the RTL's, too)
+// Registers the model folds where the RTL spends a clock nothing else can see:
+//   link_tx's state 1 (a clock for the RAM read after a payload byte): the model's read is settled;
+//   the controller's start_q, cleared at ap_ready in the RTL: here when the run starts (nothing
+//   reads it while the controller runs); current_q, stored a clock before its duty (above);
+//   link_rx's ring read while idle: the fetch that precedes every use of it reads it again.
+
+// ---- the serial line, 8N1 at kClocksPerBit (B) clocks a bit ----
+constexpr int kUartByteBits = 10;                // start bit, 8 data bits, stop bit
+constexpr int kUartStopBit = kUartByteBits - 1;  // the stop bit's index: its middle ends a byte
+constexpr int kRxSyncClocks = 2;                 // uart_rx's two-flip-flop synchroniser
+// uart_rx: the start bit's first clock e reaches the synchroniser's output at e + 2; it waits B/2 + 1
+// clocks to the start bit's middle, samples the data bits B clocks apart and sets valid in the
+// clock at the stop bit's middle: e + 3 + B/2 + 9 B. The line at the TX pin (rtl::UartLine) sees
+// the start bit after the clock uart_tx loads the byte and completes the byte B/2 + 9 B clocks
+// later, at the stop bit's middle.
+constexpr std::uint64_t kRxValidDelay = kRxSyncClocks + 1 + kClocksPerBit / 2 + kUartStopBit * kClocksPerBit;
+constexpr std::uint64_t kTxByteDelay = kClocksPerBit / 2 + kUartStopBit * kClocksPerBit;
+// The clocks one byte takes on the line.
+constexpr std::uint64_t kLineByteClocks = static_cast<std::uint64_t>(kUartByteBits) * kClocksPerBit;
+// link_tx hands uart_tx a byte in the first clock it finds it ready, which is 10 B + 1 clocks after
+// the last: a frame's bytes load that far apart from the first (which waits for the UART's last).
+constexpr std::uint64_t kTxByteClocks = kLineByteClocks + 1;
+
+// ---- link_rx (frame layout: the board facts) ----
+constexpr int kHeaderBytes = static_cast<int>(board::kFrameHeaderBytes);  // sync, length, sequence, type
+constexpr int kLengthByte = 1;                                            // frame byte index of the length
+constexpr int kSequenceByte = 2;                                          // ... of the sequence
+constexpr int kTypeByte = kHeaderBytes - 1;                               // ... of the type, the header's last
+// link_rx's index_q and end_q (6 bits): a frame's bytes.
+constexpr int kFrameIndexMask =
+    counter_mask(board::kFrameHeaderBytes + board::kFrameMaxPayloadBytes + board::kFrameCrcBytes);
+// A byte into an idle ring is written, fetched and processed in these clocks (one micro clock).
+constexpr int kWholeByteClocks = 3;
+// The interpolator's whole update in one micro clock wants the encoder lines held and no byte for
+// link_rx for its kUpdateClocks and this many clocks more.
+constexpr std::uint64_t kWholeUpdateSlack = 4;
+
+// ---- setpoint_buffer: a setpoint payload is its sample index, then the positions' bytes ----
+constexpr int kIndexBytes = static_cast<int>(board::kSetpointPositionOffset);  // u32 sample index
+constexpr int kPositionBytes = static_cast<int>(board::kSetpointPayloadBytes - board::kSetpointPositionOffset);
+constexpr int kPositionCodeBytes = kPositionBytes / 3;  // one i32 network input code
+
+// ---- link_tx's payload RAM: identify words from 0, telemetry words from kTelemetryWordBase ----
+constexpr int kTelemetryWordBase = static_cast<int>(board::kLinkTxTelemetryWord);
+constexpr int kTxWordMask = static_cast<int>(board::kLinkTxWords) - 1;
+constexpr int kCaptureMask = counter_mask(kTelemetryWords);  // link_tx's capture_q (5 bits)
+constexpr int kTxIdle = 0;                                   // link_tx's state: idle
+constexpr int kTxSending = 2;  // sending (Send; the model schedules the frame on the TX line at once)
+
+// ---- fixed-point formats ----
+constexpr int kReferenceFractionBits = 8;  // references Q24.8 counts
+constexpr int kReferenceCountBits = 24;    // the reference's whole counts (bits 31..8)
+constexpr int kDifferenceBits = 17;        // joint_safety.sv's following-error difference
+constexpr int kTravelBlockBits = 10;       // joint_safety.sv's travel blocks: 1024 counts
+constexpr int kNetworkOutputBits = 24;     // the network's y_j (Q10.14 degrees)
+
+// board_core's status counters (bad frames, underruns, slew limits, refused): StatusCounterBits wide.
+constexpr std::uint16_t kCounterMax = (1u << board::kStatusCounterBits) - 1;
+std::uint16_t saturating_increment(std::uint16_t value) { return value == kCounterMax ? value : value + 1; }
+
+// The link CRC-16 register after one more byte (link_crc16.sv; the host's link::crc16).
+std::uint16_t crc_byte(std::uint16_t crc, std::uint8_t data) { return link::crc16(&data, 1, crc); }
+
+int payload_size(std::uint8_t type, bool* known) {
+  *known = true;
+  if (type == board::kFrameTypeIdentifyRequest) return 0;
+  if (type == board::kFrameTypeSetpoint) return static_cast<int>(board::kSetpointPayloadBytes);
+  if (type == board::kFrameTypeCommand) return static_cast<int>(board::kCommandPayloadBytes);
+  *known = false;
+  return 0;
+}
+
+// What link_rx did with the byte it processed (link_rx.sv's frame parser).
+struct RxProcessed {
+  bool frame_start = false;    // a known type with its length: the payload follows
+  bool payload_valid = false;  // a payload byte (at index - kHeaderBytes)
+  bool frame_ok = false;       // the CRC's low byte matched: the frame ends, taken
+  bool frame_bad = false;      // dropped (unknown type, wrong length, CRC): rescanned from after its sync
+};
+
+// Whether link_rx processing `byte` ends a frame or drops one.
+template <typename Registers>
+bool rx_byte_ends_frame(const Registers& s, std::uint8_t byte) {
+  if (s.index == kTypeByte) {
+    bool known = false;
+    const int size = payload_size(byte, &known);
+    return !(known && s.length == size);
+  }
+  return s.index >= kHeaderBytes && s.index > s.end;
+}
+
+// link_rx processing the byte it fetched: its registers' next values in `n` from the present ones
+// in `s` (n may be s: every present value is read before any is written).
+template <typename Registers>
+RxProcessed process_rx_byte(const Registers& s, std::uint8_t byte, Registers& n) {
+  const int index = s.index, read = s.read, start = s.start, end = s.end;
+  const std::uint8_t length = s.length;
+  const std::uint16_t crc = s.rx_crc;
+  const bool crc_high_ok = s.crc_high_ok;
+  RxProcessed out;
+  n.read = (read + 1) % kRingBytes;
+  if (index == 0) {
+    if (byte == board::kFrameSync) {
+      n.start = read;
+      n.index = 1;
+      n.rx_crc = 0xFFFF;
+    }
+  } else if (index < kHeaderBytes) {
+    n.rx_crc = crc_byte(crc, byte);
+    n.index = index + 1;
+    if (index == kLengthByte) n.length = byte;
+    if (index == kSequenceByte) n.sequence = byte;
+    if (index == kTypeByte) {
+      n.type = byte;
+      bool known = false;
+      const int size = payload_size(byte, &known);
+      n.end = (size + kHeaderBytes) & kFrameIndexMask;
+      if (known && length == size) {
+        out.frame_start = true;
+      } else {
+        out.frame_bad = true;
+        n.index = 0;
+        n.read = (start + 1) % kRingBytes;
+      }
+    }
+  } else if (index < end) {
+    n.rx_crc = crc_byte(crc, byte);
+    out.payload_valid = true;
+    n.index = index + 1;
+  } else if (index == end) {
+    n.crc_high_ok = byte == (crc >> 8);
+    n.index = index + 1;
+  } else {
+    n.index = 0;
+    if (crc_high_ok && byte == (crc & 0xFF)) {
+      out.frame_ok = true;
+    } else {
+      out.frame_bad = true;
+      n.read = (start + 1) % kRingBytes;
+    }
+  }
+  return out;
+}
+
+// Slots of a joint in the controllers' state memory (rtl/joint/delta_joint_pkg.sv, Slot*).
+constexpr int kSlotReference = 0;
+constexpr int kSlotEncoder = 3;
+constexpr int kSlotCurrent = 6;
+using PeekMemory = std::array<std::array<std::uint32_t, 8>, 3>;
+
+// The state word telemetry word w reads from the controllers' memory (board_core.sv's peek
+// decode: references two words each, then counts and currents one word each; 0 past joint 2).
+std::uint32_t peek_word(const PeekMemory& memory, int w) {
+  const int reference_word = static_cast<int>(board::kTelemetryReferencesOffset / 2);
+  const int count_word = static_cast<int>(board::kTelemetryCountsOffset / 2);
+  const int current_word = static_cast<int>(board::kTelemetryCurrentsOffset / 2);
+  int joint = 0, slot = kSlotReference;
+  if (w >= current_word) {
+    joint = (w - current_word) & 3;
+    slot = kSlotCurrent;
+  } else if (w >= count_word) {
+    joint = (w - count_word) & 3;
+    slot = kSlotEncoder;
+  } else if (w >= reference_word) {
+    joint = ((w - reference_word) >> 1) & 3;
+  }
+  return joint < 3 ? memory[joint][slot] : 0;
+}
+
+// quadrature_counter.sv: the move from the last {A, B} to this one (+1, -1, 0), or a skipped state.
+constexpr int kSkippedState = 2;
+int quadrature_move(int previous, int ab) {
+  switch ((previous << 2) | ab) {
+    case 0b0010:
+    case 0b1011:
+    case 0b1101:
+    case 0b0100:
+      return 1;
+    case 0b0001:
+    case 0b0111:
+    case 0b1110:
+    case 0b1000:
+      return -1;
+    case 0b0011:
+    case 0b1100:
+    case 0b0110:
+    case 0b1001:
+      return kSkippedState;
+    default:
+      return 0;
+  }
+}
+
+// The home switches ride in bits kHomeSwitchShift.. of the A lines (ModelBoard::clock): board_core's
+// synchronisers and previous state. A rising edge while homing with the drives on references its
+// joint (switch_edge: a full clock's work, never a quiet one's).
+constexpr int kHomeSwitchShift = kJoints;
+template <typename Registers>
+int switch_edge(const Registers& s) {
+  if (!s.homing || !s.enabled || s.fault_cause != 0) return 0;
+  return ((s.enc_a >> kHomeSwitchShift) & kAllJoints) & ~s.switch_previous & ~s.referenced & kAllJoints;
+}
+
+// One quiet clock (no set-home, no switch edge) of the encoder synchronisers and quadrature
+// counters, in place. True if a joint skipped a state (its step error is set).
+template <typename Registers>
+bool count_encoders(Registers& s, int encoder_a, int encoder_b) {
+  bool skipped = false;
+  s.switch_previous = (s.enc_a >> kHomeSwitchShift) & kAllJoints;
+  for (int j = 0; j < kJoints; ++j) {
+    const int ab = (((s.enc_a >> j) & 1) << 1) | ((s.enc_b >> j) & 1);
+    const int move = quadrature_move(s.previous[j], ab);
+    if (move == kSkippedState) {
+      s.step_error[j] = true;
+      skipped = true;
+    } else {
+      s.count[j] = static_cast<std::uint16_t>(s.count[j] + move);
+      if (move != 0) s.rising[j] = move > 0;
+    }
+    s.previous[j] = ab;
+  }
+  s.enc_a = s.enc_a_meta;
+  s.enc_a_meta = encoder_a;
+  s.enc_b = s.enc_b_meta;
+  s.enc_b_meta = encoder_b;
+  return skipped;
+}
+
+// The synchronisers and counters hold these pins: a clock with them changes nothing.
+template <typename Registers>
+bool encoders_settled(const Registers& s, int encoder_a, int encoder_b) {
+  if (s.enc_a_meta != encoder_a || s.enc_a != encoder_a || s.enc_b_meta != encoder_b || s.enc_b != encoder_b ||
+      s.switch_previous != ((encoder_a >> kHomeSwitchShift) & kAllJoints)) {
+    return false;
+  }
+  for (int j = 0; j < kJoints; ++j) {
+    if (s.previous[j] != ((((encoder_a >> j) & 1) << 1) | ((encoder_b >> j) & 1))) return false;
+  }
+  return true;
+}
+
+// joint_pwm: joint j's duty and direction from its stored current (Q1.15 A): the current limit,
+// CurrentLimitCode = 2^kCurrentLimitBits, is 100 % duty.
+constexpr int kCurrentLimitBits = 14;
+static_assert((1LL << kCurrentLimitBits) == board::kCurrentLimitCode, "the current limit is a power of two");
+template <typename Registers>
+void set_duty(Registers& n, int j, std::uint16_t current) {
+  const std::int16_t c = static_cast<std::int16_t>(current);
+  const int magnitude = c < 0 ? static_cast<std::uint16_t>(-c) : c;
+  n.duty[j] = (magnitude >> (kCurrentLimitBits - board::kPwmBits)) & ((1 << (board::kPwmBits + 1)) - 1);
+  n.direction = (n.direction & ~(1 << j)) | ((c < 0 ? 1 : 0) << j);
+}
+
+// joint_controller and joint_pwm in the clock `elapsed` cycles after ap_start was seen: joint j's
+// current stored with its duty at duty_cycle(j), the run's end with the third (n: the next values,
+// whose next_current and overflow are the present ones here).
+constexpr int kOverflowMax = 0xFFFF;  // joint_controller's overflow_count sticks at its 16-bit maximum
+template <typename Registers>
+void store_current(Registers& n, std::uint64_t elapsed) {
+  for (int j = 0; j < kJoints; ++j) {
+    if (elapsed == duty_cycle(j)) {
+      n.current[j] = static_cast<std::uint16_t>(n.next_current[j]);
+      n.peek_memory[j][kSlotCurrent] = static_cast<std::uint32_t>(static_cast<std::int32_t>(n.next_current[j]));
+      n.overflow = static_cast<std::uint16_t>(std::min<int>(kOverflowMax, n.overflow + n.next_overflow[j]));
+      set_duty(n, j, n.current[j]);
+    }
+  }
+  if (elapsed == kRunCycles) {
+    n.running = false;
+    n.primed = true;
+  }
+}
+
+// reference_interpolator.sv, step 4: joint j's segment change D, the play taken out of the distance
+// from the reference r to its answer (C), saturated; the held D unless a new answer is taken.
+std::int32_t segment_delta(std::int32_t answer, std::int32_t r, std::int32_t half_play, bool take, std::int32_t held,
+                           bool* saturated) {
+  const std::int64_t diff = golden::play(golden::interpolation::reference_counts(answer) - r, half_play);
+  *saturated = diff > golden::interpolation::kDeltaMax || diff < golden::interpolation::kDeltaMin;
+  if (!take) return held;
+  return static_cast<std::int32_t>(
+      *saturated ? (diff < 0 ? golden::interpolation::kDeltaMin : golden::interpolation::kDeltaMax) : diff);
+}
+
+// Bit j: joint j's count last stepped up (the telemetry's play sides).
+template <typename Registers>
+int rising_bits(const Registers& s) {
+  return (s.rising[0] ? 1 : 0) | (s.rising[1] ? 2 : 0) | (s.rising[2] ? 4 : 0);
+}
+
+// Step 7: the play's shift of the reference r toward its answer once one has come since the
+// enable, else the resting shift on the side joint j's count last stepped to (reference_interpolator.sv).
+template <typename Registers>
+std::int16_t reference_shift(const Registers& s, int j, std::int32_t half_play) {
+  if (!s.answered) return golden::interpolation::resting_shift(s.rising[j], half_play);
+  return golden::interpolation::play_shift(
+      std::int64_t{golden::interpolation::reference_counts(s.net_outputs[j])} - s.r[j], half_play);
+}
+
+// Step 7: the reference's change over the period from weight K_phase to K_phase+1 of D.
+std::int64_t reference_step(std::int32_t delta, int phase) {
+  const int next = phase + 1;  // the RTL's k_next (K_10 after phase 9)
+  const std::int64_t weight_now = golden::interpolation::kWeights[phase];
+  const std::int64_t weight_next = next == board::kPeriodsPerSetpoint
+                                       ? (std::int64_t{1} << golden::interpolation::kWeightShift)
+                                       : golden::interpolation::kWeights[next];
+  constexpr int shift = static_cast<int>(board::kInterpolationShift);
+  return golden::round_shift(std::int64_t{delta} * weight_next, shift) -
+         golden::round_shift(std::int64_t{delta} * weight_now, shift);
+}
+
+// Step 7 of joint j: its next reference r' (the count in Q24.8 with the drives off), the segment
+// change kept for the next period d' (0 with the drives off and at a segment's end unless homing)
+// and the play shift written for the next period.
+template <typename Registers>
+void reference_next(const Registers& s, int j, bool enabled, std::int32_t half_play, std::int32_t* r, std::int32_t* d,
+                    std::int16_t* shift) {
+  const std::int64_t step = reference_step(s.delta, s.phase);
+  *r = enabled ? static_cast<std::int32_t>(static_cast<std::uint32_t>(s.r[j]) + static_cast<std::uint32_t>(step))
+               : static_cast<std::int32_t>(static_cast<std::int16_t>(s.count[j])) * (1 << kReferenceFractionBits);
+  *d = (!enabled || (s.phase == kLastPhase && !s.homing)) ? 0 : s.delta;
+  *shift = reference_shift(s, j, half_play);
+}
+
+std::int32_t sign_extend(std::uint32_t value, int bits) {
+  const std::uint32_t m = 1u << (bits - 1);
+  value &= (bits == 32) ? 0xFFFFFFFFu : ((1u << bits) - 1);
+  return static_cast<std::int32_t>((value ^ m) - m);
+}
+
+// joint_safety.sv's pipeline registers of joint j from the period's reference r (Q24.8) and latched
+// count: the following difference (17 bits) and the travel flag (the reference's 1024-count block).
+template <typename Registers>
+void safety_registers(const Registers& s, int j, std::int32_t* difference, bool* outside) {
+  const std::int32_t reference_count = s.r[j] >> kReferenceFractionBits;  // bits 31..8 (24-bit signed)
+  const std::int32_t reference17 = sign_extend(static_cast<std::uint32_t>(reference_count), kDifferenceBits);
+  *difference =
+      sign_extend(static_cast<std::uint32_t>(reference17 - static_cast<std::int16_t>(s.counts_q[j])), kDifferenceBits);
+  const std::int32_t block =
+      sign_extend(static_cast<std::uint32_t>(reference_count), kReferenceCountBits) >> kTravelBlockBits;
+  *outside = block < board::kMinTravelBlock || block > board::kMaxTravelBlock;
+}
+
+// joint_safety.sv's conditions from its registers: bit j of *following, the difference outside
+// the following limit; of *outside, the reference outside the travel.
+template <typename Registers>
+void safety_conditions(const Registers& s, int* following, int* outside) {
+  *following = 0;
+  *outside = 0;
+  for (int j = 0; j < kJoints; ++j) {
+    const std::int32_t high = s.difference_q[j] >> board::kFollowingBits;
+    if (high != 0 && high != -1) *following |= 1 << j;
+    if (s.outside_q[j]) *outside |= 1 << j;
+  }
+}
+
+}  // namespace
+
+// The block RAMs: written in place (never read in the cycle that writes the same word), not
+// copied with the registers every clock.
+struct ModelBoard::Memories {
+  std::array<std::uint8_t, board::kRxRingBytes> ring{};                               // link_rx
+  std::array<std::array<std::uint8_t, kPositionBytes>, board::kSetpointDepth> ram{};  // setpoint_buffer
+  std::array<std::uint16_t, board::kLinkTxWords> words{};                             // link_tx: identify, telemetry
+};
+
+struct ModelBoard::State {
+  const golden::QuantisedNetwork* network = nullptr;
+  control::JointFixedCoefficients coefficients = control::make_fixed_coefficients(control::JointControllerParameters{});
+  std::uint64_t cycle = 0;
+
+  // uart_rx: its byte and valid (the line's bytes, their clocks in ModelBoard::rx_line_)
+  std::uint8_t rx_shift = 0;
+  bool rx_valid = false;
+  // link_rx
+  std::uint8_t ring_data = 0;
+  int write = 0, read = 0, start = 0, index = 0, end = 0;
+  bool fetched = false, crc_high_ok = false;
+  std::uint8_t length = 0, type = 0, sequence = 0;
+  std::uint16_t rx_crc = 0xFFFF;
+  // commands
+  std::uint8_t command = 0;
+  bool enabled = false, holding = false, homed = false;
+  bool homing = false;  // board_core's homing_q
+  int referenced = 0;   // bit j: joint j homed at its switch
+  // schedule
+  int tick = 0, phase = kLastPhase;
+  std::uint32_t period_count = 0;
+  // setpoint buffer
+  std::uint32_t sample_index = 0;
+  int fill = 0;
+  bool full_at_start = false, index_match = false, vetoed = false, starting = false;
+  // network (its answer, held) and the interpolator
+  std::array<std::int32_t, 3> net_outputs{};
+  bool answer_pending = false;
+  bool answered = false;  // an answer came since the drives came on (the interpolator's answered_q)
+  bool busy = false;
+  int step = 0, joint = 0;
+  std::array<std::int32_t, 3> r{}, d{};
+  std::array<std::int16_t, 3> shift{};  // the play shifts written for the next period (state RAM slot 7)
+  std::int32_t delta = 0;
+  bool delta_saturated = false;
+  bool slew_limited = false;
+  // encoders
+  int enc_a_meta = 0, enc_a = 0, enc_b_meta = 0, enc_b = 0;
+  std::array<int, 3> previous{};
+  int switch_previous = 0;  // the home switches' previous synchronised state
+  std::array<std::uint16_t, 3> count{};
+  std::array<bool, 3> rising{true, true, true};  // the count last stepped up (quadrature_counter's rising_q)
+  std::array<bool, 3> step_error{};
+  // joint_axes
+  bool start_q = false;
+  std::array<std::uint16_t, 3> counts_q{};
+  int encoder_error = 0;
+  // joint_safety
+  int silent_periods = 0;
+  bool check = false, checked = false, active = false;
+  int fault_cause = 0;
+  std::array<std::int32_t, 3> difference_q{};
+  std::array<bool, 3> outside_q{};
+  // joint_controller
+  bool running = false, primed = false;
+  // A quiet clock has recomputed the registers that only follow constant inputs in quiet clocks
+  // (link_tx's RAM read, the peek, the safety pipeline): they hold until a full clock.
+  bool settled = false;
+  std::uint64_t run_start = 0;  // the cycle it saw ap_start
+  std::array<control::JointFixedState, 3> joint_state{};
+  std::array<std::int16_t, 3> next_current{};
+  std::array<int, 3> next_overflow{};
+  std::array<std::uint16_t, 3> current{};  // current_q
+  std::uint16_t overflow = 0;
+  PeekMemory peek_memory{};  // the last run's slots
+  std::uint32_t peek_data = 0;
+  // joint_pwm
+  int pwm_phase = 0;
+  std::array<int, 3> duty{};
+  int direction = 0, pwm = 0;
+  bool enable_out = false;
+  // counters
+  std::uint16_t bad_frames = 0, underruns = 0, slew_limits = 0, refused = 0;
+  std::uint8_t last_sequence = 0;
+  // link_tx
+  bool capturing = false, writing = false, telemetry_pending = false, identify_pending = false;
+  int capture = 0, written = 0, word_index = 0;
+  int tx_state = kTxIdle, tx_length = 0;  // kTxIdle, kTxSending (a frame scheduled on the TX line)
+  bool is_identify = false;
+  std::uint8_t telemetry_sequence = 0, tx_sequence = 0, identify_sequence = 0;
+  std::uint64_t tx_last_load = 0;  // the frame's last byte to uart_tx (link_tx idle from the next clock)
+  std::uint64_t uart_free = 0;     // the first clock uart_tx is ready after it
+};
+
+ModelBoard::ModelBoard(const golden::QuantisedNetwork& network, const std::string& identify_mem)
+    : memories_(std::make_unique<Memories>()),
+      state_(std::make_unique<State>()),
+      next_state_(std::make_unique<State>()) {
+  State& s = *state_;
+  network_ = network;
+  s.network = &network_;
+  half_plays_ = golden::interpolation::half_play_counts(network_.compensation);
+  s.count.fill(static_cast<std::uint16_t>(board::kHomeCount));
+  std::ifstream in(identify_mem);
+  if (!in) throw std::runtime_error("model board: cannot read " + identify_mem);
+  std::string line;
+  for (int w = 0; w < board::kLinkTxWords && std::getline(in, line);) {
+    if (line.empty() || line[0] == '/') continue;
+    memories_->words[w++] = static_cast<std::uint16_t>(std::stoul(line, nullptr, 16));
+  }
+}
+
+ModelBoard::~ModelBoard() = default;
+
+// The registers that only follow inputs constant in quiet clocks (link_tx's RAM read, the peek,
+// the safety pipeline), as the first quiet clock after a full one computes them; they hold then.
+void ModelBoard::settle() {
+  State& s = *state_;
+  s.peek_data = peek_word(s.peek_memory, s.capture);
+  s.word_index = s.capture;
+  for (int j = 0; j < kJoints; ++j) safety_registers(s, j, &s.difference_q[j], &s.outside_q[j]);
+  s.settled = true;
+}
+
+// Whether the next clock is quiet (see quiet_clock), whatever the encoder lines show.
+bool ModelBoard::quiet() const {
+  const State& s = *state_;
+  const int tick = s.tick;
+  if (tick == 0 || tick == kPlayTick || (tick == kSnapshotTick && s.phase == 0) || tick == kUpdateTick ||
+      (tick == kLastTick && !s.enabled)) {
+    return false;
+  }
+  // uart_rx: no byte for link_rx (a byte's valid is set at the end of a run, see skip).
+  if (s.rx_valid) return false;
+  // link_rx idle and settled; nothing pending in the setpoint buffer, interpolator or safety.
+  if (s.fetched || s.read != s.write) return false;
+  // The interpolator acts in steps kDeltaStep (the segment's change) and kReferenceStep (the
+  // reference) of each joint; the steps between only count.
+  const bool interpolating = s.busy && (s.step == kDeltaStep || s.step == kReferenceStep);
+  if (s.starting || interpolating || s.slew_limited || s.check || s.checked) return false;
+  if (s.step_error[0] || s.step_error[1] || s.step_error[2]) return false;
+  if (switch_edge(s) != 0) return false;
+  const bool fault = s.fault_cause != 0;
+  if (fault && (s.enabled || s.holding)) return false;
+  if (s.answered && (!s.enabled || fault)) return false;  // the interpolator forgets the answer
+  if (!s.enabled && s.silent_periods != 0) return false;
+  if (s.enabled && s.silent_periods > board::kWatchdogPeriods) return false;
+  if (s.running) {
+    const std::uint64_t elapsed = s.cycle - s.run_start;
+    if (elapsed == duty_cycle(0) || elapsed == duty_cycle(1) || elapsed == duty_cycle(2)) {
+      return false;
+    }
+  }
+  // link_tx idle or waiting for uart_tx inside a bit; no capture.
+  if (s.capturing || s.writing) return false;
+  if (s.tx_state == kTxIdle && (s.telemetry_pending || s.identify_pending)) return false;
+  return true;
+}
+
+// The registers the run check compares (all but link_rx's idle ring read, which the model leaves to
+// the fetch, and the joint states, which change only in full clocks).
+#define DELTA_MODEL_BOARD_REGISTERS(X) \
+  X(cycle)                             \
+  X(rx_shift)                          \
+  X(rx_valid)                          \
+  X(write)                             \
+  X(read)                              \
+  X(start)                             \
+  X(index)                             \
+  X(end)                               \
+  X(fetched)                           \
+  X(crc_high_ok)                       \
+  X(length)                            \
+  X(type)                              \
+  X(sequence)                          \
+  X(rx_crc)                            \
+  X(command)                           \
+  X(enabled)                           \
+  X(holding)                           \
+  X(homed)                             \
+  X(homing)                            \
+  X(referenced)                        \
+  X(switch_previous)                   \
+  X(tick)                              \
+  X(phase)                             \
+  X(period_count)                      \
+  X(sample_index)                      \
+  X(fill)                              \
+  X(full_at_start)                     \
+  X(index_match)                       \
+  X(vetoed)                            \
+  X(starting)                          \
+  X(net_outputs)                       \
+  X(answer_pending)                    \
+  X(answered)                          \
+  X(busy)                              \
+  X(step)                              \
+  X(joint)                             \
+  X(r)                                 \
+  X(d)                                 \
+  X(shift)                             \
+  X(delta)                             \
+  X(slew_limited)                      \
+  X(enc_a_meta)                        \
+  X(enc_a)                             \
+  X(enc_b_meta)                        \
+  X(enc_b)                             \
+  X(previous)                          \
+  X(count)                             \
+  X(rising)                            \
+  X(step_error)                        \
+  X(start_q)                           \
+  X(counts_q)                          \
+  X(encoder_error)                     \
+  X(silent_periods)                    \
+  X(check)                             \
+  X(checked)                           \
+  X(active)                            \
+  X(fault_cause)                       \
+  X(difference_q)                      \
+  X(outside_q)                         \
+  X(running)                           \
+  X(primed)                            \
+  X(run_start)                         \
+  X(next_current)                      \
+  X(next_overflow)                     \
+  X(current)                           \
+  X(overflow)                          \
+  X(peek_memory)                       \
+  X(peek_data)                         \
+  X(pwm_phase)                         \
+  X(duty)                              \
+  X(direction)                         \
+  X(pwm)                               \
+  X(enable_out)                        \
+  X(bad_frames)                        \
+  X(underruns)                         \
+  X(slew_limits)                       \
+  X(refused)                           \
+  X(last_sequence)                     \
+  X(capturing)                         \
+  X(writing)                           \
+  X(telemetry_pending)                 \
+  X(identify_pending)                  \
+  X(capture)                           \
+  X(written)                           \
+  X(word_index)                        \
+  X(tx_state)                          \
+  X(tx_length)                         \
+  X(is_identify)                       \
+  X(telemetry_sequence)                \
+  X(tx_sequence)                       \
+  X(tx_last_load)                      \
+  X(uart_free)                         \
+  X(identify_sequence)
+
+// The first register in which a and b differ (nullptr: none).
+const char* ModelBoard::differing_register(const State& a, const State& b) {
+#define DELTA_COMPARE(name) \
+  if (!(a.name == b.name)) return #name;
+  DELTA_MODEL_BOARD_REGISTERS(DELTA_COMPARE)
+#undef DELTA_COMPARE
+  if (a.fetched && a.ring_data != b.ring_data) return "ring_data";
+  return nullptr;
+}
+
+std::uint64_t ModelBoard::skip(std::uint64_t limit, int encoder_a, int encoder_b, DrivePattern* pattern) {
+  if (!check_runs_ || checking_) return skip_run(limit, encoder_a, encoder_b, pattern);
+  // The run check: the same clocks again, one full clock each, from the same state.
+  const State before = *state_;
+  const Memories memories_before = *memories_;
+  const auto rx_line_before = rx_line_;
+  const auto tx_line_before = tx_line_;
+  const std::uint64_t taken = skip_run(limit, encoder_a, encoder_b, pattern);
+  if (taken == 0) return 0;
+  const State after = *state_;
+  const Memories memories_after = *memories_;
+  const auto rx_line_after = rx_line_;
+  const auto tx_line_after = tx_line_;
+  const ModelBoardPins pins_after = pins_;
+  *state_ = before;
+  *memories_ = memories_before;
+  rx_line_ = rx_line_before;
+  tx_line_ = tx_line_before;
+  checking_ = true;
+  auto fail = [&](const std::string& what) {
+    checking_ = false;
+    throw std::logic_error("model board: a run of " + std::to_string(taken) + " clocks from cycle " +
+                           std::to_string(before.cycle) + " (tick " + std::to_string(before.tick) + ") differs from " +
+                           "its full clocks: " + what);
+  };
+  for (std::uint64_t i = 0; i < taken; ++i) {
+    clock(encoder_a, encoder_b);
+    const DrivePins shown = pattern->pins(i, 1 << board::kPwmBits);
+    if (shown.pwm != pins_.drive_pwm || shown.enable != pins_.drive_enable ||
+        (shown.enable && shown.direction != pins_.drive_dir)) {
+      fail("the drive pins in clock " + std::to_string(i));
+    }
+  }
+  checking_ = false;
+  if (const char* name = differing_register(*state_, after)) fail(std::string("register ") + name);
+  if (memories_->ring != memories_after.ring || memories_->ram != memories_after.ram ||
+      memories_->words != memories_after.words) {
+    fail("a block RAM");
+  }
+  if (tx_line_.size() != tx_line_after.size() || rx_line_.size() != rx_line_after.size()) fail("a serial line");
+  if (pins_.drive_pwm != pins_after.drive_pwm || pins_.drive_dir != pins_after.drive_dir ||
+      pins_.drive_enable != pins_after.drive_enable) {
+    fail("the pins after the run");
+  }
+  return taken;
+}
+
+std::uint64_t ModelBoard::skip_run(std::uint64_t limit, int encoder_a, int encoder_b, DrivePattern* pattern) {
+  State& s = *state_;
+  pattern->phase = s.pwm_phase;
+  for (int j = 0; j < kJoints; ++j) pattern->duty[j] = s.duty[j];
+  pattern->direction = s.direction;
+  pattern->enable = s.enabled && s.fault_cause == 0;
+  std::uint64_t taken = 0;
+  while (taken < limit) {
+    if (quiet()) {
+      taken += quiet_run(limit - taken, encoder_a, encoder_b);
+    } else {
+      // A clock that sets new duties shows the new directions and the old duties: a run of its own.
+      const bool new_duty =
+          s.running && (s.cycle - s.run_start == duty_cycle(0) || s.cycle - s.run_start == duty_cycle(1) ||
+                        s.cycle - s.run_start == duty_cycle(2));
+      if (new_duty && taken != 0) break;
+      if (!micro_clock(encoder_a, encoder_b, limit - taken)) break;
+      ++taken;
+      if (new_duty) {
+        pattern->direction = s.direction;
+        break;
+      }
+    }
+  }
+  pins_.drive_pwm = s.pwm;
+  pins_.drive_dir = s.direction;
+  pins_.drive_enable = s.enable_out;
+  return taken;
+}
+
+// A run of quiet clocks (quiet() holds for the first), up to `limit`: to the next clock that is not.
+std::uint64_t ModelBoard::quiet_run(std::uint64_t limit, int encoder_a, int encoder_b) {
+  State& s = *state_;
+  // Up to the next clock that is not quiet: the period's next event, a UART bit's end, the
+  // controller's next store.
+  std::uint64_t clocks = limit;
+  // (A snapshot only in phase 0, the controllers' reset only with the drives off; tick 0 next.)
+  for (int event : {kPlayTick, s.phase == 0 ? kSnapshotTick : 0, kUpdateTick, s.enabled ? kClocksPerPeriod : kLastTick,
+                    kClocksPerPeriod}) {
+    if (event > s.tick) {
+      clocks = std::min<std::uint64_t>(clocks, static_cast<std::uint64_t>(event - s.tick));
+      break;
+    }
+  }
+  // uart_rx: up to the clock that hands link_rx the line's next byte; uart_tx: up to the clock its
+  // last bit ends (link_tx sees it ready in the next) and the clock the line completes its byte.
+  const bool rx_byte = !rx_line_.empty();
+  if (rx_byte) clocks = std::min(clocks, rx_line_.front().valid_cycle - s.cycle + 1);
+  if (s.tx_state != kTxIdle) clocks = std::min(clocks, s.tx_last_load - s.cycle + 1);
+
+  if (s.running) {
+    const std::uint64_t elapsed = s.cycle - s.run_start;
+    for (std::uint64_t event : {duty_cycle(0), duty_cycle(1), duty_cycle(2)}) {
+      if (event > elapsed) {
+        clocks = std::min(clocks, event - elapsed);
+        break;
+      }
+    }
+  }
+
+  if (s.busy) {
+    const int next_step = s.step < kDeltaStep ? kDeltaStep : kReferenceStep;
+    clocks = std::min<std::uint64_t>(clocks, static_cast<std::uint64_t>(next_step - s.step));
+  }
+
+  if (!s.settled) settle();
+  // The synchronisers take the held encoder lines in three clocks, counting as they go; a clock
+  // that meets a skipped state ends the run (the next one latches the error).
+  for (std::uint64_t counted = 0; counted < clocks && !encoders_settled(s, encoder_a, encoder_b);) {
+    if (counted != 0 && switch_edge(s) != 0) {  // a home switch's edge: the next clock is a full one
+      clocks = counted;
+      break;
+    }
+    ++counted;
+    if (count_encoders(s, encoder_a, encoder_b)) clocks = counted;
+  }
+
+  const bool enabled = s.enabled && s.fault_cause == 0;
+  const int period = 1 << board::kPwmBits;
+  const int last_phase = static_cast<int>((static_cast<std::uint64_t>(s.pwm_phase) + clocks - 1) % period);
+  int pwm = 0;
+  for (int j = 0; j < kJoints; ++j) {
+    if (enabled && last_phase < s.duty[j]) pwm |= 1 << j;
+  }
+  if (rx_byte && rx_line_.front().valid_cycle == s.cycle + clocks - 1) {  // the run's last clock
+    s.rx_valid = true;
+    s.rx_shift = rx_line_.front().byte;
+    rx_line_.pop_front();
+  }
+  if (s.tx_state != kTxIdle && s.tx_last_load == s.cycle + clocks - 1) s.tx_state = kTxIdle;  // its last byte loaded
+  s.pwm = pwm;
+  s.enable_out = enabled;
+  s.pwm_phase = (last_phase + 1) % period;
+  if (s.busy) s.step += static_cast<int>(clocks);
+  s.tick += static_cast<int>(clocks);
+  if (s.tick == kClocksPerPeriod) s.tick = 0;  // (a run ends before tick 0 at the latest)
+  s.cycle += clocks;
+  return clocks;
+}
+
+// The values a micro clock reads before it writes (plan_micro_clock), then commits (micro_clock).
+struct ModelBoard::MicroClock {
+  bool update = false, whole_update = false, period_start = false, ap_idle = false;
+  std::array<std::uint16_t, 3> counts{};
+  int following = 0, outside = 0;
+  bool checked = false;
+  // link_rx
+  bool ring_write = false, whole_byte = false, fetched = false, was_fetched = false;
+  std::uint8_t ring_byte = 0, rx_byte = 0;
+  int old_index = 0, old_read = 0, old_write = 0;
+  // interpolator
+  bool interpolating = false, take_answer = false, slew_limited = false;
+  int j_interpolated = 0, old_step = 0;
+  std::int32_t delta = 0, r = 0, d = 0;
+  std::int16_t shift = 0;
+  // joint controller, telemetry capture
+  std::uint64_t elapsed = 0;
+  bool capturing = false, writing = false;
+  std::uint16_t word = 0;
+};
+
+// One clock that is not quiet but whose work is one of the frequent kinds below, none of them
+// touching what another reads in the same clock: exactly the full clock's next values, without
+// evaluating the rest. False (nothing done) for any other clock: the period's start (tick 0, 1)
+// and a snapshot, a frame's end or a dropped frame, a command, a fault, the safety check, a
+// skipped encoder state, the drives going off.
+//   link_rx: a byte into the ring, a fetch, a header or payload byte, the ring's read;
+//   link_tx: a byte to uart_tx (its header, payload, CRC), the wait after it;
+//   telemetry: the capture of a word and its write;
+//   interpolator: a joint's segment change (step 4) and reference (step 7), the update's start;
+//   controller: the load's end, a joint's current stored, its PWM duty, the run's end.
+bool ModelBoard::micro_clock(int encoder_a, int encoder_b, std::uint64_t lines_hold) {
+  MicroClock c;
+  if (!plan_micro_clock(encoder_a, encoder_b, lines_hold, c)) return false;
+  State& s = *state_;
+
+  // The registers that follow the present state every clock (RAM reads before this clock's writes).
+  if (!s.settled) settle();
+  count_clock(encoder_a, encoder_b);  // the counters, the drive pins (of the present duties)
+  // What settle() follows changes below: the TX RAM read's address or word, the capture's word,
+  // a stored current (the peek), a reference (the safety pipeline).
+  bool stored = false;
+  for (int j = 0; j < kJoints; ++j) stored |= c.elapsed == duty_cycle(j);
+  if (c.writing || c.capturing || stored || (c.interpolating && c.old_step == kReferenceStep) || c.period_start) {
+    s.settled = false;
+  }
+
+  // schedule, controller start request, watchdog count, safety check; the played setpoint taken
+  if (c.period_start) {
+    s.phase = next_phase(s.phase);
+    s.period_count = s.period_count + 1;
+    if (c.ap_idle) {
+      s.start_q = true;
+      s.counts_q = c.counts;
+    }
+    if (s.enabled && s.silent_periods != kWatchdogMax) ++s.silent_periods;
+    s.check = c.ap_idle;
+  }
+  if (c.checked) {
+    s.active = c.following != 0 || c.outside != 0;
+    s.checked = false;
+  }
+  s.starting = false;
+
+  micro_link_rx(c);
+  micro_interpolator(c);
+
+  // joint controller: a current stored with its PWM duty (the third ends the run)
+  if (c.elapsed != 0) store_current(s, c.elapsed);
+
+  // telemetry capture (the capture's word read before count_clock moved what it reads)
+  telemetry_capture_next(s, s, c.word, false, false);
+  return true;
+}
+
+// Whether the next clock is a micro clock (micro_clock) and, if so, the present values it reads
+// in c (before any of them is written).
+bool ModelBoard::plan_micro_clock(int encoder_a, int encoder_b, std::uint64_t lines_hold, MicroClock& c) const {
+  const State& s = *state_;
+  const bool fault = s.fault_cause != 0;
+  if (s.step_error[0] || s.step_error[1] || s.step_error[2] || s.slew_limited || s.check || switch_edge(s) != 0 ||
+      (fault && (s.enabled || s.holding)) || (s.answered && (!s.enabled || fault)) ||
+      (!s.enabled && s.silent_periods != 0) || (s.enabled && s.silent_periods > board::kWatchdogPeriods) ||
+      (s.tx_state == kTxIdle && (s.telemetry_pending || s.identify_pending))) {
+    return false;
+  }
+  const int tick = s.tick;
+  if (tick == kPlayTick || (tick == kSnapshotTick && s.phase == 0) || (tick == kUpdateTick && s.busy) ||
+      (tick == kLastTick && !s.enabled)) {
+    return false;
+  }
+  c.update = tick == kUpdateTick;
+  // The whole update in its first clock, all three joints (the reference the controllers and the
+  // safety check see next period, the slew-limit count telemetry reports next millisecond: the
+  // same), where nothing can turn the drives off before it ends: the drives on, link_rx idle with
+  // no byte for it before then, the encoder lines held and settled (no skipped state, no fault).
+  // Not under the run check, which compares the RTL's register trace clock by clock.
+  constexpr std::uint64_t kQuietAfter = kUpdateClocks + kWholeUpdateSlack;
+  c.whole_update = c.update && !check_runs_ && s.enabled && !fault && lines_hold > kQuietAfter && !s.rx_valid &&
+                   !s.fetched && s.read == s.write &&
+                   (rx_line_.empty() || rx_line_.front().valid_cycle > s.cycle + kQuietAfter) &&
+                   encoders_settled(s, encoder_a, encoder_b);
+
+  // ---- the period's start (tick 0) and the safety check (a fault latching: the full clock) ----
+  c.period_start = tick == 0;
+  c.ap_idle = !s.running;
+  c.counts = s.count;
+  if (s.checked) {
+    safety_conditions(s, &c.following, &c.outside);
+    if (s.enabled && (c.following != 0 || c.outside != 0)) return false;
+  }
+  c.checked = s.checked;
+
+  // ---- link_rx (a frame's end or a dropped frame: the full clock) ----
+  // A byte into an idle ring is fetched and processed two clocks later, by link_rx alone: the
+  // model takes the three clocks in the first (nothing else reads link_rx's registers; the window
+  // keeps clear of tick 1, whose play moves the setpoint buffer's write address), unless the byte
+  // ends or drops a frame, and not under the run check.
+  c.ring_write = s.rx_valid;
+  c.whole_byte = c.ring_write && !s.fetched && s.read == s.write && !check_runs_ && tick > kPlayTick &&
+                 tick < kClocksPerPeriod - (kWholeByteClocks - 1) && !rx_byte_ends_frame(s, s.rx_shift);
+  const std::uint8_t processed = c.whole_byte ? s.rx_shift : s.ring_data;
+  if (!s.fetched && !c.whole_byte) {
+    c.fetched = s.read != s.write;
+  } else if (rx_byte_ends_frame(s, processed)) {
+    return false;  // a frame's end or a dropped frame: the full clock
+  }
+
+  // ---- interpolator ----
+  c.interpolating = s.busy && (s.step == kDeltaStep || s.step == kReferenceStep);
+  const bool interpolator_enabled = s.enabled && !fault;
+  c.take_answer = s.answer_pending && s.phase == 0;
+  c.j_interpolated = s.joint;
+  c.delta = s.delta;
+  if (c.interpolating && s.step == kDeltaStep) {
+    const int j = s.joint;
+    bool saturated = false;
+    c.delta = segment_delta(s.net_outputs[j], s.r[j], half_plays_[j], c.take_answer, s.d[j], &saturated);
+    c.slew_limited = c.take_answer && saturated && interpolator_enabled;
+  } else if (c.interpolating) {
+    reference_next(s, s.joint, interpolator_enabled, half_plays_[s.joint], &c.r, &c.d, &c.shift);
+  }
+
+  // ---- joint controller ----
+  if (s.running) c.elapsed = s.cycle - s.run_start;
+
+  // ---- telemetry capture, link_tx ----
+  c.capturing = s.capturing;
+  c.writing = s.writing;
+  c.word = c.writing ? telemetry_word_of(s) : std::uint16_t{0};
+
+  // The present values the work writes over.
+  c.was_fetched = s.fetched || c.whole_byte;
+  c.ring_byte = processed;
+  c.rx_byte = s.rx_shift;
+  c.old_index = s.index;
+  c.old_read = s.read;
+  c.old_write = s.write;
+  c.old_step = s.step;
+  return true;
+}
+
+// The micro clock's link_rx: the ring's read (before this clock's write), the byte in, the byte
+// processed (its command byte, setpoint index byte or position byte).
+void ModelBoard::micro_link_rx(const MicroClock& c) {
+  State& s = *state_;
+  Memories& m = *memories_;
+  s.ring_data = c.whole_byte ? c.ring_byte : m.ring[c.old_read];
+  if (c.ring_write) {
+    m.ring[c.old_write] = c.rx_byte;
+    s.write = (c.old_write + 1) % kRingBytes;
+  }
+  s.fetched = c.fetched;
+  if (c.was_fetched) {
+    const RxProcessed rx = process_rx_byte(s, c.ring_byte, s);
+    const int payload_index = (c.old_index - kHeaderBytes) & kFrameIndexMask;
+    if (rx.payload_valid && s.type == board::kFrameTypeCommand) s.command = c.ring_byte;
+    setpoint_payload_next(s, s, rx.frame_start, rx.payload_valid, payload_index, c.ring_byte);
+  }
+}
+
+// The micro clock's interpolator: a joint's step 4 or 7, the whole update, or the update's start.
+void ModelBoard::micro_interpolator(const MicroClock& c) {
+  State& s = *state_;
+  if (c.interpolating && c.old_step == kDeltaStep) {
+    s.delta = c.delta;
+    s.slew_limited = c.slew_limited;
+  } else if (c.interpolating) {
+    const int j = c.j_interpolated;
+    s.r[j] = c.r;
+    s.d[j] = c.d;
+    s.shift[j] = c.shift;
+    s.step = 0;
+    s.joint = j + 1;
+    if (j == kJoints - 1) {
+      s.busy = false;
+      if (c.take_answer) s.answer_pending = false;
+    }
+  }
+  if (c.whole_update) {
+    const bool take = s.answer_pending && s.phase == 0;
+    for (int j = 0; j < kJoints; ++j) {
+      bool saturated = false;
+      s.delta = segment_delta(s.net_outputs[j], s.r[j], half_plays_[j], take, s.d[j], &saturated);
+      if (take && saturated) s.slew_limits = saturating_increment(s.slew_limits);
+      const std::int64_t step = reference_step(s.delta, s.phase);
+      s.shift[j] = reference_shift(s, j, half_plays_[j]);
+      s.r[j] = static_cast<std::int32_t>(static_cast<std::uint32_t>(s.r[j]) + static_cast<std::uint32_t>(step));
+      s.d[j] = (s.phase == kLastPhase && !s.homing) ? 0 : s.delta;
+    }
+    if (take) s.answer_pending = false;
+    s.busy = false;
+    s.step = 0;
+    s.joint = kJoints;
+    s.settled = false;
+  } else if (c.update) {
+    s.busy = true;
+    s.step = 0;
+    s.joint = 0;
+  }
+}
+
+// Most clocks change only counters: the UARTs counting out a bit, the PWM phase, the tick, the
+// encoder synchronisers. Such a clock is skip()'s run of one, in place, with exactly the next
+// values the full clock below would compute; any clock where something else could change (a byte,
+// a frame, a command, the period's events, the controller's stores, a capture, an encoder error, a
+// fault turning the drives off) returns false untouched and goes the full way.
+bool ModelBoard::quiet_clock(int encoder_a, int encoder_b) {
+  DrivePattern pattern;
+  return skip(1, encoder_a, encoder_b, &pattern) == 1;
+}
+
+void ModelBoard::receive(const std::uint8_t* data, std::size_t size) {
+  for (std::size_t i = 0; i < size; ++i) {
+    // The start bit's first clock: now, or when the line has sent the byte before.
+    const std::uint64_t start = std::max(state_->cycle, line_free_cycle_);
+    line_free_cycle_ = start + kLineByteClocks;
+    rx_line_.push_back({start + kRxValidDelay, data[i]});
+    line_end_.push_back(line_free_cycle_);
+  }
+}
+
+std::size_t ModelBoard::bytes_on_line() {
+  while (!line_end_.empty() && line_end_.front() <= state_->cycle) line_end_.pop_front();
+  return line_end_.size();
+}
+
+std::uint64_t ModelBoard::tx_byte_cycle(std::size_t k) const {
+  return k < tx_line_.size() ? tx_line_[k].cycle : ~std::uint64_t{0};
+}
+
+bool ModelBoard::take_tx_byte(std::uint8_t* byte) {
+  if (tx_line_.empty() || tx_line_.front().cycle >= state_->cycle) return false;
+  *byte = tx_line_.front().byte;
+  tx_line_.pop_front();
+  return true;
+}
+
+// The telemetry word the capture writes in this clock (word_index, one clock behind the capture):
+// board_core.sv's telemetry mux over the status registers and the peeked controller state.
+std::uint16_t ModelBoard::telemetry_word_of(const State& s) {
+  const int reference_word = static_cast<int>(board::kTelemetryReferencesOffset / 2);
+  const int count_word = static_cast<int>(board::kTelemetryCountsOffset / 2);
+  const bool fault = s.fault_cause != 0;
+  int flags = 0;
+  if (s.enabled && !fault) flags |= 1 << board::kFlagDriveEnable;
+  if (s.homed) flags |= 1 << board::kFlagHomed;
+  if (s.holding) flags |= 1 << board::kFlagHolding;
+  if (fault) flags |= 1 << board::kFlagFault;
+  if (s.encoder_error != 0) flags |= 1 << board::kFlagEncoderError;
+  if (s.referenced == kAllJoints) flags |= 1 << board::kFlagReferenced;
+  if (s.homing) flags |= 1 << board::kFlagHoming;
+  const int w = s.word_index;
+  if (w == board::kTelemetrySampleIndexOffset / 2)
+    return s.sample_index & 0xFFFF;
+  else if (w == board::kTelemetrySampleIndexOffset / 2 + 1)
+    return s.sample_index >> 16;
+  else if (w == board::kTelemetryTickOffset / 2)
+    return s.period_count & 0xFFFF;
+  else if (w == board::kTelemetryTickOffset / 2 + 1)
+    return s.period_count >> 16;
+  else if (w == board::kTelemetryFaultOffset / 2)
+    return static_cast<std::uint16_t>((flags << 8) | (rising_bits(s) << board::kTelemetryPlaySideShift) |
+                                      s.fault_cause);
+  else if (w == board::kTelemetryFillOffset / 2)
+    return static_cast<std::uint16_t>(s.fill);
+  else if (w == board::kTelemetryBadFramesOffset / 2)
+    return s.bad_frames;
+  else if (w == board::kTelemetryUnderrunsOffset / 2)
+    return s.underruns;
+  else if (w == board::kTelemetrySaturationsOffset / 2)
+    return s.overflow;
+  else if (w == board::kTelemetrySlewLimitsOffset / 2)
+    return s.slew_limits;
+  else if (w == board::kTelemetryRejectedOffset / 2)
+    return s.refused;
+  else if (w == board::kTelemetrySequenceOffset / 2)
+    return static_cast<std::uint16_t>(
+        (((s.referenced << kJoints) | ((s.enc_a >> kHomeSwitchShift) & kAllJoints)) << 8) | s.last_sequence);
+  else if (w >= reference_word && w < count_word && (w & 1) != (reference_word & 1))
+    return s.peek_data >> 16;
+  else
+    return s.peek_data & 0xFFFF;
+}
+
+// link_tx and uart_tx a frame at a time: link_tx starts a frame in clock `start` (n: its header
+// fields set) and hands uart_tx byte k (sync, length, sequence, type, the payload's words low byte
+// first from its RAM, the CRC high byte first) in the clock kTxByteClocks k after the first, which
+// waits for the UART's last byte; the TX line completes each kTxByteDelay later. The words it
+// reads hold still while it sends (a capture waits for a telemetry frame to end; an identify
+// frame reads words no capture writes).
+void ModelBoard::start_frame(State& n, std::uint64_t start) {
+  const Memories& m = *memories_;
+  link::Frame frame;  // the link's frame layout (link::encode_frame), the words as link_tx reads them
+  frame.sequence = n.tx_sequence;
+  frame.type = n.is_identify ? link::FrameType::kIdentify : link::FrameType::kTelemetry;
+  frame.payload.resize(static_cast<std::size_t>(n.tx_length));
+  for (int p = 0; p < n.tx_length; ++p) {
+    const std::uint16_t word = m.words[((n.is_identify ? 0 : kTelemetryWordBase) + (p >> 1)) & kTxWordMask];
+    frame.payload[static_cast<std::size_t>(p)] = static_cast<std::uint8_t>((p & 1) ? word >> 8 : word & 0xFF);
+  }
+  const std::vector<std::uint8_t> bytes = link::encode_frame(frame);
+  const std::uint64_t first = std::max(start + 1, n.uart_free);
+  for (std::size_t k = 0; k < bytes.size(); ++k)
+    tx_line_.push_back({first + kTxByteClocks * k + kTxByteDelay, bytes[k]});
+  n.tx_last_load = first + kTxByteClocks * (bytes.size() - 1);
+  n.uart_free = n.tx_last_load + kTxByteClocks;
+}
+
+// The counters of one clock (what a quiet run of one does), with the drive pins of the clock.
+void ModelBoard::count_clock(int encoder_a, int encoder_b) {
+  State& s = *state_;
+  if (!encoders_settled(s, encoder_a, encoder_b)) count_encoders(s, encoder_a, encoder_b);
+  joint_pwm_next(s, s);
+  uart_rx_next(s, s);
+  if (s.tx_state != kTxIdle && s.tx_last_load == s.cycle) s.tx_state = kTxIdle;
+  if (s.busy) ++s.step;
+  s.tick = s.tick == kLastTick ? 0 : s.tick + 1;
+  ++s.cycle;
+}
+
+// The wires of one full clock between the modules (board_core.sv's nets), each set by the module
+// that drives it before the modules that read it.
+struct ModelBoard::Wires {
+  // link_rx
+  RxProcessed rx;
+  int payload_index = 0;
+  std::uint8_t payload_byte = 0;
+  bool is_setpoint = false, is_command = false, is_identify_request = false;
+  // joint_axes' fault latch, the commands, the home switches
+  bool fault = false, command_ok = false;
+  int edge = 0;  // bit j: joint j's home switch references it
+  bool flush = false, home = false, home_start = false, clear_fault = false, command_refused = false;
+  // the period schedule
+  bool play = false, snapshot = false, update = false;
+  // the setpoint buffer
+  bool pop = false, underrun = false, setpoint_refused = false;
+  // the quadrature counters
+  int step_error_bits = 0;
+};
+
+void ModelBoard::clock(int encoder_a, int encoder_b) {
+  if (!checking_ && quiet_clock(encoder_a, encoder_b)) return;
+  const State& s = *state_;
+  State& n = *next_state_;  // the next values, committed at the end (the buffers swap)
+  n = s;
+  n.settled = false;
+  Wires w;
+  uart_rx_next(s, n);
+  link_rx_next(s, n, w);
+  commands_next(s, n, w);
+  schedule_next(s, n, w);
+  setpoint_buffer_next(s, n, w);
+  interpolator_next(s, n, w);
+  encoders_next(s, n, encoder_a, encoder_b, w);
+  joint_controller_next(s, n);
+  joint_safety_next(s, n, w);
+  joint_pwm_next(s, n);
+  counters_next(s, n, w);
+  link_tx_next(s, n, w);
+  n.tick = s.tick == kLastTick ? 0 : s.tick + 1;
+  n.cycle = s.cycle + 1;
+  std::swap(state_, next_state_);
+
+  const State& q = *state_;
+  pins_.drive_pwm = q.pwm;
+  pins_.drive_dir = q.direction;
+  pins_.drive_enable = q.enable_out;
+  pins_.encoder_error = q.encoder_error;
+  pins_.joint_limited = q.overflow != 0;
+  pins_.fault_cause = q.fault_cause;
+}
+
+// ---- uart_rx (the line's bytes at their clocks: ModelBoard::receive); n may be s ----
+void ModelBoard::uart_rx_next(const State& s, State& n) {
+  const std::uint64_t cycle = s.cycle;
+  n.rx_valid = false;
+  if (!rx_line_.empty() && rx_line_.front().valid_cycle == cycle) {
+    n.rx_valid = true;
+    n.rx_shift = rx_line_.front().byte;
+    rx_line_.pop_front();
+  }
+}
+
+// ---- link_rx ----
+void ModelBoard::link_rx_next(const State& s, State& n, Wires& w) {
+  Memories& m = *memories_;
+  n.fetched = false;
+  if (!s.fetched) {
+    n.fetched = s.read != s.write;
+  } else {
+    w.rx = process_rx_byte(s, s.ring_data, n);
+  }
+  n.ring_data = m.ring[s.read];  // read before this edge's write (the RTL never reads the slot written)
+  if (s.rx_valid) {
+    m.ring[s.write] = s.rx_shift;
+    n.write = (s.write + 1) % kRingBytes;
+  }
+  w.payload_index = (s.index - kHeaderBytes) & kFrameIndexMask;
+  w.payload_byte = s.ring_data;
+  w.is_setpoint = s.type == board::kFrameTypeSetpoint;
+  w.is_command = s.type == board::kFrameTypeCommand;
+  w.is_identify_request = s.type == board::kFrameTypeIdentifyRequest;
+}
+
+// ---- joint_axes: fault, commands (board_core.sv's commands and home switches) ----
+void ModelBoard::commands_next(const State& s, State& n, Wires& w) {
+  w.fault = s.fault_cause != 0;
+  w.command_ok = w.rx.frame_ok && w.is_command;
+  w.edge = switch_edge(s);
+  w.flush = (w.fault && s.enabled) || w.edge != 0;
+  if (w.command_ok) {
+    switch (s.command) {
+      case board::kCommandEnable:
+        w.command_refused = w.fault || !s.homed || (s.enabled && !s.holding);
+        break;
+      case board::kCommandDisable:
+        w.flush = true;
+        break;
+      case board::kCommandHold:
+        w.command_refused = !s.enabled;
+        break;
+      case board::kCommandClearFault:
+        w.command_refused = s.active;
+        w.clear_fault = !s.active;
+        break;
+      case board::kCommandSetHome:
+        w.command_refused = s.enabled;
+        w.home = !s.enabled;
+        break;
+      case board::kCommandHomeStart:
+        w.command_refused = s.enabled;
+        w.home_start = !s.enabled;
+        break;
+      default:
+        w.command_refused = true;
+    }
+  }
+  if (w.rx.payload_valid && w.is_command) n.command = w.payload_byte;
+  if (w.command_ok && !w.command_refused) {
+    if (s.command == board::kCommandEnable) {
+      n.enabled = true;
+      n.holding = false;
+    }
+    if (s.command == board::kCommandDisable) {
+      n.enabled = false;
+      n.holding = false;
+    }
+    if (s.command == board::kCommandHold) n.holding = true;
+  }
+  if (w.home) n.homed = true;
+  if (w.home_start) n.homing = true;
+  n.referenced = (w.home_start ? 0 : s.referenced) | w.edge;
+  if ((!w.home_start && (s.referenced | w.edge) == kAllJoints) || (w.command_ok && s.command == board::kCommandHold)) {
+    n.homing = false;
+  }
+  if (w.fault || w.edge != 0) {
+    n.enabled = false;
+    n.holding = false;
+  }
+  if (w.fault) n.homing = false;
+}
+
+// ---- period schedule ----
+void ModelBoard::schedule_next(const State& s, State& n, Wires& w) {
+  if (s.tick == 0) {
+    n.phase = next_phase(s.phase);
+    n.period_count = s.period_count + 1;
+  }
+  w.play = s.tick == kPlayTick && s.phase == 0 && s.enabled && !s.holding && !w.fault;
+  w.snapshot = s.tick == kSnapshotTick && s.phase == 0;
+  w.update = s.tick == kUpdateTick;
+}
+
+// ---- setpoint buffer (and the network on a play) ----
+void ModelBoard::setpoint_buffer_next(const State& s, State& n, Wires& w) {
+  const Memories& m = *memories_;
+  const bool accept = s.enabled && !w.fault;  // setpoints only with the drives on
+  const bool commit =
+      w.rx.frame_ok && w.is_setpoint && accept && s.index_match && !s.full_at_start && !s.vetoed && !w.flush;
+  w.setpoint_refused = w.rx.frame_ok && w.is_setpoint && !commit;
+  w.pop = w.play && !s.starting && s.fill != 0;
+  w.underrun = w.play && s.fill == 0;
+  if (w.flush) {
+    n.fill = 0;
+  } else if (commit && !w.pop) {
+    n.fill = s.fill + 1;
+  } else if (w.pop && !commit) {
+    n.fill = s.fill - 1;
+  }
+  if (w.pop) {
+    n.sample_index = s.sample_index + 1;
+    n.starting = true;
+    // The network (golden, bit for bit): its answer arrives long before the update reads it.
+    const auto& entry = m.ram[s.sample_index % kDepth];
+    std::array<std::int64_t, 3> position{};
+    for (int k = 0; k < 3; ++k) {
+      std::uint32_t code = 0;
+      for (int b = 0; b < kPositionCodeBytes; ++b) {
+        code |= static_cast<std::uint32_t>(entry[kPositionCodeBytes * k + b]) << (8 * b);
+      }
+      position[k] = static_cast<std::int32_t>(code);
+    }
+    const golden::RawOutput answer = golden::evaluate_raw(*s.network, position);
+    for (int j = 0; j < kJoints; ++j) {
+      n.net_outputs[j] = sign_extend(static_cast<std::uint32_t>(answer.alpha[j]), kNetworkOutputBits);
+    }
+    n.answer_pending = true;
+  } else if (s.starting) {
+    n.starting = false;  // the network takes it (ready) long before the next play
+  }
+  // After the pop's read: a full buffer takes no write, so the slot written is never the one read.
+  setpoint_payload_next(s, n, w.rx.frame_start, w.rx.payload_valid, w.payload_index, w.payload_byte);
+  if (w.flush) n.vetoed = true;
+}
+
+// A frame's start and a setpoint payload byte (its sample index, checked against the next free
+// one; a position byte, written unless the buffer was full at the frame's start). n may be s.
+void ModelBoard::setpoint_payload_next(const State& s, State& n, bool frame_start, bool payload_valid,
+                                       int payload_index, std::uint8_t byte) {
+  const bool is_setpoint = s.type == board::kFrameTypeSetpoint;
+  const bool full_at_start = s.full_at_start;
+  const std::uint32_t next_index = s.sample_index + static_cast<std::uint32_t>(s.fill);
+  if (frame_start) {
+    n.full_at_start = s.fill == kDepth;
+    n.index_match = true;
+    n.vetoed = false;
+  }
+  if (!payload_valid || !is_setpoint) return;
+  if (payload_index < kIndexBytes && byte != ((next_index >> (8 * (payload_index & 3))) & 0xFF)) {
+    n.index_match = false;
+  }
+  if (payload_index >= kIndexBytes && !full_at_start) {
+    memories_->ram[next_index % kDepth][(payload_index - kIndexBytes) % kPositionBytes] = byte;
+  }
+}
+
+// ---- reference interpolator ----
+void ModelBoard::interpolator_next(const State& s, State& n, const Wires& w) const {
+  const bool interpolator_enabled = s.enabled && !w.fault;
+  // An answer since the enable: the network's answer to a pop arrives before the next update reads it.
+  n.answered = interpolator_enabled && (s.answered || w.pop);
+  n.slew_limited = false;
+  const bool take_answer = s.answer_pending && s.phase == 0;
+  if (w.update && !s.busy) {
+    n.busy = true;
+    n.step = 0;
+    n.joint = 0;
+  } else if (s.busy) {
+    const int j = s.joint;
+    n.step = s.step + 1;
+    if (s.step == kDeltaStep) {
+      bool saturated = false;
+      n.delta = segment_delta(s.net_outputs[j], s.r[j], half_plays_[j], take_answer, s.d[j], &saturated);
+      if (take_answer && saturated && interpolator_enabled) n.slew_limited = true;
+    }
+    if (s.step == kReferenceStep) {
+      reference_next(s, j, interpolator_enabled, half_plays_[j], &n.r[j], &n.d[j], &n.shift[j]);
+      n.step = 0;
+      n.joint = j + 1;
+      if (j == kJoints - 1) {
+        n.busy = false;
+        if (take_answer) n.answer_pending = false;
+      }
+    }
+  }
+}
+
+// ---- encoders (synchronisers, quadrature counters) ----
+void ModelBoard::encoders_next(const State& s, State& n, int encoder_a, int encoder_b, Wires& w) {
+  n.switch_previous = (s.enc_a >> kHomeSwitchShift) & kAllJoints;
+  n.enc_a_meta = encoder_a;
+  n.enc_a = s.enc_a_meta;
+  n.enc_b_meta = encoder_b;
+  n.enc_b = s.enc_b_meta;
+  for (int j = 0; j < kJoints; ++j) {
+    const int ab = (((s.enc_a >> j) & 1) << 1) | ((s.enc_b >> j) & 1);
+    const int move = quadrature_move(s.previous[j], ab);
+    const bool error = move == kSkippedState;
+    const std::uint16_t count = static_cast<std::uint16_t>(s.count[j] + (error ? 0 : move));
+    n.previous[j] = ab;
+    n.step_error[j] = error;
+    if (!error && move != 0) n.rising[j] = move > 0;
+    const bool load = (w.home && ((s.referenced >> j) & 1) == 0) || ((w.edge >> j) & 1) != 0;
+    n.count[j] = load ? static_cast<std::uint16_t>(board::kHomeCount) : count;
+    if (s.step_error[j]) w.step_error_bits |= 1 << j;
+  }
+  n.encoder_error = s.encoder_error | w.step_error_bits;
+}
+
+// ---- joint controller ----
+void ModelBoard::joint_controller_next(const State& s, State& n) {
+  const bool ap_idle = !s.running;
+  if (s.start_q && ap_idle) {
+    n.running = true;
+    n.start_q = false;  // (the RTL clears it at ap_ready, kLoadCycles later: nothing reads it before)
+    n.run_start = s.cycle;
+    for (int j = 0; j < kJoints; ++j) {
+      control::JointFixedInput input;
+      input.reference = s.r[j];
+      input.encoder = static_cast<std::int16_t>(s.counts_q[j]);
+      input.shift = s.shift[j];
+      if (!s.primed) n.joint_state[j] = control::fixed_rest_state(input);
+      control::JointFixedStatus status;
+      n.next_current[j] = control::fixed_update(s.coefficients, n.joint_state[j], input, status);
+      n.next_overflow[j] = status.overflow_count;
+      n.peek_memory[j][kSlotReference] = static_cast<std::uint32_t>(input.reference);
+      n.peek_memory[j][kSlotEncoder] = static_cast<std::uint32_t>(static_cast<std::int32_t>(input.encoder));
+    }
+  }
+  if (s.running) store_current(n, s.cycle - s.run_start);  // elapsed 1 .. kRunCycles
+  if (s.tick == 0 && ap_idle) {
+    n.start_q = true;
+    n.counts_q = s.count;
+  }
+  // Drives off: the controller restarts from rest (a reset in the period's last cycle).
+  if (!s.enabled && s.tick == kLastTick) {
+    n.running = false;
+    n.primed = false;
+    n.current = {0, 0, 0};
+    n.overflow = 0;
+  }
+}
+
+// ---- joint_safety ----
+void ModelBoard::joint_safety_next(const State& s, State& n, const Wires& w) {
+  if (w.rx.frame_ok || !s.enabled) {
+    n.silent_periods = 0;
+  } else if (s.tick == 0 && s.silent_periods != kWatchdogMax) {
+    n.silent_periods = s.silent_periods + 1;
+  }
+  for (int j = 0; j < kJoints; ++j) safety_registers(s, j, &n.difference_q[j], &n.outside_q[j]);
+  int following = 0, outside = 0;
+  safety_conditions(s, &following, &outside);
+  int cause = w.clear_fault ? 0 : s.fault_cause;
+  if (w.step_error_bits != 0) cause |= 1 << board::kFaultEncoderSkip;
+  if (s.checked && s.enabled) {
+    if (following) cause |= 1 << board::kFaultFollowing;
+    if (outside) cause |= 1 << board::kFaultTravel;
+  }
+  if (s.enabled && s.silent_periods > board::kWatchdogPeriods) cause |= 1 << board::kFaultWatchdog;
+  n.fault_cause = cause;
+  n.check = s.tick == 0 && !s.running;
+  n.checked = s.check;
+  if (s.checked) n.active = following != 0 || outside != 0;
+}
+
+// ---- joint_pwm (n may be s) ----
+void ModelBoard::joint_pwm_next(const State& s, State& n) {
+  const bool enabled = s.enabled && s.fault_cause == 0;
+  const int phase = s.pwm_phase;
+  int pwm = 0;
+  for (int j = 0; j < kJoints; ++j) {
+    if (enabled && phase < s.duty[j]) pwm |= 1 << j;
+  }
+  n.pwm = pwm;
+  n.enable_out = enabled;
+  n.pwm_phase = (phase + 1) & ((1 << board::kPwmBits) - 1);
+}
+
+// ---- counters ----
+void ModelBoard::counters_next(const State& s, State& n, const Wires& w) {
+  if (w.rx.frame_bad) n.bad_frames = saturating_increment(s.bad_frames);
+  if (w.underrun && !s.homing) n.underruns = saturating_increment(s.underruns);
+  if (s.slew_limited) n.slew_limits = saturating_increment(s.slew_limits);
+  if (w.command_refused || w.setpoint_refused) n.refused = saturating_increment(s.refused);
+  if (w.rx.frame_ok) n.last_sequence = s.sequence;
+}
+
+// ---- telemetry words and link_tx ----
+void ModelBoard::link_tx_next(const State& s, State& n, const Wires& w) {
+  // peek: the state word asked for in this cycle, one cycle later (the controller is idle then).
+  n.peek_data = peek_word(s.peek_memory, s.capture);
+  n.word_index = s.capture;
+  const bool sending_telemetry = s.tx_state != kTxIdle && !s.is_identify;
+  telemetry_capture_next(s, n, telemetry_word_of(s), w.snapshot, sending_telemetry);
+  bool start_identify = false, start_telemetry = false;
+  if (s.tx_state == kTxIdle) {
+    if (s.telemetry_pending) {
+      start_telemetry = true;
+      n.is_identify = false;
+      n.tx_length = static_cast<int>(board::kTelemetryPayloadBytes);
+      n.tx_sequence = s.telemetry_sequence;
+    } else if (s.identify_pending) {
+      start_identify = true;
+      n.is_identify = true;
+      n.tx_length = static_cast<int>(board::kIdentifyPayloadBytes);
+      n.tx_sequence = s.identify_sequence;
+    }
+    if (start_telemetry || start_identify) {
+      n.tx_state = kTxSending;
+      start_frame(n, s.cycle);
+    }
+  } else if (s.cycle == s.tx_last_load) {
+    n.tx_state = kTxIdle;  // the frame's last byte goes to uart_tx
+  }
+  if (w.rx.frame_ok && w.is_identify_request) {
+    n.identify_pending = true;
+    n.identify_sequence = s.sequence;
+  } else if (start_identify) {
+    n.identify_pending = false;
+  }
+  if (start_telemetry) {
+    n.telemetry_pending = false;
+    n.telemetry_sequence = static_cast<std::uint8_t>(s.telemetry_sequence + 1);
+  }
+}
+
+// link_tx's snapshot: the word asked for a clock before written to its RAM, the capture's next
+// word, the telemetry frame queued after the last; a snapshot starts one unless a capture, a
+// queued or a sending telemetry frame is under way (skipped: the host sees the gap). n may be s.
+void ModelBoard::telemetry_capture_next(const State& s, State& n, std::uint16_t word, bool snapshot,
+                                        bool sending_telemetry) {
+  const bool writing = s.writing, capturing = s.capturing, telemetry_pending = s.telemetry_pending;
+  const int capture = s.capture, written = s.written;
+  if (writing) memories_->words[(kTelemetryWordBase + written) & kTxWordMask] = word;
+  n.writing = capturing;
+  n.written = capture;
+  if (writing && !capturing) n.telemetry_pending = true;
+  if (snapshot && !capturing && !writing && !telemetry_pending && !sending_telemetry) {
+    n.capturing = true;
+    n.capture = 0;
+  } else if (capturing) {
+    n.capture = (capture + 1) & kCaptureMask;
+    if (capture == kTelemetryWords - 1) n.capturing = false;
+  }
+}
+
+}  // namespace delta::cosim

@@ -1,0 +1,202 @@
+// The host's plan under feed holds: a hold slows the plate to rest on the path within
+// the checked limits, a resume brings it back to speed and on to the path's end, a run with holds
+// covers the same path as one without, the plan never outgrows the capacity reserved for holds
+// (the streaming thread does not allocate), and a stop during a hold ends the plan where it rests.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <iostream>
+#include <random>
+
+#include "delta/controller/run_job.hpp"
+#include "delta/controller/stream_plan.hpp"
+#include "delta/golden/board_network.hpp"
+#include "delta/input_error.hpp"
+
+namespace delta::controller {
+namespace {
+
+const std::string kWeights = std::string(DELTA_SOURCE_DIR) + "/weights/paper_like.json";
+
+// Largest position step between consecutive samples, metres.
+double largest_step(const StreamPlan& plan, std::size_t from, std::size_t to) {
+  double step = 0.0;
+  for (std::size_t k = from + 1; k < to; ++k) step = std::max(step, (plan.position(k) - plan.position(k - 1)).norm());
+  return step;
+}
+
+TEST(StreamPlan, HoldComesToRestOnThePathAndResumeFinishesItWithinTheLimits) {
+  const golden::BoardWeights weights = golden::read_board_weights(kWeights);
+  const Path path = load_path("experiment1", 3.0);
+  const StreamLimits limits;
+  const Vec3 start = path.samples.front().position_m + Vec3(0.002, 0.0, 0.0);
+  const StreamPlan reference(path, start, limits);
+  StreamPlan plan(path, start, limits);
+  const std::size_t capacity = plan.capacity();
+  ASSERT_GE(capacity, plan.size() + kHoldReserveSamples);
+
+  const std::size_t hold_at = plan.approach_samples() + 1200;  // at full speed on the path
+  const double tau_at = plan.tau(hold_at);
+  const std::size_t held = plan.hold_from(hold_at);
+  ASSERT_LT(held, reference.size());
+  // At rest on the path: the last samples do not move, and it is a point of the path.
+  EXPECT_LT((plan.position(held - 1) - plan.position(held - 2)).norm(), 1e-9);
+  EXPECT_GT(plan.tau(held - 1), tau_at);
+  EXPECT_LT(plan.tau(held - 1), tau_at + 0.5);
+  EXPECT_LT((plan.position(held - 1) - path.at(plan.tau(held - 1))).norm(), 1e-12);
+  EXPECT_TRUE(plan.resumable());
+  EXPECT_FALSE(check_plan(plan, "experiment1", weights.trained_min_m, weights.trained_max_m, limits))
+      << *check_plan(plan, "experiment1", weights.trained_min_m, weights.trained_max_m, limits);
+
+  const std::size_t resumed = plan.resume();
+  ASSERT_GT(resumed, held);
+  EXPECT_LE(resumed, capacity);
+  // Whole: no step, the limits held through hold and resume, the same end as without the hold.
+  EXPECT_FALSE(check_plan(plan, "experiment1", weights.trained_min_m, weights.trained_max_m, limits))
+      << *check_plan(plan, "experiment1", weights.trained_min_m, weights.trained_max_m, limits);
+  EXPECT_NEAR(plan.tau(plan.size() - 1), path.duration_s(), 1e-9);
+  EXPECT_LT((plan.position(plan.size() - 1) - reference.position(reference.size() - 1)).norm(), 1e-12);
+  EXPECT_LE(largest_step(plan, 0, plan.size()), largest_step(reference, 0, reference.size()) + 1e-9);
+  // Path time never goes back.
+  for (std::size_t k = plan.approach_samples() + 1; k < plan.size(); ++k) ASSERT_GE(plan.tau(k), plan.tau(k - 1)) << k;
+  // About the two ramps' extra time longer than without the hold.
+  const double extra_s = static_cast<double>(plan.size() - reference.size()) / kStreamRateHz;
+  std::cout << "hold at path time " << tau_at << " s, at rest at " << plan.tau(held - 1) << " s; the plan " << extra_s
+            << " s longer\n";
+  EXPECT_GT(extra_s, 0.05);
+  EXPECT_LT(extra_s, 1.0);
+}
+
+TEST(StreamPlan, ManyRandomHoldsStayInsideTheReserveAndTheLimits) {
+  const golden::BoardWeights weights = golden::read_board_weights(kWeights);
+  const Path path = load_path("experiment1", 4.0);
+  const StreamLimits limits;
+  StreamPlan plan(path, path.samples.front().position_m, limits);
+  const unsigned seed = 1313;
+  std::cout << "seed " << seed << "\n";
+  std::mt19937 random(seed);
+  std::size_t next = plan.approach_samples();
+  int holds = 0;
+  while (holds < 40) {
+    std::uniform_int_distribution<std::size_t> draw(1, 400);  // including holds during ramps
+    next += draw(random);
+    if (next >= plan.size()) break;
+    const std::size_t before = plan.size();
+    const std::size_t held = plan.hold_from(next);
+    if (held == before) break;  // in the final ramp: already stopping
+    ++holds;
+    ASSERT_GT(plan.resume(), 0u) << "hold " << holds;
+    ASSERT_LE(plan.size(), plan.capacity());
+    next = held;
+  }
+  std::cout << holds << " holds; plan " << plan.size() << " samples of a capacity of " << plan.capacity() << "\n";
+  EXPECT_GE(holds, 10);
+  EXPECT_FALSE(check_plan(plan, "experiment1", weights.trained_min_m, weights.trained_max_m, limits))
+      << *check_plan(plan, "experiment1", weights.trained_min_m, weights.trained_max_m, limits);
+  EXPECT_NEAR(plan.tau(plan.size() - 1), path.duration_s(), 1e-9);
+}
+
+TEST(StreamPlan, HoldDuringTheApproachFinishesItAndResumeStartsThePath) {
+  const Path path = load_path("experiment1", 1.0);
+  const StreamLimits limits;
+  StreamPlan plan(path, path.samples.front().position_m + Vec3(0.0, 0.003, 0.0), limits);
+  ASSERT_GT(plan.approach_samples(), 10u);
+  const std::size_t full = plan.size();
+  EXPECT_EQ(plan.hold_from(3), plan.approach_samples());
+  EXPECT_LT((plan.position(plan.size() - 1) - path.samples.front().position_m).norm(), 1e-12);
+  EXPECT_EQ(plan.resume(), full);  // the path as planned at first
+  EXPECT_NEAR(plan.tau(plan.size() - 1), path.duration_s(), 1e-9);
+}
+
+TEST(StreamPlan, StopDuringALongApproachComesToRestWithinHalfASecond) {
+  // From a corner of the trained range: the straight move alone lasts most of a second. A stop in
+  // it (a signal, ctl stop) must not wait for its end: the plate comes to rest on the line.
+  const golden::BoardWeights weights = golden::read_board_weights(kWeights);
+  const Path path = load_path("experiment1", 1.0);
+  const StreamLimits limits;
+  const Vec3 start = weights.trained_min_m + Vec3::Constant(0.0005);
+  StreamPlan plan(path, start, limits);
+  const StreamPlan reference(path, start, limits);
+  ASSERT_GT(plan.approach_samples(), 600u);
+  const std::size_t k = plan.approach_samples() / 3;
+  const std::size_t stopped = plan.stop_from(k);
+  std::cout << "approach " << plan.approach_samples() << " samples; stopped at sample " << k << ", at rest after "
+            << stopped - k << " more\n";
+  EXPECT_LE(stopped - k, 400u);
+  EXPECT_LT(stopped, plan.approach_samples());
+  EXPECT_FALSE(plan.resumable());
+  EXPECT_EQ(plan.resume(), 0u);
+  // The samples before k unchanged; at rest at the end; on the line, never beyond the unstopped move.
+  for (std::size_t i = 0; i <= k; ++i) ASSERT_EQ(plan.position(i), reference.position(i)) << i;
+  EXPECT_LT((plan.position(stopped - 1) - plan.position(stopped - 2)).norm(), 1e-9);
+  EXPECT_LE(largest_step(plan, 0, stopped), largest_step(reference, 0, reference.size()) + 1e-12);
+  EXPECT_FALSE(check_plan(plan, "experiment1", weights.trained_min_m, weights.trained_max_m, limits))
+      << *check_plan(plan, "experiment1", weights.trained_min_m, weights.trained_max_m, limits);
+}
+
+TEST(StreamPlan, RunsBeyondTheLongestAreRefusedBeforeAllocating) {
+  // A named trajectory's duration, a move's length: refused before the samples are made.
+  EXPECT_THROW(load_path("experiment1", kMaxRunSeconds + 1.0), std::invalid_argument);
+  EXPECT_THROW(load_path("experiment1", 1e300), std::invalid_argument);
+  EXPECT_THROW(load_path("move:0,0,-0.075;1e300,0,-0.075", 0.0), InputError);
+  EXPECT_NO_THROW(load_path("experiment1", 2.0));
+}
+
+TEST(StreamPlan, RunSummaryBoardTimeSurvivesTheTickWrapAndAnEarlierFrame) {
+  // The summary's board time: the u32 tick wraps after 4.97 days; a frame that shows an earlier
+  // tick (taken from the queue after a newer one, or a restarted board) is 0 s, not 429496.7 s.
+  link::TelemetryPayload first, last;
+  first.tick = 0xFFFFFF00u;
+  last.tick = 0x00000100u;
+  EXPECT_NEAR(board_seconds_between(first, last), 512 / 1e4, 1e-12);
+  first.tick = 20'000;
+  last.tick = 19'990;
+  EXPECT_EQ(board_seconds_between(first, last), 0.0);
+  last.tick = 30'000;
+  EXPECT_NEAR(board_seconds_between(first, last), 1.0, 1e-12);
+}
+
+TEST(StreamPlan, AtTheEndOfThePathThereIsNothingToResume) {
+  const Path path = load_path("experiment1", 1.0);
+  StreamPlan plan(path, path.samples.front().position_m, StreamLimits{});
+  EXPECT_FALSE(plan.resumable());
+  EXPECT_EQ(plan.resume(), 0u);
+  // A hold in the final ramp changes nothing (already slowing to the end).
+  const std::size_t size = plan.size();
+  EXPECT_EQ(plan.hold_from(size - 5), size);
+}
+
+TEST(StreamPlan, PointToPointMovesAreJerkLimitedRestToRestThroughTheWaypoints) {
+  const golden::BoardWeights weights = golden::read_board_weights(kWeights);
+  const Path path = load_path("move:0,0,-0.075;0.006,0,-0.075;0.006,0.004,-0.08", 0.0);
+  const Vec3 last(0.006, 0.004, -0.08);
+  EXPECT_LT((path.samples.back().position_m - last).norm(), 1e-12);
+  // At rest at each waypoint: the middle one is passed with zero speed.
+  std::size_t at_middle = 0;
+  for (std::size_t k = 1; k + 1 < path.samples.size(); ++k) {
+    if ((path.samples[k].position_m - Vec3(0.006, 0, -0.075)).norm() < 1e-12) ++at_middle;
+  }
+  EXPECT_GE(at_middle, 1u);
+  const StreamLimits limits;
+  const StreamPlan plan(path, Vec3(0.001, 0, -0.074), limits);
+  EXPECT_FALSE(check_plan(plan, path.source, weights.trained_min_m, weights.trained_max_m, limits))
+      << *check_plan(plan, path.source, weights.trained_min_m, weights.trained_max_m, limits);
+  EXPECT_LT((plan.position(plan.size() - 1) - last).norm(), 1e-12);
+  // A bad waypoint is named by its number.
+  try {
+    load_path("move:0,0,-0.075;0.006,x,-0.075", 0.0);
+    FAIL() << "accepted a bad waypoint";
+  } catch (const InputError& error) {
+    EXPECT_EQ(error.line(), 2u);
+    std::cout << error.what() << "\n";
+  }
+  // An unreachable waypoint is refused by the plan's check, naming it.
+  const Path far = load_path("move:0,0,-0.075;0,0,-0.3", 0.0);
+  const StreamPlan far_plan(far, Vec3(0, 0, -0.075), limits);
+  const auto violation = check_plan(far_plan, far.source, weights.trained_min_m, weights.trained_max_m, limits);
+  ASSERT_TRUE(violation);
+  EXPECT_NE(violation->find(":2: "), std::string::npos) << *violation;
+}
+
+}  // namespace
+}  // namespace delta::controller
