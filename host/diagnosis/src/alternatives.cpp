@@ -121,6 +121,35 @@ std::vector<Family> absorbed_families(const PipelineData& data, FamilySet chosen
   return absorbed;
 }
 
+// Whether a set that misses the floor test is still one CHECK cannot tell from the chosen set
+// (which passes it): in every part of the floor test it misses (the three joints together, or
+// one joint), its held-out error is not significantly larger than the chosen set's there (paired
+// z <= options.paired_z; the noise cancels in the pairs, so this test sees far smaller differences
+// than the floor test), and no joint is above the floor test's RMSE cap. Two such sets sit on
+// either side of the floor test's threshold by chance.
+bool indistinguishable_where_missed(const PipelineData& data, const std::vector<Vec3>& prediction,
+                                    const std::vector<Vec3>& chosen, const FloorTest& test,
+                                    const PairedDifference& difference) {
+  if (test.joint_rmse_floors.maxCoeff() > test.rmse_cap_floors) return false;
+  if (test.z > test.threshold && difference.z > data.options.paired_z) return false;
+  for (int j = 0; j < 3; ++j) {
+    if (test.joint_z[j] <= test.threshold + 0.5) continue;
+    // Both predictions equal the measurement in the other joints: the pairs hold joint j alone.
+    std::vector<Vec3> alone = prediction, chosen_alone = chosen;
+    for (std::size_t i = 0; i < data.check.size(); ++i) {
+      for (int k = 0; k < 3; ++k) {
+        if (k == j) continue;
+        alone[i][k] = data.check[i].alpha_deg[k];
+        chosen_alone[i][k] = data.check[i].alpha_deg[k];
+      }
+    }
+    if (paired_difference(data.check, alone, chosen_alone, data.options.batch_rows).z > data.options.paired_z) {
+      return false;
+    }
+  }
+  return true;
+}
+
 // A fitted candidate as an alternative to the chosen set (whose held-out MSE is chosen_mse).
 Alternative alternative_of(FamilySet families, const Candidate& candidate, const PairedDifference& difference,
                            double chosen_mse, bool at_floor) {
@@ -180,7 +209,10 @@ std::vector<Alternative> find_alternatives(const PipelineData& data, FamilySet c
     const bool close = difference.mean_deg2 <= data.threshold_deg2 || difference.z <= data.options.paired_z;
     if (!close) continue;
     const FloorTest test = floor_test(data.check, results[r].check_prediction, noise, data.options);
-    if (chosen_at_floor && !test.at_floor) continue;
+    if (chosen_at_floor && !test.at_floor &&
+        !indistinguishable_where_missed(data, results[r].check_prediction, chosen, test, difference)) {
+      continue;
+    }
     alternatives.push_back(alternative_of(sets[r], results[r], difference, chosen_mse, test.at_floor));
   }
   std::sort(alternatives.begin(), alternatives.end(),
