@@ -88,7 +88,10 @@ def run_checks(bench):
 
     code, body = bench.post("hold")
     check(code == 200, "POST /api/hold: 200 (%d %s)" % (code, body))
-    held = bench.wait_for(lambda s: s["run"] and s["run"]["feed"] == "held", 10, "held")
+    # The feed says held once the hold is sent; the board's state shows it with the next telemetry
+    # frame (a status read between the two, on a loaded machine, has both): wait for both.
+    held = bench.wait_for(lambda s: s["run"] and s["run"]["feed"] == "held" and s["state"] == "holding", 10,
+                          "held, and the board holding")
     check(held["state"] == "holding", "status while held: holding (%s)" % held["state"])
     played = held["run"]["played"]
     time.sleep(1.0)
