@@ -381,6 +381,62 @@ std::vector<bool> in_play(const std::vector<Vec3>& alpha_deg) {
   return marked;
 }
 
+// The holds of a drag's readings in which a joint turned back inside its play and came out the same
+// way (the reading held, the hold entered and left moving the same way: in_play does not see it)
+// while the plate moved: the stage, mapped back to the encoders' plate (the inverse of the first
+// affine map) and through the nominal inverse kinematics, gives each arm's motion within the hold;
+// an arm that falls back from the furthest it reached since the hold began (the reading's step,
+// the arm at the edge of its play pushing) by more than kTurnedCounts of a count has left that
+// edge. Every row of such a hold: the arm inside its play says nothing of the reading, and the
+// reading between its counts (interpolated in time over the hold) is off where the joint stood
+// still. A joint barely moving on a sweep (its range a few degrees over ten minutes) turns inside
+// its play for most of the drag; left in, those rows bias the clock offset by milliseconds.
+constexpr double kTurnedCounts = 0.1;
+std::vector<bool> turned_inside_play(const std::vector<double>& t, const std::vector<Vec3>& alpha_deg,
+                                     const StageCurve& curve, double offset, double rate, const Affine& affine,
+                                     const Geometry& geometry) {
+  const std::size_t n = t.size();
+  std::vector<bool> marked(n, false);
+  const Eigen::Matrix3d back = affine.a.inverse();
+  if (!back.allFinite()) return marked;
+  std::vector<Vec3> arm(n, Vec3::Constant(std::numeric_limits<double>::quiet_NaN()));
+  for (std::size_t i = 0; i < n; ++i) {
+    Vec3 s;
+    if (!curve.at(offset + (1 + rate) * t[i], &s, nullptr)) continue;
+    const IkSolution ik = inverse_kinematics(geometry, Vec3(affine.run_mean + back * (s - affine.b)));
+    if (ik.ok()) arm[i] = ik.alpha_deg;
+  }
+  for (int j = 0; j < 3; ++j) {
+    const double tolerance = kTurnedCounts * kEncoderResolutionDeg;
+    std::size_t start = 0;  // the hold's first row
+    double way = 0.0, furthest = std::numeric_limits<double>::quiet_NaN();
+    bool turned = false;
+    auto close = [&](std::size_t end) {
+      if (turned) {
+        std::fill(marked.begin() + static_cast<std::ptrdiff_t>(start),
+                  marked.begin() + static_cast<std::ptrdiff_t>(end), true);
+      }
+    };
+    for (std::size_t i = 0; i < n; ++i) {
+      const double step = i > 0 ? alpha_deg[i][j] - alpha_deg[i - 1][j] : 0.0;
+      if (step != 0.0) {
+        close(i);
+        start = i;
+        turned = false;
+        way = step > 0 ? 1.0 : -1.0;
+        furthest = way * arm[i][j];
+        continue;
+      }
+      if (way == 0.0 || !std::isfinite(arm[i][j])) continue;
+      const double along = way * arm[i][j];
+      if (!std::isfinite(furthest) || along > furthest) furthest = along;
+      if (furthest - along > tolerance) turned = true;
+    }
+    close(n);
+  }
+  return marked;
+}
+
 // One row of the fine fit's design (an axis of a run row): its nonzero columns, in increasing
 // order.
 constexpr int kRowNonzeros = 2 + kMonomials + 3 + 3 * 4;
@@ -609,11 +665,15 @@ MergeResult merge_logs(const std::string& run_path, const std::vector<double>& r
 
   // ---- fine: the fit rows (evenly thinned), their Jacobians ----
   const StageCurve curve(stage_t, stage_m);
+  const std::vector<bool> turned =
+      readings.closed_loop ? std::vector<bool>(n, false)
+                           : turned_inside_play(run_t, run_alpha_deg, curve, offset, rate, whole.affine, nominal);
   std::vector<std::size_t> rows;
   {
     auto usable = [&](std::size_t i) {
       const double tau = offset + (1 + rate) * run_t[i];
-      return !play_band[i] && std::isfinite(p_enc[i][0]) && tau > curve.first() + 1.0 && tau < curve.last() - 1.0;
+      return !play_band[i] && !turned[i] && std::isfinite(p_enc[i][0]) && tau > curve.first() + 1.0 &&
+             tau < curve.last() - 1.0;
     };
     std::size_t covered = 0;
     for (std::size_t i = 0; i < n; ++i) covered += usable(i) ? 1 : 0;
@@ -797,6 +857,7 @@ MergeResult merge_logs(const std::string& run_path, const std::vector<double>& r
   };
 
   double centre = offset + (1 + rate) * t_mean;
+  take_out_play();  // p_fit and the columns for the first pass's affine map
   Normal normal;
   for (int pass = 0; pass < kPasses; ++pass) {
     const bool hold = pass == 0;  // the first pass holds the coarse alignment: outliers first

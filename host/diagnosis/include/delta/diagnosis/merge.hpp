@@ -10,7 +10,11 @@
 //   0. the readings between their counts: a reading changes when the angle crosses the boundary
 //      between two counts, so between two crossings the angle is interpolated in time (the
 //      encoders' quantisation, 2.5 um RMS of plate, falls to about 0.1 um); rows where a joint may
-//      sit inside its play (a hold that ends in a reversal) are left out. Closed-loop telemetry
+//      sit inside its play (a hold that ends in a reversal) are left out; so are, once the clocks
+//      are roughly aligned (step 1), a drag's holds in which the stage says an arm fell back from
+//      the edge of its play by more than 0.1 count and came out the same way (the reading held: a
+//      joint barely moving turns inside its play, on a sweep for much of the drag; left in, such
+//      rows put the clock offset 3 ms and the plate 3 um off). Closed-loop telemetry
 //      (rows at most 5 ms apart, a joint whose reading turns back at more than 0.5 % of its
 //      steps) instead takes each reading less the lead the controller holds it at (the angle
 //      behind it stops just past the boundary it crossed last: 0.0043 deg when slow, none above
