@@ -18,7 +18,9 @@
 #include "delta/plot.hpp"
 #include "delta/table.hpp"
 #include "delta/temporary_directory.hpp"
-#include "delta/trajectory.hpp"
+#include "delta/controller/stream_plan.hpp"
+#include "delta/golden/board_network.hpp"
+#include "delta/input_error.hpp"
 #include "options.hpp"
 
 namespace delta::cosim {
@@ -28,10 +30,8 @@ struct CosimCommandOptions {
   std::string weights;
   std::string effects;
   std::string trajectory = "experiment1";
-  std::uint64_t seed = 1;
   double duration_s = 2.0;
-  double blend_s = 0.3;
-  double settle_s = 0.1;
+  double settle_s = 0.4;
   std::uint32_t target_fill = 20;
   std::string out;
   std::string plot;
@@ -44,15 +44,17 @@ void write_samples(const std::string& path, const CosimResult& result, const std
   OutputFile file(path);
   std::ostream& out = file.stream();
   out << "# " << command_line << "\n"
+      << "# t_s: board time since the first stream sample became the joint reference; tau_s: its path time (-1: the "
+         "approach);\n"
       << "# alpha*_deg: encoder readings; x/y/z_m: measured plate position; ref_*: the host's reference;\n"
       << "# net*_deg: the network's answer for the reference (the joint reference due); true*_deg: plant angles; "
          "current*_a: drive currents;\n"
       << "# netideal_*, bookideal_*: the plate if the encoders read the network's answer or the textbook IK\n"
-      << "t_s,alpha1_deg,alpha2_deg,alpha3_deg,x_m,y_m,z_m,ref_x_m,ref_y_m,ref_z_m,net1_deg,net2_deg,net3_deg,"
+      << "t_s,tau_s,alpha1_deg,alpha2_deg,alpha3_deg,x_m,y_m,z_m,ref_x_m,ref_y_m,ref_z_m,net1_deg,net2_deg,net3_deg,"
          "true1_deg,true2_deg,true3_deg,current1_a,current2_a,current3_a,"
          "netideal_x_m,netideal_y_m,netideal_z_m,bookideal_x_m,bookideal_y_m,bookideal_z_m,drives_enabled\n";
   for (const CosimSample& s : result.samples) {
-    out << format_number(s.t_s);
+    out << format_number(s.t_s) << ',' << format_number(s.tau_s);
     for (const Vec3* v : {&s.encoder_deg, &s.position_m, &s.reference_m, &s.network_deg, &s.true_alpha_deg,
                           &s.current_a, &s.network_ideal_m, &s.textbook_ideal_m}) {
       for (int k = 0; k < 3; ++k) out << ',' << format_number((*v)[k]);
@@ -89,15 +91,11 @@ void write_cosim_plot(const std::string& path, const CosimResult& result, const 
 }
 
 void run_cosim_command(const CosimCommandOptions& options, const std::string& command_line) {
-  if (!(options.duration_s > 0.0) || !(options.blend_s >= 0.0) || !(options.settle_s >= 0.0)) {
-    std::cerr << "deltactl: error: --duration must be > 0, --blend and --settle >= 0\n";
-    throw CommandExit{kExitBadInput};
-  }
-  const golden::QuantisedNetwork quantised = read_board_network(options.weights);
+  const golden::BoardWeights weights = golden::read_board_weights(options.weights);
+  const golden::QuantisedNetwork& quantised = weights.network;
   const EffectSet effects = read_board_effects(options.effects);
-  Trajectory trajectory;
   try {
-    trajectory = make_trajectory(options.trajectory, options.seed);
+    controller::load_path(options.trajectory, options.duration_s);  // a bad name or file: before the board is built
   } catch (const std::invalid_argument& error) {
     std::cerr << "deltactl: error: --trajectory: " << error.what() << '\n';
     throw CommandExit{kExitBadInput};
@@ -112,20 +110,21 @@ void run_cosim_command(const CosimCommandOptions& options, const std::string& co
   cosim.fidelity = options.fidelity == "model" ? BoardFidelity::kModel : BoardFidelity::kRtl;
   cosim.mem_dir = mem.path();
   cosim.network = &quantised;
+  cosim.trained_min_m = weights.trained_min_m;
+  cosim.trained_max_m = weights.trained_max_m;
   cosim.effects = effects;
-  cosim.trajectory = trajectory.position_m;
+  cosim.trajectory = options.trajectory;
   cosim.duration_s = options.duration_s;
-  cosim.blend_s = options.blend_s;
   cosim.session.target_fill = options.target_fill;
   const auto start = std::chrono::steady_clock::now();
   auto wall_s = [&start] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
   // On a terminal the progress line rewrites itself; in a log, one line per simulated second.
   const bool terminal = ::isatty(2) != 0;
-  cosim.progress = [&, terminal](double simulated_s) {
+  cosim.progress = [&, terminal](double simulated_s, double total_s) {
     const long tenths = std::lround(simulated_s * 10.0);
     if (!terminal && tenths % 10 != 0) return;
-    std::cerr << (terminal ? "\r" : "") << "cosim: " << fixed(simulated_s, 1) << " / " << fixed(options.duration_s, 1)
-              << " s simulated, " << fixed(wall_s(), 0) << " s wall" << (terminal ? "" : "\n") << std::flush;
+    std::cerr << (terminal ? "\r" : "") << "cosim: " << fixed(simulated_s, 1) << " / " << fixed(total_s, 1)
+              << " s of board time, " << fixed(wall_s(), 0) << " s wall" << (terminal ? "" : "\n") << std::flush;
   };
   std::cerr << "cosim: host over link v2 -> virtual board ("
             << (options.fidelity == "model" ? "C++ model board" : "board core RTL, Verilator")
@@ -135,13 +134,15 @@ void run_cosim_command(const CosimCommandOptions& options, const std::string& co
   CosimResult result;
   try {
     result = run_cosim(cosim);
+  } catch (const InputError&) {
+    throw;
   } catch (const std::runtime_error& error) {
     std::cerr << (terminal ? "\n" : "") << "deltactl: error: " << error.what() << '\n';
     throw CommandExit{kExitFailure};
   }
   const double wall = wall_s();
-  std::cerr << (terminal ? "\r" : "") << "cosim: " << fixed(options.duration_s, 1) << " s simulated in "
-            << fixed(wall, 1) << " s wall (" << fixed(result.board_cycles / kBoardClockHz, 3) << " s of board time, "
+  std::cerr << (terminal ? "\r" : "") << "cosim: " << fixed(result.board_cycles / kBoardClockHz, 3)
+            << " s of board time in " << fixed(wall, 1) << " s wall ("
             << fixed(result.board_cycles / wall / 1e6, 2) << " M board cycles/s)\n";
   if (result.board_busy_s > 0.0) {  // the board and the world without the host and the truth recording
     const double alone = result.board_cycles / result.board_busy_s;
@@ -150,11 +151,12 @@ void run_cosim_command(const CosimCommandOptions& options, const std::string& co
               << " x real time (the rest: the host, the truth recording)\n";
   }
 
-  const double from_s = options.blend_s + options.settle_s;
+  const double from_s = options.settle_s;
   const TrackingSummary summary = summarise(result, from_s);
-  std::cout << "Co-simulation: '" << options.trajectory << "', " << options.duration_s << " s, smooth start over "
-            << options.blend_s << " s; statistics from t = " << from_s << " s (" << summary.samples
-            << " samples at 1 kHz)\n\n";
+  std::cout << "Co-simulation: '" << options.trajectory << "', " << options.duration_s
+            << " s of path after a " << fixed(result.approach_samples / 1e3, 3)
+            << " s approach, as `host run` streams it; statistics from path time " << from_s << " s ("
+            << summary.samples << " samples at 1 kHz)\n\n";
   Table plate({"plate error (measured - reference)", "rms x [um]", "rms y [um]", "rms z [um]", "rms distance [um]",
                "max distance [um]"});
   auto add = [&plate](const std::string& label, const ErrorStats& e) {
@@ -179,13 +181,15 @@ void run_cosim_command(const CosimCommandOptions& options, const std::string& co
   joints.print(std::cout);
   std::cout << '\n';
   const link::LinkStatistics& s = result.link;
-  const link::StreamReport& r = result.stream;
+  const controller::StreamingResult& r = result.stream;
   Table link({"link v2 and board", "value"});
   link.add_row({"identify: protocol, build id, weights CRC", std::to_string(result.identify.protocol_version) + ", " +
                                                                  golden::hex_word(result.identify.build_id, 32) + ", " +
                                                                  golden::hex_word(result.identify.weights_crc, 32) +
                                                                  " (match the host's)"});
-  link.add_row({"setpoints played / streamed", std::to_string(r.played) + " / " + std::to_string(r.samples)});
+  link.add_row({"stream: outcome, setpoints played / planned (approach)",
+                std::string(controller::outcome_name(r.outcome)) + ", " + std::to_string(r.played) + " / " +
+                    std::to_string(r.planned) + " (" + std::to_string(result.approach_samples) + ")"});
   link.add_row({"setpoint frames sent (resent)",
                 std::to_string(s.setpoints_sent) + " (" + std::to_string(s.setpoints_resent) + ")"});
   link.add_row({"telemetry frames received (lost, skipped)", std::to_string(s.telemetry_frames) + " (" +
@@ -196,17 +200,12 @@ void run_cosim_command(const CosimCommandOptions& options, const std::string& co
                     std::to_string(s.decoder.skipped_bytes)});
   link.add_row(
       {"board: bad frames, refused", std::to_string(result.bad_frames) + ", " + std::to_string(result.rejected)});
-  link.add_row({"board: underruns before the first sample / while streaming",
-                std::to_string(r.underruns_at_first_play) + " / " +
-                    std::to_string(r.underruns_at_last_play - r.underruns_at_first_play)});
+  link.add_row({"board: underruns while streaming", std::to_string(result.underruns_while_streaming)});
   link.add_row({"board: slew limits, controller saturations",
                 std::to_string(result.slew_limits) + ", " + std::to_string(result.saturations)});
-  link.add_row(
-      {"latency compensated: setpoint sent for its reach time [ms]",
-       "1 (network, interpolation) + buffer wait (target fill " + std::to_string(cosim.session.target_fill) + ")"});
-  link.add_row({"references clamped to the input code", std::to_string(result.clamped_positions)});
-  link.add_row({"trajectory starts at board time [ms]", fixed(1e3 * result.t0_s, 1)});
-  link.add_row({"start pose found by the host (network inverted at the home count) [mm]",
+  link.add_row({"setpoints the host keeps ahead of the board (target fill)", std::to_string(cosim.session.target_fill)});
+  link.add_row({"stream sample 0 is the joint reference at board time [ms]", fixed(1e3 * result.t0_s, 1)});
+  link.add_row({"the plan's start: the pose the encoders report (network inverted at the home count) [mm]",
                 fixed(result.start_position_m.x() * 1e3, 4) + ", " + fixed(result.start_position_m.y() * 1e3, 4) +
                     ", " + fixed(result.start_position_m.z() * 1e3, 4)});
   link.add_row({"encoder errors (sticky, bit per joint)", std::to_string(result.pins.encoder_error_bits)});
@@ -226,7 +225,7 @@ void run_cosim_command(const CosimCommandOptions& options, const std::string& co
                          " + plants + virtual robot, " + options.trajectory);
     std::cout << "plot: " << options.plot << '\n';
   }
-  if (r.outcome != link::StreamReport::Outcome::kCompleted || r.played != r.samples ||
+  if (r.outcome != controller::StreamingResult::Outcome::kCompleted || r.played != r.planned ||
       result.pins.encoder_error_bits != 0 || result.pins.fault_cause_bits != 0) {
     std::cerr << "deltactl: cosim: the stream did not complete, or the encoders or the joint safety faulted (see the "
                  "table)\n";
@@ -239,19 +238,20 @@ const RegisterCommand command("cosim", 70, [](CLI::App& root) {
   CLI::App* sub = root.add_subcommand(
       "cosim", "Co-simulate the whole robot: the board RTL (network, joint controllers) with plants and effects");
   sub->footer(
-      "\nA host streams the trajectory's plate positions as 1 kHz setpoints over the board link v2\n"
+      "\nThe lab's host (what `deltactl host run` runs) streams the trajectory's plate positions as 1 kHz\n"
+      "setpoints over the board link v2\n"
       "(docs/board_link.md) to the virtual board: the Verilated board core as built for the iCEBreaker\n"
       "(23.25 MHz board clock, 46.5 MHz network clock, 1 Mbaud link; rtl/board/board_core.sv: link,\n"
       "setpoint buffer, network, 10 kHz interpolation, three joint controllers, PWM) driving three joint\n"
       "plants (sim/joint_plant: motor, 66:1 gearbox, friction, gravity); their angles pass the virtual\n"
       "robot's sensor effects into quadrature encoder signals, and the plate position is the true\n"
-      "geometry's forward kinematics seen through the frame misalignment. About 4 s of wall time per\n"
-      "simulated second; --fidelity model (the C++ model board, bit-exact with the RTL) about 0.4 s.\n"
+      "geometry's forward kinematics seen through the frame misalignment. --fidelity model runs the C++\n"
+      "model board instead (bit-exact with the RTL, many times faster).\n"
       "The host knows only the link: it identifies the board (weights CRC and build id must match),\n"
-      "sets home, enables, finds the plate by inverting its network at the encoder counts, and paces\n"
-      "the setpoints by telemetry (--fill ahead). Each sample carries the position for the time its\n"
-      "answer becomes the joint reference (1 ms after the board plays it). The trajectory blends from\n"
-      "that start pose over --blend seconds; t = 0 is when the first sample reaches the joints.\n"
+      "sets home, plans from the pose the encoders report (a checked jerk-limited approach to the\n"
+      "path's start, the path entered and left by ramps of its rate: the plan `host run` streams), and\n"
+      "runs the lab's streaming loop, every deadline kept in board time. Statistics start at path time\n"
+      "--settle; t = 0 is when the first sample became the joint reference.\n"
       "Output: tables on stdout; --out: a CSV with the SPEC recording columns (t_s, alpha*_deg = encoder\n"
       "readings, x/y/z_m = measured plate) plus references, network answers, plant angles, currents.\n"
       "Exit 1 when the stream does not complete, an encoder skips a state or the board's joint safety\n"
@@ -261,18 +261,12 @@ const RegisterCommand command("cosim", 70, [](CLI::App& root) {
   sub->add_option("--weights", options->weights, "network weights (W.json: model 'deployed' or 'network', 25 hidden)")
       ->required();
   sub->add_option("--effects", options->effects, "virtual robot's effects (JSON); none: the nominal robot");
-  sub->add_option("--trajectory", options->trajectory, "experiment1, experiment2, validation or sweep")
+  sub->add_option("--trajectory", options->trajectory, "NAME (experiment1, experiment2, validation, sweep, ...), FILE.csv or move:X,Y,Z;... as host run takes it")
       ->capture_default_str();
-  sub->add_option("--seed", options->seed, "seed of the sweep trajectory")
+  sub->add_option("--duration", options->duration_s, "seconds of trajectory time (0: the trajectory's own length)")
       ->capture_default_str()
-      ->check(options::seed());
-  sub->add_option("--duration", options->duration_s, "simulated seconds")
-      ->capture_default_str()
-      ->check(options::real_number(0, 3600, true));
-  sub->add_option("--blend", options->blend_s, "smooth start from the home pose [s]")
-      ->capture_default_str()
-      ->check(options::real_number(0, 60));
-  sub->add_option("--settle", options->settle_s, "statistics start at blend + settle [s]")
+      ->check(options::real_number(0, 600));
+  sub->add_option("--settle", options->settle_s, "statistics from this path time on [s]")
       ->capture_default_str()
       ->check(options::real_number(0, 3600));
   sub->add_option("--fidelity", options->fidelity,

@@ -277,13 +277,15 @@ Vec3 RobotWorld::measured_position_m() const {
   return stage_frame_(plate.position_m);
 }
 
-Vec3 RobotWorld::plate_for_readings(const Vec3& readings_deg) const {
+Vec3 RobotWorld::backlash_lag_deg() const {
+  Vec3 lag;
+  for (int j = 0; j < 3; ++j) lag[j] = reading_deg_[j] - sensors_.reading_without_backlash(j, true_alpha_deg_[j]);
+  return lag;
+}
+
+Vec3 RobotWorld::plate_for_readings(const Vec3& readings_deg, const Vec3& lag_deg) const {
   Vec3 alpha;
-  for (int j = 0; j < 3; ++j) {
-    // The backlash's present lag (reading - reading without backlash) is kept.
-    const double play = reading_deg_[j] - sensors_.reading_without_backlash(j, true_alpha_deg_[j]);
-    alpha[j] = true_angle_for_reading(j, readings_deg[j] - play);
-  }
+  for (int j = 0; j < 3; ++j) alpha[j] = true_angle_for_reading(j, readings_deg[j] - lag_deg[j]);
   const FkSolution plate = forward_kinematics(true_geometry_, alpha);
   if (!plate.ok()) throw std::runtime_error("plate pose for readings: " + plate.reason());
   return stage_frame_(plate.position_m);

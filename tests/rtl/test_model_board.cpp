@@ -21,6 +21,7 @@
 #include "delta/link/payloads.hpp"
 #include "delta/nn/weights_file.hpp"
 #include "delta/trajectory.hpp"
+#include "../support/stream_with_the_lab_loop.hpp"
 #include "rtl_fixture.hpp"
 
 namespace delta::test {
@@ -71,9 +72,8 @@ BoardRun run_board(cosim::BoardFidelity fidelity, const golden::QuantisedNetwork
   options.mem_dir = mem_dir;
   options.network = &q;
   options.effects = read_effect_file(kEffects);
-  options.trajectory = make_trajectory("experiment1").position_m;
+  options.trajectory = "experiment1";
   options.duration_s = 2.0;
-  options.blend_s = 0.3;
   options.period_observer = [&out](std::uint64_t clocks, const cosim::BoardPins& pins, const RobotWorld& world) {
     out.periods.push_back({clocks, world.current_a(), world.encoder_deg(), world.true_alpha_deg(), pins});
   };
@@ -99,7 +99,7 @@ TEST(ModelBoard, EqualsTheRtlBoardFrameForFrameAndPeriodForPeriodOverExperimentO
             << model_s << " s\n";
 
   // The session completed on both (a real trajectory: it moved the joints, drew current).
-  ASSERT_EQ(rtl.result.stream.outcome, link::StreamReport::Outcome::kCompleted);
+  ASSERT_EQ(rtl.result.stream.outcome, controller::StreamingResult::Outcome::kCompleted);
   ASSERT_GT(rtl.result.telemetry.size(), 2000u);
   EXPECT_EQ(model.result.identify.weights_crc, rtl.result.identify.weights_crc);
   EXPECT_EQ(model.result.identify.build_id, rtl.result.identify.build_id);
@@ -128,7 +128,7 @@ TEST(ModelBoard, EqualsTheRtlBoardFrameForFrameAndPeriodForPeriodOverExperimentO
 struct FaultRun {
   std::vector<link::TelemetryPayload> telemetry;
   std::vector<PeriodRecord> periods;
-  link::StreamReport first, second;
+  LabStream first, second;
   link::TelemetryPayload cleared, reenabled;
 };
 
@@ -182,17 +182,22 @@ FaultRun run_fault_session(cosim::BoardFidelity fidelity, const golden::Quantise
   Vec3 counts_deg;
   for (int j = 0; j < 3; ++j) counts_deg[j] = enabled.counts[j] * cosim::kCountDeg;
   const Vec3 start = cosim::locate_plate(q, Geometry::nominal(), counts_deg);
-  auto circle = [&q, &start](std::size_t k, std::int64_t) {
-    const double phase = 2.0 * M_PI * static_cast<double>(k) / 300.0;
-    const Vec3 p = start + 2e-3 * Vec3(std::sin(phase), std::cos(phase) - 1.0, 0.0) * std::min(1.0, k / 100.0);
-    const std::array<std::int64_t, 3> code = golden::encode_position(q.formats, p);
-    return std::array<std::int32_t, 3>{static_cast<std::int32_t>(code[0]), static_cast<std::int32_t>(code[1]),
-                                       static_cast<std::int32_t>(code[2])};
+  auto circle = [](const Vec3& centre) {
+    std::vector<Vec3> points;
+    for (std::size_t k = 0; k < 300; ++k) {
+      const double phase = 2.0 * M_PI * static_cast<double>(k) / 300.0;
+      points.push_back(centre + 2e-3 * Vec3(std::sin(phase), std::cos(phase) - 1.0, 0.0) * std::min(1.0, k / 100.0));
+    }
+    return points;
   };
-  out.first = session.stream(300, circle);
+  cosim::BoardTimeClock clock(board);
+  out.first = stream_with_the_lab_loop(session, q, circle(start), &clock);
   out.cleared = session.clear_fault();
   out.reenabled = session.enable();
-  out.second = session.stream(300, circle);
+  // From where the arms are now (they fell with the torque off), as a host plans a run.
+  for (int j = 0; j < 3; ++j) counts_deg[j] = out.reenabled.counts[j] * cosim::kCountDeg;
+  out.second =
+      stream_with_the_lab_loop(session, q, circle(cosim::locate_plate(q, Geometry::nominal(), counts_deg)), &clock);
   session.disable();
   out.telemetry = session.telemetry();
   if (idle_network_clocks != nullptr) *idle_network_clocks = board.idle_network_clocks();
@@ -203,8 +208,8 @@ FaultRun run_fault_session(cosim::BoardFidelity fidelity, const golden::Quantise
 // Every telemetry frame and every control period's currents, encoder lines, plant angles and
 // status pins of run b equal run a's.
 void expect_same_runs(const FaultRun& a, const FaultRun& b) {
-  EXPECT_EQ(b.first.outcome, a.first.outcome);
-  EXPECT_EQ(b.second.outcome, a.second.outcome);
+  EXPECT_EQ(b.first.result.outcome, a.first.result.outcome);
+  EXPECT_EQ(b.second.result.outcome, a.second.result.outcome);
   ASSERT_EQ(b.telemetry.size(), a.telemetry.size());
   for (std::size_t i = 0; i < a.telemetry.size(); ++i) {
     ASSERT_EQ(link::encode(b.telemetry[i]), link::encode(a.telemetry[i]))
@@ -223,11 +228,11 @@ TEST(ModelBoard, EqualsTheRtlBoardThroughAnEncoderSkipFaultAndItsRecovery) {
 
   // The scenario happened: the skip faulted the first stream, the clear and the enable were taken,
   // the second stream completed.
-  EXPECT_EQ(rtl.first.outcome, link::StreamReport::Outcome::kFault);
-  EXPECT_TRUE(rtl.first.fault_cause & (1 << board::kFaultEncoderSkip));
+  EXPECT_EQ(rtl.first.result.outcome, controller::StreamingResult::Outcome::kFault);
+  EXPECT_TRUE(rtl.first.result.last.fault_cause & (1 << board::kFaultEncoderSkip));
   EXPECT_EQ(rtl.cleared.fault_cause, 0);
   EXPECT_TRUE(rtl.reenabled.has(link::TelemetryFlag::kDriveEnable));
-  EXPECT_EQ(rtl.second.outcome, link::StreamReport::Outcome::kCompleted);
+  EXPECT_EQ(rtl.second.result.outcome, controller::StreamingResult::Outcome::kCompleted) << rtl.second.result.cause;
   expect_same_runs(rtl, model);
 }
 
@@ -246,7 +251,7 @@ TEST(ModelBoard, ItsRunsOfClocksAreExactlyItsFullClocks) {
   const FaultRun model = run_fault_session(cosim::BoardFidelity::kModel, q, mem_dir);
   std::cout << "board clocks checked: " << clocks << "\n";
   EXPECT_GT(clocks, 10'000'000u);  // the whole session (about 0.55 s of board time)
-  EXPECT_EQ(checked.second.outcome, link::StreamReport::Outcome::kCompleted);
+  EXPECT_EQ(checked.second.result.outcome, controller::StreamingResult::Outcome::kCompleted);
   expect_same_runs(model, checked);
 }
 
@@ -464,7 +469,7 @@ TEST(RtlBoard, SkippingAnIdleNetworksClockEdgesChangesNothing) {
   std::cout << "board clocks " << clocks << ", without the network's edges " << skipped << "\n";
   EXPECT_EQ(unskipped, 0u);
   EXPECT_GT(skipped, clocks * 9 / 10);
-  EXPECT_EQ(every_edge.second.outcome, link::StreamReport::Outcome::kCompleted);
+  EXPECT_EQ(every_edge.second.result.outcome, controller::StreamingResult::Outcome::kCompleted);
   expect_same_runs(every_edge, skipping);
 }
 

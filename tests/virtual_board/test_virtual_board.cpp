@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "../support/run_command.hpp"
+#include "../support/stream_with_the_lab_loop.hpp"
 #include "../support/virtual_board_process.hpp"
 #include "delta/board_facts.hpp"
 #include "delta/cosim/board_cosim.hpp"
@@ -37,9 +38,9 @@ namespace {
 
 const std::string kWeights = std::string(DELTA_SOURCE_DIR) + "/weights/paper_like.json";
 
-// 0.2 s of a 2 mm circle around where the plate starts, streamed over the pty: every sample is
-// played, no underrun once playing, no frame lost or bad on the clean line, nothing resent after
-// the host's late wake half way, drives off at the end.
+// A 2 mm spiral around where the plate starts, streamed over the pty by the lab's streaming loop:
+// every sample is played, no underrun, no frame lost or bad on the clean line, nothing resent,
+// drives off at the end.
 TEST(VirtualBoard, SessionOverThePseudoTerminalStreamsAShortTrajectory) {
   const std::string dir = ::testing::TempDir() + "virtual_board_session_" + std::to_string(::getpid());
   std::filesystem::create_directories(dir);
@@ -68,37 +69,29 @@ TEST(VirtualBoard, SessionOverThePseudoTerminalStreamsAShortTrajectory) {
     Vec3 counts_deg;
     for (int j = 0; j < 3; ++j) counts_deg[j] = enabled.counts[j] * 0.01;
     const Vec3 centre = cosim::locate_plate(network, Geometry::nominal(), counts_deg);
-    const std::int64_t t0_tick = static_cast<std::int64_t>(enabled.tick) + 2 * link::kTicksPerSetpoint;
 
     constexpr std::size_t kSamples = 200;
-    std::size_t asked = 0;
-    const link::StreamReport report = session.stream(kSamples, [&](std::size_t k, std::int64_t reach_tick) {
-      ++asked;
-      // A late wake half way: the frames that pile up meanwhile are stale, and the setpoints
-      // already sent must not look lost (the resend rule paces by the newest frame only).
-      if (k == kSamples / 2) std::this_thread::sleep_for(std::chrono::milliseconds(30));
-      const double tau = (reach_tick - t0_tick) * link::kTickSeconds;
-      const double s = tau / 0.2;  // one turn, radius growing from 0 to 1 mm
-      const Vec3 p = centre + Vec3(1e-3 * s * std::cos(2 * M_PI * s), 1e-3 * s * std::sin(2 * M_PI * s), 0.0);
-      const auto codes = golden::encode_position(network.formats, p);
-      return std::array<std::int32_t, 3>{static_cast<std::int32_t>(codes[0]), static_cast<std::int32_t>(codes[1]),
-                                         static_cast<std::int32_t>(codes[2])};
-    });
+    std::vector<Vec3> spiral;  // one turn, radius growing from 0 to 1 mm
+    for (std::size_t k = 0; k < kSamples; ++k) {
+      const double s = static_cast<double>(k) / kSamples;
+      spiral.push_back(centre + Vec3(1e-3 * s * std::cos(2 * M_PI * s), 1e-3 * s * std::sin(2 * M_PI * s), 0.0));
+    }
+    const LabStream stream = stream_with_the_lab_loop(session, network, spiral);
+    const controller::StreamingResult& report = stream.result;
     const link::TelemetryPayload held = session.hold();
     const link::TelemetryPayload disabled = session.disable();
     const link::LinkStatistics& stats = session.statistics();
-    std::cout << "played " << report.played << " of " << kSamples << " from index " << report.first_index
-              << "; underruns " << report.underruns_at_first_play << " at the first play, "
-              << report.underruns_at_last_play << " at the last; telemetry " << stats.telemetry_frames << " (lost "
-              << stats.lost_telemetry << ", skipped " << stats.skipped_telemetry << "); setpoints sent "
-              << stats.setpoints_sent << " (resent " << stats.setpoints_resent << "); "
+    std::cout << "played " << report.played << " of " << stream.planned << " from index " << report.first_index
+              << "; telemetry " << stats.telemetry_frames << " (lost " << stats.lost_telemetry << ", skipped "
+              << stats.skipped_telemetry << "); setpoints sent " << stats.setpoints_sent << " (resent "
+              << stats.setpoints_resent << "); wake latency max " << report.latency.max_us() << " us; "
               << link::describe_state(disabled) << '\n';
 
-    EXPECT_EQ(report.outcome, link::StreamReport::Outcome::kCompleted);
-    EXPECT_EQ(report.played, kSamples);
-    EXPECT_EQ(asked, kSamples);
-    EXPECT_EQ(held.sample_index, report.first_index + kSamples);               // the board played them all
-    EXPECT_EQ(report.underruns_at_last_play, report.underruns_at_first_play);  // none once playing
+    EXPECT_EQ(report.outcome, controller::StreamingResult::Outcome::kCompleted);
+    EXPECT_GE(stream.planned, kSamples);  // the positions and the ramps' extra time
+    EXPECT_EQ(report.played, stream.planned);
+    EXPECT_EQ(held.sample_index, report.first_index + stream.planned);  // the board played them all
+    EXPECT_EQ(report.last.underruns, report.first.underruns);           // none while streaming
     EXPECT_TRUE(held.has(link::TelemetryFlag::kHolding));
     EXPECT_FALSE(disabled.has(link::TelemetryFlag::kDriveEnable));
     EXPECT_EQ(disabled.fault_cause, 0);
@@ -167,19 +160,19 @@ TEST(VirtualBoard, ModelFidelityKeepsToWallClockTimeOverThePseudoTerminal) {
   for (int j = 0; j < 3; ++j) counts_deg[j] = enabled.counts[j] * 0.01;
   const Vec3 centre = cosim::locate_plate(network, Geometry::nominal(), counts_deg);
   constexpr std::size_t kSamples = 300;
-  const link::StreamReport report = session.stream(kSamples, [&](std::size_t k, std::int64_t) {
+  std::vector<Vec3> circle;
+  for (std::size_t k = 0; k < kSamples; ++k) {
     const double phase = 2 * M_PI * static_cast<double>(k) / kSamples;
-    const Vec3 p = centre + 1e-3 * Vec3(std::cos(phase) - 1.0, std::sin(phase), 0.0);
-    const auto codes = golden::encode_position(network.formats, p);
-    return std::array<std::int32_t, 3>{static_cast<std::int32_t>(codes[0]), static_cast<std::int32_t>(codes[1]),
-                                       static_cast<std::int32_t>(codes[2])};
-  });
+    circle.push_back(centre + 1e-3 * Vec3(std::cos(phase) - 1.0, std::sin(phase), 0.0));
+  }
+  const LabStream stream = stream_with_the_lab_loop(session, network, circle);
+  const controller::StreamingResult& report = stream.result;
   const link::TelemetryPayload disabled = session.disable();
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   const double board_s = (disabled.tick - enabled.tick) * link::kTickSeconds;
   std::cout << "board " << board_s << " s in " << wall_s << " s wall\n";
-  EXPECT_EQ(report.outcome, link::StreamReport::Outcome::kCompleted);
-  EXPECT_EQ(report.played, kSamples);
+  EXPECT_EQ(report.outcome, controller::StreamingResult::Outcome::kCompleted);
+  EXPECT_EQ(report.played, stream.planned);
   EXPECT_EQ(disabled.fault_cause, 0);
   EXPECT_GT(board_s, 0.3);            // 300 setpoints at 1 kHz, and the buffer drained
   EXPECT_LT(board_s, wall_s + 0.02);  // never ahead of the wall clock

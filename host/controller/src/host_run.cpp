@@ -58,6 +58,22 @@ HostState state_of(const link::TelemetryPayload& t) {
   return t.has(link::TelemetryFlag::kHomed) ? HostState::kHomed : HostState::kIdle;
 }
 
+const char* outcome_name(StreamingResult::Outcome outcome) {
+  switch (outcome) {
+    case StreamingResult::Outcome::kCompleted:
+      return "completed";
+    case StreamingResult::Outcome::kStopped:
+      return "stopped";
+    case StreamingResult::Outcome::kFault:
+      return "fault";
+    case StreamingResult::Outcome::kLinkLost:
+      return "link lost";
+    case StreamingResult::Outcome::kDrivesOff:
+      return "drives off";
+  }
+  return "?";
+}
+
 bool RecordQueue::push(const TelemetryRecord& record) {
   const std::size_t head = head_.load(std::memory_order_relaxed);
   const std::size_t next = (head + 1) % ring_.size();
@@ -90,7 +106,9 @@ StreamingLoop::StreamingLoop(link::LinkSession& session, StreamPlan& plan, const
       stop_request_(stop_request) {}
 
 void StreamingLoop::run() {
-  result_.realtime_note = make_thread_realtime(options_.priority);
+  MonotonicClock monotonic;
+  LoopClock& clock = options_.clock != nullptr ? *options_.clock : monotonic;
+  if (options_.clock == nullptr) result_.realtime_note = make_thread_realtime(options_.priority);
   const double code_m = std::ldexp(1.0, -network_.formats.input_fraction_bits);
   link::TelemetryPayload t = *session_.last_telemetry();
   // From the board's next sample: the enable started on an empty buffer (the board takes setpoints
@@ -132,7 +150,7 @@ void StreamingLoop::run() {
 
   const std::int64_t period = static_cast<std::int64_t>(options_.period_us) * 1000;
   const std::int64_t timeout = static_cast<std::int64_t>(options_.link_timeout_ms) * 1'000'000;
-  std::int64_t deadline = to_ns(monotonic_now());
+  std::int64_t deadline = clock.now_ns();
   std::int64_t last_frame = deadline;
   FeedState feed = FeedState::kStreaming;
   bool resume_wanted = false;       // asked while still slowing down: resumed once held
@@ -148,8 +166,8 @@ void StreamingLoop::run() {
     session_.count_resent(pacer.resent() - resent_before);
     for (;;) {
       deadline += period;
-      sleep_until(deadline);
-      const std::int64_t now = to_ns(monotonic_now());
+      clock.sleep_until_ns(deadline);
+      const std::int64_t now = clock.now_ns();
       result_.latency.record(now - deadline);
       ++result_.cycles;
       if (now - deadline >= period) {  // keep the grid: skip the periods already gone

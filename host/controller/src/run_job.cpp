@@ -64,6 +64,12 @@ Vec3 resting_start(const golden::BoardWeights& weights, const link::TelemetryPay
 
 }  // namespace
 
+Vec3 start_at_rest(const golden::BoardWeights& weights, const link::TelemetryPayload& rest) {
+  Vec3 counts_deg;
+  for (int j = 0; j < 3; ++j) counts_deg[j] = rest.counts[j] * kCountDeg;
+  return resting_start(weights, rest, golden::locate_plate(weights.network, Geometry::nominal(), counts_deg));
+}
+
 std::string resolve_port(const std::string& port) {
   if (port.find('/') != std::string::npos) return port;
   const std::string folder = "/dev/serial/by-id/";
@@ -442,15 +448,12 @@ RunOutcome RunJob::execute(link::LinkSession& session, const std::string& port_n
   const link::TelemetryPayload& rest = *at_rest;
 
   // ---- the approach from the pose the encoders report, checked with the rest ----
-  Vec3 counts_deg;
-  for (int j = 0; j < 3; ++j) counts_deg[j] = rest.counts[j] * kCountDeg;
   Vec3 start;
   try {
-    start = golden::locate_plate(weights_.network, Geometry::nominal(), counts_deg);
+    start = start_at_rest(weights_, rest);
   } catch (const std::runtime_error& error) {
     throw HostFailure(kExitFault, port_name + ": the encoders' pose: " + error.what());
   }
-  start = resting_start(weights_, rest, start);
   StreamPlan plan(path_, start, request_.limits);
   if (auto violation =
           check_plan(plan, request_.trajectory, weights_.trained_min_m, weights_.trained_max_m, request_.limits)) {

@@ -204,58 +204,6 @@ TelemetryPayload LinkSession::clear_fault() {
   return command(Command::kClearFault, [](const TelemetryPayload& t) { return !t.has(TelemetryFlag::kFault); });
 }
 
-StreamReport LinkSession::stream(std::size_t samples, const SetpointSource& source, const TelemetryObserver& observer) {
-  StreamReport report;
-  report.samples = samples;
-  while (!unread_telemetry_.empty()) next_telemetry();
-  if (!last_telemetry_) next_telemetry();
-  TelemetryPayload t = *last_telemetry_;
-  if (t.fill != 0) {  // setpoints are taken only with the drives on: these are not this stream's
-    throw LinkError(LinkError::Kind::kRefused, "the board holds " + std::to_string(t.fill) +
-                                                   " setpoints this session did not send; disable it first");
-  }
-  SetpointPacer pacer(options_, t.sample_index, samples);
-  report.first_index = pacer.first_index();
-  bool first_played = false;
-  auto send_some = [&](const TelemetryPayload& now) {
-    const std::uint64_t resent_before = pacer.resent();
-    pacer.update(now, [&](std::size_t k, std::uint32_t index, std::int64_t reach_tick) {
-      if (report.first_reach_tick < 0) report.first_reach_tick = reach_tick;
-      send_setpoint(index, source(k, reach_tick));
-    });
-    count_resent(pacer.resent() - resent_before);
-  };
-
-  if (samples == 0) return report;
-  send_some(t);
-  for (;;) {
-    t = next_telemetry();
-    ++report.telemetry_frames;
-    report.played = pacer.played(t);
-    if (!first_played && report.played > 0) {
-      first_played = true;
-      report.underruns_at_first_play = t.underruns;
-    }
-    if (t.has(TelemetryFlag::kFault)) {
-      report.outcome = StreamReport::Outcome::kFault;
-      report.fault_cause = t.fault_cause;
-      return report;
-    }
-    if (observer && !observer(t)) {
-      report.outcome = StreamReport::Outcome::kStopped;
-      return report;
-    }
-    if (report.played == samples) {
-      report.underruns_at_last_play = t.underruns;
-      return report;
-    }
-    // Paced by the newest frame only: frames that piled up while this process could not run are
-    // stale (setpoints sent on them would look lost to the resend rule and go out twice).
-    if (unread_telemetry_.empty()) poll_frames();
-    if (unread_telemetry_.empty()) send_some(t);
-  }
-}
-
 std::string describe_fault(std::uint8_t fault_cause) {
   std::string out;
   auto add = [&out](const char* what) { out += (out.empty() ? "" : ", ") + std::string(what); };

@@ -1,6 +1,6 @@
 // A host's session with a board over the link v2 (docs/board_link.md): identify, set home, enable,
-// stream 1 kHz setpoints paced by the board's telemetry, hold and disable, while collecting every
-// telemetry frame and the link's statistics. It speaks through any io::ByteStream (the serial
+// hold and disable, the non-blocking primitives a streaming loop sends 1 kHz setpoints with (paced
+// by SetpointPacer), while collecting every telemetry frame and the link's statistics. It speaks through any io::ByteStream (the serial
 // port, the virtual board's pseudo-terminal, or the virtual board in process) and knows only what
 // the frames tell: no device, no simulator, no wall-clock pacing.
 //
@@ -91,29 +91,9 @@ struct LinkStatistics {
   std::uint64_t bytes_received = 0;
 };
 
-// The position codes (network input codes, `deltactl quantise` format) of stream sample k
-// (0-based); reach_tick: the board tick at which its answer becomes the joint reference if the
-// board plays on without underrun. Asked once per send (again for a resend).
-using SetpointSource = std::function<std::array<std::int32_t, 3>(std::size_t k, std::int64_t reach_tick)>;
-// Sees every telemetry frame while streaming; returning false stops the stream (hold, disable).
-using TelemetryObserver = std::function<bool(const TelemetryPayload&)>;
-
-struct StreamReport {
-  enum class Outcome { kCompleted, kStopped, kFault };
-  Outcome outcome = Outcome::kCompleted;
-  std::uint32_t first_index = 0;              // board sample index of stream sample 0
-  std::size_t samples = 0;                    // asked for
-  std::size_t played = 0;                     // played by the board (telemetry sample index)
-  std::int64_t first_reach_tick = -1;         // predicted at the first send
-  std::uint16_t underruns_at_first_play = 0;  // board counter when sample 0 had been played
-  std::uint16_t underruns_at_last_play = 0;   // when the last sample had been played
-  std::uint8_t fault_cause = 0;               // when the outcome is kFault
-  std::size_t telemetry_frames = 0;           // received during the stream
-};
-
-// The pacing rule of LinkSession::stream as a value type, for a loop that owns its own timing (the
-// host controller's streaming thread): given each telemetry frame, it says which stream samples to
-// send now. The end may be moved earlier while streaming (a controlled stop). No allocation after
+// The pacing rule as a value type, for the loop that owns the timing (the host controller's
+// streaming loop, controller::StreamingLoop, which the lab's host and the co-simulation both run):
+// given each telemetry frame, it says which stream samples to send now. The end may be moved earlier while streaming (a controlled stop). No allocation after
 // construction.
 class SetpointPacer {
  public:
@@ -198,11 +178,6 @@ class LinkSession {
   TelemetryPayload hold();      // drives on: the reference stops at the end of the segment
   TelemetryPayload disable();   // drives off, buffer flushed
   TelemetryPayload clear_fault();
-
-  // Streams `samples` setpoints from the board's next free index, paced by telemetry, until the
-  // board has played them all (or the observer stops it, or a fault). Does not enable, hold or
-  // disable: the caller does (usually identify, set_home, enable, stream, hold, disable).
-  StreamReport stream(std::size_t samples, const SetpointSource& source, const TelemetryObserver& observer = {});
 
   // Non-blocking primitives for a loop with its own timing (the host controller's streaming
   // thread): reads and decodes what the stream has (throws kLinkLost when it failed or hung up),

@@ -2,7 +2,8 @@
 // thread with absolute 1 ms deadlines that reads telemetry, supervises the board and the link and
 // sends setpoints paced by the telemetry (link::SetpointPacer), and the recording, written by
 // another thread from a lock-free queue (no file output, lock or allocation in the loop's steady
-// state: the decoder's frame vectors aside).
+// state: the decoder's frame vectors aside). The co-simulation (deltactl cosim) runs this same loop
+// with board time as its clock (StreamingOptions::clock).
 //
 //   disconnected -> idle (identified) -> homed -> running -> (holding) -> homed (drives off)
 //                                          any -> fault (latched by the board; never re-enabled here)
@@ -75,6 +76,9 @@ struct StreamingOptions {
   // tighter than the board's 5.12 deg: exceeded, the run ends as a fault and the drives go off.
   double following_error_deg = 2.0;
   link::SessionOptions session;
+  // The loop's time. nullptr: CLOCK_MONOTONIC, the thread made SCHED_FIFO when permitted (the lab).
+  // Another clock (the co-simulation's board time) is used as it is: no real-time request.
+  LoopClock* clock = nullptr;
 };
 
 struct StreamingResult {
@@ -95,6 +99,9 @@ struct StreamingResult {
   std::uint64_t holds = 0;  // feed holds that came to rest
   double held_s = 0.0;      // board time spent held
 };
+
+// completed, stopped, fault, link lost, drives off.
+const char* outcome_name(StreamingResult::Outcome outcome);
 
 // kEstop: the drives off at the next cycle (the disable command goes out before any further
 // setpoint); the run ends as a fault with the cause "e-stop". Sticky: no later request undoes it.

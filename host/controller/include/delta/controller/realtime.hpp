@@ -22,6 +22,22 @@ timespec from_ns(std::int64_t ns);
 // Sleeps until the absolute CLOCK_MONOTONIC time `deadline_ns` (restarted after signals).
 void sleep_until(std::int64_t deadline_ns);
 
+// The time a loop keeps its deadlines in: CLOCK_MONOTONIC for the lab's host (MonotonicClock), or
+// another, e.g. the virtual board's board time in the co-simulation, where sleeping advances the
+// board (cosim::BoardTimeClock). Nanoseconds.
+class LoopClock {
+ public:
+  virtual ~LoopClock() = default;
+  virtual std::int64_t now_ns() = 0;
+  virtual void sleep_until_ns(std::int64_t deadline_ns) = 0;
+};
+
+class MonotonicClock final : public LoopClock {
+ public:
+  std::int64_t now_ns() override { return to_ns(monotonic_now()); }
+  void sleep_until_ns(std::int64_t deadline_ns) override { sleep_until(deadline_ns); }
+};
+
 class WakeLatency {
  public:
   void record(std::int64_t late_ns);

@@ -67,6 +67,12 @@ Connected connect_board(link::LinkSession& session);
 void check_board_identity(const link::IdentifyPayload& identify, const golden::BoardWeights& weights,
                           const std::string& weights_path, const std::string& port_name);
 
+// Where a run's plan starts: the network's inverse at the counts of `rest` (the arms at rest, the
+// drives off), moved to the deployed model's resting shift (the answer keeps each joint at the end of
+// its play last taken up, so the enable moves no joint). std::runtime_error when the nominal model
+// has no pose there. RunJob and the co-simulation start here.
+Vec3 start_at_rest(const golden::BoardWeights& weights, const link::TelemetryPayload& rest);
+
 // How the recording's name is taken: kReplace (host run: the file is replaced when the drives are
 // about to go on), kNew (created now, never replacing a file), kNewNumbered (created now; a name
 // taken gets -2, -3, ... before its extension: default names never collide).
