@@ -703,7 +703,7 @@ std::uint64_t ModelBoard::skip(std::uint64_t limit, int encoder_a, int encoder_b
   const Memories memories_after = *memories_;
   const auto rx_line_after = rx_line_;
   const auto tx_line_after = tx_line_;
-  const ModelBoardPins pins_after = pins_;
+  const BoardPins pins_after = pins_;
   *state_ = before;
   *memories_ = memories_before;
   rx_line_ = rx_line_before;
@@ -1225,9 +1225,9 @@ void ModelBoard::clock(int encoder_a, int encoder_b) {
   pins_.drive_pwm = q.pwm;
   pins_.drive_dir = q.direction;
   pins_.drive_enable = q.enable_out;
-  pins_.encoder_error = q.encoder_error;
+  pins_.encoder_error_bits = q.encoder_error;
   pins_.joint_limited = q.overflow != 0;
-  pins_.fault_cause = q.fault_cause;
+  pins_.fault_cause_bits = q.fault_cause;
 }
 
 // ---- uart_rx (the line's bytes at their clocks: ModelBoard::receive); n may be s ----

@@ -1,4 +1,4 @@
-// The virtual board at RTL fidelity: Verilated board core + robot world + UART line (see virtual_board.hpp).
+// The virtual board: the board (Verilated core or model board, one BoardModel) + robot world + UART line (see virtual_board.hpp).
 #include "delta/cosim/virtual_board.hpp"
 
 #include <algorithm>
@@ -16,43 +16,86 @@
 namespace delta::cosim {
 
 namespace {
-// The model board's A lines carry the home switches above the three encoder lines (model_board.hpp).
-int model_lines_a(const RobotWorld& world, int skipped) {
-  return (world.encoder_a() ^ skipped) | (world.home_switches() << 3);
-}
-}  // namespace
 
-// The Verilated model, its context (one per board: the plusarg names this board's .mem files)
-// and the serial line at its pins.
-// At model fidelity only `board` is set.
-class VirtualBoard::Core {
+// The Verilated board core as a BoardModel: its context (one per board: the plusarg names this
+// board's .mem files), the serial line at its pins, and the network's clock skipped while idle.
+class RtlBoardModel final : public BoardModel {
  public:
-  explicit Core(const VirtualBoardOptions& options) : line(kClocksPerBit), network_clock(options.skip_idle_network) {
-    if (options.fidelity == BoardFidelity::kModel) {
-      if (options.network == nullptr) throw std::invalid_argument("the model board needs the network's weights");
-      board = std::make_unique<ModelBoard>(*options.network, options.mem_dir + "/identify.mem");
-      board->check_runs(options.check_model_runs);
-      return;
-    }
-    context = std::make_unique<VerilatedContext>();
+  explicit RtlBoardModel(const VirtualBoardOptions& options)
+      : context_(std::make_unique<VerilatedContext>()), line_(kClocksPerBit), network_clock_(options.skip_idle_network) {
     const std::string plusarg = "+delta_mem_dir=" + options.mem_dir;
     const char* argv[] = {"virtual_board", plusarg.c_str()};
-    context->commandArgs(2, argv);
-    model = std::make_unique<Vboard_core>(context.get(), "board");
+    context_->commandArgs(2, argv);
+    core_ = std::make_unique<Vboard_core>(context_.get(), "board");
+    Vboard_core& core = *core_;
+    core.uart_rx_i = 1;
+    core.encoder_a_i = 0;
+    core.encoder_b_i = 0;
+    core.home_switch_i = 0;
+    core.rst_ni = 0;
+    core.rst_network_ni = 0;
+    for (int i = 0; i < 4; ++i) rtl::clock_board(core);
+    core.rst_ni = 1;
+    core.rst_network_ni = 1;
   }
-  ~Core() {
-    if (model) model->final();
+  ~RtlBoardModel() override { core_->final(); }
+
+  void receive(const std::uint8_t* data, std::size_t size) override {
+    line_.send(std::vector<std::uint8_t>(data, data + size));
+    bytes_on_line_ += size;
   }
-  std::unique_ptr<VerilatedContext> context;
-  std::unique_ptr<Vboard_core> model;
-  std::unique_ptr<ModelBoard> board;
-  rtl::UartLine line;
-  rtl::IdleNetworkSkip network_clock;  // the board clock without an idle network's edges
-  std::size_t bytes_on_line = 0;       // written and not yet fully sent
-  std::uint64_t bits_sent = 0;
+  std::size_t bytes_on_line() override { return bytes_on_line_; }
+  void clock(const BoardLines& lines) override {
+    Vboard_core& core = *core_;
+    const bool sending = line_.sending();
+    core.uart_rx_i = line_.rx_pin();
+    if (sending && ++bits_sent_ % (10 * kClocksPerBit) == 0) --bytes_on_line_;
+    core.encoder_a_i = lines.encoder_a;
+    core.encoder_b_i = lines.encoder_b;
+    core.home_switch_i = lines.home_switches;
+    network_clock_.clock(core);
+    if (line_.sample_tx_pin(core.uart_tx_o)) tx_.push_back(line_.byte());
+  }
+  bool take_tx_byte(std::uint8_t* byte) override {
+    if (tx_.empty()) return false;
+    *byte = tx_.front();
+    tx_.pop_front();
+    return true;
+  }
+  BoardPins pins() const override {
+    const Vboard_core& core = *core_;
+    BoardPins pins;
+    pins.drive_pwm = core.drive_pwm_o;
+    pins.drive_dir = core.drive_dir_o;
+    pins.drive_enable = core.drive_enable_o;
+    pins.encoder_error_bits = core.encoder_error_o;
+    pins.joint_limited = core.joint_limited_o;
+    pins.fault_cause_bits = core.joint_fault_cause_o;
+    return pins;
+  }
+  std::uint64_t idle_network_clocks() const override { return network_clock_.skipped(); }
+
+ private:
+  std::unique_ptr<VerilatedContext> context_;
+  std::unique_ptr<Vboard_core> core_;
+  rtl::UartLine line_;
+  rtl::IdleNetworkSkip network_clock_;  // the board clock without an idle network's edges
+  std::size_t bytes_on_line_ = 0;       // written and not yet fully sent
+  std::uint64_t bits_sent_ = 0;
+  std::deque<std::uint8_t> tx_;
 };
 
-VirtualBoard::VirtualBoard(const VirtualBoardOptions& options) : core_(std::make_unique<Core>(options)) {
+std::unique_ptr<BoardModel> make_board(const VirtualBoardOptions& options) {
+  if (options.fidelity == BoardFidelity::kRtl) return std::make_unique<RtlBoardModel>(options);
+  if (options.network == nullptr) throw std::invalid_argument("the model board needs the network's weights");
+  auto board = std::make_unique<ModelBoard>(*options.network, options.mem_dir + "/identify.mem");
+  board->check_runs(options.check_model_runs);
+  return board;
+}
+
+}  // namespace
+
+VirtualBoard::VirtualBoard(const VirtualBoardOptions& options) : board_(make_board(options)) {
   BoardInterface board_interface;
   board_interface.board_clock_hz = kBoardClockHz;
   board_interface.pwm_period_cycles = static_cast<int>(board::kPwmPeriodCycles);
@@ -75,38 +118,15 @@ VirtualBoard::VirtualBoard(const VirtualBoardOptions& options) : core_(std::make
     world_->slip_encoder(options.inject_slip_joint, options.inject_slip_counts,
                          static_cast<std::uint64_t>(options.inject_slip_at_s * kBoardClockHz));
   }
-  if (core_->board) return;  // the model starts in its reset state
-
-  Vboard_core& core = *core_->model;
-  core.uart_rx_i = 1;
-  core.encoder_a_i = 0;
-  core.encoder_b_i = 0;
-  core.home_switch_i = 0;
-  core.rst_ni = 0;
-  core.rst_network_ni = 0;
-  for (int i = 0; i < 4; ++i) rtl::clock_board(core);
-  core.rst_ni = 1;
-  core.rst_network_ni = 1;
 }
 
 VirtualBoard::~VirtualBoard() = default;
 
 const RobotWorld& VirtualBoard::world() const { return *world_; }
 
-std::uint64_t VirtualBoard::idle_network_clocks() const { return core_->network_clock.skipped(); }
+void VirtualBoard::write(const std::uint8_t* data, std::size_t size) { board_->receive(data, size); }
 
-void VirtualBoard::write(const std::uint8_t* data, std::size_t size) {
-  if (core_->board) {  // the model board's line takes bytes
-    core_->board->receive(data, size);
-    return;
-  }
-  core_->line.send(std::vector<std::uint8_t>(data, data + size));
-  core_->bytes_on_line += size;
-}
-
-std::size_t VirtualBoard::bytes_to_board() const {
-  return core_->board ? core_->board->bytes_on_line() : core_->bytes_on_line;
-}
+std::size_t VirtualBoard::bytes_to_board() const { return board_->bytes_on_line(); }
 
 std::size_t VirtualBoard::read(std::uint8_t* data, std::size_t capacity) {
   const std::size_t n = std::min(capacity, from_board_.size());
@@ -115,28 +135,26 @@ std::size_t VirtualBoard::read(std::uint8_t* data, std::size_t capacity) {
   return n;
 }
 
+BoardLines VirtualBoard::lines() const {
+  const int skipped = clocks_ >= encoder_skip_clock_ ? 1 : 0;  // joint 1's lines inverted
+  return {world_->encoder_a() ^ skipped, world_->encoder_b() ^ skipped, world_->home_switches()};
+}
+
+void VirtualBoard::take_bytes() {
+  std::uint8_t byte = 0;
+  while (board_->take_tx_byte(&byte)) from_board_.push_back(byte);
+}
+
 void VirtualBoard::clock() {
   if (period_observer_ && period_phase_ == 0) {
     observed([&] { period_observer_(clocks_, pins(), *world_); });
   }
-  if (core_->board) {
-    clock_model();
-    if (++period_phase_ == kClocksPerTick) period_phase_ = 0;
-    if (++millisecond_phase_ == kClocksPerMillisecond) millisecond_phase_ = 0;
-    return;
-  }
-  Vboard_core& core = *core_->model;
-  if (truth_observer_ && millisecond_phase_ == 0) observe(core.drive_enable_o);
-  const bool sending = core_->line.sending();
-  core.uart_rx_i = core_->line.rx_pin();
-  if (sending && ++core_->bits_sent % (10 * kClocksPerBit) == 0) --core_->bytes_on_line;
-  const int skipped = clocks_ >= encoder_skip_clock_ ? 1 : 0;  // joint 1's lines inverted
-  core.encoder_a_i = world_->encoder_a() ^ skipped;
-  core.encoder_b_i = world_->encoder_b() ^ skipped;
-  core.home_switch_i = world_->home_switches();
-  core_->network_clock.clock(core);
-  if (core_->line.sample_tx_pin(core.uart_tx_o)) from_board_.push_back(core_->line.byte());
-  world_->step({core.drive_pwm_o, core.drive_dir_o, static_cast<bool>(core.drive_enable_o)});
+  flush_world();
+  if (truth_observer_ && millisecond_phase_ == 0) observe(board_->pins().drive_enable);
+  board_->clock(lines());
+  take_bytes();
+  const BoardPins pins = board_->pins();
+  world_->step({pins.drive_pwm, pins.drive_dir, pins.drive_enable});
   ++clocks_;
   if (++period_phase_ == kClocksPerTick) period_phase_ = 0;
   if (++millisecond_phase_ == kClocksPerMillisecond) millisecond_phase_ = 0;
@@ -153,19 +171,6 @@ void VirtualBoard::observe(bool drives_enabled) {
   observed([&] { truth_observer_(truth, *world_); });
 }
 
-void VirtualBoard::clock_model() {
-  flush_world();
-  ModelBoard& board = *core_->board;
-  if (truth_observer_ && millisecond_phase_ == 0) observe(board.pins().drive_enable);
-  const int skipped = clocks_ >= encoder_skip_clock_ ? 1 : 0;
-  board.clock(model_lines_a(*world_, skipped), world_->encoder_b() ^ skipped);
-  const ModelBoardPins& pins = board.pins();
-  std::uint8_t byte = 0;
-  while (board.take_tx_byte(&byte)) from_board_.push_back(byte);
-  world_->step({pins.drive_pwm, pins.drive_dir, pins.drive_enable});
-  ++clocks_;
-}
-
 // The world's runs not yet advanced (consecutive runs of one drive pattern go in one advance).
 void VirtualBoard::flush_world() {
   if (world_cycles_ == 0) return;
@@ -173,30 +178,26 @@ void VirtualBoard::flush_world() {
   world_cycles_ = 0;
 }
 
-// Model fidelity: runs of clocks in which nothing but counters move on either side of the pins
-// (ModelBoard::skip, RobotWorld::advance) go at once; a run ends where the board or the world has
+// A board that takes runs (the model board): runs of clocks in which nothing but counters move on
+// either side of the pins (BoardModel::skip, RobotWorld::advance) go at once; a run ends where the board or the world has
 // an event (the board's include its serial lines' bytes), or a control period ends (its first
 // clock, with the observers, goes one by one). The world takes the runs when the drive pattern
 // changes, at its own event, and before anything looks at it.
-bool VirtualBoard::skip_model(std::uint64_t limit, std::size_t needed_bytes) {
-  Core& core = *core_;
+bool VirtualBoard::skip_run(std::uint64_t limit, std::size_t needed_bytes) {
   const std::uint64_t to_world_event = world_->cycles_to_event() - world_cycles_;
   // The observers see the start of each period (1 ms) they watch in clock().
   std::uint64_t clocks = std::min(limit, to_world_event);
   if (period_observer_) clocks = std::min(clocks, kClocksPerTick - period_phase_);
   if (truth_observer_) clocks = std::min(clocks, kClocksPerMillisecond - millisecond_phase_);
   if (needed_bytes != 0) {  // up to the clock the line completes the byte the caller waits for
-    const std::uint64_t completes = core.board->tx_byte_cycle(needed_bytes - 1);
+    const std::uint64_t completes = board_->tx_byte_cycle(needed_bytes - 1);
     if (completes != ~std::uint64_t{0}) clocks = std::min(clocks, completes - clocks_ + 1);
   }
   if (clocks_ < encoder_skip_clock_) clocks = std::min(clocks, encoder_skip_clock_ - clocks_);
-  const int skipped = clocks_ >= encoder_skip_clock_ ? 1 : 0;
   DrivePattern pattern;
-  const std::uint64_t taken =
-      core.board->skip(clocks, model_lines_a(*world_, skipped), world_->encoder_b() ^ skipped, &pattern);
+  const std::uint64_t taken = board_->skip(clocks, lines(), &pattern);
   if (taken == 0) return false;
-  std::uint8_t byte = 0;
-  while (core.board->take_tx_byte(&byte)) from_board_.push_back(byte);
+  take_bytes();
   const int period = static_cast<int>(board::kPwmPeriodCycles);
   const bool continues = world_cycles_ != 0 && pattern.enable == world_pattern_.enable &&
                          pattern.direction == world_pattern_.direction && pattern.duty == world_pattern_.duty &&
@@ -223,9 +224,9 @@ void VirtualBoard::run(std::uint64_t board_clocks, std::size_t until_bytes) {
   while (clocks_ < end && !(until_bytes != 0 && from_board_.size() >= until_bytes)) {
     const std::size_t needed = until_bytes > from_board_.size() ? until_bytes - from_board_.size() : 0;
     const bool observed = (period_observer_ && period_phase_ == 0) || (truth_observer_ && millisecond_phase_ == 0);
-    if (!core_->board || observed || !skip_model(end - clocks_, needed)) clock();
+    if (!board_->takes_runs() || observed || !skip_run(end - clocks_, needed)) clock();
   }
-  if (core_->board) flush_world();
+  flush_world();
   busy_s_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() -
              (observer_s_ - observers_before);
 }
@@ -235,25 +236,6 @@ void VirtualBoard::step(std::uint64_t board_clocks) { run(board_clocks, 0); }
 bool VirtualBoard::step_until_byte(std::uint64_t board_clocks, std::size_t bytes) {
   run(board_clocks, std::max<std::size_t>(bytes, 1));
   return !from_board_.empty();
-}
-
-BoardPins VirtualBoard::pins() const {
-  if (core_->board) {
-    const ModelBoardPins& model = core_->board->pins();
-    BoardPins pins;
-    pins.encoder_error_bits = model.encoder_error;
-    pins.joint_limited = model.joint_limited;
-    pins.fault_cause_bits = model.fault_cause;
-    pins.drive_enable = model.drive_enable;
-    return pins;
-  }
-  const Vboard_core& core = *core_->model;
-  BoardPins pins;
-  pins.encoder_error_bits = core.encoder_error_o;
-  pins.joint_limited = core.joint_limited_o;
-  pins.fault_cause_bits = core.joint_fault_cause_o;
-  pins.drive_enable = core.drive_enable_o;
-  return pins;
 }
 
 bool VirtualBoardStream::wait_readable(int timeout_ms, std::size_t bytes) {

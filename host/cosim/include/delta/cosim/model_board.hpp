@@ -24,21 +24,13 @@
 #include <memory>
 #include <string>
 
+#include "delta/cosim/board_model.hpp"
 #include "delta/golden/fixed_network.hpp"
 #include "delta/robot_world.hpp"
 
 namespace delta::cosim {
 
-struct ModelBoardPins {
-  int drive_pwm = 0;
-  int drive_dir = 0;
-  bool drive_enable = false;
-  int encoder_error = 0;
-  bool joint_limited = false;
-  int fault_cause = 0;
-};
-
-class ModelBoard {
+class ModelBoard final : public BoardModel {
  public:
   // identify_mem: the path of identify.mem (12 lines of one 16-bit hex word).
   ModelBoard(const golden::QuantisedNetwork& network, const std::string& identify_mem);
@@ -49,21 +41,22 @@ class ModelBoard {
   // The serial line at the RX pin, byte by byte (8N1, kLinkClocksPerBit clocks a bit): the bytes
   // go onto the line behind what it still sends, the first now (before the next clock), and
   // uart_rx hands each to link_rx in the clock the RTL's does.
-  void receive(const std::uint8_t* data, std::size_t size);
-  std::size_t bytes_on_line();  // received and not yet fully on the line
+  void receive(const std::uint8_t* data, std::size_t size) override;
+  std::size_t bytes_on_line() override;  // received and not yet fully on the line
   // The line at the TX pin: the next byte it completed in a clock already run (at the stop bit's
   // middle, as rtl::UartLine decodes the pin), once.
-  bool take_tx_byte(std::uint8_t* byte);
+  bool take_tx_byte(std::uint8_t* byte) override;
   // The clock in which the line completes the k-th byte not yet taken (k = 0: the next), as far as
   // link_tx has started its frame; ~0 if not yet known. A run of clocks (skip) goes past
   // completions: the caller bounds it where it needs a byte.
-  std::uint64_t tx_byte_cycle(std::size_t k) const;
+  std::uint64_t tx_byte_cycle(std::size_t k) const override;
 
   // One board clock edge with the encoder lines as the board samples them: bit j of encoder_a and
   // encoder_b joint j's A and B line, bit 3 + j of encoder_a joint j's home switch (board_core's
   // home_switch_i).
   void clock(int encoder_a, int encoder_b);
-  const ModelBoardPins& pins() const { return pins_; }
+  void clock(const BoardLines& lines) override { clock(lines_a(lines), lines.encoder_b); }
+  BoardPins pins() const override { return pins_; }
 
   // Up to `limit` clocks at once with the pins held, if they are clocks that only count: the
   // UARTs inside a byte (a run ends at the clock uart_rx hands over a byte, uart_tx's last bit
@@ -73,6 +66,10 @@ class ModelBoard {
   // many it took (0: none, clock() the next one) and the drive pins it showed in them
   // (`pattern`); the state after them is exactly what as many clock() calls leave.
   std::uint64_t skip(std::uint64_t limit, int encoder_a, int encoder_b, DrivePattern* pattern);
+  bool takes_runs() const override { return true; }
+  std::uint64_t skip(std::uint64_t limit, const BoardLines& lines, DrivePattern* pattern) override {
+    return skip(limit, lines_a(lines), lines.encoder_b, pattern);
+  }
 
   // The run check (tests): every skip() runs its clocks again as full clocks from the same state
   // and throws std::logic_error naming the first register, block RAM, drive pin or line byte that
@@ -80,6 +77,8 @@ class ModelBoard {
   void check_runs(bool on) { check_runs_ = on; }
 
  private:
+  // The A lines carry the home switches above the three encoder lines.
+  static int lines_a(const BoardLines& lines) { return lines.encoder_a | (lines.home_switches << 3); }
   struct State;
   std::uint64_t skip_run(std::uint64_t limit, int encoder_a, int encoder_b, DrivePattern* pattern);
   static const char* differing_register(const State& a, const State& b);
@@ -121,7 +120,7 @@ class ModelBoard {
   std::unique_ptr<Memories> memories_;
   std::unique_ptr<State> state_;
   std::unique_ptr<State> next_state_;  // clock()'s next values
-  ModelBoardPins pins_;
+  BoardPins pins_;
   bool check_runs_ = false;
   bool checking_ = false;  // replaying a run as full clocks
   // The RX line: each byte with the clock in which uart_rx sets valid; when each leaves the line.

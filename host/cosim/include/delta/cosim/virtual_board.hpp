@@ -25,6 +25,7 @@
 #include <string>
 
 #include "delta/board_facts.hpp"
+#include "delta/cosim/board_model.hpp"
 #include "delta/effects.hpp"
 #include "delta/geometry.hpp"
 #include "delta/golden/fixed_network.hpp"
@@ -42,8 +43,8 @@ constexpr int kHomeCount = static_cast<int>(board::kHomeCount);
 constexpr double kCurrentFullScaleA = board::kCurrentFullScaleMilliamp / 1000.0;
 constexpr double kCountDeg = board::kEncoderCountMicrodeg * 1e-6;
 
-// rtl: the Verilated board core; model: the same board in C++ (model_board.hpp), bit-exact at its pins.
-enum class BoardFidelity { kRtl, kModel };
+// BoardFidelity (board_model.hpp) rtl: the Verilated board core; model: the same board in C++
+// (model_board.hpp), bit-exact at its pins.
 
 struct VirtualBoardOptions {
   BoardFidelity fidelity = BoardFidelity::kRtl;
@@ -89,14 +90,6 @@ struct TruthSample {
   bool drives_enabled = false;         // the board's drive enable pin
 };
 
-// The board's status pins (sticky flags), for diagnostics beside the link.
-struct BoardPins {
-  int encoder_error_bits = 0;  // bit j: encoder j skipped a quadrature state
-  bool joint_limited = false;  // a joint controller saturated an operand or state
-  int fault_cause_bits = 0;    // delta_board_pkg Fault* bits, latched
-  bool drive_enable = false;
-};
-
 class VirtualBoard {
  public:
   // Loads the network and identify.mem from options.mem_dir (through the model's plusarg
@@ -119,7 +112,7 @@ class VirtualBoard {
   // passed; true if one is.
   bool step_until_byte(std::uint64_t board_clocks, std::size_t bytes = 1);
   std::uint64_t clocks() const { return clocks_; }
-  std::uint64_t idle_network_clocks() const;  // RTL: board clocks run without the network's edges
+  std::uint64_t idle_network_clocks() const { return board_->idle_network_clocks(); }
   // Wall time spent advancing the board and the world (step, step_until_byte), the observers'
   // calls excluded: the board's own speed inside a co-simulation [s].
   double busy_s() const { return busy_s_; }
@@ -135,13 +128,13 @@ class VirtualBoard {
   void observe_periods(PeriodObserver observer) { period_observer_ = std::move(observer); }
 
   const RobotWorld& world() const;
-  BoardPins pins() const;
+  BoardPins pins() const { return board_->pins(); }
 
  private:
-  class Core;
   void clock();
-  void clock_model();
-  bool skip_model(std::uint64_t limit, std::size_t needed_bytes);
+  BoardLines lines() const;  // the world's encoder and home-switch lines (an injected skip applied)
+  void take_bytes();
+  bool skip_run(std::uint64_t limit, std::size_t needed_bytes);
   void flush_world();
   void run(std::uint64_t board_clocks, std::size_t until_bytes);  // until_bytes 0: all board_clocks
   void observe(bool drives_enabled);
@@ -153,7 +146,7 @@ class VirtualBoard {
     observer_s_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   }
 
-  std::unique_ptr<Core> core_;
+  std::unique_ptr<BoardModel> board_;  // the Verilated board core or the model board
   std::unique_ptr<RobotWorld> world_;
   std::deque<std::uint8_t> from_board_;
   TruthObserver truth_observer_;
@@ -164,7 +157,7 @@ class VirtualBoard {
   std::uint64_t encoder_skip_clock_ = ~std::uint64_t{0};
   double busy_s_ = 0.0;
   double observer_s_ = 0.0;         // (inside runs, taken out of busy_s_)
-  DrivePattern world_pattern_;      // model fidelity: the drive pattern of the runs the world has not taken
+  DrivePattern world_pattern_;      // a board that takes runs: the drive pattern of the runs the world has not taken
   std::uint64_t world_cycles_ = 0;  // (their cycles)
 };
 
