@@ -10,17 +10,17 @@
 
 #include "command.hpp"
 #include "delta/board_facts.hpp"
+#include "delta/controller/stream_plan.hpp"
 #include "delta/cosim/board_cosim.hpp"
 #include "delta/cosim/board_inputs.hpp"
+#include "delta/golden/board_network.hpp"
 #include "delta/golden/export.hpp"
 #include "delta/golden/fixed_network.hpp"
+#include "delta/input_error.hpp"
 #include "delta/output_file.hpp"
 #include "delta/plot.hpp"
 #include "delta/table.hpp"
 #include "delta/temporary_directory.hpp"
-#include "delta/controller/stream_plan.hpp"
-#include "delta/golden/board_network.hpp"
-#include "delta/input_error.hpp"
 #include "options.hpp"
 
 namespace delta::cosim {
@@ -142,8 +142,8 @@ void run_cosim_command(const CosimCommandOptions& options, const std::string& co
   }
   const double wall = wall_s();
   std::cerr << (terminal ? "\r" : "") << "cosim: " << fixed(result.board_cycles / kBoardClockHz, 3)
-            << " s of board time in " << fixed(wall, 1) << " s wall ("
-            << fixed(result.board_cycles / wall / 1e6, 2) << " M board cycles/s)\n";
+            << " s of board time in " << fixed(wall, 1) << " s wall (" << fixed(result.board_cycles / wall / 1e6, 2)
+            << " M board cycles/s)\n";
   if (result.board_busy_s > 0.0) {  // the board and the world without the host and the truth recording
     const double alone = result.board_cycles / result.board_busy_s;
     std::cerr << "cosim: the board and the world alone: " << fixed(result.board_busy_s, 2) << " s wall, "
@@ -153,8 +153,8 @@ void run_cosim_command(const CosimCommandOptions& options, const std::string& co
 
   const double from_s = options.settle_s;
   const TrackingSummary summary = summarise(result, from_s);
-  std::cout << "Co-simulation: '" << options.trajectory << "', " << options.duration_s
-            << " s of path after a " << fixed(result.approach_samples / 1e3, 3)
+  std::cout << "Co-simulation: '" << options.trajectory << "', " << options.duration_s << " s of path after a "
+            << fixed(result.approach_samples / 1e3, 3)
             << " s approach, as `host run` streams it; statistics from path time " << from_s << " s ("
             << summary.samples << " samples at 1 kHz)\n\n";
   Table plate({"plate error (measured - reference)", "rms x [um]", "rms y [um]", "rms z [um]", "rms distance [um]",
@@ -203,7 +203,8 @@ void run_cosim_command(const CosimCommandOptions& options, const std::string& co
   link.add_row({"board: underruns while streaming", std::to_string(result.underruns_while_streaming)});
   link.add_row({"board: slew limits, controller saturations",
                 std::to_string(result.slew_limits) + ", " + std::to_string(result.saturations)});
-  link.add_row({"setpoints the host keeps ahead of the board (target fill)", std::to_string(cosim.session.target_fill)});
+  link.add_row(
+      {"setpoints the host keeps ahead of the board (target fill)", std::to_string(cosim.session.target_fill)});
   link.add_row({"stream sample 0 is the joint reference at board time [ms]", fixed(1e3 * result.t0_s, 1)});
   link.add_row({"the plan's start: the pose the encoders report (network inverted at the home count) [mm]",
                 fixed(result.start_position_m.x() * 1e3, 4) + ", " + fixed(result.start_position_m.y() * 1e3, 4) +
@@ -261,7 +262,9 @@ const RegisterCommand command("cosim", 70, [](CLI::App& root) {
   sub->add_option("--weights", options->weights, "network weights (W.json: model 'deployed' or 'network', 25 hidden)")
       ->required();
   sub->add_option("--effects", options->effects, "virtual robot's effects (JSON); none: the nominal robot");
-  sub->add_option("--trajectory", options->trajectory, "NAME (experiment1, experiment2, validation, sweep, ...), FILE.csv or move:X,Y,Z;... as host run takes it")
+  sub->add_option(
+         "--trajectory", options->trajectory,
+         "NAME (experiment1, experiment2, validation, sweep, ...), FILE.csv or move:X,Y,Z;... as host run takes it")
       ->capture_default_str();
   sub->add_option("--duration", options->duration_s, "seconds of trajectory time (0: the trajectory's own length)")
       ->capture_default_str()

@@ -7,11 +7,11 @@
 
 #include <Eigen/Dense>
 
+#include "delta/controller/run_job.hpp"
 #include "delta/gateware.hpp"
 #include "delta/golden/board_network.hpp"
 #include "delta/golden/export.hpp"
 #include "delta/kinematics.hpp"
-#include "delta/controller/run_job.hpp"
 
 namespace delta::cosim {
 namespace {
@@ -30,8 +30,8 @@ struct TruthRow {
 void check_identity(const link::IdentifyPayload& identify, const golden::QuantisedNetwork& network) {
   const std::uint32_t crc = weights_crc(network);
   if (identify.weights_crc != crc) {
-    throw std::runtime_error("cosim: the board's weights CRC " + hex(identify.weights_crc) + " differs from the host's " +
-                             hex(crc));
+    throw std::runtime_error("cosim: the board's weights CRC " + hex(identify.weights_crc) +
+                             " differs from the host's " + hex(crc));
   }
   if (identify.build_id != kGatewareBuildId) {
     throw std::runtime_error("cosim: the board's gateware build id " + hex(identify.build_id) +
@@ -60,7 +60,8 @@ void join_truth(const CosimOptions& options, const std::vector<TruthRow>& rows, 
     while (r + 1 < records.size() && records[r + 1].telemetry.tick <= tick) ++r;
     // The frame nearest in time names the reference (the truth comes 0.9 ms into a frame's
     // millisecond, where the interpolation has nearly reached the next frame's answer).
-    const bool next_is_nearer = r + 1 < records.size() && records[r + 1].telemetry.tick - tick < tick - records[r].telemetry.tick;
+    const bool next_is_nearer =
+        r + 1 < records.size() && records[r + 1].telemetry.tick - tick < tick - records[r].telemetry.tick;
     const controller::TelemetryRecord& record = records[next_is_nearer ? r + 1 : r];
     CosimSample sample;
     sample.t_s = row.truth.t_s - result.t0_s;

@@ -1,4 +1,5 @@
-// The virtual board: the board (Verilated core or model board, one BoardModel) + robot world + UART line (see virtual_board.hpp).
+// The virtual board: the board (Verilated core or model board, one BoardModel) + robot world + UART line (see
+// virtual_board.hpp).
 #include "delta/cosim/virtual_board.hpp"
 
 #include <algorithm>
@@ -22,7 +23,9 @@ namespace {
 class RtlBoardModel final : public BoardModel {
  public:
   explicit RtlBoardModel(const VirtualBoardOptions& options)
-      : context_(std::make_unique<VerilatedContext>()), line_(kClocksPerBit), network_clock_(options.skip_idle_network) {
+      : context_(std::make_unique<VerilatedContext>()),
+        line_(kClocksPerBit),
+        network_clock_(options.skip_idle_network) {
     const std::string plusarg = "+delta_mem_dir=" + options.mem_dir;
     const char* argv[] = {"virtual_board", plusarg.c_str()};
     context_->commandArgs(2, argv);
@@ -179,10 +182,10 @@ void VirtualBoard::flush_world() {
 }
 
 // A board that takes runs (the model board): runs of clocks in which nothing but counters move on
-// either side of the pins (BoardModel::skip, RobotWorld::advance) go at once; a run ends where the board or the world has
-// an event (the board's include its serial lines' bytes), or a control period ends (its first
-// clock, with the observers, goes one by one). The world takes the runs when the drive pattern
-// changes, at its own event, and before anything looks at it.
+// either side of the pins (BoardModel::skip, RobotWorld::advance) go at once; a run ends where the board or the world
+// has an event (the board's include its serial lines' bytes), or a control period ends (its first clock, with the
+// observers, goes one by one). The world takes the runs when the drive pattern changes, at its own event, and before
+// anything looks at it.
 bool VirtualBoard::skip_run(std::uint64_t limit, std::size_t needed_bytes) {
   const std::uint64_t to_world_event = world_->cycles_to_event() - world_cycles_;
   // The observers see the start of each period (1 ms) they watch in clock().

@@ -41,10 +41,9 @@ namespace {
 // time against the model board and the paper-like robot (the virtual board's default), experiment 1
 // for `duration_s`; its plate error, RMS distance from path time 0.4 s [m].
 double cosim_plate_rms_m(const std::string& weights, double duration_s) {
-  const CommandResult cosim = run_deltactl("cosim --fidelity model --weights " + weights + " --effects " +
-                                           std::string(DELTA_SOURCE_DIR) +
-                                           "/sim/paper_like_effects.json --trajectory experiment1 --duration " +
-                                           std::to_string(duration_s));
+  const CommandResult cosim =
+      run_deltactl("cosim --fidelity model --weights " + weights + " --effects " + std::string(DELTA_SOURCE_DIR) +
+                   "/sim/paper_like_effects.json --trajectory experiment1 --duration " + std::to_string(duration_s));
   if (cosim.exit_code != 0) throw std::runtime_error("deltactl cosim: " + cosim.err);
   std::istringstream lines(cosim.out);
   std::string line;

@@ -58,9 +58,9 @@ TEST(Cosim, PaperLikeRobotFollowsExperimentOneOverTheLink) {
   EXPECT_EQ(result.identify.protocol_version, board::kProtocolVersion);
   EXPECT_EQ(result.identify.weights_crc, weights_crc(q));
   EXPECT_EQ(result.stream.outcome, controller::StreamingResult::Outcome::kCompleted);
-  EXPECT_GT(result.approach_samples, 0u);  // the plate starts at home, the path elsewhere
+  EXPECT_GT(result.approach_samples, 0u);                            // the plate starts at home, the path elsewhere
   EXPECT_GT(result.stream.planned, result.approach_samples + 600u);  // the path and its ramps
-  EXPECT_EQ(result.stream.played, result.stream.planned);  // round trips = setpoints played
+  EXPECT_EQ(result.stream.played, result.stream.planned);            // round trips = setpoints played
   EXPECT_EQ(link.setpoints_sent, result.stream.planned);
   EXPECT_EQ(link.setpoints_resent, 0u);
   EXPECT_EQ(result.underruns_while_streaming, 0u);  // the lead went out while the board held

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "../support/stream_with_the_lab_loop.hpp"
 #include "delta/controller/homing.hpp"
 #include "delta/cosim/board_cosim.hpp"
 #include "delta/effect_file.hpp"
@@ -21,7 +22,6 @@
 #include "delta/link/payloads.hpp"
 #include "delta/nn/weights_file.hpp"
 #include "delta/trajectory.hpp"
-#include "../support/stream_with_the_lab_loop.hpp"
 #include "rtl_fixture.hpp"
 
 namespace delta::test {

@@ -114,7 +114,9 @@ class RobotWorld {
   const Vec3& home_measured_m() const { return home_measured_m_; }
   // Where the stage would see the plate if the encoders read `readings_deg` through the
   // backlash's present play (the play kept, the rest of the sensor chain inverted).
-  Vec3 plate_for_readings(const Vec3& readings_deg) const { return plate_for_readings(readings_deg, backlash_lag_deg()); }
+  Vec3 plate_for_readings(const Vec3& readings_deg) const {
+    return plate_for_readings(readings_deg, backlash_lag_deg());
+  }
   // The same through a play kept from another instant (backlash_lag_deg() then).
   Vec3 plate_for_readings(const Vec3& readings_deg, const Vec3& lag_deg) const;
   // The backlash's present lag per joint: reading - reading without backlash [deg].

@@ -1,8 +1,8 @@
 // A host's session with a board over the link v2 (docs/board_link.md): identify, set home, enable,
 // hold and disable, the non-blocking primitives a streaming loop sends 1 kHz setpoints with (paced
-// by SetpointPacer), while collecting every telemetry frame and the link's statistics. It speaks through any io::ByteStream (the serial
-// port, the virtual board's pseudo-terminal, or the virtual board in process) and knows only what
-// the frames tell: no device, no simulator, no wall-clock pacing.
+// by SetpointPacer), while collecting every telemetry frame and the link's statistics. It speaks through any
+// io::ByteStream (the serial port, the virtual board's pseudo-terminal, or the virtual board in process) and knows only
+// what the frames tell: no device, no simulator, no wall-clock pacing.
 //
 // Pacing (docs/board_link.md, "Setpoints"): each telemetry frame gives the next sample index the
 // board plays (s) and its buffer fill; the session keeps `target_fill` samples sent ahead of s
@@ -93,8 +93,8 @@ struct LinkStatistics {
 
 // The pacing rule as a value type, for the loop that owns the timing (the host controller's
 // streaming loop, controller::StreamingLoop, which the lab's host and the co-simulation both run):
-// given each telemetry frame, it says which stream samples to send now. The end may be moved earlier while streaming (a controlled stop). No allocation after
-// construction.
+// given each telemetry frame, it says which stream samples to send now. The end may be moved earlier while streaming (a
+// controlled stop). No allocation after construction.
 class SetpointPacer {
  public:
   // `capacity`: the most samples set_samples may ask for later (a plan that grows by feed holds).

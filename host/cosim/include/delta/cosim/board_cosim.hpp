@@ -45,7 +45,7 @@ struct CosimOptions {
   // The network's trained range (W.json input_min, input_max): the plan is checked against it as
   // `host run` checks it. The default admits any reachable point.
   Vec3 trained_min_m = Vec3::Constant(-1.0), trained_max_m = Vec3::Constant(1.0);
-  EffectSet effects;                                  // the virtual robot
+  EffectSet effects;  // the virtual robot
   Geometry nominal = Geometry::nominal();
   std::string trajectory = "experiment1";  // as `host run --trajectory`: NAME, FILE.csv or move:...
   double duration_s = 1.0;                 // of trajectory time (0: the trajectory's own length)
@@ -87,19 +87,19 @@ struct CosimSample {                   // every 1 ms of board time from t0 to th
 
 struct CosimResult {
   std::vector<CosimSample> samples;
-  std::vector<link::TelemetryPayload> telemetry;  // every frame the host received
+  std::vector<link::TelemetryPayload> telemetry;     // every frame the host received
   std::vector<controller::TelemetryRecord> records;  // the stream's rows, as `host run` records them
   link::IdentifyPayload identify;
   link::LinkStatistics link;
-  controller::StreamingResult stream;  // the lab's streaming loop's account
-  std::size_t approach_samples = 0;    // of stream.planned: the straight move to the path's start
+  controller::StreamingResult stream;           // the lab's streaming loop's account
+  std::size_t approach_samples = 0;             // of stream.planned: the straight move to the path's start
   std::uint32_t underruns_while_streaming = 0;  // the board's underrun counter from stream sample 0 to the end
-  double t0_s = 0.0;                        // board time of tau = 0
-  Vec3 start_position_m = Vec3::Zero();  // where the plan starts (controller::start_at_rest at the home count)
-  Vec3 home_true_alpha_deg = Vec3::Zero();  // plant angles at which the encoders read 30.00 deg
-  std::size_t full_scale_current_samples = 0;  // recorded samples with some |current| at 0.5 A
-  BoardPins pins;                              // sticky flags at the end (after disable)
-  std::uint16_t bad_frames = 0;                // board counters at the end (last telemetry)
+  double t0_s = 0.0;                            // board time of tau = 0
+  Vec3 start_position_m = Vec3::Zero();         // where the plan starts (controller::start_at_rest at the home count)
+  Vec3 home_true_alpha_deg = Vec3::Zero();      // plant angles at which the encoders read 30.00 deg
+  std::size_t full_scale_current_samples = 0;   // recorded samples with some |current| at 0.5 A
+  BoardPins pins;                               // sticky flags at the end (after disable)
+  std::uint16_t bad_frames = 0;                 // board counters at the end (last telemetry)
   std::uint16_t rejected = 0;
   std::uint16_t slew_limits = 0;
   std::uint16_t saturations = 0;

@@ -16,8 +16,8 @@ enum class BoardFidelity { kRtl, kModel };
 
 // The board's output pins: the drives, and the sticky status flags for diagnostics beside the link.
 struct BoardPins {
-  int drive_pwm = 0;           // bit j: joint j's PWM
-  int drive_dir = 0;           // bit j: joint j's direction
+  int drive_pwm = 0;  // bit j: joint j's PWM
+  int drive_dir = 0;  // bit j: joint j's direction
   bool drive_enable = false;
   int encoder_error_bits = 0;  // bit j: encoder j skipped a quadrature state
   bool joint_limited = false;  // a joint controller saturated an operand or state
