@@ -241,10 +241,12 @@ HomingReport home_at_references(link::LinkSession& session, const golden::BoardW
     for (int j = 0; j < 3; ++j) {
       // A joint held may creep by a few Q.8 counts per millisecond (an input code's LSB moves the
       // answer by tens of them; a referenced joint's encoder keeps counting, so its count stays
-      // right): at most 16, 0.63 deg/s. A moving one goes its way at about its speed.
+      // right): at most 16, 0.63 deg/s. A moving one goes its way at about its speed: within 20 %
+      // (far below the trained range, at 7 deg, the input lattice's nearest point moves joint 1 at
+      // 113 for 102).
       const bool held_ok = delta[j] == 0 && std::abs(actual[j]) <= 16;
       const bool moving_ok = delta[j] != 0 && (actual[j] > 0) == (delta[j] > 0) &&
-                             std::abs(actual[j] - delta[j]) <= std::max(3, std::abs(delta[j]) / 10);
+                             std::abs(actual[j] - delta[j]) <= std::max(3, std::abs(delta[j]) / 5);
       if (!held_ok && !moving_ok) {
         fail(kExitFault, joint_name(j) + ": the network cannot move it as asked (" + std::to_string(actual[j]) +
                              " instead of " + std::to_string(delta[j]) + " Q.8 counts per ms)");
