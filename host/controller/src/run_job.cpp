@@ -601,7 +601,7 @@ RunOutcome RunJob::execute(link::LinkSession& session, const std::string& port_n
   switch (result.outcome) {
     case StreamingResult::Outcome::kCompleted:
     case StreamingResult::Outcome::kStopped: {
-      out.outcome = result.outcome == StreamingResult::Outcome::kCompleted ? "completed" : "stopped";
+      out.outcome = outcome_name(result.outcome);
       std::string failed;
       try {
         if (!estop_.load()) {  // an e-stop asked as the run ended: no hold first
@@ -635,7 +635,7 @@ RunOutcome RunJob::execute(link::LinkSession& session, const std::string& port_n
       break;
     }
     case StreamingResult::Outcome::kFault:
-      out.outcome = estop_.load() ? "e-stop" : "fault";
+      out.outcome = estop_.load() ? "e-stop" : outcome_name(result.outcome);
       out.code = kExitFault;
       out.error = estop_.load() ? port_name + ": e-stop on request: drives off, nothing re-enabled"
                                 : port_name + ": the board faulted: " + result.cause + " (" +
@@ -643,13 +643,13 @@ RunOutcome RunJob::execute(link::LinkSession& session, const std::string& port_n
       disable();
       break;
     case StreamingResult::Outcome::kDrivesOff:
-      out.outcome = "drives off";
+      out.outcome = outcome_name(result.outcome);
       out.code = kExitFault;
       out.error = port_name + ": " + result.cause + "; the run ended, disable sent, nothing re-enabled";
       disable();
       break;
     case StreamingResult::Outcome::kLinkLost:
-      out.outcome = "link lost";
+      out.outcome = outcome_name(result.outcome);
       out.code = kExitLinkLost;
       out.error =
           port_name + ": link lost: " + result.cause + "; the board's watchdog stops the torque; nothing re-enabled";
