@@ -7,7 +7,7 @@
 #   build/tests/joint_golden_vectors build/vitis_joint 100000 20261121
 #   vitis_hls -f scripts/vitis_hls_joint.tcl
 # The generator writes joint_coefficients.hpp (the coefficient codes of the golden model,
-# delta::control::make_fixed_coefficients) and joint_golden_vectors.txt (100,000 closed-loop periods).
+# delta::golden::make_fixed_coefficients) and joint_golden_vectors.txt (100,000 closed-loop periods).
 #
 # The same source that compiles here with sc_fixed compiles under Vitis with ap_fixed
 # (DELTA_HLS_USE_AP_FIXED selects it in csim; __SYNTHESIS__ in csynth). The testbench compares every

@@ -36,6 +36,6 @@ delta_add_gtest(host_safety_tests
 # arm and a missing switch, a board homed by hand.
 delta_add_gtest(homing_tests
   SOURCES ${CMAKE_CURRENT_LIST_DIR}/host_controller/test_homing.cpp
-  LIBRARIES delta::host nlohmann_json::nlohmann_json
+  LIBRARIES delta::host delta::golden nlohmann_json::nlohmann_json
   LABELS host host_controller virtual_board
   PROPERTIES RUN_SERIAL TRUE)

@@ -1,6 +1,6 @@
 // Header-only HLS templates of the three joint controllers (reference filter, VOB, DOB, eq. 5),
 // configured by one struct (joint_config.hpp). Synthesizable: integer codes only, no dynamic
-// memory, recursion or division; every loop labelled. Bit-exact to delta::control::fixed_update.
+// memory, recursion or division; every loop labelled. Bit-exact to delta::golden::fixed_update.
 #pragma once
 
 // Loop labels name loops for Vitis HLS directives; the host compiler does not use them.
@@ -10,7 +10,7 @@
 
 namespace delta_hls {
 
-// The coefficient codes of one design (delta::control::JointFixedCoefficients, same order and
+// The coefficient codes of one design (delta::golden::JointFixedCoefficients, same order and
 // meaning): two's complement integers, at each update's LSB (joint_config.hpp's shifts).
 struct JointCoefficientCodes {
   int reference_gain;             // g_ref Ts / (1 + g_ref Ts)                      << reference_shift

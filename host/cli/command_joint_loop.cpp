@@ -35,7 +35,7 @@ struct StepResult {
 };
 
 StepResult run_load_step(ControllerKind kind, bool disturbance_observer, double step_nm) {
-  JointControllerParameters controller;
+  golden::JointControllerParameters controller;
   controller.disturbance_observer = disturbance_observer;
   LoopScenario scenario;
   const double target = 30.005;  // mid-count
@@ -66,7 +66,7 @@ PlotSeries series(const std::string& label, const LoopTrace& trace, double from_
 }
 
 void run_joint_loop(const JointLoopOptions& options) {
-  const JointControllerParameters controller;
+  const golden::JointControllerParameters controller;
   bool pass = true;
   std::cout << "Experiment 1 (0.2 Hz, nominal IK), smooth start over " << kBlendS
             << " s, errors from t = 1 s to 11 s (encoder reading - reference):\n\n";

@@ -435,7 +435,7 @@ struct ModelBoard::Memories {
 
 struct ModelBoard::State {
   const golden::QuantisedNetwork* network = nullptr;
-  control::JointFixedCoefficients coefficients = control::make_fixed_coefficients(control::JointControllerParameters{});
+  golden::JointFixedCoefficients coefficients = golden::make_fixed_coefficients(golden::JointControllerParameters{});
   std::uint64_t cycle = 0;
 
   // uart_rx: its byte and valid (the line's bytes, their clocks in ModelBoard::rx_line_)
@@ -493,7 +493,7 @@ struct ModelBoard::State {
   // (link_tx's RAM read, the peek, the safety pipeline): they hold until a full clock.
   bool settled = false;
   std::uint64_t run_start = 0;  // the cycle it saw ap_start
-  std::array<control::JointFixedState, 3> joint_state{};
+  std::array<golden::JointFixedState, 3> joint_state{};
   std::array<std::int16_t, 3> next_current{};
   std::array<int, 3> next_overflow{};
   std::array<std::uint16_t, 3> current{};  // current_q
@@ -1455,13 +1455,13 @@ void ModelBoard::joint_controller_next(const State& s, State& n) {
     n.start_q = false;  // (the RTL clears it at ap_ready, kLoadCycles later: nothing reads it before)
     n.run_start = s.cycle;
     for (int j = 0; j < kJoints; ++j) {
-      control::JointFixedInput input;
+      golden::JointFixedInput input;
       input.reference = s.r[j];
       input.encoder = static_cast<std::int16_t>(s.counts_q[j]);
       input.shift = s.shift[j];
-      if (!s.primed) n.joint_state[j] = control::fixed_rest_state(input);
-      control::JointFixedStatus status;
-      n.next_current[j] = control::fixed_update(s.coefficients, n.joint_state[j], input, status);
+      if (!s.primed) n.joint_state[j] = golden::fixed_rest_state(input);
+      golden::JointFixedStatus status;
+      n.next_current[j] = golden::fixed_update(s.coefficients, n.joint_state[j], input, status);
       n.next_overflow[j] = status.overflow_count;
       n.peek_memory[j][kSlotReference] = static_cast<std::uint32_t>(input.reference);
       n.peek_memory[j][kSlotEncoder] = static_cast<std::uint32_t>(static_cast<std::int32_t>(input.encoder));

@@ -8,7 +8,7 @@ package delta_joint_pkg;
   // (16); states Q8.24 (32); coefficients signed 24 bits, bit-serial; multiplier operand
   // saturated to 40 bits; the accumulator is exact: three 40 x 24 products + a shifted state.
   localparam int unsigned AccumulatorWidth = 66;
-  // Play shift input: whole counts, signed (golden control::kShiftBits).
+  // Play shift input: whole counts, signed (golden::kShiftBits).
   localparam int unsigned ShiftBits = 10;
 
   // Coefficients at the default design (hls/README.md, "Joint controller fixed-point formats").

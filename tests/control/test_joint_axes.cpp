@@ -67,12 +67,13 @@ TEST(JointAxes, EncoderCountsReferencesAndPwmFollowTheGoldenController) {
   const std::uint64_t seed = 11;
   std::cout << "seed " << seed << "\n";
   std::mt19937_64 random(seed);
-  const JointFixedCoefficients coefficients = make_fixed_coefficients(JointControllerParameters{});
+  const golden::JointFixedCoefficients coefficients =
+      golden::make_fixed_coefficients(golden::JointControllerParameters{});
   Board board;
   Vjoint_axes& top = board.top();
   std::array<int, 3> position{0, 0, 0};                       // counts moved since reset
   const std::array<double, 3> target_deg{30.5, 29.2, 30.03};  // references sent at period 20
-  std::array<JointFixedState, 3> golden;
+  std::array<golden::JointFixedState, 3> golden;
   bool referenced = false;      // the drives are enabled from period 20 on
   bool enabled_before = false;  // in the period before this one
   int largest_duty = 0;
@@ -82,16 +83,16 @@ TEST(JointAxes, EncoderCountsReferencesAndPwmFollowTheGoldenController) {
     // The golden controller sees what joint_axes latches at the period's first edge.
     std::array<std::int16_t, 3> expected_current;
     for (int j = 0; j < 3; ++j) {
-      JointFixedInput input;
+      golden::JointFixedInput input;
       input.encoder = static_cast<std::int16_t>(kHomeCount + position[j]);
       input.reference = referenced ? reference_code(target_deg[j]) : input.encoder * 256;
       // What the board's interpolator presents for this period: the reference, or with the
       // drives off the encoder count.
       top.references_i[j] = static_cast<std::uint32_t>(input.reference);
       // With the drives off the controller restarts from rest every period (joint_axes.sv).
-      if (period == 0 || !enabled_before) golden[j] = fixed_rest_state(input);
-      JointFixedStatus status;
-      expected_current[j] = fixed_update(coefficients, golden[j], input, status);
+      if (period == 0 || !enabled_before) golden[j] = golden::fixed_rest_state(input);
+      golden::JointFixedStatus status;
+      expected_current[j] = golden::fixed_update(coefficients, golden[j], input, status);
     }
     std::array<int, 3> high{0, 0, 0};
     top.enabled_i = referenced ? 1 : 0;

@@ -27,21 +27,21 @@ std::int32_t code(const Fixed& value) {
   return static_cast<std::int32_t>(delta_hls::fixed_to_code<Bits, Fraction>(value));
 }
 
-JointFixedState hls_state(int joint) {
+golden::JointFixedState hls_state(int joint) {
   const delta_hls::JointState<HlsConfig> s = joint_top_state(joint);
-  JointFixedState state;
-  state.reference = code<HlsConfig::reference_bits, kReferenceFraction>(s.reference);
-  state.reference_velocity = code<HlsConfig::state_bits, kStateFraction>(s.reference_velocity);
-  state.reference_acceleration = code<HlsConfig::state_bits, kStateFraction>(s.reference_acceleration);
+  golden::JointFixedState state;
+  state.reference = code<HlsConfig::reference_bits, golden::kReferenceFraction>(s.reference);
+  state.reference_velocity = code<HlsConfig::state_bits, golden::kStateFraction>(s.reference_velocity);
+  state.reference_acceleration = code<HlsConfig::state_bits, golden::kStateFraction>(s.reference_acceleration);
   state.encoder = code<HlsConfig::encoder_bits, 0>(s.encoder);
-  state.velocity = code<HlsConfig::state_bits, kStateFraction>(s.velocity);
-  state.disturbance = code<HlsConfig::state_bits, kStateFraction>(s.disturbance);
-  state.current = code<HlsConfig::current_bits, kCurrentFraction>(s.current);
+  state.velocity = code<HlsConfig::state_bits, golden::kStateFraction>(s.velocity);
+  state.disturbance = code<HlsConfig::state_bits, golden::kStateFraction>(s.disturbance);
+  state.current = code<HlsConfig::current_bits, golden::kCurrentFraction>(s.current);
   state.shift = code<HlsConfig::shift_bits, 0>(s.shift);
   return state;
 }
 
-std::string describe(const JointFixedState& s) {
+std::string describe(const golden::JointFixedState& s) {
   std::ostringstream out;
   out << "{r " << s.reference << ", vr " << s.reference_velocity << ", ar " << s.reference_acceleration << ", e "
       << s.encoder << ", v " << s.velocity << ", d " << s.disturbance << ", i " << s.current << ", s " << s.shift
@@ -60,14 +60,14 @@ TEST(JointBitExact, GoldenHlsAndRtlAgreeOnClosedLoopWithRandomReferencesAndLoads
   rtl::JointRtlModel rtl;
   const long periods = 100000;
   for (long k = 0; k < periods; ++k) {
-    const std::array<JointFixedInput, 3>& inputs = loop.next_inputs(k);
+    const std::array<golden::JointFixedInput, 3>& inputs = loop.next_inputs(k);
     HlsConfig::reference_t hls_reference[3];
     HlsConfig::encoder_t hls_encoder[3];
     HlsConfig::shift_t hls_shift[3];
     HlsConfig::current_t hls_current[3];
     for (int j = 0; j < 3; ++j) {
       hls_reference[j] =
-          delta_hls::fixed_from_code<HlsConfig::reference_t, HlsConfig::reference_bits, kReferenceFraction>(
+          delta_hls::fixed_from_code<HlsConfig::reference_t, HlsConfig::reference_bits, golden::kReferenceFraction>(
               inputs[j].reference);
       hls_encoder[j] = delta_hls::fixed_from_code<HlsConfig::encoder_t, HlsConfig::encoder_bits, 0>(inputs[j].encoder);
       hls_shift[j] = delta_hls::fixed_from_code<HlsConfig::shift_t, HlsConfig::shift_bits, 0>(inputs[j].shift);
@@ -81,13 +81,13 @@ TEST(JointBitExact, GoldenHlsAndRtlAgreeOnClosedLoopWithRandomReferencesAndLoads
     ASSERT_EQ(rtl_result.overflow_count, loop.overflow_code()) << "period " << k;
     ASSERT_EQ(rtl_result.cycles, 1072) << "latency, period " << k;
     for (int j = 0; j < 3; ++j) {
-      ASSERT_EQ((code<HlsConfig::current_bits, kCurrentFraction>(hls_current[j])), loop.golden_current[j])
+      ASSERT_EQ((code<HlsConfig::current_bits, golden::kCurrentFraction>(hls_current[j])), loop.golden_current[j])
           << "HLS period " << k << " joint " << j;
       ASSERT_EQ(rtl_result.current[j], loop.golden_current[j]) << "RTL period " << k << " joint " << j;
       ASSERT_EQ(static_cast<bool>(hls_limited[j]), loop.golden_limited[j]) << "HLS period " << k << " joint " << j;
       ASSERT_EQ(rtl_result.limited[j], loop.golden_limited[j]) << "RTL period " << k << " joint " << j;
-      const JointFixedState from_hls = hls_state(j);
-      const JointFixedState from_rtl = rtl.state(j);
+      const golden::JointFixedState from_hls = hls_state(j);
+      const golden::JointFixedState from_rtl = rtl.state(j);
       ASSERT_TRUE(from_hls == loop.golden[j]) << "HLS period " << k << " joint " << j << " golden "
                                               << describe(loop.golden[j]) << " hls " << describe(from_hls);
       ASSERT_TRUE(from_rtl == loop.golden[j]) << "RTL period " << k << " joint " << j << " golden "
@@ -105,7 +105,7 @@ TEST(JointBitExact, GoldenHlsAndRtlAgreeOnClosedLoopWithRandomReferencesAndLoads
 // The coefficient codes compiled into the HLS top (the generated header) and the literals of the
 // RTL package, its play-shift width too, equal the golden model's.
 TEST(JointBitExact, HlsAndRtlCoefficientsEqualTheGoldenModel) {
-  const JointFixedCoefficients c = make_fixed_coefficients(JointControllerParameters{});
+  const golden::JointFixedCoefficients c = golden::make_fixed_coefficients(golden::JointControllerParameters{});
   const std::array<std::pair<const char*, std::int32_t>, 9> expected{
       {{"ReferenceGain", c.reference_gain},
        {"VelocityEncoderGain", c.velocity_encoder_gain},
@@ -139,23 +139,23 @@ TEST(JointBitExact, HlsAndRtlCoefficientsEqualTheGoldenModel) {
   const std::string body = text.str();
   ASSERT_TRUE(std::regex_search(body, match, std::regex("localparam int unsigned ShiftBits = (\\d+);")))
       << "ShiftBits missing in delta_joint_pkg.sv";
-  EXPECT_EQ(std::stoi(match[1]), kShiftBits) << "ShiftBits in delta_joint_pkg.sv";
+  EXPECT_EQ(std::stoi(match[1]), golden::kShiftBits) << "ShiftBits in delta_joint_pkg.sv";
 }
 
 // The chosen widths of the HLS config are the golden model's formats.
 TEST(JointBitExact, HlsConfigFormatsEqualTheGoldenModel) {
-  EXPECT_EQ(HlsConfig::reference_fraction, kReferenceFraction);
-  EXPECT_EQ(HlsConfig::state_fraction, kStateFraction);
-  EXPECT_EQ(HlsConfig::current_fraction, kCurrentFraction);
-  EXPECT_EQ(HlsConfig::coefficient_bits, kCoefficientBits);
-  EXPECT_EQ(HlsConfig::operand_bits, kOperandBits);
-  EXPECT_EQ(HlsConfig::reference_shift, kReferenceShift);
-  EXPECT_EQ(HlsConfig::velocity_shift, kVelocityShift);
-  EXPECT_EQ(HlsConfig::disturbance_shift, kDisturbanceShift);
-  EXPECT_EQ(HlsConfig::law_shift, kLawShift);
-  EXPECT_EQ(HlsConfig::shift_bits, kShiftBits);
+  EXPECT_EQ(HlsConfig::reference_fraction, golden::kReferenceFraction);
+  EXPECT_EQ(HlsConfig::state_fraction, golden::kStateFraction);
+  EXPECT_EQ(HlsConfig::current_fraction, golden::kCurrentFraction);
+  EXPECT_EQ(HlsConfig::coefficient_bits, golden::kCoefficientBits);
+  EXPECT_EQ(HlsConfig::operand_bits, golden::kOperandBits);
+  EXPECT_EQ(HlsConfig::reference_shift, golden::kReferenceShift);
+  EXPECT_EQ(HlsConfig::velocity_shift, golden::kVelocityShift);
+  EXPECT_EQ(HlsConfig::disturbance_shift, golden::kDisturbanceShift);
+  EXPECT_EQ(HlsConfig::law_shift, golden::kLawShift);
+  EXPECT_EQ(HlsConfig::shift_bits, golden::kShiftBits);
   // The golden accumulator (66 bits) also holds the rounding half-LSB; the HLS casts round instead.
-  EXPECT_LE(HlsConfig::command_accumulator_bits, kAccumulatorBits);
+  EXPECT_LE(HlsConfig::command_accumulator_bits, golden::kAccumulatorBits);
 }
 
 }  // namespace

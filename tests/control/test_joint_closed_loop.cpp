@@ -15,7 +15,7 @@ constexpr double kResolutionDeg = 0.01;
 // Paper: after a smooth start the error stays within 1.1 % of the peak-to-peak reference; the
 // fixed-point controller must be within 5 % of the double one (max and RMS error).
 TEST(JointClosedLoop, Experiment1TrackingWithinPaperBoundAndFixedWithinFivePercentOfDouble) {
-  const JointControllerParameters controller;
+  const golden::JointControllerParameters controller;
   for (int joint = 0; joint < 3; ++joint) {
     LoopScenario scenario;
     scenario.reference_shaft_deg = experiment1_joint_reference(joint, 1.0);
@@ -41,7 +41,7 @@ TEST(JointClosedLoop, Experiment1TrackingWithinPaperBoundAndFixedWithinFivePerce
 // At standstill with gravity and Coulomb friction, after settling, the encoder may toggle
 // between two adjacent counts but no more (a limit cycle of at most one count).
 TEST(JointClosedLoop, NoLimitCycleLargerThanOneCountAtStandstill) {
-  const JointControllerParameters controller;
+  const golden::JointControllerParameters controller;
   for (const double target : {30.0, 30.005, 30.0037, -12.3421}) {
     for (const ControllerKind kind : {ControllerKind::double_precision, ControllerKind::fixed_point}) {
       LoopScenario scenario;
@@ -62,7 +62,7 @@ struct StepResponse {
 };
 
 StepResponse load_step(ControllerKind kind, bool disturbance_observer) {
-  JointControllerParameters controller;
+  golden::JointControllerParameters controller;
   controller.disturbance_observer = disturbance_observer;
   LoopScenario scenario;
   const double target = 30.005;  // mid-count: the encoder error at rest is +-0.5 count

@@ -17,6 +17,7 @@
 #include <nlohmann/json.hpp>
 
 #include "delta/geometry.hpp"
+#include "delta/golden/board_network.hpp"
 #include "host_bench.hpp"
 
 namespace delta::test {
@@ -184,11 +185,25 @@ TEST(Homing, ARunOnABoardHomedByHandIsRefusedUnlessAllowed) {
 // Counts gained or lost silently after homing (an encoder's noise taken for motion): the next run
 // sees the count on the wrong side of the joint's reference for its home switch and refuses before
 // any motion, naming the joint (exit 3); homing again puts the count right and the run goes.
+// Homing leaves each arm at its switch's edge, where it may settle to either side with the drives
+// off; a slip seen by the switch needs the arm clearly on one side: parked with joint 2 reading
+// 30.6 deg (switch closed), 1.5 deg lost put its count 0.9 deg below its reference.
 TEST(Homing, ACountSlipSinceHomingIsRefusedBeforeAnyMotionAndHomingAgainMendsIt) {
-  Bench bench("homing_slip", {"--fidelity", "model", "--inject-count-slip", "2,-150,2.5"}, false);
+  constexpr double kSlipS = 8.0;  // board time of the slip: after homing and parking
+  Bench bench("homing_slip", {"--fidelity", "model", "--inject-count-slip", "2,-150,8.0"}, false);
   ASSERT_EQ(run_deltactl(home_command(bench)).exit_code, 0);
-  // The slip lands at 2.5 s of board time (real time on the model board).
-  for (int i = 0; i < 100 && board_status(bench.link).value("tick", 0.0) < 26'000.0; ++i) {
+  const golden::BoardWeights weights = golden::read_board_weights(bench.weights);
+  const Vec3 pose = golden::locate_plate(weights.network, Geometry::nominal(), Vec3(30.0, 30.6, 30.0)) * 1e3;
+  char pose_text[96];
+  std::snprintf(pose_text, sizeof pose_text, "%.4f,%.4f,%.4f", pose.x(), pose.y(), pose.z());
+  const CommandResult park = run_deltactl("host park --port " + bench.link + " --weights " + bench.weights +
+                                          " --link-timeout-ms 2000 --pose " + pose_text);
+  ASSERT_EQ(park.exit_code, 0) << park.err;
+  const nlohmann::json parked = board_status(bench.link);
+  ASSERT_LT(parked.value("tick", 0.0) / 10'000.0, kSlipS - 0.5)
+      << "homing and parking took longer than the slip's board time allows: " << parked.dump();
+  ASSERT_NEAR(parked["encoder_deg"][1].get<double>(), 30.6, 0.05) << parked.dump();
+  for (int i = 0; i < 150 && board_status(bench.link).value("tick", 0.0) < (kSlipS + 0.1) * 10'000.0; ++i) {
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
   }
   std::string run_line;
@@ -204,10 +219,11 @@ TEST(Homing, ACountSlipSinceHomingIsRefusedBeforeAnyMotionAndHomingAgainMendsIt)
   EXPECT_EQ(again.exit_code, 0) << again.err;
   ASSERT_EQ(bench.board->terminate(), 0);
   const Table truth = read_table(bench.truth);
-  // 30.00 at homing, 1.50 deg slipped; the arm may settle a few counts with the drives off.
-  EXPECT_NEAR(slipped["encoder_deg"][1].get<double>(), 28.5, 0.1) << slipped.dump();
+  // 1.50 deg slipped from where it was parked; the arm may settle a few counts with the drives off.
+  EXPECT_NEAR(slipped["encoder_deg"][1].get<double>(), parked["encoder_deg"][1].get<double>() - 1.5, 0.05)
+      << slipped.dump();
   for (std::size_t i = 0; i < truth.rows.size() && truth.at(i, "t_s") <= refused_s; ++i) {
-    if (truth.at(i, "t_s") < 2.5) continue;
+    if (truth.at(i, "t_s") < kSlipS) continue;
     ASSERT_EQ(truth.at(i, "drives_enabled"), 0.0) << "the drives were on at " << truth.at(i, "t_s") << " s";
   }
   std::filesystem::remove_all(bench.dir);

@@ -76,9 +76,9 @@ TEST(BoardFacts, DerivedFactsAreConsistent) {
 
 // The golden joint controller's limit (from its design parameters) is the board's full scale.
 TEST(BoardFacts, CurrentFullScaleIsTheControllersLimit) {
-  const control::JointFixedCoefficients c = control::make_fixed_coefficients(control::JointControllerParameters{});
+  const golden::JointFixedCoefficients c = golden::make_fixed_coefficients(golden::JointControllerParameters{});
   EXPECT_EQ(c.current_limit_code, board::kCurrentLimitCode);
-  EXPECT_DOUBLE_EQ(control::current_from_code(board::kCurrentLimitCode), board::kCurrentFullScaleMilliamp / 1000.0);
+  EXPECT_DOUBLE_EQ(golden::current_from_code(board::kCurrentLimitCode), board::kCurrentFullScaleMilliamp / 1000.0);
 }
 
 // icebreaker.pcf's timing targets and the PLL settings of icebreaker_top.sv make the package's clocks.

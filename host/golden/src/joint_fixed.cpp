@@ -7,7 +7,7 @@
 
 #include "delta/geometry.hpp"
 
-namespace delta::control {
+namespace delta::golden {
 namespace {
 
 using Wide = __int128;  // holds the 66-bit accumulator exactly
@@ -147,4 +147,4 @@ std::int32_t reference_code(double shaft_deg, double encoder_resolution_deg) {
 
 double current_from_code(std::int32_t code) { return std::ldexp(static_cast<double>(code), -kCurrentFraction); }
 
-}  // namespace delta::control
+}  // namespace delta::golden

@@ -19,20 +19,20 @@ JointPlantParameters default_plant() {
   return plant;
 }
 
-LoopTrace run_loop(ControllerKind kind, const JointControllerParameters& controller,
+LoopTrace run_loop(ControllerKind kind, const golden::JointControllerParameters& controller,
                    const JointPlantParameters& plant_parameters, const LoopScenario& scenario) {
   JointPlant plant(plant_parameters, scenario.initial_shaft_deg);
   JointController double_controller(controller);
-  const JointFixedCoefficients coefficients = make_fixed_coefficients(controller);
-  JointFixedState fixed_state;
+  const golden::JointFixedCoefficients coefficients = golden::make_fixed_coefficients(controller);
+  golden::JointFixedState fixed_state;
   const double resolution = controller.encoder_resolution_deg;
   auto fixed_input = [&](double reference_deg, int count) {
     if (count < INT16_MIN || count > INT16_MAX) throw std::runtime_error("encoder count outside int16");
-    return JointFixedInput{reference_code(reference_deg, resolution), static_cast<std::int16_t>(count)};
+    return golden::JointFixedInput{golden::reference_code(reference_deg, resolution), static_cast<std::int16_t>(count)};
   };
   const double first_reference = scenario.reference_shaft_deg(0.0);
   double_controller.reset({first_reference, plant.encoder_count() * resolution});
-  fixed_state = fixed_rest_state(fixed_input(first_reference, plant.encoder_count()));
+  fixed_state = golden::fixed_rest_state(fixed_input(first_reference, plant.encoder_count()));
 
   LoopTrace trace;
   const auto periods = static_cast<long>(std::llround(scenario.duration_s / controller.period_s));
@@ -46,8 +46,9 @@ LoopTrace run_loop(ControllerKind kind, const JointControllerParameters& control
       current = output.current_a;
       trace.limited_periods += output.limited;
     } else {
-      JointFixedStatus status;
-      current = current_from_code(fixed_update(coefficients, fixed_state, fixed_input(reference, count), status));
+      golden::JointFixedStatus status;
+      current = golden::current_from_code(
+          golden::fixed_update(coefficients, fixed_state, fixed_input(reference, count), status));
       trace.limited_periods += status.limited;
       trace.overflow_count += status.overflow_count;
     }

@@ -7,7 +7,7 @@
 
 namespace delta::control {
 
-JointController::JointController(const JointControllerParameters& parameters) : parameters_(parameters) {}
+JointController::JointController(const golden::JointControllerParameters& parameters) : parameters_(parameters) {}
 
 double JointController::rotor_rad(double shaft_deg) const { return shaft_deg * kRadPerDeg * parameters_.gear_ratio; }
 
@@ -19,7 +19,7 @@ void JointController::reset(const JointInput& input) {
 }
 
 JointOutput JointController::update(const JointInput& input) {
-  const JointControllerParameters& p = parameters_;
+  const golden::JointControllerParameters& p = parameters_;
   const double ts = p.period_s;
   const double inertia_per_torque = p.nominal_inertia_kg_m2 / p.nominal_torque_constant_nm_per_a;  // A s^2/rad
   const double reference = rotor_rad(input.reference_shaft_deg);

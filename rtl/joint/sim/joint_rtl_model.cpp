@@ -19,17 +19,17 @@ JointRtlModel::JointRtlModel() : impl_(std::make_unique<Impl>()) { reset_model(i
 
 JointRtlModel::~JointRtlModel() { impl_->top.final(); }
 
-JointRtlResult JointRtlModel::run(const std::array<control::JointFixedInput, 3>& inputs) {
+JointRtlResult JointRtlModel::run(const std::array<golden::JointFixedInput, 3>& inputs) {
   const JointRtlResult result = run_period(impl_->top, inputs);
   ++impl_->runs;
   return result;
 }
 
-control::JointFixedState JointRtlModel::state(int joint) const {
+golden::JointFixedState JointRtlModel::state(int joint) const {
   const auto& memory = impl_->top.rootp->joint_controller__DOT__u_state_ram__DOT__memory_q;
   const int bank = static_cast<int>((impl_->runs - 1) % 2);
   auto word = [&](int slot) { return static_cast<std::int32_t>(memory[(joint << 4) | (bank << 3) | slot]); };
-  control::JointFixedState state;
+  golden::JointFixedState state;
   state.reference = word(0);
   state.reference_velocity = word(1);
   state.reference_acceleration = word(2);
@@ -37,7 +37,7 @@ control::JointFixedState JointRtlModel::state(int joint) const {
   state.velocity = word(4);
   state.disturbance = word(5);
   state.current = word(6);
-  state.shift = word(7) - (1 << (control::kShiftBits - 1));  // stored offset by half the range
+  state.shift = word(7) - (1 << (golden::kShiftBits - 1));  // stored offset by half the range
   return state;
 }
 

@@ -8,7 +8,7 @@
 //   reference interpolation (setpoint_interpolation.hpp's rule) at tick ClocksPerPeriod -
 //     InterpolationLeadClocks (2225), joint j's reference written in its step
 //     InterpolatorReferenceStep (8 clocks a joint),
-//   joint controllers (control::fixed_update, fixed_rest_state after a period with the drives
+//   joint controllers (golden::fixed_update, fixed_rest_state after a period with the drives
 //     off) started at tick 1, joint j's PWM duty stored JointControllerLoadCycles +
 //     JointControllerJointCycles (j + 1) + 1 clocks later (shown from tick 364 + 355 j;
 //     joint_controller.sv's 1072-cycle schedule stores the current a clock before, the model

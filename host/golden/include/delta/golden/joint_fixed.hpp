@@ -5,7 +5,7 @@
 
 #include "delta/golden/joint_parameters.hpp"
 
-namespace delta::control {
+namespace delta::golden {
 
 // Formats (hls/README.md, "Joint controller fixed-point formats"; Q(i.f) with i counting the
 // sign bit, as the network's specification). Angles are counted in shaft
@@ -85,4 +85,4 @@ std::int16_t fixed_update(const JointFixedCoefficients& coefficients, JointFixed
 std::int32_t reference_code(double shaft_deg, double encoder_resolution_deg);
 double current_from_code(std::int32_t code);
 
-}  // namespace delta::control
+}  // namespace delta::golden

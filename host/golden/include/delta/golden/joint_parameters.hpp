@@ -1,7 +1,7 @@
 // Design figures of the per-joint acceleration controller (paper Section 4 plus documented choices).
 #pragma once
 
-namespace delta::control {
+namespace delta::golden {
 
 // Every figure the paper does not give is a documented choice (hls/README.md, "Joint controller
 // fixed-point formats"). The nominal motor figures are datasheet-like values for the Faulhaber
@@ -21,4 +21,4 @@ struct JointControllerParameters {
   bool disturbance_observer = true;                   // false: i_dis_hat held at 0 (for the rejection test)
 };
 
-}  // namespace delta::control
+}  // namespace delta::golden

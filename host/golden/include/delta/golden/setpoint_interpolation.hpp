@@ -151,8 +151,8 @@ inline std::int16_t play_shift(std::int64_t difference, std::int32_t half_play) 
 inline std::int16_t resting_shift(bool rising, std::int32_t half_play) {
   return play_shift(rising ? half_play : -half_play, half_play);
 }
-static_assert(((kWidestHalfPlay + 128) >> 8) < (1 << (control::kShiftBits - 1)),
-              "the play shift of the widest half-play must fit control::kShiftBits");
+static_assert(((kWidestHalfPlay + 128) >> 8) < (1 << (golden::kShiftBits - 1)),
+              "the play shift of the widest half-play must fit golden::kShiftBits");
 
 // r_k = B + round_shift(D K_k, 14), k = 0 .. kPeriods - 1. (B + D: the next segment's start.)
 // The sum wraps like a 32-bit register; the travel keeps references far inside it.

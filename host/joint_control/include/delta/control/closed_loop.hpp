@@ -30,8 +30,8 @@ struct LoopTrace {
   int overflow_count = 0;   // fixed point only: saturated operands and states
 };
 
-LoopTrace run_loop(ControllerKind kind, const JointControllerParameters& controller, const JointPlantParameters& plant,
-                   const LoopScenario& scenario);
+LoopTrace run_loop(ControllerKind kind, const golden::JointControllerParameters& controller,
+                   const JointPlantParameters& plant, const LoopScenario& scenario);
 
 // Shaft reference of joint `joint` (0-based) along the paper's experiment 1 (nominal inverse
 // kinematics), reached from rest at its t = 0 value by a quintic blend over `blend_s` seconds.

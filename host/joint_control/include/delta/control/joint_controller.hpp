@@ -21,7 +21,7 @@ struct JointOutput {
 // previous period as the input of the observers (see hls/README.md for the why).
 class JointController {
  public:
-  explicit JointController(const JointControllerParameters& parameters);
+  explicit JointController(const golden::JointControllerParameters& parameters);
 
   // Starts at rest at the given input: filters and observers settled, zero current.
   void reset(const JointInput& input);
@@ -32,12 +32,12 @@ class JointController {
   double reference_acceleration() const { return reference_acceleration_; }
   double velocity_estimate() const { return velocity_estimate_; }
   double disturbance_current() const { return disturbance_current_; }
-  const JointControllerParameters& parameters() const { return parameters_; }
+  const golden::JointControllerParameters& parameters() const { return parameters_; }
 
  private:
   double rotor_rad(double shaft_deg) const;
 
-  JointControllerParameters parameters_;
+  golden::JointControllerParameters parameters_;
   double previous_reference_ = 0.0;  // rotor rad
   double previous_angle_ = 0.0;      // rotor rad
   double reference_velocity_ = 0.0;

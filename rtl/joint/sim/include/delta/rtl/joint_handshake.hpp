@@ -41,7 +41,7 @@ void reset_model(Model& top) {
 // current_j_ap_vld must pulse once before ap_done. Throws
 // std::runtime_error on a protocol fault. Leaves the model idle again.
 template <typename Model>
-JointRtlResult run_period(Model& top, const std::array<control::JointFixedInput, 3>& inputs) {
+JointRtlResult run_period(Model& top, const std::array<golden::JointFixedInput, 3>& inputs) {
   top.reference_0 = static_cast<std::uint32_t>(inputs[0].reference);
   top.reference_1 = static_cast<std::uint32_t>(inputs[1].reference);
   top.reference_2 = static_cast<std::uint32_t>(inputs[2].reference);
@@ -52,7 +52,7 @@ JointRtlResult run_period(Model& top, const std::array<control::JointFixedInput,
   for (int j = 0; j < 3; ++j) {  // the play shifts, through the idle-time write port
     top.shift_write = 1;
     top.shift_joint = static_cast<std::uint8_t>(j);
-    top.shift_value = static_cast<std::uint16_t>(inputs[j].shift) & ((1u << control::kShiftBits) - 1);
+    top.shift_value = static_cast<std::uint16_t>(inputs[j].shift) & ((1u << golden::kShiftBits) - 1);
     clock_cycle(top);
   }
   top.shift_write = 0;

@@ -18,9 +18,9 @@ class JointRtlModel {
   JointRtlModel& operator=(const JointRtlModel&) = delete;
 
   // Runs one ap_start..ap_done handshake. Throws std::runtime_error if ap_done never comes.
-  JointRtlResult run(const std::array<control::JointFixedInput, 3>& inputs);
+  JointRtlResult run(const std::array<golden::JointFixedInput, 3>& inputs);
   // States of joint `joint` after the last run, read from the state memory (new bank).
-  control::JointFixedState state(int joint) const;
+  golden::JointFixedState state(int joint) const;
 
  private:
   struct Impl;
