@@ -37,6 +37,7 @@ while [ $# -gt 0 ]; do
     *) echo "formal.sh: unknown argument '$1' (try --help)" >&2; exit 2 ;;
   esac
 done
+rtl=$(cd "$rtl" && pwd)  # absolute: build_job runs yosys in the model's directory
 for tool in yosys yosys-abc yosys-smtbmc z3; do
   command -v $tool >/dev/null || { echo "formal.sh: $tool not found: run scripts/setup.sh" >&2; exit 2; }
 done
@@ -53,7 +54,7 @@ pkg="$rtl/board/delta_board_pkg.sv $rtl/joint/delta_joint_pkg.sv"
 # job NAME TOP SOURCES [BLACKBOX_SOURCES] [TRUSTED]: BLACKBOX_SOURCES are read for their ports
 # only; TRUSTED submodules keep their assumptions (each is proved by another job, named there).
 job_names=()
-declare -A job_top job_src job_lib job_trusted job_cover job_setup
+declare -A job_top job_src job_lib job_trusted job_cover job_setup job_rom
 job() { job_names+=("$1"); job_top[$1]=$2; job_src[$1]=$(echo $3); job_lib[$1]=$(echo ${4:-}); job_trusted[$1]=${5:-}; }
 # cover_config JOB YOSYS_COMMANDS: the covers too deep for the shipped constants (a 2500-period
 # watchdog, a 256-entry buffer, a byte per 208 clocks, a play every 10 x 2325 clocks) are searched on a second model of the
@@ -65,6 +66,14 @@ cover_config() { job_cover[$1]=$2; }
 # see too little (link_rx: a byte every 208 clocks; 450 clocks hold two). Kept in a file, not an
 # array like the others: check() reads it in the xargs workers, which inherit no arrays.
 job_depth() { echo "$2" >"$work/$1.depth"; }
+# cover_search_depth JOB N: the depth of the first bounded search for the job's covers, where 40
+# clocks see too little and no time-scale constant shortens it (joint_controller: a run is 1072
+# clocks; the covers' cones hold its schedule only, not its datapath).
+cover_search_depth() { echo "$2" >"$work/$1.cover_depth"; }
+# keep_roms JOB: the read-only memories yosys makes of constant case tables (proc_rom: the
+# controllers' microprogram) stay in the model with their contents; only memories with a write
+# port (block RAM) are cut out.
+keep_roms() { job_rom[$1]=1; }
 # job_config JOB YOSYS_COMMANDS: the job's own model (shipped and cover configurations) is read
 # with these (a FORMAL-only define or a chparam), e.g. to pick the environment its properties need.
 job_config() { job_setup[$1]=$2; }
@@ -85,11 +94,29 @@ job board_core board_core "$rtl/network/delta_network_pkg.sv $rtl/board/board_co
     $rtl/board/reference_interpolator.sv $rtl/board/link_tx.sv $rtl/board/uart_tx.sv $rtl/board/uart_rx.sv
     $rtl/board/link_rx.sv $rtl/joint/joint_controller.sv" \
   "setpoint_buffer joint_pwm"
+# What the model board (host/cosim/model_board.cpp) relies on (docs/formal.md): link_tx's payload
+# RAM and word index (read with SYNTHESIS defined: readmemh_load.svh's $readmemh, the RAM cut out
+# as everywhere), the interpolator's schedule, the controllers' state memory while idle.
+job link_tx link_tx "$rtl/board/link_crc16.sv $rtl/board/link_tx.sv"
+job_config link_tx "define SYNTHESIS 1"
+job reference_interpolator reference_interpolator "$rtl/board/reference_interpolator.sv"
+job joint_controller joint_controller "$rtl/joint/joint_state_ram.sv $rtl/joint/joint_controller.sv"
+job quadrature_counter quadrature_counter "$rtl/joint/quadrature_counter.sv"
+# uart_tx at the board's bit time (delta_board_pkg's LinkClocksPerBit; its default is another).
+job uart_tx uart_tx "$rtl/board/uart_tx.sv"
+job_config uart_tx "chparam -set ClocksPerBit $(sed -n 's/.*int LinkClocksPerBit[^=]*= *\([0-9]*\);.*/\1/p' "$rtl/board/delta_board_pkg.sv") uart_tx"
+# joint_axes with the controllers' datapath a black box (its outputs free) and joint_pwm's current
+# clamp trusted, as in board_core.
+job joint_axes joint_axes "$rtl/joint/joint_axes.sv $rtl/joint/joint_safety.sv $rtl/joint/joint_pwm.sv
+    $rtl/joint/quadrature_counter.sv" "$rtl/joint/joint_controller.sv" "joint_pwm"
 cover_config joint_safety "chparam -set WatchdogPeriods 3 joint_safety"
 cover_config setpoint_buffer "chparam -set Depth 4 setpoint_buffer"
 cover_config link_rx "define FORMAL_LINK_RX_BYTE_GAP 1"
 job_depth link_rx 450
+keep_roms joint_controller
+cover_search_depth joint_controller 1100
 cover_config uart_rx "chparam -set ClocksPerBit 4 uart_rx"
+cover_config uart_tx "chparam -set ClocksPerBit 4 uart_tx"
 cover_config uart_rx_any_line "chparam -set ClocksPerBit 4 uart_rx"
 cover_config board_core "chparam -set ClocksPerPeriod 4 board_core"
 
@@ -149,11 +176,16 @@ build_job() {  # job [cover] -> $work/<job>[.cover]/{model.il, model.aig, props}
     cut="$cut t:*$(sed -n 's/^module \([A-Za-z0-9_]*\).*/\1/p' "$f" | head -1)"
   done
   [ -z "$cut" ] || cut="delete $cut;"
-  if ! yosys -q -l "$d/read.log" -p "read_verilog -formal -sv $defines $pkg ${job_src[$j]}; $lib $params hierarchy -top $top;
+  local memories='t:$mem_v2 t:$mem'
+  [ -z "${job_rom[$j]:-}" ] || memories='t:$mem_v2 r:WR_PORTS=0 %d t:$mem'
+  # yosys reads in the model's directory: a $readmemh of MemDir "." (link_tx's identify.mem) finds
+  # a file there, one zero word (the RAM is cut out: its contents are free anyway).
+  echo 0000 >"$d/identify.mem"
+  if ! (cd "$d" && yosys -q -l "$d/read.log" -p "read_verilog -formal -sv -I$rtl/network $defines $pkg ${job_src[$j]}; $lib $params hierarchy -top $top;
         prep -top $top; select -set keep $top ${job_trusted[$j]}; chformal -assume -assume2assert @keep %n; chformal -cover -remove $top %n;
-        flatten; $cut $lemmas memory -nomap; delete t:\$mem_v2 t:\$mem; setundef -undriven -anyseq; opt_clean;
+        flatten; $cut $lemmas memory -nomap; delete $memories; setundef -undriven -anyseq; opt_clean;
         write_rtlil $d/model.il;
-        tee -q -o $d/asserts select -list t:\$assert; tee -q -o $d/covers select -list t:\$cover" >/dev/null 2>&1; then
+        tee -q -o $d/asserts select -list t:\$assert; tee -q -o $d/covers select -list t:\$cover" >/dev/null 2>&1); then
     echo "formal.sh: yosys could not read job $j (log: $d/read.log):" >&2
     grep -m3 ERROR "$d/read.log" >&2 || true
     return 1
@@ -188,7 +220,9 @@ check() {
   log=
   # A cover is usually reached in a few frames: bounded search first; a deep one on the job's
   # cover configuration when it has one, else PDR.
-  [ "$kind" != cover ] || log=$(abc_cpu $timeout "read_aiger $aig; bmc3 -F $bmc_depth")
+  local first_depth=$bmc_depth
+  [ ! -f "$work/$j.cover_depth" ] || first_depth=$(cat "$work/$j.cover_depth")
+  [ "$kind" != cover ] || log=$(abc_cpu $timeout "read_aiger $aig; bmc3 -F $first_depth")
   if [ "$kind" = cover ] && ! grep -q "asserted in frame" <<<"$log" && [ -f "$work/$j.cover/props" ]; then
     d=$work/$j.cover config=cover
     index=$(awk -v n="$name" '$2 == n {print $3}' "$d/props")

@@ -72,3 +72,11 @@ delta_add_gtest(rtl_model_board_tests
   LIBRARIES delta::board_cosim delta::controller delta::golden delta::nn delta::host
   LABELS rtl cosim)
 target_include_directories(rtl_model_board_tests PRIVATE ${CMAKE_CURRENT_LIST_DIR}/rtl)
+
+# The model board module by module: each module's registers against the same instance's inside
+# the Verilated board core (Vboard_core_probe), clock by clock under random stimulus.
+delta_add_gtest(rtl_model_board_module_tests
+  SOURCES ${CMAKE_CURRENT_LIST_DIR}/rtl/test_model_board_modules.cpp
+  LIBRARIES delta_rtl_board_probe_model delta::virtual_board delta::rtl_board delta::golden delta::nn delta::host
+  LABELS rtl cosim)
+target_include_directories(rtl_model_board_module_tests PRIVATE ${CMAKE_CURRENT_LIST_DIR}/rtl)

@@ -567,8 +567,8 @@ bool ModelBoard::quiet() const {
   if (s.step_error[0] || s.step_error[1] || s.step_error[2]) return false;
   if (switch_edge(s) != 0) return false;
   const bool fault = s.fault_cause != 0;
-  if (fault && (s.enabled || s.holding)) return false;
-  if (s.answered && (!s.enabled || fault)) return false;  // the interpolator forgets the answer
+  if (fault && (s.enabled || s.holding || s.homing)) return false;  // a fault ends homing, enabled or not
+  if (s.answered && (!s.enabled || fault)) return false;            // the interpolator forgets the answer
   if (!s.enabled && s.silent_periods != 0) return false;
   if (s.enabled && s.silent_periods > board::kWatchdogPeriods) return false;
   if (s.running) {
@@ -918,7 +918,7 @@ bool ModelBoard::plan_micro_clock(int encoder_a, int encoder_b, std::uint64_t li
   const State& s = *state_;
   const bool fault = s.fault_cause != 0;
   if (s.step_error[0] || s.step_error[1] || s.step_error[2] || s.slew_limited || s.check || switch_edge(s) != 0 ||
-      (fault && (s.enabled || s.holding)) || (s.answered && (!s.enabled || fault)) ||
+      (fault && (s.enabled || s.holding || s.homing)) || (s.answered && (!s.enabled || fault)) ||
       (!s.enabled && s.silent_periods != 0) || (s.enabled && s.silent_periods > board::kWatchdogPeriods) ||
       (s.tx_state == kTxIdle && (s.telemetry_pending || s.identify_pending))) {
     return false;
@@ -1583,6 +1583,150 @@ void ModelBoard::telemetry_capture_next(const State& s, State& n, std::uint16_t 
     n.capture = (capture + 1) & kCaptureMask;
     if (capture == kTelemetryWords - 1) n.capturing = false;
   }
+}
+
+// ---- the test probe (model_board.hpp): the model's registers under the RTL's names, read-only ----
+
+std::uint64_t ModelBoard::cycle() const { return state_->cycle; }
+
+std::vector<ModelBoard::ProbedRegister> ModelBoard::probe_registers(const std::string& instance) const {
+  const State& s = *state_;
+  std::vector<ProbedRegister> out;
+  auto add = [&out](std::string name, std::uint64_t value) { out.push_back({std::move(name), value}); };
+  // A signed value as the RTL's `bits` wide register holds it.
+  auto bits = [](std::int64_t value, int width) {
+    return static_cast<std::uint64_t>(value) & ((std::uint64_t{1} << width) - 1);
+  };
+  auto indexed = [](const char* name, int k) { return std::string(name) + "[" + std::to_string(k) + "]"; };
+  constexpr int kShiftBits = 10;  // delta_joint_pkg::ShiftBits
+  constexpr int kDutyBits = static_cast<int>(board::kPwmBits) + 1;
+  if (instance == "board_core") {
+    add("command_q", s.command);
+    add("enabled_q", s.enabled);
+    add("holding_q", s.holding);
+    add("homed_q", s.homed);
+    add("homing_q", s.homing);
+    add("referenced_q", static_cast<std::uint64_t>(s.referenced));
+    add("switch_meta_q", static_cast<std::uint64_t>((s.enc_a_meta >> kHomeSwitchShift) & kAllJoints));
+    add("switch_q", static_cast<std::uint64_t>((s.enc_a >> kHomeSwitchShift) & kAllJoints));
+    add("switch_previous_q", static_cast<std::uint64_t>(s.switch_previous));
+    add("encoder_a_meta_q", static_cast<std::uint64_t>(s.enc_a_meta & kAllJoints));
+    add("encoder_a_q", static_cast<std::uint64_t>(s.enc_a & kAllJoints));
+    add("encoder_b_meta_q", static_cast<std::uint64_t>(s.enc_b_meta & kAllJoints));
+    add("encoder_b_q", static_cast<std::uint64_t>(s.enc_b & kAllJoints));
+    add("phase_q", static_cast<std::uint64_t>(s.phase));
+    add("period_count_q", s.period_count);
+    add("bad_frames_q", s.bad_frames);
+    add("underruns_q", s.underruns);
+    add("slew_limits_q", s.slew_limits);
+    add("refused_q", s.refused);
+    add("last_sequence_q", s.last_sequence);
+    add("word_index_q", static_cast<std::uint64_t>(s.word_index));
+    for (int j = 0; j < kJoints; ++j) add(indexed("net_outputs", j), bits(s.net_outputs[j], kNetworkOutputBits));
+  } else if (instance == "u_uart_rx") {
+    add("valid_q", s.rx_valid);
+    if (s.rx_valid) add("shift_q", s.rx_shift);
+  } else if (instance == "u_link_rx") {
+    add("write_q", static_cast<std::uint64_t>(s.write));
+    add("read_q", static_cast<std::uint64_t>(s.read));
+    add("start_q", static_cast<std::uint64_t>(s.start));
+    add("index_q", static_cast<std::uint64_t>(s.index));
+    add("end_q", static_cast<std::uint64_t>(s.end));
+    add("fetched_q", s.fetched);
+    add("crc_high_ok_q", s.crc_high_ok);
+    add("length_q", s.length);
+    add("type_q", s.type);
+    add("sequence_q", s.sequence);
+    add("u_crc.crc_q", s.rx_crc);
+    if (s.fetched) add("ring_data_q", s.ring_data);
+  } else if (instance == "u_setpoints") {
+    add("sample_index_q", s.sample_index);
+    add("fill_q", static_cast<std::uint64_t>(s.fill));
+    add("full_at_start_q", s.full_at_start);
+    add("index_match_q", s.index_match);
+    add("vetoed_q", s.vetoed);
+    add("starting_q", s.starting);
+  } else if (instance == "u_interpolator") {
+    add("busy_q", s.busy);
+    add("step_q", static_cast<std::uint64_t>(s.step));
+    add("joint_q", static_cast<std::uint64_t>(s.joint & 3));
+    add("answer_pending_q", s.answer_pending);
+    add("answered_q", s.answered);
+    add("slew_limited_o", s.slew_limited);
+    add("delta_q", bits(s.delta, static_cast<int>(board::kSegmentDeltaBits)));
+    // r_q and d_q rotate through the update: r_q[i] holds joint (i + joints done) mod 3.
+    for (int i = 0; i < kJoints; ++i) {
+      const int j = (i + s.joint) % kJoints;
+      add(indexed("r_q", i), static_cast<std::uint32_t>(s.r[j]));
+      add(indexed("d_q", i), bits(s.d[j], static_cast<int>(board::kSegmentDeltaBits)));
+    }
+    // The play shift last written for joint j (shift_o at its shift_write_o).
+    for (int j = 0; j < kJoints; ++j) add(indexed("shift_o", j), bits(s.shift[j], kShiftBits));
+  } else if (instance == "u_joint_axes") {
+    add("tick_q", static_cast<std::uint64_t>(s.tick));
+    add("start_q", s.start_q);
+    add("encoder_error_q", static_cast<std::uint64_t>(s.encoder_error));
+    for (int j = 0; j < kJoints; ++j) {
+      add(indexed("counts_q", j), s.counts_q[j]);
+      const std::string counter = "g_encoder[" + std::to_string(j) + "].u_counter.";
+      add(counter + "previous_q", static_cast<std::uint64_t>(s.previous[j]));
+      add(counter + "count_q", s.count[j]);
+      add(counter + "error_q", s.step_error[j]);
+      add(counter + "rising_q", s.rising[j]);
+    }
+    add("u_safety.silent_periods_q", static_cast<std::uint64_t>(s.silent_periods));
+    add("u_safety.check_q", s.check);
+    add("u_safety.checked_q", s.checked);
+    add("u_safety.fault_cause_q", static_cast<std::uint64_t>(s.fault_cause));
+    add("u_safety.active_q", s.active);
+    for (int j = 0; j < kJoints; ++j) {
+      const std::string check = "u_safety.g_check[" + std::to_string(j) + "].";
+      add(check + "difference_q", bits(s.difference_q[j], kDifferenceBits));
+      add(check + "outside_q", s.outside_q[j]);
+    }
+    add("u_pwm.pwm_phase_q", static_cast<std::uint64_t>(s.pwm_phase));
+    std::uint64_t duty = 0;
+    for (int j = 0; j < kJoints; ++j) duty |= static_cast<std::uint64_t>(s.duty[j]) << (kDutyBits * j);
+    add("u_pwm.duty_q", duty);
+    add("u_pwm.direction_q", static_cast<std::uint64_t>(s.direction));
+    add("u_pwm.pwm_q", static_cast<std::uint64_t>(s.pwm));
+    add("u_pwm.enable_q", s.enable_out);
+    add("u_controller.ap_idle", !s.running);
+    add("u_controller.primed_q", s.primed);
+    add("u_controller.overflow_q", s.overflow);
+    for (int j = 0; j < kJoints; ++j) add(indexed("u_controller.current_q", j), s.current[j]);
+    add("peek_data_o", s.peek_data);
+  } else if (instance == "u_link_tx") {
+    add("capturing_q", s.capturing);
+    add("writing_q", s.writing);
+    add("telemetry_pending_q", s.telemetry_pending);
+    add("capture_q", static_cast<std::uint64_t>(s.capture));
+    add("written_q", static_cast<std::uint64_t>(s.written));
+    add("identify_pending_q", s.identify_pending);
+    add("identify_sequence_q", s.identify_sequence);
+    add("telemetry_sequence_q", s.telemetry_sequence);
+    add("is_identify_q", s.is_identify);
+    add("length_q", static_cast<std::uint64_t>(s.tx_length));
+    add("sequence_q", s.tx_sequence);
+    add("state_q", static_cast<std::uint64_t>(s.tx_state));  // Idle, or Send (the model folds Fetch into it)
+  } else {
+    throw std::invalid_argument("model board probe: no instance " + instance);
+  }
+  return out;
+}
+
+std::vector<std::uint32_t> ModelBoard::probe_memory(const std::string& memory) const {
+  const Memories& m = *memories_;
+  if (memory == "u_link_rx.ring_q") return {m.ring.begin(), m.ring.end()};
+  if (memory == "u_link_tx.words") return {m.words.begin(), m.words.end()};
+  if (memory == "u_setpoints.ram_q") {
+    std::vector<std::uint32_t> out;
+    for (const auto& entry : m.ram) {
+      for (int w = 0; w < kPositionBytes / 2; ++w) out.push_back(entry[2 * w] | (entry[2 * w + 1] << 8));
+    }
+    return out;
+  }
+  throw std::invalid_argument("model board probe: no memory " + memory);
 }
 
 }  // namespace delta::cosim

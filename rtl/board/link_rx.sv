@@ -195,8 +195,11 @@ module link_rx #(
 `endif
   localparam int FMaxFrame = delta_board_pkg::FrameHeaderBytes + delta_board_pkg::SetpointPayloadBytes +
                              delta_board_pkg::FrameCrcBytes;  // the longest frame the board takes
-  logic f_past_valid = 1'b0;
-  always_ff @(posedge clk_i) f_past_valid <= 1'b1;
+  logic f_past_valid = 1'b0, f_past2_valid = 1'b0;  // $past(x) valid; $past(x, 2) valid
+  always_ff @(posedge clk_i) begin
+    f_past_valid  <= 1'b1;
+    f_past2_valid <= f_past_valid;
+  end
   logic [$clog2(FByteGap+1)-1:0] f_gap_q = '0;  // cycles since the last byte, saturating
   always_ff @(posedge clk_i) begin
     if (rx_valid_i) f_gap_q <= '0;
@@ -322,6 +325,10 @@ module link_rx #(
     the_ring_is_written_in_arrival_order: assert (ring_write == rx_valid_i &&
         (!ring_write || (ring_write_addr == f_arrivals_q && ring_write_data == rx_data_i)));
     the_ring_is_written_in_arrival_order_c: cover (ring_write && ring_write_addr == f_slot && f_arrivals_q != '0);
+    // A read whose byte the parser takes in the next clock (fetched_d) never reads the slot written in
+    // the same clock (no_rw_check: the RAM gives no defined byte there).
+    if (ring_write && fetched_d) the_ring_never_reads_the_slot_written: assert (ring_read_addr != ring_write_addr);
+    the_ring_never_reads_the_slot_written_c: cover (ring_write && fetched_d && !fetched_q);
     // The byte the parser consumes from a slot (ring_data_q) is, by the RAM's contract, the last
     // byte received into it: the read was of a written slot, with no write to it in that cycle,
     // and the RAM holds that byte there (with the backlog bound below, a byte of the current
@@ -340,6 +347,13 @@ module link_rx #(
       rescan_after_a_drop_c: cover ($past(bad_o) && $past(f_pos_q) == 8'd3);
       if ($past(ok_o)) continue_after_a_frame: assert (read_q == $past(read_q) + 1'b1 && f_pos_q == 8'd0);
       continue_after_a_frame_c: cover ($past(ok_o));
+    end
+    if (f_past2_valid && $past(rst_ni, 2)) begin
+      // A byte into an idle ring (nothing fetched, nothing unread) is fetched in the next clock and
+      // processed in the one after, from its slot (the model board takes the three clocks at once).
+      if ($past(rx_valid_i && !fetched_q && read_q == write_q, 2)) an_idle_ring_processes_a_byte_two_clocks_after_it: assert (
+          fetched_q && read_q == $past(write_q, 2));
+      an_idle_ring_processes_a_byte_two_clocks_after_it_c: cover ($past(rx_valid_i && !fetched_q && read_q == write_q, 2) && f_pos_q == 8'd1);
     end
   end
 `endif

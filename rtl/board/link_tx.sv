@@ -186,4 +186,41 @@ module link_tx #(
       end
     end
   end
+`ifdef FORMAL
+  // ---- Formal properties (scripts/formal.sh; docs/formal.md) ----
+  // What the model board (host/cosim/model_board.cpp) relies on: it reads a frame's words when the
+  // frame starts and keeps its RAM in place, and follows the capture's word index only while it
+  // captures. Environment: reset in the first cycle only; every other input is free.
+  localparam int unsigned FIdentifyWords = delta_board_pkg::IdentifyPayloadBytes / 2;
+  logic f_past_valid = 1'b0;
+  always_ff @(posedge clk_i) f_past_valid <= 1'b1;
+  always_comb begin
+    reset_only_in_the_first_cycle: assume (rst_ni == f_past_valid);
+  end
+  always_comb begin
+    // A snapshot is written only while no telemetry frame is queued or sent: a telemetry frame's
+    // words hold still from its start to its last byte.
+    if (telemetry_pending_q || sending_telemetry) no_capture_while_telemetry_is_queued_or_sent: assert (
+        !capturing_q && !writing_q && !write_enable);
+    no_capture_while_telemetry_is_queued_or_sent_c: cover (sending_telemetry && snapshot_i);
+    // The identify words are never written (an identify frame reads words no capture writes): every
+    // write is a telemetry word, above the identify payload.
+    if (write_enable) the_identify_words_are_never_written: assert (write_address >= TelemetryBase &&
+        write_address < TelemetryBase + 8'(TelemetryWords) && TelemetryBase >= 8'(FIdentifyWords));
+    the_identify_words_are_never_written_c: cover (write_enable && state_q != Idle && is_identify_q);
+    // The RAM is never read for a payload byte in the clock that writes the same word.
+    if (write_enable && state_q != Idle && index_q >= 6'd4 && index_q < length_q + 6'd4) begin
+      the_ram_never_reads_the_word_written: assert (read_address != write_address);
+    end
+    the_ram_never_reads_the_word_written_c: cover (write_enable && state_q == Fetch && index_q >= 6'd4 && index_q < length_q + 6'd4);
+  end
+  always_ff @(posedge clk_i) begin
+    if (f_past_valid && $past(rst_ni)) begin
+      // The word index asked of board_core moves only while capturing or at a snapshot's start.
+      if (capture_q != $past(capture_q)) the_word_index_moves_only_while_capturing: assert (
+          $past(capturing_q) || ($past(snapshot_i) && capture_q == '0));
+      the_word_index_moves_only_while_capturing_c: cover ($past(capturing_q) && capture_q == 5'(TelemetryWords - 1));
+    end
+  end
+`endif
 endmodule

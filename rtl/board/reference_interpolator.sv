@@ -236,4 +236,48 @@ module reference_interpolator #(
   assign shift_write_o = busy_q && step_q == 4'(delta_board_pkg::InterpolatorReferenceStep);
   assign shift_joint_o = joint_q;
   assign shift_o       = shift_new;
+`ifdef FORMAL
+  // ---- Formal properties (scripts/formal.sh; docs/formal.md) ----
+  // What the model board (host/cosim/model_board.cpp) relies on: an update is 8 clocks a joint,
+  // three joints, and only its steps InterpolatorDeltaStep and InterpolatorReferenceStep act; the
+  // steps between only count. Environment: reset in the first cycle only; every other input free.
+  localparam logic [3:0] FDeltaStep     = 4'(delta_board_pkg::InterpolatorDeltaStep);
+  localparam logic [3:0] FReferenceStep = 4'(delta_board_pkg::InterpolatorReferenceStep);
+  logic f_past_valid = 1'b0;
+  always_ff @(posedge clk_i) f_past_valid <= 1'b1;
+  always_comb begin
+    reset_only_in_the_first_cycle: assume (rst_ni == f_past_valid);
+  end
+  // Clocks since the update started (the clock after update_i found the interpolator idle).
+  logic [5:0] f_update_clock_q = '0;
+  always_ff @(posedge clk_i) begin
+    if (update_i && !busy_q) f_update_clock_q <= '0;
+    else if (busy_q && f_update_clock_q != '1) f_update_clock_q <= f_update_clock_q + 6'd1;
+  end
+  always_comb begin
+    if (busy_q && rst_ni) an_update_is_its_steps_per_joint_for_three_joints: assert (joint_q <= 2'd2 &&
+        step_q <= FReferenceStep && f_update_clock_q == 6'(joint_q) * 6'(FReferenceStep + 4'd1) + 6'(step_q));
+    an_update_is_its_steps_per_joint_for_three_joints_c: cover (busy_q && joint_q == 2'd2 && step_q == FReferenceStep);
+  end
+  always_ff @(posedge clk_i) begin
+    if (f_past_valid && $past(rst_ni)) begin
+      if ($past(busy_q) && !busy_q) an_update_ends_after_three_joints: assert (
+          $past(f_update_clock_q) == 6'(3 * (delta_board_pkg::InterpolatorReferenceStep + 1) - 1));
+      an_update_ends_after_three_joints_c: cover ($past(busy_q) && !busy_q);
+      // The references (and the segment changes) move only in a joint's reference step.
+      if (references_o != $past(references_o) || d_q[0] != $past(d_q[0]) || d_q[1] != $past(d_q[1]) ||
+          d_q[2] != $past(d_q[2])) begin
+        references_change_only_in_a_reference_step: assert ($past(busy_q) && $past(step_q) == FReferenceStep);
+      end
+      references_change_only_in_a_reference_step_c: cover (references_o != $past(references_o));
+      // A slew limit is flagged only in the clock after a joint's delta step.
+      if (slew_limited_o) slew_limit_only_after_a_delta_step: assert ($past(busy_q) && $past(step_q) == FDeltaStep);
+      slew_limit_only_after_a_delta_step_c: cover (slew_limited_o);
+      // The pending answer is taken only at the update's end.
+      if (!answer_pending_q && $past(answer_pending_q)) the_answer_is_taken_only_at_the_updates_end: assert (
+          $past(busy_q) && $past(step_q) == FReferenceStep && $past(joint_q) == 2'd2 && $past(phase_i) == 4'd0);
+      the_answer_is_taken_only_at_the_updates_end_c: cover (!answer_pending_q && $past(answer_pending_q));
+    end
+  end
+`endif
 endmodule

@@ -169,4 +169,21 @@ module joint_axes #(
 
   logic unused;
   assign unused = ^{ap_done, limited};
+`ifdef FORMAL
+  // ---- Formal properties (scripts/formal.sh; docs/formal.md) ----
+  // What the model board (host/cosim/model_board.cpp) relies on: the counts the safety check and
+  // the controllers read are latched only at a period start. Environment: reset in the first cycle.
+  logic f_past_valid = 1'b0;
+  always_ff @(posedge clk_i) f_past_valid <= 1'b1;
+  always_comb begin
+    reset_only_in_the_first_cycle: assume (rst_ni == f_past_valid);
+  end
+  always_ff @(posedge clk_i) begin
+    if (f_past_valid && $past(rst_ni)) begin
+      if (counts_q != $past(counts_q)) the_latched_counts_change_only_at_a_period_start: assert (
+          $past(tick_q) == '0 && $past(ap_idle) && counts_q == $past(counts));
+      the_latched_counts_change_only_at_a_period_start_c: cover (counts_q != $past(counts_q));
+    end
+  end
+`endif
 endmodule

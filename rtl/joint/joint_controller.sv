@@ -384,4 +384,73 @@ module joint_controller (
   assign current_2_ap_vld = current_valid_q[2];
   assign limited          = limited_q;
   assign overflow_count   = overflow_q;
+`ifdef FORMAL
+  // ---- Formal properties (scripts/formal.sh; docs/formal.md) ----
+  // What the model board (host/cosim/model_board.cpp) relies on for the state memory it keeps in
+  // place: while idle, the peek reads the bank the last period wrote and the idle write (the next
+  // period's play shift) goes to the other bank, so the peek never reads the word written.
+  // Environment: reset (ap_rst) in the first cycle; every other input free.
+  logic f_past_valid = 1'b0;
+  always_ff @(posedge ap_clk) f_past_valid <= 1'b1;
+  always_comb begin
+    reset_in_the_first_cycle: assume (ap_rst || f_past_valid);
+  end
+  always_comb begin
+    if (state_q == StateIdle && write_enable) the_peek_never_reads_the_word_written: assert (
+        read_address[3] == !bank_q && write_address[3] == bank_q && read_address != write_address);
+    the_peek_never_reads_the_word_written_c: cover (f_past_valid && !ap_rst && state_q == StateIdle && write_enable &&
+        read_address[5:4] == write_address[5:4] && read_address[2:0] == write_address[2:0]);
+  end
+
+  // The schedule the model board keeps (its duty_cycle(j), kRunCycles): from the clock ap_start is
+  // taken (idle), JointControllerLoadCycles clocks copy the inputs, each joint's microprogram takes
+  // JointControllerJointCycles clocks (OpInit 3, OpMac 30, the stores 2), joint j's current is out
+  // (current_j_ap_vld) JointControllerLoadCycles + JointControllerJointCycles (j + 1) + 1 clocks
+  // after it, and ap_done with the third.
+  localparam int unsigned FLoad  = delta_board_pkg::JointControllerLoadCycles;
+  localparam int unsigned FJoint = delta_board_pkg::JointControllerJointCycles;
+  function automatic logic [10:0] f_op_clocks(logic [1:0] operation);
+    f_op_clocks = operation == delta_joint_pkg::OpInit ? 11'd3 : operation == delta_joint_pkg::OpMac ? 11'd30 : 11'd2;
+  endfunction
+  function automatic logic [10:0] f_clocks_before(logic [4:0] pc);  // the microprogram's clocks before pc
+    logic [delta_joint_pkg::InstructionWidth-1:0] instruction;
+    f_clocks_before = '0;
+    for (int i = 0; i < 21; i++) begin
+      instruction = delta_joint_pkg::program_rom(5'(i));
+      if (5'(i) < pc) f_clocks_before = f_clocks_before + f_op_clocks(instruction[delta_joint_pkg::InstructionWidth-1 -: 2]);
+    end
+  endfunction
+  logic [10:0] f_elapsed_q = '0;  // clocks since ap_start was taken (0 while idle)
+  always_ff @(posedge ap_clk) begin
+    if (ap_rst) f_elapsed_q <= '0;
+    else if (state_q == StateIdle) f_elapsed_q <= ap_start ? 11'd1 : 11'd0;
+    else if (f_elapsed_q != '1) f_elapsed_q <= f_elapsed_q + 11'd1;
+  end
+  logic [10:0] f_within;  // clocks into the present instruction
+  assign f_within = (op == delta_joint_pkg::OpMac && phase_q == 3'd6) ? 11'd6 + 11'(bit_q) : 11'(phase_q);
+  always_comb begin
+    if (f_past_valid && state_q == StateLoad) the_load_takes_its_cycles: assert (load_q <= 3'(FLoad - 1) && f_elapsed_q == 11'(load_q) + 11'd1);
+    the_load_takes_its_cycles_c: cover (f_past_valid && state_q == StateLoad && load_q == 3'(FLoad - 1));
+    // Lemmas: the instruction is the microprogram's at pc, and each instruction's phase (and bit)
+    // stays within its clocks; then the run is where the microprogram says, f_elapsed_q clocks
+    // after ap_start.
+    if (f_past_valid) the_instruction_is_the_programs_at_pc: assert (joint_q <= 2'd2 && pc_q <= 5'd20 &&
+        instruction_q == delta_joint_pkg::program_rom(pc_q));
+    the_instruction_is_the_programs_at_pc_c: cover (f_past_valid && state_q == StateRun && pc_q == 5'd2);
+    if (f_past_valid && state_q == StateRun) the_phase_stays_within_its_instruction: assert (
+        op == delta_joint_pkg::OpInit ? phase_q <= 3'd2 :
+        op == delta_joint_pkg::OpMac ? (phase_q <= 3'd6 && (phase_q != 3'd6 || bit_q <= 5'd23)) : phase_q <= 3'd1);
+    the_phase_stays_within_its_instruction_c: cover (f_past_valid && state_q == StateRun && op == delta_joint_pkg::OpMac && phase_q == 3'd6 && bit_q == 5'd5);
+    if (f_past_valid && state_q == StateRun) the_run_follows_the_microprogram: assert (
+        f_elapsed_q == 11'(FLoad + 1) + 11'(joint_q) * 11'(FJoint) + f_clocks_before(pc_q) + f_within);
+    the_run_follows_the_microprogram_c: cover (f_past_valid && state_q == StateRun && op == delta_joint_pkg::OpStoreState && phase_q == 3'd1);
+    if (f_past_valid && current_valid_q != '0) a_current_is_out_at_its_cycle: assert (
+        (current_valid_q == 3'b001 && f_elapsed_q == 11'(FLoad + FJoint + 1)) ||
+        (current_valid_q == 3'b010 && f_elapsed_q == 11'(FLoad + 2 * FJoint + 1)) ||
+        (current_valid_q == 3'b100 && f_elapsed_q == 11'(FLoad + 3 * FJoint + 1)));
+    a_current_is_out_at_its_cycle_c: cover (f_past_valid && current_valid_q[2]);
+    if (f_past_valid && state_q == StateDone) done_at_the_runs_end: assert (f_elapsed_q == 11'(FLoad + 3 * FJoint + 1));
+    done_at_the_runs_end_c: cover (f_past_valid && state_q == StateDone);
+  end
+`endif
 endmodule

@@ -138,6 +138,19 @@ module joint_safety #(
     else if (tick_i && ~f_silent_q != '0) f_silent_q <= f_silent_q + 1'b1;
   end
 
+  // The check's registers from this clock's references and latched counts (the pipeline's own
+  // formula): what they hold in the next clock, whatever else happens.
+  logic [2:0] f_following_next, f_outside_next;
+  for (genvar j = 0; j < 3; j++) begin : g_next
+    logic signed [23:0] f_reference_count;
+    logic signed [16:0] f_difference17;
+    logic signed [13:0] f_block;
+    assign f_reference_count   = references_i[32 * j + 8 +: 24];
+    assign f_difference17      = f_reference_count[16:0] - {counts_i[16 * j + 15], counts_i[16 * j +: 16]};
+    assign f_block             = f_reference_count[23:10];
+    assign f_following_next[j] = f_difference17[16:FollowingBits] != '0 && f_difference17[16:FollowingBits] != '1;
+    assign f_outside_next[j]   = f_block < 14'(MinTravelBlock) || f_block > 14'(MaxTravelBlock);
+  end
   localparam int Skip = delta_board_pkg::FaultEncoderSkip, Following = delta_board_pkg::FaultFollowing;
   localparam int Watchdog = delta_board_pkg::FaultWatchdog, Travel = delta_board_pkg::FaultTravel;
   always_comb begin
@@ -151,6 +164,11 @@ module joint_safety #(
       // A latched cause stays until a clear: never clears, never re-enables by itself.
       if ($past(fault_o) && !$past(clear_i)) cause_holds_until_a_clear: assert ((fault_cause_o & $past(fault_cause_o)) == $past(fault_cause_o));
       cause_holds_until_a_clear_c: cover ($past(fault_o) && !$past(clear_i) && $past(step_error_i) == '0);
+      // The check's registers follow the last clock's references and latched counts alone (the model
+      // board computes them once when these hold).
+      the_check_follows_only_the_references_and_counts: assert (following == $past(f_following_next) &&
+          outside == $past(f_outside_next));
+      the_check_follows_only_the_references_and_counts_c: cover (following != '0 && outside != '0 && !$past(checked_q));
       // A clear with no cause present in its cycle clears every cause (progress).
       if ($past(clear_i) && $past(step_error_i) == '0 && !($past(enabled_i) && $past(checked_q)) &&
           !($past(enabled_i) && $past(silent_periods_q) > WatchdogWidth'(WatchdogPeriods))) begin

@@ -62,4 +62,22 @@ module quadrature_counter #(
   assign count_o = count_q;
   assign error_o = error_q;
   assign rising_o = rising_q;
+`ifdef FORMAL
+  // ---- Formal properties (scripts/formal.sh; docs/formal.md) ----
+  // What the model board (host/cosim/model_board.cpp) relies on in its quiet clocks: lines that
+  // show the state already taken change nothing. Environment: reset in the first cycle only.
+  logic f_past_valid = 1'b0;
+  always_ff @(posedge clk_i) f_past_valid <= 1'b1;
+  always_comb begin
+    reset_only_in_the_first_cycle: assume (rst_ni == f_past_valid);
+  end
+  always_ff @(posedge clk_i) begin
+    if (f_past_valid && $past(rst_ni)) begin
+      if ({$past(a_i), $past(b_i)} == $past(previous_q) && !$past(home_i)) settled_lines_change_nothing: assert (
+          count_q == $past(count_q) && rising_q == $past(rising_q) && !error_q && previous_q == $past(previous_q));
+      settled_lines_change_nothing_c: cover ({$past(a_i), $past(b_i)} == $past(previous_q) && !$past(home_i) &&
+          count_q != HomeCount && !rising_q);
+    end
+  end
+`endif
 endmodule

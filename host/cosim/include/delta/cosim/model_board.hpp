@@ -23,6 +23,7 @@
 #include <deque>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "delta/cosim/board_model.hpp"
 #include "delta/golden/fixed_network.hpp"
@@ -75,6 +76,28 @@ class ModelBoard final : public BoardModel {
   // and throws std::logic_error naming the first register, block RAM, drive pin or line byte that
   // differs (the quiet runs and micro clocks must be exactly the full clocks they stand for).
   void check_runs(bool on) { check_runs_ = on; }
+
+  // Test probe (tests/rtl/test_model_board_modules.cpp), read-only: the registers of one of
+  // board_core's module instances as this model holds them now, each under the RTL's name inside
+  // that instance (`instance`: "board_core" for board_core's own registers, else the instance name,
+  // e.g. "u_link_rx"; a register of a sub-instance with its path, "u_safety.check_q"; array element
+  // k as "name[k]"), the value as the RTL's bits (two's complement within the register's width).
+  // Where the model keeps a register in another form, the RTL's is derived from it (the
+  // interpolator's rotating r_q, d_q: by joint_q; the packed duties); a register the model does
+  // not hold in every clock is listed only in the clocks it holds it (uart_rx's shift_q with
+  // valid_q, link_rx's ring_data_q while fetched_q). Throws std::invalid_argument for an unknown
+  // instance.
+  struct ProbedRegister {
+    std::string name;
+    std::uint64_t value;
+  };
+  std::vector<ProbedRegister> probe_registers(const std::string& instance) const;
+  // Test probe, read-only: a block RAM's words by address, as the RTL's memory holds them:
+  // "u_link_rx.ring_q" (bytes), "u_setpoints.ram_q" (entry e's 16-bit lane w at 6 e + w),
+  // "u_link_tx.words".
+  std::vector<std::uint32_t> probe_memory(const std::string& memory) const;
+  // The clocks run since reset (the model's cycle).
+  std::uint64_t cycle() const;
 
  private:
   // The A lines carry the home switches above the three encoder lines.
