@@ -1598,7 +1598,7 @@ std::vector<ModelBoard::ProbedRegister> ModelBoard::probe_registers(const std::s
     return static_cast<std::uint64_t>(value) & ((std::uint64_t{1} << width) - 1);
   };
   auto indexed = [](const char* name, int k) { return std::string(name) + "[" + std::to_string(k) + "]"; };
-  constexpr int kShiftBits = 10;  // delta_joint_pkg::ShiftBits
+  constexpr int kShiftBits = golden::kShiftBits;  // delta_joint_pkg::ShiftBits
   constexpr int kDutyBits = static_cast<int>(board::kPwmBits) + 1;
   if (instance == "board_core") {
     add("command_q", s.command);
