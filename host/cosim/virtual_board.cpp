@@ -30,16 +30,7 @@ class RtlBoardModel final : public BoardModel {
     const char* argv[] = {"virtual_board", plusarg.c_str()};
     context_->commandArgs(2, argv);
     core_ = std::make_unique<Vboard_core>(context_.get(), "board");
-    Vboard_core& core = *core_;
-    core.uart_rx_i = 1;
-    core.encoder_a_i = 0;
-    core.encoder_b_i = 0;
-    core.home_switch_i = 0;
-    core.rst_ni = 0;
-    core.rst_network_ni = 0;
-    for (int i = 0; i < 4; ++i) rtl::clock_board(core);
-    core.rst_ni = 1;
-    core.rst_network_ni = 1;
+    rtl::reset_board(*core_);
   }
   ~RtlBoardModel() override { core_->final(); }
 

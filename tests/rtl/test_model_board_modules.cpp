@@ -253,16 +253,7 @@ class Lockstep {
     const char* argv[] = {"model_board_modules", plusarg.c_str()};
     context_->commandArgs(2, argv);
     core_ = std::make_unique<Vboard_core_probe>(context_.get(), "board");
-    Vboard_core_probe& core = *core_;
-    core.uart_rx_i = 1;
-    core.encoder_a_i = 0;
-    core.encoder_b_i = 0;
-    core.home_switch_i = 0;
-    core.rst_ni = 0;
-    core.rst_network_ni = 0;
-    for (int i = 0; i < 4; ++i) rtl::clock_board(core);
-    core.rst_ni = 1;
-    core.rst_network_ni = 1;
+    rtl::reset_board(*core_);
     model_.check_runs(true);
     compare();  // the reset values
   }

@@ -21,6 +21,21 @@ void clock_board(BoardCore& core) {
   core.eval();
 }
 
+// The board core out of reset: the pins idle (the UART line high, the encoder lines and home
+// switches low), both resets held for four board clocks, then released.
+template <typename BoardCore>
+void reset_board(BoardCore& core) {
+  core.uart_rx_i = 1;
+  core.encoder_a_i = 0;
+  core.encoder_b_i = 0;
+  core.home_switch_i = 0;
+  core.rst_ni = 0;
+  core.rst_network_ni = 0;
+  for (int i = 0; i < 4; ++i) clock_board(core);
+  core.rst_ni = 1;
+  core.rst_network_ni = 1;
+}
+
 // clock_board, without the network clock's two edges where they provably change nothing (none of
 // the network's logic evaluated) and with one evaluation per rising edge (below): the same state
 // after every board clock (RtlBoard.SkippingAnIdleNetworksClockEdgesChangesNothing in
