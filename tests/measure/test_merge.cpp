@@ -165,12 +165,10 @@ std::vector<Sample> merged_samples(const Logs& logs, const MergeResult& m) {
 // (CHECK), each with a stage on its own clock, of a robot with joint offsets, radius offsets,
 // chain angles and a frame turned up to 5 deg (chain angles the others can imitate inside the
 // 10 mm cube) and two more families of the vocabulary, drawn, at the blind suite's magnitudes.
-// When the diagnosis says explained, it names the injected set or lists it among its equivalent
-// alternatives, and holds out within 1.2 noise floors. Seed 2 unless DELTA_TEST_SEED says another:
-// its robot's chain angles are named only through an alternative. Not every drawn robot passes
-// (seeds 1-10 in docs/lab_loop.md).
-TEST(Merge, TheDiagnosisOfMergedDragsNamesTheRobotsEffectsAtTheFloor) {
-  std::mt19937_64 draw(test_seed(2));
+// The diagnosis says explained, names the injected set or lists it among its equivalent
+// alternatives, and holds out within 1.2 noise floors.
+void expect_merged_drags_named(std::uint64_t seed) {
+  std::mt19937_64 draw(seed);
   const EffectSet every = draw_robot(draw);
   EffectSet robot;
   robot.joint_offset_deg = every.joint_offset_deg;
@@ -212,6 +210,22 @@ TEST(Merge, TheDiagnosisOfMergedDragsNamesTheRobotsEffectsAtTheFloor) {
   EXPECT_TRUE(named) << "the injected set is neither the chosen one nor an alternative";
   EXPECT_TRUE(d.explained);
   EXPECT_LE(d.floor_test.joint_rmse_floors.maxCoeff(), 1.2);
+}
+
+// Seeds 17 and 1 unless DELTA_TEST_SEED names one (not every drawn robot passes: seeds 1-20 in
+// docs/lab_loop.md). Seed 17: the robot's joint offsets are seen on CHECK only below the stopping
+// rule's minimum effect, and named through the chosen set with one more family. Seed 1: backward
+// elimination would drop its encoder scales from a model at the floor to one the floor test
+// refuses (z 5.5), and does not.
+TEST(Merge, TheDiagnosisOfMergedDragsNamesTheRobotsEffectsAtTheFloor) {
+  if (std::getenv("DELTA_TEST_SEED")) {
+    expect_merged_drags_named(test_seed());
+    return;
+  }
+  for (std::uint64_t seed : {17, 1}) {
+    std::cout << "seed " << seed << " (DELTA_TEST_SEED repeats it)\n";
+    expect_merged_drags_named(seed);
+  }
 }
 
 void expect_refused(const Logs& logs, const std::string& why) {

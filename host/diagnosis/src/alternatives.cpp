@@ -219,37 +219,46 @@ std::vector<Alternative> find_alternatives(const PipelineData& data, FamilySet c
             [](const Alternative& a, const Alternative& b) { return a.mse_difference_deg2 < b.mse_difference_deg2; });
   if (alternatives.size() > 5) alternatives.resize(5);
 
-  // The chosen set with a family it absorbs: listed (after the swaps, at most three) when CHECK
-  // cannot tell it from the chosen set either way; it never replaces the chosen set (its gain on
-  // CHECK is within the threshold or not significant).
+  // The chosen set with one more family (the ripple aside: its fit needs a start of its own),
+  // listed after the swaps (at most three, the best on CHECK first) when the data cannot say
+  // whether that family is there:
+  // - it is absorbed (absorbed_families) and CHECK cannot tell the two sets apart either way;
+  // - or CHECK sees it, significantly, but below the stopping rule's minimum effect (the selection
+  //   could not add it; adopt_better_alternative then takes the larger set).
+  const std::vector<Family> absorbed = absorbed_families(data, chosen_families, chosen_theta);
+  std::vector<Family> added;
   std::vector<FamilySet> supersets;
   std::vector<Job> superset_jobs;
-  for (Family family : absorbed_families(data, chosen_families, chosen_theta)) {
-    const FamilySet families = chosen_families | single(family);
+  for (int f = 0; f < kFamilyCount; ++f) {
+    if (chosen_families[f] || family_at(f) == Family::transmission_error) continue;
+    const FamilySet families = chosen_families | single(family_at(f));
+    added.push_back(family_at(f));
     supersets.push_back(families);
     superset_jobs.push_back([&data, families, &chosen_theta] { return fit_and_check(data, families, chosen_theta); });
   }
   const std::vector<Candidate> superset_results = run_parallel(superset_jobs, data.options.threads);
-  std::vector<Alternative> absorbed;
+  std::vector<Alternative> larger;
   for (std::size_t r = 0; r < superset_results.size(); ++r) {
     if (!superset_results[r].ok) continue;
     const PairedDifference difference =
         paired_difference(data.check, superset_results[r].check_prediction, chosen, data.options.batch_rows);
-    // As the swaps: not worse than the chosen set by more than the threshold or not significantly;
-    // nor better by more than the threshold and significantly (the selection would have added it).
-    const bool close =
+    const bool unseen =
+        std::find(absorbed.begin(), absorbed.end(), added[r]) != absorbed.end() &&
         difference.z >= -data.options.paired_z &&
         (std::abs(difference.mean_deg2) <= data.threshold_deg2 || std::abs(difference.z) <= data.options.paired_z);
-    if (!close) continue;
+    const bool below_minimum_effect =
+        difference.z < -data.options.paired_z && difference.mean_deg2 >= -data.threshold_deg2;
+    if (!unseen && !below_minimum_effect) continue;
     const FloorTest test = floor_test(data.check, superset_results[r].check_prediction, noise, data.options);
-    if (test.at_floor != chosen_at_floor) continue;
-    absorbed.push_back(alternative_of(supersets[r], superset_results[r], difference, chosen_mse, test.at_floor));
+    // An unseen family leaves the verdict as it is; one seen below the minimum effect may lift a
+    // set just short of the floor onto it, never the other way.
+    if (unseen ? test.at_floor != chosen_at_floor : chosen_at_floor && !test.at_floor) continue;
+    larger.push_back(alternative_of(supersets[r], superset_results[r], difference, chosen_mse, test.at_floor));
   }
-  std::sort(absorbed.begin(), absorbed.end(), [](const Alternative& a, const Alternative& b) {
-    return std::abs(a.mse_difference_deg2) < std::abs(b.mse_difference_deg2);
-  });
-  if (absorbed.size() > 3) absorbed.resize(3);
-  alternatives.insert(alternatives.end(), absorbed.begin(), absorbed.end());
+  std::sort(larger.begin(), larger.end(),
+            [](const Alternative& a, const Alternative& b) { return a.mse_difference_deg2 < b.mse_difference_deg2; });
+  if (larger.size() > 3) larger.resize(3);
+  alternatives.insert(alternatives.end(), larger.begin(), larger.end());
   for (Alternative& alternative : alternatives) {
     alternative.separate_by = separation(data, chosen_families, chosen_theta, alternative);
   }

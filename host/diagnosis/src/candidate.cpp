@@ -17,12 +17,18 @@ std::vector<Sample> thin_out(const std::vector<Sample>& rows, std::size_t stride
   return thinned;
 }
 
+FitOptions fit_options(const DiagnosisOptions& options) {
+  FitOptions fit;
+  fit.noise_floor_deg = options.noise_floor_deg;
+  fit.realistic_prior_observations = options.prior_observations;
+  return fit;
+}
+
 Candidate fit_and_check(const PipelineData& data, FamilySet families, const Parameters& start) {
   Candidate candidate;
-  FitOptions fit_options;
-  fit_options.noise_floor_deg = data.options.noise_floor_deg;
   const bool hysteresis = families[index_of(Family::backlash)];
-  candidate.fit = fit_model(hysteresis ? data.fit : data.thinned_fit, families, start, start, fit_options);
+  candidate.fit =
+      fit_model(hysteresis ? data.fit : data.thinned_fit, families, start, start, fit_options(data.options));
   if (!candidate.fit.ok) return candidate;
   Prediction prediction = predict_recording(to_effect_set(candidate.fit.theta, families), data.check);
   candidate.holdout_rmse = joint_rmse(data.check, prediction.alpha_deg);

@@ -34,6 +34,9 @@ double mean_square(const Vec3& rmse);
 // contain backlash, whose hysteresis needs every row in time order.
 std::vector<Sample> thin_out(const std::vector<Sample>& rows, std::size_t stride);
 
+// The options of every fit of the diagnosis (its noise floor and prior).
+FitOptions fit_options(const DiagnosisOptions& options);
+
 // Fits `families` from `start` (thinned FIT unless backlash is in the set) and predicts CHECK.
 Candidate fit_and_check(const PipelineData& data, FamilySet families, const Parameters& start);
 

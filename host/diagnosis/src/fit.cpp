@@ -13,13 +13,19 @@ using Dual = Eigen::AutoDiffScalar<Derivatives>;
 // Penalty weight of the gauge constraint sum(dphi_j) = 0, relative to one observation.
 constexpr double kGaugeWeight = 1e8;
 
-// Adds the weak prior and the gauge constraint to the cost and the normal equations.
-void add_regularisation(const Parameters& theta, FamilySet families, const Parameters& prior, double floor_deg,
+// Adds the prior and the gauge constraint to the cost and the normal equations.
+void add_regularisation(const Parameters& theta, FamilySet families, const Parameters& prior, const FitOptions& options,
                         NormalEquations& equations) {
   const auto& table = parameter_table();
+  const double floor_deg = options.noise_floor_deg;
+  const double realistic = options.realistic_prior_observations;
   for (int k : parameter_indices(families)) {
-    const double weight = floor_deg * floor_deg / (table[k].typical * table[k].typical);
-    const double deviation = theta[k] - prior[k];
+    // The ripple's period and phase have no nominal value: their prior stays the weak one.
+    const bool shape = table[k].family == Family::transmission_error && k >= slot::period;
+    const bool towards_nominal = realistic > 0.0 && !shape;
+    const double weight =
+        (towards_nominal ? realistic : 1.0) * floor_deg * floor_deg / (table[k].typical * table[k].typical);
+    const double deviation = theta[k] - (towards_nominal ? neutral_parameters()[k] : prior[k]);
     equations.sum_squares += weight * deviation * deviation;
     equations.jtj(k, k) += weight;
     equations.jtr[k] -= weight * deviation;  // residual of the prior row is -(theta - prior)
@@ -116,7 +122,7 @@ FitResult fit_model(const std::vector<Sample>& rows, FamilySet families, const P
   const int n = static_cast<int>(active.size());
   NormalEquations current = evaluate(result.theta, families, rows, true);
   if (!current.ok) return result;
-  add_regularisation(result.theta, families, prior, options.noise_floor_deg, current);
+  add_regularisation(result.theta, families, prior, options, current);
   double damping = 1e-3;
   for (int iteration = 0; iteration < options.max_iterations && n > 0; ++iteration) {
     result.iterations = iteration + 1;
@@ -136,12 +142,12 @@ FitResult fit_model(const std::vector<Sample>& rows, FamilySet families, const P
       for (int a = 0; a < n; ++a) trial[active[a]] += step[a];
       project(trial);
       NormalEquations next = evaluate(trial, families, rows, false);
-      if (next.ok) add_regularisation(trial, families, prior, options.noise_floor_deg, next);
+      if (next.ok) add_regularisation(trial, families, prior, options, next);
       if (next.ok && next.sum_squares < current.sum_squares) {
         relative_decrease = (current.sum_squares - next.sum_squares) / current.sum_squares;
         result.theta = trial;
         current = evaluate(result.theta, families, rows, true);
-        add_regularisation(result.theta, families, prior, options.noise_floor_deg, current);
+        add_regularisation(result.theta, families, prior, options, current);
         damping = std::max(damping / 5.0, 1e-9);
         improved = true;
       } else {

@@ -23,8 +23,7 @@ Evaluation evaluate_scale(const PipelineData& data, FamilySet families, const Pa
   Evaluation evaluation;
   const bool hysteresis = families[index_of(Family::backlash)];
   const std::vector<Sample> rows = unscaled(hysteresis ? data.fit : data.thinned_fit, Vec3::Constant(scale));
-  FitOptions options;
-  options.noise_floor_deg = data.options.noise_floor_deg;
+  const FitOptions options = fit_options(data.options);
   evaluation.fit = fit_model(rows, families, start, start, options);
   evaluation.fit.theta = families.any() ? evaluation.fit.theta : start;
   const NormalEquations equations = evaluate(evaluation.fit.theta, families, rows, false);
@@ -79,8 +78,7 @@ bool finish_scale_model(const PipelineData& data, const Parameters& start, const
                         ScaleModel& model) {
   const std::vector<Sample> fit_rows = unscaled(data.fit, model.scale);
   if (model.families.any()) {
-    FitOptions options;
-    options.noise_floor_deg = data.options.noise_floor_deg;
+    const FitOptions options = fit_options(data.options);
     const FitResult refit = fit_model(fit_rows, model.families, refit_from, start, options);
     if (!refit.ok) return false;
     model.theta = refit.theta;
@@ -111,8 +109,7 @@ std::optional<ScaleModel> fit_axis_scale(const PipelineData& data, FamilySet oth
   const Parameters start = without_families(theta, ~others);
   const bool hysteresis = others[index_of(Family::backlash)];
   const std::vector<Sample>& screening = hysteresis ? data.fit : data.thinned_fit;
-  FitOptions options;
-  options.noise_floor_deg = data.options.noise_floor_deg;
+  const FitOptions options = fit_options(data.options);
   ScaleModel model;
   model.per_axis = true;
   model.families = others;

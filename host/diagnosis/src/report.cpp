@@ -55,21 +55,21 @@ json identifiability_json(const Identifiability& identifiability) {
 }
 
 std::string joined_parameters(Family family, const Parameters& theta) {
+  // A parameter without a value of its own (an interval in a weak direction: NaN, null once in
+  // the JSON's text) prints as "inseparable".
+  auto value_text = [](const json& value) {
+    if (value.is_null() || !std::isfinite(value.get<double>())) return std::string("inseparable");
+    return format_number(std::round(value.get<double>() * 1e6) / 1e6);
+  };
   std::ostringstream text;
   const json parameters = family_parameters_json(family, theta);
   for (auto it = parameters.begin(); it != parameters.end(); ++it) {
     if (it != parameters.begin()) text << "; ";
     text << it.key() << " ";
     if (it.value().is_array()) {
-      for (std::size_t j = 0; j < it.value().size(); ++j) {
-        text << (j ? ", " : "")
-             << (it.value()[j].is_null() ? std::string("inseparable")
-                                         : format_number(std::round(it.value()[j].get<double>() * 1e6) / 1e6));
-      }
-    } else if (it.value().is_null()) {
-      text << "inseparable";
+      for (std::size_t j = 0; j < it.value().size(); ++j) text << (j ? ", " : "") << value_text(it.value()[j]);
     } else {
-      text << format_number(std::round(it.value().get<double>() * 1e6) / 1e6);
+      text << value_text(it.value());
     }
   }
   return text.str();

@@ -36,6 +36,13 @@ struct DiagnosisOptions {
   // Stopping rule and equivalence: a held-out MSE difference between two models counts only when
   // its paired z (batch means over the same CHECK rows) exceeds this.
   double paired_z = 3.0;
+  // Every fit pulls each parameter towards the nominal robot with the weight of this many
+  // observations at the noise floor per parameter at its typical magnitude (1 deg, 1 mm, 0.3 deg
+  // of play, 0.1 deg of ripple, 1 % of encoder scale). Negligible where the FIT rows fix a
+  // parameter; where families imitate each other inside the trajectory's volume, it keeps their
+  // parameters near realistic sizes instead of wandering along the valley to values that
+  // extrapolate badly to CHECK.
+  double prior_observations = 10.0;
   int threads = 2;
   std::size_t screening_stride = 2;  // candidates are fitted on every 2nd FIT row (all rows with backlash)
 };

@@ -38,12 +38,16 @@ struct FitOptions {
   int max_iterations = 40;
   double tolerance = 1e-7;                             // stop when one step lowers the cost by less than this fraction
   double noise_floor_deg = 0.01 / 3.4641016151377544;  // sets the weight of the weak prior
+  // Above 0: the prior pulls each parameter towards the nominal robot instead (neutral_parameters,
+  // the ripple's period and phase still towards `prior`), with this many observations' weight.
+  double realistic_prior_observations = 0.0;
 };
 
 // Levenberg-Marquardt from `start` over the parameters of `families`. Gauge fixing, so that
 // directions the data cannot see never drift:
 // - a weak prior pulls each parameter towards `prior` with the weight of one observation at the
 //   noise floor per parameter and `typical` magnitude (negligible where the data are informative);
+//   with options.realistic_prior_observations, towards the nominal robot with that weight;
 // - with both chain_angle and frame_misalignment, a common rotation of the three chains is the
 //   same as a yaw rz of the measuring frame: the sum of dphi_j is pinned to zero, the yaw goes to rz.
 // Backlash widths are kept >= 0 and periods >= 0.05 deg.
