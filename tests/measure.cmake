@@ -19,7 +19,7 @@ delta_add_gtest(measure_board_tests
 # diagnose, train, quantise, a closed-loop run with the stage following, merge, compare): its drags
 # take 500 s of board time (about 10 minutes on this machine), over the suite's budget for a test.
 # Run it by hand:
-#   bash tests/measure/lab_loop_doc.sh $PWD build/bin/deltactl build/tests/lab_loop_doc
+#   bash tests/measure/lab_loop_doc.sh $PWD $PWD/build/bin/deltactl build/tests/lab_loop_doc
 # add_test(NAME LabLoopDoc.VirtualPartRunsAsWritten
 #          COMMAND bash ${CMAKE_CURRENT_LIST_DIR}/measure/lab_loop_doc.sh ${PROJECT_SOURCE_DIR} $<TARGET_FILE:deltactl>
 #                  ${PROJECT_BINARY_DIR}/tests/lab_loop_doc)
