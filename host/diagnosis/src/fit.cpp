@@ -19,13 +19,14 @@ void add_regularisation(const Parameters& theta, FamilySet families, const Param
   const auto& table = parameter_table();
   const double floor_deg = options.noise_floor_deg;
   const double realistic = options.realistic_prior_observations;
+  const Parameters nominal = neutral_parameters();
   for (int k : parameter_indices(families)) {
     // The ripple's period and phase have no nominal value: their prior stays the weak one.
     const bool shape = table[k].family == Family::transmission_error && k >= slot::period;
     const bool towards_nominal = realistic > 0.0 && !shape;
     const double weight =
         (towards_nominal ? realistic : 1.0) * floor_deg * floor_deg / (table[k].typical * table[k].typical);
-    const double deviation = theta[k] - (towards_nominal ? neutral_parameters()[k] : prior[k]);
+    const double deviation = theta[k] - (towards_nominal ? nominal[k] : prior[k]);
     equations.sum_squares += weight * deviation * deviation;
     equations.jtj(k, k) += weight;
     equations.jtr[k] -= weight * deviation;  // residual of the prior row is -(theta - prior)

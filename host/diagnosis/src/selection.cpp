@@ -107,7 +107,7 @@ bool passes_floor_test(const PipelineData& data, FamilySet families, const Param
 // Backward elimination: drop a family whose removal costs less than the threshold on CHECK (an
 // early pick that later picks made redundant). A model at the floor is never reduced to one the
 // floor test refuses: a cost below the threshold can still be what keeps the residual at the
-// floor (an encoder scale of 0.2 % dropped from a model at the floor left z 5.5).
+// floor (the encoder scales dropped from a model at the floor once left z 5.5).
 void backward_elimination(const PipelineData& data, Selection& selection) {
   for (bool dropped = true; dropped && selection.families.count() > 1;) {
     dropped = false;
