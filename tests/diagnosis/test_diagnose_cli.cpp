@@ -3,12 +3,14 @@
 
 #include <filesystem>
 #include <set>
+#include <sstream>
 
 #include <nlohmann/json.hpp>
 
 #include "../support/run_command.hpp"
 #include "blind_suite.hpp"
 #include "delta/csv.hpp"
+#include "delta/diagnosis/report.hpp"
 #include "delta/recording.hpp"
 
 namespace delta::test {
@@ -110,7 +112,8 @@ TEST(DiagnoseCli, NamesEquivalentExplanationsAndIntervals) {
   RecordingOptions options;
   options.samples = 5000;
   const std::string fit = temp("equivalent_fit.csv"), check = temp("equivalent_check.csv");
-  write_recording(fit, robot.record(make_trajectory("validation"), options).samples);
+  const std::vector<Sample> fit_rows = robot.record(make_trajectory("validation"), options).samples;
+  write_recording(fit, fit_rows);
   options.samples = 2500;
   write_recording(check, robot.record(make_trajectory("sweep", 2), options).samples);
   const std::string json = temp("equivalent.json"), predictions = temp("equivalent_pred.csv");
@@ -132,6 +135,15 @@ TEST(DiagnoseCli, NamesEquivalentExplanationsAndIntervals) {
     EXPECT_FALSE(alternative.at("separate_by").get<std::string>().empty());
   }
   EXPECT_TRUE(chosen == injected || listed) << document.at("verdict");
+  // How far each joint travels on FIT, as the report states it (no outliers here: every row).
+  for (int j = 0; j < 3; ++j) {
+    double low = 1e9, high = -1e9;
+    for (const Sample& row : fit_rows) {
+      low = std::min(low, row.alpha_deg[j]);
+      high = std::max(high, row.alpha_deg[j]);
+    }
+    EXPECT_DOUBLE_EQ(document.at("fit_joint_travel_deg")[j].get<double>(), high - low) << "joint " << j + 1;
+  }
   EXPECT_TRUE(document.at("explained").get<bool>()) << document.at("floor_test");
   EXPECT_LE(document["floor_test"].at("statistic_z").get<double>(),
             document["floor_test"].at("threshold_z").get<double>());
@@ -148,6 +160,38 @@ TEST(DiagnoseCli, NamesEquivalentExplanationsAndIntervals) {
           << effect.at("name") << " joint " << j + 1;
     }
   }
+}
+
+// A residual above the floor on a FIT whose joints travel less than a long gear ripple's period
+// (the validation trajectory's 16-20 deg) may be effects of the vocabulary that this FIT cannot
+// separate: the verdict says so, with the travel and the drag that turns the joints further; on a
+// FIT that travels 30 deg or more it names an effect outside the vocabulary alone.
+TEST(DiagnoseReport, ANotExplainedVerdictSaysWhenTheFitTravelsTooLittleToSeparateARipple) {
+  diagnosis::Diagnosis d;
+  d.explained = false;
+  d.floor_test.z = 6.4;
+  d.floor_test.threshold = 4.0;
+  d.unexplained.joint = 2;
+  d.unexplained.region = "x+ y- z-";
+  d.fit_joint_travel_deg = Vec3(16.1, 19.7, 19.2);
+  std::ostringstream short_travel;
+  diagnosis::print_summary(short_travel, d);
+  EXPECT_NE(short_travel.str().find("outside the vocabulary, or effects the FIT recording cannot separate (its "
+                                    "joints travel 16.1 / 19.7 / 19.2 deg"),
+            std::string::npos)
+      << short_travel.str();
+  EXPECT_NE(short_travel.str().find("calibration trajectory"), std::string::npos);
+  d.fit_joint_travel_deg = Vec3(38.0, 41.5, 30.0);
+  std::ostringstream long_travel;
+  diagnosis::print_summary(long_travel, d);
+  EXPECT_NE(long_travel.str().find("an effect outside the vocabulary; its excess"), std::string::npos)
+      << long_travel.str();
+  EXPECT_EQ(long_travel.str().find("cannot separate"), std::string::npos);
+  d.explained = true;
+  d.fit_joint_travel_deg = Vec3(16.1, 19.7, 19.2);
+  std::ostringstream explained;
+  diagnosis::print_summary(explained, d);
+  EXPECT_EQ(explained.str().find("cannot separate"), std::string::npos) << explained.str();
 }
 
 // Quick blind subset: none, chain angle, backlash, transmission error, three pairs (10 needs the

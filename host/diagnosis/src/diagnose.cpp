@@ -22,6 +22,16 @@
 namespace delta::diagnosis {
 namespace {
 
+Vec3 joint_travel(const std::vector<Sample>& rows) {
+  if (rows.empty()) return Vec3::Zero();
+  Vec3 low = rows.front().alpha_deg, high = low;
+  for (const Sample& row : rows) {
+    low = low.cwiseMin(row.alpha_deg);
+    high = high.cwiseMax(row.alpha_deg);
+  }
+  return high - low;
+}
+
 // A joint's turn between two kept rows that a play can hold: the angle goes beyond both ends by
 // more than this (a tenth of an encoder count; a stage's noise moves the angle by 1e-5 deg).
 constexpr double kTurnDeg = 0.001;
@@ -328,6 +338,7 @@ Diagnosis diagnose(const std::vector<Sample>& fit, const std::vector<Sample>& ch
   PipelineData data;
   data.options = options;
   data.fit = without_outliers(fit, fit_outliers);
+  diagnosis.fit_joint_travel_deg = joint_travel(data.fit);
   data.check = without_outliers(check, check_outliers);
   data.fit_closed_loop = correct_closed_loop(data.fit, encoder_step_deg);
   correct_closed_loop(data.check, encoder_step_deg);

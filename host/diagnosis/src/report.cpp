@@ -184,6 +184,21 @@ std::string model_name(const Diagnosis& diagnosis) {
   return text.empty() ? std::string("no effect") : text;
 }
 
+// A transmission ripple of a period longer than a joint's travel on FIT is a smooth curve there,
+// which the geometry families imitate: selection can then miss the floor with effects the
+// vocabulary has. The validation trajectory turns the joints by 16-20 deg, the calibration
+// trajectory by about twice that; gear ripples of up to 30 deg are realistic.
+constexpr double kLongestRippleDeg = 30.0;
+
+std::string inseparable_on_fit(const Diagnosis& diagnosis) {
+  const Vec3& travel = diagnosis.fit_joint_travel_deg;
+  if (travel.minCoeff() >= kLongestRippleDeg) return "";
+  return ", or effects the FIT recording cannot separate (its joints travel " + fixed(travel[0], 1) + " / " +
+         fixed(travel[1], 1) + " / " + fixed(travel[2], 1) +
+         " deg: a transmission ripple of a longer period looks like geometry there; a drag along the "
+         "calibration trajectory turns them further)";
+}
+
 // The verdict sentence of the report and of the summary.
 std::string verdict(const Diagnosis& diagnosis) {
   std::ostringstream text;
@@ -201,10 +216,11 @@ std::string verdict(const Diagnosis& diagnosis) {
     const UnexplainedResidual& where = diagnosis.unexplained;
     text << " leaves a residual significantly above the noise floor (floor test z = " << fixed(test.z, 2) << " > "
          << fixed(test.threshold, 1) << ", held-out r^2 / noise model = " << fixed(test.ratio, 4)
-         << "): an effect outside the vocabulary; its excess is " << format_number(where.excess_rms_deg)
-         << " deg RMS, largest on joint " << where.joint + 1 << ", in octant " << where.region << " ("
-         << format_number(where.region_excess_rms_deg) << " deg) and at t = " << fixed(where.t_from_s, 2) << "-"
-         << fixed(where.t_to_s, 2) << " s (" << format_number(where.time_excess_rms_deg) << " deg)";
+         << "): an effect outside the vocabulary" << inseparable_on_fit(diagnosis) << "; its excess is "
+         << format_number(where.excess_rms_deg) << " deg RMS, largest on joint " << where.joint + 1 << ", in octant "
+         << where.region << " (" << format_number(where.region_excess_rms_deg)
+         << " deg) and at t = " << fixed(where.t_from_s, 2) << "-" << fixed(where.t_to_s, 2) << " s ("
+         << format_number(where.time_excess_rms_deg) << " deg)";
   }
   return text.str();
 }
@@ -223,6 +239,8 @@ json diagnosis_json(const Diagnosis& diagnosis) {
   document["noise_floor_deg"] = diagnosis.noise_floor_deg;
   document["explained"] = diagnosis.explained;
   document["rows_used"] = {{"fit", diagnosis.fit_rows_used}, {"check", diagnosis.check_rows_used}};
+  document["fit_joint_travel_deg"] = {diagnosis.fit_joint_travel_deg[0], diagnosis.fit_joint_travel_deg[1],
+                                      diagnosis.fit_joint_travel_deg[2]};
   document["explained_fraction"] = diagnosis.explained_fraction;
   json effects = json::array();
   for (const NewEffect& effect : diagnosis.new_effects) {

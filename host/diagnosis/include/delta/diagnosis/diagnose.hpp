@@ -179,7 +179,10 @@ struct Diagnosis {
   std::vector<Alternative> alternatives;  // statistically indistinguishable sets, best first
   std::vector<Outlier> outliers;
   std::size_t fit_rows_used = 0, check_rows_used = 0;  // after outliers and thinning
-  std::vector<NewEffect> new_effects;                  // significant effects outside the vocabulary (final model)
+  // How far each joint's reading travels on FIT (largest - smallest, deg). Effects that vary slowly
+  // over a joint (a transmission ripple of a period longer than this) look like geometry there.
+  Vec3 fit_joint_travel_deg = Vec3::Zero();
+  std::vector<NewEffect> new_effects;   // significant effects outside the vocabulary (final model)
   Vec3 measuring_scale = Vec3::Zero();  // s per axis of a measuring_scale new effect; PRED uses p / (1 + s)
   // 1.96 standard errors of each fitted parameter (internal units), from the covariance of the
   // final fit: residual variance on FIT times the inverse of J^T J (with the weak prior).
