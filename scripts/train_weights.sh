@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
-# Regenerates the shipped weights (weights/paper_like.json, paper_like_hybrid.json, paper_like_deployed.json)
-# bit for bit:
-# records the paper's validation trajectory on the paper-like virtual robot and trains on it, seed 1.
+# Regenerates the shipped weights (weights/paper_like.json, paper_like_hybrid.json, paper_like_deployed.json,
+# paper_like_calibration_deployed.json) bit for bit:
+# records the paper's validation trajectory (and the calibration trajectory) on the paper-like virtual
+# robot and trains on it, seed 1.
 # BUILD selects the build folder (default build/, configured by scripts/build.sh).
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -23,5 +24,11 @@ cd "$data"
   --out "$root/weights/paper_like_hybrid.json"
 "$deltactl" train --model deployed --data paper_like_validation_seed1.csv --seed 1 \
   --out "$root/weights/paper_like_deployed.json"
-echo "train_weights: wrote weights/paper_like.json, paper_like_hybrid.json and paper_like_deployed.json" \
+# The deployed model of the lab loop (docs/lab_loop.md): trained on the wider calibration trajectory.
+"$deltactl" simulate --experiment calibration --effects "$root/sim/paper_like_effects.json" --seed 1 \
+  --out paper_like_calibration_seed1.csv
+"$deltactl" train --model deployed --data paper_like_calibration_seed1.csv --seed 1 \
+  --out "$root/weights/paper_like_calibration_deployed.json"
+echo "train_weights: wrote weights/paper_like.json, paper_like_hybrid.json, paper_like_deployed.json and" \
+  "paper_like_calibration_deployed.json" \
   "(git diff shows any change)"

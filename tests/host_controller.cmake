@@ -33,9 +33,9 @@ delta_add_gtest(host_safety_tests
   PROPERTIES RUN_SERIAL TRUE)
 
 # Homing against the references (docs/homing.md): random starts, a run stopped mid-path, a seized
-# arm and a missing switch, a board homed by hand.
+# arm and a missing switch, a board homed by hand, every jog's setpoint within the homing bounds.
 delta_add_gtest(homing_tests
   SOURCES ${CMAKE_CURRENT_LIST_DIR}/host_controller/test_homing.cpp
-  LIBRARIES delta::host delta::golden nlohmann_json::nlohmann_json
+  LIBRARIES delta::controller delta::host delta::golden nlohmann_json::nlohmann_json
   LABELS host host_controller virtual_board
   PROPERTIES RUN_SERIAL TRUE)

@@ -16,6 +16,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "delta/controller/homing.hpp"
 #include "delta/geometry.hpp"
 #include "delta/golden/board_network.hpp"
 #include "host_bench.hpp"
@@ -40,6 +41,49 @@ std::string angles_text(const std::array<double, 3>& a) {
 }
 
 }  // namespace
+
+// Every jog homing asks for (search up at 4 deg/s, clear down at 8 deg/s, any joints moving, the
+// others held at counts 2995-3005 about the home count): the setpoint jog_setpoint finds moves each
+// moving joint its way within 20 % of the speed (at least 3 Q.8 counts per ms) and a held joint by at
+// most 16, the bounds homing checks before it enables the drives. The network trained on the
+// calibration drag's wider box has coarser input codes (an LSB moves an answer by up to 24 Q.8
+// counts): a search over raw codes near Newton's point, finer than one such LSB, missed these
+// bounds in 12 of these 212 jogs (homing then stops with exit 3).
+TEST(Homing, EveryJogMeetsTheHomingBoundsWithTheShippedNetworksIncludingTheCalibrationDrags) {
+  for (const char* name : {"paper_like_deployed.json", "paper_like_calibration_deployed.json"}) {
+    const golden::BoardWeights weights = golden::read_board_weights(std::string(DELTA_SOURCE_DIR) + "/weights/" + name);
+    int jogs = 0;
+    for (int speed : {102, -205}) {
+      for (int moving = 1; moving < 8; ++moving) {
+        for (int held = -1; held < 3; ++held) {
+          if (held >= 0 && ((moving >> held) & 1)) continue;
+          for (int offset = -5; offset <= 5; ++offset) {
+            if (held < 0 && offset != 0) continue;
+            std::array<std::int32_t, 3> delta{}, references{}, actual{};
+            for (int j = 0; j < 3; ++j) {
+              delta[j] = ((moving >> j) & 1) ? speed : 0;
+              references[j] = (3000 + (j == held ? offset : 0)) * 256;
+            }
+            controller::jog_setpoint(weights, references, delta, &actual);
+            ++jogs;
+            for (int j = 0; j < 3; ++j) {
+              if (delta[j] == 0) {
+                EXPECT_LE(std::abs(actual[j]), 16) << name << ": held joint " << j + 1 << ", jog " << jogs;
+              } else {
+                EXPECT_EQ(actual[j] > 0, delta[j] > 0) << name << ": joint " << j + 1 << ", jog " << jogs;
+                EXPECT_NE(actual[j], 0) << name << ": joint " << j + 1 << ", jog " << jogs;
+                EXPECT_LE(std::abs(actual[j] - delta[j]), std::max(3, std::abs(delta[j]) / 5))
+                    << name << ": joint " << j + 1 << " moves at " << actual[j] << " for " << delta[j] << ", jog "
+                    << jogs;
+              }
+            }
+          }
+        }
+      }
+    }
+    EXPECT_EQ(jogs, 212) << name;
+  }
+}
 
 // The co-simulation's plate error for experiment 1 (paper-like robot, the plain shipped network,
 // RMS from path time 0.4 s; README.md, "Whole-robot co-simulation"): a run after homing is held to

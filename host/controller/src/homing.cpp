@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <string>
+#include <utility>
 
 #include <Eigen/Dense>
 
@@ -29,6 +30,15 @@ int link_code(const link::LinkError& error) {
 // Q24.8 counts per setpoint period for a speed in deg/s.
 std::int32_t q8_per_setpoint(double deg_s) {
   return static_cast<std::int32_t>(std::lround(deg_s / board::kSetpointRateHz / kCountDeg * kQ8));
+}
+
+// How far a jog's change d (Q.8 counts per ms) misses delta, in units of home_at_references' bound:
+// a held joint within 16, a moving one its way (d != 0, delta's sign) within 20 % (at least 3).
+// At most 1: that check passes.
+double jog_miss(std::int32_t delta, std::int32_t d) {
+  if (delta == 0) return std::abs(d) / 16.0;
+  if (d == 0 || (d > 0) != (delta > 0)) return 1e3;  // the wrong way, or inside the play
+  return std::abs(d - delta) / static_cast<double>(std::max(3, std::abs(delta) / 5));
 }
 
 }  // namespace
@@ -83,8 +93,12 @@ std::array<std::int32_t, 3> jog_setpoint(const golden::BoardWeights& weights,
     const Eigen::Vector3d step = jacobian.colPivHouseholderQr().solve(-error);
     for (int k = 0; k < 3; ++k) codes[k] += static_cast<std::int64_t>(std::llround(step[k]));
   }
-  // The input codes are a lattice (an LSB moves the answer by about a Q.8 count): the best point of
-  // the neighbourhood, a held joint's change weighing 100 times a moving joint's error.
+  // The network sees the position only through its scaled input u = (x - centre) / 2^shift, a 16-bit
+  // code: an LSB of u moves the answer by 3-7 Q.8 counts on the paper's 10 mm cube and by 13-24 on a
+  // calibration drag's range (+-12 mm: 2^shift = 256 input codes, 0.95 um), as much as a jog's
+  // bound. The best point of u's neighbourhood (+-2 LSBs of u on each axis): the smallest miss of
+  // the homing check's bounds (jog_miss), then a held joint's change weighing 100 times a moving
+  // joint's error.
   const auto changes = [&](const std::array<std::int64_t, 3>& at) {
     const golden::RawOutput raw = golden::evaluate_raw(weights.network, at);
     std::array<std::int32_t, 3> d{};
@@ -97,18 +111,24 @@ std::array<std::int32_t, 3> jog_setpoint(const golden::BoardWeights& weights,
     return d;
   };
   const auto cost = [&](const std::array<std::int32_t, 3>& d) {
+    double worst = 0.0;
     double sum = 0.0;
-    for (int j = 0; j < 3; ++j) sum += (delta_q8[j] == 0 ? 100.0 : 1.0) * std::abs(d[j] - delta_q8[j]);
-    return sum;
+    for (int j = 0; j < 3; ++j) {
+      worst = std::max(worst, jog_miss(delta_q8[j], d[j]));
+      sum += (delta_q8[j] == 0 ? 100.0 : 1.0) * std::abs(d[j] - delta_q8[j]);
+    }
+    return std::make_pair(worst, sum);
   };
+  std::array<std::int64_t, 3> lsb{};
+  for (int k = 0; k < 3; ++k) lsb[k] = std::int64_t{1} << std::max(0, weights.network.input_shift[k]);
   std::array<std::int64_t, 3> best = codes;
-  double best_cost = cost(changes(codes));
-  constexpr int kRadius = 12;
+  auto best_cost = cost(changes(codes));
+  constexpr int kRadius = 2;
   for (int a = -kRadius; a <= kRadius; ++a) {
     for (int b = -kRadius; b <= kRadius; ++b) {
       for (int e = -kRadius; e <= kRadius; ++e) {
-        const std::array<std::int64_t, 3> at = {codes[0] + a, codes[1] + b, codes[2] + e};
-        const double c = cost(changes(at));
+        const std::array<std::int64_t, 3> at = {codes[0] + a * lsb[0], codes[1] + b * lsb[1], codes[2] + e * lsb[2]};
+        const auto c = cost(changes(at));
         if (c < best_cost) {
           best_cost = c;
           best = at;
@@ -240,14 +260,11 @@ HomingReport home_at_references(link::LinkSession& session, const golden::BoardW
     }
     for (int j = 0; j < 3; ++j) {
       // A joint held may creep by a few Q.8 counts per millisecond (an input code's LSB moves the
-      // answer by tens of them; a referenced joint's encoder keeps counting, so its count stays
-      // right): at most 16, 0.63 deg/s. A moving one goes its way at about its speed: within 20 %
-      // (far below the trained range, at 7 deg, the input lattice's nearest point moves joint 1 at
-      // 113 for 102).
-      const bool held_ok = delta[j] == 0 && std::abs(actual[j]) <= 16;
-      const bool moving_ok = delta[j] != 0 && (actual[j] > 0) == (delta[j] > 0) &&
-                             std::abs(actual[j] - delta[j]) <= std::max(3, std::abs(delta[j]) / 5);
-      if (!held_ok && !moving_ok) {
+      // answer by up to tens of them; a referenced joint's encoder keeps counting, so its count
+      // stays right): at most 16, 0.63 deg/s. A moving one goes its way at about its speed: within
+      // 20 % (far below the trained range, at 7 deg, the input lattice's nearest point moves joint 1
+      // at 113 for 102). jog_miss holds these bounds.
+      if (jog_miss(delta[j], actual[j]) > 1.0) {
         fail(kExitFault, joint_name(j) + ": the network cannot move it as asked (" + std::to_string(actual[j]) +
                              " instead of " + std::to_string(delta[j]) + " Q.8 counts per ms)");
       }
