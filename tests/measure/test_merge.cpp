@@ -167,7 +167,7 @@ std::vector<Sample> merged_samples(const Logs& logs, const MergeResult& m) {
 // 10 mm cube) and two more families of the vocabulary, drawn, at the blind suite's magnitudes.
 // The diagnosis says explained, names the injected set or lists it among its equivalent
 // alternatives, and holds out within 1.2 noise floors.
-void expect_merged_drags_named(std::uint64_t seed) {
+void expect_merged_drags_named(std::uint64_t seed, const std::string& fit_trajectory = "validation") {
   std::mt19937_64 draw(seed);
   const EffectSet every = draw_robot(draw);
   EffectSet robot;
@@ -188,7 +188,7 @@ void expect_merged_drags_named(std::uint64_t seed) {
   std::cout << "robot: " << describe(injected) << "\n";
 
   std::vector<std::vector<Sample>> recordings;
-  for (const std::string trajectory : {"validation", "sweep"}) {
+  for (const std::string& trajectory : {fit_trajectory, std::string("sweep")}) {
     const double offset = std::uniform_real_distribution<double>(0.0, 60.0)(draw);
     const double ppm = std::uniform_real_distribution<double>(-200.0, 200.0)(draw);
     const double rate = std::exp(std::uniform_real_distribution<double>(std::log(100.0), std::log(1000.0))(draw));
@@ -226,6 +226,16 @@ TEST(Merge, TheDiagnosisOfMergedDragsNamesTheRobotsEffectsAtTheFloor) {
     std::cout << "seed " << seed << " (DELTA_TEST_SEED repeats it)\n";
     expect_merged_drags_named(seed);
   }
+}
+
+// Seed 8: a robot whose transmission ripple has periods of 25.8 and 24.7 deg on joints 1 and 3,
+// longer than 600 s of the validation drag turns them (13-16 deg): there the ripple is a smooth
+// curve the geometry imitates, and the diagnosis misses the floor ("not explained"). 600 s of the
+// calibration drag turn the joints 40-46 deg: the same robot is named exactly (docs/lab_loop.md).
+TEST(Merge, TheDiagnosisOfAMergedCalibrationDragNamesALongPeriodRipple) {
+  const std::uint64_t seed = std::getenv("DELTA_TEST_SEED") ? test_seed() : 8;
+  std::cout << "seed " << seed << " (DELTA_TEST_SEED repeats it)\n";
+  expect_merged_drags_named(seed, "calibration");
 }
 
 void expect_refused(const Logs& logs, const std::string& why) {

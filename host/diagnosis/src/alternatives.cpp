@@ -121,6 +121,18 @@ std::vector<Family> absorbed_families(const PipelineData& data, FamilySet chosen
   return absorbed;
 }
 
+// The largest of a family's fitted parameters as a share of its realistic magnitude.
+// A family fitted to at least kSizedShare of it (0.05 deg of chain angle, 0.05 mm of length, 0.1 %
+// of encoder scale, ...) is a real part of that set's explanation, not a zero added to the chosen set.
+constexpr double kSizedShare = 0.1;
+double realistic_share(Family family, const Parameters& theta) {
+  double share = 0.0;
+  for (int k : parameter_indices(single(family))) {
+    if (realistic_magnitude(k) > 0.0) share = std::max(share, std::abs(theta[k]) / realistic_magnitude(k));
+  }
+  return share;
+}
+
 // Whether a set that misses the floor test is still one CHECK cannot tell from the chosen set
 // (which passes it): in every part of the floor test it misses (the three joints together, or
 // one joint), its held-out error is not significantly larger than the chosen set's there (paired
@@ -222,7 +234,9 @@ std::vector<Alternative> find_alternatives(const PipelineData& data, FamilySet c
   // The chosen set with one more family (the ripple aside: its fit needs a start of its own),
   // listed after the swaps (at most three, the best on CHECK first) when the data cannot say
   // whether that family is there:
-  // - it is absorbed (absorbed_families) and CHECK cannot tell the two sets apart either way;
+  // - it is absorbed (absorbed_families), or fitted to a realistic size (realistic_share: the chosen
+  //   set plus chain angles of 0.2-0.3 deg on a calibration drag, which the chosen families imitate
+  //   there but would not at 0.5 deg), and CHECK cannot tell the two sets apart either way;
   // - or CHECK sees it, significantly, but below the stopping rule's minimum effect (the selection
   //   could not add it; adopt_better_alternative then takes the larger set).
   const std::vector<Family> absorbed = absorbed_families(data, chosen_families, chosen_theta);
@@ -243,7 +257,8 @@ std::vector<Alternative> find_alternatives(const PipelineData& data, FamilySet c
     const PairedDifference difference =
         paired_difference(data.check, superset_results[r].check_prediction, chosen, data.options.batch_rows);
     const bool unseen =
-        std::find(absorbed.begin(), absorbed.end(), added[r]) != absorbed.end() &&
+        (std::find(absorbed.begin(), absorbed.end(), added[r]) != absorbed.end() ||
+         realistic_share(added[r], superset_results[r].fit.theta) >= kSizedShare) &&
         difference.z >= -data.options.paired_z &&
         (std::abs(difference.mean_deg2) <= data.threshold_deg2 || std::abs(difference.z) <= data.options.paired_z);
     const bool below_minimum_effect =
