@@ -44,8 +44,20 @@ const std::vector<std::string> kCarried = {"drives_enabled", "alpha1_ref_deg", "
 void run_merge(const MergeOptions& options) {
   const CsvTable run = read_csv(options.run, {"t_s", "alpha1_deg", "alpha2_deg", "alpha3_deg"}, kCarried);
   for (std::size_t i = 1; i < run.rows.size(); ++i) check_time_order(run, i, 0);
-  const CsvTable stage = read_csv(options.stage, {"t_s", "x_m", "y_m", "z_m"});
+  const CsvTable stage = read_csv(options.stage, {"t_s", "x_m", "y_m", "z_m"}, {"sync"});
   check_increasing(stage);
+  std::vector<int> sync;  // the board's stage sync output as the stage logged it
+  if (stage.present[4]) {
+    sync.resize(stage.rows.size());
+    for (std::size_t i = 0; i < stage.rows.size(); ++i) {
+      const double level = stage.rows[i][4];
+      if (level != 0.0 && level != 1.0) {
+        throw InputError(stage.path, stage.line_numbers[i],
+                         "sync is " + format_number(level) + ": the logged level of the board's sync output, 0 or 1");
+      }
+      sync[i] = level != 0.0 ? 1 : 0;
+    }
+  }
   std::vector<double> run_t(run.rows.size()), stage_t(stage.rows.size());
   std::vector<Vec3> alpha(run.rows.size()), position(stage.rows.size());
   for (std::size_t i = 0; i < run.rows.size(); ++i) {
@@ -59,13 +71,16 @@ void run_merge(const MergeOptions& options) {
   OutputFile data(options.out);
   std::unique_ptr<OutputFile> report;
   if (!options.report.empty()) report = std::make_unique<OutputFile>(options.report);
-  const diagnosis::MergeResult m = diagnosis::merge_logs(options.run, run_t, alpha, options.stage, stage_t, position);
+  const diagnosis::MergeResult m =
+      diagnosis::merge_logs(options.run, run_t, alpha, options.stage, stage_t, position, sync);
 
   std::ostream& out = data.stream();
   out << "# deltactl merge --run " << options.run << " --stage " << options.stage << "\n"
       << "# t_stage = offset + (1 + rate 1e-6) t_board: offset " << format_number(m.offset_s) << " +- "
       << format_number(m.offset_sd_s) << " s, rate " << format_number(m.rate_ppm) << " +- "
-      << format_number(m.rate_sd_ppm) << " ppm; x/y/z_m: the stage at the aligned instants\n"
+      << format_number(m.rate_sd_ppm) << " ppm (from "
+      << (m.from_sync ? std::to_string(m.sync_changes) + " changes of the board's sync output" : "the data alone")
+      << "); x/y/z_m: the stage at the aligned instants\n"
       << "t_s,alpha1_deg,alpha2_deg,alpha3_deg,x_m,y_m,z_m";
   std::vector<std::size_t> carried;
   for (std::size_t k = 0; k < kCarried.size(); ++k) {
@@ -92,25 +107,34 @@ void run_merge(const MergeOptions& options) {
   }
   const bool closed_loop = drives_on > run.rows.size() / 2;
   if (report) {
-    const nlohmann::json j = {{"run", options.run},
-                              {"closed_loop", closed_loop},
-                              {"stage", options.stage},
-                              {"offset_s", m.offset_s},
-                              {"offset_sd_s", m.offset_sd_s},
-                              {"rate_ppm", m.rate_ppm},
-                              {"rate_sd_ppm", m.rate_sd_ppm},
-                              {"offset_signal_left", m.offset_signal_left},
-                              {"rate_signal_left", m.rate_signal_left},
-                              {"residual_rms_m", m.residual_rms_m},
-                              {"motion_rms_m", m.motion_rms_m},
-                              {"correlation", m.correlation},
-                              {"overlap_s", m.overlap_s},
-                              {"run_rows", m.run_rows},
-                              {"stage_rows", m.stage_rows},
-                              {"fit_rows", m.fit_rows},
-                              {"merged_rows", m.merged_rows},
-                              {"clock_model", "t_stage = offset_s + (1 + rate_ppm * 1e-6) * t_board"},
-                              {"uncertainty", "standard (1 sigma), residuals correlated over 2 s blocks"}};
+    const nlohmann::json j = {
+        {"run", options.run},
+        {"closed_loop", closed_loop},
+        {"stage", options.stage},
+        {"clock_from", m.from_sync ? "sync" : "data"},
+        {"sync_changes", m.sync_changes},
+        {"sync_consistent", m.sync_consistent},
+        {"data_offset_s", m.data_offset_s},
+        {"data_offset_sd_s", m.data_offset_sd_s},
+        {"data_rate_ppm", m.data_rate_ppm},
+        {"data_rate_sd_ppm", m.data_rate_sd_ppm},
+        {"offset_s", m.offset_s},
+        {"offset_sd_s", m.offset_sd_s},
+        {"rate_ppm", m.rate_ppm},
+        {"rate_sd_ppm", m.rate_sd_ppm},
+        {"offset_signal_left", m.offset_signal_left},
+        {"rate_signal_left", m.rate_signal_left},
+        {"residual_rms_m", m.residual_rms_m},
+        {"motion_rms_m", m.motion_rms_m},
+        {"correlation", m.correlation},
+        {"overlap_s", m.overlap_s},
+        {"run_rows", m.run_rows},
+        {"stage_rows", m.stage_rows},
+        {"fit_rows", m.fit_rows},
+        {"merged_rows", m.merged_rows},
+        {"clock_model", "t_stage = offset_s + (1 + rate_ppm * 1e-6) * t_board"},
+        {"uncertainty", m.from_sync ? "standard (1 sigma), of the region the sync output's changes leave"
+                                    : "standard (1 sigma), residuals correlated over 2 s blocks"}};
     report->stream() << j.dump(2) << '\n';
     report->finish();
   }
@@ -120,17 +144,25 @@ void run_merge(const MergeOptions& options) {
   std::cout << "merge: " << m.merged_rows << " of " << m.run_rows << " run rows covered by the stage ("
             << fixed(m.overlap_s, 1) << " s); t_stage = " << fixed(m.offset_s, 6) << " s + (1 + "
             << fixed(m.rate_ppm, 3) << " ppm) t_board; uncertainty " << fixed(m.offset_sd_s * 1e6, 1) << " us, "
-            << fixed(m.rate_sd_ppm, 3) << " ppm; residual " << fixed(m.residual_rms_m * 1e6, 2) << " um RMS -> "
-            << options.out << '\n';
-  if (closed_loop) {
+            << fixed(m.rate_sd_ppm, 3) << " ppm, from "
+            << (m.from_sync ? std::to_string(m.sync_changes) + " changes of the board's sync output (the data: " +
+                                  fixed((m.data_offset_s - m.offset_s) * 1e3, 3) + " ms, " +
+                                  fixed(m.data_rate_ppm - m.rate_ppm, 3) + " ppm off it)"
+                            : std::string("the data alone"))
+            << "; residual " << fixed(m.residual_rms_m * 1e6, 2) << " um RMS -> " << options.out << '\n';
+  if (stage.present[4] && !m.from_sync) {
+    std::cout << "merge: the stage's sync column never changes (its input not wired to the board's stage_sync_o?): "
+                 "the clocks come from the data alone\n";
+  }
+  if (closed_loop && !m.from_sync) {
     std::cout << "merge: a closed-loop run (the drives on in " << drives_on << " of " << run.rows.size()
               << " rows): the readings are corrected for the controller's lead over the arm, but inside a "
                  "joint's play the arm falls back and creeps on unseen by them, and the alignment can be "
-                 "milliseconds off (0.4-3.6 ms, 2-7 um of plate, on 4-5 minute runs of robots with 0.1-0.25 deg "
-                 "of play): diagnose names the drag's effects from it but does not reach the floor; calibrate "
-                 "on drags\n";
+                 "milliseconds off (1.5-4.2 ms, 3-11 um of plate, on 4-5 minute runs of robots with 0.1-0.25 deg "
+                 "of play): log the board's stage sync output with the stage (a column sync), or calibrate on "
+                 "drags\n";
   }
-  if (m.offset_signal_left < kSignalLeast || m.rate_signal_left < kSignalLeast) {
+  if (!m.from_sync && (m.offset_signal_left < kSignalLeast || m.rate_signal_left < kSignalLeast)) {
     std::cout << "merge: the logs fix the clocks poorly (the robot's unknown effects absorb "
               << fixed(100.0 * (1.0 - m.offset_signal_left), 1) << " % of the offset's signal and "
               << fixed(100.0 * (1.0 - m.rate_signal_left), 1)
@@ -142,26 +174,32 @@ void run_merge(const MergeOptions& options) {
 const RegisterCommand command("merge", 61, [](CLI::App& root) {
   auto options = std::make_shared<MergeOptions>();
   CLI::App* sub = root.add_subcommand(
-      "merge", "Merge a host recording with the measuring stage's own log (clocks aligned from the data)");
+      "merge", "Merge a host recording with the measuring stage's own log (clocks from the data or the board's sync)");
   sub->footer(
       "\nRUN.csv: a 'deltactl host record' or 'host run' recording (t_s board time, alpha*_deg encoders).\n"
-      "STAGE.csv: the stage controller's log (t_s on its own clock, x_m,y_m,z_m). No shared clock: the\n"
-      "stage's clock is found as t_stage = offset + (1 + rate 1e-6) t_board from the data alone, by\n"
-      "matching the plate the stage saw with the plate the encoders imply (nominal forward kinematics\n"
-      "of the readings interpolated between their counts; an affine map, a cubic polynomial of the\n"
-      "plate, the joints' play and a spline of each reading absorbing the robot's unknown effects): a\n"
-      "cross-correlation over every offset, then a least-squares fit of offset and rate on the rows (at\n"
-      "most 20000) where no joint sits inside its play, outliers dropped. The rate needs a drag that\n"
-      "comes back to the same joint angles at other times (5 minutes or more of the validation run or\n"
-      "a sweep); on a shorter one (or a single ellipse, such as experiment1) the summary says the\n"
-      "clocks are poorly fixed.\n"
+      "STAGE.csv: the stage controller's log (t_s on its own clock, x_m,y_m,z_m, optionally sync). No\n"
+      "shared clock: the stage's clock is found as t_stage = offset + (1 + rate 1e-6) t_board from the\n"
+      "data alone, by matching the plate the stage saw with the plate the encoders imply (nominal\n"
+      "forward kinematics of the readings interpolated between their counts; an affine map, a cubic\n"
+      "polynomial of the plate, the joints' play and a spline of each reading absorbing the robot's\n"
+      "unknown effects): a cross-correlation over every offset, then a least-squares fit of offset and\n"
+      "rate on the rows (at most 20000) where no joint sits inside its play, outliers dropped. The rate\n"
+      "needs a drag that comes back to the same joint angles at other times (5 minutes or more of the\n"
+      "validation run or a sweep); on a shorter one (or a single ellipse, such as experiment1) the\n"
+      "summary says the clocks are poorly fixed. In closed loop the arm's fall-back inside its play\n"
+      "leaves milliseconds of error. A column sync (0/1) is the board's stage sync output as the stage\n"
+      "sampled it (wire stage_sync_o, docs/lab_loop.md): then the clocks come from its changes, each\n"
+      "bounding offset and rate between two stage samples, to within microseconds, closed loop or not\n"
+      "(the data's alignment, reported beside it, tells which change is which); a sync column that\n"
+      "does not follow the board's output is refused.\n"
       "DATA.csv: a SPEC recording (t_s,alpha1..3_deg,x_m,y_m,z_m, plus drives_enabled and the run's\n"
       "references when present) with the run's rows the stage covers, the stage interpolated (cubic) at\n"
       "the aligned instants; compare, diagnose, train and table1 take it. MERGE.json: offset_s,\n"
       "rate_ppm, their standard uncertainties (offset_sd_s, rate_sd_ppm; residuals correlated over 2 s\n"
       "blocks), offset_signal_left and rate_signal_left (the fractions of their signal the robot's\n"
       "effects leave: about 0.1 and 0.5 on a 10 minute drag; below 0.01 the clocks are poorly fixed),\n"
-      "the residual (residual_rms_m) and the overlap.\n"
+      "the residual (residual_rms_m) and the overlap; clock_from (sync or data), sync_changes, and the\n"
+      "data's own alignment (data_offset_s, data_rate_ppm and their uncertainties).\n"
       "Refused (exit 2, one line, no output): a file that is not such a log, a plate at rest, logs\n"
       "that overlap by less than half the shorter one or 10 s, logs that do not belong together.\n"
       "Example: deltactl merge --run run.csv --stage stage.csv --out data.csv --report merge.json");

@@ -57,6 +57,7 @@ struct VirtualBoardCommandOptions {
   double stage_rate_hz = 1000.0;
   double stage_noise_m = 20e-9;
   std::int64_t stage_seed = -1;
+  bool stage_no_sync = false;
   std::string start_angles;            // A1,A2,A3 [deg], true shaft angles; empty: the home pose
   int inject_seized_joint = 0;         // 1..3; 0: none
   int inject_missing_home_switch = 0;  // 1..3; 0: none
@@ -196,6 +197,7 @@ void run_virtual_board(const VirtualBoardCommandOptions& options) {
     std::tie(stage_options.clock_offset_s, stage_options.clock_ppm) = parse_stage_clock(options.stage_clock);
     stage_options.rate_hz = options.stage_rate_hz;
     stage_options.noise_m = options.stage_noise_m;
+    stage_options.log_sync = !options.stage_no_sync;
     stage_options.seed = options.stage_seed >= 0 ? static_cast<std::uint64_t>(options.stage_seed)
                                                  : static_cast<std::uint64_t>(std::random_device{}()) & 0xffffffffu;
     stage = std::make_unique<MeasuringStage>(stage_options, effects, Geometry::nominal());
@@ -214,8 +216,8 @@ void run_virtual_board(const VirtualBoardCommandOptions& options) {
   const std::unique_ptr<VirtualBoard> board_owner = make_board();
   VirtualBoard& board = *board_owner;
   if (stage) {
-    board.observe_periods([s = stage.get(), &board](std::uint64_t clocks, const BoardPins&, const RobotWorld& world) {
-      s->sample(static_cast<double>(clocks) / kBoardClockHz, 1.0 / board::kControlRateHz, world);
+    board.observe_periods([s = stage.get()](std::uint64_t clocks, const BoardPins& pins, const RobotWorld& world) {
+      s->sample(static_cast<double>(clocks) / kBoardClockHz, world, pins.stage_sync);
     });
   }
 
@@ -345,42 +347,49 @@ const RegisterCommand command("virtual-board", 72, [](CLI::App& root) {
   auto options = std::make_shared<VirtualBoardCommandOptions>();
   CLI::App* sub = root.add_subcommand(
       "virtual-board", "The virtual robot and its board behind a pseudo-terminal at PATH (talk to it as to the board)");
+  const std::string sync_period_s =
+      format_number(static_cast<double>(1LL << board::kStageSyncBit) / static_cast<double>(board::kControlRateHz));
   sub->footer(
-      "\nCreates a pseudo-terminal (raw, no echo) whose slave is linked at PATH; any program that opens\n"
-      "PATH as a serial port talks the board link v2 (docs/board_link.md) to the virtual board: the\n"
-      "Verilated board core as built for the iCEBreaker (23.25 MHz board clock, 46.5 MHz network\n"
-      "clock, 23 clocks per bit at 1 Mbaud) with the robot world (three joint plants, the effects'\n"
-      "sensor chain, quadrature encoders, PWM averaging). Bytes from PATH enter the board's UART at its\n"
-      "bit timing; the board's bytes come back as they leave its TX pin. The simulation runs as fast as\n"
-      "it can, about 0.4 x real time: a host paces itself by the board's telemetry, never by its\n"
-      "own clock. --fidelity model runs the C++ model board instead (bit-exact with the RTL at its\n"
-      "pins: the same bytes, PWM and encoder counts), kept to wall-clock time unless --free-run (over\n"
-      "100 x real time with nobody reading), as SCHED_FIFO 70 when permitted (the board's hardware\n"
-      "never waits for the PC). Board time is real time, as on the real board: a paced\n"
-      "board that falls behind, its process not scheduled, catches up on the bytes that arrived\n"
-      "meanwhile and sends the telemetry of the time it missed at once; the largest lag is printed\n"
-      "on exit. The board's receive queue holds 4 KiB (the FT2232H's buffer): a program writing\n"
-      "faster than the line is slowed down and blocked, as by a real port.\n"
-      "Bytes the board sends while nobody reads PATH are dropped once the pty is full.\n"
-      "A program's exclusive mode on PATH (TIOCEXCL) ends when it closes PATH, as on a serial port.\n"
-      "A --link that names a live virtual board's link is refused.\n"
-      "Prints one line naming PATH when ready; runs until SIGINT or SIGTERM, then removes PATH.\n"
-      "--truth: CSV at 1 kHz of board time, written as it runs (flushed twice a second, complete on\n"
-      "exit): t_s (board time since reset), x/y/z_m (the plate as the measuring stage sees it),\n"
-      "true_alpha*_deg (plant angles), drives_enabled, encoder*_deg, current*_a.\n"
-      "Defaults: the deployed model the bitstream ships (weights/paper_like_deployed.json; the plain\n"
-      "network: --weights weights/paper_like.json) and the paper-like robot\n"
-      "(sim/paper_like_effects.json), both of the checkout deltactl was built from; --effects '' is the\n"
-      "nominal robot.\n"
-      "--inject-encoder-skip-at S: at board time S joint 1's A and B lines both invert (a skipped\n"
-      "quadrature state: the board latches fault cause 0, encoder skip), for the host's fault tests.\n"
-      "--stage: a measuring stage beside the robot (SPEC.md, \"The lab's measurements\"). drag:NAME or\n"
-      "drag:FILE.csv (t_s,x_m,y_m,z_m): with the drives off the stage moves the plate, the arms following\n"
-      "through the true geometry and every effect; from one second of board time after the board's\n"
-      "first valid frame (a quintic move to the start during that second) along the trajectory, then\n"
-      "holds it at the end. follow: it only measures. --stage-log gets the stage controller's own log,\n"
-      "t_s,x_m,y_m,z_m, on its clock (t_stage = OFFSET + (1 + PPM 1e-6) t_board) at --stage-rate, the\n"
-      "plate through the frame misalignment with --stage-noise, quantised to 6.87 nm; the seed is printed.\n"
+      std::string(
+          "\nCreates a pseudo-terminal (raw, no echo) whose slave is linked at PATH; any program that opens\n"
+          "PATH as a serial port talks the board link v2 (docs/board_link.md) to the virtual board: the\n"
+          "Verilated board core as built for the iCEBreaker (23.25 MHz board clock, 46.5 MHz network\n"
+          "clock, 23 clocks per bit at 1 Mbaud) with the robot world (three joint plants, the effects'\n"
+          "sensor chain, quadrature encoders, PWM averaging). Bytes from PATH enter the board's UART at its\n"
+          "bit timing; the board's bytes come back as they leave its TX pin. The simulation runs as fast as\n"
+          "it can, about 0.4 x real time: a host paces itself by the board's telemetry, never by its\n"
+          "own clock. --fidelity model runs the C++ model board instead (bit-exact with the RTL at its\n"
+          "pins: the same bytes, PWM and encoder counts), kept to wall-clock time unless --free-run (over\n"
+          "100 x real time with nobody reading), as SCHED_FIFO 70 when permitted (the board's hardware\n"
+          "never waits for the PC). Board time is real time, as on the real board: a paced\n"
+          "board that falls behind, its process not scheduled, catches up on the bytes that arrived\n"
+          "meanwhile and sends the telemetry of the time it missed at once; the largest lag is printed\n"
+          "on exit. The board's receive queue holds 4 KiB (the FT2232H's buffer): a program writing\n"
+          "faster than the line is slowed down and blocked, as by a real port.\n"
+          "Bytes the board sends while nobody reads PATH are dropped once the pty is full.\n"
+          "A program's exclusive mode on PATH (TIOCEXCL) ends when it closes PATH, as on a serial port.\n"
+          "A --link that names a live virtual board's link is refused.\n"
+          "Prints one line naming PATH when ready; runs until SIGINT or SIGTERM, then removes PATH.\n"
+          "--truth: CSV at 1 kHz of board time, written as it runs (flushed twice a second, complete on\n"
+          "exit): t_s (board time since reset), x/y/z_m (the plate as the measuring stage sees it),\n"
+          "true_alpha*_deg (plant angles), drives_enabled, encoder*_deg, current*_a.\n"
+          "Defaults: the deployed model the bitstream ships (weights/paper_like_deployed.json; the plain\n"
+          "network: --weights weights/paper_like.json) and the paper-like robot\n"
+          "(sim/paper_like_effects.json), both of the checkout deltactl was built from; --effects '' is the\n"
+          "nominal robot.\n"
+          "--inject-encoder-skip-at S: at board time S joint 1's A and B lines both invert (a skipped\n"
+          "quadrature state: the board latches fault cause 0, encoder skip), for the host's fault tests.\n"
+          "--stage: a measuring stage beside the robot (SPEC.md, \"The lab's measurements\"). drag:NAME or\n"
+          "drag:FILE.csv (t_s,x_m,y_m,z_m): with the drives off the stage moves the plate, the arms following\n"
+          "through the true geometry and every effect; from one second of board time after the board's\n"
+          "first valid frame (a quintic move to the start during that second) along the trajectory, then\n"
+          "holds it at the end. follow: it only measures. --stage-log gets the stage controller's own log,\n"
+          "t_s,x_m,y_m,z_m, on its clock (t_stage = OFFSET + (1 + PPM 1e-6) t_board) at --stage-rate, the\n"
+          "plate through the frame misalignment with --stage-noise, quantised to 6.87 nm; the seed is printed.\n"
+          "A fifth column, sync, is the board's stage sync output (bit ") +
+      std::to_string(board::kStageSyncBit) + " of its control periods, a level\nthat changes every " + sync_period_s +
+      " s of board time) on the stage's digital input, sampled with the\n"
+      "positions: merge aligns the clocks on it. --stage-no-sync: a stage without that wire.\n"
       "Merge it with a host recording: deltactl merge (docs/lab_loop.md).\n"
       "Example: deltactl virtual-board --link /tmp/delta-tty --truth truth.csv &\n"
       "         deltactl host status --port /tmp/delta-tty");
@@ -415,7 +424,7 @@ const RegisterCommand command("virtual-board", 72, [](CLI::App& root) {
   sub->add_option("--stage", options->stage,
                   "measuring stage: drag:NAME|drag:FILE.csv (drags the plate, drives off) or follow")
       ->type_name("MODE");
-  sub->add_option("--stage-log", options->stage_log, "STAGE.csv: the stage's own log (t_s,x_m,y_m,z_m)");
+  sub->add_option("--stage-log", options->stage_log, "STAGE.csv: the stage's own log (t_s,x_m,y_m,z_m,sync)");
   sub->add_option("--stage-clock", options->stage_clock, "OFFSET_S,PPM: t_stage = OFFSET + (1 + PPM 1e-6) t_board")
       ->capture_default_str();
   sub->add_option("--stage-rate", options->stage_rate_hz, "stage samples per second of its clock")
@@ -426,6 +435,8 @@ const RegisterCommand command("virtual-board", 72, [](CLI::App& root) {
       ->capture_default_str();
   sub->add_option("--stage-seed", options->stage_seed, "seed of the stage's noise (default: drawn, printed)")
       ->check(options::whole_number(0, 4294967295LL));
+  sub->add_flag("--stage-no-sync", options->stage_no_sync,
+                "the stage logs no sync column (its input not wired to the board's sync output)");
   sub->callback([options] { run_virtual_board(*options); });
 });
 

@@ -44,7 +44,7 @@ MeasuringStage::MeasuringStage(const StageOptions& options, const EffectSet& eff
   log_.open(options.log_path, std::ios::trunc);
   if (!log_) throw InputError(options.log_path, 0, "cannot be written");
   log_ << "# deltactl virtual-board --stage " << options.mode << ": the measuring stage's own log on its own clock\n"
-       << "t_s,x_m,y_m,z_m\n";
+       << (options.log_sync ? "t_s,x_m,y_m,z_m,sync\n" : "t_s,x_m,y_m,z_m\n");
   // The first sample at or after board time 0, on the stage's grid of whole periods of its clock.
   next_ = static_cast<std::int64_t>(std::ceil(options.clock_offset_s * options.rate_hz - 1e-9));
 }
@@ -62,24 +62,31 @@ std::optional<Vec3> MeasuringStage::drag(double t_s) const {
   return Vec3(*rest_m_ + s * (path_(0.0) - *rest_m_));
 }
 
-void MeasuringStage::sample(double t_s, double period_s, const RobotWorld& world) {
+void MeasuringStage::sample(double t_s, const RobotWorld& world, bool sync) {
   if (path_ && start_s_ && !rest_m_ && t_s >= *start_s_) {
     const FkSolution plate = forward_kinematics(world.true_geometry(), world.true_alpha_deg());
     if (plate.ok()) rest_m_ = plate.position_m;
   }
+  const Vec3 now = world.measured_position_m();
   const double scale = 1.0 + options_.clock_ppm * 1e-6;
+  // The samples of the period just ended, [last_t_, t_s): the plate where it was at that instant
+  // (between the period's ends, linearly), the sync output as it was over the period.
   for (;;) {
     const double t_stage = static_cast<double>(next_) / options_.rate_hz;
     const double t_board = (t_stage - options_.clock_offset_s) / scale;
-    if (t_board >= t_s + period_s) return;
+    if (t_board >= t_s) break;
     ++next_;
-    if (t_board < t_s - period_s) continue;  // (before the board started)
-    const Vec3 p = world.measured_position_m();
+    if (!last_position_ || t_board < last_t_s_) continue;  // (before the board started)
+    const Vec3 p = *last_position_ + (t_board - last_t_s_) / (t_s - last_t_s_) * (now - *last_position_);
     log_ << format_number(t_stage);
     for (int k = 0; k < 3; ++k) log_ << ',' << format_number(quantise(p[k] + noise_(generator_), kStageResolutionM));
+    if (options_.log_sync) log_ << ',' << (last_sync_ ? '1' : '0');
     log_ << '\n';
     ++samples_;
   }
+  last_position_ = now;
+  last_t_s_ = t_s;
+  last_sync_ = sync;
 }
 
 bool MeasuringStage::finish() {

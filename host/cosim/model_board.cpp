@@ -130,6 +130,9 @@ std::uint16_t saturating_increment(std::uint16_t value) { return value == kCount
 // The link CRC-16 register after one more byte (link_crc16.sv; the host's link::crc16).
 std::uint16_t crc_byte(std::uint16_t crc, std::uint8_t data) { return link::crc16(&data, 1, crc); }
 
+// stage_sync_o (board_core.sv): a bit of the control periods since reset.
+bool stage_sync(std::uint32_t period_count) { return ((period_count >> board::kStageSyncBit) & 1U) != 0; }
+
 int payload_size(std::uint8_t type, bool* known) {
   *known = true;
   if (type == board::kFrameTypeIdentifyRequest) return 0;
@@ -764,6 +767,7 @@ std::uint64_t ModelBoard::skip_run(std::uint64_t limit, int encoder_a, int encod
   pins_.drive_pwm = s.pwm;
   pins_.drive_dir = s.direction;
   pins_.drive_enable = s.enable_out;
+  pins_.stage_sync = stage_sync(s.period_count);
   return taken;
 }
 
@@ -1228,6 +1232,7 @@ void ModelBoard::clock(int encoder_a, int encoder_b) {
   pins_.encoder_error_bits = q.encoder_error;
   pins_.joint_limited = q.overflow != 0;
   pins_.fault_cause_bits = q.fault_cause;
+  pins_.stage_sync = stage_sync(q.period_count);
 }
 
 // ---- uart_rx (the line's bytes at their clocks: ModelBoard::receive); n may be s ----

@@ -65,6 +65,7 @@ class RtlBoardModel final : public BoardModel {
     pins.encoder_error_bits = core.encoder_error_o;
     pins.joint_limited = core.joint_limited_o;
     pins.fault_cause_bits = core.joint_fault_cause_o;
+    pins.stage_sync = core.stage_sync_o != 0;
     return pins;
   }
   std::uint64_t idle_network_clocks() const override { return network_clock_.skipped(); }

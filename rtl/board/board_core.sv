@@ -54,7 +54,8 @@ module board_core #(
   output logic [2:0] encoder_error_o, // sticky: encoder j skipped a quadrature state
   output logic       joint_limited_o, // sticky: a joint controller saturated an operand or state
   output logic       joint_fault_o,   // latched until an accepted clear fault: torque off
-  output logic [delta_board_pkg::FaultCauseBits-1:0] joint_fault_cause_o  // bits: delta_board_pkg::Fault*
+  output logic [delta_board_pkg::FaultCauseBits-1:0] joint_fault_cause_o,  // bits: delta_board_pkg::Fault*
+  output logic       stage_sync_o     // bit StageSyncBit of the periods since reset: a clock a stage can log
 );
   localparam int unsigned NumInputs   = delta_network_pkg::NumInputs;
   localparam int unsigned NumOutputs  = delta_network_pkg::NumOutputs;
@@ -219,6 +220,7 @@ module board_core #(
       period_count_q <= period_count_q + 1'b1;
     end
   end
+  assign stage_sync_o = period_count_q[delta_board_pkg::StageSyncBit];
   assign play     = tick == TickWidth'(delta_board_pkg::PlayTick) && phase_q == 4'd0 && enabled_q && !holding_q && !fault;
   assign snapshot = tick == TickWidth'(ClocksPerPeriod / 2) && phase_q == 4'd0;
   assign update   = tick == TickWidth'(ClocksPerPeriod - delta_board_pkg::InterpolationLeadClocks);

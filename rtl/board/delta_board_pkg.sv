@@ -139,4 +139,11 @@ package delta_board_pkg;
   // ---- status LEDs ----
   localparam int LedWindowBits /*verilator public*/ = 11;  // LED windows: 2^11 control periods (0.2 s)
 
+  // ---- stage sync output ----
+  // stage_sync_o is bit StageSyncBit of the control periods since reset (the telemetry's board time):
+  // it changes every 2^12 periods (0.4096 s of board time) and rises at its odd multiples. A measuring
+  // stage that logs it beside its positions lets `deltactl merge` align the two clocks to within a
+  // fraction of the stage's sample interval (docs/lab_loop.md).
+  localparam int StageSyncBit /*verilator public*/ = 12;
+
 endpackage

@@ -29,7 +29,8 @@ module icebreaker_top #(
   output logic       drive_enable_o,// PMOD1B pin 9 (32)
   output logic [2:0] led_encoder_error_o, // break-off board LED1..LED3 (26, 27, 25): encoder j skipped a state
   output logic       led_joint_fault_o,   // break-off board LED4 (23): joint fault, torque off (until reset)
-  output logic       led_drive_enable_o   // break-off board LED5 (21): drives enabled
+  output logic       led_drive_enable_o,  // break-off board LED5 (21): drives enabled
+  output logic       stage_sync_o         // PMOD2 pin 10 (18): the board's time for a measuring stage to log
 );
   logic clk_network, clk, pll_locked;  // port A, port B (half)
 
@@ -77,6 +78,7 @@ module icebreaker_top #(
   // LED show what matters.
   logic       joint_limited;
   logic [delta_board_pkg::FaultCauseBits-1:0] joint_fault_cause;
+  logic       stage_sync;
   board_core #(
     .ClocksPerBit   ((BoardClockHz + BaudRate / 2) / BaudRate),
     .ClocksPerPeriod(BoardClockHz / delta_board_pkg::ControlRateHz),
@@ -99,8 +101,21 @@ module icebreaker_top #(
     .encoder_error_o    (led_encoder_error_o),
     .joint_limited_o    (joint_limited),
     .joint_fault_o      (led_joint_fault_o),
-    .joint_fault_cause_o(joint_fault_cause)
+    .joint_fault_cause_o(joint_fault_cause),
+    .stage_sync_o       (stage_sync)
   );
+  // The stage sync output leaves through the pin's own output register (PIN_TYPE 0101_01, the
+  // input side unused): no logic cell, and an edge a clock after period_count_q's. Verilator (the
+  // lint) cannot take the cell model's inout pin at the top: there the pin is the signal itself.
+`ifdef VERILATOR
+  assign stage_sync_o = stage_sync;
+`else
+  SB_IO #(.PIN_TYPE(6'b0101_01)) u_stage_sync_io (
+    .PACKAGE_PIN(stage_sync_o),
+    .OUTPUT_CLK (clk),
+    .D_OUT_0    (stage_sync)
+  );
+`endif
   logic       unused_status;
   assign unused_status = ^{joint_limited, joint_fault_cause};
   assign led_drive_enable_o = drive_enable_o;

@@ -14,6 +14,7 @@
 #include <random>
 #include <string>
 
+#include "delta/board_facts.hpp"
 #include "delta/diagnosis/diagnose.hpp"
 #include "delta/diagnosis/merge.hpp"
 #include "delta/effect_file.hpp"
@@ -40,6 +41,7 @@ const char* kOtherRobot = R"({
 struct Logs {
   std::vector<double> run_t, stage_t;
   std::vector<Vec3> alpha, stage, truth;  // truth: the plate (stage frame, no noise) at each run row
+  std::vector<int> sync;                  // the board's stage sync output at each stage sample
 };
 
 // A robot with every effect of the vocabulary, at the magnitudes of a 40/68 mm Delta built with
@@ -100,6 +102,9 @@ Logs make_logs(const EffectSet& effects, std::uint64_t trajectory_seed, double s
     if (t > seconds + 8.0) break;
     const Vec3 p = frame(plate(t + stage_later_s));
     logs.stage_t.push_back(tau);
+    // stage_sync_o: bit StageSyncBit of the control periods since reset (board_core.sv).
+    const auto period = static_cast<long long>(std::floor(t * static_cast<double>(board::kControlRateHz)));
+    logs.sync.push_back(static_cast<int>((period >> board::kStageSyncBit) & 1));
     logs.stage.push_back(Vec3(quantise(p[0] + noise(generator), kStageResolutionM),
                               quantise(p[1] + noise(generator), kStageResolutionM),
                               quantise(p[2] + noise(generator), kStageResolutionM)));
@@ -148,6 +153,76 @@ TEST(Merge, AStageOnItsOwnClockIsMergedWithinAMicrometreOfTheTruth) {
     EXPECT_NEAR(m.offset_s, offset, std::max(2e-4, 5 * m.offset_sd_s));
     EXPECT_NEAR(m.rate_ppm, ppm, std::max(2.0, 5 * m.rate_sd_ppm));
   }
+}
+
+// The board's stage sync output logged by the stage (a column sync): the clocks come from its
+// changes, each bounding offset and rate between two stage samples. On 2 minute drags the merged
+// plate is within a micrometre of the truth; the clock found and the true one put every change
+// between the same two samples (less than a sample interval apart), also where every change falls
+// at the same phase of the stage's samples (625 Hz and no rate error: 0.4096 s is 256 of its
+// samples, the region as wide as one). Where the data alone lost the clocks (off by more than a
+// quarter of the sync's level, 0.1 s: a 2 minute sweep sometimes) the changes cannot be told apart
+// and the merge is refused, never made on them. A sync column that does not follow the board's
+// output is refused; one that never changes leaves the clocks to the data.
+TEST(Merge, TheBoardsSyncOutputGivesTheClocks) {
+  std::mt19937_64 draw(test_seed());
+  const EffectSet robot = draw_robot(draw);
+  for (int round = 0; round < 3; ++round) {
+    const bool aligned = round == 2;  // every change at the same phase of the stage's samples
+    const double offset = std::uniform_real_distribution<double>(0.0, 60.0)(draw);
+    const double ppm = aligned ? 0.0 : std::uniform_real_distribution<double>(-200.0, 200.0)(draw);
+    const double rate =
+        aligned ? 625.0 : std::exp(std::uniform_real_distribution<double>(std::log(100.0), std::log(1000.0))(draw));
+    const Logs logs = make_logs(robot, draw() % 1000 + 1, 120.0, offset, ppm, rate, draw());
+    const MergeResult data = merge_logs("run.csv", logs.run_t, logs.alpha, "stage.csv", logs.stage_t, logs.stage);
+    if (std::abs(data.offset_s - offset) > 0.1) {
+      // The data alone lost the clocks (a short drag's correlation one peak off): the sync cannot
+      // tell its changes apart at that alignment and refuses rather than merge on it.
+      std::cout << "the data alone " << data.offset_s - offset << " s off: ";
+      try {
+        merge_logs("run.csv", logs.run_t, logs.alpha, "stage.csv", logs.stage_t, logs.stage, logs.sync);
+        ADD_FAILURE() << "a sync column was taken at an alignment " << data.offset_s - offset << " s off";
+      } catch (const InputError& error) {
+        std::cout << error.what() << '\n';
+      }
+      continue;
+    }
+    const MergeResult m =
+        merge_logs("run.csv", logs.run_t, logs.alpha, "stage.csv", logs.stage_t, logs.stage, logs.sync);
+    Vec3 sum = Vec3::Zero();
+    for (std::size_t r = 0; r < m.merged_rows; ++r) sum += (m.position_m[r] - logs.truth[m.run_row[r]]).cwiseAbs2();
+    const Vec3 rms = (sum / static_cast<double>(m.merged_rows)).cwiseSqrt();
+    std::cout << std::setprecision(9) << "clock " << offset << " s, " << ppm << " ppm, " << std::setprecision(4) << rate
+              << " Hz: the data alone " << std::setprecision(3) << (data.offset_s - offset) * 1e3
+              << " ms off; the sync (" << m.sync_changes << " changes) " << (m.offset_s - offset) * 1e6 << " +- "
+              << m.offset_sd_s * 1e6 << " us, " << m.rate_ppm - ppm << " +- " << m.rate_sd_ppm
+              << " ppm off; merged plate - truth " << rms.transpose() * 1e6 << " um RMS\n";
+    ASSERT_TRUE(m.from_sync);
+    EXPECT_TRUE(m.sync_consistent);
+    EXPECT_GT(m.sync_changes, 250u);
+    EXPECT_EQ(m.data_offset_s, data.offset_s);
+    // At every change both the true clock and the one found put it between the same two samples:
+    // in the middle of the run they are less than a sample interval apart.
+    const double middle = 0.5 * (logs.run_t.front() + logs.run_t.back());
+    const double apart = m.offset_s + m.rate_ppm * 1e-6 * middle - (offset + ppm * 1e-6 * middle);
+    EXPECT_LT(std::abs(apart), 1.0 / rate);
+    EXPECT_GT(m.offset_sd_s, 0.0);
+    if (!aligned) EXPECT_LT(rms.maxCoeff(), 1e-6);
+  }
+  Logs logs = make_logs(robot, 7, 120.0, 12.5, 80.0, 500.0, draw());
+  std::vector<int> inverted = logs.sync;
+  for (int& level : inverted) level = 1 - level;
+  try {
+    merge_logs("run.csv", logs.run_t, logs.alpha, "stage.csv", logs.stage_t, logs.stage, inverted);
+    ADD_FAILURE() << "an inverted sync column was taken";
+  } catch (const InputError& error) {
+    std::cout << "inverted: " << error.what() << '\n';
+    EXPECT_NE(std::string(error.what()).find("does not follow the board's sync output"), std::string::npos);
+  }
+  const MergeResult unwired = merge_logs("run.csv", logs.run_t, logs.alpha, "stage.csv", logs.stage_t, logs.stage,
+                                         std::vector<int>(logs.sync.size(), 0));
+  EXPECT_FALSE(unwired.from_sync);
+  EXPECT_EQ(unwired.offset_s, unwired.data_offset_s);
 }
 
 // The rows of a merge as a diagnosis reads them (the run's board time and encoders, the stage).

@@ -132,5 +132,74 @@ TEST(StageDrag, HostRecordAndMergeGiveThePlateWithinAMicrometreOfTheTruth) {
   if (!::testing::Test::HasFailure()) std::system(("rm -rf " + dir).c_str());
 }
 
+// Closed loop with the stage following and logging the board's stage sync output: the paper-like
+// robot homed, 20 s of experiment 1 (a single ellipse, whose clock offset the data alone barely
+// fix), `merge` takes the clocks from the sync's changes: the run's middle within one stage sample
+// of the true clock, the merged plate within a micrometre of the truth. The same stage log with
+// its sync inverted, or with a level that is not 0 or 1: exit 2, one line, no output. About 30 s.
+TEST(StageFollow, AClosedLoopRunMergesOnTheBoardsSyncOutput) {
+  const std::string dir = folder();
+  const std::string link = dir + "tty", weights = std::string(DELTA_SOURCE_DIR) + "/weights/paper_like_deployed.json";
+  const double offset = 7.25, ppm = 150.0;
+  {
+    VirtualBoardProcess board(link,
+                              {"--fidelity", "model", "--truth", dir + "truth.csv", "--stage", "follow", "--stage-log",
+                               dir + "stage.csv", "--stage-clock", "7.25,150", "--stage-seed", "5"});
+    std::cout << board.ready_line(20000) << '\n';
+    ASSERT_NE(board.ready_line(20000).find("ready"), std::string::npos);
+    const CommandResult home = run_deltactl("host home --port " + link + " --weights " + weights);
+    std::cout << home.out << home.err;
+    ASSERT_EQ(home.exit_code, 0);
+    const CommandResult run = run_deltactl("host run --port " + link + " --weights " + weights +
+                                           " --trajectory experiment1 --duration 20 --record " + dir + "run.csv");
+    std::cout << run.err;
+    ASSERT_EQ(run.exit_code, 0);
+    EXPECT_EQ(board.terminate(), 0);
+  }
+  const CommandResult merge = run_deltactl("merge --run " + dir + "run.csv --stage " + dir + "stage.csv --out " + dir +
+                                           "data.csv --report " + dir + "merge.json");
+  std::cout << merge.out << merge.err;
+  ASSERT_EQ(merge.exit_code, 0);
+  const std::string report = read_text(dir + "merge.json");
+  EXPECT_NE(report.find("\"clock_from\": \"sync\""), std::string::npos) << report;
+  const auto number = [&](const std::string& key) {
+    const std::size_t at = report.find("\"" + key + "\": ");
+    return at == std::string::npos ? std::nan("") : std::stod(report.substr(at + key.size() + 4));
+  };
+  const CsvTable data = read_csv(dir + "data.csv", {"t_s"});
+  const double middle = 0.5 * (data.rows.front()[0] + data.rows.back()[0]);
+  const double apart = number("offset_s") + number("rate_ppm") * 1e-6 * middle - (offset + ppm * 1e-6 * middle);
+  std::cout << "the clock found at the run's middle: " << apart * 1e6 << " us from the true one\n";
+  EXPECT_LT(std::abs(apart), 1e-3);  // the stage's sample interval
+  std::size_t rows = 0;
+  const Vec3 rms = merged_error_rms(dir + "data.csv", dir + "truth.csv", &rows);
+  std::cout << rows << " merged rows, error RMS x/y/z " << rms.transpose() * 1e6 << " um\n";
+  EXPECT_GT(rows, 19000u);
+  EXPECT_LT(rms.maxCoeff(), 1e-6);
+
+  const std::string stage_text = read_text(dir + "stage.csv");
+  std::string inverted, bad_level;
+  std::istringstream lines(stage_text);
+  for (std::string line; std::getline(lines, line);) {
+    const bool sample = !line.empty() && line[0] != '#' && line[0] != 't';
+    if (sample) line.back() = line.back() == '0' ? '1' : '0';
+    inverted += line + '\n';
+  }
+  bad_level = stage_text;
+  bad_level.replace(bad_level.find(",0\n", stage_text.size() / 2), 3, ",2\n");
+  write_text(dir + "inverted.csv", inverted);
+  write_text(dir + "bad_level.csv", bad_level);
+  for (const std::string name : {"inverted", "bad_level"}) {
+    const CommandResult bad =
+        run_deltactl("merge --run " + dir + "run.csv --stage " + dir + name + ".csv --out " + dir + name + "_data.csv");
+    std::cout << name << ": exit " << bad.exit_code << ": " << bad.err;
+    EXPECT_EQ(bad.exit_code, 2) << name;
+    EXPECT_EQ(std::count(bad.err.begin(), bad.err.end(), '\n'), 1) << name;
+    EXPECT_NE(bad.err.find("sync"), std::string::npos) << name;
+    EXPECT_FALSE(file_exists(dir + name + "_data.csv")) << name;
+  }
+  if (!::testing::Test::HasFailure()) std::system(("rm -rf " + dir).c_str());
+}
+
 }  // namespace
 }  // namespace delta::test

@@ -9,10 +9,12 @@
 
 #include <Eigen/Dense>
 
+#include "delta/board_facts.hpp"
 #include "delta/input_error.hpp"
 #include "delta/kinematics.hpp"
 
 #include "closed_loop.hpp"
+#include "sync_alignment.hpp"
 
 namespace delta::diagnosis {
 namespace {
@@ -540,7 +542,8 @@ std::string fixed3(double value) {
 
 MergeResult merge_logs(const std::string& run_path, const std::vector<double>& run_t,
                        const std::vector<Vec3>& run_alpha_deg, const std::string& stage_path,
-                       const std::vector<double>& stage_t, const std::vector<Vec3>& stage_m) {
+                       const std::vector<double>& stage_t, const std::vector<Vec3>& stage_m,
+                       const std::vector<int>& stage_sync) {
   MergeResult out;
   out.run_rows = run_t.size();
   out.stage_rows = stage_t.size();
@@ -1050,6 +1053,26 @@ MergeResult merge_logs(const std::string& run_path, const std::vector<double>& r
     refuse(stage_path,
            "does not belong with " + run_path + ": aligned, the stage and the encoders' plate still differ by " +
                fixed3(out.residual_rms_m * 1e6) + " um RMS (motion " + fixed3(out.motion_rms_m * 1e6) + " um RMS)");
+  }
+  out.data_offset_s = out.offset_s;
+  out.data_offset_sd_s = out.offset_sd_s;
+  out.data_rate_ppm = out.rate_ppm;
+  out.data_rate_sd_ppm = out.rate_sd_ppm;
+  // ---- the board's sync output, when the stage logged it ----
+  if (!stage_sync.empty()) {
+    const double level_s =
+        static_cast<double>(1LL << board::kStageSyncBit) / static_cast<double>(board::kControlRateHz);
+    const SyncAlignment sync = align_on_sync(stage_path, stage_t, stage_sync, out.offset_s, rate, level_s);
+    if (sync.changes > 0) {
+      out.from_sync = true;
+      out.sync_changes = sync.changes;
+      out.sync_consistent = sync.consistent;
+      out.offset_s = sync.offset_s;
+      out.offset_sd_s = sync.offset_sd_s;
+      rate = sync.rate;
+      out.rate_ppm = sync.rate * 1e6;
+      out.rate_sd_ppm = sync.rate_sd * 1e6;
+    }
   }
   // ---- the stage at every run row it covers ----
   for (std::size_t i = 0; i < n; ++i) {

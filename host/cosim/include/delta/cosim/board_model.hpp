@@ -22,6 +22,7 @@ struct BoardPins {
   int encoder_error_bits = 0;  // bit j: encoder j skipped a quadrature state
   bool joint_limited = false;  // a joint controller saturated an operand or state
   int fault_cause_bits = 0;    // delta_board_pkg Fault* bits, latched
+  bool stage_sync = false;     // stage_sync_o: bit StageSyncBit of the periods since reset
 };
 
 // The input lines as the board samples them at a clock edge: bit j of each is joint j's.

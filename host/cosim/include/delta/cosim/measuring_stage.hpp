@@ -3,7 +3,9 @@
 // (`drag`: the arms follow through the true geometry and every sensor effect) or measures the
 // plate wherever the robot carries it (`follow`), and writes its own log, t_s,x_m,y_m,z_m, as a
 // real stage does: on its clock t_stage = offset + (1 + ppm 1e-6) t_board, at its sample rate,
-// through the frame misalignment, with its noise, quantised to 6.87 nm.
+// through the frame misalignment, with its noise, quantised to 6.87 nm; and, unless told not to, a
+// column `sync`: the board's stage sync output (delta_board_pkg::StageSyncBit) on the stage's
+// digital input, sampled with the positions.
 //
 // The drag starts one second of board time after the board first receives a valid frame: a
 // quintic move from where the plate rests to the trajectory's start during that second, then the
@@ -35,6 +37,7 @@ struct StageOptions {
   double rate_hz = 1000.0;      // samples per second of stage time
   double noise_m = 20e-9;       // RMS per axis
   std::uint64_t seed = 1;
+  bool log_sync = true;  // the board's stage_sync_o wired to the stage's input, logged as `sync`
 };
 
 class MeasuringStage {
@@ -49,9 +52,11 @@ class MeasuringStage {
   void host_bytes(const std::uint8_t* data, std::size_t size, double t_s);
   // The plate's true position held by the stage at board time t_s (nothing: not holding yet).
   std::optional<Vec3> drag(double t_s) const;
-  // At the start of each control period [t_s, t_s + period_s): the stage's samples in it, of the
-  // world as it is now.
-  void sample(double t_s, double period_s, const RobotWorld& world);
+  // At the start of each control period (board time t_s), with the world and the board's sync
+  // output as they are then: the stage's samples in the period that just ended, each of the plate
+  // where it was at the sample's instant (between the two periods' starts, linearly) and of the
+  // sync output as it was over that period.
+  void sample(double t_s, const RobotWorld& world, bool sync);
   // Flushes the log; false when writing failed.
   bool finish();
   void flush() { log_.flush(); }
@@ -70,7 +75,10 @@ class MeasuringStage {
   std::ofstream log_;
   std::mt19937_64 generator_;
   std::normal_distribution<double> noise_;
-  std::int64_t next_ = 0;  // the next stage sample index (t_stage = next_ / rate)
+  std::int64_t next_ = 0;              // the next stage sample index (t_stage = next_ / rate)
+  std::optional<Vec3> last_position_;  // the plate at the last period's start (board time last_t_s_)
+  double last_t_s_ = 0.0;
+  bool last_sync_ = false;
   std::uint64_t samples_ = 0;
 };
 

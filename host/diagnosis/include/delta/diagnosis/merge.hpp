@@ -52,6 +52,11 @@
 // within 0.1 um RMS of the truth on every axis (docs/lab_loop.md); on a 1-2 minute drag the
 // nuisance absorbs most of a clock error (the merged plate off by a micrometre to tens of them,
 // the stated uncertainties too small: offset_signal_left and rate_signal_left say so).
+// A stage that logs the board's stage sync output beside its positions (a column `sync`) gives the
+// clocks from it instead (src/sync_alignment.hpp): each change of the level, between two of the
+// stage's samples, bounds offset and rate; their centre is within microseconds, closed loop or
+// not. The data's alignment above is still made (it tells which change is which, and refuses
+// logs that do not belong together) and reported beside it.
 // Refused (InputError, exit 2): a log that is not one (read_csv's reasons, times not increasing), a
 // plate at rest in either, logs that do not overlap enough, or do not belong together (a coarse
 // correlation below 0.9, or a residual above 0.2 mm or a fifth of the motion).
@@ -67,7 +72,13 @@ namespace delta::diagnosis {
 struct MergeResult {
   double offset_s = 0.0, offset_sd_s = 0.0;  // t_stage at board time 0 and its standard uncertainty
   double rate_ppm = 0.0, rate_sd_ppm = 0.0;  // the stage clock's rate error
-  double residual_rms_m = 0.0;               // of the fine fit
+  // Where the clocks came from: the sync output's changes (sync_changes of them) or the data alone;
+  // the data's alignment either way.
+  bool from_sync = false;
+  std::size_t sync_changes = 0;
+  bool sync_consistent = false;  // every change between its two samples at the alignment found
+  double data_offset_s = 0.0, data_offset_sd_s = 0.0, data_rate_ppm = 0.0, data_rate_sd_ppm = 0.0;
+  double residual_rms_m = 0.0;  // of the fine fit
   // The fractions of the offset's signal (the plate's speed) and of the rate's (speed times time)
   // that the robot's unknown effects do not absorb. On 10 minute drags of the validation run or a
   // sweep about 0.1 and 0.5; on a 1-2 minute drag below 0.01, where the clocks are poorly fixed
@@ -83,10 +94,11 @@ struct MergeResult {
   std::vector<Vec3> position_m;      // the stage at t_stage(t_s)
 };
 
-// run: board times and encoder angles (deg); stage: stage times and positions (m). The paths name
-// the files in errors.
+// run: board times and encoder angles (deg); stage: stage times and positions (m), and the logged
+// sync levels (0 or 1; empty: not logged). The paths name the files in errors.
 MergeResult merge_logs(const std::string& run_path, const std::vector<double>& run_t,
                        const std::vector<Vec3>& run_alpha_deg, const std::string& stage_path,
-                       const std::vector<double>& stage_t, const std::vector<Vec3>& stage_m);
+                       const std::vector<double>& stage_t, const std::vector<Vec3>& stage_m,
+                       const std::vector<int>& stage_sync = {});
 
 }  // namespace delta::diagnosis

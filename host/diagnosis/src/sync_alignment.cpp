@@ -1,0 +1,142 @@
+// The clocks from the board's stage sync output (sync_alignment.hpp).
+#include "sync_alignment.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "delta/input_error.hpp"
+#include "delta/output_file.hpp"
+
+namespace delta::diagnosis {
+namespace {
+
+constexpr double kMaxGapOfMedian = 3.0;    // a change across a longer gap in the log is not used
+constexpr double kMatchOfLevel = 0.25;     // a change this far (of level_s) from the board's is not one
+constexpr double kMismatchShare = 0.02;    // of the changes, above which the logs do not belong together
+constexpr int kSearchSteps = 200;          // of the searches along the rate
+constexpr double kUniformSd = 0.28867513;  // standard deviation of a uniform distribution per unit width
+
+struct Change {
+  double a, b;  // the stage samples either side of it (its clock)
+  double t;     // its board time, relative to their mean
+};
+
+}  // namespace
+
+SyncAlignment align_on_sync(const std::string& stage_path, const std::vector<double>& stage_t,
+                            const std::vector<int>& sync, double offset_s, double rate, double level_s) {
+  SyncAlignment out;
+  std::vector<double> spacing;
+  for (std::size_t k = 1; k < stage_t.size(); ++k) spacing.push_back(stage_t[k] - stage_t[k - 1]);
+  if (spacing.empty()) return out;
+  std::nth_element(spacing.begin(), spacing.begin() + static_cast<std::ptrdiff_t>(spacing.size() / 2), spacing.end());
+  const double max_gap = kMaxGapOfMedian * spacing[spacing.size() / 2];
+
+  std::vector<Change> changes;
+  std::size_t seen = 0, mismatched = 0;
+  for (std::size_t k = 1; k < stage_t.size(); ++k) {
+    if (sync[k] == sync[k - 1] || stage_t[k] - stage_t[k - 1] > max_gap) continue;
+    ++seen;
+    const double board = (0.5 * (stage_t[k - 1] + stage_t[k]) - offset_s) / (1.0 + rate);
+    const double n = std::round(board / level_s);
+    const bool odd = std::fmod(n, 2.0) != 0.0;
+    if (n < 1 || std::abs(board - n * level_s) > kMatchOfLevel * level_s || odd != (sync[k] == 1)) {
+      ++mismatched;
+      continue;
+    }
+    changes.push_back({stage_t[k - 1], stage_t[k], n * level_s});
+  }
+  if (seen == 0) return out;
+  if (static_cast<double>(mismatched) > kMismatchShare * static_cast<double>(seen) || changes.size() < 2) {
+    throw InputError(stage_path, 0,
+                     "its sync column does not follow the board's sync output at the clocks the positions give (" +
+                         std::to_string(mismatched) + " of its " + std::to_string(seen) + " level changes more than " +
+                         format_number(kMatchOfLevel * level_s) +
+                         " s from one, or the wrong way): the clocks found from the positions are that far off (a "
+                         "drag too short or too repetitive: drag longer), the logs do not belong together, or the "
+                         "stage's input is not the board's stage_sync_o");
+  }
+  out.changes = changes.size();
+  const auto count = static_cast<double>(changes.size());
+  double t_mean = 0.0;
+  for (const Change& c : changes) t_mean += c.t;
+  t_mean /= count;
+  for (Change& c : changes) c.t -= t_mean;
+
+  // A least-squares line through the changes' midpoints: the start, and the answer when no
+  // alignment leaves every change between its samples (a stage that samples its input late).
+  double stt = 0.0, stm = 0.0, mean_mid = 0.0;
+  for (const Change& c : changes) mean_mid += 0.5 * (c.a + c.b);
+  mean_mid /= count;
+  for (const Change& c : changes) {
+    stt += c.t * c.t;
+    stm += c.t * (0.5 * (c.a + c.b) - mean_mid);
+  }
+  if (!(stt > 0.0)) return out;
+  const double scale_ls = stm / stt;
+  double ss = 0.0;
+  for (const Change& c : changes) {
+    const double e = 0.5 * (c.a + c.b) - mean_mid - scale_ls * c.t;
+    ss += e * e;
+  }
+  const double sigma = std::sqrt(ss / std::max(1.0, count - 2.0));
+
+  // The region: at scale s (1 + rate), the centre's offset o' lies in [lo(s), hi(s)); its width
+  // hi - lo is concave in s.
+  auto bounds = [&](double s, double* lo, double* hi) {
+    *lo = -std::numeric_limits<double>::infinity();
+    *hi = std::numeric_limits<double>::infinity();
+    for (const Change& c : changes) {
+      *lo = std::max(*lo, c.a - s * c.t);
+      *hi = std::min(*hi, c.b - s * c.t);
+    }
+    return *hi - *lo;
+  };
+  const double reach = std::max(50.0 * sigma / std::sqrt(stt), 1e-6);
+  double left = scale_ls - reach, right = scale_ls + reach, lo = 0.0, hi = 0.0;
+  for (int step = 0; step < kSearchSteps; ++step) {  // the widest point (ternary search)
+    const double m1 = left + (right - left) / 3.0, m2 = right - (right - left) / 3.0;
+    if (bounds(m1, &lo, &hi) < bounds(m2, &lo, &hi)) {
+      left = m1;
+    } else {
+      right = m2;
+    }
+  }
+  const double widest = 0.5 * (left + right);
+  if (bounds(widest, &lo, &hi) > 0.0) {
+    // Each end of the feasible range of s, where the width comes to zero.
+    auto end_of = [&](double inside, double outside) {
+      for (int step = 0; step < kSearchSteps; ++step) {
+        const double mid = 0.5 * (inside + outside);
+        (bounds(mid, &lo, &hi) > 0.0 ? inside : outside) = mid;
+      }
+      return inside;
+    };
+    const double s_lo = end_of(widest, scale_ls - 2.0 * reach), s_hi = end_of(widest, scale_ls + 2.0 * reach);
+    const double s_centre = 0.5 * (s_lo + s_hi);
+    double least = std::numeric_limits<double>::infinity(), most = -least;
+    for (int k = 0; k <= 50; ++k) {
+      bounds(s_lo + (s_hi - s_lo) * k / 50.0, &lo, &hi);
+      least = std::min(least, lo);
+      most = std::max(most, hi);
+    }
+    bounds(s_centre, &lo, &hi);
+    const double centre = 0.5 * (lo + hi);
+    out.consistent = true;
+    out.rate = s_centre - 1.0;
+    out.rate_sd = kUniformSd * (s_hi - s_lo);
+    out.offset_s = centre - s_centre * t_mean;
+    const double centre_sd = kUniformSd * (most - least);
+    out.offset_sd_s = std::sqrt(centre_sd * centre_sd + t_mean * t_mean * out.rate_sd * out.rate_sd);
+    return out;
+  }
+  out.rate = scale_ls - 1.0;
+  out.rate_sd = sigma / std::sqrt(stt);
+  out.offset_s = mean_mid - scale_ls * t_mean;
+  const double centre_sd = sigma / std::sqrt(count);
+  out.offset_sd_s = std::sqrt(centre_sd * centre_sd + t_mean * t_mean * out.rate_sd * out.rate_sd);
+  return out;
+}
+
+}  // namespace delta::diagnosis
