@@ -60,6 +60,11 @@ set(board_facts_header "// Generated from rtl/board/delta_board_pkg.sv by cmake/
 namespace delta::board {
 
 ${board_facts}
+// Derived from the facts above (written here once, used wherever the value is needed).
+// How long the stage sync output holds each level: 2^StageSyncBit control periods [s].
+constexpr double kStageSyncLevelSeconds =
+    static_cast<double>(1LL << kStageSyncBit) / static_cast<double>(kControlRateHz);
+
 struct BoardFact {
   const char* name;  // as in the package
   long long value;

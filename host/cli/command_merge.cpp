@@ -1,5 +1,6 @@
 // deltactl merge: a run recorded by the host and the measuring stage's own log, aligned without a
 // shared clock and merged into one recording on the run's board time (SPEC.md, "The lab's measurements").
+#include <cmath>
 #include <iostream>
 #include <memory>
 
@@ -7,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "command.hpp"
+#include "delta/board_facts.hpp"
 #include "delta/csv.hpp"
 #include "delta/diagnosis/merge.hpp"
 #include "delta/input_error.hpp"
@@ -118,6 +120,8 @@ void run_merge(const MergeOptions& options) {
         {"data_offset_sd_s", m.data_offset_sd_s},
         {"data_rate_ppm", m.data_rate_ppm},
         {"data_rate_sd_ppm", m.data_rate_sd_ppm},
+        {"data_residual_rms_m", m.data_residual_rms_m},
+        {"sync_shift_s", m.sync_shift_s},
         {"offset_s", m.offset_s},
         {"offset_sd_s", m.offset_sd_s},
         {"rate_ppm", m.rate_ppm},
@@ -150,6 +154,12 @@ void run_merge(const MergeOptions& options) {
                                   fixed(m.data_rate_ppm - m.rate_ppm, 3) + " ppm off it)"
                             : std::string("the data alone"))
             << "; residual " << fixed(m.residual_rms_m * 1e6, 2) << " um RMS -> " << options.out << '\n';
+  if (m.from_sync && std::abs(m.sync_shift_s) > 0.25 * board::kStageSyncLevelSeconds) {
+    std::cout << "merge: the positions alone put the clocks " << fixed(m.sync_shift_s, 3)
+              << " s off (this drag cannot fix them: too short or too repetitive); the sync output's phase "
+                 "corrected them. A sync input that inverts the level would look the same on this drag; on one "
+                 "whose positions fix the clocks, merge refuses it\n";
+  }
   if (stage.present[4] && !m.from_sync) {
     std::cout << "merge: the stage's sync column never changes (its input not wired to the board's stage_sync_o?): "
                  "the clocks come from the data alone\n";
@@ -190,16 +200,18 @@ const RegisterCommand command("merge", 61, [](CLI::App& root) {
       "leaves milliseconds of error. A column sync (0/1) is the board's stage sync output as the stage\n"
       "sampled it (wire stage_sync_o, docs/lab_loop.md): then the clocks come from its changes, each\n"
       "bounding offset and rate between two stage samples, to within microseconds, closed loop or not\n"
-      "(the data's alignment, reported beside it, tells which change is which); a sync column that\n"
-      "does not follow the board's output is refused.\n"
+      "(the data's alignment, reported beside it, tells which change is which, corrected by the\n"
+      "changes' phase when the data alone are up to 0.4 s off); a sync column that does not follow the\n"
+      "board's output, or whose clocks do not fit the positions (an inverted input), is refused.\n"
       "DATA.csv: a SPEC recording (t_s,alpha1..3_deg,x_m,y_m,z_m, plus drives_enabled and the run's\n"
       "references when present) with the run's rows the stage covers, the stage interpolated (cubic) at\n"
       "the aligned instants; compare, diagnose, train and table1 take it. MERGE.json: offset_s,\n"
       "rate_ppm, their standard uncertainties (offset_sd_s, rate_sd_ppm; residuals correlated over 2 s\n"
       "blocks), offset_signal_left and rate_signal_left (the fractions of their signal the robot's\n"
       "effects leave: about 0.1 and 0.5 on a 10 minute drag; below 0.01 the clocks are poorly fixed),\n"
-      "the residual (residual_rms_m) and the overlap; clock_from (sync or data), sync_changes, and the\n"
-      "data's own alignment (data_offset_s, data_rate_ppm and their uncertainties).\n"
+      "the residual (residual_rms_m) and the overlap; clock_from (sync or data), sync_changes, the\n"
+      "data's own alignment (data_offset_s, data_rate_ppm, their uncertainties, data_residual_rms_m)\n"
+      "and the data's offset error the sync's phase showed (sync_shift_s).\n"
       "Refused (exit 2, one line, no output): a file that is not such a log, a plate at rest, logs\n"
       "that overlap by less than half the shorter one or 10 s, logs that do not belong together.\n"
       "Example: deltactl merge --run run.csv --stage stage.csv --out data.csv --report merge.json");

@@ -347,8 +347,7 @@ const RegisterCommand command("virtual-board", 72, [](CLI::App& root) {
   auto options = std::make_shared<VirtualBoardCommandOptions>();
   CLI::App* sub = root.add_subcommand(
       "virtual-board", "The virtual robot and its board behind a pseudo-terminal at PATH (talk to it as to the board)");
-  const std::string sync_period_s =
-      format_number(static_cast<double>(1LL << board::kStageSyncBit) / static_cast<double>(board::kControlRateHz));
+  const std::string sync_period_s = format_number(board::kStageSyncLevelSeconds);
   sub->footer(
       std::string(
           "\nCreates a pseudo-terminal (raw, no echo) whose slave is linked at PATH; any program that opens\n"

@@ -44,6 +44,10 @@ constexpr double kMaxResidualOfMotion = 0.2;
 constexpr double kRestM = 5e-6;    // stage motion RMS below this: at rest
 constexpr double kRestDeg = 0.05;  // every joint's span below this: at rest
 constexpr double kMinOverlapS = 10.0;
+// A sync whose clocks leave the positions' residual more than this much above the data's own (and
+// by more than the slack) does not belong with them.
+constexpr double kSyncResidualRatio = 4.0;
+constexpr double kSyncResidualSlackM = 0.05e-6;
 constexpr double kMinFitSpanS = 5.0;  // of the fine fit's rows (a 10 s closed-loop run keeps 9.4 s)
 
 // Plate positions averaged on absolute bins [k dt, (k + 1) dt).
@@ -314,15 +318,10 @@ LagFit best_affine_lag(const Binned& run, const Binned& stage, std::int64_t lo, 
 }
 
 // The stage log, interpolated (cubic Hermite, Catmull-Rom slopes) where its samples are no further
-// apart than 3 x their median spacing.
+// apart than max_stage_gap.
 class StageCurve {
  public:
-  StageCurve(const std::vector<double>& t, const std::vector<Vec3>& p) : t_(t), p_(p) {
-    std::vector<double> gaps(t.size() - 1);
-    for (std::size_t i = 0; i + 1 < t.size(); ++i) gaps[i] = t[i + 1] - t[i];
-    std::nth_element(gaps.begin(), gaps.begin() + gaps.size() / 2, gaps.end());
-    max_gap_ = 3.0 * gaps[gaps.size() / 2];
-  }
+  StageCurve(const std::vector<double>& t, const std::vector<Vec3>& p) : t_(t), p_(p), max_gap_(max_stage_gap(t)) {}
   double first() const { return t_.front(); }
   double last() const { return t_.back(); }
   // False outside the log or across a gap.
@@ -850,6 +849,15 @@ MergeResult merge_logs(const std::string& run_path, const std::vector<double>& r
     }
     return ss;
   };
+  // The RMS residual of the kept fit rows at an alignment, the nuisance refitted there (the
+  // alignment held).
+  auto residual_rms_at = [&](double at_centre, double at_rate) {
+    Normal nm;
+    accumulate(at_centre, at_rate, &nm);
+    if (nm.used == 0) return std::numeric_limits<double>::infinity();
+    return std::sqrt(residuals(at_centre, at_rate, solve(nm, nm.g, false).col(0)) /
+                     (3.0 * static_cast<double>(nm.used)));
+  };
   auto refuse_if_short = [&](const Normal& nm) {
     if (nm.used < m / 2) {
       refuse(stage_path, "overlaps " + run_path + " by too little once aligned (" + std::to_string(nm.used) + " rows)");
@@ -1054,16 +1062,33 @@ MergeResult merge_logs(const std::string& run_path, const std::vector<double>& r
            "does not belong with " + run_path + ": aligned, the stage and the encoders' plate still differ by " +
                fixed3(out.residual_rms_m * 1e6) + " um RMS (motion " + fixed3(out.motion_rms_m * 1e6) + " um RMS)");
   }
+  out.data_residual_rms_m = out.residual_rms_m;
   out.data_offset_s = out.offset_s;
   out.data_offset_sd_s = out.offset_sd_s;
   out.data_rate_ppm = out.rate_ppm;
   out.data_rate_sd_ppm = out.rate_sd_ppm;
   // ---- the board's sync output, when the stage logged it ----
   if (!stage_sync.empty()) {
-    const double level_s =
-        static_cast<double>(1LL << board::kStageSyncBit) / static_cast<double>(board::kControlRateHz);
-    const SyncAlignment sync = align_on_sync(stage_path, stage_t, stage_sync, out.offset_s, rate, level_s);
+    const SyncAlignment sync =
+        align_on_sync(stage_path, stage_t, stage_sync, out.offset_s, rate, board::kStageSyncLevelSeconds);
     if (sync.changes > 0) {
+      // The positions must fit at the sync's clocks about as well as at their own: a sync input
+      // that inverts the level reads as the clocks one level (0.41 s) off, where they do not
+      // (80 um RMS against 0.2 um on a 2 minute sweep). A drag whose positions cannot fix the
+      // clocks to 0.1 s fits as well at both, and the sync's phase corrects them.
+      const double at_sync = residual_rms_at(sync.offset_s + (1 + sync.rate) * t_mean, sync.rate);
+      if (!(at_sync <= kSyncResidualRatio * out.residual_rms_m + kSyncResidualSlackM)) {
+        refuse(stage_path, "its sync column does not fit the positions: at the clocks its changes give (" +
+                               fixed3(sync.shift_s) +
+                               " s from the positions' own) the stage and the encoders' "
+                               "plate differ by " +
+                               fixed3(at_sync * 1e6) + " um RMS, against " + fixed3(out.residual_rms_m * 1e6) +
+                               " um at the positions' clocks (a sync input that inverts the level puts them " +
+                               fixed3(board::kStageSyncLevelSeconds) + " s off: log stage_sync_o as it is)");
+      }
+      out.data_residual_rms_m = out.residual_rms_m;
+      out.residual_rms_m = at_sync;
+      out.sync_shift_s = sync.shift_s;
       out.from_sync = true;
       out.sync_changes = sync.changes;
       out.sync_consistent = sync.consistent;

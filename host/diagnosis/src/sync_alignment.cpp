@@ -5,13 +5,13 @@
 #include <cmath>
 #include <limits>
 
+#include "delta/geometry.hpp"
 #include "delta/input_error.hpp"
 #include "delta/output_file.hpp"
 
 namespace delta::diagnosis {
 namespace {
 
-constexpr double kMaxGapOfMedian = 3.0;    // a change across a longer gap in the log is not used
 constexpr double kMatchOfLevel = 0.25;     // a change this far (of level_s) from the board's is not one
 constexpr double kMismatchShare = 0.02;    // of the changes, above which the logs do not belong together
 constexpr int kSearchSteps = 200;          // of the searches along the rate
@@ -24,14 +24,36 @@ struct Change {
 
 }  // namespace
 
+double max_stage_gap(const std::vector<double>& stage_t) {
+  if (stage_t.size() < 2) return 0.0;
+  std::vector<double> spacing(stage_t.size() - 1);
+  for (std::size_t k = 1; k < stage_t.size(); ++k) spacing[k - 1] = stage_t[k] - stage_t[k - 1];
+  std::nth_element(spacing.begin(), spacing.begin() + static_cast<std::ptrdiff_t>(spacing.size() / 2), spacing.end());
+  return 3.0 * spacing[spacing.size() / 2];
+}
+
 SyncAlignment align_on_sync(const std::string& stage_path, const std::vector<double>& stage_t,
                             const std::vector<int>& sync, double offset_s, double rate, double level_s) {
   SyncAlignment out;
-  std::vector<double> spacing;
-  for (std::size_t k = 1; k < stage_t.size(); ++k) spacing.push_back(stage_t[k] - stage_t[k - 1]);
-  if (spacing.empty()) return out;
-  std::nth_element(spacing.begin(), spacing.begin() + static_cast<std::ptrdiff_t>(spacing.size() / 2), spacing.end());
-  const double max_gap = kMaxGapOfMedian * spacing[spacing.size() / 2];
+  if (stage_t.size() < 2) return out;
+  const double max_gap = max_stage_gap(stage_t);
+
+  // A change to level 1 falls at an odd multiple of level_s, to 0 at an even one: each change's
+  // board time less level x level_s is, modulo 2 level_s, the error of the alignment given. Their
+  // circular mean corrects an alignment up to level_s off (the changes are then matched to the
+  // board's at the corrected one; merge checks it against the positions).
+  double cosines = 0.0, sines = 0.0;
+  for (std::size_t k = 1; k < stage_t.size(); ++k) {
+    if (sync[k] == sync[k - 1] || stage_t[k] - stage_t[k - 1] > max_gap) continue;
+    const double board = (0.5 * (stage_t[k - 1] + stage_t[k]) - offset_s) / (1.0 + rate);
+    const double angle = kPi * (board - sync[k] * level_s) / level_s;
+    cosines += std::cos(angle);
+    sines += std::sin(angle);
+  }
+  if (cosines != 0.0 || sines != 0.0) {
+    out.shift_s = std::atan2(sines, cosines) * level_s / kPi;
+    offset_s += out.shift_s * (1.0 + rate);
+  }
 
   std::vector<Change> changes;
   std::size_t seen = 0, mismatched = 0;
@@ -50,12 +72,11 @@ SyncAlignment align_on_sync(const std::string& stage_path, const std::vector<dou
   if (seen == 0) return out;
   if (static_cast<double>(mismatched) > kMismatchShare * static_cast<double>(seen) || changes.size() < 2) {
     throw InputError(stage_path, 0,
-                     "its sync column does not follow the board's sync output at the clocks the positions give (" +
-                         std::to_string(mismatched) + " of its " + std::to_string(seen) + " level changes more than " +
+                     "its sync column does not follow the board's sync output (" + std::to_string(mismatched) +
+                         " of its " + std::to_string(seen) + " level changes more than " +
                          format_number(kMatchOfLevel * level_s) +
-                         " s from one, or the wrong way): the clocks found from the positions are that far off (a "
-                         "drag too short or too repetitive: drag longer), the logs do not belong together, or the "
-                         "stage's input is not the board's stage_sync_o");
+                         " s from one, or the wrong way, at the clocks their phase gives): the logs do not belong "
+                         "together, or the stage's input is not the board's stage_sync_o");
   }
   out.changes = changes.size();
   const auto count = static_cast<double>(changes.size());

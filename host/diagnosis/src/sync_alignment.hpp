@@ -6,8 +6,9 @@
 //   a < offset + (1 + rate) T_n <= b,   T_n = n level_s,
 // a strip in (offset, rate) per change. The alignment is the centre of the region all of them
 // leave (a change every 0.41 s falls at every phase of the stage's samples: on a few minutes the
-// region is a few microseconds wide); n comes from an alignment known to within a quarter of
-// level_s (the data's).
+// region is a few microseconds wide); n comes from the data's alignment, its offset corrected by
+// the changes' phase (a change to 1 at an odd multiple, to 0 at an even one: unambiguous to within
+// level_s either way).
 #pragma once
 
 #include <cstddef>
@@ -16,17 +17,24 @@
 
 namespace delta::diagnosis {
 
+// The longest step between two stage samples that merge interpolates or times a change across:
+// 3 x the median spacing of `stage_t` (0 for fewer than two samples). Longer steps are gaps.
+double max_stage_gap(const std::vector<double>& stage_t);
+
 struct SyncAlignment {
-  std::size_t changes = 0;  // of the level, between two stage samples no further apart than 3 x their median
+  std::size_t changes = 0;  // of the level, between two stage samples no further apart than max_stage_gap
   double offset_s = 0.0, offset_sd_s = 0.0;
   double rate = 0.0, rate_sd = 0.0;  // relative (ppm 1e-6)
   bool consistent = false;           // every change inside the region (else a least-squares line)
+  double shift_s = 0.0;              // the changes' phase: the given alignment's error (board time)
 };
 
 // stage_t, sync: the stage's times and logged levels (0 or 1). offset_s, rate: the alignment from
-// the data, to within level_s / 4. Returns changes = 0 when the level never changes (the input not
-// wired). InputError (exit 2) naming stage_path when the changes do not follow the board's output
-// at that alignment: more than 2 % of them further than level_s / 4 from one, or the wrong way.
+// the data, to within level_s (its offset is corrected by the changes' phase, shift_s; the caller
+// checks a corrected alignment against the data). Returns changes = 0 when the level never changes
+// (the input not wired). InputError (exit 2) naming stage_path when the changes do not follow the
+// board's output at the corrected alignment: more than 2 % of them further than level_s / 4 from
+// one, or the wrong way.
 SyncAlignment align_on_sync(const std::string& stage_path, const std::vector<double>& stage_t,
                             const std::vector<int>& sync, double offset_s, double rate, double level_s);
 
