@@ -136,6 +136,9 @@ void run_cosim_command(const CosimCommandOptions& options, const std::string& co
     result = run_cosim(cosim);
   } catch (const InputError&) {
     throw;
+  } catch (const PlanRefused& error) {
+    std::cerr << (terminal ? "\n" : "") << "deltactl: error: " << error.what() << '\n';
+    throw CommandExit{kExitBadInput};
   } catch (const std::runtime_error& error) {
     std::cerr << (terminal ? "\n" : "") << "deltactl: error: " << error.what() << '\n';
     throw CommandExit{kExitFailure};
@@ -256,7 +259,9 @@ const RegisterCommand command("cosim", 70, [](CLI::App& root) {
       "Output: tables on stdout; --out: a CSV with the SPEC recording columns (t_s, alpha*_deg = encoder\n"
       "readings, x/y/z_m = measured plate) plus references, network answers, plant angles, currents.\n"
       "Exit 1 when the stream does not complete, an encoder skips a state or the board's joint safety\n"
-      "stops the torque (following error, watchdog, travel limits).\n"
+      "stops the torque (following error, watchdog, travel limits). Exit 2 on bad input, including a\n"
+      "trajectory the host's check refuses before any motion (as host run: a sample beyond the joint\n"
+      "limits or the weights' trained range; its file and line named).\n"
       "Example: deltactl cosim --weights weights/paper_like.json --effects sim/paper_like_effects.json \\\n"
       "           --duration 2 --out cosim.csv --plot cosim.png");
   sub->add_option("--weights", options->weights, "network weights (W.json: model 'deployed' or 'network', 25 hidden)")

@@ -148,7 +148,7 @@ CosimResult run_cosim(const CosimOptions& options) {
   controller::StreamPlan plan(path, result.start_position_m, options.limits);
   if (auto violation = controller::check_plan(plan, options.trajectory, weights.trained_min_m, weights.trained_max_m,
                                               options.limits)) {
-    throw std::runtime_error("cosim: " + *violation);
+    throw PlanRefused(*violation + "; nothing sent");
   }
   result.approach_samples = plan.approach_samples();
 

@@ -397,6 +397,22 @@ TEST(Defect13, MessagesNameTheFileAndStayReadable) {
   EXPECT_EQ(long_out.exit_code, 0) << long_out.err;
 }
 
+// cosim checks the trajectory before any motion as `host run` does: a sample outside the weights'
+// trained range is bad input (exit 2), the message naming its file and line, and no output file.
+TEST(Defect13, CosimRefusesATrajectoryBeyondItsLimitsAsBadInput) {
+  const std::string file = temp("d13_untrained.csv");
+  write_text(file, "t_s,x_m,y_m,z_m\n0,0,0,-0.075\n1,0,0,-0.075\n100,0.008,0,-0.075\n");
+  const std::string out = temp("d13_cosim.csv");
+  fs::remove(out);
+  const auto result = run_deltactl(
+      "cosim --fidelity model --weights " + kWeights + " --trajectory " + file + " --duration 120 --out " + out,
+      kBounded);
+  EXPECT_EQ(result.exit_code, 2) << result.err;
+  EXPECT_NE(result.err.find("deltactl: error: " + file + ":4:"), std::string::npos) << result.err;
+  EXPECT_NE(result.err.find("trained range"), std::string::npos) << result.err;
+  EXPECT_FALSE(fs::exists(out));
+}
+
 // ---- The bad-input table: every command, one shared set of malformed inputs.
 struct Malformed {
   std::string name;

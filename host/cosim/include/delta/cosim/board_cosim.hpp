@@ -21,6 +21,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -107,9 +108,16 @@ struct CosimResult {
   double board_busy_s = 0.0;  // wall time in the board and the world (VirtualBoard::busy_s)
 };
 
-// Throws std::runtime_error if the home pose cannot be found, the plan fails its check (a sample
-// beyond the limits or the trained range), the board's identify differs from the host's weights, or
-// the link fails (link::LinkError). A stream that ends early (a fault) is a result: stream.outcome.
+// The trajectory breaks a limit (the host's check before any motion, as `host run`'s): the
+// message names the file, line and reason; the command exits 2.
+struct PlanRefused : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+// Throws PlanRefused if the plan fails its check (a sample beyond the limits or the trained range);
+// std::runtime_error if the home pose cannot be found, the board's identify differs from the host's
+// weights, or the link fails (link::LinkError). A stream that ends early (a fault) is a result:
+// stream.outcome.
 CosimResult run_cosim(const CosimOptions& options);
 
 // Where the host's network answers `alpha_deg` (the host controller's, delta/golden/board_network.hpp).
