@@ -413,6 +413,19 @@ TEST(Defect13, CosimRefusesATrajectoryBeyondItsLimitsAsBadInput) {
   EXPECT_FALSE(fs::exists(out));
 }
 
+// A bare --port NAME is looked up under /dev/serial/by-id/; where it is only a file in the working
+// directory (a virtual board's --link tty), the message says how to name that file.
+TEST(Defect13, ABarePortNameThatIsAFileHereSaysHowToNameIt) {
+  const fs::path here = folder() / "d13_port";
+  fs::create_directories(here);
+  write_text((here / "board_tty").string(), "");
+  const auto result = run_deltactl("host status --port board_tty", "cd '" + here.string() + "' && " + kBounded);
+  EXPECT_EQ(result.exit_code, 4) << result.err;
+  EXPECT_NE(result.err.find("no /dev/serial/by-id/board_tty"), std::string::npos) << result.err;
+  EXPECT_NE(result.err.find("write ./board_tty"), std::string::npos) << result.err;
+  EXPECT_EQ(lines(result.err), 1u) << result.err;
+}
+
 // ---- The bad-input table: every command, one shared set of malformed inputs.
 struct Malformed {
   std::string name;

@@ -73,7 +73,16 @@ Vec3 start_at_rest(const golden::BoardWeights& weights, const link::TelemetryPay
 std::string resolve_port(const std::string& port) {
   if (port.find('/') != std::string::npos) return port;
   const std::string folder = "/dev/serial/by-id/";
-  if (port != "icebreaker") return folder + port;
+  if (port != "icebreaker") {
+    // A bare name is looked up under by-id; one that is only a file here (a virtual board's link
+    // made with --link tty) is named, with the spelling that opens it.
+    if (::access((folder + port).c_str(), F_OK) != 0 && ::access(port.c_str(), F_OK) == 0) {
+      throw HostFailure(kExitLinkLost, "--port " + port + ": no " + folder + port +
+                                           " (a name without a '/' is looked up there); for the file " + port +
+                                           " in this directory write ./" + port);
+    }
+    return folder + port;
+  }
   std::string found;
   if (DIR* dir = ::opendir(folder.c_str())) {
     while (dirent* entry = ::readdir(dir)) {
