@@ -157,8 +157,7 @@ void run_merge(const MergeOptions& options) {
   if (m.from_sync && std::abs(m.sync_shift_s) > 0.25 * board::kStageSyncLevelSeconds) {
     std::cout << "merge: the positions alone put the clocks " << fixed(m.sync_shift_s, 3)
               << " s off (this drag cannot fix them: too short or too repetitive); the sync output's phase "
-                 "corrected them. A sync input that inverts the level would look the same on this drag; on one "
-                 "whose positions fix the clocks, merge refuses it\n";
+                 "corrected them, and the positions fit there as well\n";
   }
   if (stage.present[4] && !m.from_sync) {
     std::cout << "merge: the stage's sync column never changes (its input not wired to the board's stage_sync_o?): "
@@ -201,8 +200,9 @@ const RegisterCommand command("merge", 61, [](CLI::App& root) {
       "sampled it (wire stage_sync_o, docs/lab_loop.md): then the clocks come from its changes, each\n"
       "bounding offset and rate between two stage samples, to within microseconds, closed loop or not\n"
       "(the data's alignment, reported beside it, tells which change is which, corrected by the\n"
-      "changes' phase when the data alone are up to 0.4 s off); a sync column that does not follow the\n"
-      "board's output, or whose clocks do not fit the positions (an inverted input), is refused.\n"
+      "changes' phase when the data alone are up to 0.3 s off); a sync column that does not follow the\n"
+      "board's output, looks inverted (its changes one level, 0.41 s, off) or whose clocks do not fit\n"
+      "the positions is refused.\n"
       "DATA.csv: a SPEC recording (t_s,alpha1..3_deg,x_m,y_m,z_m, plus drives_enabled and the run's\n"
       "references when present) with the run's rows the stage covers, the stage interpolated (cubic) at\n"
       "the aligned instants; compare, diagnose, train and table1 take it. MERGE.json: offset_s,\n"

