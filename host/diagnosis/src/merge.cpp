@@ -1083,7 +1083,6 @@ MergeResult merge_logs(const std::string& run_path, const std::vector<double>& r
                                fixed3(out.residual_rms_m * 1e6) +
                                " um at the positions' clocks (is it the sync of this run?)");
       }
-      out.data_residual_rms_m = out.residual_rms_m;
       out.residual_rms_m = at_sync;
       out.sync_shift_s = sync.shift_s;
       out.from_sync = true;

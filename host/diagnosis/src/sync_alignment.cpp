@@ -46,15 +46,21 @@ SyncAlignment align_on_sync(const std::string& stage_path, const std::vector<dou
   if (stage_t.size() < 2) return out;
   const double max_gap = max_stage_gap(stage_t);
 
+  // The level changes between two samples no further apart than max_gap: the sample after each,
+  // and its board time at the alignment as it stands (offset_s is corrected below).
+  std::vector<std::size_t> after;
+  for (std::size_t k = 1; k < stage_t.size(); ++k) {
+    if (sync[k] != sync[k - 1] && stage_t[k] - stage_t[k - 1] <= max_gap) after.push_back(k);
+  }
+  auto board_time = [&](std::size_t k) { return (0.5 * (stage_t[k - 1] + stage_t[k]) - offset_s) / (1.0 + rate); };
+
   // A change to level 1 falls at an odd multiple of level_s, to 0 at an even one: each change's
   // board time less level x level_s is, modulo 2 level_s, the error of the alignment given. Their
   // circular mean corrects an alignment up to level_s off (the changes are then matched to the
   // board's at the corrected one; merge checks it against the positions).
   double cosines = 0.0, sines = 0.0;
-  for (std::size_t k = 1; k < stage_t.size(); ++k) {
-    if (sync[k] == sync[k - 1] || stage_t[k] - stage_t[k - 1] > max_gap) continue;
-    const double board = (0.5 * (stage_t[k - 1] + stage_t[k]) - offset_s) / (1.0 + rate);
-    const double angle = kPi * (board - sync[k] * level_s) / level_s;
+  for (std::size_t k : after) {
+    const double angle = kPi * (board_time(k) - sync[k] * level_s) / level_s;
     cosines += std::cos(angle);
     sines += std::sin(angle);
   }
@@ -75,11 +81,10 @@ SyncAlignment align_on_sync(const std::string& stage_path, const std::vector<dou
   }
 
   std::vector<Change> changes;
-  std::size_t seen = 0, mismatched = 0;
-  for (std::size_t k = 1; k < stage_t.size(); ++k) {
-    if (sync[k] == sync[k - 1] || stage_t[k] - stage_t[k - 1] > max_gap) continue;
-    ++seen;
-    const double board = (0.5 * (stage_t[k - 1] + stage_t[k]) - offset_s) / (1.0 + rate);
+  const std::size_t seen = after.size();
+  std::size_t mismatched = 0;
+  for (std::size_t k : after) {
+    const double board = board_time(k);
     const double n = std::round(board / level_s);
     const bool odd = std::fmod(n, 2.0) != 0.0;
     if (n < 1 || std::abs(board - n * level_s) > kMatchOfLevel * level_s || odd != (sync[k] == 1)) {
