@@ -8,7 +8,6 @@
 #include <nlohmann/json.hpp>
 
 #include "command.hpp"
-#include "delta/board_facts.hpp"
 #include "delta/csv.hpp"
 #include "delta/diagnosis/merge.hpp"
 #include "delta/input_error.hpp"
@@ -122,6 +121,7 @@ void run_merge(const MergeOptions& options) {
         {"data_rate_sd_ppm", m.data_rate_sd_ppm},
         {"data_residual_rms_m", m.data_residual_rms_m},
         {"sync_shift_s", m.sync_shift_s},
+        {"sync_corrected_lost_alignment", m.sync_corrected_lost_alignment},
         {"offset_s", m.offset_s},
         {"offset_sd_s", m.offset_sd_s},
         {"rate_ppm", m.rate_ppm},
@@ -154,7 +154,7 @@ void run_merge(const MergeOptions& options) {
                                   fixed(m.data_rate_ppm - m.rate_ppm, 3) + " ppm off it)"
                             : std::string("the data alone"))
             << "; residual " << fixed(m.residual_rms_m * 1e6, 2) << " um RMS -> " << options.out << '\n';
-  if (m.from_sync && std::abs(m.sync_shift_s) > 0.25 * board::kStageSyncLevelSeconds) {
+  if (m.sync_corrected_lost_alignment) {
     std::cout << "merge: the positions alone put the clocks " << fixed(m.sync_shift_s, 3)
               << " s off (this drag cannot fix them: too short or too repetitive); the sync output's phase "
                  "corrected them, and the positions fit there as well\n";
@@ -211,7 +211,8 @@ const RegisterCommand command("merge", 61, [](CLI::App& root) {
       "effects leave: about 0.1 and 0.5 on a 10 minute drag; below 0.01 the clocks are poorly fixed),\n"
       "the residual (residual_rms_m) and the overlap; clock_from (sync or data), sync_changes, the\n"
       "data's own alignment (data_offset_s, data_rate_ppm, their uncertainties, data_residual_rms_m)\n"
-      "and the data's offset error the sync's phase showed (sync_shift_s).\n"
+      "and the data's offset error the sync's phase showed (sync_shift_s; beyond a quarter of a level\n"
+      "the data alone had lost the clocks and the phase corrected them: sync_corrected_lost_alignment).\n"
       "Refused (exit 2, one line, no output): a file that is not such a log, a plate at rest, logs\n"
       "that overlap by less than half the shorter one or 10 s, logs that do not belong together.\n"
       "Example: deltactl merge --run run.csv --stage stage.csv --out data.csv --report merge.json");

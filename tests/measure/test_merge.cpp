@@ -201,6 +201,7 @@ int expect_sync_gives_the_clocks(std::uint64_t seed) {
     const double mid = 0.5 * (logs.run_t.front() + logs.run_t.back());
     const double data_error = data.offset_s + data.rate_ppm * 1e-6 * mid - (offset + ppm * 1e-6 * mid);
     EXPECT_NEAR(m.sync_shift_s, -data_error / (1 + ppm * 1e-6), 1.0 / rate);
+    EXPECT_EQ(m.sync_corrected_lost_alignment, lost);
     EXPECT_LE(m.residual_rms_m, 2.0 * m.data_residual_rms_m + 0.05e-6);
     // At every change both the true clock and the one found put it between the same two samples:
     // in the middle of the run they are less than a sample interval apart.

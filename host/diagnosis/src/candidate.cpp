@@ -17,6 +17,11 @@ std::vector<Sample> thin_out(const std::vector<Sample>& rows, std::size_t stride
   return thinned;
 }
 
+NoiseModel pipeline_noise_model(const PipelineData& data, const std::vector<Sample>& fit_rows,
+                                const std::vector<Vec3>& fit_prediction) {
+  return noise_model(fit_rows, fit_prediction, data.check, data.options.noise_floor_deg, !data.fit_closed_loop);
+}
+
 FitOptions fit_options(const DiagnosisOptions& options) {
   FitOptions fit;
   fit.noise_floor_deg = options.noise_floor_deg;

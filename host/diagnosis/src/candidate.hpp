@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "delta/diagnosis/diagnose.hpp"
+#include "floor_test.hpp"
 
 namespace delta::diagnosis {
 
@@ -33,6 +34,12 @@ double mean_square(const Vec3& rmse);
 // Every `stride`-th row: candidate models are screened on this thinner FIT set unless they
 // contain backlash, whose hysteresis needs every row in time order.
 std::vector<Sample> thin_out(const std::vector<Sample>& rows, std::size_t stride);
+
+// The floor test's noise model for a model that predicts `fit_prediction` on `fit_rows` (the FIT
+// rows kept, or those rows with their positions unscaled), at the pipeline's floor; closed-loop
+// telemetry as FIT adds no noise of its own (floor_test.hpp).
+NoiseModel pipeline_noise_model(const PipelineData& data, const std::vector<Sample>& fit_rows,
+                                const std::vector<Vec3>& fit_prediction);
 
 // The options of every fit of the diagnosis (its noise floor and prior).
 FitOptions fit_options(const DiagnosisOptions& options);

@@ -157,8 +157,7 @@ FinalModel finish_model(const PipelineData& data, FamilySet families, const Para
       explained_fraction(diagnosis.holdout_rmse_nominal_deg, diagnosis.holdout_rmse_after_deg, options.noise_floor_deg);
 
   // The floor test decides `explained`; an excess is located.
-  const NoiseModel noise =
-      noise_model(data.fit, model.fit_prediction, data.check, options.noise_floor_deg, !data.fit_closed_loop);
+  const NoiseModel noise = pipeline_noise_model(data, data.fit, model.fit_prediction);
   diagnosis.floor_test = floor_test(data.check, model.check_prediction, noise, options);
   diagnosis.explained = diagnosis.floor_test.at_floor;
   diagnosis.unexplained =
@@ -197,8 +196,7 @@ bool adopt_measuring_scale(const PipelineData& data, const std::vector<Sample>& 
                            const std::vector<Vec3>& chosen_check, const std::optional<ScaleModel>& model) {
   if (!model) return false;
   const DiagnosisOptions& options = data.options;
-  const NoiseModel noise = noise_model(unscaled(data.fit, model->scale), model->fit_prediction, data.check,
-                                       options.noise_floor_deg, !data.fit_closed_loop);
+  const NoiseModel noise = pipeline_noise_model(data, unscaled(data.fit, model->scale), model->fit_prediction);
   const FloorTest test = floor_test(data.check, model->check_prediction, noise, options);
   const PairedDifference difference =
       paired_difference(data.check, model->check_prediction, chosen_check, options.batch_rows);

@@ -1085,6 +1085,7 @@ MergeResult merge_logs(const std::string& run_path, const std::vector<double>& r
       }
       out.residual_rms_m = at_sync;
       out.sync_shift_s = sync.shift_s;
+      out.sync_corrected_lost_alignment = sync.corrected_lost_alignment;
       out.from_sync = true;
       out.sync_changes = sync.changes;
       out.sync_consistent = sync.consistent;

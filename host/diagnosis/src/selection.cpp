@@ -99,9 +99,8 @@ void restart_ripple(const PipelineData& data, Selection& selection) {
 bool passes_floor_test(const PipelineData& data, FamilySet families, const Parameters& theta,
                        const std::vector<Vec3>& check_prediction) {
   const std::vector<Vec3> fit_prediction = predict_recording(to_effect_set(theta, families), data.fit).alpha_deg;
-  const NoiseModel noise =
-      noise_model(data.fit, fit_prediction, data.check, data.options.noise_floor_deg, !data.fit_closed_loop);
-  return floor_test(data.check, check_prediction, noise, data.options).at_floor;
+  return floor_test(data.check, check_prediction, pipeline_noise_model(data, data.fit, fit_prediction), data.options)
+      .at_floor;
 }
 
 // Backward elimination: drop a family whose removal costs less than the threshold on CHECK (an

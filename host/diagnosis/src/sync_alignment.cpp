@@ -78,6 +78,7 @@ SyncAlignment align_on_sync(const std::string& stage_path, const std::vector<dou
                            "stage_sync_o as it is; or the positions' clocks that far off: drag longer)");
     }
     offset_s += out.shift_s * (1.0 + rate);
+    out.corrected_lost_alignment = std::abs(out.shift_s) > kMatchOfLevel * level_s;
   }
 
   std::vector<Change> changes;

@@ -27,6 +27,9 @@ struct SyncAlignment {
   double rate = 0.0, rate_sd = 0.0;  // relative (ppm 1e-6)
   bool consistent = false;           // every change inside the region (else a least-squares line)
   double shift_s = 0.0;              // the changes' phase: the given alignment's error (board time)
+  // The shift is beyond what the matching of the changes tolerates (a quarter of the level): the
+  // given alignment had lost the clocks and the phase corrected it.
+  bool corrected_lost_alignment = false;
 };
 
 // stage_t, sync: the stage's times and logged levels (0 or 1). offset_s, rate: the alignment from

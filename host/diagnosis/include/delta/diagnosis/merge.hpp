@@ -78,9 +78,11 @@ struct MergeResult {
   std::size_t sync_changes = 0;
   bool sync_consistent = false;  // every change between its two samples at the alignment found
   double data_offset_s = 0.0, data_offset_sd_s = 0.0, data_rate_ppm = 0.0, data_rate_sd_ppm = 0.0;
-  // The data's offset error the sync's changes showed (their phase, in board time): beyond a
-  // quarter of the level (0.1 s) the data alone had lost the clocks and the sync corrected them.
+  // The data's offset error the sync's changes showed (their phase, in board time); beyond a
+  // quarter of the level (0.1 s) the data alone had lost the clocks and the sync corrected them
+  // (sync_corrected_lost_alignment).
   double sync_shift_s = 0.0;
+  bool sync_corrected_lost_alignment = false;
   double residual_rms_m = 0.0;       // of the fine fit's rows at the alignment found
   double data_residual_rms_m = 0.0;  // ... at the data's alignment
   // The fractions of the offset's signal (the plate's speed) and of the rate's (speed times time)
