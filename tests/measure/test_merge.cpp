@@ -209,7 +209,9 @@ int expect_sync_gives_the_clocks(std::uint64_t seed) {
     const double apart = m.offset_s + m.rate_ppm * 1e-6 * middle - (offset + ppm * 1e-6 * middle);
     EXPECT_LT(std::abs(apart), 1.0 / rate);
     EXPECT_GT(m.offset_sd_s, 0.0);
-    if (!aligned) EXPECT_LT(rms.maxCoeff(), 1e-6);
+    if (!aligned) {
+      EXPECT_LT(rms.maxCoeff(), 1e-6);
+    }
   }
   return lost_drags;
 }
@@ -255,8 +257,9 @@ std::vector<Sample> merged_samples(const Logs& logs, const MergeResult& m) {
 // chain angles and a frame turned up to 5 deg (chain angles the others can imitate inside the
 // 10 mm cube) and two more families of the vocabulary, drawn, at the blind suite's magnitudes.
 // The diagnosis says explained, names the injected set or lists it among its equivalent
-// alternatives, and holds out within 1.2 noise floors.
-void expect_merged_drags_named(std::uint64_t seed, const std::string& fit_trajectory = "validation") {
+// alternatives, and holds out within 1.2 noise floors (`explained`: also at the floor by the floor test).
+void expect_merged_drags_named(std::uint64_t seed, const std::string& fit_trajectory = "validation",
+                               bool explained = true) {
   std::mt19937_64 draw(seed);
   const EffectSet every = draw_robot(draw);
   EffectSet robot;
@@ -297,7 +300,9 @@ void expect_merged_drags_named(std::uint64_t seed, const std::string& fit_trajec
     named = named || alternative.families == injected;
   }
   EXPECT_TRUE(named) << "the injected set is neither the chosen one nor an alternative";
-  EXPECT_TRUE(d.explained);
+  if (explained) {
+    EXPECT_TRUE(d.explained);
+  }
   EXPECT_LE(d.floor_test.joint_rmse_floors.maxCoeff(), 1.2);
 }
 
@@ -317,10 +322,21 @@ TEST(Merge, TheDiagnosisOfMergedDragsNamesTheRobotsEffectsAtTheFloor) {
   }
 }
 
+// Seed 8 on the validation drag: its robot's ripple (below) is a smooth curve there, which the
+// geometry imitates; the greedy path ends at 4.2 / 5.5 / 2.9 floors. The model of every family with the
+// ripple's periods profiled on CHECK (0.5-4 x each joint's travel), then eliminated breadth-first
+// with those periods held, names the robot's set within 1.2 floors (1.10 / 1.01 / 1.06; the floor
+// test still finds the rest significant, z 4.8: not explained).
+TEST(Merge, AValidationDragNamesARippleLongerThanTheJointsTravel) {
+  const std::uint64_t seed = std::getenv("DELTA_TEST_SEED") ? test_seed() : 8;
+  std::cout << "seed " << seed << " (DELTA_TEST_SEED repeats it)\n";
+  expect_merged_drags_named(seed, "validation", false);
+}
+
 // Seed 8: a robot whose transmission ripple has periods of 25.8 and 24.7 deg on joints 1 and 3,
 // longer than 600 s of the validation drag turns them (13-16 deg): there the ripple is a smooth
-// curve the geometry imitates, and the diagnosis misses the floor ("not explained"). 600 s of the
-// calibration drag turn the joints 40-46 deg: the same robot is named exactly (docs/lab_loop.md).
+// curve the geometry imitates, and the diagnosis names the robot just above the floor (above). 600 s
+// of the calibration drag turn the joints 40-46 deg: the same robot is named exactly (docs/lab_loop.md).
 TEST(Merge, TheDiagnosisOfAMergedCalibrationDragNamesALongPeriodRipple) {
   const std::uint64_t seed = std::getenv("DELTA_TEST_SEED") ? test_seed() : 8;
   std::cout << "seed " << seed << " (DELTA_TEST_SEED repeats it)\n";

@@ -270,6 +270,19 @@ std::vector<Alternative> find_alternatives(const PipelineData& data, FamilySet c
     if (unseen ? test.at_floor != chosen_at_floor : chosen_at_floor && !test.at_floor) continue;
     larger.push_back(alternative_of(supersets[r], superset_results[r], difference, chosen_mse, test.at_floor));
   }
+  // The other smallest sets an elimination from every family kept (selection.cpp), first.
+  std::vector<Alternative> equivalent;
+  for (const auto& [families, candidate] : data.equivalent_sets) {
+    if (families == chosen_families) continue;
+    const bool listed = std::any_of(alternatives.begin(), alternatives.end(),
+                                    [&](const Alternative& a) { return a.families == families; });
+    if (listed) continue;
+    const PairedDifference difference =
+        paired_difference(data.check, candidate.check_prediction, chosen, data.options.batch_rows);
+    const FloorTest test = floor_test(data.check, candidate.check_prediction, noise, data.options);
+    equivalent.push_back(alternative_of(families, candidate, difference, chosen_mse, test.at_floor));
+  }
+  alternatives.insert(alternatives.begin(), equivalent.begin(), equivalent.end());
   std::sort(larger.begin(), larger.end(),
             [](const Alternative& a, const Alternative& b) { return a.mse_difference_deg2 < b.mse_difference_deg2; });
   if (larger.size() > 3) larger.resize(3);

@@ -1,6 +1,8 @@
 // Fitting and scoring one candidate family set (shared by every step of the diagnosis).
 #include "candidate.hpp"
 
+#include <algorithm>
+
 namespace delta::diagnosis {
 
 double mean_square(const Vec3& rmse) { return rmse.squaredNorm() / 3.0; }
@@ -29,11 +31,21 @@ FitOptions fit_options(const DiagnosisOptions& options) {
   return fit;
 }
 
-Candidate fit_and_check(const PipelineData& data, FamilySet families, const Parameters& start) {
+FitOptions fit_options(const PipelineData& data, Periods periods) {
+  FitOptions options = fit_options(data.options);
+  // Once the long ripples' periods are chosen (on CHECK, selection.cpp), every later fit holds them.
+  options.hold_periods = periods == Periods::held || (periods == Periods::usual && data.long_ripples);
+  if (periods != Periods::usual || data.long_ripples) {
+    options.max_iterations = std::max(options.max_iterations, kLongValleyIterations);
+  }
+  return options;
+}
+
+Candidate fit_and_check(const PipelineData& data, FamilySet families, const Parameters& start, Periods periods) {
   Candidate candidate;
   const bool hysteresis = families[index_of(Family::backlash)];
-  candidate.fit =
-      fit_model(hysteresis ? data.fit : data.thinned_fit, families, start, start, fit_options(data.options));
+  const FitOptions options = fit_options(data, periods);
+  candidate.fit = fit_model(hysteresis ? data.fit : data.thinned_fit, families, start, start, options);
   if (!candidate.fit.ok) return candidate;
   Prediction prediction = predict_recording(to_effect_set(candidate.fit.theta, families), data.check);
   candidate.holdout_rmse = joint_rmse(data.check, prediction.alpha_deg);

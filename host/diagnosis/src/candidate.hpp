@@ -5,12 +5,20 @@
 #include <atomic>
 #include <functional>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include "delta/diagnosis/diagnose.hpp"
 #include "floor_test.hpp"
 
 namespace delta::diagnosis {
+
+struct Candidate {
+  FitResult fit;
+  Vec3 holdout_rmse = Vec3::Zero();
+  std::vector<Vec3> check_prediction;  // per kept CHECK row
+  bool ok = false;
+};
 
 // What every step sees: the cleaned recordings (outlier rows left out) and the options.
 struct PipelineData {
@@ -20,13 +28,12 @@ struct PipelineData {
   DiagnosisOptions options;
   double threshold_deg2 = 0.0;   // the stopping rule's minimum held-out MSE gain
   bool fit_closed_loop = false;  // FIT is closed-loop telemetry, its readings less their lead
-};
-
-struct Candidate {
-  FitResult fit;
-  Vec3 holdout_rmse = Vec3::Zero();
-  std::vector<Vec3> check_prediction;  // per kept CHECK row
-  bool ok = false;
+  // A ripple longer than a joint's travel on FIT is in the model (selection.cpp): every later fit
+  // holds the ripple's periods where the model of every family put them (Periods::held).
+  bool long_ripples = false;
+  // Where the model came down from every family (long ripples): each smallest subset that holds
+  // CHECK at the floor, within the threshold of the larger model (selection.cpp), with its fit.
+  std::vector<std::pair<FamilySet, Candidate>> equivalent_sets;
 };
 
 double mean_square(const Vec3& rmse);
@@ -41,11 +48,21 @@ std::vector<Sample> thin_out(const std::vector<Sample>& rows, std::size_t stride
 NoiseModel pipeline_noise_model(const PipelineData& data, const std::vector<Sample>& fit_rows,
                                 const std::vector<Vec3>& fit_prediction);
 
+// How a fit treats the ripple's periods: as any parameter; held at their start values; or as any
+// parameter, with the steps a ripple longer than the joint's travel needs (it trades its period
+// against amplitude, phase and geometry along a long flat valley: 60-200 steps).
+enum class Periods { usual, held, long_valley };
+constexpr int kLongValleyIterations = 200;
+
 // The options of every fit of the diagnosis (its noise floor and prior).
 FitOptions fit_options(const DiagnosisOptions& options);
+// ... for a fit in this pipeline: `periods` held or long_valley take kLongValleyIterations
+// steps; once data.long_ripples is set, usual holds the periods too (with those steps).
+FitOptions fit_options(const PipelineData& data, Periods periods = Periods::usual);
 
 // Fits `families` from `start` (thinned FIT unless backlash is in the set) and predicts CHECK.
-Candidate fit_and_check(const PipelineData& data, FamilySet families, const Parameters& start);
+Candidate fit_and_check(const PipelineData& data, FamilySet families, const Parameters& start,
+                        Periods periods = Periods::usual);
 
 // `theta` with the parameters of `families` set back to neutral.
 Parameters without_families(Parameters theta, FamilySet families);

@@ -136,7 +136,7 @@ FinalModel finish_model(const PipelineData& data, FamilySet families, const Para
   final_fit.families = families;
   diagnosis.confidence_95 = Parameters::Zero();
   if (families.any()) {
-    const FitResult refit = fit_model(data.fit, families, theta, theta, fit_options(options));
+    const FitResult refit = fit_model(data.fit, families, theta, theta, fit_options(data));
     if (refit.ok) final_fit = refit;
     diagnosis.confidence_95 = confidence_half_widths(final_fit, data.fit.size());
   }

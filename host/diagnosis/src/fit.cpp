@@ -119,7 +119,12 @@ FitResult fit_model(const std::vector<Sample>& rows, FamilySet families, const P
   result.families = families;
   result.theta = start;
   project(result.theta);
-  const std::vector<int> active = parameter_indices(families);
+  std::vector<int> active = parameter_indices(families);
+  if (options.hold_periods) {
+    active.erase(
+        std::remove_if(active.begin(), active.end(), [](int k) { return k >= slot::period && k < slot::period + 3; }),
+        active.end());
+  }
   const int n = static_cast<int>(active.size());
   NormalEquations current = evaluate(result.theta, families, rows, true);
   if (!current.ok) return result;

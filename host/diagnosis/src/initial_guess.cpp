@@ -120,4 +120,25 @@ Parameters initial_guess(Family family, const Parameters& theta, const std::vect
   return start;
 }
 
+Parameters ripple_start_at(const Parameters& theta, const std::vector<Sample>& rows, const std::vector<Vec3>& predicted,
+                           const Vec3& period_deg) {
+  Parameters start = theta;
+  const std::size_t stride = std::max<std::size_t>(1, rows.size() / 3000);
+  for (int j = 0; j < 3; ++j) {
+    Eigen::Matrix2d normal = Eigen::Matrix2d::Zero();
+    Eigen::Vector2d right = Eigen::Vector2d::Zero();
+    for (std::size_t i = 0; i < rows.size(); i += stride) {
+      const double w = 2.0 * kPi * predicted[i][j] / period_deg[j];
+      const Eigen::Vector2d basis(std::cos(w), std::sin(w));
+      normal += basis * basis.transpose();
+      right += (rows[i].alpha_deg[j] - predicted[i][j]) * basis;
+    }
+    const Eigen::Vector2d c = normal.ldlt().solve(right);
+    start[slot::amplitude + j] = std::hypot(c[0], c[1]);
+    start[slot::period + j] = period_deg[j];
+    start[slot::phase + j] = std::atan2(c[0], c[1]);
+  }
+  return start;
+}
+
 }  // namespace delta::diagnosis

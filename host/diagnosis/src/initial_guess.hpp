@@ -16,4 +16,9 @@ namespace delta::diagnosis {
 Parameters initial_guess(Family family, const Parameters& theta, const std::vector<Sample>& rows,
                          const std::vector<Vec3>& predicted, bool long_period = false);
 
+// Starting values of transmission_error at the given periods: per joint, the amplitude and phase
+// of that period fitted by least squares to the FIT residual of `predicted`.
+Parameters ripple_start_at(const Parameters& theta, const std::vector<Sample>& rows, const std::vector<Vec3>& predicted,
+                           const Vec3& period_deg);
+
 }  // namespace delta::diagnosis

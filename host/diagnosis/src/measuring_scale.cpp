@@ -23,7 +23,7 @@ Evaluation evaluate_scale(const PipelineData& data, FamilySet families, const Pa
   Evaluation evaluation;
   const bool hysteresis = families[index_of(Family::backlash)];
   const std::vector<Sample> rows = unscaled(hysteresis ? data.fit : data.thinned_fit, Vec3::Constant(scale));
-  const FitOptions options = fit_options(data.options);
+  const FitOptions options = fit_options(data);
   evaluation.fit = fit_model(rows, families, start, start, options);
   evaluation.fit.theta = families.any() ? evaluation.fit.theta : start;
   const NormalEquations equations = evaluate(evaluation.fit.theta, families, rows, false);
@@ -78,7 +78,7 @@ bool finish_scale_model(const PipelineData& data, const Parameters& start, const
                         ScaleModel& model) {
   const std::vector<Sample> fit_rows = unscaled(data.fit, model.scale);
   if (model.families.any()) {
-    const FitOptions options = fit_options(data.options);
+    const FitOptions options = fit_options(data);
     const FitResult refit = fit_model(fit_rows, model.families, refit_from, start, options);
     if (!refit.ok) return false;
     model.theta = refit.theta;
@@ -109,7 +109,7 @@ std::optional<ScaleModel> fit_axis_scale(const PipelineData& data, FamilySet oth
   const Parameters start = without_families(theta, ~others);
   const bool hysteresis = others[index_of(Family::backlash)];
   const std::vector<Sample>& screening = hysteresis ? data.fit : data.thinned_fit;
-  const FitOptions options = fit_options(data.options);
+  const FitOptions options = fit_options(data);
   ScaleModel model;
   model.per_axis = true;
   model.families = others;

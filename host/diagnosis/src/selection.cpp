@@ -18,7 +18,8 @@ bool near_floor(const Candidate& model, const DiagnosisOptions& options) {
 // gain passes the stopping rule: larger than the minimum effect (threshold_deg2) and significant
 // by the paired test on the CHECK rows (z above options.paired_z).
 void forward_selection(const PipelineData& data, Selection& selection) {
-  std::vector<Vec3> fit_prediction = predict_recording(EffectSet{}, data.fit).alpha_deg;
+  std::vector<Vec3> fit_prediction =
+      predict_recording(to_effect_set(selection.theta, selection.families), data.fit).alpha_deg;
   for (int round = 0; round < kFamilyCount; ++round) {
     std::vector<Family> candidates;
     for (int f = 0; f < kFamilyCount; ++f) {
@@ -95,6 +96,65 @@ void restart_ripple(const PipelineData& data, Selection& selection) {
   }
 }
 
+// A ripple longer than a joint's travel on FIT is a smooth curve there, which geometry imitates: a
+// greedy path can end with the wrong geometry and a ripple of the wrong period, above the floor.
+// Then the model of every family (backlash only if chosen) is fitted with the ripple's period
+// profiled: held at 0.5-4 x each joint's travel on FIT, per joint the period best on CHECK, the
+// three held together, then everything free. If that beats the selection on CHECK by the
+// threshold and is near the floor, it replaces it; from then on every fit holds the periods found
+// (along that valley FIT alone moves a joint's held-out error by 0.2 floors and more, so that two
+// sets could not be compared), and eliminate_breadth_first takes the model down to what CHECK
+// needs. Drags only: closed-loop telemetry (a small region, the controller's own errors) is left to
+// the greedy path.
+bool try_every_family_with_long_ripples(const PipelineData& data, Selection& selection) {
+  if (data.fit_closed_loop || near_floor(selection.model, data.options)) return false;
+  const FamilySet ripple = single(Family::transmission_error);
+  FamilySet every;
+  for (int f = 0; f < kFamilyCount; ++f) {
+    if (family_at(f) != Family::backlash || selection.families[f]) every.set(f);
+  }
+  const Candidate geometry = fit_and_check(data, every & ~ripple, without_families(selection.theta, ripple));
+  if (!geometry.ok) return false;
+  const std::vector<Vec3> prediction =
+      predict_recording(to_effect_set(geometry.fit.theta, every & ~ripple), data.fit).alpha_deg;
+  Vec3 low = Vec3::Constant(1e9), high = Vec3::Constant(-1e9);
+  for (const Vec3& a : prediction) {
+    low = low.cwiseMin(a);
+    high = high.cwiseMax(a);
+  }
+  const Vec3 travel = (high - low).cwiseMax(1e-3);
+  std::vector<Job> jobs;
+  for (double multiple : {0.5, 0.75, 1.0, 1.25, 1.5, 2.0, 2.5, 3.0, 4.0}) {
+    const Parameters start = ripple_start_at(geometry.fit.theta, data.fit, prediction, multiple * travel);
+    jobs.push_back([&data, every, start] { return fit_and_check(data, every, start, Periods::held); });
+  }
+  const std::vector<Candidate> held = run_parallel(jobs, data.options.threads);
+  Parameters start = geometry.fit.theta;
+  for (int j = 0; j < 3; ++j) {
+    int best = -1;
+    for (std::size_t r = 0; r < held.size(); ++r) {
+      if (held[r].ok && (best < 0 || held[r].holdout_rmse[j] < held[best].holdout_rmse[j])) best = static_cast<int>(r);
+    }
+    if (best < 0) return false;
+    for (int first : {slot::amplitude, slot::period, slot::phase}) start[first + j] = held[best].fit.theta[first + j];
+  }
+  const Candidate together = fit_and_check(data, every, start, Periods::held);
+  if (!together.ok) return false;
+  const Candidate free = fit_and_check(data, every, together.fit.theta, Periods::long_valley);
+  if (!free.ok || !near_floor(free, data.options) ||
+      mean_square(free.holdout_rmse) + data.threshold_deg2 >= mean_square(selection.model.holdout_rmse)) {
+    return false;
+  }
+  for (int f = 0; f < kFamilyCount; ++f) {
+    if (every[f] && !selection.families[f]) selection.order.push_back(family_at(f));
+  }
+  selection.families = every;
+  selection.model = free;
+  selection.theta = free.fit.theta;
+  selection.path_changed = true;
+  return true;
+}
+
 // The floor test of a candidate on CHECK, with the noise model of `families` at `theta` on FIT.
 bool passes_floor_test(const PipelineData& data, FamilySet families, const Parameters& theta,
                        const std::vector<Vec3>& check_prediction) {
@@ -141,6 +201,63 @@ void backward_elimination(const PipelineData& data, Selection& selection) {
       dropped = true;
     }
   }
+}
+
+// Below a model of every family (a long ripple, which the geometry families imitate on FIT): the
+// families are dropped breadth-first, every set of one size from every kept set one larger, and a
+// set is kept while CHECK holds it within the threshold of the model of every family (and at the
+// floor, when that model is). The best `kEliminationBeam` of each size go on. The smallest sets kept are the data's
+// equivalent answers: the best is the selection, the others its alternatives.
+constexpr std::size_t kEliminationBeam = 6;
+
+void eliminate_breadth_first(PipelineData& data, Selection& selection) {
+  const double top_mse = mean_square(selection.model.holdout_rmse);
+  const bool top_at_floor =
+      passes_floor_test(data, selection.families, selection.theta, selection.model.check_prediction);
+  std::vector<std::pair<FamilySet, Candidate>> level = {{selection.families, selection.model}};
+  std::vector<std::pair<FamilySet, Candidate>> smallest = level;
+  while (!level.empty()) {
+    std::vector<FamilySet> sets;
+    std::vector<Job> jobs;
+    for (const auto& [families, model] : level) {
+      if (families.count() <= 1) continue;
+      for (int f = 0; f < kFamilyCount; ++f) {
+        if (!families[f]) continue;
+        const FamilySet reduced = families & ~single(family_at(f));
+        if (std::find(sets.begin(), sets.end(), reduced) != sets.end()) continue;
+        const Parameters start = without_families(model.fit.theta, single(family_at(f)));
+        sets.push_back(reduced);
+        jobs.push_back([&data, reduced, start] { return fit_and_check(data, reduced, start, Periods::held); });
+      }
+    }
+    const std::vector<Candidate> results = run_parallel(jobs, data.options.threads);
+    std::vector<std::pair<FamilySet, Candidate>> next;
+    for (std::size_t r = 0; r < results.size(); ++r) {
+      if (!results[r].ok || mean_square(results[r].holdout_rmse) > top_mse + data.threshold_deg2) continue;
+      if (top_at_floor && !passes_floor_test(data, sets[r], results[r].fit.theta, results[r].check_prediction))
+        continue;
+      next.push_back({sets[r], results[r]});
+    }
+    std::sort(next.begin(), next.end(), [](const auto& a, const auto& b) {
+      return mean_square(a.second.holdout_rmse) < mean_square(b.second.holdout_rmse);
+    });
+    if (next.size() > kEliminationBeam) next.resize(kEliminationBeam);
+    if (!next.empty()) smallest = next;
+    level = std::move(next);
+  }
+  const auto& [families, model] = smallest.front();
+  for (Family family : selection.order) {
+    if (!families[index_of(family)]) selection.eliminated.push_back(family_name(family));
+  }
+  std::vector<Family> kept;
+  for (Family family : selection.order) {
+    if (families[index_of(family)]) kept.push_back(family);
+  }
+  selection.order = kept;
+  selection.families = families;
+  selection.model = model;
+  selection.theta = model.fit.theta;
+  data.equivalent_sets.assign(smallest.begin() + 1, smallest.end());
 }
 
 // Swap search: a wrong early pick can absorb two true effects and end as a larger model at the
@@ -241,14 +358,19 @@ void restart_from_runners_up(const PipelineData& data, Selection& selection) {
 
 }  // namespace
 
-Selection select_families(const PipelineData& data, const Candidate& nominal) {
+Selection select_families(PipelineData& data, const Candidate& nominal) {
   Selection selection;
   selection.theta = neutral_parameters();
   selection.model = nominal;
   forward_selection(data, selection);
   restart_from_runners_up(data, selection);
   restart_ripple(data, selection);
-  backward_elimination(data, selection);
+  data.long_ripples = try_every_family_with_long_ripples(data, selection);
+  if (data.long_ripples) {
+    eliminate_breadth_first(data, selection);
+  } else {
+    backward_elimination(data, selection);
+  }
   swap_search(data, selection);
   return selection;
 }

@@ -23,6 +23,7 @@ struct Selection {
 };
 
 // `nominal` is the nominal model scored on CHECK (no fit).
-Selection select_families(const PipelineData& data, const Candidate& nominal);
+// Sets data.long_ripples when a ripple longer than a joint's travel on FIT was taken in.
+Selection select_families(PipelineData& data, const Candidate& nominal);
 
 }  // namespace delta::diagnosis

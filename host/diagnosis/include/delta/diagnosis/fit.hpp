@@ -36,6 +36,7 @@ struct FitResult {
 
 struct FitOptions {
   int max_iterations = 40;
+  bool hold_periods = false;                           // the ripple's periods stay at their start values
   double tolerance = 1e-7;                             // stop when one step lowers the cost by less than this fraction
   double noise_floor_deg = 0.01 / 3.4641016151377544;  // sets the weight of the weak prior
   // Above 0: the prior pulls each parameter towards the nominal robot instead (neutral_parameters,
