@@ -8,6 +8,29 @@
 #include <Eigen/Cholesky>
 
 namespace delta::diagnosis {
+namespace {
+
+struct SineFit {
+  double amplitude = 0.0, phase = 0.0;
+  double removed = 0.0;  // the residual sum of squares the sine removes
+};
+
+// Least squares of A sin(2 pi angle / period + phase) to `residual`
+// (A sin(w + phi) = A cos(phi) sin(w) + A sin(phi) cos(w)).
+SineFit fit_sine(const std::vector<double>& angle, const std::vector<double>& residual, double period) {
+  Eigen::Matrix2d normal = Eigen::Matrix2d::Zero();
+  Eigen::Vector2d right = Eigen::Vector2d::Zero();
+  for (std::size_t i = 0; i < angle.size(); ++i) {
+    const double w = 2.0 * kPi * angle[i] / period;
+    const Eigen::Vector2d basis(std::cos(w), std::sin(w));
+    normal += basis * basis.transpose();
+    right += residual[i] * basis;
+  }
+  const Eigen::Vector2d c = normal.ldlt().solve(right);
+  return {std::hypot(c[0], c[1]), std::atan2(c[0], c[1]), c.dot(right)};
+}
+
+}  // namespace
 
 Parameters initial_guess(Family family, const Parameters& theta, const std::vector<Sample>& rows,
                          const std::vector<Vec3>& predicted, bool long_period) {
@@ -65,51 +88,28 @@ Parameters initial_guess(Family family, const Parameters& theta, const std::vect
       double best_power = -1.0, best_period = 360.0, best_amplitude = 0.0, best_phase = 0.0;
       for (double cycles = 0.25; cycles <= range / 0.1; cycles += 0.25) {
         const double period = range / cycles;
-        Eigen::Matrix2d sine_normal = Eigen::Matrix2d::Zero();
-        Eigen::Vector2d sine_right = Eigen::Vector2d::Zero();
-        for (int i = 0; i < m; ++i) {
-          const double w = 2.0 * kPi * angle[i] / period;
-          const Eigen::Vector2d basis(std::cos(w), std::sin(w));
-          sine_normal += basis * basis.transpose();
-          sine_right += residual[i] * basis;
-        }
-        const Eigen::Vector2d c = sine_normal.ldlt().solve(sine_right);
-        const double power = c.dot(sine_right);  // residual sum of squares removed
-        if (power > best_power) {
-          best_power = power;
+        const SineFit sine = fit_sine(angle, residual, period);
+        if (sine.removed > best_power) {
+          best_power = sine.removed;
           best_period = period;
-          best_amplitude = std::hypot(c[0], c[1]);
-          best_phase = std::atan2(c[0], c[1]);  // A sin(w + phi) = A cos(phi) sin(w) + A sin(phi) cos(w)
+          best_amplitude = sine.amplitude;
+          best_phase = sine.phase;
         }
       }
       // Periods much longer than the range look like a trend and vanish with it: the long-period
       // start fits them to the residual as it is (a once-per-revolution ripple, P = 360 deg).
-      auto raw_fit = [&](double period, double& amplitude, double& phase) {
-        Eigen::Matrix2d normal = Eigen::Matrix2d::Zero();
-        Eigen::Vector2d right = Eigen::Vector2d::Zero();
-        double total = 0.0;
-        for (int i = 0; i < m; ++i) {
-          const double w = 2.0 * kPi * angle[i] / period;
-          const Eigen::Vector2d basis(std::cos(w), std::sin(w));
-          normal += basis * basis.transpose();
-          right += raw[i] * basis;
-          total += raw[i] * raw[i];
-        }
-        const Eigen::Vector2d c = normal.ldlt().solve(right);
-        amplitude = std::hypot(c[0], c[1]);
-        phase = std::atan2(c[0], c[1]);
-        return total - c.dot(right);
-      };
-      double amplitude = 0.0, phase = 0.0;
+      double total = 0.0;
+      for (int i = 0; i < m; ++i) total += raw[i] * raw[i];
       double best_sse = 1e300;
       for (double period : {2.0 * range, 4.0 * range, 8.0 * range, 90.0, 180.0, 360.0}) {
         if (!long_period) break;
-        const double sse = raw_fit(period, amplitude, phase);
+        const SineFit sine = fit_sine(angle, raw, period);
+        const double sse = total - sine.removed;
         if (sse < best_sse) {
           best_sse = sse;
           best_period = period;
-          best_amplitude = amplitude;
-          best_phase = phase;
+          best_amplitude = sine.amplitude;
+          best_phase = sine.phase;
         }
       }
       start[slot::amplitude + j] = best_amplitude;
@@ -125,18 +125,15 @@ Parameters ripple_start_at(const Parameters& theta, const std::vector<Sample>& r
   Parameters start = theta;
   const std::size_t stride = std::max<std::size_t>(1, rows.size() / 3000);
   for (int j = 0; j < 3; ++j) {
-    Eigen::Matrix2d normal = Eigen::Matrix2d::Zero();
-    Eigen::Vector2d right = Eigen::Vector2d::Zero();
+    std::vector<double> angle, residual;
     for (std::size_t i = 0; i < rows.size(); i += stride) {
-      const double w = 2.0 * kPi * predicted[i][j] / period_deg[j];
-      const Eigen::Vector2d basis(std::cos(w), std::sin(w));
-      normal += basis * basis.transpose();
-      right += (rows[i].alpha_deg[j] - predicted[i][j]) * basis;
+      angle.push_back(predicted[i][j]);
+      residual.push_back(rows[i].alpha_deg[j] - predicted[i][j]);
     }
-    const Eigen::Vector2d c = normal.ldlt().solve(right);
-    start[slot::amplitude + j] = std::hypot(c[0], c[1]);
+    const SineFit sine = fit_sine(angle, residual, period_deg[j]);
+    start[slot::amplitude + j] = sine.amplitude;
     start[slot::period + j] = period_deg[j];
-    start[slot::phase + j] = std::atan2(c[0], c[1]);
+    start[slot::phase + j] = sine.phase;
   }
   return start;
 }
