@@ -15,6 +15,14 @@ delta_add_gtest(measure_board_tests
   LIBRARIES delta::host
   LABELS measure virtual_board)
 
+# A closed-loop `host run` of a robot with play through a 250 Hz stage (60 s kept to real time,
+# alone on the machine), merged and diagnosed: its play as the robot's (about 100 s).
+delta_add_gtest(measure_closed_loop_tests
+  SOURCES ${CMAKE_CURRENT_LIST_DIR}/measure/test_closed_loop_diagnosis.cpp
+  LIBRARIES delta::host nlohmann_json::nlohmann_json
+  LABELS measure virtual_board diagnosis
+  PROPERTIES RUN_SERIAL TRUE)
+
 # Not yet in the suite: docs/lab_loop.md's virtual part run as written (drag, record, merge,
 # diagnose, train, quantise, a closed-loop run with the stage following, merge, compare): its drags
 # take 500 s of board time (about 10 minutes on this machine), over the suite's budget for a test.

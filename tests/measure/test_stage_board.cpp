@@ -11,6 +11,7 @@
 #include <random>
 #include <sstream>
 
+#include "../support/followed_run.hpp"
 #include "../support/run_command.hpp"
 #include "../support/virtual_board_process.hpp"
 #include "delta/csv.hpp"
@@ -139,27 +140,11 @@ TEST(StageDrag, HostRecordAndMergeGiveThePlateWithinAMicrometreOfTheTruth) {
 // its sync inverted, or with a level that is not 0 or 1: exit 2, one line, no output. About 30 s.
 TEST(StageFollow, AClosedLoopRunMergesOnTheBoardsSyncOutput) {
   const std::string dir = folder();
-  const std::string link = dir + "tty", weights = std::string(DELTA_SOURCE_DIR) + "/weights/paper_like_deployed.json";
+  const std::string weights = std::string(DELTA_SOURCE_DIR) + "/weights/paper_like_deployed.json";
   const double offset = 7.25, ppm = 150.0;
-  {
-    VirtualBoardProcess board(link,
-                              {"--fidelity", "model", "--truth", dir + "truth.csv", "--stage", "follow", "--stage-log",
-                               dir + "stage.csv", "--stage-clock", "7.25,150", "--stage-seed", "5"});
-    std::cout << board.ready_line(20000) << '\n';
-    ASSERT_NE(board.ready_line(20000).find("ready"), std::string::npos);
-    const CommandResult home = run_deltactl("host home --port " + link + " --weights " + weights);
-    std::cout << home.out << home.err;
-    ASSERT_EQ(home.exit_code, 0);
-    const CommandResult run = run_deltactl("host run --port " + link + " --weights " + weights +
-                                           " --trajectory experiment1 --duration 20 --record " + dir + "run.csv");
-    std::cout << run.err;
-    ASSERT_EQ(run.exit_code, 0);
-    EXPECT_EQ(board.terminate(), 0);
-  }
-  const CommandResult merge = run_deltactl("merge --run " + dir + "run.csv --stage " + dir + "stage.csv --out " + dir +
-                                           "data.csv --report " + dir + "merge.json");
-  std::cout << merge.out << merge.err;
-  ASSERT_EQ(merge.exit_code, 0);
+  followed_run_and_merge(dir, weights, {"--stage-clock", "7.25,150", "--stage-seed", "5"},
+                         "--trajectory experiment1 --duration 20");
+  if (::testing::Test::HasFatalFailure()) return;
   const std::string report = read_text(dir + "merge.json");
   EXPECT_NE(report.find("\"clock_from\": \"sync\""), std::string::npos) << report;
   const auto number = [&](const std::string& key) {

@@ -120,4 +120,49 @@ inline Readings read_closed_loop(const std::vector<double>& t, const std::vector
   return out;
 }
 
+// The arm of a joint with play, in closed loop, does not sit at the play's end: each push of the
+// reading's next count carries it there for a moment, then it falls back (by 0.018 deg on average
+// at 0.2 deg/s, 0.003 at 1.5; docs/lab_loop.md). A stage sampling at 250-1000 Hz, resampled at the
+// board's times, misses most of those moments, and a play fitted to it comes out narrower than the
+// robot's: measured on a robot with 0.05 / 0.18 / 0.1 deg of play on a 240 s run (path B of
+// scripts/closed_loop_runs.sh; truth recording), the readings less their lead fit the true play
+// exactly against the true angles at 1 kHz, 0.003-0.004 deg narrow against those angles sampled at
+// 250 Hz and interpolated, 0.001-0.002 at 1000 Hz half a sample off (1.1-1.2 floors held out on a
+// drag). Faster than kSteadySpeedDegS the arm rides the play's end and the interpolated angles fit
+// the true play exactly again (at 1.5 deg/s one joint still 0.001 narrow). So where a joint with
+// play moves that fast for kLeastSteadyS each way, only those rows of it count in the fit (the
+// play's state still follows every row); otherwise every row does, and the play may come out narrow.
+constexpr double kSteadySpeedDegS = 2.5;
+constexpr double kLeastSteadyS = 5.0;
+
+enum class JointRows { every, fast_only, too_slow };  // too_slow: a joint with play never fast enough
+
+struct FitWeights {
+  std::vector<Vec3> weight;  // per row and joint: 1 counts, 0 does not
+  std::array<JointRows, 3> joints{};
+};
+
+// The fit weights of closed-loop readings (read_closed_loop of the same rows): joints that do not
+// dither by a count have play.
+inline FitWeights fit_weights(const std::vector<double>& t, const Readings& readings) {
+  FitWeights out;
+  out.weight.assign(t.size(), Vec3::Ones());
+  if (!readings.closed_loop) return out;
+  for (int j = 0; j < 3; ++j) {
+    if (readings.dithering[static_cast<std::size_t>(j)]) continue;
+    double forward = 0.0, backward = 0.0;
+    for (std::size_t i = 1; i < t.size(); ++i) {
+      if (readings.speed_deg_s[i][j] < kSteadySpeedDegS) continue;
+      (readings.way[i][j] > 0 ? forward : backward) += t[i] - t[i - 1];
+    }
+    const bool enough = forward >= kLeastSteadyS && backward >= kLeastSteadyS;
+    out.joints[static_cast<std::size_t>(j)] = enough ? JointRows::fast_only : JointRows::too_slow;
+    if (!enough) continue;
+    for (std::size_t i = 0; i < t.size(); ++i) {
+      if (readings.speed_deg_s[i][j] < kSteadySpeedDegS) out.weight[i][j] = 0.0;
+    }
+  }
+  return out;
+}
+
 }  // namespace delta::diagnosis::closed_loop

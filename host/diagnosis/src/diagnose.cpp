@@ -39,7 +39,10 @@ constexpr double kTurnDeg = 0.001;
 // Closed-loop telemetry (closed_loop.hpp): the model is fitted to (or judged on) the angle behind
 // each reading, the reading less the lead the controller holds it at. Whether a recording is one
 // is told from its readings (a drag's seldom turn back; 10 Hz recordings are never telemetry).
-bool correct_closed_loop(std::vector<Sample>& samples, double count_deg) {
+// With `diagnosis` (FIT), each row's fit_weight and which rows of each joint count
+// (closed_loop::fit_weights) go there too, and with `motion` each row's speed and direction.
+bool correct_closed_loop(std::vector<Sample>& samples, double count_deg, Diagnosis* diagnosis = nullptr,
+                         closed_loop::Readings* motion = nullptr) {
   std::vector<double> t(samples.size());
   std::vector<Vec3> reading(samples.size());
   for (std::size_t i = 0; i < samples.size(); ++i) {
@@ -49,7 +52,67 @@ bool correct_closed_loop(std::vector<Sample>& samples, double count_deg) {
   const closed_loop::Readings readings = closed_loop::read_closed_loop(t, reading, count_deg);
   if (!readings.closed_loop) return false;
   for (std::size_t i = 0; i < samples.size(); ++i) samples[i].alpha_deg = readings.angle_deg[i];
+  if (diagnosis) {
+    const closed_loop::FitWeights weights = closed_loop::fit_weights(t, readings);
+    for (std::size_t i = 0; i < samples.size(); ++i) samples[i].fit_weight = weights.weight[i];
+    diagnosis->fit_closed_loop = true;
+    for (std::size_t j = 0; j < 3; ++j) {
+      diagnosis->fit_play_fast_rows_only[j] = weights.joints[j] == closed_loop::JointRows::fast_only;
+      diagnosis->fit_play_too_slow[j] = weights.joints[j] == closed_loop::JointRows::too_slow;
+    }
+  }
+  if (motion) {
+    *motion = readings;
+    motion->angle_deg.clear();
+  }
   return true;
+}
+
+// The slower rows of the joints fitted on their fast rows only (closed_loop.hpp), back in the fit:
+// each shifted along its direction of motion by what the model those fast rows gave (`predicted`)
+// leaves there on average, per band of speed (closed_loop::kLeads' speeds): the arm's place in the
+// play that the stage cannot follow, so that these rows inform the geometry and no longer narrow
+// the play. A band with fewer than kLeastBandRows rows stays out. `motion`: the speeds and
+// directions of FIT's rows before thinning (time order). Returns the largest shift per joint.
+constexpr std::size_t kLeastBandRows = 50;
+
+Vec3 restore_slow_rows(std::vector<Sample>& fit, const std::vector<Vec3>& predicted, const std::vector<double>& t,
+                       const closed_loop::Readings& motion) {
+  constexpr std::size_t kBands = closed_loop::kLeads.size();
+  auto band_of = [](double speed) {
+    std::size_t band = 0;
+    while (band + 1 < kBands && speed >= closed_loop::kLeads[band + 1].speed_deg_s) ++band;
+    return band;
+  };
+  std::vector<std::size_t> source(fit.size());
+  for (std::size_t i = 0; i < fit.size(); ++i) {
+    const auto at = std::lower_bound(t.begin(), t.end(), fit[i].t_s);
+    source[i] =
+        static_cast<std::size_t>(std::min<std::ptrdiff_t>(at - t.begin(), static_cast<std::ptrdiff_t>(t.size()) - 1));
+  }
+  Vec3 largest = Vec3::Zero();
+  for (int j = 0; j < 3; ++j) {
+    std::array<double, kBands> sum{};
+    std::array<std::size_t, kBands> rows{};
+    for (std::size_t i = 0; i < fit.size(); ++i) {
+      const double way = motion.way[source[i]][j];
+      if (fit[i].fit_weight[j] != 0.0 || way == 0.0) continue;
+      const std::size_t band = band_of(motion.speed_deg_s[source[i]][j]);
+      sum[band] += way * (fit[i].alpha_deg[j] - predicted[i][j]);
+      ++rows[band];
+    }
+    for (std::size_t i = 0; i < fit.size(); ++i) {
+      const double way = motion.way[source[i]][j];
+      if (fit[i].fit_weight[j] != 0.0 || way == 0.0) continue;
+      const std::size_t band = band_of(motion.speed_deg_s[source[i]][j]);
+      if (rows[band] < kLeastBandRows) continue;
+      const double shift = sum[band] / static_cast<double>(rows[band]);
+      fit[i].alpha_deg[j] -= way * shift;
+      fit[i].fit_weight[j] = 1.0;
+      largest[j] = std::max(largest[j], std::abs(shift));
+    }
+  }
+  return largest;
 }
 
 // Every k-th row, plus, between two kept rows, the rows where a joint's angle (nominal inverse
@@ -320,6 +383,9 @@ void analyse_final_identifiability(const PipelineData& data, Diagnosis& diagnosi
   diagnosis.all_families = analyse_identifiability(rows, everything, probe);
 }
 
+// Steps 2-9 of diagnose on the prepared rows.
+void run_pipeline(PipelineData& data, const std::vector<Sample>& check, Diagnosis& diagnosis);
+
 }  // namespace
 
 Diagnosis diagnose(const std::vector<Sample>& fit, const std::vector<Sample>& check, const DiagnosisOptions& options) {
@@ -338,7 +404,10 @@ Diagnosis diagnose(const std::vector<Sample>& fit, const std::vector<Sample>& ch
   data.fit = without_outliers(fit, fit_outliers);
   diagnosis.fit_joint_travel_deg = joint_travel(data.fit);
   data.check = without_outliers(check, check_outliers);
-  data.fit_closed_loop = correct_closed_loop(data.fit, encoder_step_deg);
+  closed_loop::Readings fit_motion;
+  std::vector<double> fit_times;
+  for (const Sample& row : data.fit) fit_times.push_back(row.t_s);
+  data.fit_closed_loop = correct_closed_loop(data.fit, encoder_step_deg, &diagnosis, &fit_motion);
   correct_closed_loop(data.check, encoder_step_deg);
   data.fit = thin_to(std::move(data.fit), options.max_fit_rows);
   data.check = thin_to(std::move(data.check), options.max_check_rows);
@@ -348,6 +417,30 @@ Diagnosis diagnose(const std::vector<Sample>& fit, const std::vector<Sample>& ch
   data.threshold_deg2 = options.significance * options.noise_floor_deg * options.noise_floor_deg;
   diagnosis.significance_threshold_deg2 = data.threshold_deg2;
 
+  const bool fast_rows_only = std::any_of(diagnosis.fit_play_fast_rows_only.begin(),
+                                          diagnosis.fit_play_fast_rows_only.end(), [](bool fast) { return fast; });
+  const Diagnosis prepared = diagnosis;
+  run_pipeline(data, check, diagnosis);
+  // A closed-loop FIT whose joints with play counted on their fast rows only: once more with their
+  // slower rows back in, shifted by what that model leaves there (restore_slow_rows).
+  if (fast_rows_only && diagnosis.new_effects.empty()) {
+    const std::vector<Vec3> predicted = predict_recording(diagnosis.fitted_effects, data.fit).alpha_deg;
+    const Vec3 shift = restore_slow_rows(data.fit, predicted, fit_times, fit_motion);
+    diagnosis = prepared;
+    diagnosis.fit_slow_rows_shift_deg = shift;
+    data.thinned_fit = thin_out(data.fit, options.screening_stride);
+    data.long_ripples = false;
+    data.equivalent_sets.clear();
+    run_pipeline(data, check, diagnosis);
+  }
+  diagnosis.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  return diagnosis;
+}
+
+namespace {
+
+void run_pipeline(PipelineData& data, const std::vector<Sample>& check, Diagnosis& diagnosis) {
+  const DiagnosisOptions& options = data.options;
   // 2. The nominal model, where selection starts.
   const Candidate nominal = nominal_candidate(data.check);
   diagnosis.fit_rmse_nominal_deg = joint_rmse(data.fit, predict_recording(EffectSet{}, data.fit).alpha_deg);
@@ -376,8 +469,8 @@ Diagnosis diagnose(const std::vector<Sample>& fit, const std::vector<Sample>& ch
 
   // 9. What the data cannot tell apart.
   analyse_final_identifiability(data, diagnosis);
-  diagnosis.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-  return diagnosis;
 }
+
+}  // namespace
 
 }  // namespace delta::diagnosis

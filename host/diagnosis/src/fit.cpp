@@ -60,10 +60,12 @@ NormalEquations evaluate(const Parameters& theta, FamilySet families, const std:
       ok = predict_joint<Dual>(
           local, families, joint, rows,
           [&](std::size_t i, const Dual& predicted) {
+            const double weight = rows[i].fit_weight[joint];
+            if (weight == 0.0) return;
             const double residual = rows[i].alpha_deg[joint] - predicted.value();
-            sum += residual * residual;
-            jtj.selfadjointView<Eigen::Lower>().rankUpdate(predicted.derivatives());
-            jtr += residual * predicted.derivatives();
+            sum += weight * residual * residual;
+            jtj.selfadjointView<Eigen::Lower>().rankUpdate(predicted.derivatives(), weight);
+            jtr += weight * residual * predicted.derivatives();
           },
           &failed);
       jtj = jtj.selfadjointView<Eigen::Lower>();
@@ -78,7 +80,7 @@ NormalEquations evaluate(const Parameters& theta, FamilySet families, const std:
           local, families, joint, rows,
           [&](std::size_t i, double predicted) {
             const double residual = rows[i].alpha_deg[joint] - predicted;
-            sum += residual * residual;
+            sum += rows[i].fit_weight[joint] * residual * residual;
           },
           &failed);
     }
@@ -164,7 +166,11 @@ FitResult fit_model(const std::vector<Sample>& rows, FamilySet families, const P
   }
   result.ok = current.ok;
   result.jtj = current.jtj;
-  for (int j = 0; j < 3; ++j) result.fit_rmse_deg[j] = std::sqrt(current.joint_sum_squares[j] / rows.size());
+  for (int j = 0; j < 3; ++j) {
+    double counted = 0.0;
+    for (const Sample& row : rows) counted += row.fit_weight[j];
+    result.fit_rmse_deg[j] = counted > 0.0 ? std::sqrt(current.joint_sum_squares[j] / counted) : 0.0;
+  }
   return result;
 }
 

@@ -17,6 +17,8 @@
 #include "delta/plot.hpp"
 #include "delta/table.hpp"
 
+#include "closed_loop.hpp"
+
 namespace delta::diagnosis {
 namespace {
 
@@ -225,6 +227,33 @@ std::string verdict(const Diagnosis& diagnosis) {
   return text.str();
 }
 
+std::string joint_list(const std::array<bool, 3>& joints) {
+  std::string text;
+  for (int j = 0; j < 3; ++j) {
+    if (joints[static_cast<std::size_t>(j)]) text += (text.empty() ? "" : ", ") + std::to_string(j + 1);
+  }
+  return text;
+}
+
+// What a closed-loop FIT did with the joints with play (closed_loop.hpp), or "".
+std::string closed_loop_note(const Diagnosis& diagnosis) {
+  if (!diagnosis.fit_closed_loop) return "";
+  const std::string fast = joint_list(diagnosis.fit_play_fast_rows_only),
+                    slow = joint_list(diagnosis.fit_play_too_slow);
+  std::string text = "FIT is closed-loop telemetry: the readings less the controller's lead were fitted";
+  if (!fast.empty()) {
+    text += "; joints " + fast + " (play) only where faster than " + fixed(closed_loop::kSteadySpeedDegS, 1) +
+            " deg/s (slower, the arm falls back inside the play where the stage's sampling cannot follow it)";
+  }
+  if (!slow.empty()) {
+    text += "; joints " + slow + " have play but never move faster than " + fixed(closed_loop::kSteadySpeedDegS, 1) +
+            " deg/s for " + fixed(closed_loop::kLeastSteadyS, 0) +
+            " s each way: their play may come out narrower than the robot's (fit the play on a drag, or run a "
+            "faster path)";
+  }
+  return text;
+}
+
 }  // namespace
 
 json family_parameters_json(Family family, const Parameters& theta) {
@@ -242,6 +271,11 @@ json diagnosis_json(const Diagnosis& diagnosis) {
   document["fit_joint_travel_deg"] = {diagnosis.fit_joint_travel_deg[0], diagnosis.fit_joint_travel_deg[1],
                                       diagnosis.fit_joint_travel_deg[2]};
   document["explained_fraction"] = diagnosis.explained_fraction;
+  if (diagnosis.fit_closed_loop) {
+    document["closed_loop_fit"] = {{"steady_speed_deg_s", closed_loop::kSteadySpeedDegS},
+                                   {"play_fitted_where_faster", diagnosis.fit_play_fast_rows_only},
+                                   {"play_never_fast_enough", diagnosis.fit_play_too_slow}};
+  }
   json effects = json::array();
   for (const NewEffect& effect : diagnosis.new_effects) {
     json parameters, half_widths;
@@ -396,6 +430,7 @@ void print_summary(std::ostream& out, const Diagnosis& diagnosis) {
       << "significant: " << model_name(diagnosis) << "; " << fixed(diagnosis.seconds, 1) << " s\n"
       << "verdict: " << verdict(diagnosis) << "\n";
   if (!diagnosis.outliers.empty()) out << diagnosis.outliers.size() << " outlier rows left out (listed in the JSON)\n";
+  if (diagnosis.fit_closed_loop) out << closed_loop_note(diagnosis) << "\n";
 }
 
 void write_report(const std::string& markdown_path, const ReportInputs& inputs, const std::vector<Sample>& check,
@@ -475,6 +510,7 @@ void write_report(const std::string& markdown_path, const ReportInputs& inputs, 
       << " rows). Noise floor (encoder quantisation 0.01 deg / sqrt(12)): " << fixed(floor, 5) << " deg.\n\n"
       << "**Verdict:** " << verdict(diagnosis) << "; " << fixed(100.0 * diagnosis.explained_fraction, 1)
       << " % of the held-out mean-square error above the floor removed.\n\n";
+  if (diagnosis.fit_closed_loop) out << closed_loop_note(diagnosis) << ".\n\n";
   if (!diagnosis.alternatives.empty()) {
     out << "## Equivalent explanations\n\nSets the held-out data cannot tell from the chosen one (held-out MSE "
            "not worse by more than the stopping rule's threshold, or not significantly by the paired test; same "

@@ -16,6 +16,9 @@ struct Sample {
   double t_s = 0.0;
   Vec3 alpha_deg = Vec3::Zero();
   Vec3 position_m = Vec3::Zero();
+  // How much each joint's reading counts in a fit (1; the diagnosis sets 0 where a reading cannot
+  // be predicted from the plate, see host/diagnosis/src/closed_loop.hpp). Not part of any file.
+  Vec3 fit_weight = Vec3::Ones();
 };
 
 struct RecordingOptions {

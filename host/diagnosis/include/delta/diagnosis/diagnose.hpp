@@ -2,6 +2,7 @@
 // far the gap shrinks, and what this data cannot tell apart.
 #pragma once
 
+#include <array>
 #include <string>
 #include <vector>
 
@@ -182,6 +183,14 @@ struct Diagnosis {
   // How far each joint's reading travels on FIT (largest - smallest, deg). Effects that vary slowly
   // over a joint (a transmission ripple of a period longer than this) look like geometry there.
   Vec3 fit_joint_travel_deg = Vec3::Zero();
+  // FIT is closed-loop telemetry (a `host run`). Per joint with play: only its rows faster than
+  // closed_loop::kSteadySpeedDegS were fitted (slower, the stage misses where the arm sits in the
+  // play), or it was never that fast for long enough and its play may come out narrow.
+  bool fit_closed_loop = false;
+  std::array<bool, 3> fit_play_fast_rows_only{}, fit_play_too_slow{};
+  // Those joints' slower rows were then fitted too, each shifted along its direction of motion by
+  // what the model of the fast rows left there per band of speed: the largest shift per joint.
+  Vec3 fit_slow_rows_shift_deg = Vec3::Zero();
   std::vector<NewEffect> new_effects;   // significant effects outside the vocabulary (final model)
   Vec3 measuring_scale = Vec3::Zero();  // s per axis of a measuring_scale new effect; PRED uses p / (1 + s)
   // 1.96 standard errors of each fitted parameter (internal units), from the covariance of the

@@ -12,8 +12,9 @@ namespace delta::diagnosis {
 
 using NormalMatrix = Eigen::Matrix<double, kParameterCount, kParameterCount>;
 
-// Sum of squared residuals (measured - predicted, deg^2) and, when asked, J^T J and J^T r where
-// J = d predicted / d theta (all 36 columns; those of absent families are zero).
+// Sum of squared residuals (measured - predicted, deg^2), each weighted by its row's fit_weight of
+// the joint, and, when asked, J^T W J and J^T W r where J = d predicted / d theta (all 36 columns;
+// those of absent families are zero). A row of weight 0 still moves the play's state.
 struct NormalEquations {
   bool ok = false;  // false: some row is unreachable for this theta
   std::size_t failed_row = 0;
