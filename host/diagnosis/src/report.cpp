@@ -242,8 +242,11 @@ std::string closed_loop_note(const Diagnosis& diagnosis) {
                     slow = joint_list(diagnosis.fit_play_too_slow);
   std::string text = "FIT is closed-loop telemetry: the readings less the controller's lead were fitted";
   if (!fast.empty()) {
-    text += "; joints " + fast + " (play) only where faster than " + fixed(closed_loop::kSteadySpeedDegS, 1) +
-            " deg/s (slower, the arm falls back inside the play where the stage's sampling cannot follow it)";
+    const Vec3& shift = diagnosis.fit_slow_rows_shift_deg;
+    text += "; joints " + fast + " (play) first only where faster than " + fixed(closed_loop::kSteadySpeedDegS, 1) +
+            " deg/s (slower, the arm falls back inside the play where the stage's sampling cannot follow it), "
+            "then every row, the slower ones shifted along their motion by what that model left there (at most " +
+            fixed(shift[0], 4) + " / " + fixed(shift[1], 4) + " / " + fixed(shift[2], 4) + " deg)";
   }
   if (!slow.empty()) {
     text += "; joints " + slow + " have play but never move faster than " + fixed(closed_loop::kSteadySpeedDegS, 1) +
@@ -274,7 +277,8 @@ json diagnosis_json(const Diagnosis& diagnosis) {
   if (diagnosis.fit_closed_loop) {
     document["closed_loop_fit"] = {{"steady_speed_deg_s", closed_loop::kSteadySpeedDegS},
                                    {"play_fitted_where_faster", diagnosis.fit_play_fast_rows_only},
-                                   {"play_never_fast_enough", diagnosis.fit_play_too_slow}};
+                                   {"play_never_fast_enough", diagnosis.fit_play_too_slow},
+                                   {"slow_rows_shift_deg", triple(diagnosis.fit_slow_rows_shift_deg)}};
   }
   json effects = json::array();
   for (const NewEffect& effect : diagnosis.new_effects) {
