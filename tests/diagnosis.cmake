@@ -13,5 +13,8 @@ delta_add_gtest(diagnosis_tests
   SOURCES
     ${CMAKE_CURRENT_SOURCE_DIR}/diagnosis/test_effect_model.cpp
     ${CMAKE_CURRENT_SOURCE_DIR}/diagnosis/test_diagnose_cli.cpp
+    ${CMAKE_CURRENT_SOURCE_DIR}/diagnosis/test_alternatives.cpp
   LIBRARIES delta::diagnosis delta_blind_suite
   LABELS diagnosis)
+# test_alternatives.cpp tests a step of the pipeline through its internal header.
+target_include_directories(diagnosis_tests PRIVATE ${PROJECT_SOURCE_DIR}/host/diagnosis/src)

@@ -194,6 +194,38 @@ TEST(DiagnoseReport, ANotExplainedVerdictSaysWhenTheFitTravelsTooLittleToSeparat
   EXPECT_EQ(explained.str().find("cannot separate"), std::string::npos) << explained.str();
 }
 
+// A model above the floor by one joint alone (the three joints together within the threshold) or
+// by a joint's held-out RMSE above the cap: the verdict and the summary name that part of the floor
+// test, never "z = 3.58 > 4.0".
+TEST(DiagnoseReport, ANotExplainedVerdictNamesThePartOfTheFloorTestMissed) {
+  diagnosis::Diagnosis d;
+  d.explained = false;
+  d.floor_test.threshold = 4.0;
+  d.floor_test.rmse_cap_floors = 1.5;
+  d.floor_test.z = 6.91;
+  d.floor_test.joint_z = Vec3(5.6, 3.2, 4.5);
+  d.floor_test.joint_rmse_floors = Vec3(1.07, 1.05, 1.05);
+  d.fit_joint_travel_deg = Vec3(38.0, 41.5, 30.0);
+  const auto summary = [&d] {
+    std::ostringstream out;
+    diagnosis::print_summary(out, d);
+    return out.str();
+  };
+  std::string text = summary();
+  EXPECT_NE(text.find("(floor test z = 6.91 > 4.0, held-out"), std::string::npos) << text;
+  d.floor_test.z = 3.58;
+  d.floor_test.joint_z = Vec3(1.7, 1.2, 4.67);
+  text = summary();
+  EXPECT_NE(text.find("(joint 3's floor test z = 4.67 > 4.5, the three joints' z = 3.58, held-out"), std::string::npos)
+      << text;
+  EXPECT_NE(text.find("explained: no (joint 3's floor test z"), std::string::npos) << text;
+  EXPECT_EQ(text.find("> 4.0"), std::string::npos) << text;
+  d.floor_test.joint_z = Vec3(1.7, 1.2, 2.0);
+  d.floor_test.joint_rmse_floors = Vec3(1.07, 1.62, 1.05);
+  text = summary();
+  EXPECT_NE(text.find("(joint 2 at 1.62 floors held out, above the cap of 1.5, held-out"), std::string::npos) << text;
+}
+
 // Quick blind subset: none, chain angle, backlash, transmission error, three pairs (10 needs the
 // transmission restart, 15 the swap search) and the unequal-rods robot; outlier cases also require
 // every glitch row listed (CaseScore::set_ok).

@@ -237,8 +237,11 @@ std::vector<Alternative> find_alternatives(const PipelineData& data, FamilySet c
   // - it is absorbed (absorbed_families), or fitted to a realistic size (realistic_share: the chosen
   //   set plus chain angles of 0.2-0.3 deg on a calibration drag, which the chosen families imitate
   //   there but would not at 0.5 deg), and CHECK cannot tell the two sets apart either way;
-  // - or CHECK sees it, significantly, but below the stopping rule's minimum effect (the selection
-  //   could not add it; adopt_better_alternative then takes the larger set).
+  // - or CHECK sees it, significantly: below the stopping rule's minimum effect (the selection could
+  //   not add it), or above it where the selection's own fit of that set, from its family's initial
+  //   guess, landed elsewhere along a valley FIT cannot fix (joint zeros that the frame's translation
+  //   and the radii imitate across a closed-loop run's few millimetres); adopt_better_alternative
+  //   then takes the larger set.
   const std::vector<Family> absorbed = absorbed_families(data, chosen_families, chosen_theta);
   std::vector<Family> added;
   std::vector<FamilySet> supersets;
@@ -261,12 +264,11 @@ std::vector<Alternative> find_alternatives(const PipelineData& data, FamilySet c
          realistic_share(added[r], superset_results[r].fit.theta) >= kSizedShare) &&
         difference.z >= -data.options.paired_z &&
         (std::abs(difference.mean_deg2) <= data.threshold_deg2 || std::abs(difference.z) <= data.options.paired_z);
-    const bool below_minimum_effect =
-        difference.z < -data.options.paired_z && difference.mean_deg2 >= -data.threshold_deg2;
-    if (!unseen && !below_minimum_effect) continue;
+    const bool seen = difference.z < -data.options.paired_z;
+    if (!unseen && !seen) continue;
     const FloorTest test = floor_test(data.check, superset_results[r].check_prediction, noise, data.options);
-    // An unseen family leaves the verdict as it is; one seen below the minimum effect may lift a
-    // set just short of the floor onto it, never the other way.
+    // An unseen family leaves the verdict as it is; a seen one may lift a set short of the floor
+    // onto it, never the other way.
     if (unseen ? test.at_floor != chosen_at_floor : chosen_at_floor && !test.at_floor) continue;
     larger.push_back(alternative_of(supersets[r], superset_results[r], difference, chosen_mse, test.at_floor));
   }

@@ -21,6 +21,7 @@
 #include <cmath>
 #include <vector>
 
+#include "delta/diagnosis/diagnose.hpp"
 #include "delta/geometry.hpp"
 
 namespace delta::diagnosis::closed_loop {
@@ -135,11 +136,9 @@ inline Readings read_closed_loop(const std::vector<double>& t, const std::vector
 constexpr double kSteadySpeedDegS = 2.5;
 constexpr double kLeastSteadyS = 5.0;
 
-enum class JointRows { every, fast_only, too_slow };  // too_slow: a joint with play never fast enough
-
 struct FitWeights {
   std::vector<Vec3> weight;  // per row and joint: 1 counts, 0 does not
-  std::array<JointRows, 3> joints{};
+  std::array<FitRows, 3> joints{};
 };
 
 // The fit weights of closed-loop readings (read_closed_loop of the same rows): joints that do not
@@ -156,7 +155,7 @@ inline FitWeights fit_weights(const std::vector<double>& t, const Readings& read
       (readings.way[i][j] > 0 ? forward : backward) += t[i] - t[i - 1];
     }
     const bool enough = forward >= kLeastSteadyS && backward >= kLeastSteadyS;
-    out.joints[static_cast<std::size_t>(j)] = enough ? JointRows::fast_only : JointRows::too_slow;
+    out.joints[static_cast<std::size_t>(j)] = enough ? FitRows::fast_only : FitRows::too_slow;
     if (!enough) continue;
     for (std::size_t i = 0; i < t.size(); ++i) {
       if (readings.speed_deg_s[i][j] < kSteadySpeedDegS) out.weight[i][j] = 0.0;

@@ -40,9 +40,14 @@ constexpr double kTurnDeg = 0.001;
 // each reading, the reading less the lead the controller holds it at. Whether a recording is one
 // is told from its readings (a drag's seldom turn back; 10 Hz recordings are never telemetry).
 // With `diagnosis` (FIT), each row's fit_weight and which rows of each joint count
-// (closed_loop::fit_weights) go there too, and with `motion` each row's speed and direction.
+// (closed_loop::fit_weights) go there too, and with `motion` each row's time, speed and direction.
+struct Motion {
+  std::vector<double> t_s;
+  closed_loop::Readings readings;  // speed_deg_s and way (angle_deg left empty)
+};
+
 bool correct_closed_loop(std::vector<Sample>& samples, double count_deg, Diagnosis* diagnosis = nullptr,
-                         closed_loop::Readings* motion = nullptr) {
+                         Motion* motion = nullptr) {
   std::vector<double> t(samples.size());
   std::vector<Vec3> reading(samples.size());
   for (std::size_t i = 0; i < samples.size(); ++i) {
@@ -56,14 +61,12 @@ bool correct_closed_loop(std::vector<Sample>& samples, double count_deg, Diagnos
     const closed_loop::FitWeights weights = closed_loop::fit_weights(t, readings);
     for (std::size_t i = 0; i < samples.size(); ++i) samples[i].fit_weight = weights.weight[i];
     diagnosis->fit_closed_loop = true;
-    for (std::size_t j = 0; j < 3; ++j) {
-      diagnosis->fit_play_fast_rows_only[j] = weights.joints[j] == closed_loop::JointRows::fast_only;
-      diagnosis->fit_play_too_slow[j] = weights.joints[j] == closed_loop::JointRows::too_slow;
-    }
+    diagnosis->fit_rows = weights.joints;
   }
   if (motion) {
-    *motion = readings;
-    motion->angle_deg.clear();
+    motion->t_s = std::move(t);
+    motion->readings = readings;
+    motion->readings.angle_deg.clear();
   }
   return true;
 }
@@ -72,18 +75,14 @@ bool correct_closed_loop(std::vector<Sample>& samples, double count_deg, Diagnos
 // each shifted along its direction of motion by what the model those fast rows gave (`predicted`)
 // leaves there on average, per band of speed (closed_loop::kLeads' speeds): the arm's place in the
 // play that the stage cannot follow, so that these rows inform the geometry and no longer narrow
-// the play. A band with fewer than kLeastBandRows rows stays out. `motion`: the speeds and
+// the play. A band with fewer than kLeastBandRows rows stays out. `motion`: the times, speeds and
 // directions of FIT's rows before thinning (time order). Returns the largest shift per joint.
 constexpr std::size_t kLeastBandRows = 50;
 
-Vec3 restore_slow_rows(std::vector<Sample>& fit, const std::vector<Vec3>& predicted, const std::vector<double>& t,
-                       const closed_loop::Readings& motion) {
+Vec3 restore_slow_rows(std::vector<Sample>& fit, const std::vector<Vec3>& predicted, const Motion& motion) {
   constexpr std::size_t kBands = closed_loop::kLeads.size();
-  auto band_of = [](double speed) {
-    std::size_t band = 0;
-    while (band + 1 < kBands && speed >= closed_loop::kLeads[band + 1].speed_deg_s) ++band;
-    return band;
-  };
+  constexpr std::size_t kNoBand = kBands;  // a row that counts already, or one that never moved
+  const std::vector<double>& t = motion.t_s;
   std::vector<std::size_t> source(fit.size());
   for (std::size_t i = 0; i < fit.size(); ++i) {
     const auto at = std::lower_bound(t.begin(), t.end(), fit[i].t_s);
@@ -91,22 +90,24 @@ Vec3 restore_slow_rows(std::vector<Sample>& fit, const std::vector<Vec3>& predic
         static_cast<std::size_t>(std::min<std::ptrdiff_t>(at - t.begin(), static_cast<std::ptrdiff_t>(t.size()) - 1));
   }
   Vec3 largest = Vec3::Zero();
+  std::vector<std::size_t> band(fit.size());
   for (int j = 0; j < 3; ++j) {
     std::array<double, kBands> sum{};
     std::array<std::size_t, kBands> rows{};
     for (std::size_t i = 0; i < fit.size(); ++i) {
-      const double way = motion.way[source[i]][j];
+      const double way = motion.readings.way[source[i]][j];
+      band[i] = kNoBand;
       if (fit[i].fit_weight[j] != 0.0 || way == 0.0) continue;
-      const std::size_t band = band_of(motion.speed_deg_s[source[i]][j]);
-      sum[band] += way * (fit[i].alpha_deg[j] - predicted[i][j]);
-      ++rows[band];
+      const double speed = motion.readings.speed_deg_s[source[i]][j];
+      band[i] = 0;
+      while (band[i] + 1 < kBands && speed >= closed_loop::kLeads[band[i] + 1].speed_deg_s) ++band[i];
+      sum[band[i]] += way * (fit[i].alpha_deg[j] - predicted[i][j]);
+      ++rows[band[i]];
     }
     for (std::size_t i = 0; i < fit.size(); ++i) {
-      const double way = motion.way[source[i]][j];
-      if (fit[i].fit_weight[j] != 0.0 || way == 0.0) continue;
-      const std::size_t band = band_of(motion.speed_deg_s[source[i]][j]);
-      if (rows[band] < kLeastBandRows) continue;
-      const double shift = sum[band] / static_cast<double>(rows[band]);
+      if (band[i] == kNoBand || rows[band[i]] < kLeastBandRows) continue;
+      const double way = motion.readings.way[source[i]][j];
+      const double shift = sum[band[i]] / static_cast<double>(rows[band[i]]);
       fit[i].alpha_deg[j] -= way * shift;
       fit[i].fit_weight[j] = 1.0;
       largest[j] = std::max(largest[j], std::abs(shift));
@@ -404,9 +405,7 @@ Diagnosis diagnose(const std::vector<Sample>& fit, const std::vector<Sample>& ch
   data.fit = without_outliers(fit, fit_outliers);
   diagnosis.fit_joint_travel_deg = joint_travel(data.fit);
   data.check = without_outliers(check, check_outliers);
-  closed_loop::Readings fit_motion;
-  std::vector<double> fit_times;
-  for (const Sample& row : data.fit) fit_times.push_back(row.t_s);
+  Motion fit_motion;
   data.fit_closed_loop = correct_closed_loop(data.fit, encoder_step_deg, &diagnosis, &fit_motion);
   correct_closed_loop(data.check, encoder_step_deg);
   data.fit = thin_to(std::move(data.fit), options.max_fit_rows);
@@ -417,15 +416,15 @@ Diagnosis diagnose(const std::vector<Sample>& fit, const std::vector<Sample>& ch
   data.threshold_deg2 = options.significance * options.noise_floor_deg * options.noise_floor_deg;
   diagnosis.significance_threshold_deg2 = data.threshold_deg2;
 
-  const bool fast_rows_only = std::any_of(diagnosis.fit_play_fast_rows_only.begin(),
-                                          diagnosis.fit_play_fast_rows_only.end(), [](bool fast) { return fast; });
+  const bool fast_rows_only =
+      std::find(diagnosis.fit_rows.begin(), diagnosis.fit_rows.end(), FitRows::fast_only) != diagnosis.fit_rows.end();
   const Diagnosis prepared = diagnosis;
   run_pipeline(data, check, diagnosis);
   // A closed-loop FIT whose joints with play counted on their fast rows only: once more with their
   // slower rows back in, shifted by what that model leaves there (restore_slow_rows).
   if (fast_rows_only && diagnosis.new_effects.empty()) {
     const std::vector<Vec3> predicted = predict_recording(diagnosis.fitted_effects, data.fit).alpha_deg;
-    const Vec3 shift = restore_slow_rows(data.fit, predicted, fit_times, fit_motion);
+    const Vec3 shift = restore_slow_rows(data.fit, predicted, fit_motion);
     diagnosis = prepared;
     diagnosis.fit_slow_rows_shift_deg = shift;
     data.thinned_fit = thin_out(data.fit, options.screening_stride);
@@ -457,6 +456,16 @@ void run_pipeline(PipelineData& data, const std::vector<Sample>& check, Diagnosi
   if (adopt_better_alternative(options, selection, diagnosis)) {
     final_model = finish_model(data, selection.families, selection.theta, check, diagnosis);
   }
+  // A family dropped on the way (a first path, a swap) that the final set holds is not eliminated.
+  const auto held = [&](const std::string& entry) {
+    for (int f = 0; f < kFamilyCount; ++f) {
+      const std::string name(family_name(family_at(f)));
+      if (selection.families[f] && (entry == name || entry.compare(0, name.size() + 2, name + " (") == 0)) return true;
+    }
+    return false;
+  };
+  diagnosis.eliminated.erase(std::remove_if(diagnosis.eliminated.begin(), diagnosis.eliminated.end(), held),
+                             diagnosis.eliminated.end());
 
   // 7. Ranking and location of the gap.
   diagnosis.findings =

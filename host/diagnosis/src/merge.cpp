@@ -135,14 +135,14 @@ Binned bin_run(const std::vector<double>& t, const std::vector<Vec3>& alpha_deg,
   return b;
 }
 
-struct Correlation {
+struct LagCorrelation {
   double r = -2.0;
   std::size_t n = 0;
 };
 
 // Pearson correlation of the run's bins against the stage's bins lag bins later (tau = t + lag dt),
 // the three axes pooled, over the run's bins in [from, to).
-Correlation correlate(const Binned& run, const Binned& stage, std::int64_t lag, std::size_t from, std::size_t to) {
+LagCorrelation correlate(const Binned& run, const Binned& stage, std::int64_t lag, std::size_t from, std::size_t to) {
   double n = 0;
   Vec3 sx = Vec3::Zero(), sy = Vec3::Zero(), sxx = Vec3::Zero(), syy = Vec3::Zero(), sxy = Vec3::Zero();
   const std::int64_t shift = run.first + lag - stage.first;
@@ -162,7 +162,7 @@ Correlation correlate(const Binned& run, const Binned& stage, std::int64_t lag, 
     syy += y.cwiseProduct(y);
     sxy += x.cwiseProduct(y);
   }
-  Correlation c;
+  LagCorrelation c;
   c.n = static_cast<std::size_t>(n);
   if (n < 3) return c;
   const double cov = (sxy - sx.cwiseProduct(sy) / n).sum();
@@ -178,14 +178,14 @@ Correlation correlate(const Binned& run, const Binned& stage, std::int64_t lag, 
 // x and y repeat every 133 s, z a slow ramp that the unknown geometry's offset hides) correlates
 // almost as well one period off, over a shorter overlap; the logs' ends (the rest before the drag)
 // tell the periods apart.
-Correlation best_lag(const Binned& run, const Binned& stage, std::int64_t lo, std::int64_t hi, std::size_t from,
-                     std::size_t to, std::size_t min_n, std::int64_t* lag, double* fraction,
-                     bool prefer_overlap = false) {
-  Correlation best;
+LagCorrelation best_lag(const Binned& run, const Binned& stage, std::int64_t lo, std::int64_t hi, std::size_t from,
+                        std::size_t to, std::size_t min_n, std::int64_t* lag, double* fraction,
+                        bool prefer_overlap = false) {
+  LagCorrelation best;
   std::vector<double> r(static_cast<std::size_t>(hi - lo + 1), -2.0);
   std::vector<std::size_t> overlap(r.size(), 0);
   for (std::int64_t l = lo; l <= hi; ++l) {
-    const Correlation c = correlate(run, stage, l, from, to);
+    const LagCorrelation c = correlate(run, stage, l, from, to);
     if (c.n < min_n) continue;
     r[static_cast<std::size_t>(l - lo)] = c.r;
     overlap[static_cast<std::size_t>(l - lo)] = c.n;
@@ -606,7 +606,7 @@ MergeResult merge_logs(const std::string& run_path, const std::vector<double>& r
   const std::int64_t hi_c = stage_c.first + static_cast<std::int64_t>(stage_c.mean.size()) - run_c.first;
   std::int64_t lag_c = 0;
   double frac = 0.0;
-  const Correlation coarse = best_lag(run_c, stage_c, lo_c, hi_c, 0, run_c.mean.size(), min_c, &lag_c, &frac, true);
+  const LagCorrelation coarse = best_lag(run_c, stage_c, lo_c, hi_c, 0, run_c.mean.size(), min_c, &lag_c, &frac, true);
   if (coarse.r <= -2.0) {
     refuse(stage_path, "does not overlap " + run_path + " by " + fixed3(min_c * kCoarseBinS) +
                            " s at any clock offset (the logs must share at least half the shorter one)");

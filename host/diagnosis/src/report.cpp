@@ -201,6 +201,24 @@ std::string inseparable_on_fit(const Diagnosis& diagnosis) {
          "calibration trajectory turns them further)";
 }
 
+// The part of the floor test a model above the floor misses: the three joints together, one joint
+// (its own z above the threshold by 0.5), or a joint's held-out RMSE above the cap.
+std::string floor_test_missed(const FloorTest& test) {
+  std::ostringstream text;
+  int joint = 0;
+  if (test.z > test.threshold) {
+    text << "floor test z = " << fixed(test.z, 2) << " > " << fixed(test.threshold, 1);
+  } else if (test.joint_z.maxCoeff(&joint) > test.threshold + 0.5) {
+    text << "joint " << joint + 1 << "'s floor test z = " << fixed(test.joint_z[joint], 2) << " > "
+         << fixed(test.threshold + 0.5, 1) << ", the three joints' z = " << fixed(test.z, 2);
+  } else {
+    test.joint_rmse_floors.maxCoeff(&joint);
+    text << "joint " << joint + 1 << " at " << fixed(test.joint_rmse_floors[joint], 2)
+         << " floors held out, above the cap of " << fixed(test.rmse_cap_floors, 1);
+  }
+  return text.str();
+}
+
 // The verdict sentence of the report and of the summary.
 std::string verdict(const Diagnosis& diagnosis) {
   std::ostringstream text;
@@ -216,21 +234,29 @@ std::string verdict(const Diagnosis& diagnosis) {
          << " <= " << fixed(test.threshold, 1) << ", held-out r^2 / noise model = " << fixed(test.ratio, 4) << ")";
   } else {
     const UnexplainedResidual& where = diagnosis.unexplained;
-    text << " leaves a residual significantly above the noise floor (floor test z = " << fixed(test.z, 2) << " > "
-         << fixed(test.threshold, 1) << ", held-out r^2 / noise model = " << fixed(test.ratio, 4)
-         << "): an effect outside the vocabulary" << inseparable_on_fit(diagnosis) << "; its excess is "
-         << format_number(where.excess_rms_deg) << " deg RMS, largest on joint " << where.joint + 1 << ", in octant "
-         << where.region << " (" << format_number(where.region_excess_rms_deg)
-         << " deg) and at t = " << fixed(where.t_from_s, 2) << "-" << fixed(where.t_to_s, 2) << " s ("
-         << format_number(where.time_excess_rms_deg) << " deg)";
+    text << " leaves a residual significantly above the noise floor (" << floor_test_missed(test)
+         << ", held-out r^2 / noise model = " << fixed(test.ratio, 4) << "): an effect outside the vocabulary"
+         << inseparable_on_fit(diagnosis) << "; its excess is " << format_number(where.excess_rms_deg)
+         << " deg RMS, largest on joint " << where.joint + 1 << ", in octant " << where.region << " ("
+         << format_number(where.region_excess_rms_deg) << " deg) and at t = " << fixed(where.t_from_s, 2) << "-"
+         << fixed(where.t_to_s, 2) << " s (" << format_number(where.time_excess_rms_deg) << " deg)";
   }
   return text.str();
 }
 
-std::string joint_list(const std::array<bool, 3>& joints) {
+// Per joint, whether its closed-loop FIT rows were `rows`.
+std::array<bool, 3> fitted_so(const Diagnosis& diagnosis, FitRows rows) {
+  std::array<bool, 3> so{};
+  for (std::size_t j = 0; j < 3; ++j) so[j] = diagnosis.fit_rows[j] == rows;
+  return so;
+}
+
+// "1, 3": the joints whose FIT rows were `rows`.
+std::string joint_list(const Diagnosis& diagnosis, FitRows rows) {
   std::string text;
+  const std::array<bool, 3> so = fitted_so(diagnosis, rows);
   for (int j = 0; j < 3; ++j) {
-    if (joints[static_cast<std::size_t>(j)]) text += (text.empty() ? "" : ", ") + std::to_string(j + 1);
+    if (so[static_cast<std::size_t>(j)]) text += (text.empty() ? "" : ", ") + std::to_string(j + 1);
   }
   return text;
 }
@@ -238,8 +264,7 @@ std::string joint_list(const std::array<bool, 3>& joints) {
 // What a closed-loop FIT did with the joints with play (closed_loop.hpp), or "".
 std::string closed_loop_note(const Diagnosis& diagnosis) {
   if (!diagnosis.fit_closed_loop) return "";
-  const std::string fast = joint_list(diagnosis.fit_play_fast_rows_only),
-                    slow = joint_list(diagnosis.fit_play_too_slow);
+  const std::string fast = joint_list(diagnosis, FitRows::fast_only), slow = joint_list(diagnosis, FitRows::too_slow);
   std::string text = "FIT is closed-loop telemetry: the readings less the controller's lead were fitted";
   if (!fast.empty()) {
     const Vec3& shift = diagnosis.fit_slow_rows_shift_deg;
@@ -276,8 +301,8 @@ json diagnosis_json(const Diagnosis& diagnosis) {
   document["explained_fraction"] = diagnosis.explained_fraction;
   if (diagnosis.fit_closed_loop) {
     document["closed_loop_fit"] = {{"steady_speed_deg_s", closed_loop::kSteadySpeedDegS},
-                                   {"play_fitted_where_faster", diagnosis.fit_play_fast_rows_only},
-                                   {"play_never_fast_enough", diagnosis.fit_play_too_slow},
+                                   {"play_fitted_where_faster", fitted_so(diagnosis, FitRows::fast_only)},
+                                   {"play_never_fast_enough", fitted_so(diagnosis, FitRows::too_slow)},
                                    {"slow_rows_shift_deg", triple(diagnosis.fit_slow_rows_shift_deg)}};
   }
   json effects = json::array();
@@ -427,10 +452,11 @@ void print_summary(std::ostream& out, const Diagnosis& diagnosis) {
     row("final model with " + effect.name + " (outside the vocabulary), " + values, effect.holdout_rmse_deg);
   }
   table.print(out);
-  out << "\nnoise floor " << fixed(floor, 5) << " deg; explained: " << (diagnosis.explained ? "yes" : "no")
-      << " (floor test z " << fixed(diagnosis.floor_test.z, 2) << ", threshold "
-      << fixed(diagnosis.floor_test.threshold, 1) << "; " << fixed(100.0 * diagnosis.explained_fraction, 1)
-      << " % of the held-out excess removed); "
+  out << "\nnoise floor " << fixed(floor, 5) << " deg; explained: " << (diagnosis.explained ? "yes" : "no") << " ("
+      << (diagnosis.explained ? "floor test z " + fixed(diagnosis.floor_test.z, 2) + ", threshold " +
+                                    fixed(diagnosis.floor_test.threshold, 1)
+                              : floor_test_missed(diagnosis.floor_test))
+      << "; " << fixed(100.0 * diagnosis.explained_fraction, 1) << " % of the held-out excess removed); "
       << "significant: " << model_name(diagnosis) << "; " << fixed(diagnosis.seconds, 1) << " s\n"
       << "verdict: " << verdict(diagnosis) << "\n";
   if (!diagnosis.outliers.empty()) out << diagnosis.outliers.size() << " outlier rows left out (listed in the JSON)\n";

@@ -116,6 +116,11 @@ struct UnexplainedResidual {
 };
 
 // Another set of effects that predicts CHECK as well as the chosen one.
+// Which of a joint's rows of a closed-loop FIT were fitted: every one; only those faster than
+// closed_loop::kSteadySpeedDegS (a joint with play); or every one because a joint with play was
+// never that fast for long enough.
+enum class FitRows { every, fast_only, too_slow };
+
 struct Alternative {
   FamilySet families;
   Parameters theta;
@@ -164,7 +169,7 @@ struct Diagnosis {
   EffectSet fitted_effects;             // final model in SPEC units
   std::vector<EffectFinding> findings;  // ranked, most important first
   std::vector<SelectionStep> steps;
-  std::vector<std::string> eliminated;  // families dropped again by backward elimination
+  std::vector<std::string> eliminated;  // families dropped on the way (with why) and not in the final set
   Vec3 fit_rmse_nominal_deg = Vec3::Zero(), fit_rmse_after_deg = Vec3::Zero();
   Vec3 holdout_rmse_nominal_deg = Vec3::Zero(), holdout_rmse_after_deg = Vec3::Zero();
   double explained_fraction = 0.0;                       // of the held-out MSE above the floor, the part removed
@@ -183,11 +188,12 @@ struct Diagnosis {
   // How far each joint's reading travels on FIT (largest - smallest, deg). Effects that vary slowly
   // over a joint (a transmission ripple of a period longer than this) look like geometry there.
   Vec3 fit_joint_travel_deg = Vec3::Zero();
-  // FIT is closed-loop telemetry (a `host run`). Per joint with play: only its rows faster than
-  // closed_loop::kSteadySpeedDegS were fitted (slower, the stage misses where the arm sits in the
-  // play), or it was never that fast for long enough and its play may come out narrow.
+  // FIT is closed-loop telemetry (a `host run`). Per joint, which rows were fitted (FitRows): a
+  // joint with play only where faster than closed_loop::kSteadySpeedDegS (slower, the stage misses
+  // where the arm sits in the play), or every row when it was never that fast for long enough (its
+  // play may come out narrow).
   bool fit_closed_loop = false;
-  std::array<bool, 3> fit_play_fast_rows_only{}, fit_play_too_slow{};
+  std::array<FitRows, 3> fit_rows{};
   // Those joints' slower rows were then fitted too, each shifted along its direction of motion by
   // what the model of the fast rows left there per band of speed: the largest shift per joint.
   Vec3 fit_slow_rows_shift_deg = Vec3::Zero();
