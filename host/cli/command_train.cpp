@@ -28,6 +28,30 @@ struct TrainOptions {
 // play is identified in is kept.
 constexpr std::size_t kMaxTrainingRows = 20000;
 
+// The deployed network on the rows it learnt from, per joint in encoder floors; a joint left above
+// kStallFloors is named, with the ripple the math model leaves on it when there is one.
+void report_floors(const ModelTraining& result, int hidden) {
+  const Vec3 floors = result.recording_rmse_deg / result.floor_deg;
+  std::cerr << "train: the deployed network on the recording (its angles without the play): " << fixed(floors[0], 2)
+            << " / " << fixed(floors[1], 2) << " / " << fixed(floors[2], 2) << " encoder floors per joint ("
+            << fixed(result.floor_deg, 5) << " deg)\n";
+  for (int j = 0; j < 3; ++j) {
+    if (!(floors[j] > kStallFloors)) continue;
+    const ResidualRipple& ripple = result.ripple[static_cast<std::size_t>(j)];
+    std::cerr << "train: warning: joint " << j + 1 << " stays at " << fixed(floors[j], 2) << " encoder floors";
+    if (ripple.rms_deg >= result.floor_deg && ripple.period_deg > 0.0) {
+      std::cerr << ": the math model leaves it a ripple of " << fixed(ripple.rms_deg, 4)
+                << " deg RMS with a period near " << fixed(ripple.period_deg, 1) << " deg, too short for a 3-" << hidden
+                << "-3 network across this workspace (docs/lab_loop.md); the board runs this model, expect about this "
+                   "error on the robot\n";
+    } else {
+      std::cerr
+          << ": train again with another --seed or more --max-epochs, or on a drag that covers the workspace more "
+             "evenly\n";
+    }
+  }
+}
+
 void run_train(const TrainOptions& options) {
   Recording recording = read_recording(options.data);
   if (recording.samples.size() > kMaxTrainingRows) {
@@ -59,6 +83,7 @@ void run_train(const TrainOptions& options) {
               << fixed(result.floor_deg, 5) << " deg); restarted from seed " << *result.restart_seed << ", kept the "
               << (result.restart_kept ? "restart" : "first") << '\n';
   }
+  if (result.weights.deployed() && result.floor_deg > 0.0) report_floors(result, options.training.hidden);
   std::cerr << "train: " << options.model << " 3-" << options.training.hidden << "-3 on " << training.training_samples
             << " samples (+" << training.validation_samples << " validation), " << training.epochs
             << " epochs, stopped by " << training.stop_reason << ", best epoch " << training.best_epoch
@@ -79,6 +104,9 @@ const RegisterCommand command("train", 40, [](CLI::App& root) {
       "per chain, joint offsets, encoder scales, frame tilt and shift, backlash; in time order), trains the\n"
       "network on the recording without the identified backlash, and keeps the identified half-play: in\n"
       "time order (ik on rows with t_s, the board's setpoints) each joint's answer passes that play.\n"
+      "It ends with the deployed network's error per joint on the recording's rows in encoder floors, and\n"
+      "names a joint left above 1.5 floors, with the transmission ripple the math model leaves on it (RMS,\n"
+      "period) when there is one: a ripple much shorter than the joint's travel is beyond the network.\n"
       "--model network is the paper's plain network on the recording as it is.\n"
       "--model hybrid fits the same effects and trains the network on what they leave (a PC reference).\n"
       "The same data, seed and options give the same W.json, byte for byte, with any thread count.\n"

@@ -25,10 +25,18 @@ TEST(TrainCommand, OneProgressLinePerEpochAndSameSeedSameFile) {
   ASSERT_EQ(first.exit_code, 0) << first.err;
   // 4 epochs end far above the encoder floor, so the deployed training restarts once from another
   // seed (model_training.hpp, kStallFloors): 2 x 4 epochs, the identified math model (the deployed
-  // model's backlash), the restart, the summary.
-  EXPECT_EQ(std::count(first.err.begin(), first.err.end(), '\n'), 11) << first.err;
+  // model's backlash), the restart, the network's floors per joint on the recording, one warning per
+  // joint (all far above 1.5 floors, each with the robot's 7.5 deg ripple), the summary.
+  EXPECT_EQ(std::count(first.err.begin(), first.err.end(), '\n'), 15) << first.err;
   EXPECT_NE(first.err.find("epoch    4"), std::string::npos) << first.err;
   EXPECT_NE(first.err.find("restarted from seed 1000000009"), std::string::npos) << first.err;
+  EXPECT_NE(first.err.find("encoder floors per joint (0.00289 deg)"), std::string::npos) << first.err;
+  for (const char* joint : {"joint 1 stays at", "joint 2 stays at", "joint 3 stays at"}) {
+    const std::size_t at = first.err.find(std::string("train: warning: ") + joint);
+    ASSERT_NE(at, std::string::npos) << joint << '\n' << first.err;
+    const std::string line = first.err.substr(at, first.err.find('\n', at) - at);
+    EXPECT_NE(line.find("with a period near 7."), std::string::npos) << line;
+  }
   const auto second =
       run_deltactl("train --data " + data + " --out " + b + " --seed 2 --hidden 6 --max-epochs 4 --threads 1");
   ASSERT_EQ(second.exit_code, 0) << second.err;

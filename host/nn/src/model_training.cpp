@@ -173,6 +173,61 @@ double quantisation_floor_deg(const Recording& recording) {
   return step / std::sqrt(12.0);
 }
 
+// The zero crossings (degrees of joint angle) of a binned residual with a line removed: a crossing
+// counts once the residual has gone beyond +-hysteresis_deg on the other side, at the sign change
+// (interpolated) nearest to where it did.
+std::vector<double> zero_crossings(double first_deg, const std::vector<double>& detrended, double hysteresis_deg) {
+  std::vector<double> crossings;
+  int side = 0;  // sign of the last bin beyond the hysteresis
+  std::size_t last_beyond = 0;
+  for (std::size_t b = 0; b < detrended.size(); ++b) {
+    if (std::abs(detrended[b]) <= hysteresis_deg) continue;
+    const int sign = detrended[b] > 0.0 ? 1 : -1;
+    if (side != 0 && sign != side) {
+      std::size_t at = last_beyond;
+      for (std::size_t k = last_beyond; k < b; ++k) {
+        if ((detrended[k] > 0.0) != (detrended[k + 1] > 0.0)) at = k;
+      }
+      const double low = detrended[at], high = detrended[at + 1];
+      const double share = high != low ? low / (low - high) : 0.5;
+      crossings.push_back(first_deg + (static_cast<double>(at) + 0.5 + share) * kResidualBinDeg);
+    }
+    side = sign;
+    last_beyond = b;
+  }
+  return crossings;
+}
+
+ResidualRipple ripple_of(const JointResidual& map) {
+  const std::size_t bins = map.mean_deg.size();
+  ResidualRipple ripple;
+  if (bins < 4) return ripple;
+  auto centre = [&](std::size_t b) { return map.first_deg + (static_cast<double>(b) + 0.5) * kResidualBinDeg; };
+  double sc = 0.0, sv = 0.0, scc = 0.0, scv = 0.0;
+  for (std::size_t b = 0; b < bins; ++b) {
+    sc += centre(b);
+    sv += map.mean_deg[b];
+    scc += centre(b) * centre(b);
+    scv += centre(b) * map.mean_deg[b];
+  }
+  const double count = static_cast<double>(bins);
+  const double slope = (count * scv - sc * sv) / (count * scc - sc * sc);
+  const double offset = (sv - slope * sc) / count;
+  std::vector<double> detrended(bins);
+  double square = 0.0;
+  for (std::size_t b = 0; b < bins; ++b) {
+    detrended[b] = map.mean_deg[b] - offset - slope * centre(b);
+    square += detrended[b] * detrended[b];
+  }
+  ripple.rms_deg = std::sqrt(square / count);
+  const std::vector<double> crossings = zero_crossings(map.first_deg, detrended, 0.5 * ripple.rms_deg);
+  ripple.crossings = static_cast<int>(crossings.size());
+  if (crossings.size() >= 2) {
+    ripple.period_deg = 2.0 * (crossings.back() - crossings.front()) / static_cast<double>(crossings.size() - 1);
+  }
+  return ripple;
+}
+
 }  // namespace
 
 ModelTraining train_model(const Recording& recording, const std::string& model, const TrainingOptions& options,
@@ -228,7 +283,9 @@ ModelTraining train_model(const Recording& recording, const std::string& model, 
       for (std::size_t i = 0; i < inputs.size(); ++i) static_deg[i] = with_residuals(first_maps, model[i]);
       const std::vector<Vec3> lag = play_lag(half_play, static_deg);
       for (std::size_t i = 0; i < inputs.size(); ++i) targets[i] -= lag[i];
-      add_anchors(without_backlash, joint_residuals(model, targets), inputs, targets);
+      const JointResiduals maps = joint_residuals(model, targets);
+      for (std::size_t j = 0; j < 3; ++j) result.ripple[j] = ripple_of(maps[j]);
+      add_anchors(without_backlash, maps, inputs, targets);
       anchors = inputs.size() - recording.samples.size();
       thin_recording(recording.samples.size(), inputs, targets);
     }
@@ -244,6 +301,15 @@ ModelTraining train_model(const Recording& recording, const std::string& model, 
         result.restart_kept = second.validation_mse_deg2 < result.training.validation_mse_deg2;
         if (result.restart_kept) result.training = std::move(second);
       }
+    }
+    if (model == "deployed") {
+      // The thinned recording's rows come first, the anchors last (thin_recording).
+      const std::size_t recorded = inputs.size() - anchors;
+      Vec3 square = Vec3::Zero();
+      for (std::size_t i = 0; i < recorded; ++i) {
+        square += (result.training.network.evaluate(inputs[i]) - targets[i]).cwiseAbs2();
+      }
+      result.recording_rmse_deg = (square / static_cast<double>(recorded)).cwiseSqrt();
     }
   } catch (const std::invalid_argument& error) {
     throw InputError(recording.path, 0, error.what());
@@ -286,6 +352,15 @@ ModelTraining train_model(const Recording& recording, const std::string& model, 
                                 format_number(kAnchorGap) + " of each range from every recorded pose";
   }
   return result;
+}
+
+std::array<ResidualRipple, 3> residual_ripple(const std::vector<Vec3>& model_deg,
+                                              const std::vector<Vec3>& targets_deg) {
+  if (model_deg.empty() || model_deg.size() != targets_deg.size()) {
+    throw std::invalid_argument("residual_ripple needs as many targets as model angles, at least one");
+  }
+  const JointResiduals maps = joint_residuals(model_deg, targets_deg);
+  return {ripple_of(maps[0]), ripple_of(maps[1]), ripple_of(maps[2])};
 }
 
 std::string describe_epoch(const TrainingEpoch& epoch) {

@@ -4,10 +4,12 @@
 // the identified half-play for the time-ordered compensation).
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "delta/nn/effect_fit.hpp"
 #include "delta/nn/training.hpp"
@@ -15,6 +17,20 @@
 #include "delta/recording.hpp"
 
 namespace delta::nn {
+
+// What the identified math model leaves of one joint's angles, as a function of that angle (in
+// bins of a quarter degree, a straight line removed): its RMS over the joint's travel and, where it
+// crosses zero twice or more, its period (twice the mean spacing of the crossings). A transmission
+// ripple shows here; a network of tanh ridges in x, y, z cannot follow one much shorter than the
+// joint's travel (docs/lab_loop.md).
+struct ResidualRipple {
+  double rms_deg = 0.0;
+  double period_deg = 0.0;  // 0: fewer than two zero crossings
+  int crossings = 0;
+};
+
+// Per joint, for the math model's angles model_deg and the recorded (static) angles targets_deg.
+std::array<ResidualRipple, 3> residual_ripple(const std::vector<Vec3>& model_deg, const std::vector<Vec3>& targets_deg);
 
 struct ModelTraining {
   WeightsFile weights;
@@ -26,6 +42,10 @@ struct ModelTraining {
   double floor_deg = 0.0;
   std::optional<std::uint64_t> restart_seed;
   bool restart_kept = false;  // the restart's weights were better (and are the result)
+  // Deployed: the network's RMSE per joint on the recording's rows it learnt from (the recorded
+  // angles without the identified play; degrees), and what the math model leaves per joint.
+  Vec3 recording_rmse_deg = Vec3::Zero();
+  std::array<ResidualRipple, 3> ripple{};
 };
 
 // A deployed network whose validation RMSE ends above this many encoder floors stalled in a slow
