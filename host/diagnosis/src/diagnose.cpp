@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <utility>
 
 #include "delta/kinematics.hpp"
 
@@ -54,7 +55,7 @@ bool correct_closed_loop(std::vector<Sample>& samples, double count_deg, Diagnos
     t[i] = samples[i].t_s;
     reading[i] = samples[i].alpha_deg;
   }
-  const closed_loop::Readings readings = closed_loop::read_closed_loop(t, reading, count_deg);
+  closed_loop::Readings readings = closed_loop::read_closed_loop(t, reading, count_deg);
   if (!readings.closed_loop) return false;
   for (std::size_t i = 0; i < samples.size(); ++i) samples[i].alpha_deg = readings.angle_deg[i];
   if (diagnosis) {
@@ -65,8 +66,8 @@ bool correct_closed_loop(std::vector<Sample>& samples, double count_deg, Diagnos
   }
   if (motion) {
     motion->t_s = std::move(t);
-    motion->readings = readings;
-    motion->readings.angle_deg.clear();
+    readings.angle_deg.clear();  // in the samples now
+    motion->readings = std::move(readings);
   }
   return true;
 }
@@ -289,8 +290,8 @@ bool adopt_measuring_scale(const PipelineData& data, const std::vector<Sample>& 
   } else {
     std::string replaced = describe(diagnosis.significant);
     for (const Alternative& alternative : diagnosis.alternatives) replaced += "; " + describe(alternative.families);
-    diagnosis.eliminated.push_back(replaced +
-                                   " (replaced by measuring_scale, which predicts CHECK significantly better)");
+    diagnosis.eliminated.push_back(
+        {std::nullopt, replaced, "replaced by measuring_scale, which predicts CHECK significantly better"});
     diagnosis.alternatives.clear();
   }
 
@@ -361,8 +362,7 @@ bool adopt_better_alternative(const DiagnosisOptions& options, Selection& select
   if (better == diagnosis.alternatives.end()) return false;
   for (Family family : selection.order) {
     if (!better->families[index_of(family)]) {
-      diagnosis.eliminated.push_back(std::string(family_name(family)) +
-                                     " (replaced by an alternative set that predicts CHECK better)");
+      diagnosis.eliminated.push_back({family, "", "replaced by an alternative set that predicts CHECK better"});
     }
   }
   adopt(selection, better->families, better->theta);
@@ -388,6 +388,11 @@ void analyse_final_identifiability(const PipelineData& data, Diagnosis& diagnosi
 void run_pipeline(PipelineData& data, const std::vector<Sample>& check, Diagnosis& diagnosis);
 
 }  // namespace
+
+std::string elimination_text(const Elimination& elimination) {
+  const std::string what = elimination.family ? family_name(*elimination.family) : elimination.sets;
+  return elimination.reason.empty() ? what : what + " (" + elimination.reason + ")";
+}
 
 Diagnosis diagnose(const std::vector<Sample>& fit, const std::vector<Sample>& check, const DiagnosisOptions& options) {
   const auto started = std::chrono::steady_clock::now();
@@ -457,12 +462,8 @@ void run_pipeline(PipelineData& data, const std::vector<Sample>& check, Diagnosi
     final_model = finish_model(data, selection.families, selection.theta, check, diagnosis);
   }
   // A family dropped on the way (a first path, a swap) that the final set holds is not eliminated.
-  const auto held = [&](const std::string& entry) {
-    for (int f = 0; f < kFamilyCount; ++f) {
-      const std::string name(family_name(family_at(f)));
-      if (selection.families[f] && (entry == name || entry.compare(0, name.size() + 2, name + " (") == 0)) return true;
-    }
-    return false;
+  const auto held = [&](const Elimination& entry) {
+    return entry.family && selection.families[index_of(*entry.family)];
   };
   diagnosis.eliminated.erase(std::remove_if(diagnosis.eliminated.begin(), diagnosis.eliminated.end(), held),
                              diagnosis.eliminated.end());

@@ -406,7 +406,9 @@ json diagnosis_json(const Diagnosis& diagnosis) {
                      {"added", step.chosen >= 0 ? json(family_name(family_at(step.chosen))) : json(nullptr)}});
   }
   document["selection"] = steps;
-  document["eliminated"] = diagnosis.eliminated;
+  json eliminated = json::array();
+  for (const Elimination& entry : diagnosis.eliminated) eliminated.push_back(elimination_text(entry));
+  document["eliminated"] = eliminated;
   json subsystems = json::object();
   for (const auto& [name, rmse] : diagnosis.subsystem_rmse_without_deg) subsystems[name] = triple(rmse);
   document["holdout_rmse_without_subsystem_deg"] = subsystems;
@@ -611,7 +613,7 @@ void write_report(const std::string& markdown_path, const ReportInputs& inputs, 
   out << "\n![effect ranking](" << ranking_png << ")\n";
   if (!diagnosis.eliminated.empty()) {
     out << "\nBackward elimination dropped again:";
-    for (const std::string& name : diagnosis.eliminated) out << ' ' << name;
+    for (const Elimination& entry : diagnosis.eliminated) out << ' ' << elimination_text(entry);
     out << " (made redundant by effects added later).\n";
   }
 

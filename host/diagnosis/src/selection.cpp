@@ -193,7 +193,7 @@ void backward_elimination(const PipelineData& data, Selection& selection) {
       }
     }
     if (weakest >= 0) {
-      selection.eliminated.push_back(family_name(members[weakest]));
+      selection.eliminated.push_back({members[weakest], "", ""});
       selection.families.reset(index_of(members[weakest]));
       selection.order.erase(std::find(selection.order.begin(), selection.order.end(), members[weakest]));
       selection.model = results[weakest];
@@ -267,7 +267,7 @@ void eliminate_breadth_first(PipelineData& data, Selection& selection) {
   }
   const auto& [families, model] = smallest.front();
   for (Family family : selection.order) {
-    if (!families[index_of(family)]) selection.eliminated.push_back(family_name(family));
+    if (!families[index_of(family)]) selection.eliminated.push_back({family, "", ""});
   }
   std::vector<Family> kept;
   for (Family family : selection.order) {
@@ -324,7 +324,7 @@ void swap_search(const PipelineData& data, Selection& selection) {
       if (sets[best][index_of(family)])
         kept.push_back(family);
       else
-        selection.eliminated.push_back(std::string(family_name(family)) + " (swapped out)");
+        selection.eliminated.push_back({family, "", "swapped out"});
     }
     for (int f = 0; f < kFamilyCount; ++f) {
       if (sets[best][f] && !selection.families[f]) kept.push_back(family_at(f));
@@ -366,8 +366,7 @@ void restart_from_runners_up(const PipelineData& data, Selection& selection) {
     if (mean_square(other.model.holdout_rmse) + data.threshold_deg2 < mean_square(selection.model.holdout_rmse)) {
       for (Family dropped : selection.order) {
         if (!other.families[index_of(dropped)]) {
-          other.eliminated.push_back(std::string(family_name(dropped)) +
-                                     " (a first path that stopped far above the floor)");
+          other.eliminated.push_back({dropped, "", "a first path that stopped far above the floor"});
         }
       }
       other.path_changed = true;

@@ -19,7 +19,7 @@ struct Selection {
   std::vector<std::pair<Family, Candidate>> first_round;  // every family alone (from the nominal model)
   bool path_changed = false;                              // the ripple restart changed the forward path's end
   std::vector<SelectionStep> steps;
-  std::vector<std::string> eliminated;
+  std::vector<Elimination> eliminated;
 };
 
 // `nominal` is the nominal model scored on CHECK (no fit).

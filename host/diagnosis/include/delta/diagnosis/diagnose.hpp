@@ -3,6 +3,7 @@
 #pragma once
 
 #include <array>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -160,6 +161,15 @@ struct RegionError {
   Vec3 after_rmse_deg = Vec3::Zero();
 };
 
+// A family the selection dropped on the way, and why; or, with no family, whole sets it replaced.
+struct Elimination {
+  std::optional<Family> family;
+  std::string sets;    // the sets replaced, when there is no family
+  std::string reason;  // empty: backward elimination (made redundant by a family added later)
+};
+// "name" or "name (reason)", as the report lists it.
+std::string elimination_text(const Elimination& elimination);
+
 struct Diagnosis {
   double noise_floor_deg = kNoiseFloorDeg;
   double significance_threshold_deg2 = 0.0;  // the stopping rule's minimum held-out MSE gain
@@ -169,7 +179,7 @@ struct Diagnosis {
   EffectSet fitted_effects;             // final model in SPEC units
   std::vector<EffectFinding> findings;  // ranked, most important first
   std::vector<SelectionStep> steps;
-  std::vector<std::string> eliminated;  // families dropped on the way (with why) and not in the final set
+  std::vector<Elimination> eliminated;  // dropped on the way and not in the final set
   Vec3 fit_rmse_nominal_deg = Vec3::Zero(), fit_rmse_after_deg = Vec3::Zero();
   Vec3 holdout_rmse_nominal_deg = Vec3::Zero(), holdout_rmse_after_deg = Vec3::Zero();
   double explained_fraction = 0.0;                       // of the held-out MSE above the floor, the part removed
