@@ -1,6 +1,7 @@
 // deltactl train: fit the inverse-kinematics model (deployed by default, or the plain network, or the
 // hybrid) to a recording -> W.json.
 #include <chrono>
+#include <cmath>
 #include <iostream>
 #include <memory>
 
@@ -29,7 +30,8 @@ struct TrainOptions {
 constexpr std::size_t kMaxTrainingRows = 20000;
 
 // The deployed network on the rows it learnt from, per joint in encoder floors; a joint left above
-// kStallFloors is named, with the ripple the math model leaves on it when there is one.
+// kStallFloors is named, with the ripple the math model leaves on it when that ripple is as large
+// as what the network adds to the encoder's noise (then the network left it, or part of it).
 void report_floors(const ModelTraining& result, int hidden) {
   const Vec3 floors = result.recording_rmse_deg / result.floor_deg;
   std::cerr << "train: the deployed network on the recording (its angles without the play): " << fixed(floors[0], 2)
@@ -39,7 +41,8 @@ void report_floors(const ModelTraining& result, int hidden) {
     if (!(floors[j] > kStallFloors)) continue;
     const ResidualRipple& ripple = result.ripple[static_cast<std::size_t>(j)];
     std::cerr << "train: warning: joint " << j + 1 << " stays at " << fixed(floors[j], 2) << " encoder floors";
-    if (ripple.rms_deg >= result.floor_deg && ripple.period_deg > 0.0) {
+    const double beyond_noise_deg = result.floor_deg * std::sqrt(floors[j] * floors[j] - 1.0);
+    if (ripple.rms_deg >= result.floor_deg && ripple.period_deg > 0.0 && ripple.rms_deg >= beyond_noise_deg) {
       std::cerr << ": the math model leaves it a ripple of " << fixed(ripple.rms_deg, 4)
                 << " deg RMS with a period near " << fixed(ripple.period_deg, 1) << " deg, too short for a 3-" << hidden
                 << "-3 network across this workspace (docs/lab_loop.md); the board runs this model, expect about this "
