@@ -10,6 +10,7 @@
 
 #include "delta/effect_file.hpp"
 #include "delta/input_error.hpp"
+#include "delta/model_error.hpp"
 #include "delta/nn/trained_model.hpp"
 #include "delta/output_file.hpp"
 
@@ -228,6 +229,10 @@ ResidualRipple ripple_of(const JointResidual& map) {
   return ripple;
 }
 
+std::array<ResidualRipple, 3> ripples_of(const JointResiduals& maps) {
+  return {ripple_of(maps[0]), ripple_of(maps[1]), ripple_of(maps[2])};
+}
+
 }  // namespace
 
 ModelTraining train_model(const Recording& recording, const std::string& model, const TrainingOptions& options,
@@ -284,7 +289,7 @@ ModelTraining train_model(const Recording& recording, const std::string& model, 
       const std::vector<Vec3> lag = play_lag(half_play, static_deg);
       for (std::size_t i = 0; i < inputs.size(); ++i) targets[i] -= lag[i];
       const JointResiduals maps = joint_residuals(model, targets);
-      for (std::size_t j = 0; j < 3; ++j) result.ripple[j] = ripple_of(maps[j]);
+      result.ripple = ripples_of(maps);
       add_anchors(without_backlash, maps, inputs, targets);
       anchors = inputs.size() - recording.samples.size();
       thin_recording(recording.samples.size(), inputs, targets);
@@ -304,12 +309,10 @@ ModelTraining train_model(const Recording& recording, const std::string& model, 
     }
     if (model == "deployed") {
       // The thinned recording's rows come first, the anchors last (thin_recording).
-      const std::size_t recorded = inputs.size() - anchors;
-      Vec3 square = Vec3::Zero();
-      for (std::size_t i = 0; i < recorded; ++i) {
-        square += (result.training.network.evaluate(inputs[i]) - targets[i]).cwiseAbs2();
-      }
-      result.recording_rmse_deg = (square / static_cast<double>(recorded)).cwiseSqrt();
+      const std::vector<Vec3> learnt(targets.begin(), targets.end() - static_cast<std::ptrdiff_t>(anchors));
+      std::vector<Vec3> answers(learnt.size());
+      for (std::size_t i = 0; i < learnt.size(); ++i) answers[i] = result.training.network.evaluate(inputs[i]);
+      result.recording_rmse_deg = joint_error_stats(learnt, answers).rmse_deg;
     }
   } catch (const std::invalid_argument& error) {
     throw InputError(recording.path, 0, error.what());
@@ -359,8 +362,7 @@ std::array<ResidualRipple, 3> residual_ripple(const std::vector<Vec3>& model_deg
   if (model_deg.empty() || model_deg.size() != targets_deg.size()) {
     throw std::invalid_argument("residual_ripple needs as many targets as model angles, at least one");
   }
-  const JointResiduals maps = joint_residuals(model_deg, targets_deg);
-  return {ripple_of(maps[0]), ripple_of(maps[1]), ripple_of(maps[2])};
+  return ripples_of(joint_residuals(model_deg, targets_deg));
 }
 
 std::string describe_epoch(const TrainingEpoch& epoch) {
