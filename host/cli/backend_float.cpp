@@ -38,7 +38,8 @@ class FloatIkBackend : public IkBackend {
     return {"model: " + weights_.model + " (3-" + std::to_string(weights_.network.hidden()) + "-3 tanh network" +
                 (weights_.hybrid() ? " on the math model's residual)" : "") +
                 (weights_.deployed() ? ", static part, + backlash compensation in time order)" : "") +
-                (weights_.hybrid() || weights_.deployed() ? "" : ")"),
+                (weights_.hybrid() || weights_.deployed() ? "" : ")") +
+                (weights_.joint_ripple.empty() ? "" : "; positions shaped by its joint ripple table first"),
             "positions outside the training range (extrapolated): " + std::to_string(outside_training_range_)};
   }
 

@@ -49,7 +49,8 @@ class RtlIkBackend : public IkBackend {
     std::vector<IkRow> rows(positions_m.size());
     for (std::size_t i = 0; i < positions_m.size(); ++i) {
       bool clamped = false;
-      const std::array<std::int64_t, 3> codes = golden::encode_position(quantised_.formats, positions_m[i], &clamped);
+      const std::array<std::int64_t, 3> codes =
+          golden::encode_position(quantised_.formats, nn::shape_setpoint(weights_, positions_m[i]), &clamped);
       if (clamped) ++clamped_positions_;
       const NetworkRun run = network_->run(codes);
       latency_cycles_ = run.latency_cycles;
@@ -73,7 +74,8 @@ class RtlIkBackend : public IkBackend {
                 " cycles per pose" + (weights_.hybrid() ? "; raw codes are the residual added to the math model" : "") +
                 (weights_.deployed() ? "; deployed model: + backlash_compensation.sv in time order (" +
                                            std::to_string(compensation_->latency_cycles()) + " cycles)"
-                                     : ""),
+                                     : "") +
+                (weights_.joint_ripple.empty() ? "" : "; positions shaped by its joint ripple table first"),
             "positions clamped to the 32-bit input code: " + std::to_string(clamped_positions_),
             "output codes at the 24-bit limit (saturated): " + std::to_string(outputs_at_limit_)};
   }

@@ -107,6 +107,7 @@ void run_cosim_command(const CosimCommandOptions& options, const std::string& co
   const TemporaryDirectory mem("deltactl_cosim");  // the network's .mem files and identify.mem
   golden::write_export(quantised, mem.path());
   CosimOptions cosim;
+  cosim.model = &weights.model;
   cosim.fidelity = options.fidelity == "model" ? BoardFidelity::kModel : BoardFidelity::kRtl;
   cosim.mem_dir = mem.path();
   cosim.network = &quantised;

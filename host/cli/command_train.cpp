@@ -34,19 +34,33 @@ constexpr std::size_t kMaxTrainingRows = 20000;
 // as what the network adds to the encoder's noise (then the network left it, or part of it).
 void report_floors(const ModelTraining& result, int hidden) {
   const Vec3 floors = result.recording_rmse_deg / result.floor_deg;
-  std::cerr << "train: the deployed network on the recording (its angles without the play): " << fixed(floors[0], 2)
-            << " / " << fixed(floors[1], 2) << " / " << fixed(floors[2], 2) << " encoder floors per joint ("
+  const JointRippleTable& table = result.weights.joint_ripple;
+  if (!table.empty()) {
+    std::cerr << "train: joint ripple table: the math model leaves";
+    for (std::size_t j = 0; j < 3; ++j) {
+      const ResidualRipple& ripple = result.ripple[j];
+      std::cerr << (j ? ";" : "") << " joint " << j + 1 << ' ' << fixed(ripple.rms_deg, 4) << " deg RMS";
+      if (ripple.period_deg > 0.0) std::cerr << " (period near " << fixed(ripple.period_deg, 1) << " deg)";
+    }
+    std::cerr << "; " << table.values_deg[0].size() + table.values_deg[1].size() + table.values_deg[2].size()
+              << " entries of " << format_number(table.bin_deg)
+              << " deg: the host shapes each setpoint so the board's network answers with it\n";
+  }
+  std::cerr << "train: the deployed " << (table.empty() ? "network" : "model (network + joint ripple table)")
+            << " on the recording (its angles without the play): " << fixed(floors[0], 2) << " / "
+            << fixed(floors[1], 2) << " / " << fixed(floors[2], 2) << " encoder floors per joint ("
             << fixed(result.floor_deg, 5) << " deg)\n";
   for (int j = 0; j < 3; ++j) {
     if (!(floors[j] > kStallFloors)) continue;
     const ResidualRipple& ripple = result.ripple[static_cast<std::size_t>(j)];
     std::cerr << "train: warning: joint " << j + 1 << " stays at " << fixed(floors[j], 2) << " encoder floors";
     const double beyond_noise_deg = result.floor_deg * std::sqrt(floors[j] * floors[j] - 1.0);
-    if (ripple.rms_deg >= result.floor_deg && ripple.period_deg > 0.0 && ripple.rms_deg >= beyond_noise_deg) {
+    if (table.empty() && ripple.rms_deg >= result.floor_deg && ripple.period_deg > 0.0 &&
+        ripple.rms_deg >= beyond_noise_deg) {
       std::cerr << ": the math model leaves it a ripple of " << fixed(ripple.rms_deg, 4)
                 << " deg RMS with a period near " << fixed(ripple.period_deg, 1) << " deg, too short for a 3-" << hidden
-                << "-3 network across this workspace (docs/lab_loop.md); the board runs this model, expect about this "
-                   "error on the robot\n";
+                << "-3 network across this workspace (docs/lab_loop.md); train without --ripple-table off, or expect "
+                   "about this error on the robot\n";
     } else {
       std::cerr
           << ": train again with another --seed or more --max-epochs, or on a drag that covers the workspace more "
@@ -107,9 +121,14 @@ const RegisterCommand command("train", 40, [](CLI::App& root) {
       "per chain, joint offsets, encoder scales, frame tilt and shift, backlash; in time order), trains the\n"
       "network on the recording without the identified backlash, and keeps the identified half-play: in\n"
       "time order (ik on rows with t_s, the board's setpoints) each joint's answer passes that play.\n"
-      "It ends with the deployed network's error per joint on the recording's rows in encoder floors, and\n"
-      "names a joint left above 1.5 floors, with the transmission ripple the math model leaves on it (RMS,\n"
-      "period) when there is one: a ripple much shorter than the joint's travel is beyond the network.\n"
+      "Where the math model leaves a joint a ripple of an encoder floor or more as a function of its angle\n"
+      "(a transmission ripple: a tanh network in x, y, z cannot follow one much shorter than the joint's\n"
+      "travel), the model gains a joint ripple table (quarter-degree entries, W.json version 3): the\n"
+      "network learns the angles without it, and the host shapes every setpoint it sends (ik, host run,\n"
+      "home) so that the board's unchanged network answers with the table's value added.\n"
+      "It ends with the deployed model's error per joint on the recording's rows in encoder floors, and\n"
+      "names a joint left above 1.5 floors, with the ripple the math model leaves on it when no table\n"
+      "took it (--ripple-table off).\n"
       "--model network is the paper's plain network on the recording as it is.\n"
       "--model hybrid fits the same effects and trains the network on what they leave (a PC reference).\n"
       "The same data, seed and options give the same W.json, byte for byte, with any thread count.\n"
@@ -122,6 +141,12 @@ const RegisterCommand command("train", 40, [](CLI::App& root) {
                   "network)")
       ->capture_default_str()
       ->check(CLI::IsMember({"deployed", "network", "hybrid"}));
+  sub->add_option_function<std::string>(
+         "--ripple-table",
+         [options](const std::string& value) { options->training.joint_ripple_table = value == "auto"; },
+         "deployed: auto (a joint ripple table where the math model leaves a ripple) or off")
+      ->default_str("auto")
+      ->check(CLI::IsMember({"auto", "off"}));
   sub->add_option("--validation", options->training.validation_fraction, "share of samples held out for early stopping")
       ->capture_default_str()
       ->check(options::real_number(0, 0.5));

@@ -12,6 +12,7 @@
 #include "delta/golden/board_network.hpp"
 #include "delta/golden/export.hpp"
 #include "delta/kinematics.hpp"
+#include "delta/nn/trained_model.hpp"
 
 namespace delta::cosim {
 namespace {
@@ -44,6 +45,7 @@ void check_identity(const link::IdentifyPayload& identify, const golden::Quantis
 void join_truth(const CosimOptions& options, const std::vector<TruthRow>& rows, const RobotWorld& world,
                 CosimResult& result) {
   const golden::QuantisedNetwork& network = *options.network;
+  const nn::WeightsFile model = options.model != nullptr ? *options.model : nn::WeightsFile{};
   const auto& records = result.records;
   auto first = std::find_if(records.begin(), records.end(),
                             [](const controller::TelemetryRecord& r) { return r.stream_sample >= 0; });
@@ -75,12 +77,12 @@ void join_truth(const CosimOptions& options, const std::vector<TruthRow>& rows, 
     if (network.compensation.any()) {
       // The deployed model: the golden compensation of the answers, in time order (what the
       // board's interpolator targets, round_shift(25 r, 4), while it follows).
-      const golden::RawOutput raw =
-          golden::evaluate_raw(network, golden::encode_position(network.formats, sample.reference_m));
+      const golden::RawOutput raw = golden::evaluate_raw(
+          network, golden::encode_position(network.formats, nn::shape_setpoint(model, sample.reference_m)));
       const std::array<std::int64_t, 3> codes = golden::compensate(network.compensation, compensation_state, raw.alpha);
       for (int j = 0; j < 3; ++j) sample.network_deg[j] = golden::decode_angle_deg(network.formats, codes[j]);
     } else {
-      sample.network_deg = answer_deg(network, sample.reference_m);
+      sample.network_deg = answer_deg(network, nn::shape_setpoint(model, sample.reference_m));
     }
     // The ideal joints read their target through the backlash's play at that instant.
     sample.network_ideal_m = world.plate_for_readings(sample.network_deg, row.lag_deg);
@@ -122,7 +124,8 @@ void BoardTimeClock::sleep_until_ns(std::int64_t deadline_ns) {
 
 CosimResult run_cosim(const CosimOptions& options) {
   if (options.network == nullptr) throw std::invalid_argument("run_cosim: network");
-  const golden::BoardWeights weights{*options.network, options.trained_min_m, options.trained_max_m};
+  const golden::BoardWeights weights{*options.network, options.trained_min_m, options.trained_max_m,
+                                     options.model != nullptr ? *options.model : nn::WeightsFile{}};
   CosimResult result;
 
   // ---- the board (world and RTL) ----
@@ -176,7 +179,7 @@ CosimResult run_cosim(const CosimOptions& options) {
   streaming.session = session.options();
   streaming.clock = &clock;
   static const volatile std::sig_atomic_t kNoStop = 0;
-  controller::StreamingLoop loop(session, plan, weights.network, result.start_position_m, queue, streaming, kNoStop);
+  controller::StreamingLoop loop(session, plan, weights, result.start_position_m, queue, streaming, kNoStop);
   loop.run();
   result.stream = loop.result();
   stop_board(session, result.stream);

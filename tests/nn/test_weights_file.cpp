@@ -2,12 +2,14 @@
 // and the float back end of `deltactl ik` against Network::evaluate.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdlib>
 #include <random>
 
 #include "../support/run_command.hpp"
 #include "delta/csv.hpp"
 #include "delta/input_error.hpp"
+#include "delta/nn/trained_model.hpp"
 #include "delta/nn/weights_file.hpp"
 #include "delta/output_file.hpp"
 
@@ -66,6 +68,87 @@ TEST(WeightsFile, HybridKeepsItsEffectsAndRefusesBacklash) {
   EXPECT_THROW(parse_weights_file(weights_file_text(weights), "memory"), InputError);
 }
 
+// A deployed model with a joint ripple table of `entries` per joint (a 6 deg sinusoid of 0.03 deg).
+WeightsFile rippled_weights(std::uint64_t seed, int hidden, std::size_t entries = 120) {
+  WeightsFile weights = random_weights(seed, hidden);
+  weights.model = "deployed";
+  weights.backlash_half_play_deg = Vec3(0.01, 0.0, 0.02);
+  weights.joint_ripple.bin_deg = 0.25;
+  weights.joint_ripple.first_deg = Vec3(14.0, 15.0, 16.0);
+  for (std::size_t j = 0; j < 3; ++j) {
+    for (std::size_t k = 0; k < entries; ++k) {
+      weights.joint_ripple.values_deg[j].push_back(0.03 * std::sin(2.0 * M_PI * (0.25 * k + j) / 6.0));
+    }
+  }
+  return weights;
+}
+
+TEST(WeightsFile, JointRippleTableRoundTripsAsVersion3AndIsChecked) {
+  const WeightsFile weights = rippled_weights(15, 5);
+  const std::string text = weights_file_text(weights);
+  EXPECT_NE(text.find("\"version\": 3"), std::string::npos);
+  const WeightsFile back = parse_weights_file(text, "memory");
+  EXPECT_EQ(back.joint_ripple.bin_deg, weights.joint_ripple.bin_deg);
+  EXPECT_EQ(back.joint_ripple.first_deg, weights.joint_ripple.first_deg);
+  for (std::size_t j = 0; j < 3; ++j) EXPECT_EQ(back.joint_ripple.values_deg[j], weights.joint_ripple.values_deg[j]);
+  EXPECT_EQ(weights_file_text(back), text);
+  // Between entries the table is linear, beyond them it holds its end entries.
+  const JointRippleTable& table = back.joint_ripple;
+  EXPECT_DOUBLE_EQ(table.at(1, 15.125), 0.5 * (table.values_deg[1][0] + table.values_deg[1][1]));
+  EXPECT_EQ(table.at(2, 3.0), table.values_deg[2].front());
+  EXPECT_EQ(table.at(0, 90.0), table.values_deg[0].back());
+  // Without a table a deployed model stays version 2, byte for byte as before.
+  WeightsFile plain = weights;
+  plain.joint_ripple = {};
+  EXPECT_NE(weights_file_text(plain).find("\"version\": 2"), std::string::npos);
+  EXPECT_EQ(weights_file_text(plain).find("joint_ripple"), std::string::npos);
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {"\"version\": 3", "\"version\": 2"},  // a version 2 reader would not apply the table
+      {"\"bin_deg\": 0.25", "\"bin_deg\": 0"},
+      {"\"bin_deg\": 0.25", "\"bin_deg\": 0.25, \"phase\": 1"},
+      {"\"first_deg\": [14", "\"first_deg\": [14, 1"},
+      {"\"values_deg\": [\n    [", "\"values_deg\": [\n    [0.75, "},
+      {"\"values_deg\": [\n    [", "\"values_deg\": [\n    [null, "}};
+  for (const auto& [from, to] : bad) {
+    SCOPED_TRACE(to);
+    std::string broken = text;
+    const std::size_t at = broken.find(from);
+    ASSERT_NE(at, std::string::npos);
+    broken.replace(at, from.size(), to);
+    EXPECT_THROW(parse_weights_file(broken, "memory"), InputError);
+  }
+}
+
+// The shipped board network (an inverse kinematics, as every trained model is) with the table above.
+TEST(SetpointShaping, TheShapedSetpointMakesTheNetworkAnswerWithTheTable) {
+  WeightsFile weights = rippled_weights(16, 2);
+  weights.network = read_weights_file(std::string(DELTA_SOURCE_DIR) + "/weights/paper_like_deployed.json").network;
+  std::mt19937_64 generator(16);
+  std::printf("positions seed 16\n");
+  std::uniform_real_distribution<double> xy(-0.005, 0.005), z(-0.081, -0.071);
+  double largest_shift_m = 0.0;
+  for (int i = 0; i < 500; ++i) {
+    const Vec3 p(xy(generator), xy(generator), z(generator));
+    const Vec3 answer = weights.network.evaluate(p);
+    const Vec3 shaped = shape_setpoint(weights, p);
+    largest_shift_m = std::max(largest_shift_m, (shaped - p).norm());
+    const Vec3 error = weights.network.evaluate(shaped) - (answer + weights.joint_ripple.at(answer));
+    EXPECT_LT(error.cwiseAbs().maxCoeff(), 1e-9) << "pose " << i;
+    // Unshaped back to within a nanometre (the board's input LSB is 3.7 nm).
+    EXPECT_LT((unshape_setpoint(weights, shaped) - p).cwiseAbs().maxCoeff(), 1e-9) << "pose " << i;
+    // The float model is the network at the shaped setpoint.
+    const IkSolution model = evaluate_model(weights, p);
+    EXPECT_EQ(model.alpha_deg, weights.network.evaluate(shaped));
+  }
+  std::printf("largest shift %.3f um\n", largest_shift_m * 1e6);
+  EXPECT_GT(largest_shift_m, 1e-6);  // 0.03 deg of ripple: microns at the plate
+  WeightsFile plain = weights;
+  plain.joint_ripple = {};
+  const Vec3 p(0.001, -0.002, -0.075);
+  EXPECT_EQ(shape_setpoint(plain, p), p);
+  EXPECT_EQ(unshape_setpoint(plain, p), p);
+}
+
 struct BadCase {
   std::string name;
   std::string from;
@@ -78,7 +161,7 @@ TEST(WeightsFile, DeltactlRejectsBrokenFilesWithFileLineReasonAndExitCode2) {
   const std::string in = temp("in.csv");
   write_text(in, "x_m,y_m,z_m\n0,0,-0.075\n");
   const std::vector<BadCase> cases = {
-      {"version", "\"version\": 1", "\"version\": 3", "unsupported weights file version 3"},
+      {"version", "\"version\": 1", "\"version\": 4", "unsupported weights file version 4"},
       {"shape", "\"hidden\": 2", "\"hidden\": 3", "input_weights: expected 3 rows"},
       {"row", "\"output_bias\": [", "\"output_bias\": [1, ", "output_bias: expected an array of 3"},
       {"infinite", "\"hidden_bias\": [", "\"hidden_bias\": [1e999, ", "not finite"},

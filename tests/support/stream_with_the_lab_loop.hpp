@@ -11,6 +11,7 @@
 
 #include "delta/controller/host_run.hpp"
 #include "delta/controller/stream_plan.hpp"
+#include "delta/golden/board_network.hpp"
 #include "delta/golden/fixed_network.hpp"
 #include "delta/link/session.hpp"
 
@@ -37,7 +38,9 @@ inline LabStream stream_with_the_lab_loop(link::LinkSession& session, const gold
   options.clock = clock;
   options.priority = 0;
   static const volatile std::sig_atomic_t kNoStop = 0;
-  controller::StreamingLoop loop(session, plan, network, positions.front(), queue, options, kNoStop);
+  golden::BoardWeights weights;  // the network alone: the positions are sent as they are (no shaping)
+  weights.network = network;
+  controller::StreamingLoop loop(session, plan, weights, positions.front(), queue, options, kNoStop);
   loop.run();
   return {loop.result(), plan.size()};
 }

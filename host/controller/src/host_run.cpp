@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "delta/board_facts.hpp"
+#include "delta/nn/trained_model.hpp"
 
 namespace delta::controller {
 namespace {
@@ -94,12 +95,13 @@ bool RecordQueue::pop(TelemetryRecord& record) {
   return true;
 }
 
-StreamingLoop::StreamingLoop(link::LinkSession& session, StreamPlan& plan, const golden::QuantisedNetwork& network,
+StreamingLoop::StreamingLoop(link::LinkSession& session, StreamPlan& plan, const golden::BoardWeights& weights,
                              const Vec3& start_m, RecordQueue& queue, const StreamingOptions& options,
                              const volatile std::sig_atomic_t& stop_request)
     : session_(session),
       plan_(plan),
-      network_(network),
+      weights_(weights),
+      network_(weights.network),
       start_m_(start_m),
       queue_(queue),
       options_(options),
@@ -119,10 +121,14 @@ void StreamingLoop::run() {
   result_.planned = plan_.size();
   planned_.store(plan_.size());
   std::vector<std::array<std::int32_t, 3>> codes(plan_.capacity());  // as sent (resends send the same)
+  std::vector<Vec3> shaping_m(plan_.capacity(), Vec3::Zero());       // sent - planned (joint ripple table)
   std::size_t sent = 0;                                              // samples [0, sent) have codes
   auto send = [&](std::size_t k, std::uint32_t index, std::int64_t /*reach_tick*/) {
     sent = std::max(sent, k + 1);
-    const auto code = golden::encode_position(network_.formats, plan_.position(k));
+    const Vec3 planned = plan_.position(k);
+    const Vec3 shaped = nn::shape_setpoint(weights_.model, planned);
+    shaping_m[k] = shaped - planned;
+    const auto code = golden::encode_position(network_.formats, shaped);
     codes[k] = {static_cast<std::int32_t>(code[0]), static_cast<std::int32_t>(code[1]),
                 static_cast<std::int32_t>(code[2])};
     session_.send_setpoint(index, codes[k]);
@@ -135,7 +141,8 @@ void StreamingLoop::run() {
     const std::int64_t last = std::min<std::int64_t>(k, static_cast<std::int64_t>(plan_.size()) - 1);
     if (last >= 0 && static_cast<std::size_t>(last) < sent) {
       const auto& c = codes[static_cast<std::size_t>(last)];
-      r.reference_m = Vec3(c[0] * code_m, c[1] * code_m, c[2] * code_m);
+      // The pose asked for: the code sent, less its shaping.
+      r.reference_m = Vec3(c[0] * code_m, c[1] * code_m, c[2] * code_m) - shaping_m[static_cast<std::size_t>(last)];
       r.tau_s = plan_.tau(static_cast<std::size_t>(last));
       r.stream_sample = last;
     }

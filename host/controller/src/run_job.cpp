@@ -23,6 +23,7 @@
 #include "delta/golden/export.hpp"
 #include "delta/golden/setpoint_interpolation.hpp"
 #include "delta/input_error.hpp"
+#include "delta/nn/trained_model.hpp"
 #include "delta/output_file.hpp"
 #include "delta/run_files.hpp"
 #include "delta/table.hpp"
@@ -67,7 +68,11 @@ Vec3 resting_start(const golden::BoardWeights& weights, const link::TelemetryPay
 Vec3 start_at_rest(const golden::BoardWeights& weights, const link::TelemetryPayload& rest) {
   Vec3 counts_deg;
   for (int j = 0; j < 3; ++j) counts_deg[j] = rest.counts[j] * kCountDeg;
-  return resting_start(weights, rest, golden::locate_plate(weights.network, Geometry::nominal(), counts_deg));
+  // The plan is in plate positions; the setpoints sent are shaped (a joint ripple table): start at
+  // the position whose shaped setpoint is the resting one.
+  return nn::unshape_setpoint(
+      weights.model,
+      resting_start(weights, rest, golden::locate_plate(weights.network, Geometry::nominal(), counts_deg)));
 }
 
 std::string resolve_port(const std::string& port) {
@@ -520,7 +525,7 @@ RunOutcome RunJob::execute(link::LinkSession& session, const std::string& port_n
   streaming.link_timeout_ms = request_.link_timeout_ms;
   streaming.following_error_deg = request_.following_error_deg;
   streaming.session = session.options();
-  StreamingLoop loop(session, plan, weights_.network, start, queue, streaming, stop_signal);
+  StreamingLoop loop(session, plan, weights_, start, queue, streaming, stop_signal);
   const auto wall_start = std::chrono::steady_clock::now();
   std::atomic<bool> streaming_done{false};
   std::thread streamer([&loop, &streaming_done] {

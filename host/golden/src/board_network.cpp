@@ -25,6 +25,7 @@ BoardWeights read_board_weights(const std::string& weights_path) {
   board.network = golden::quantise_file(weights_path, weights);  // a deployed model's half-plays too
   board.trained_min_m = weights.network.input_min;
   board.trained_max_m = weights.network.input_max;
+  board.model = weights;
   return board;
 }
 

@@ -98,8 +98,8 @@ std::vector<Vec3> play_lag(const Vec3& half_play_deg, const std::vector<Vec3>& s
   return lag;
 }
 
-// Appends the anchor poses (see above) and their targets: the math model `effects` plus `maps`.
-void add_anchors(const EffectSet& effects, const JointResiduals& maps, std::vector<Vec3>& inputs,
+// Appends the anchor poses (see above) and their targets: `target` of the math model `effects`.
+void add_anchors(const EffectSet& effects, const std::function<Vec3(const Vec3&)>& target, std::vector<Vec3>& inputs,
                  std::vector<Vec3>& targets) {
   const std::size_t recorded = inputs.size();
   Vec3 low = inputs[0], high = inputs[0];
@@ -122,7 +122,7 @@ void add_anchors(const EffectSet& effects, const JointResiduals& maps, std::vect
         const IkSolution model = math_model_angles(effects, pose);
         if (!model.ok()) continue;
         inputs.push_back(pose);
-        targets.push_back(with_residuals(maps, model.alpha_deg));
+        targets.push_back(target(model.alpha_deg));
       }
     }
   }
@@ -199,10 +199,15 @@ std::vector<double> zero_crossings(double first_deg, const std::vector<double>& 
   return crossings;
 }
 
-ResidualRipple ripple_of(const JointResidual& map) {
+// A map's bins less their least-squares straight line (offset + slope * angle).
+struct Detrended {
+  std::vector<double> values;
+  double offset = 0.0;
+  double slope = 0.0;
+};
+
+Detrended detrended_bins(const JointResidual& map) {
   const std::size_t bins = map.mean_deg.size();
-  ResidualRipple ripple;
-  if (bins < 4) return ripple;
   auto centre = [&](std::size_t b) { return map.first_deg + (static_cast<double>(b) + 0.5) * kResidualBinDeg; };
   double sc = 0.0, sv = 0.0, scc = 0.0, scv = 0.0;
   for (std::size_t b = 0; b < bins; ++b) {
@@ -212,14 +217,22 @@ ResidualRipple ripple_of(const JointResidual& map) {
     scv += centre(b) * map.mean_deg[b];
   }
   const double count = static_cast<double>(bins);
-  const double slope = (count * scv - sc * sv) / (count * scc - sc * sc);
-  const double offset = (sv - slope * sc) / count;
-  std::vector<double> detrended(bins);
+  Detrended result;
+  const double denominator = count * scc - sc * sc;
+  result.slope = denominator > 0.0 ? (count * scv - sc * sv) / denominator : 0.0;
+  result.offset = (sv - result.slope * sc) / count;
+  result.values.resize(bins);
+  for (std::size_t b = 0; b < bins; ++b) result.values[b] = map.mean_deg[b] - result.offset - result.slope * centre(b);
+  return result;
+}
+
+ResidualRipple ripple_of(const JointResidual& map) {
+  ResidualRipple ripple;
+  if (map.mean_deg.size() < 4) return ripple;
+  const std::vector<double> detrended = detrended_bins(map).values;
   double square = 0.0;
-  for (std::size_t b = 0; b < bins; ++b) {
-    detrended[b] = map.mean_deg[b] - offset - slope * centre(b);
-    square += detrended[b] * detrended[b];
-  }
+  for (double value : detrended) square += value * value;
+  const double count = static_cast<double>(detrended.size());
   ripple.rms_deg = std::sqrt(square / count);
   const std::vector<double> crossings = zero_crossings(map.first_deg, detrended, 0.5 * ripple.rms_deg);
   ripple.crossings = static_cast<int>(crossings.size());
@@ -232,6 +245,117 @@ ResidualRipple ripple_of(const JointResidual& map) {
 std::array<ResidualRipple, 3> ripples_of(const JointResiduals& maps) {
   return {ripple_of(maps[0]), ripple_of(maps[1]), ripple_of(maps[2])};
 }
+
+// The sinusoid a cos(2 pi angle / period) + b sin(...) nearest (least squares) to a detrended map's
+// bins, its period searched around the one its zero crossings give; explained: its share of the
+// bins' sum of squares.
+struct Sinusoid {
+  double period_deg = 0.0;
+  double a = 0.0, b = 0.0;
+  double explained = 0.0;
+  double at(double angle_deg) const {
+    const double phase = 2.0 * M_PI * angle_deg / period_deg;
+    return a * std::cos(phase) + b * std::sin(phase);
+  }
+};
+
+constexpr int kPeriodSearchSteps = 400;  // periods from 0.6 to 1.6 times the crossings' estimate
+
+Sinusoid fit_sinusoid(double first_deg, const std::vector<double>& values, double period_estimate_deg) {
+  Sinusoid best;
+  double total = 0.0;
+  for (double value : values) total += value * value;
+  if (!(period_estimate_deg > 0.0) || total <= 0.0) return best;
+  for (int step = 0; step <= kPeriodSearchSteps; ++step) {
+    Sinusoid trial;
+    trial.period_deg = period_estimate_deg * (0.6 + step / static_cast<double>(kPeriodSearchSteps));
+    double cc = 0.0, cs = 0.0, ss = 0.0, cv = 0.0, sv = 0.0;
+    for (std::size_t k = 0; k < values.size(); ++k) {
+      const double phase = 2.0 * M_PI * (first_deg + static_cast<double>(k) * kResidualBinDeg) / trial.period_deg;
+      const double c = std::cos(phase), s = std::sin(phase);
+      cc += c * c;
+      cs += c * s;
+      ss += s * s;
+      cv += c * values[k];
+      sv += s * values[k];
+    }
+    const double determinant = cc * ss - cs * cs;
+    if (!(determinant > 1e-12 * cc * ss)) continue;
+    trial.a = (cv * ss - sv * cs) / determinant;
+    trial.b = (sv * cc - cv * cs) / determinant;
+    trial.explained = (trial.a * cv + trial.b * sv) / total;  // fitted sum of squares over the total
+    if (trial.explained > best.explained) best = trial;
+  }
+  return best;
+}
+
+// The joint ripple table (weights_file.hpp) for static targets, with the straight line it leaves
+// to the network: per joint, what the math model (angles model_deg) leaves as a function of the
+// target angle itself (the angle the network answers with), in kResidualBinDeg bins. Where a
+// sinusoid explains most of it (a transmission ripple repeats with the joint's angle), the table
+// continues with that sinusoid for kRippleExtensionDeg beyond both ends of the recorded travel:
+// the runs reach a little farther than any drag, and so do the anchors. Otherwise its end entries
+// hold beyond.
+struct RippleFit {
+  JointRippleTable table;
+  std::array<Detrended, 3> line;  // offset and slope per joint (values unused)
+};
+
+constexpr double kRippleExtensionDeg = 2.0;
+constexpr double kSinusoidExplains = 0.5;
+
+RippleFit ripple_table(const std::vector<Vec3>& model_deg, const std::vector<Vec3>& targets_deg) {
+  RippleFit fit;
+  JointRippleTable& table = fit.table;
+  table.bin_deg = kResidualBinDeg;
+  for (int j = 0; j < 3; ++j) {
+    std::vector<double> angle(targets_deg.size()), residual(targets_deg.size());
+    for (std::size_t i = 0; i < targets_deg.size(); ++i) {
+      angle[i] = targets_deg[i][j];
+      residual[i] = targets_deg[i][j] - model_deg[i][j];
+    }
+    const JointResidual map = joint_residual(angle, residual);
+    Detrended detrended = detrended_bins(map);
+    if (detrended.values.size() < 4) return {};  // a joint that hardly moves: nothing to tabulate
+    const double first_deg = map.first_deg + 0.5 * kResidualBinDeg;
+    const Sinusoid sinusoid = fit_sinusoid(first_deg, detrended.values, ripple_of(map).period_deg);
+    const std::size_t extra =
+        sinusoid.explained >= kSinusoidExplains ? static_cast<std::size_t>(kRippleExtensionDeg / kResidualBinDeg) : 0;
+    std::vector<double>& values = table.values_deg[static_cast<std::size_t>(j)];
+    table.first_deg[j] = first_deg - static_cast<double>(extra) * kResidualBinDeg;
+    for (std::size_t b = 0; b < extra; ++b) values.push_back(sinusoid.at(table.first_deg[j] + b * kResidualBinDeg));
+    values.insert(values.end(), detrended.values.begin(), detrended.values.end());
+    const double last_deg = first_deg + static_cast<double>(detrended.values.size() - 1) * kResidualBinDeg;
+    for (std::size_t b = 1; b <= extra; ++b) values.push_back(sinusoid.at(last_deg + b * kResidualBinDeg));
+    for (double& value : values) value = std::clamp(value, -kMaxJointRippleDeg, kMaxJointRippleDeg);
+    detrended.values.clear();
+    fit.line[static_cast<std::size_t>(j)] = std::move(detrended);
+  }
+  return fit;
+}
+
+// Anchor targets with a ripple table: the math model plus the line and the table at its angle.
+Vec3 with_ripple(const RippleFit& fit, const Vec3& model_deg) {
+  Vec3 angles = model_deg;
+  for (int j = 0; j < 3; ++j) {
+    const Detrended& line = fit.line[static_cast<std::size_t>(j)];
+    angles[j] += line.offset + line.slope * model_deg[j] + fit.table.at(j, model_deg[j]);
+  }
+  return angles;
+}
+
+// What the network must answer so that the answer plus the table gives `target_deg`: n = t - r(n)
+// (the table's slope is far below 1, so a few substitutions converge).
+Vec3 network_target(const JointRippleTable& table, const Vec3& target_deg) {
+  Vec3 answer = target_deg;
+  for (int step = 0; step < 4; ++step) answer = target_deg - table.at(answer);
+  return answer;
+}
+
+// A ripple worth a table: some joint's is at least this many encoder floors RMS (or, on readings
+// not on a grid, this many degrees).
+constexpr double kRippleTableFloors = 1.0;
+constexpr double kRippleTableDegWithoutFloor = 0.003;
 
 }  // namespace
 
@@ -247,7 +371,8 @@ ModelTraining train_model(const Recording& recording, const std::string& model, 
   ModelTraining result;
   result.weights.model = model;
   std::vector<Vec3> inputs, targets;
-  std::size_t anchors = 0;  // deployed: poses the recording does not visit (add_anchors)
+  std::size_t anchors = 0;           // deployed: poses the recording does not visit (add_anchors)
+  std::vector<Vec3> static_targets;  // deployed: the static angles (the network's targets less the ripple table)
   for (const Sample& sample : recording.samples) {
     inputs.push_back(sample.position_m);
     targets.push_back(sample.alpha_deg);
@@ -290,13 +415,31 @@ ModelTraining train_model(const Recording& recording, const std::string& model, 
       for (std::size_t i = 0; i < inputs.size(); ++i) targets[i] -= lag[i];
       const JointResiduals maps = joint_residuals(model, targets);
       result.ripple = ripples_of(maps);
-      add_anchors(without_backlash, maps, inputs, targets);
+      RippleFit ripple;
+      result.floor_deg = quantisation_floor_deg(recording);
+      const double table_from_deg =
+          result.floor_deg > 0.0 ? kRippleTableFloors * result.floor_deg : kRippleTableDegWithoutFloor;
+      if (options.joint_ripple_table && std::any_of(result.ripple.begin(), result.ripple.end(),
+                                                    [&](const auto& r) { return r.rms_deg >= table_from_deg; })) {
+        ripple = ripple_table(model, targets);
+        result.weights.joint_ripple = ripple.table;
+      }
+      if (ripple.table.empty()) {
+        add_anchors(
+            without_backlash, [&](const Vec3& angles) { return with_residuals(maps, angles); }, inputs, targets);
+      } else {
+        add_anchors(
+            without_backlash, [&](const Vec3& angles) { return with_ripple(ripple, angles); }, inputs, targets);
+      }
       anchors = inputs.size() - recording.samples.size();
       thin_recording(recording.samples.size(), inputs, targets);
+      static_targets = targets;
+      if (!result.weights.joint_ripple.empty()) {
+        for (Vec3& target : targets) target = network_target(result.weights.joint_ripple, target);
+      }
     }
     result.training = train_network(inputs, targets, options, progress);
     if (model == "deployed") {
-      result.floor_deg = quantisation_floor_deg(recording);
       if (result.training.validation_samples > 0 && result.floor_deg > 0.0 &&
           std::sqrt(result.training.validation_mse_deg2) > kStallFloors * result.floor_deg) {
         TrainingOptions restart = options;
@@ -309,9 +452,14 @@ ModelTraining train_model(const Recording& recording, const std::string& model, 
     }
     if (model == "deployed") {
       // The thinned recording's rows come first, the anchors last (thin_recording).
-      const std::vector<Vec3> learnt(targets.begin(), targets.end() - static_cast<std::ptrdiff_t>(anchors));
+      // The model's answers: the network plus the joint ripple table when there is one.
+      const std::vector<Vec3> learnt(static_targets.begin(),
+                                     static_targets.end() - static_cast<std::ptrdiff_t>(anchors));
       std::vector<Vec3> answers(learnt.size());
-      for (std::size_t i = 0; i < learnt.size(); ++i) answers[i] = result.training.network.evaluate(inputs[i]);
+      for (std::size_t i = 0; i < learnt.size(); ++i) {
+        const Vec3 answer = result.training.network.evaluate(inputs[i]);
+        answers[i] = answer + result.weights.joint_ripple.at(answer);
+      }
       result.recording_rmse_deg = joint_error_stats(learnt, answers).rmse_deg;
     }
   } catch (const std::invalid_argument& error) {
@@ -345,6 +493,10 @@ ModelTraining train_model(const Recording& recording, const std::string& model, 
   if (result.weights.deployed()) {
     provenance["anchor_poses"] = anchors;
     provenance["encoder_floor_deg"] = result.floor_deg;
+    if (!result.weights.joint_ripple.empty()) {
+      provenance["joint_ripple_rule"] = "the math model leaves a joint at least " + format_number(kRippleTableFloors) +
+                                        " encoder floor RMS (its straight line removed) as a function of its angle";
+    }
     if (result.restart_seed) {
       provenance["restart"] = {{"seed", *result.restart_seed},
                                {"rule", "validation RMSE above " + format_number(kStallFloors) + " encoder floors"},

@@ -2,6 +2,7 @@
 #include "delta/nn/trained_model.hpp"
 
 #include <Eigen/Geometry>
+#include <Eigen/LU>
 
 namespace delta::nn {
 
@@ -24,6 +25,47 @@ IkSolution math_model_angles(const EffectSet& effects, const Vec3& measured_posi
   return solution;
 }
 
+namespace {
+
+// Shaping moves a setpoint by microns: a handful of Newton steps reach the double's resolution.
+constexpr int kShapingSteps = 4;
+constexpr double kJacobianStepM = 1e-6;
+
+// dN/dp by central differences (deg per metre).
+Eigen::Matrix3d network_jacobian(const Network& network, const Vec3& position_m) {
+  Eigen::Matrix3d jacobian;
+  for (int k = 0; k < 3; ++k) {
+    Vec3 step = Vec3::Zero();
+    step[k] = kJacobianStepM;
+    jacobian.col(k) =
+        (network.evaluate(position_m + step) - network.evaluate(position_m - step)) / (2 * kJacobianStepM);
+  }
+  return jacobian;
+}
+
+bool shapes(const WeightsFile& weights) { return weights.deployed() && !weights.joint_ripple.empty(); }
+
+}  // namespace
+
+Vec3 shape_setpoint(const WeightsFile& weights, const Vec3& position_m) {
+  if (!shapes(weights) || !position_m.allFinite()) return position_m;
+  const Network& network = weights.network;
+  const Vec3 answer = network.evaluate(position_m);
+  const Vec3 wanted = answer + weights.joint_ripple.at(answer);
+  Vec3 shaped = position_m;
+  for (int step = 0; step < kShapingSteps; ++step) {
+    shaped += network_jacobian(network, shaped).partialPivLu().solve(wanted - network.evaluate(shaped));
+  }
+  return shaped.allFinite() ? shaped : position_m;
+}
+
+Vec3 unshape_setpoint(const WeightsFile& weights, const Vec3& shaped_m) {
+  if (!shapes(weights) || !shaped_m.allFinite()) return shaped_m;
+  Vec3 position = shaped_m;
+  for (int step = 0; step < kShapingSteps; ++step) position += shaped_m - shape_setpoint(weights, position);
+  return position;
+}
+
 IkSolution evaluate_model(const WeightsFile& weights, const Vec3& measured_position_m) {
   IkSolution solution;
   if (!measured_position_m.allFinite()) {
@@ -34,7 +76,7 @@ IkSolution evaluate_model(const WeightsFile& weights, const Vec3& measured_posit
     solution = math_model_angles(weights.effects, measured_position_m);
     if (!solution.ok()) return solution;
   }
-  solution.alpha_deg += weights.network.evaluate(measured_position_m);
+  solution.alpha_deg += weights.network.evaluate(shape_setpoint(weights, measured_position_m));
   return solution;
 }
 

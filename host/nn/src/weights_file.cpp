@@ -80,7 +80,68 @@ std::string matrix_text(const Eigen::MatrixXd& values) {
   return text + "]";
 }
 
+// "joint_ripple": {"bin_deg", "first_deg": [3], "values_deg": [3 arrays]}.
+JointRippleTable parse_joint_ripple(const Reader& part) {
+  if (!part.document.is_object()) part.fail("joint_ripple", "joint_ripple must be a JSON object");
+  for (const auto& item : part.document.items()) {
+    if (item.key() != "bin_deg" && item.key() != "first_deg" && item.key() != "values_deg") {
+      part.fail("joint_ripple", "joint_ripple: unknown key " + quoted_excerpt(item.key()) +
+                                    " (expected bin_deg, first_deg, values_deg)");
+    }
+  }
+  JointRippleTable table;
+  table.bin_deg = part.number(part.field("bin_deg"), "bin_deg");
+  if (!(table.bin_deg >= 0.001 && table.bin_deg <= 10.0)) {
+    part.fail("bin_deg", "bin_deg must be 0.001 to 10 deg, got " + format_number(table.bin_deg));
+  }
+  table.first_deg = part.vector("first_deg", 3);
+  const nlohmann::json& values = part.field("values_deg");
+  if (!values.is_array() || values.size() != 3) part.fail("values_deg", "values_deg: expected 3 arrays, one per joint");
+  for (std::size_t j = 0; j < 3; ++j) {
+    const nlohmann::json& joint = values[j];
+    if (!joint.is_array() || joint.size() < 2 || joint.size() > kMaxJointRippleEntries) {
+      part.fail("values_deg", "values_deg: joint " + std::to_string(j + 1) + " needs 2 to " +
+                                  std::to_string(kMaxJointRippleEntries) + " numbers");
+    }
+    for (const nlohmann::json& value : joint) {
+      const double entry = part.number(value, "values_deg");
+      if (!(std::abs(entry) <= kMaxJointRippleDeg)) {
+        part.fail("values_deg", "values_deg: joint " + std::to_string(j + 1) + " has " + format_number(entry) +
+                                    " deg, beyond +-" + format_number(kMaxJointRippleDeg));
+      }
+      table.values_deg[j].push_back(entry);
+    }
+  }
+  return table;
+}
+
+std::string joint_ripple_text(const JointRippleTable& table) {
+  std::string text = "{\"bin_deg\": " + format_number(table.bin_deg) +
+                     ", \"first_deg\": " + vector_text(table.first_deg) + ", \"values_deg\": [";
+  for (std::size_t j = 0; j < 3; ++j) {
+    const std::vector<double>& values = table.values_deg[j];
+    text += std::string(j ? ",\n    " : "\n    ") +
+            vector_text(Eigen::Map<const Eigen::VectorXd>(values.data(), static_cast<Eigen::Index>(values.size())));
+  }
+  return text + "]}";
+}
+
 }  // namespace
+
+double JointRippleTable::at(int joint, double alpha_deg) const {
+  const std::vector<double>& values = values_deg[static_cast<std::size_t>(joint)];
+  if (values.empty()) return 0.0;
+  const double position =
+      std::clamp((alpha_deg - first_deg[joint]) / bin_deg, 0.0, static_cast<double>(values.size() - 1));
+  const std::size_t low = std::min(static_cast<std::size_t>(position), values.size() - 1);
+  const std::size_t high = std::min(low + 1, values.size() - 1);
+  const double weight = position - static_cast<double>(low);
+  return (1.0 - weight) * values[low] + weight * values[high];
+}
+
+Vec3 JointRippleTable::at(const Vec3& alpha_deg) const {
+  return {at(0, alpha_deg[0]), at(1, alpha_deg[1]), at(2, alpha_deg[2])};
+}
 
 WeightsFile parse_weights_file(const std::string& text, const std::string& path) {
   const json document = parse_json_input(text, path);
@@ -149,9 +210,9 @@ WeightsFile parse_weights_file(const std::string& text, const std::string& path)
     if (compensation == document.end()) throw InputError(path, 1, "a deployed model needs a \"compensation\" object");
     if (!compensation->is_object()) reader.fail("compensation", "compensation must be a JSON object");
     for (const auto& item : compensation->items()) {
-      if (item.key() != "backlash_half_play_deg") {
+      if (item.key() != "backlash_half_play_deg" && item.key() != "joint_ripple") {
         reader.fail("compensation", "compensation: unknown part " + quoted_excerpt(item.key()) +
-                                        " (this build applies backlash_half_play_deg only)");
+                                        " (this build applies backlash_half_play_deg and joint_ripple only)");
       }
     }
     const Reader part{text, path, *compensation};
@@ -163,6 +224,11 @@ WeightsFile parse_weights_file(const std::string& text, const std::string& path)
                                                   format_number(half_play) + " deg, expected 0 to " +
                                                   format_number(kMaxBacklashHalfPlayDeg));
       }
+    }
+    const auto ripple = compensation->find("joint_ripple");
+    if (ripple != compensation->end()) {
+      if (version.get<int>() < 3) reader.fail("joint_ripple", "joint_ripple needs weights file version 3");
+      weights.joint_ripple = parse_joint_ripple(Reader{text, path, *ripple});
     }
   } else if (compensation != document.end()) {
     reader.fail("compensation", "compensation belongs to a deployed model only (this file says model " +
@@ -195,7 +261,9 @@ std::string weights_file_text(const WeightsFile& weights) {
   text += "  \"output_bias\": " + vector_text(network.output_bias) + ",\n";
   if (weights.hybrid()) text += "  \"effects\": " + effects_to_json(weights.effects).dump() + ",\n";
   if (weights.deployed()) {
-    text += "  \"compensation\": {\"backlash_half_play_deg\": " + vector_text(weights.backlash_half_play_deg) + "},\n";
+    text += "  \"compensation\": {\"backlash_half_play_deg\": " + vector_text(weights.backlash_half_play_deg);
+    if (!weights.joint_ripple.empty()) text += ",\n    \"joint_ripple\": " + joint_ripple_text(weights.joint_ripple);
+    text += "},\n";
   }
   // nlohmann's dump prints doubles as shortest round-trip text and sorts keys: deterministic.
   text += "  \"provenance\": " + weights.provenance.dump() + "\n";

@@ -35,6 +35,7 @@
 
 #include "delta/controller/realtime.hpp"
 #include "delta/controller/stream_plan.hpp"
+#include "delta/golden/board_network.hpp"
 #include "delta/golden/fixed_network.hpp"
 #include "delta/link/session.hpp"
 
@@ -112,9 +113,9 @@ const char* feed_name(FeedState state);
 // The loop; run() in the streaming thread. `stop_request` (a signal number, 0: none) is polled.
 class StreamingLoop {
  public:
-  StreamingLoop(link::LinkSession& session, StreamPlan& plan, const golden::QuantisedNetwork& network,
-                const Vec3& start_m, RecordQueue& queue, const StreamingOptions& options,
-                const volatile std::sig_atomic_t& stop_request);
+  // The plan's positions are shaped (nn::shape_setpoint with weights.model) as they are sent.
+  StreamingLoop(link::LinkSession& session, StreamPlan& plan, const golden::BoardWeights& weights, const Vec3& start_m,
+                RecordQueue& queue, const StreamingOptions& options, const volatile std::sig_atomic_t& stop_request);
   void run();
   const StreamingResult& result() const { return result_; }
   // Progress for another thread.
@@ -134,6 +135,7 @@ class StreamingLoop {
  private:
   link::LinkSession& session_;
   StreamPlan& plan_;
+  const golden::BoardWeights& weights_;
   const golden::QuantisedNetwork& network_;
   Vec3 start_m_;
   RecordQueue& queue_;

@@ -70,7 +70,8 @@ void check_board_identity(const link::IdentifyPayload& identify, const golden::B
 // Where a run's plan starts: the network's inverse at the counts of `rest` (the arms at rest, the
 // drives off), moved to the deployed model's resting shift (the answer keeps each joint at the end of
 // its play last taken up, so the enable moves no joint). std::runtime_error when the nominal model
-// has no pose there. RunJob and the co-simulation start here.
+// has no pose there. RunJob and the co-simulation start here. With a joint ripple table: the plate
+// position whose shaped setpoint that is (nn::unshape_setpoint).
 Vec3 start_at_rest(const golden::BoardWeights& weights, const link::TelemetryPayload& rest);
 
 // How the recording's name is taken: kReplace (host run: the file is replaced when the drives are

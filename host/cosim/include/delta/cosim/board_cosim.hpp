@@ -43,6 +43,8 @@ struct CosimOptions {
   BoardFidelity fidelity = BoardFidelity::kRtl;  // the Verilated board or the model board
   std::string mem_dir;                           // the network's .mem files and identify.mem (golden::write_export)
   const golden::QuantisedNetwork* network = nullptr;  // the host's weights (the same as in mem_dir)
+  // The W.json read (optional): a deployed model's joint ripple table shapes the setpoints sent.
+  const nn::WeightsFile* model = nullptr;
   // The network's trained range (W.json input_min, input_max): the plan is checked against it as
   // `host run` checks it. The default admits any reachable point.
   Vec3 trained_min_m = Vec3::Constant(-1.0), trained_max_m = Vec3::Constant(1.0);

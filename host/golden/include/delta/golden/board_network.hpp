@@ -7,6 +7,7 @@
 
 #include "delta/geometry.hpp"
 #include "delta/golden/fixed_network.hpp"
+#include "delta/nn/weights_file.hpp"
 
 namespace delta::golden {
 
@@ -14,6 +15,9 @@ struct BoardWeights {
   QuantisedNetwork network;           // as the board's ROMs hold it
   Vec3 trained_min_m = Vec3::Zero();  // the network's input range (W.json input_min, input_max)
   Vec3 trained_max_m = Vec3::Zero();
+  // The file as read: a deployed model's joint ripple table shapes every setpoint the host sends
+  // (nn::shape_setpoint; the board's network is the same with or without one).
+  nn::WeightsFile model;
 };
 
 // W.json for the board: a plain network (not hybrid) with the RTL's 25 hidden neurons whose

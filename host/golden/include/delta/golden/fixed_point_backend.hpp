@@ -62,7 +62,9 @@ class FixedPointIkBackend : public IkBackend {
     const nn::Network& network = weights_.network;
     for (std::size_t i = 0; i < positions_m.size(); ++i) {
       bool input_clamped = false;
-      const auto codes = encode_position(quantised_.formats, positions_m[i], &input_clamped);
+      // The host's setpoint shaping (a deployed model's joint ripple table) comes before the board.
+      const auto codes =
+          encode_position(quantised_.formats, nn::shape_setpoint(weights_, positions_m[i]), &input_clamped);
       raw_input_clamped_ += input_clamped;
       const RawOutput out = evaluator_(codes);
       counters_.scaled_input += out.scaled_input_saturated;
@@ -86,7 +88,8 @@ class FixedPointIkBackend : public IkBackend {
   std::vector<std::string> report() const override {
     return {name_ + ": 3-" + std::to_string(quantised_.hidden) + "-3 network in fixed point (hls/README.md)" +
                 (weights_.hybrid() ? "; raw codes are the residual added to the math model" : "") +
-                (weights_.deployed() ? "; deployed model: + backlash compensation in time order" : ""),
+                (weights_.deployed() ? "; deployed model: + backlash compensation in time order" : "") +
+                (weights_.joint_ripple.empty() ? "" : "; positions shaped by its joint ripple table first"),
             "positions outside the training range: " + std::to_string(outside_training_range_),
             "saturations: scaled input " + std::to_string(counters_.scaled_input) + ", tanh input " +
                 std::to_string(counters_.tanh_input) + " (harmless), output " + std::to_string(counters_.output) +

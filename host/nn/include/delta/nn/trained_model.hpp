@@ -19,8 +19,20 @@ namespace delta::nn {
 // direction of motion). An unreachable pose is an error value, never NaN.
 IkSolution math_model_angles(const EffectSet& effects, const Vec3& measured_position_m);
 
-// Joint angles in degrees the model of `weights` predicts for a measured plate position in metres.
+// Joint angles in degrees the model of `weights` predicts for a measured plate position in metres
+// (a deployed model's static angle: the network at the shaped setpoint).
 IkSolution evaluate_model(const WeightsFile& weights, const Vec3& measured_position_m);
+
+// The position the host sends for plate position p under a deployed model with a joint ripple
+// table (weights_file.hpp): p' with N(p') = N(p) + r(N(p)), by Newton steps (N's Jacobian by
+// central differences);
+// the network then answers with the ripple in. Without a table (or a model of another kind): p.
+// Every back end and the controller shape their positions with this one function.
+Vec3 shape_setpoint(const WeightsFile& weights, const Vec3& position_m);
+
+// The inverse: the plate position whose shaped setpoint is `shaped_m` (where the plate is when the
+// board holds a setpoint the host sent).
+Vec3 unshape_setpoint(const WeightsFile& weights, const Vec3& shaped_m);
 
 // For back ends that evaluate only the network (fixed point, HLS, RTL): with hybrid weights their
 // angles are the network's residual, so this adds the math model in double (or sets row.error

@@ -27,6 +27,8 @@ struct TrainingOptions {
   int plateau_epochs = 25;            // converged: training SSE fell by < plateau_fraction over this many epochs
   double plateau_fraction = 0.01;
   int threads = 0;  // 0: all cores. The result does not depend on it.
+  // Deployed model (train_model): a joint ripple table when the math model leaves a ripple.
+  bool joint_ripple_table = true;
 };
 
 struct TrainingEpoch {
