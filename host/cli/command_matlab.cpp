@@ -36,7 +36,11 @@ const RegisterCommand export_command("export-matlab", 50, [](CLI::App& root) {
     const WeightsFile weights = read_weights_file(options->weights);
     export_matlab(options->out, weights.network);
     std::cerr << "export-matlab: 3-" << weights.network.hidden() << "-3 network -> " << options->out
-              << (weights.hybrid() ? " (network part of a hybrid: the residual in degrees)" : "") << '\n';
+              << (weights.hybrid() ? " (network part of a hybrid: the residual in degrees)" : "")
+              << (weights.deployed() ? " (the network of a deployed model: its play and any joint ripple table are "
+                                       "not exported)"
+                                     : "")
+              << '\n';
   });
 });
 

@@ -61,6 +61,10 @@ void run_quantise(const QuantiseOptions& options) {
                           std::to_string(q.compensation.half_play[1]) + " " +
                           std::to_string(q.compensation.half_play[2]) + " output LSBs (half_play.mem)"
                     : "")
+            << (weights.joint_ripple.empty()
+                    ? ""
+                    : "; its joint ripple table stays with the host (it shapes the setpoints: run the board with "
+                      "this W.json)")
             << "; weights CRC-32 " << hex_word(crc, 32) << ", gateware build id " << hex_word(kGatewareBuildId, 32)
             << '\n';
 }

@@ -8,6 +8,8 @@
 #include <limits>
 #include <stdexcept>
 
+#include <Eigen/Cholesky>
+
 #include "delta/effect_file.hpp"
 #include "delta/input_error.hpp"
 #include "delta/model_error.hpp"
@@ -246,12 +248,12 @@ std::array<ResidualRipple, 3> ripples_of(const JointResiduals& maps) {
   return {ripple_of(maps[0]), ripple_of(maps[1]), ripple_of(maps[2])};
 }
 
-// The sinusoid a cos(2 pi angle / period) + b sin(...) nearest (least squares) to a detrended map's
-// bins, its period searched around the one its zero crossings give; explained: its share of the
-// bins' sum of squares.
+// The straight line plus sinusoid offset + slope angle + a cos(2 pi angle / period) + b sin(...)
+// nearest (least squares) to a map's bins, its period searched around the one the zero crossings
+// give; explained: the sinusoid's share of what the straight line alone leaves (sum of squares).
 struct Sinusoid {
   double period_deg = 0.0;
-  double a = 0.0, b = 0.0;
+  double offset = 0.0, slope = 0.0, a = 0.0, b = 0.0;
   double explained = 0.0;
   double at(double angle_deg) const {
     const double phase = 2.0 * M_PI * angle_deg / period_deg;
@@ -261,30 +263,31 @@ struct Sinusoid {
 
 constexpr int kPeriodSearchSteps = 400;  // periods from 0.6 to 1.6 times the crossings' estimate
 
-Sinusoid fit_sinusoid(double first_deg, const std::vector<double>& values, double period_estimate_deg) {
+Sinusoid fit_sinusoid(double first_deg, const std::vector<double>& values, double line_leaves,
+                      double period_estimate_deg) {
   Sinusoid best;
-  double total = 0.0;
-  for (double value : values) total += value * value;
-  if (!(period_estimate_deg > 0.0) || total <= 0.0) return best;
+  if (!(period_estimate_deg > 0.0) || !(line_leaves > 0.0)) return best;
   for (int step = 0; step <= kPeriodSearchSteps; ++step) {
-    Sinusoid trial;
-    trial.period_deg = period_estimate_deg * (0.6 + step / static_cast<double>(kPeriodSearchSteps));
-    double cc = 0.0, cs = 0.0, ss = 0.0, cv = 0.0, sv = 0.0;
+    const double period = period_estimate_deg * (0.6 + step / static_cast<double>(kPeriodSearchSteps));
+    Eigen::Matrix4d normal = Eigen::Matrix4d::Zero();
+    Eigen::Vector4d right = Eigen::Vector4d::Zero();
     for (std::size_t k = 0; k < values.size(); ++k) {
-      const double phase = 2.0 * M_PI * (first_deg + static_cast<double>(k) * kResidualBinDeg) / trial.period_deg;
-      const double c = std::cos(phase), s = std::sin(phase);
-      cc += c * c;
-      cs += c * s;
-      ss += s * s;
-      cv += c * values[k];
-      sv += s * values[k];
+      const double angle = first_deg + static_cast<double>(k) * kResidualBinDeg;
+      const double phase = 2.0 * M_PI * angle / period;
+      const Eigen::Vector4d row(1.0, angle, std::cos(phase), std::sin(phase));
+      normal += row * row.transpose();
+      right += row * values[k];
     }
-    const double determinant = cc * ss - cs * cs;
-    if (!(determinant > 1e-12 * cc * ss)) continue;
-    trial.a = (cv * ss - sv * cs) / determinant;
-    trial.b = (sv * cc - cv * cs) / determinant;
-    trial.explained = (trial.a * cv + trial.b * sv) / total;  // fitted sum of squares over the total
-    if (trial.explained > best.explained) best = trial;
+    const Eigen::Vector4d c = normal.ldlt().solve(right);
+    double left = 0.0;
+    for (std::size_t k = 0; k < values.size(); ++k) {
+      const double angle = first_deg + static_cast<double>(k) * kResidualBinDeg;
+      const double phase = 2.0 * M_PI * angle / period;
+      const double error = values[k] - c[0] - c[1] * angle - c[2] * std::cos(phase) - c[3] * std::sin(phase);
+      left += error * error;
+    }
+    const double explained = 1.0 - left / line_leaves;
+    if (c.allFinite() && explained > best.explained) best = {period, c[0], c[1], c[2], c[3], explained};
   }
   return best;
 }
@@ -318,9 +321,20 @@ RippleFit ripple_table(const std::vector<Vec3>& model_deg, const std::vector<Vec
     Detrended detrended = detrended_bins(map);
     if (detrended.values.size() < 4) return {};  // a joint that hardly moves: nothing to tabulate
     const double first_deg = map.first_deg + 0.5 * kResidualBinDeg;
-    const Sinusoid sinusoid = fit_sinusoid(first_deg, detrended.values, ripple_of(map).period_deg);
-    const std::size_t extra =
-        sinusoid.explained >= kSinusoidExplains ? static_cast<std::size_t>(kRippleExtensionDeg / kResidualBinDeg) : 0;
+    double line_leaves = 0.0;
+    for (double value : detrended.values) line_leaves += value * value;
+    const Sinusoid sinusoid = fit_sinusoid(first_deg, map.mean_deg, line_leaves, ripple_of(map).period_deg);
+    std::size_t extra = 0;
+    if (sinusoid.explained >= kSinusoidExplains) {
+      // The table continues with the sinusoid, so its straight line is the one fitted with it.
+      extra = static_cast<std::size_t>(kRippleExtensionDeg / kResidualBinDeg);
+      detrended.offset = sinusoid.offset;
+      detrended.slope = sinusoid.slope;
+      for (std::size_t k = 0; k < detrended.values.size(); ++k) {
+        detrended.values[k] =
+            map.mean_deg[k] - sinusoid.offset - sinusoid.slope * (first_deg + static_cast<double>(k) * kResidualBinDeg);
+      }
+    }
     std::vector<double>& values = table.values_deg[static_cast<std::size_t>(j)];
     table.first_deg[j] = first_deg - static_cast<double>(extra) * kResidualBinDeg;
     for (std::size_t b = 0; b < extra; ++b) values.push_back(sinusoid.at(table.first_deg[j] + b * kResidualBinDeg));
