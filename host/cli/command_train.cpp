@@ -59,8 +59,8 @@ void report_floors(const ModelTraining& result, int hidden) {
         ripple.rms_deg >= beyond_noise_deg) {
       std::cerr << ": the math model leaves it a ripple of " << fixed(ripple.rms_deg, 4)
                 << " deg RMS with a period near " << fixed(ripple.period_deg, 1) << " deg, too short for a 3-" << hidden
-                << "-3 network across this workspace (docs/lab_loop.md); train without --ripple-table off, or expect "
-                   "about this error on the robot\n";
+                << "-3 network across this workspace (docs/lab_loop.md); train with the default --ripple-table auto, "
+                   "or expect about this error on the robot\n";
     } else {
       std::cerr
           << ": train again with another --seed or more --max-epochs, or on a drag that covers the workspace more "
