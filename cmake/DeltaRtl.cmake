@@ -1,8 +1,8 @@
 # Verilator and FPGA helpers for rtl/: lint tests, one shared Verilated library per RTL top,
 # the gate-level (yosys netlist) model, and FPGA flow targets outside the default build.
 #
-# Every Verilator invocation gets absolute source paths and the one waiver file
-# rtl/lint_waivers.vlt, so lint, models and gate-level builds see the same rules.
+# Every Verilator invocation gets the one waiver file rtl/lint_waivers.vlt, so lint, models and
+# gate-level builds see the same rules; lint gets absolute source paths, models relative ones.
 
 set(DELTA_RTL_WAIVERS ${PROJECT_SOURCE_DIR}/rtl/lint_waivers.vlt)
 # `include search path (readmemh_load.svh).
@@ -17,6 +17,47 @@ function(_delta_absolute_paths out_var)
     list(APPEND paths "${source}")
   endforeach()
   set(${out_var} ${paths} PARENT_SCOPE)
+endfunction()
+
+# Paths relative to the current source folder, where verilate() runs Verilator, through the tree's
+# root (rtl/network: ../../rtl/network/x.sv, so the waivers' "*rtl/..." patterns match): the
+# generated C++ names its sources as given, so a clone in another folder generates the same code
+# and every model's translation units are compiler-cache hits.
+function(_delta_relative_paths out_var)
+  file(RELATIVE_PATH to_root "${CMAKE_CURRENT_SOURCE_DIR}" "${PROJECT_SOURCE_DIR}")
+  _delta_absolute_paths(absolute ${ARGN})
+  set(paths)
+  foreach(source IN LISTS absolute)
+    file(RELATIVE_PATH source "${PROJECT_SOURCE_DIR}" "${source}")
+    if(to_root)
+      set(source "${to_root}/${source}")
+    endif()
+    list(APPEND paths "${source}")
+  endforeach()
+  set(${out_var} ${paths} PARENT_SCOPE)
+endfunction()
+
+# delta_verilate(TARGET [TRACE_FST] [SYSTEMC] PREFIX Vname TOP_MODULE top SOURCES ... VERILATOR_ARGS ...):
+# Verilator's verilate() with the sources and -I folders relative to the current source folder.
+function(delta_verilate target)
+  cmake_parse_arguments(ARG "TRACE_FST;SYSTEMC" "PREFIX;TOP_MODULE" "SOURCES;VERILATOR_ARGS" ${ARGN})
+  _delta_relative_paths(sources ${ARG_SOURCES})
+  set(arguments)
+  foreach(argument IN LISTS ARG_VERILATOR_ARGS)
+    if(argument MATCHES "^-I(/.*)$")
+      _delta_relative_paths(include_dir ${CMAKE_MATCH_1})
+      set(argument -I${include_dir})
+    endif()
+    list(APPEND arguments ${argument})
+  endforeach()
+  set(options)
+  foreach(flag TRACE_FST SYSTEMC)
+    if(ARG_${flag})
+      list(APPEND options ${flag})
+    endif()
+  endforeach()
+  verilate(${target} ${options} PREFIX ${ARG_PREFIX} TOP_MODULE ${ARG_TOP_MODULE}
+    SOURCES ${sources} VERILATOR_ARGS ${arguments})
 endfunction()
 
 # delta_rtl_lint(NAME TOP top SOURCES a.sv ... [LIBRARIES lib.v ...] [ARGS ...])
@@ -40,16 +81,15 @@ endfunction()
 # Verilated once; every test executable and deltactl link this one library.
 function(delta_verilated_library target)
   cmake_parse_arguments(ARG "SYSTEMC" "PREFIX;TOP" "SOURCES;ARGS" ${ARGN})
-  _delta_absolute_paths(sources ${ARG_SOURCES})
   add_library(${target} STATIC)
   set(systemc_option)
   if(ARG_SYSTEMC)
     set(systemc_option SYSTEMC)
     target_link_libraries(${target} PUBLIC PkgConfig::SystemC)
   endif()
-  verilate(${target} ${systemc_option} TRACE_FST
+  delta_verilate(${target} ${systemc_option} TRACE_FST
     PREFIX ${ARG_PREFIX} TOP_MODULE ${ARG_TOP}
-    SOURCES ${DELTA_RTL_WAIVERS} ${sources}
+    SOURCES ${DELTA_RTL_WAIVERS} ${ARG_SOURCES}
     VERILATOR_ARGS -Wall ${DELTA_RTL_INCLUDE} -O3 --x-assign unique --x-initial unique ${ARG_ARGS})
   # Generated code and Verilator's headers are not ours to warn about.
   target_compile_options(${target} PRIVATE -w)
@@ -60,7 +100,7 @@ endfunction()
 # delta_gate_level_library(TARGET PREFIX Vname TOP top NETLIST file.v RUNTIME library)
 # Verilates a yosys netlist (made at build time by a custom command that outputs NETLIST) with
 # yosys's iCE40 cell models, builds the model archive with Verilator's own makefile and exposes
-# it as the INTERFACE library TARGET. The Verilator runtime (verilated.cpp, FST writer) comes from
+# it as the INTERFACE library TARGET, compiled through the compiler cache (cmake/Ccache.cmake). The Verilator runtime (verilated.cpp, FST writer) comes from
 # RUNTIME, a delta_verilated_library target: one runtime for every model.
 # NO_ICE40_DEFAULT_ASSIGNMENTS: cells_sim.v's input-port defaults are SystemVerilog that
 # Verilator 5.006 does not parse; the netlist connects every port it uses. Lint warnings are
@@ -68,13 +108,21 @@ endfunction()
 function(delta_gate_level_library target)
   cmake_parse_arguments(ARG "" "PREFIX;TOP;NETLIST;RUNTIME" "" ${ARGN})
   set(model_dir ${CMAKE_CURRENT_BINARY_DIR}/${ARG_PREFIX}.dir)
+  # Run in the netlist's folder and named by its file name: the generated code holds no path of the tree.
+  get_filename_component(netlist_dir "${ARG_NETLIST}" DIRECTORY)
+  get_filename_component(netlist_name "${ARG_NETLIST}" NAME)
+  file(RELATIVE_PATH model_dir_relative "${netlist_dir}" "${model_dir}")
   set(archive ${model_dir}/${ARG_PREFIX}__ALL.a)
+  # Verilator's makefile compiles through the compiler cache too (verilated.mk's OBJCACHE).
+  list(JOIN DELTA_CCACHE_LAUNCHER " " delta_objcache)
   add_custom_command(OUTPUT ${archive}
     COMMAND ${CMAKE_COMMAND} -E make_directory ${model_dir}
-    COMMAND ${VERILATOR_BIN} --cc --build -j 2 -O3 --prefix ${ARG_PREFIX} --Mdir ${model_dir}
+    COMMAND ${CMAKE_COMMAND} -E env "OBJCACHE=${delta_objcache}"
+            ${VERILATOR_BIN} --cc --build -j 2 -O3 --prefix ${ARG_PREFIX} --Mdir ${model_dir_relative}
             --top-module ${ARG_TOP} -DNO_ICE40_DEFAULT_ASSIGNMENTS -Wno-fatal -Wno-lint -Wno-style
             -Wno-TIMESCALEMOD -Wno-UNOPTFLAT --trace-fst -CFLAGS "-O2 -w"
-            ${ARG_NETLIST} ${DELTA_ICE40_CELLS_SIM}
+            ${netlist_name} ${DELTA_ICE40_CELLS_SIM}
+    WORKING_DIRECTORY ${netlist_dir}
     DEPENDS ${ARG_NETLIST}
     COMMENT "Verilating the gate-level netlist ${ARG_NETLIST}"
     VERBATIM)

@@ -5,8 +5,7 @@ root=$(cd "$(dirname "$0")/.." && pwd)
 cd "$root"
 bash scripts/setup.sh
 if [[ ! -f build/CMakeCache.txt ]]; then
-  # ccache (scripts/setup.sh) makes a rebuild of unchanged sources, e.g. in a fresh clone, a cache hit.
-  if command -v ccache >/dev/null; then export CMAKE_CXX_COMPILER_LAUNCHER=ccache; fi
+  # ccache (scripts/setup.sh; CMakeLists.txt) makes a rebuild of unchanged sources, e.g. in a fresh clone, a cache hit.
   cmake --preset default >/dev/null
 fi
 cmake --build build -j "$(nproc)" "$@"

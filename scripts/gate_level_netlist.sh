@@ -23,19 +23,25 @@ done
 
 # Every source's directory is an include directory of every source (rtl/board includes the
 # network's readmemh_load.svh).
+# yosys reads them from the tree's root by paths relative to it: the names it makes of functions
+# hold the path, so a clone in another folder writes the same netlist (and its model is a
+# compiler-cache hit).
+root=$(cd "$(dirname "$0")/.." && pwd)
+out=$(realpath -m "$out")
+relative() { realpath -m --relative-to="$root" "$1"; }
 includes=""
 for source in "${sources[@]}"; do
-  dir="-I$(dirname "$(realpath "$source")")"
+  dir="-I$(dirname "$(relative "$source")")"
   [[ " $includes " == *" $dir "* ]] || includes+=" $dir"
 done
 script=""
-for source in "${sources[@]}"; do script+="read_verilog -defer -sv$includes $(realpath "$source"); "; done
+for source in "${sources[@]}"; do script+="read_verilog -defer -sv$includes $(relative "$source"); "; done
 for param in "${params[@]}"; do script+="chparam -set ${param%%=*} ${param#*=} $top; "; done
 # shellcheck source=ice40_synth.sh
 source "$(dirname "$0")/ice40_synth.sh"
 script+="$ice40_synth -top $top; write_verilog -noattr $out.tmp"
 log="$out.yosys.log"
-yosys -q -l "$log" -p "$script" >/dev/null 2>&1 || { tail -5 "$log" >&2; echo "gate_level_netlist: yosys failed, see $log" >&2; exit 1; }
+(cd "$root" && yosys -q -l "$log" -p "$script" >/dev/null 2>&1) || { tail -5 "$log" >&2; echo "gate_level_netlist: yosys failed, see $log" >&2; exit 1; }
 if grep -E "is implicitly declared|out of bounds|multiple conflicting drivers" "$log" | grep -v "^$" >&2; then
   echo "gate_level_netlist: yosys warnings above change the design; see $log" >&2
   exit 1

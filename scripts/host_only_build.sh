@@ -5,9 +5,8 @@
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 build=${1:?usage: host_only_build.sh BUILD_DIR}
-launcher=()
-if command -v ccache >/dev/null; then launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache); fi
-cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DDELTA_HOST_ONLY=ON "${launcher[@]}" >/dev/null
+# The compiler cache as in the main build (CMakeLists.txt, cmake/Ccache.cmake).
+cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DDELTA_HOST_ONLY=ON >/dev/null
 cmake --build "$build" -j "$(nproc)" --target deltactl >/dev/null
 deltactl="$build/bin/deltactl"
 if ldd "$deltactl" | grep -i systemc; then

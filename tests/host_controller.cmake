@@ -15,14 +15,15 @@ delta_add_gtest(host_controller_tests
   LABELS host host_controller virtual_board
   # Alone on the machine: the virtual board and the host's 1 kHz streaming thread each need a core,
   # and a host starved beyond its 200 ms lead lets the board's watchdog fault the run (as it would on the robot).
-  PROPERTIES RUN_SERIAL TRUE)
+  # The refusals before any byte is sent need neither.
+  SERIAL PARALLEL_TESTS HostRun.BadTrajectoriesAreRefusedBeforeAnyByteIsSent)
 
 # `host serve` and `host ctl` against the model-fidelity virtual board (kept to real time).
 delta_add_gtest(host_serve_tests
   SOURCES ${CMAKE_CURRENT_LIST_DIR}/host_controller/test_host_serve.cpp
   LIBRARIES delta::host nlohmann_json::nlohmann_json
   LABELS host host_controller virtual_board
-  PROPERTIES RUN_SERIAL TRUE)
+  SERIAL)
 
 # Every way out of a run (a foreign disable, signals, SIGKILL, ctl interrupted) and `host serve`
 # under any bytes and 50,000 connections, recordings confined and never overwritten.
@@ -30,7 +31,14 @@ delta_add_gtest(host_safety_tests
   SOURCES ${CMAKE_CURRENT_LIST_DIR}/host_controller/test_host_safety.cpp
   LIBRARIES delta::controller delta::host nlohmann_json::nlohmann_json
   LABELS host host_controller virtual_board
-  PROPERTIES RUN_SERIAL TRUE)
+  # Serve without a board (its socket, its connections, its folder) and the refusals before a port
+  # is opened run beside the others.
+  SERIAL PARALLEL_TESTS HostSafety.TrajectoriesBeyondTheLongestRunOrNotRegularFilesAreRefused
+    HostServeSafety.AnyBytesOnTheSocketAreAnsweredAndServeLives
+    HostServeSafety.CtlRunWithANameThatIsNotUtf8IsRefusedNamingIt
+    HostServeSafety.ThousandsOfConnectionsLeaveServeSmall
+    HostServeSafety.RecordingsStayInTheirFolderAndAreNeverOverwritten
+    HostServeSafety.SocketPathThatIsNotASocketIsRefusedAndKept)
 
 # Homing against the references (docs/homing.md): random starts, a run stopped mid-path, a seized
 # arm and a missing switch, a board homed by hand, every jog's setpoint within the homing bounds.
@@ -38,4 +46,5 @@ delta_add_gtest(homing_tests
   SOURCES ${CMAKE_CURRENT_LIST_DIR}/host_controller/test_homing.cpp
   LIBRARIES delta::controller delta::host delta::golden nlohmann_json::nlohmann_json
   LABELS host host_controller virtual_board
-  PROPERTIES RUN_SERIAL TRUE)
+  # The jogs' bounds are arithmetic on the shipped networks: no board.
+  SERIAL PARALLEL_TESTS Homing.EveryJogMeetsTheHomingBoundsWithTheShippedNetworksIncludingTheCalibrationDrags)

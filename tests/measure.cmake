@@ -21,7 +21,7 @@ delta_add_gtest(measure_closed_loop_tests
   SOURCES ${CMAKE_CURRENT_LIST_DIR}/measure/test_closed_loop_diagnosis.cpp
   LIBRARIES delta::host nlohmann_json::nlohmann_json
   LABELS measure virtual_board diagnosis
-  PROPERTIES RUN_SERIAL TRUE)
+  SERIAL)
 
 # Not yet in the suite: docs/lab_loop.md's virtual part run as written (drag, record, merge,
 # diagnose, train, quantise, a closed-loop run with the stage following, merge, compare): its drags

@@ -27,7 +27,6 @@ delta_add_gtest(rtl_gate_level_tests
   LABELS rtl)
 target_include_directories(rtl_gate_level_tests PRIVATE ${CMAKE_CURRENT_LIST_DIR}/rtl
                            ${PROJECT_SOURCE_DIR}/rtl/network/sim/include)
-target_compile_definitions(rtl_gate_level_tests PRIVATE DELTA_NETWORK_WEIGHTS="${DELTA_NETWORK_WEIGHTS}")
 
 # SystemC testbench: its own sc_main (SystemC owns main), one CTest entry.
 add_executable(rtl_network_systemc_test ${CMAKE_CURRENT_LIST_DIR}/rtl/test_network_systemc.cpp)

@@ -15,6 +15,7 @@
 #include "delta/rtl/joint_rtl_model.hpp"
 #include "joint_top.hpp"
 #include "random_closed_loop.hpp"
+#include "support/tree_paths.hpp"
 
 namespace delta::control {
 namespace {

@@ -22,6 +22,7 @@
 #include "delta/deploy/doctor.hpp"
 #include "delta/input_error.hpp"
 #include "delta/temporary_directory.hpp"
+#include "support/tree_paths.hpp"
 
 namespace delta {
 namespace {

@@ -12,6 +12,7 @@
 #include "delta/csv.hpp"
 #include "delta/diagnosis/report.hpp"
 #include "delta/recording.hpp"
+#include "support/tree_paths.hpp"
 
 namespace delta::test {
 namespace {

@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include "fit_network.hpp"
+#include "support/tree_paths.hpp"
 
 namespace delta::test {
 

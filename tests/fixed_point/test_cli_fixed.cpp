@@ -10,6 +10,7 @@
 #include "delta/golden/fixed_network.hpp"
 #include "delta/nn/weights_file.hpp"
 #include "support/run_command.hpp"
+#include "support/tree_paths.hpp"
 
 namespace delta::test {
 namespace {

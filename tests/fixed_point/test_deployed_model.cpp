@@ -13,6 +13,7 @@
 #include "delta/model_error.hpp"
 #include "delta/nn/weights_file.hpp"
 #include "support/run_command.hpp"
+#include "support/tree_paths.hpp"
 
 namespace delta::test {
 namespace {

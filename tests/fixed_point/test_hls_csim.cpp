@@ -11,6 +11,7 @@
 #include "delta/nn/weights_file.hpp"
 #include "fixed_point_fixture.hpp"
 #include "network_csim.hpp"
+#include "support/tree_paths.hpp"
 
 namespace delta_hls {
 namespace {

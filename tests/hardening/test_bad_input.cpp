@@ -15,6 +15,7 @@
 #include <matio.h>
 
 #include "../support/run_command.hpp"
+#include "support/tree_paths.hpp"
 
 namespace delta {
 namespace {

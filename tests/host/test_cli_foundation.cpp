@@ -10,6 +10,7 @@
 #include "delta/input_error.hpp"
 #include "delta/kinematics.hpp"
 #include "delta/recording.hpp"
+#include "support/tree_paths.hpp"
 
 namespace delta {
 namespace {

@@ -22,6 +22,7 @@
 
 #include "../support/run_command.hpp"
 #include "../support/virtual_board_process.hpp"
+#include "support/tree_paths.hpp"
 
 namespace delta::test {
 

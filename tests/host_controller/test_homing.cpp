@@ -20,6 +20,7 @@
 #include "delta/geometry.hpp"
 #include "delta/golden/board_network.hpp"
 #include "host_bench.hpp"
+#include "support/tree_paths.hpp"
 
 namespace delta::test {
 namespace {

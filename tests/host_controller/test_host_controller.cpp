@@ -33,6 +33,7 @@
 #include "delta/io/serial_port.hpp"
 #include "delta/nn/weights_file.hpp"
 #include "host_bench.hpp"
+#include "support/tree_paths.hpp"
 
 namespace delta::test {
 namespace {

@@ -12,6 +12,7 @@
 #include "delta/controller/stream_plan.hpp"
 #include "delta/golden/board_network.hpp"
 #include "delta/input_error.hpp"
+#include "support/tree_paths.hpp"
 
 namespace delta::controller {
 namespace {

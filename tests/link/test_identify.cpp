@@ -20,6 +20,7 @@
 #include "delta/link/payloads.hpp"
 #include "delta/nn/weights_file.hpp"
 #include "support/run_command.hpp"
+#include "support/tree_paths.hpp"
 
 namespace delta {
 namespace {

@@ -15,6 +15,7 @@
 
 #include "../support/followed_run.hpp"
 #include "../support/run_command.hpp"
+#include "support/tree_paths.hpp"
 
 namespace delta::test {
 namespace {

@@ -16,6 +16,7 @@
 #include "../support/virtual_board_process.hpp"
 #include "delta/csv.hpp"
 #include "delta/geometry.hpp"
+#include "support/tree_paths.hpp"
 
 namespace delta::test {
 namespace {

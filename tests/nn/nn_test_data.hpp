@@ -7,6 +7,7 @@
 #include "delta/effect_file.hpp"
 #include "delta/recording.hpp"
 #include "delta/virtual_robot.hpp"
+#include "support/tree_paths.hpp"
 
 namespace delta::nn::test {
 

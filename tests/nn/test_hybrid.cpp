@@ -5,6 +5,7 @@
 #include "delta/nn/effect_fit.hpp"
 #include "delta/nn/trained_model.hpp"
 #include "nn_test_data.hpp"
+#include "support/tree_paths.hpp"
 
 namespace delta::nn {
 namespace {

@@ -12,6 +12,7 @@
 #include "delta/nn/trained_model.hpp"
 #include "delta/nn/weights_file.hpp"
 #include "delta/output_file.hpp"
+#include "support/tree_paths.hpp"
 
 namespace delta::nn {
 namespace {

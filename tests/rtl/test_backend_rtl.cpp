@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "../support/run_command.hpp"
+#include "support/tree_paths.hpp"
 
 namespace delta::test {
 namespace {

@@ -15,6 +15,7 @@
 #include "Vboard_core.h"
 #include "delta/board_facts.hpp"
 #include "delta/golden/joint_fixed.hpp"
+#include "support/tree_paths.hpp"
 #include "verilated.h"
 #include "verilated_syms.h"
 

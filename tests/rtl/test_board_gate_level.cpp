@@ -24,6 +24,7 @@
 #include "delta/golden/fixed_point_backend.hpp"
 #include "delta/kinematics.hpp"
 #include "delta/nn/weights_file.hpp"
+#include "support/tree_paths.hpp"
 
 namespace delta::test {
 namespace {

@@ -26,6 +26,7 @@
 #include "delta/kinematics.hpp"
 #include "delta/nn/weights_file.hpp"
 #include "rtl_fixture.hpp"
+#include "support/tree_paths.hpp"
 
 namespace delta::test {
 namespace {

@@ -16,6 +16,7 @@
 #include "delta/nn/weights_file.hpp"
 #include "delta/trajectory.hpp"
 #include "rtl_fixture.hpp"
+#include "support/tree_paths.hpp"
 
 namespace delta::test {
 namespace {

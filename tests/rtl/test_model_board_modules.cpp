@@ -37,6 +37,7 @@
 #include "delta/rtl/board_clock.hpp"
 #include "delta/rtl/uart_line.hpp"
 #include "rtl_fixture.hpp"
+#include "support/tree_paths.hpp"
 
 namespace delta::test {
 namespace {

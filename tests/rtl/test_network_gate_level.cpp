@@ -11,6 +11,7 @@
 #include "delta/nn/weights_file.hpp"
 #include "delta/rtl/network_harness.hpp"
 #include "rtl_fixture.hpp"
+#include "support/tree_paths.hpp"
 
 namespace delta::test {
 namespace {
@@ -18,9 +19,10 @@ namespace {
 TEST(NetworkGateLevel, BitExactOnTenThousandVectors) {
   constexpr std::uint64_t kSeed = 20260103;
   // The netlist's memories were filled at synthesis from DELTA_NETWORK_WEIGHTS (the shipped weights).
-  const nn::WeightsFile weights = nn::read_weights_file(DELTA_NETWORK_WEIGHTS);
+  const std::string weights_path = cache_value("DELTA_NETWORK_WEIGHTS");
+  const nn::WeightsFile weights = nn::read_weights_file(weights_path);
   const golden::QuantisedNetwork q = golden::quantise(weights.network);
-  std::cout << "weights " << DELTA_NETWORK_WEIGHTS << ", vector seed " << kSeed << "\n";
+  std::cout << "weights " << weights_path << ", vector seed " << kSeed << "\n";
   // The netlist ignores +delta_mem_dir; an empty directory proves it needs no .mem file.
   rtl::NetworkHarness<Vdelta_network_gate> netlist(q.formats.input_bits, q.formats.output_bits,
                                                    fresh_directory("gate_level_no_mem"));

@@ -9,6 +9,8 @@
 #include <sstream>
 #include <string>
 
+#include "support/tree_paths.hpp"
+
 namespace delta::test {
 
 struct CommandResult {

@@ -12,6 +12,8 @@
 #include <string>
 #include <vector>
 
+#include "support/tree_paths.hpp"
+
 namespace delta::test {
 
 class VirtualBoardProcess {

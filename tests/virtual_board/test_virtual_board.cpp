@@ -32,6 +32,7 @@
 #include "delta/link/frame_codec.hpp"
 #include "delta/link/session.hpp"
 #include "delta/nn/weights_file.hpp"
+#include "support/tree_paths.hpp"
 
 namespace delta::test {
 namespace {

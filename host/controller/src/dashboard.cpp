@@ -31,10 +31,6 @@
 #include "delta/recording_plot.hpp"
 #include "delta/trajectory.hpp"
 
-#ifndef DELTA_WEB_SOURCE_DIR
-#define DELTA_WEB_SOURCE_DIR ""
-#endif
-
 namespace delta::controller {
 namespace {
 
@@ -173,9 +169,14 @@ void parse_http_address(const std::string& text, DashboardOptions& options) {
 
 std::string find_web_root() {
   if (const char* root = std::getenv("DELTACTL_WEB_ROOT"); root && *root) return root;
-  const std::string source = DELTA_WEB_SOURCE_DIR;
+  // Beside the program: <prefix>/bin/deltactl finds <prefix>/share/deltactl/web, in a build (whose
+  // share/deltactl/web links to the source tree's host/controller/web) as in the package (/usr).
   std::error_code ignored;
-  if (!source.empty() && fs::is_regular_file(source + "/index.html", ignored)) return source;
+  const fs::path exe = fs::read_symlink("/proc/self/exe", ignored);
+  if (!exe.empty()) {
+    const fs::path beside = exe.parent_path().parent_path() / "share/deltactl/web";
+    if (fs::is_regular_file(beside / "index.html", ignored)) return beside.string();
+  }
   return "/usr/share/deltactl/web";
 }
 
