@@ -32,6 +32,7 @@
 #include "delta/input_error.hpp"
 #include "delta/io/pseudo_terminal.hpp"
 #include "delta/output_file.hpp"
+#include "delta/shipped_data.hpp"
 #include "delta/table.hpp"
 #include "delta/temporary_directory.hpp"
 #include "options.hpp"
@@ -45,8 +46,9 @@ void request_stop(int) { stop_requested = 1; }
 
 struct VirtualBoardCommandOptions {
   std::string link;
-  std::string effects = DELTA_SHIPPED_EFFECTS;
-  std::string weights = DELTA_SHIPPED_WEIGHTS;
+  // The shipped weights and the paper-like robot (shipped_data.hpp: this build's, or the package's).
+  std::string effects = shipped_data_dir() + "/paper_like_effects.json";
+  std::string weights = shipped_data_dir() + "/weights/paper_like_deployed.json";
   std::string truth;
   std::string fidelity = "rtl";
   double inject_encoder_skip_at_s = -1.0;

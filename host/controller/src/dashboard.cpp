@@ -29,6 +29,7 @@
 #include "delta/exit_codes.hpp"
 #include "delta/input_error.hpp"
 #include "delta/recording_plot.hpp"
+#include "delta/shipped_data.hpp"
 #include "delta/trajectory.hpp"
 
 namespace delta::controller {
@@ -169,15 +170,8 @@ void parse_http_address(const std::string& text, DashboardOptions& options) {
 
 std::string find_web_root() {
   if (const char* root = std::getenv("DELTACTL_WEB_ROOT"); root && *root) return root;
-  // Beside the program: <prefix>/bin/deltactl finds <prefix>/share/deltactl/web, in a build (whose
-  // share/deltactl/web links to the source tree's host/controller/web) as in the package (/usr).
-  std::error_code ignored;
-  const fs::path exe = fs::read_symlink("/proc/self/exe", ignored);
-  if (!exe.empty()) {
-    const fs::path beside = exe.parent_path().parent_path() / "share/deltactl/web";
-    if (fs::is_regular_file(beside / "index.html", ignored)) return beside.string();
-  }
-  return "/usr/share/deltactl/web";
+  // Beside the program (shipped_data.hpp): a build's links to the source tree's host/controller/web.
+  return shipped_data_dir() + "/web";
 }
 
 struct Dashboard::Impl {

@@ -46,8 +46,8 @@ struct DashboardOptions {
 // "ADDR:PORT" (or "[v6]:PORT") into options; InputError-free: HostFailure(exit 2) naming the text.
 void parse_http_address(const std::string& text, DashboardOptions& options);
 
-// The web assets: $DELTACTL_WEB_ROOT, else share/deltactl/web beside the program's bin/ (a build's
-// links to the source tree's host/controller/web), else /usr/share/deltactl/web (the package).
+// The web assets: $DELTACTL_WEB_ROOT, else the shipped data's web/ (shipped_data.hpp: a build's
+// links to the source tree's host/controller/web; the package's is /usr/share/deltactl/web).
 std::string find_web_root();
 
 // What the dashboard asks of the controller.
