@@ -62,6 +62,9 @@ def run_checks(bench):
     check(code == 403, "POST /api/run with a foreign Origin: 403 (%d)" % code)
     code, body = bench.post("run", {"trajectory": "experiment1", "duration": 5}, token=False)
     check(code == 401, "POST /api/run without a token: 401 (%d)" % code)
+    code, body = bench.curl_post("run")
+    check(code == 411 and "Content-Length" in body.get("error", ""),
+          "curl -X POST /api/run with no body: 411 naming Content-Length, at once (%d %s)" % (code, body))
     time.sleep(0.5)
     status = bench.status()
     check(status["run"] is None and not status["drives_enabled"], "no run started, drives off")
@@ -113,12 +116,13 @@ def run_checks(bench):
     code, body = bench.post("run", {"trajectory": "experiment1", "duration": 20})
     check(code == 200, "POST /api/run (20 s): 200")
     bench.wait_for(lambda s: s["run"] and s["run"]["played"] > 1000 and s["drives_enabled"], 20, "the run going")
-    code, body = bench.post("estop", token=False)
-    check(code == 401, "POST /api/estop without a token: 401, the run goes on (%d)" % code)
+    # Through curl as docs/dashboard.md writes it (no body, so no Content-Length).
+    code, body = bench.curl_post("estop", token=False)
+    check(code == 401, "curl -X POST /api/estop without a token: 401, the run goes on (%d %s)" % (code, body))
     check(bench.status()["drives_enabled"], "drives still on after the refused e-stop")
     asked = bench.status()["board_time_s"]  # the newest telemetry's board time: before the e-stop
-    code, body = bench.post("estop")
-    check(code == 200 and body.get("ok"), "POST /api/estop: 200 (%d %s)" % (code, body))
+    code, body = bench.curl_post("estop")
+    check(code == 200 and body.get("ok"), "curl -X POST /api/estop: 200 (%d %s)" % (code, body))
     stopped = bench.wait_for(lambda s: s["run"] is None and s.get("last_run"), 10, "the run's end after the e-stop")
     check(stopped["last_run"].get("exit") == 3 and "e-stop" in stopped["last_run"].get("error", ""),
           "the run ended by the e-stop (exit 3: %s)" % stopped["last_run"].get("error"))

@@ -93,6 +93,21 @@ class Bench:
     def post(self, name, body=None, **kwargs):
         return self.request("POST", "/api/" + name, body=body, **kwargs)
 
+    def curl_post(self, name, token=True):
+        """(status, parsed JSON) of `curl -s -X POST [-H "Authorization: Bearer TOKEN"] URL`, as the docs
+        write it: Debian 12's curl sends no Content-Length on a POST without a body."""
+        command = ["curl", "-s", "-X", "POST", "-o", "-", "-w", "\n%{http_code}", "--max-time", "20"]
+        if token:
+            command += ["-H", "Authorization: Bearer " + self.token]
+        command.append("http://127.0.0.1:%d/api/%s" % (self.port, name))
+        output = subprocess.run(command, capture_output=True, text=True, timeout=30).stdout
+        text, _, code = output.rpartition("\n")
+        try:
+            body = json.loads(text) if text else {}
+        except ValueError:
+            body = {"unparsed": text}
+        return int(code or 0), body
+
     def wait_for(self, done, timeout_s, what):
         deadline = time.time() + timeout_s
         while time.time() < deadline:

@@ -18,6 +18,7 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <mutex>
 #include <optional>
 #include <set>
@@ -365,18 +366,32 @@ struct Dashboard::Impl {
       if (!allow(request, response, false)) return;
       stream(response);
     });
-    auto command = [this](const std::string& route, const std::string& cmd) {
-      server.Post("/api/" + route, [this, cmd](const httplib::Request& request, httplib::Response& response) {
-        if (!allow(request, response, true)) return;
-        reply(response, backend.dispatch(json{{"cmd", cmd}}));
-      });
-    };
-    command("home", "home");
-    command("hold", "hold");
-    command("resume", "resume");
-    command("stop", "stop");
-    command("clear", "clear-fault");
-    command("estop", "estop");
+    // The commands take no body and are carried out before httplib reads one: a POST without
+    // Content-Length (Debian 12's `curl -X POST` sends none, and httplib then waits for the end of
+    // the stream and answers 400), chunked, or with a body past the payload limit is still an
+    // e-stop once it is authenticated (else 401).
+    static const std::map<std::string, std::string> kCommands = {
+        {"/api/home", "home"}, {"/api/hold", "hold"},         {"/api/resume", "resume"},
+        {"/api/stop", "stop"}, {"/api/clear", "clear-fault"}, {"/api/estop", "estop"}};
+    server.set_pre_routing_handler([this](const httplib::Request& request, httplib::Response& response) {
+      if (request.method != "POST") return httplib::Server::HandlerResponse::Unhandled;
+      const auto command = kCommands.find(request.path);
+      if (command != kCommands.end()) {
+        if (allow(request, response, true)) reply(response, backend.dispatch(json{{"cmd", command->second}}));
+        return httplib::Server::HandlerResponse::Handled;
+      }
+      if (!request.has_header("Content-Length") && !request.has_header("Transfer-Encoding")) {
+        if (!allow(request, response, true)) return httplib::Server::HandlerResponse::Handled;
+        response.status = 411;
+        response.set_content(json{{"ok", false},
+                                  {"error", request.path + ": a POST with a body needs Content-Length "
+                                                           "(curl: -d '{...}' or --json '{...}')"}}
+                                 .dump(),
+                             "application/json");
+        return httplib::Server::HandlerResponse::Handled;
+      }
+      return httplib::Server::HandlerResponse::Unhandled;
+    });
     server.Post("/api/run", [this](const httplib::Request& request, httplib::Response& response) {
       if (!allow(request, response, true)) return;
       json body;
