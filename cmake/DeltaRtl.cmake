@@ -100,8 +100,9 @@ endfunction()
 # delta_gate_level_library(TARGET PREFIX Vname TOP top NETLIST file.v RUNTIME library)
 # Verilates a yosys netlist (made at build time by a custom command that outputs NETLIST) with
 # yosys's iCE40 cell models, builds the model archive with Verilator's own makefile and exposes
-# it as the INTERFACE library TARGET, compiled through the compiler cache (cmake/Ccache.cmake). The Verilator runtime (verilated.cpp, FST writer) comes from
-# RUNTIME, a delta_verilated_library target: one runtime for every model.
+# it as the INTERFACE library TARGET, compiled through the compiler cache (cmake/Ccache.cmake).
+# The Verilator runtime (verilated.cpp, FST writer) comes from RUNTIME, a delta_verilated_library
+# target: one runtime for every model.
 # NO_ICE40_DEFAULT_ASSIGNMENTS: cells_sim.v's input-port defaults are SystemVerilog that
 # Verilator 5.006 does not parse; the netlist connects every port it uses. Lint warnings are
 # off: the netlist is generated, not written.
