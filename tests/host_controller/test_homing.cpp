@@ -391,3 +391,71 @@ TEST(Homing, EnablingWithTheDeployedModelMovesNoJointUntilThePathDoes) {
 }
 
 }  // namespace delta::test
+
+#include "delta/board_facts.hpp"
+#include "delta/controller/run_job.hpp"
+#include "delta/io/serial_port.hpp"
+#include "delta/link/session.hpp"
+
+namespace delta::test {
+
+// The service's hooks (HomingOptions::on_telemetry, stop_requested): homing hands every telemetry
+// frame it reads to on_telemetry (no gap of board time beyond a few frames lost on the line, so a
+// watchdog fed from it is fed throughout), and a stop requested 1.5 s in (the drives on, an arm
+// searching up from 5 deg) ends homing at that frame: HostFailure (exit 3, "homing stopped"), the
+// drives off in the truth within 10 ms of board time of the frame that saw it, and never on again.
+TEST(Homing, AStopRequestedEndsHomingAtTheNextFrameWithTheDrivesOffAndEveryFrameIsObserved) {
+  Bench bench("homing_stop", {"--fidelity", "model", "--start-angles", "5,5,5"}, false);
+  std::vector<std::uint32_t> ticks;
+  bool drives_on_when_stopped = false;
+  std::uint32_t stop_tick = 0;
+  {
+    io::SerialPort port(bench.link, static_cast<int>(board::kLinkBaud));
+    link::SessionOptions session_options;
+    session_options.frame_timeout_ms = 2000;
+    link::LinkSession session(port, session_options);
+    session.identify();
+    const golden::BoardWeights weights = golden::read_board_weights(bench.weights);
+    controller::HomingOptions options;
+    options.on_telemetry = [&](const link::TelemetryPayload& f) {
+      ticks.push_back(f.tick);
+      drives_on_when_stopped = f.has(link::TelemetryFlag::kDriveEnable);
+    };
+    options.stop_requested = [&] {
+      if (ticks.size() < 1500) return false;
+      if (stop_tick == 0) stop_tick = ticks.back();
+      return true;
+    };
+    try {
+      controller::home_at_references(session, weights, options, {});
+      ADD_FAILURE() << "homing completed despite the stop";
+    } catch (const controller::HostFailure& failure) {
+      EXPECT_EQ(failure.code(), controller::kExitFault);
+      EXPECT_NE(std::string(failure.what()).find("homing stopped"), std::string::npos) << failure.what();
+    }
+    EXPECT_EQ(ticks.size(), 1500u) << "stop_requested polled on every frame: homing read on after it said true";
+    std::this_thread::sleep_for(std::chrono::milliseconds(500));  // the truth past the stop
+  }
+  ASSERT_EQ(bench.board->terminate(), 0);
+  EXPECT_TRUE(drives_on_when_stopped) << "the stop should come while an arm moves";
+  std::uint32_t widest = 0;
+  for (std::size_t i = 1; i < ticks.size(); ++i) widest = std::max(widest, ticks[i] - ticks[i - 1]);
+  std::printf("observed %zu frames over %.3f s of board time, widest gap %.1f ms; stop at %.4f s\n", ticks.size(),
+              (ticks.back() - ticks.front()) / 1e4, widest / 10.0, stop_tick / 1e4);
+  EXPECT_LE(widest, 50u) << "a gap of board time between observed frames (ticks of 0.1 ms)";
+  const Table truth = read_table(bench.truth);
+  double off_s = -1.0;
+  for (std::size_t i = 0; i < truth.rows.size(); ++i) {
+    const double t = truth.at(i, "t_s");
+    if (t * 1e4 < stop_tick) continue;
+    if (off_s < 0.0 && truth.at(i, "drives_enabled") == 0.0) off_s = t;
+    if (off_s >= 0.0) {
+      ASSERT_EQ(truth.at(i, "drives_enabled"), 0.0) << "the drives on again at " << t << " s";
+    }
+  }
+  ASSERT_GE(off_s, 0.0) << "the drives never went off after the stop";
+  EXPECT_LE(off_s - stop_tick / 1e4, 0.010) << "drives off " << off_s << " s, stop seen at " << stop_tick / 1e4;
+  std::filesystem::remove_all(bench.dir);
+}
+
+}  // namespace delta::test

@@ -41,13 +41,26 @@ double jog_miss(std::int32_t delta, std::int32_t d) {
   return std::abs(d - delta) / static_cast<double>(std::max(3, std::abs(delta) / 5));
 }
 
+// A stop asked while homing (a signal, or HomingOptions::stop_requested), seen on a telemetry frame:
+// home_at_references turns it into HostFailure with the drives off.
+struct StopRequested {
+  int code;
+  std::string why;
+};
+
 }  // namespace
 
-std::optional<link::TelemetryPayload> arms_at_rest(link::LinkSession& session) {
-  link::TelemetryPayload before = session.next_telemetry();
+std::optional<link::TelemetryPayload> arms_at_rest(link::LinkSession& session,
+                                                   const std::function<void(const link::TelemetryPayload&)>& each) {
+  const auto next = [&] {
+    const link::TelemetryPayload f = session.next_telemetry();
+    if (each) each(f);
+    return f;
+  };
+  link::TelemetryPayload before = next();
   int still = 0;
   for (int frames = 0; still < 30 && frames < 2000; ++frames) {
-    const link::TelemetryPayload f = session.next_telemetry();
+    const link::TelemetryPayload f = next();
     still = f.counts == before.counts ? still + 1 : 0;
     before = f;
   }
@@ -170,200 +183,236 @@ HomingReport home_at_references(link::LinkSession& session, const golden::BoardW
       throw HostFailure(link_code(error), std::string("home: ") + error.what());
     }
   };
-
-  link::TelemetryPayload t = checked([&] { return session.next_telemetry(); });
-  if (t.has(link::TelemetryFlag::kFault)) {
-    throw HostFailure(kExitFault, "home: the board has a latched fault: " + link::describe_fault(t.fault_cause) +
-                                      " (clear it deliberately first)");
-  }
-  if (t.has(link::TelemetryFlag::kDriveEnable)) {
-    throw HostFailure(kExitFault, "home: the drives are on (another controller?); homing starts with the drives off");
-  }
-  t = checked([&] {
-    return session.command(link::Command::kHomeStart, [](const link::TelemetryPayload& frame) {
-      return frame.has(link::TelemetryFlag::kHoming) && (frame.home >> 3) == 0;
+  // Every telemetry frame homing reads passes here: the observer first, then the stop requests.
+  const auto observe = [&](const link::TelemetryPayload& f) {
+    if (options.on_telemetry) options.on_telemetry(f);
+    if (stop != nullptr && *stop != 0) {
+      const int signal_number = static_cast<int>(*stop);
+      throw StopRequested{128 + signal_number, "stopped by signal " + std::to_string(signal_number)};
+    }
+    if (options.stop_requested && options.stop_requested())
+      throw StopRequested{kExitFault, "homing stopped on request"};
+  };
+  const auto next = [&] {
+    const link::TelemetryPayload f = session.next_telemetry();
+    observe(f);
+    return f;
+  };
+  // A command and the frames that answer it, observed (those already in the device's buffer too).
+  const auto command = [&](link::Command c, const std::function<bool(const link::TelemetryPayload&)>& done) {
+    session.poll_frames();
+    while (const std::optional<link::TelemetryPayload> f = session.take_telemetry()) observe(*f);
+    return session.command(c, [&](const link::TelemetryPayload& f) {
+      observe(f);
+      return done(f);
     });
-  });
-  say("homing: references forgotten; switches " + std::to_string(t.home & 7) + " (bit j: joint j+1 closed)");
+  };
+  const auto disable = [&] {
+    return command(link::Command::kDisable,
+                   [](const link::TelemetryPayload& f) { return !f.has(link::TelemetryFlag::kDriveEnable); });
+  };
 
-  const std::int32_t search = q8_per_setpoint(options.search_deg_s);
-  const std::int32_t clear = q8_per_setpoint(options.clear_deg_s);
-  std::array<bool, 3> clear_first = {true, true, true};  // the joint moves down off its switch first
-  std::array<double, 3> open_run{};                      // degrees moved down with the switch open (clear phase)
-  std::array<double, 3> one_way{};                       // degrees moved the present way without the switch
-  bool clearing = true;
-  while (true) {
-    if (stop != nullptr && *stop != 0)
-      fail(128 + static_cast<int>(*stop), "stopped by signal " + std::to_string(*stop));
-    // At rest first (a jog ends at speed, and a switch read in motion may still change).
-    {
-      const std::optional<link::TelemetryPayload> rest = checked([&] { return arms_at_rest(session); });
-      if (!rest) fail(kExitFault, "the arms do not come to rest with the drives off");
-      t = *rest;
+  try {
+    link::TelemetryPayload t = checked([&] { return next(); });
+    if (t.has(link::TelemetryFlag::kFault)) {
+      throw HostFailure(kExitFault, "home: the board has a latched fault: " + link::describe_fault(t.fault_cause) +
+                                        " (clear it deliberately first)");
     }
-    const int referenced = (t.home >> 3) & 7;
-    if (referenced == 7) break;
-    if (t.has(link::TelemetryFlag::kFault)) fail(kExitFault, "fault: " + link::describe_fault(t.fault_cause));
-    if (!t.has(link::TelemetryFlag::kHoming))
-      fail(kExitFault, "the board left homing (" + link::describe_state(t) + ")");
-    // A joint not referenced whose switch is closed at rest passed its switch with the drives off
-    // (coasting after another joint's reference stopped them): the board takes a reference only on
-    // an edge with the drives on, so that joint goes down off its switch again.
-    if (!clearing) {
-      for (int j = 0; j < 3; ++j) {
-        if (((referenced >> j) & 1) == 0 && t.home_switch(j)) {
-          say("homing: " + joint_name(j) + " passed its switch with the drives off; clearing it again");
-          clear_first[j] = true;
-          open_run[j] = 0.0;
-          clearing = true;
-        }
-      }
+    if (t.has(link::TelemetryFlag::kDriveEnable)) {
+      throw HostFailure(kExitFault, "home: the drives are on (another controller?); homing starts with the drives off");
     }
-    std::array<std::int32_t, 3> delta{};
-    if (clearing) {
-      bool any = false;
-      for (int j = 0; j < 3; ++j) {
-        const bool done = ((referenced >> j) & 1) != 0 || !clear_first[j] || open_run[j] >= options.clear_margin_deg;
-        delta[j] = done ? 0 : -clear;
-        any = any || !done;
-      }
-      if (!any) {
-        clearing = false;
-        clear_first = {false, false, false};
-        one_way = {};
-        say("homing: every arm below its switch; searching up at " + fixed(options.search_deg_s, 1) + " deg/s");
-        continue;
-      }
-    } else {
-      for (int j = 0; j < 3; ++j) delta[j] = ((referenced >> j) & 1) != 0 ? 0 : search;
-    }
-
-    // Counts set again (the joints not referenced); the jog's setpoint from the references the
-    // drives will start from (with the drives off they follow the counts); drives on; the setpoint.
-    // (Done when the telemetry shows it: the counts of the joints not referenced at the home count
-    // and the references following them; the homed flag may be there from before.)
-    const link::TelemetryPayload off = checked([&] {
-      return session.command(link::Command::kSetHome, [](const link::TelemetryPayload& f) {
-        for (int j = 0; j < 3; ++j) {
-          if (!f.referenced(j) && f.counts[j] != board::kHomeCount) return false;
-          if (f.references[j] != f.counts[j] * 256) return false;
-        }
-        return f.has(link::TelemetryFlag::kHomed);
+    t = checked([&] {
+      return command(link::Command::kHomeStart, [](const link::TelemetryPayload& frame) {
+        return frame.has(link::TelemetryFlag::kHoming) && (frame.home >> 3) == 0;
       });
     });
-    std::array<std::int32_t, 3> actual{};
-    std::array<std::int32_t, 3> code{};
-    try {
-      code = jog_setpoint(weights, off.references, delta, &actual);
-    } catch (const std::runtime_error& error) {
-      fail(kExitFault, std::string("no jog setpoint at the arms' pose: ") + error.what());
-    }
-    for (int j = 0; j < 3; ++j) {
-      // A joint held may creep by a few Q.8 counts per millisecond (an input code's LSB moves the
-      // answer by up to tens of them; a referenced joint's encoder keeps counting, so its count
-      // stays right): at most 16, 0.63 deg/s. A moving one goes its way at about its speed: within
-      // 20 % (far below the trained range, at 7 deg, the input lattice's nearest point moves joint 1
-      // at 113 for 102). jog_miss holds these bounds.
-      if (jog_miss(delta[j], actual[j]) > 1.0) {
-        fail(kExitFault, joint_name(j) + ": the network cannot move it as asked (" + std::to_string(actual[j]) +
-                             " instead of " + std::to_string(delta[j]) + " Q.8 counts per ms)");
-      }
-    }
-    const link::TelemetryPayload on = checked([&] { return session.enable(); });
-    ++report.enables;
-    for (int j = 0; j < 3; ++j) {
-      if (on.references[j] != off.references[j]) fail(kExitFault, joint_name(j) + " moved with the drives off");
-    }
-    checked([&] {
-      session.send_setpoint(on.sample_index + on.fill, code);
-      return 0;
-    });
+    say("homing: references forgotten; switches " + std::to_string(t.home & 7) + " (bit j: joint j+1 closed)");
 
-    // Watch until the drives stop (a switch), the phase's goal, a limit or a fault.
-    std::array<std::int16_t, 3> last = on.counts;
-    std::array<double, 3> lag{};  // |reference - count| [deg] in the last frame with the drives on
-    Clock::time_point last_frame_sent = Clock::now();
-    bool reached = false;
-    std::array<int, 3> closed_frames{};  // frames a searching joint's switch is closed, not referenced
-    while (!reached) {
-      if (stop != nullptr && *stop != 0)
-        fail(128 + static_cast<int>(*stop), "stopped by signal " + std::to_string(*stop));
-      const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
-      if (elapsed > options.timeout_s) fail(kExitFault, "not done within " + fixed(options.timeout_s, 0) + " s");
-      if (Clock::now() - last_frame_sent >= std::chrono::milliseconds(options.keep_alive_ms)) {
-        checked([&] {
-          session.send_identify_request();
-          return 0;
+    const std::int32_t search = q8_per_setpoint(options.search_deg_s);
+    const std::int32_t clear = q8_per_setpoint(options.clear_deg_s);
+    std::array<bool, 3> clear_first = {true, true, true};  // the joint moves down off its switch first
+    std::array<double, 3> open_run{};                      // degrees moved down with the switch open (clear phase)
+    std::array<double, 3> one_way{};                       // degrees moved the present way without the switch
+    bool clearing = true;
+    while (true) {
+      // At rest first (a jog ends at speed, and a switch read in motion may still change).
+      {
+        const std::optional<link::TelemetryPayload> rest = checked([&] { return arms_at_rest(session, observe); });
+        if (!rest) fail(kExitFault, "the arms do not come to rest with the drives off");
+        t = *rest;
+      }
+      const int referenced = (t.home >> 3) & 7;
+      if (referenced == 7) break;
+      if (t.has(link::TelemetryFlag::kFault)) fail(kExitFault, "fault: " + link::describe_fault(t.fault_cause));
+      if (!t.has(link::TelemetryFlag::kHoming))
+        fail(kExitFault, "the board left homing (" + link::describe_state(t) + ")");
+      // A joint not referenced whose switch is closed at rest passed its switch with the drives off
+      // (coasting after another joint's reference stopped them): the board takes a reference only on
+      // an edge with the drives on, so that joint goes down off its switch again.
+      if (!clearing) {
+        for (int j = 0; j < 3; ++j) {
+          if (((referenced >> j) & 1) == 0 && t.home_switch(j)) {
+            say("homing: " + joint_name(j) + " passed its switch with the drives off; clearing it again");
+            clear_first[j] = true;
+            open_run[j] = 0.0;
+            clearing = true;
+          }
+        }
+      }
+      std::array<std::int32_t, 3> delta{};
+      if (clearing) {
+        bool any = false;
+        for (int j = 0; j < 3; ++j) {
+          const bool done = ((referenced >> j) & 1) != 0 || !clear_first[j] || open_run[j] >= options.clear_margin_deg;
+          delta[j] = done ? 0 : -clear;
+          any = any || !done;
+        }
+        if (!any) {
+          clearing = false;
+          clear_first = {false, false, false};
+          one_way = {};
+          say("homing: every arm below its switch; searching up at " + fixed(options.search_deg_s, 1) + " deg/s");
+          continue;
+        }
+      } else {
+        for (int j = 0; j < 3; ++j) delta[j] = ((referenced >> j) & 1) != 0 ? 0 : search;
+      }
+
+      // Counts set again (the joints not referenced); the jog's setpoint from the references the
+      // drives will start from (with the drives off they follow the counts); drives on; the setpoint.
+      // (Done when the telemetry shows it: the counts of the joints not referenced at the home count
+      // and the references following them; the homed flag may be there from before.)
+      const link::TelemetryPayload off = checked([&] {
+        return command(link::Command::kSetHome, [](const link::TelemetryPayload& f) {
+          for (int j = 0; j < 3; ++j) {
+            if (!f.referenced(j) && f.counts[j] != board::kHomeCount) return false;
+            if (f.references[j] != f.counts[j] * 256) return false;
+          }
+          return f.has(link::TelemetryFlag::kHomed);
         });
-        last_frame_sent = Clock::now();
+      });
+      std::array<std::int32_t, 3> actual{};
+      std::array<std::int32_t, 3> code{};
+      try {
+        code = jog_setpoint(weights, off.references, delta, &actual);
+      } catch (const std::runtime_error& error) {
+        fail(kExitFault, std::string("no jog setpoint at the arms' pose: ") + error.what());
       }
-      const link::TelemetryPayload f = checked([&] { return session.next_telemetry(); });
-      if (f.has(link::TelemetryFlag::kFault)) {
-        // The moving joint furthest behind its reference before the fault is the one that stuck.
-        int worst = 0;
-        double worst_error = -1.0;
+      for (int j = 0; j < 3; ++j) {
+        // A joint held may creep by a few Q.8 counts per millisecond (an input code's LSB moves the
+        // answer by up to tens of them; a referenced joint's encoder keeps counting, so its count
+        // stays right): at most 16, 0.63 deg/s. A moving one goes its way at about its speed: within
+        // 20 % (far below the trained range, at 7 deg, the input lattice's nearest point moves joint 1
+        // at 113 for 102). jog_miss holds these bounds.
+        if (jog_miss(delta[j], actual[j]) > 1.0) {
+          fail(kExitFault, joint_name(j) + ": the network cannot move it as asked (" + std::to_string(actual[j]) +
+                               " instead of " + std::to_string(delta[j]) + " Q.8 counts per ms)");
+        }
+      }
+      const link::TelemetryPayload on = checked([&] {
+        return command(link::Command::kEnable, [&](const link::TelemetryPayload& f) {
+          if (f.has(link::TelemetryFlag::kFault)) {
+            throw link::LinkError(link::LinkError::Kind::kFault, port + ": enable: " + link::describe_state(f));
+          }
+          return f.has(link::TelemetryFlag::kDriveEnable) && !f.has(link::TelemetryFlag::kHolding);
+        });
+      });
+      ++report.enables;
+      for (int j = 0; j < 3; ++j) {
+        if (on.references[j] != off.references[j]) fail(kExitFault, joint_name(j) + " moved with the drives off");
+      }
+      checked([&] {
+        session.send_setpoint(on.sample_index + on.fill, code);
+        return 0;
+      });
+
+      // Watch until the drives stop (a switch), the phase's goal, a limit or a fault.
+      std::array<std::int16_t, 3> last = on.counts;
+      std::array<double, 3> lag{};  // |reference - count| [deg] in the last frame with the drives on
+      Clock::time_point last_frame_sent = Clock::now();
+      bool reached = false;
+      std::array<int, 3> closed_frames{};  // frames a searching joint's switch is closed, not referenced
+      while (!reached) {
+        const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
+        if (elapsed > options.timeout_s) fail(kExitFault, "not done within " + fixed(options.timeout_s, 0) + " s");
+        if (Clock::now() - last_frame_sent >= std::chrono::milliseconds(options.keep_alive_ms)) {
+          checked([&] {
+            session.send_identify_request();
+            return 0;
+          });
+          last_frame_sent = Clock::now();
+        }
+        const link::TelemetryPayload f = checked([&] { return next(); });
+        if (f.has(link::TelemetryFlag::kFault)) {
+          // The moving joint furthest behind its reference before the fault is the one that stuck.
+          int worst = 0;
+          double worst_error = -1.0;
+          for (int j = 0; j < 3; ++j) {
+            if (delta[j] != 0 && lag[j] > worst_error) {
+              worst = j;
+              worst_error = lag[j];
+            }
+          }
+          fail(kExitFault, joint_name(worst) + " " + (delta[worst] > 0 ? "moving up" : "moving down") +
+                               ": fault: " + link::describe_fault(f.fault_cause) + " (" + fixed(worst_error, 2) +
+                               " deg behind its reference: stuck, or blocked before its switch)");
+        }
         for (int j = 0; j < 3; ++j) {
-          if (delta[j] != 0 && lag[j] > worst_error) {
-            worst = j;
-            worst_error = lag[j];
+          const double step = static_cast<std::int16_t>(f.counts[j] - last[j]) * kCountDeg;
+          report.travelled_deg[j] += std::abs(step);
+          if (delta[j] != 0) one_way[j] += std::abs(step);
+          if (clearing && delta[j] < 0) open_run[j] = f.home_switch(j) ? 0.0 : open_run[j] - step;
+        }
+        last = f.counts;
+        if (f.has(link::TelemetryFlag::kDriveEnable)) {
+          for (int j = 0; j < 3; ++j) lag[j] = std::abs(f.references[j] / kQ8 - f.counts[j]) * kCountDeg;
+        }
+        if (!f.has(link::TelemetryFlag::kDriveEnable)) {  // a switch referenced its joint (or a disable)
+          const int now = (f.home >> 3) & 7;
+          for (int j = 0; j < 3; ++j) {
+            if (((now >> j) & 1) != 0 && ((referenced >> j) & 1) == 0) {
+              say("homing: " + joint_name(j) + " referenced (" + fixed(one_way[j], 2) +
+                  " deg up from below its switch)");
+              one_way[j] = 0.0;
+            }
+          }
+          break;
+        }
+        for (int j = 0; j < 3; ++j) {
+          if (delta[j] != 0 && one_way[j] > options.max_travel_deg) {
+            fail(kExitFault, joint_name(j) + ": no home switch within " + fixed(options.max_travel_deg, 0) + " deg " +
+                                 (delta[j] > 0 ? "up" : "down") + " (switch missing or not wired?)");
           }
         }
-        fail(kExitFault, joint_name(worst) + " " + (delta[worst] > 0 ? "moving up" : "moving down") +
-                             ": fault: " + link::describe_fault(f.fault_cause) + " (" + fixed(worst_error, 2) +
-                             " deg behind its reference: stuck, or blocked before its switch)");
-      }
-      for (int j = 0; j < 3; ++j) {
-        const double step = static_cast<std::int16_t>(f.counts[j] - last[j]) * kCountDeg;
-        report.travelled_deg[j] += std::abs(step);
-        if (delta[j] != 0) one_way[j] += std::abs(step);
-        if (clearing && delta[j] < 0) open_run[j] = f.home_switch(j) ? 0.0 : open_run[j] - step;
-      }
-      last = f.counts;
-      if (f.has(link::TelemetryFlag::kDriveEnable)) {
-        for (int j = 0; j < 3; ++j) lag[j] = std::abs(f.references[j] / kQ8 - f.counts[j]) * kCountDeg;
-      }
-      if (!f.has(link::TelemetryFlag::kDriveEnable)) {  // a switch referenced its joint (or a disable)
-        const int now = (f.home >> 3) & 7;
+        // A switch closed under a joint still searching with the drives on, frames after its edge:
+        // the edge was missed (the board references within a few cycles); stop and clear it again.
         for (int j = 0; j < 3; ++j) {
-          if (((now >> j) & 1) != 0 && ((referenced >> j) & 1) == 0) {
-            say("homing: " + joint_name(j) + " referenced (" + fixed(one_way[j], 2) + " deg up from below its switch)");
-            one_way[j] = 0.0;
-          }
+          const bool missed = !clearing && delta[j] > 0 && f.has(link::TelemetryFlag::kDriveEnable) &&
+                              f.home_switch(j) && !f.referenced(j);
+          closed_frames[j] = missed ? closed_frames[j] + 1 : 0;
         }
-        break;
-      }
-      for (int j = 0; j < 3; ++j) {
-        if (delta[j] != 0 && one_way[j] > options.max_travel_deg) {
-          fail(kExitFault, joint_name(j) + ": no home switch within " + fixed(options.max_travel_deg, 0) + " deg " +
-                               (delta[j] > 0 ? "up" : "down") + " (switch missing or not wired?)");
+        bool goal = clearing;
+        for (int j = 0; j < 3; ++j) {
+          if (closed_frames[j] >= 5) goal = true;
         }
-      }
-      // A switch closed under a joint still searching with the drives on, frames after its edge:
-      // the edge was missed (the board references within a few cycles); stop and clear it again.
-      for (int j = 0; j < 3; ++j) {
-        const bool missed = !clearing && delta[j] > 0 && f.has(link::TelemetryFlag::kDriveEnable) && f.home_switch(j) &&
-                            !f.referenced(j);
-        closed_frames[j] = missed ? closed_frames[j] + 1 : 0;
-      }
-      bool goal = clearing;
-      for (int j = 0; j < 3; ++j) {
-        if (closed_frames[j] >= 5) goal = true;
-      }
-      for (int j = 0; j < 3; ++j) {
-        if (clearing && delta[j] != 0 && open_run[j] < options.clear_margin_deg) goal = false;
-      }
-      bool recentre = false;
-      for (int j = 0; j < 3; ++j) {
-        const double provisional = (f.counts[j] - board::kHomeCount) * kCountDeg;
-        if (delta[j] != 0 && std::abs(provisional) > options.recentre_deg) recentre = true;
-      }
-      if (goal || recentre) {
-        checked([&] { return session.disable(); });
-        reached = true;
+        for (int j = 0; j < 3; ++j) {
+          if (clearing && delta[j] != 0 && open_run[j] < options.clear_margin_deg) goal = false;
+        }
+        bool recentre = false;
+        for (int j = 0; j < 3; ++j) {
+          const double provisional = (f.counts[j] - board::kHomeCount) * kCountDeg;
+          if (delta[j] != 0 && std::abs(provisional) > options.recentre_deg) recentre = true;
+        }
+        if (goal || recentre) {
+          checked([&] { return disable(); });
+          reached = true;
+        }
       }
     }
+    checked([&] { return disable(); });
+  } catch (const StopRequested& stopped) {
+    fail(stopped.code, stopped.why);
   }
-  checked([&] { return session.disable(); });
   report.final = *session.last_telemetry();
   report.seconds = std::chrono::duration<double>(Clock::now() - start).count();
   return report;

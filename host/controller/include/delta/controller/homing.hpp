@@ -40,6 +40,14 @@ struct HomingOptions {
   double max_travel_deg = 102.4;  // one way without the switch (the board's travel): no reference
   double timeout_s = 120.0;       // the whole homing
   int keep_alive_ms = 20;         // a frame to the board at least this often (its watchdog: 250 ms)
+  // Polled on every telemetry frame homing reads (empty: never): true ends homing at once, the
+  // drives off, with HostFailure (kExitFault, "home: homing stopped on request; ..."). The service's
+  // e-stop, stop and shutdown.
+  std::function<bool()> stop_requested;
+  // Called with every telemetry frame homing reads (empty: none), before stop_requested is polled:
+  // the service feeds its watchdog and the dashboard from it. A hung homing reads no frames, so it
+  // stops calling this.
+  std::function<void(const link::TelemetryPayload&)> on_telemetry;
 };
 
 struct HomingReport {
@@ -50,16 +58,18 @@ struct HomingReport {
 };
 
 // Homes the board; the drives are off and every joint referenced when it returns. `log` gets one
-// line per step (may be empty); a stop signal (non-zero *stop) ends homing with the drives off
-// (HostFailure, exit 128 + signal). HostFailure with kExitFault or kExitLinkLost otherwise.
+// line per step (may be empty); a stop signal (non-zero *stop, read on every telemetry frame) ends
+// homing with the drives off (HostFailure, exit 128 + signal), as options.stop_requested does
+// (exit 3). HostFailure with kExitFault or kExitLinkLost otherwise.
 HomingReport home_at_references(link::LinkSession& session, const golden::BoardWeights& weights,
                                 const HomingOptions& options, const std::function<void(const std::string&)>& log,
                                 const volatile std::sig_atomic_t* stop = nullptr);
 
 // Reads telemetry until the counts have been still for 30 frames (the arms at rest with the drives
-// off), at most 2000 frames: that last frame, or nothing if they never came to rest. LinkError
-// propagates.
-std::optional<link::TelemetryPayload> arms_at_rest(link::LinkSession& session);
+// off), at most 2000 frames: that last frame, or nothing if they never came to rest. `each` (may be
+// empty) sees every frame read. LinkError propagates.
+std::optional<link::TelemetryPayload> arms_at_rest(link::LinkSession& session,
+                                                   const std::function<void(const link::TelemetryPayload&)>& each = {});
 
 // The setpoint whose network answer moves each joint's reference by delta_q8[j] (Q24.8 counts per
 // setpoint period) from `references` (Q24.8), through the deployed model's play (half_plays,
