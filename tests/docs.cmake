@@ -1,0 +1,13 @@
+# The documentation checked against the tree (tests/docs/): the contracts page against the project's
+# contract list, every link of every Markdown file, and every curl command of the docs run as written.
+find_program(DELTA_PYTHON3 python3 REQUIRED)
+set(delta_docs_tests ${CMAKE_CURRENT_LIST_DIR}/docs)
+# docs/contracts.md holds every contract of ../shared/SPEC.md (beside the clone in CI); skipped
+# (exit 77) where that list is absent.
+add_test(NAME Docs.ContractsHoldEveryContractOfTheList
+  COMMAND ${DELTA_PYTHON3} ${delta_docs_tests}/check_contracts.py ${PROJECT_SOURCE_DIR}/docs/contracts.md
+          ${PROJECT_SOURCE_DIR}/../shared/SPEC.md)
+add_test(NAME Docs.EveryLinkResolves
+  COMMAND ${DELTA_PYTHON3} ${delta_docs_tests}/check_doc_links.py ${PROJECT_SOURCE_DIR})
+set_tests_properties(Docs.ContractsHoldEveryContractOfTheList Docs.EveryLinkResolves PROPERTIES
+  LABELS "docs;host" TIMEOUT 60 SKIP_RETURN_CODE 77)
