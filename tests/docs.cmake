@@ -11,3 +11,12 @@ add_test(NAME Docs.EveryLinkResolves
   COMMAND ${DELTA_PYTHON3} ${delta_docs_tests}/check_doc_links.py ${PROJECT_SOURCE_DIR})
 set_tests_properties(Docs.ContractsHoldEveryContractOfTheList Docs.EveryLinkResolves PROPERTIES
   LABELS "docs;host" TIMEOUT 60 SKIP_RETURN_CODE 77)
+# Every curl command of the docs, as written, against `host serve --http` on the model virtual board
+# (kept to real time: alone on the machine, as the dashboard's tests).
+if(NOT DELTA_HOST_ONLY)
+  add_test(NAME Docs.EveryCurlCommandRunsAsWritten
+    COMMAND ${DELTA_PYTHON3} ${delta_docs_tests}/doc_curl_test.py $<TARGET_FILE:deltactl>
+            ${PROJECT_SOURCE_DIR}/weights/paper_like_deployed.json ${PROJECT_SOURCE_DIR})
+  set_tests_properties(Docs.EveryCurlCommandRunsAsWritten PROPERTIES
+    LABELS "docs;dashboard;host;virtual_board" RUN_SERIAL TRUE TIMEOUT 300)
+endif()
