@@ -71,7 +71,7 @@ const RegisterCommand command("compare", 20, [](CLI::App& root) {
       "measured positions (the paper's Table 1, math-model column), and the range per axis of the\n"
       "forward kinematics of the measured angles against the measured positions (the paper's Fig. 4/5).\n"
       "Example: deltactl compare --data rec.csv --plot rec_errors.png");
-  sub->add_option("--data", options->data, "recording (SPEC CSV)")->required();
+  sub->add_option("--data", options->data, "recording (CSV, docs/contracts.md)")->required();
   sub->add_option("--plot", options->plot, "PNG of the errors along the trajectory");
   sub->callback([options] { run_compare(*options); });
 });

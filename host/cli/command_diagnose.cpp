@@ -77,7 +77,7 @@ const RegisterCommand command("diagnose", 60, [](CLI::App& root) {
   CLI::App* sub = root.add_subcommand(
       "diagnose", "Sim-to-real diagnosis: which unmodelled effect explains a recording, proved on held-out data");
   sub->footer(
-      "\nFits the nominal model plus effects of the SPEC vocabulary to FIT only (Levenberg-Marquardt, autodiff\n"
+      "\nFits the nominal model plus the effects of docs/contracts.md to FIT only (Levenberg-Marquardt, autodiff\n"
       "through the sim's inverse kinematics). Forward selection adds the family that lowers the held-out (CHECK)\n"
       "error most while it lowers the mean-square error by more than --significance x floor^2 and significantly\n"
       "(paired test on the CHECK rows, z > 3), floor being the encoder quantisation 0.01/sqrt(12) deg; backward\n"
@@ -97,9 +97,10 @@ const RegisterCommand command("diagnose", 60, [](CLI::App& root) {
       "  deltactl simulate --experiment sweep --seed 3 --effects E.json --out check.csv\n"
       "  deltactl diagnose --data fit.csv --holdout check.csv --json diag.json --predictions pred.csv \\\n"
       "                    --report report/diagnosis.md");
-  sub->add_option("--data", options->data, "FIT recording (SPEC CSV): the only rows the parameters are fitted on")
+  sub->add_option("--data", options->data,
+                  "FIT recording (docs/contracts.md): the only rows the parameters are fitted on")
       ->required();
-  sub->add_option("--holdout", options->holdout, "CHECK recording (SPEC CSV): judges effects, never fitted")
+  sub->add_option("--holdout", options->holdout, "CHECK recording (docs/contracts.md): judges effects, never fitted")
       ->required();
   sub->add_option("--json", options->json, "result document to write")->required();
   sub->add_option("--predictions", options->predictions, "predicted angles for every CHECK row")->required();

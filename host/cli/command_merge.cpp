@@ -203,7 +203,7 @@ const RegisterCommand command("merge", 61, [](CLI::App& root) {
       "changes' phase when the data alone are up to 0.3 s off); a sync column that does not follow the\n"
       "board's output, looks inverted (its changes one level, 0.41 s, off) or whose clocks do not fit\n"
       "the positions is refused.\n"
-      "DATA.csv: a SPEC recording (t_s,alpha1..3_deg,x_m,y_m,z_m, plus drives_enabled and the run's\n"
+      "DATA.csv: a recording (docs/contracts.md: t_s,alpha1..3_deg,x_m,y_m,z_m, plus drives_enabled and the run's\n"
       "references when present) with the run's rows the stage covers, the stage interpolated (cubic) at\n"
       "the aligned instants; compare, diagnose, train and table1 take it. MERGE.json: offset_s,\n"
       "rate_ppm, their standard uncertainties (offset_sd_s, rate_sd_ppm; residuals correlated over 2 s\n"

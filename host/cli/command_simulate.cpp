@@ -53,9 +53,9 @@ const RegisterCommand command("simulate", 10, [](CLI::App& root) {
   auto options = std::make_shared<SimulateOptions>();
   std::string catalogue;
   for (const auto& [name, summary] : trajectory_catalogue()) catalogue += "\n  " + name + ": " + summary;
-  CLI::App* sub = root.add_subcommand("simulate", "Record a trajectory on the virtual robot (SPEC recording CSV)");
+  CLI::App* sub = root.add_subcommand("simulate", "Record a trajectory on the virtual robot (a recording CSV)");
   sub->footer("\nExperiments:" + catalogue +
-              "\nThe virtual robot applies the effects of E.json (shared/SPEC.md vocabulary) in the SPEC order,\n"
+              "\nThe virtual robot applies the effects of E.json (docs/contracts.md's vocabulary) in its order,\n"
               "then quantises angles to 0.01 deg and positions to 6.87 nm.\n"
               "Example: deltactl simulate --experiment validation --effects sim/paper_like_effects.json --out rec.csv");
   sub->add_option("--experiment", options->experiment, "trajectory to run")->capture_default_str();

@@ -143,7 +143,7 @@ const RegisterCommand command("table1", 45, [](CLI::App& root) {
       "model with the effects the hybrid identified, the pure network, the hybrid (identified model + network\n"
       "on the residual), and the deployed model pose-wise and in time order (the recording's rows, in float).\n"
       "Example: deltactl table1 --data fit.csv --holdout sweep.csv --holdout experiment1.csv");
-  sub->add_option("--data", options->data, "recording the models are fitted on (SPEC CSV)")->required();
+  sub->add_option("--data", options->data, "recording the models are fitted on (CSV, docs/contracts.md)")->required();
   sub->add_option("--holdout", options->holdouts, "recording never seen in training (repeatable)")->required();
   sub->add_option("--network", options->network_weights, "use this network W.json instead of training one");
   sub->add_option("--hybrid", options->hybrid_weights, "use this hybrid W.json instead of training one");

@@ -133,7 +133,7 @@ const RegisterCommand command("train", 40, [](CLI::App& root) {
       "--model hybrid fits the same effects and trains the network on what they leave (a PC reference).\n"
       "The same data, seed and options give the same W.json, byte for byte, with any thread count.\n"
       "Example: deltactl train --data rec.csv --out W.json --seed 1 --hidden 25");
-  sub->add_option("--data", options->data, "recording to fit (SPEC CSV)")->required();
+  sub->add_option("--data", options->data, "recording to fit (CSV, docs/contracts.md)")->required();
   sub->add_option("--out", options->out, "weights file to write (W.json)")->required();
   add_training_options(sub, options->training);
   sub->add_option("--model", options->model,

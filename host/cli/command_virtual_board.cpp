@@ -380,7 +380,7 @@ const RegisterCommand command("virtual-board", 72, [](CLI::App& root) {
           "nominal robot.\n"
           "--inject-encoder-skip-at S: at board time S joint 1's A and B lines both invert (a skipped\n"
           "quadrature state: the board latches fault cause 0, encoder skip), for the host's fault tests.\n"
-          "--stage: a measuring stage beside the robot (SPEC.md, \"The lab's measurements\"). drag:NAME or\n"
+          "--stage: a measuring stage beside the robot (docs/contracts.md, \"The lab's measurements\"). drag:NAME or\n"
           "drag:FILE.csv (t_s,x_m,y_m,z_m): with the drives off the stage moves the plate, the arms following\n"
           "through the true geometry and every effect; from one second of board time after the board's\n"
           "first valid frame (a quintic move to the start during that second) along the trajectory, then\n"
