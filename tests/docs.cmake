@@ -1,5 +1,6 @@
 # The documentation checked against the tree (tests/docs/): the contracts page against the project's
-# contract list, every link of every Markdown file, and every curl command of the docs run as written.
+# contract list, every link of every Markdown file, every deltactl command line against its --help,
+# and every curl command of the docs run as written.
 find_program(DELTA_PYTHON3 python3 REQUIRED)
 set(delta_docs_tests ${CMAKE_CURRENT_LIST_DIR}/docs)
 # docs/contracts.md holds every contract of ../shared/SPEC.md (beside the clone in CI); skipped
@@ -9,7 +10,11 @@ add_test(NAME Docs.ContractsHoldEveryContractOfTheList
           ${PROJECT_SOURCE_DIR}/../shared/SPEC.md)
 add_test(NAME Docs.EveryLinkResolves
   COMMAND ${DELTA_PYTHON3} ${delta_docs_tests}/check_doc_links.py ${PROJECT_SOURCE_DIR})
-set_tests_properties(Docs.ContractsHoldEveryContractOfTheList Docs.EveryLinkResolves PROPERTIES
+# Every `deltactl` command line of the docs names commands and options its --help lists.
+add_test(NAME Docs.EveryDeltactlCommandAndOptionExists
+  COMMAND ${DELTA_PYTHON3} ${delta_docs_tests}/check_doc_commands.py $<TARGET_FILE:deltactl> ${PROJECT_SOURCE_DIR})
+set_tests_properties(Docs.ContractsHoldEveryContractOfTheList Docs.EveryLinkResolves
+                     Docs.EveryDeltactlCommandAndOptionExists PROPERTIES
   LABELS "docs;host" TIMEOUT 60 SKIP_RETURN_CODE 77)
 # Every curl command of the docs, as written, against `host serve --http` on the model virtual board
 # (kept to real time: alone on the machine, as the dashboard's tests).
