@@ -77,13 +77,17 @@ def run_curl(command, environment, port):
     return int(code), text
 
 
-def settle(bench, name, refused):
-    """Waits for what the command does before the next one, as a person would."""
+def settle(bench, name, refused, before):
+    """Waits for what the command does before the next one, as a person would; a refused command
+    changed nothing (state, homed, drives, run as before it)."""
     if refused:
         time.sleep(0.5)
         status = bench.status()
-        check(status["run"] is None and not status["drives_enabled"],
-              "after the refused %s: no run, drives off (state %s)" % (name, status["state"]))
+        def seen(s):
+            return {"state": s["state"], "homed": s["homed"], "drives_enabled": s["drives_enabled"],
+                    "a run": s["run"] is not None}
+        check(seen(status) == seen(before),
+              "after the refused %s nothing changed (%s; before: %s)" % (name, seen(status), seen(before)))
     elif name == "home":
         bench.wait_for(lambda s: s["homed"] and s["state"] == "homed", 60, "homed")
     elif name == "run":
@@ -120,6 +124,7 @@ def run_checks(bench, commands, token_lines):
     environment["TOKEN"] = bench.token
     for where, command, documented in commands:
         name = endpoint(command)
+        before = bench.status()
         code, body = run_curl(command, environment, bench.port)
         if code is None:
             events = [l for l in body.splitlines() if l.startswith("data:") or l.startswith("event:")]
@@ -139,7 +144,7 @@ def run_checks(bench, commands, token_lines):
                   "%s: the reply says ok %s (%s)" % (where, documented is None, json.dumps(reply)[:300]))
         else:
             check("state" in reply, "%s: the status has a state (%s)" % (where, reply.get("state")))
-        settle(bench, name, documented is not None and documented >= 400)
+        settle(bench, name, documented is not None and documented >= 400, before)
     print("doc curl: %d commands ran as written" % len(commands))
 
 
