@@ -37,6 +37,7 @@ delta_add_gtest(host_safety_tests
     HostServeSafety.AnyBytesOnTheSocketAreAnsweredAndServeLives
     HostServeSafety.CtlRunWithANameThatIsNotUtf8IsRefusedNamingIt
     HostServeSafety.ThousandsOfConnectionsLeaveServeSmall
+    HostServeSafety.SilentConnectionsDoNotDelayAnEstop
     HostServeSafety.RecordingsStayInTheirFolderAndAreNeverOverwritten
     HostServeSafety.SocketPathThatIsNotASocketIsRefusedAndKept)
 

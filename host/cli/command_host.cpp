@@ -68,6 +68,16 @@ void install_stop_handlers() {
   ::signal(SIGPIPE, SIG_IGN);
 }
 
+// SIGUSR1 to `host serve`: an e-stop, latched as a client's is (serve.hpp).
+volatile std::sig_atomic_t estop_signals = 0;
+void count_estop(int) { estop_signals = estop_signals + 1; }
+void install_estop_handler() {
+  struct sigaction action {};
+  action.sa_handler = count_estop;
+  sigemptyset(&action.sa_mask);
+  ::sigaction(SIGUSR1, &action, nullptr);
+}
+
 [[noreturn]] void fail(int code, const std::string& message) {
   std::cerr << "deltactl: error: " << escape_invalid_utf8(message) << '\n';
   throw CommandExit{code};
@@ -360,7 +370,9 @@ void run_serve(const ServeCliOptions& cli) {
     options.http_token_file = std::string(state && *state ? state : ".") + "/http-token";
   }
   install_stop_handlers();
+  install_estop_handler();
   auto server = or_exit([&] { return std::make_unique<HostServer>(options); });
+  server->set_estop_signal(&estop_signals);
   std::cerr << "host serve: board " << options.port << ", weights " << options.weights_path << ", control socket "
             << options.socket_path << ", recordings in " << options.record_folder << '\n';
   if (!options.http.empty()) {
@@ -735,8 +747,11 @@ const RegisterCommand command("host", 75, [](CLI::App& root) {
       "in --record-folder (a client names a file there, never elsewhere, and never replaces one; runs\n"
       "that name none get a new run-TIME.csv). Under systemd (deltactl.service): READY=1, STATUS= and\n"
       "WATCHDOG=1 by sd_notify. SIGTERM, SIGINT, SIGHUP or SIGQUIT: a run stops at rest, the drives go\n"
-      "off, exit 0. After 'enable' the drives hold the arms where they are until 'disable' (the\n"
-      "controller keeps the link alive meanwhile).\n"
+      "off, exit 0. SIGUSR1 is an e-stop. After 'enable' the drives hold the arms where they are until\n"
+      "'disable' (the controller keeps the link alive meanwhile).\n"
+      "An e-stop (estop from any client, the dashboard's E-STOP, SIGUSR1) turns the drives off at once\n"
+      "(a run at its next cycle, a homing at its next frame) and latches: home, enable and run are\n"
+      "refused for every client (status says e-stopped) until an explicit clear-fault.\n"
       "--http ADDR:PORT also serves the operator's dashboard (a page with live plots and the controls,\n"
       "docs/dashboard.md); loopback unless told otherwise. Every changing request needs the token of\n"
       "--http-token-file (created with mode 0600 when absent) as 'Authorization: Bearer TOKEN'.\n"
@@ -764,8 +779,10 @@ const RegisterCommand command("host", 75, [](CLI::App& root) {
       "then comes back to speed); stop ends the run at rest and disables. Ctrl-C (or SIGTERM, SIGHUP,\n"
       "SIGQUIT) during a run sends stop: the run ends at rest, exit 128+N; a run also stops when its\n"
       "client goes away (use --no-wait to leave it running). enable turns the drives on holding the arms\n"
-      "where they are; disable turns them off. Exit codes as 'host run'; 4 when the controller cannot be\n"
-      "reached.");
+      "where they are; disable turns them off. estop turns the drives off at once and latches: home,\n"
+      "enable and run are refused (exit 3, from every client) until clear-fault, which clears it and the\n"
+      "board's fault. stop also ends a homing. Exit codes as 'host run'; 4 when the controller cannot\n"
+      "be reached.");
   c->add_option("command", ctl->command, "what to ask")
       ->required()
       ->check(CLI::IsMember(

@@ -477,6 +477,43 @@ TEST(HostServeSafety, ThousandsOfConnectionsLeaveServeSmall) {
   std::filesystem::remove_all(server.dir);
 }
 
+TEST(HostServeSafety, SilentConnectionsDoNotDelayAnEstop) {
+  // Every client slot held by an idle client, then 100 connections that never send a line: the
+  // accepting thread used to give each of them 100 ms in turn (an e-stop behind them: seconds).
+  LonelyServer server("serve_silent");
+  ASSERT_TRUE(server.alive());
+  std::vector<std::unique_ptr<Client>> idle, silent;
+  for (int i = 0; i < 32; ++i) idle.push_back(std::make_unique<Client>(server.socket));
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  for (int i = 0; i < 100; ++i) silent.push_back(std::make_unique<Client>(server.socket));
+  std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  const auto start = Clock::now();
+  Client operator_client(server.socket);
+  ASSERT_TRUE(operator_client.connected());
+  const std::vector<std::string> reply = operator_client.request(R"({"cmd":"estop"})", 30);
+  const double took = seconds_since(start);
+  ASSERT_FALSE(reply.empty());
+  std::cout << "estop behind 32 idle and 100 silent clients answered in " << took << " s: " << reply.back() << '\n';
+  // No board here: the disable cannot be confirmed (exit 4), but the e-stop is latched at once.
+  const nlohmann::json answer = nlohmann::json::parse(reply.back());
+  EXPECT_TRUE(answer["estop"].value("latched", false)) << reply.back();
+  EXPECT_LT(took, 1.0) << "the e-stop waited behind the silent connections";
+  silent.clear();
+  idle.clear();
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  // Latched for every client until a clear: a run and a home are refused, exit 3, naming it.
+  const nlohmann::json run =
+      ask(server.socket, R"({"cmd":"run","trajectory":"move:0,0,-0.0718","wait":false})");
+  EXPECT_EQ(run.value("exit", 0), 3) << run.dump();
+  EXPECT_NE(run.value("error", "").find("e-stopped"), std::string::npos) << run.dump();
+  const nlohmann::json status = ask(server.socket, R"({"cmd":"status"})");
+  EXPECT_EQ(status.value("state", ""), "e-stopped") << status.dump();
+  EXPECT_EQ(status["estop"].value("source", ""), "socket") << status.dump();
+  ::kill(server.serve->pid(), SIGTERM);
+  EXPECT_EQ(server.serve->wait(10), 0);
+  std::filesystem::remove_all(server.dir);
+}
+
 TEST(HostServeSafety, RecordingsStayInTheirFolderAndAreNeverOverwritten) {
   LonelyServer server("serve_confined");
   ASSERT_TRUE(server.alive());

@@ -4,7 +4,15 @@
 // to the path's end), a stop by request, SIGTERM while running (a controlled stop, the drives off,
 // exit 0), and the board vanishing and coming back (reconnected, nothing enabled by itself).
 #include <gtest/gtest.h>
+#include <poll.h>
 #include <signal.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <mutex>
+#include <vector>
 
 #include <chrono>
 #include <cmath>
@@ -23,11 +31,82 @@ namespace {
 
 constexpr int kFlagDrives = 1, kFlagHolding = 4;
 
+std::vector<std::string> with_model_fidelity(std::vector<std::string> extra) {
+  extra.insert(extra.begin(), {"--fidelity", "model"});
+  return extra;
+}
+
+// The drives-on intervals of a truth file, [from, to) in board seconds.
+std::vector<std::pair<double, double>> drive_intervals(const Table& truth) {
+  std::vector<std::pair<double, double>> out;
+  bool on = false;
+  for (std::size_t i = 0; i < truth.rows.size(); ++i) {
+    const bool enabled = truth.at(i, "drives_enabled") != 0;
+    if (enabled && !on) out.push_back({truth.at(i, "t_s"), 1e300});
+    if (!enabled && on) out.back().second = truth.at(i, "t_s");
+    on = enabled;
+  }
+  return out;
+}
+
+// systemd's notify socket, emulated: the time of every WATCHDOG=1 datagram.
+class NotifySocket {
+ public:
+  NotifySocket() : path_(::testing::TempDir() + "notify_" + std::to_string(::getpid()) + ".sock") {
+    ::unlink(path_.c_str());
+    fd_ = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+    sockaddr_un address{};
+    address.sun_family = AF_UNIX;
+    std::copy(path_.begin(), path_.end(), address.sun_path);
+    if (::bind(fd_, reinterpret_cast<const sockaddr*>(&address), sizeof address) != 0) throw std::runtime_error(path_);
+    reader_ = std::thread([this] {
+      char message[4096];
+      while (!done_.load()) {
+        pollfd p{fd_, POLLIN, 0};
+        if (::poll(&p, 1, 50) <= 0) continue;
+        const ssize_t n = ::recv(fd_, message, sizeof message, 0);
+        if (n > 0 && std::string(message, static_cast<std::size_t>(n)).find("WATCHDOG=1") != std::string::npos) {
+          std::lock_guard<std::mutex> lock(mutex_);
+          pings_.push_back(std::chrono::steady_clock::now());
+        }
+      }
+    });
+  }
+  ~NotifySocket() {
+    done_.store(true);
+    reader_.join();
+    ::close(fd_);
+    ::unlink(path_.c_str());
+  }
+  const std::string& path() const { return path_; }
+  // The longest time without a ping within [from, to], seconds.
+  double longest_gap(std::chrono::steady_clock::time_point from, std::chrono::steady_clock::time_point to) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto last = from;
+    double gap = 0.0;
+    for (const auto& t : pings_) {
+      if (t < from || t > to) continue;
+      gap = std::max(gap, std::chrono::duration<double>(t - last).count());
+      last = t;
+    }
+    return std::max(gap, std::chrono::duration<double>(to - last).count());
+  }
+
+ private:
+  std::string path_;
+  int fd_ = -1;
+  std::atomic<bool> done_{false};
+  std::mutex mutex_;
+  std::vector<std::chrono::steady_clock::time_point> pings_;
+  std::thread reader_;
+};
+
 struct Server {
   Bench bench;
   std::string socket;
   std::unique_ptr<HostProcess> serve;
-  explicit Server(const std::string& name) : bench(name, {"--fidelity", "model"}, false) {
+  explicit Server(const std::string& name, std::vector<std::string> board_extra = {})
+      : bench(name, with_model_fidelity(std::move(board_extra)), false) {
     socket = bench.dir + "/ctl.sock";
     serve = std::make_unique<HostProcess>(
         std::vector<std::string>{"host", "serve", "--port", bench.link, "--weights", kWeights, "--socket", socket,
@@ -248,6 +327,95 @@ TEST(HostServe, BoardVanishingAndComingBackIsReconnectedWithNothingEnabled) {
   const Table truth = read_table(server.bench.dir + "/truth2.csv");
   ASSERT_GT(truth.rows.size(), 100u);
   for (std::size_t i = 0; i < truth.rows.size(); ++i) ASSERT_EQ(truth.at(i, "drives_enabled"), 0) << i;
+  std::filesystem::remove_all(server.bench.dir);
+}
+
+TEST(HostServe, EstopDuringHomingAndRunLatchesForEveryClientUntilAClear) {
+  // Powered up 25 deg below the home pose: homing takes seconds, long enough to e-stop it. Under an
+  // emulated systemd watchdog of 2 s (as deltactl.service), fed through every homing.
+  NotifySocket notify;
+  ::setenv("NOTIFY_SOCKET", notify.path().c_str(), 1);
+  ::setenv("WATCHDOG_USEC", "2000000", 1);
+  Server server("serve_estop", {"--start-angles", "5,5,5"});
+  ::unsetenv("NOTIFY_SOCKET");
+  ::unsetenv("WATCHDOG_USEC");
+  auto home = std::make_unique<HostProcess>(std::vector<std::string>{"host", "ctl", "--socket", server.socket, "home"},
+                                            server.bench.dir + "/home.ctl");
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+  const CommandResult estop = server.ctl("estop --json");
+  std::cout << "estop during homing: " << estop.out << estop.err;
+  EXPECT_EQ(estop.exit_code, 0) << estop.err;
+  EXPECT_EQ(home->wait(10), 3) << "a stopped homing fails: " << home->out() << home->err();
+  EXPECT_NE((home->out() + home->err()).find("stopped"), std::string::npos) << home->out() << home->err();
+  nlohmann::json status = server.status();
+  EXPECT_EQ(status.value("state", ""), "e-stopped") << status.dump();
+  EXPECT_TRUE(status["estop"].value("latched", false)) << status.dump();
+  EXPECT_EQ(status["estop"].value("source", ""), "socket") << status.dump();
+  ASSERT_TRUE(status["estop"]["board_time_s"].is_number()) << status.dump();
+  const double estopped_at = status["estop"]["board_time_s"].get<double>();
+
+  // Whatever any client asks now, nothing moves: home, enable and run refused, exit 3, naming the e-stop.
+  for (const std::string asked : {"home", "enable", "run --trajectory experiment1 --duration 1"}) {
+    const CommandResult refused = server.ctl(asked);
+    EXPECT_EQ(refused.exit_code, 3) << asked << ": " << refused.out << refused.err;
+    EXPECT_NE((refused.out + refused.err).find("e-stopped"), std::string::npos) << asked << ": " << refused.err;
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  EXPECT_EQ(server.status().value("state", ""), "e-stopped") << "the latch outlives the refused requests";
+
+  // An explicit clear re-arms: homing, then a run, then SIGUSR1 (the signal's e-stop) ends the run and latches again.
+  const CommandResult clear = server.ctl("clear-fault");
+  EXPECT_EQ(clear.exit_code, 0) << clear.err;
+  EXPECT_FALSE(server.status()["estop"].value("latched", true));
+  const double cleared_at = server.status().value("board_time_s", 0.0);
+  const auto homing_from = std::chrono::steady_clock::now();
+  ASSERT_EQ(server.ctl("home").exit_code, 0);
+  const auto homing_to = std::chrono::steady_clock::now();
+  const double gap = notify.longest_gap(homing_from, homing_to);
+  std::cout << "homing took " << std::chrono::duration<double>(homing_to - homing_from).count()
+            << " s; longest time without WATCHDOG=1: " << gap << " s\n";
+  EXPECT_LT(gap, 1.5) << "systemd (WatchdogSec=2s) would kill the service mid-homing";
+  auto run = server.start_run(4.0, "signalled.csv");
+  ASSERT_TRUE(server.wait_for([](const nlohmann::json& s) { return played(s) > 500; }, 120));
+  ::kill(server.serve->pid(), SIGUSR1);
+  EXPECT_EQ(run->wait(30), 3) << run->out() << run->err();
+  EXPECT_NE((run->out() + run->err()).find("e-stop"), std::string::npos) << run->out() << run->err();
+  status = server.status();
+  EXPECT_EQ(status.value("state", ""), "e-stopped") << status.dump();
+  EXPECT_EQ(status["estop"].value("source", ""), "signal") << status.dump();
+  const double signalled_at = status["estop"]["board_time_s"].get<double>();
+  EXPECT_EQ(server.ctl("run --trajectory experiment1 --duration 1").exit_code, 3);
+  // The latch outlives the controller: a restarted one (systemd's Restart=) is e-stopped too.
+  ::kill(server.serve->pid(), SIGTERM);
+  EXPECT_EQ(server.serve->wait(30), 0);
+  server.serve = std::make_unique<HostProcess>(
+      std::vector<std::string>{"host", "serve", "--port", server.bench.link, "--weights", kWeights, "--socket",
+                               server.socket, "--record-folder", server.bench.dir + "/runs"},
+      server.bench.dir + "/serve2");
+  ASSERT_TRUE(server.wait_for([](const nlohmann::json& s) { return s.value("connection", "") == "connected"; }, 60));
+  status = server.status();
+  EXPECT_EQ(status.value("state", ""), "e-stopped") << status.dump();
+  EXPECT_NE(status["estop"].value("source", "").find("signal"), std::string::npos) << status.dump();
+  EXPECT_EQ(server.ctl("home").exit_code, 3);
+  ::kill(server.serve->pid(), SIGTERM);
+  EXPECT_EQ(server.serve->wait(30), 0);
+  ASSERT_EQ(server.bench.board->terminate(), 0);
+
+  // The truth: the drives off within 100 ms of board time of each e-stop, and never on from
+  // an e-stop to the clear, nor after the second e-stop.
+  const auto intervals = drive_intervals(read_table(server.bench.truth));
+  for (const auto& [from, to] : intervals) std::cout << "drives on " << from << " .. " << to << " s\n";
+  for (const auto& [from, to] : intervals) {
+    if (from <= estopped_at) {
+      EXPECT_LT(to, estopped_at + 0.1) << "homing went on after the e-stop";
+    } else {
+      EXPECT_GT(from, cleared_at) << "the drives came on while latched";
+    }
+    if (from <= signalled_at && to > signalled_at) {
+      EXPECT_LT(to, signalled_at + 0.1) << "the run went on";
+    }
+    EXPECT_FALSE(from > signalled_at) << "the drives came on after the second e-stop";
+  }
   std::filesystem::remove_all(server.bench.dir);
 }
 

@@ -18,11 +18,13 @@
 #include <ctime>
 #include <deque>
 #include <filesystem>
+#include <fstream>
 #include <functional>
 #include <iostream>
 #include <mutex>
 #include <optional>
 #include <thread>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -132,6 +134,7 @@ struct HostServer::Impl {
   ino_t socket_inode = 0;
   std::atomic<bool> shutting_down{false};
   const volatile std::sig_atomic_t* stop_signal = nullptr;
+  const volatile std::sig_atomic_t* estop_signal = nullptr;  // counts SIGUSR1 (set_estop_signal)
 
   // ---- the board thread's view, for status (guarded by mutex) ----
   std::mutex mutex;
@@ -144,6 +147,20 @@ struct HostServer::Impl {
   std::shared_ptr<RunJob> running;  // queued or running
   bool holding_enabled = false;     // drives on by `enable`: the idle loop keeps the link alive
   std::atomic<std::int64_t> heartbeat_ns{0};
+
+  // ---- the e-stop latch (guarded by mutex) ----
+  // Set by an estop from any front end (socket, dashboard, SIGUSR1): from then on home, enable and
+  // run are refused for every client until an explicit clear-fault (POST /api/clear). Nothing else
+  // clears it: not a reconnect, not a queued request, not the end of the run it stopped.
+  struct EstopLatch {
+    bool latched = false;
+    std::string source;                 // who asked first: socket | dashboard | signal
+    std::optional<double> board_time_s; // the board's time then (null: no telemetry yet)
+  };
+  EstopLatch estop_latch;
+  std::string estop_file;  // the latch kept across a restart: <recordings>/.estop-latched (JSON)
+  bool homing = false;  // the board thread is homing (a stop, an estop or the shutdown ends it)
+  volatile std::sig_atomic_t homing_stop = 0;  // non-zero: the homing ends now, drives off
 
   // ---- client threads: counted, each ends on its own ----
   std::mutex clients_mutex;
@@ -192,6 +209,7 @@ struct HostServer::Impl {
       t = telemetry;
       job = running;
       out["last_run"] = last_run;
+      out["estop"] = estop_json();
     }
     RunProgress p;
     if (job) {
@@ -200,9 +218,10 @@ struct HostServer::Impl {
       if (p.telemetry) t = p.telemetry;
       out["run"] = {{"played", p.played}, {"planned", p.planned}, {"feed", feed_name(p.feed)}};
     }
-    out["state"] = out["connection"] == "disconnected" ? state_name(HostState::kDisconnected)
-                   : t                                 ? state_name(state_of(*t))
-                                                       : "unknown";
+    out["state"] = out["estop"]["latched"].get<bool>() ? "e-stopped"
+                   : out["connection"] == "disconnected" ? state_name(HostState::kDisconnected)
+                   : t                                   ? state_name(state_of(*t))
+                                                         : "unknown";
     if (t) {
       out["description"] = link::describe_state(*t);
       out["fault_bits"] = t->fault_cause;
@@ -225,9 +244,55 @@ struct HostServer::Impl {
   // The work queued for the board thread, or the reply that refuses it (busy).
   std::optional<json> enqueue(const std::shared_ptr<Work>& work) {
     std::lock_guard<std::mutex> lock(mutex);
+    if (moves(work->command) && estop_latch.latched) return estop_refusal(work->command);
     if (running || !queue.empty()) return failure(kExitFault, "busy: a run or command is going on (stop it first)");
     queue.push_back(work);
+    if (work->job) running = work->job;  // taken by the board thread next
     return std::nullopt;
+  }
+  static bool moves(const std::string& command) {
+    return command == "home" || command == "enable" || command == "run";
+  }
+  // The refusal of `command` while the e-stop is latched (mutex held).
+  json estop_refusal(const std::string& command) const {
+    std::string when;
+    if (estop_latch.board_time_s) {
+      char text[48];
+      std::snprintf(text, sizeof text, " at board time %.3f s", *estop_latch.board_time_s);
+      when = text;
+    }
+    json refusal = failure(kExitFault, command + " refused: e-stopped (by the " + estop_latch.source + when +
+                                           "); nothing moves until a clear (deltactl host ctl clear-fault, or "
+                                           "POST /api/clear, or Clear on the dashboard)");
+    refusal["state"] = "e-stopped";
+    return refusal;
+  }
+  // The latch written where a restarted controller finds it (mutex held); a failure to write is
+  // said, and the latch holds in this process all the same.
+  void keep_latch() const {
+    std::ofstream out(estop_file, std::ios::trunc);
+    out << estop_json().dump() << '\n';
+    if (!out) std::cerr << "host serve: cannot keep the e-stop latch in " << estop_file << " across a restart\n";
+  }
+  // A latch left by an earlier controller (not cleared before it stopped) holds here too.
+  void restore_latch() {
+    std::ifstream in(estop_file);
+    if (!in) return;
+    const json kept = json::parse(in, nullptr, false);
+    estop_latch.latched = true;
+    estop_latch.source = kept.is_object() && kept.value("source", json()).is_string()
+                             ? kept["source"].get<std::string>() + ", before a restart"
+                             : std::string("controller before a restart");
+    if (kept.is_object() && kept.value("board_time_s", json()).is_number()) {
+      estop_latch.board_time_s = kept["board_time_s"].get<double>();
+    }
+    std::cerr << "host serve: e-stopped (by the " << estop_latch.source << ", " << estop_file
+              << "): nothing moves until a clear-fault" << std::endl;
+  }
+  json estop_json() const {  // mutex held
+    return {{"latched", estop_latch.latched},
+            {"source", estop_latch.latched ? json(estop_latch.source) : json(nullptr)},
+            {"board_time_s", estop_latch.board_time_s ? json(*estop_latch.board_time_s) : json(nullptr)}};
   }
   json wait_for(const std::shared_ptr<Work>& work) {
     std::unique_lock<std::mutex> lock(mutex);
@@ -389,6 +454,7 @@ struct HostServer::Impl {
   json execute(link::LinkSession& session, Work& work) {
     {
       std::lock_guard<std::mutex> lock(mutex);
+      if (moves(work.command) && estop_latch.latched) return estop_refusal(work.command);
       if (connection == "mismatch" && (work.command == "run" || work.command == "enable")) {
         return failure(kExitMismatch, note);
       }
@@ -400,9 +466,32 @@ struct HostServer::Impl {
       if (t.has(link::TelemetryFlag::kDriveEnable)) {
         return failure(kExitFault, name + ": the drives are on; home only with the drives off");
       }
-      // Against the references (homing.hpp): the drives move the arms to their home switches.
-      home_at_references(session, weights, HomingOptions{},
-                         [](const std::string& line) { std::cerr << "host serve: " << line << std::endl; });
+      // Against the references (homing.hpp): the drives move the arms to their home switches. A
+      // stop, an estop or the shutdown ends it at the next telemetry frame with the drives off.
+      {
+        std::lock_guard<std::mutex> lock(mutex);
+        if (estop_latch.latched) return estop_refusal(work.command);  // an estop since the check above
+        if (shutting_down.load()) return failure(kExitFault, "home refused: the controller is shutting down");
+        homing = true;
+        homing_stop = 0;
+      }
+      struct Done {
+        Impl& s;
+        ~Done() {
+          std::lock_guard<std::mutex> lock(s.mutex);
+          s.homing = false;
+        }
+      } done{*this};
+      try {
+        home_at_references(
+            session, weights, homing_options(),
+            [](const std::string& line) { std::cerr << "host serve: " << line << std::endl; }, &homing_stop);
+      } catch (const HostFailure& error) {
+        if (homing_stop == 0) throw;
+        std::lock_guard<std::mutex> lock(mutex);
+        throw HostFailure(kExitFault, "home stopped (" + std::string(estop_latch.latched ? "e-stop" : "stop") +
+                                          "): drives off, not homed");
+      }
     } else if (work.command == "enable") {
       // Drives on, holding the arms where they are; the idle loop keeps the hold alive.
       session.enable();
@@ -421,7 +510,13 @@ struct HostServer::Impl {
     } else if (work.command == "disable") {
       session.disable();
     } else if (work.command == "clear-fault") {
-      session.clear_fault();
+      // The explicit clear: the board's latched fault (if any), then the e-stop latch.
+      if (fresh_telemetry(session).has(link::TelemetryFlag::kFault)) session.clear_fault();
+      std::lock_guard<std::mutex> lock(mutex);
+      if (estop_latch.latched) std::cerr << "host serve: e-stop cleared" << std::endl;
+      estop_latch = EstopLatch{};
+      std::error_code ignored;
+      std::filesystem::remove(estop_file, ignored);
     } else if (work.command == "run") {
       const link::TelemetryPayload t0 = fresh_telemetry(session);
       static const volatile std::sig_atomic_t no_signal = 0;
@@ -480,31 +575,118 @@ struct HostServer::Impl {
     ::close(fd);
   }
 
-  // A client beyond kMaxClients, on the accepting thread: a stop, an e-stop or a feed hold is
-  // always answered (idle clients must never keep an operator from stopping the robot); anything
-  // else is refused as busy. Its request line must come within kOverflowWaitMs.
-  void answer_overflow(int fd) {
-    static constexpr int kOverflowWaitMs = 100;
-    const json busy = failure(kExitFault, "busy: " + std::to_string(kMaxClients) +
-                                              " clients are connected; try again later (stop, estop and hold are "
-                                              "always taken)");
+  // ---------------------------------------------------------------------------------------------
+  // Accepting. A client gets its own thread, up to kMaxClients at once. One beyond them waits on the
+  // accepting thread's poll set, at most kOverflowWaitMs, for its request line: a stop, an e-stop or
+  // a feed hold is always carried out (idle or silent clients must never keep an operator from
+  // stopping the robot, however many there are); anything else is answered busy.
+  static constexpr int kOverflowWaitMs = 100;
+  static constexpr std::size_t kMaxOverflow = 512;
+  struct Overflow {
+    int fd;
     std::string line;
-    char chunk[4096];
-    const auto deadline = Clock::now() + std::chrono::milliseconds(kOverflowWaitMs);
-    while (line.find('\n') == std::string::npos && line.size() < sizeof chunk) {
-      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()).count();
-      pollfd p{fd, POLLIN, 0};
-      if (left <= 0 || ::poll(&p, 1, static_cast<int>(left)) <= 0) break;
-      const ssize_t n = ::recv(fd, chunk, sizeof chunk - line.size(), 0);
-      if (n <= 0) break;
-      line.append(chunk, static_cast<std::size_t>(n));
+    Clock::time_point deadline;
+    bool answered = false;
+  };
+
+  void admit(const std::shared_ptr<Impl>& shared, int client, std::vector<Overflow>& overflow) {
+    // A client that does not read its replies cannot hold a thread for long.
+    const timeval send_timeout{2, 0};
+    ::setsockopt(client, SOL_SOCKET, SO_SNDTIMEO, &send_timeout, sizeof send_timeout);
+    bool admitted = false;
+    {
+      std::lock_guard<std::mutex> lock(clients_mutex);
+      if (clients < kMaxClients) {
+        ++clients;
+        admitted = true;
+      }
     }
-    const std::size_t end = line.find('\n');
+    if (!admitted) {
+      if (overflow.size() >= kMaxOverflow) {
+        send_line(client, overflow_busy());
+        ::close(client);
+      } else {
+        overflow.push_back({client, std::string(), Clock::now() + std::chrono::milliseconds(kOverflowWaitMs)});
+      }
+      return;
+    }
+    ::fcntl(client, F_SETFL, ::fcntl(client, F_GETFL) & ~O_NONBLOCK);  // its thread polls and blocks
+    try {
+      std::thread([shared, client] {
+        shared->client_thread(client);
+        std::lock_guard<std::mutex> lock(shared->clients_mutex);
+        --shared->clients;
+        shared->clients_gone.notify_all();
+      }).detach();
+    } catch (const std::system_error&) {  // no thread to be had now: refused, not fatal
+      ::close(client);
+      std::lock_guard<std::mutex> lock(clients_mutex);
+      --clients;
+    }
+  }
+
+  json overflow_busy() const {
+    return failure(kExitFault, "busy: " + std::to_string(kMaxClients) +
+                                   " clients are connected; try again later (stop, estop and hold are always taken)");
+  }
+
+  // What an overflow client has sent; its line answered when complete.
+  void read_overflow(const std::shared_ptr<Impl>& shared, Overflow& o) {
+    char chunk[4096];
+    const ssize_t n = ::recv(o.fd, chunk, sizeof chunk, 0);
+    if (n <= 0) {
+      o.answered = true;  // gone (or nothing): closed by settle_overflow
+      return;
+    }
+    o.line.append(chunk, static_cast<std::size_t>(n));
+    const std::size_t end = o.line.find('\n');
+    if (end == std::string::npos) {
+      if (o.line.size() > sizeof chunk) {
+        send_line(o.fd, overflow_busy());
+        o.answered = true;
+      }
+      return;
+    }
+    o.answered = true;
     json refusal;
-    const std::optional<json> request =
-        end == std::string::npos ? std::nullopt : parse_request(line.substr(0, end), refusal);
+    const std::optional<json> request = parse_request(o.line.substr(0, end), refusal);
     const std::string command = request ? (*request)["cmd"].get<std::string>() : std::string();
-    send_line(fd, command == "stop" || command == "estop" || command == "hold" ? reply_to(*request) : busy);
+    if (command != "stop" && command != "estop" && command != "hold") {
+      send_line(o.fd, overflow_busy());
+      return;
+    }
+    if (command == "estop") estop_begin("socket");  // latched and the disable queued now, not after a thread starts
+    // The reply (an e-stop's waits for the drives off) on a thread of its own: the accepting thread goes on.
+    const int fd = ::dup(o.fd);
+    if (fd < 0) return;
+    const json asked = *request;
+    try {
+      std::thread([shared, fd, asked] {
+        const int flags = ::fcntl(fd, F_GETFL);
+        ::fcntl(fd, F_SETFL, flags & ~O_NONBLOCK);
+        send_line(fd, shared->reply_to(asked));
+        ::close(fd);
+      }).detach();
+    } catch (const std::system_error&) {
+      ::close(fd);
+    }
+  }
+
+  // Overflow clients answered, gone or past their time: closed (the late ones told busy).
+  void settle_overflow(std::vector<Overflow>& overflow) {
+    const auto now = Clock::now();
+    for (auto it = overflow.begin(); it != overflow.end();) {
+      if (!it->answered && now >= it->deadline) {
+        send_line(it->fd, overflow_busy());
+        it->answered = true;
+      }
+      if (it->answered) {
+        ::close(it->fd);
+        it = overflow.erase(it);
+      } else {
+        ++it;
+      }
+    }
   }
 
   // The request as a JSON object with a string "cmd", or the reply that refuses it.
@@ -536,7 +718,7 @@ struct HostServer::Impl {
   }
 
   // Every request but a run that waits: the reply.
-  json reply_to(const json& request) {
+  json reply_to(const json& request, const std::string& source = "socket") {
     try {
       const std::string command = request["cmd"];
       if (command == "status") return status();
@@ -549,10 +731,17 @@ struct HostServer::Impl {
         const FeedRequest feed = command == "hold"     ? FeedRequest::kHold
                                  : command == "resume" ? FeedRequest::kResume
                                                        : FeedRequest::kStop;
-        if (!job || !job->request(feed)) return failure(kExitFault, "no run is streaming");
+        if (!job || !job->request(feed)) {
+          if (command == "stop" && stop_homing()) {
+            json reply = success();
+            reply["event"] = "stop: the homing ends, drives off";
+            return reply;
+          }
+          return failure(kExitFault, "no run is streaming");
+        }
         return success();
       }
-      if (command == "estop") return estop();
+      if (command == "estop") return estop(source);
       if (command == "home" || command == "enable" || command == "disable" || command == "clear-fault") {
         auto work = std::make_shared<Work>();
         work->command = command;
@@ -562,12 +751,7 @@ struct HostServer::Impl {
         std::shared_ptr<Work> work;
         json refused;
         if (!make_run(request, work, refused)) return refused;
-        {
-          std::lock_guard<std::mutex> lock(mutex);
-          if (running || !queue.empty()) return failure(kExitFault, "busy: a run or command is going on");
-          queue.push_back(work);
-          running = work->job;  // taken by the board thread next
-        }
+        if (std::optional<json> busy = enqueue(work)) return *busy;
         json reply = success();
         reply["event"] = "queued";
         reply["record"] = escape_invalid_utf8(work->record);
@@ -581,32 +765,92 @@ struct HostServer::Impl {
     }
   }
 
-  // The drives off ahead of anything queued; a run queued but not started never enables.
-  json estop() {
+  // The e-stop: latched first (from now on nothing that moves is taken, from any client), then the
+  // drives off ahead of anything queued: a streaming run's loop disables at its next cycle, a
+  // homing ends at its next telemetry frame, work queued that would move is refused, and a disable
+  // goes first in the board thread's queue. Answered when that disable is done (the drives off).
+  json estop(const std::string& source) {
+    const std::shared_ptr<Work> work = estop_begin(source);
+    std::unique_lock<std::mutex> lock(mutex);
+    work_done.wait_for(lock, std::chrono::seconds(3), [&] { return work->done || shutting_down.load(); });
+    json reply = work->done ? work->reply
+                            : failure(kExitLinkLost,
+                                      "estop: the drives' disable was not confirmed within 3 s (the board's "
+                                      "watchdog turns them off 250 ms after the last frame); the e-stop stays latched");
+    if (work->done && reply.value("ok", false)) reply["event"] = "estop: drives off; latched until a clear-fault";
+    reply["estop"] = estop_json();
+    reply["state"] = "e-stopped";
+    return reply;
+  }
+  // The part of the e-stop that does not wait (the signal's, on the accepting thread): the disable queued.
+  std::shared_ptr<Work> estop_begin(const std::string& source) {
     std::shared_ptr<RunJob> job;
+    std::deque<std::shared_ptr<Work>> refused;
     auto work = std::make_shared<Work>();
     work->command = "disable";
     {
       std::lock_guard<std::mutex> lock(mutex);
       job = running;
-      if (!job) queue.push_front(work);
     }
-    if (job) {
-      job->request(FeedRequest::kEstop);
-      json reply = success();
-      reply["event"] = "estop: the run's loop disables the drives";
-      return reply;
+    // The board's time now: a streaming run's newest frame, else the board thread's.
+    std::optional<link::TelemetryPayload> now = job ? job->progress().telemetry : std::nullopt;
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      if (!now) now = telemetry;
+      if (!estop_latch.latched) {
+        estop_latch.latched = true;
+        estop_latch.source = source;
+        estop_latch.board_time_s = now ? std::optional<double>(now->tick / 1e4) : std::optional<double>();
+        std::cerr << "host serve: e-stop by the " << source << " (latched until a clear-fault)" << std::endl;
+        keep_latch();
+      }
+      job = running;
+      for (auto it = queue.begin(); it != queue.end();) {
+        if (moves((*it)->command)) {
+          refused.push_back(*it);
+          it = queue.erase(it);
+        } else {
+          ++it;
+        }
+      }
+      if (homing) homing_stop = SIGUSR1;
+      queue.push_front(work);
     }
-    std::unique_lock<std::mutex> lock(mutex);
-    work_done.wait_for(lock, std::chrono::seconds(2), [&] { return work->done || shutting_down.load(); });
-    return work->done ? work->reply : failure(kExitLinkLost, "estop: the board thread did not answer within 2 s");
+    for (auto& w : refused) finish(w, estop_refusal_locked(w->command), nullptr);
+    if (job) job->request(FeedRequest::kEstop);
+    return work;
+  }
+  json estop_refusal_locked(const std::string& command) {
+    std::lock_guard<std::mutex> lock(mutex);
+    return estop_refusal(command);
+  }
+
+  // A stop while the board thread homes: the homing ends at its next frame, drives off.
+  bool stop_homing() {
+    std::lock_guard<std::mutex> lock(mutex);
+    if (!homing) return false;
+    homing_stop = SIGINT;
+    return true;
+  }
+
+  // The service's homing: every frame it reads is the board's state now (status, the e-stop's
+  // board time), feeds the dashboard and proves the board thread alive (systemd's watchdog).
+  HomingOptions homing_options() {
+    HomingOptions o;
+    o.on_telemetry = [this](const link::TelemetryPayload& t) {
+      beat();
+      observed(t);
+      std::lock_guard<std::mutex> lock(mutex);
+      telemetry = t;
+    };
+    return o;
   }
 
   // One control-socket request through the same dispatch (a run is queued: no "wait"), for the dashboard.
   json dispatch(const json& request) {
     json refusal;
     const std::optional<json> checked = parse_request(request.dump(), refusal);
-    return checked ? reply_to(*checked) : refusal;
+    return checked ? reply_to(*checked, "dashboard") : refusal;
   }
 
   // A run request checked whole (types, ranges, the trajectory, the recording's name); false with
@@ -718,6 +962,8 @@ HostServer::HostServer(const ServeOptions& options) : impl_(std::make_shared<Imp
   if (error) {
     throw HostFailure(kExitBadInput, "--record-folder '" + options.record_folder + "': " + error.message());
   }
+  impl_->estop_file = impl_->record_folder + "/.estop-latched";
+  impl_->restore_latch();
   sockaddr_un address{};
   address.sun_family = AF_UNIX;
   if (options.socket_path.empty() || options.socket_path.size() >= sizeof address.sun_path) {
@@ -737,7 +983,7 @@ HostServer::HostServer(const ServeOptions& options) : impl_(std::make_shared<Imp
     throw HostFailure(kExitFailure, options.socket_path + ": another controller is serving there");
   }
   if (S_ISSOCK(present.st_mode)) ::unlink(options.socket_path.c_str());
-  if (::bind(fd, reinterpret_cast<const sockaddr*>(&address), sizeof address) != 0 || ::listen(fd, 64) != 0) {
+  if (::bind(fd, reinterpret_cast<const sockaddr*>(&address), sizeof address) != 0 || ::listen(fd, SOMAXCONN) != 0) {
     const std::string why = std::strerror(errno);
     ::close(fd);
     throw HostFailure(kExitFailure, options.socket_path + ": cannot listen: " + why);
@@ -748,6 +994,7 @@ HostServer::HostServer(const ServeOptions& options) : impl_(std::make_shared<Imp
     impl_->socket_device = bound.st_dev;
     impl_->socket_inode = bound.st_ino;
   }
+  ::fcntl(fd, F_SETFL, ::fcntl(fd, F_GETFL) | O_NONBLOCK);  // accepting drains the backlog, never blocks
   impl_->listen_fd = fd;
   if (!options.http.empty()) {
     try {
@@ -767,6 +1014,8 @@ HostServer::HostServer(const ServeOptions& options) : impl_(std::make_shared<Imp
     }
   }
 }
+
+void HostServer::set_estop_signal(const volatile std::sig_atomic_t* count) { impl_->estop_signal = count; }
 
 std::string HostServer::dashboard_url() const { return impl_->dashboard ? impl_->dashboard->url() : ""; }
 
@@ -799,41 +1048,30 @@ int HostServer::run(const volatile std::sig_atomic_t& stop_signal) {
   if (const char* usec = std::getenv("WATCHDOG_USEC")) watchdog_us = std::atoll(usec);
   auto next_ping = Clock::now();
   std::string last_status;
+  std::sig_atomic_t estops_seen = s.estop_signal ? *s.estop_signal : 0;
+  std::vector<Impl::Overflow> overflow;
   while (stop_signal == 0) {
-    pollfd p{s.listen_fd, POLLIN, 0};
-    if (::poll(&p, 1, 100) > 0 && (p.revents & POLLIN)) {
-      const int client = ::accept4(s.listen_fd, nullptr, nullptr, SOCK_CLOEXEC);
-      if (client >= 0) {
-        // A client that does not read its replies cannot hold a thread for long.
-        const timeval send_timeout{2, 0};
-        ::setsockopt(client, SOL_SOCKET, SO_SNDTIMEO, &send_timeout, sizeof send_timeout);
-        bool admitted = false;
-        {
-          std::lock_guard<std::mutex> lock(s.clients_mutex);
-          if (s.clients < kMaxClients) {
-            ++s.clients;
-            admitted = true;
-          }
-        }
-        if (!admitted) {
-          s.answer_overflow(client);
-          ::close(client);
-        } else {
-          try {
-            std::thread([shared, client] {
-              shared->client_thread(client);
-              std::lock_guard<std::mutex> lock(shared->clients_mutex);
-              --shared->clients;
-              shared->clients_gone.notify_all();
-            }).detach();
-          } catch (const std::system_error&) {  // no thread to be had now: refused, not fatal
-            ::close(client);
-            std::lock_guard<std::mutex> lock(s.clients_mutex);
-            --s.clients;
-          }
+    if (s.estop_signal && *s.estop_signal != estops_seen) {  // SIGUSR1: the e-stop, latched
+      estops_seen = *s.estop_signal;
+      s.estop_begin("signal");
+    }
+    // The listening socket and every client beyond kMaxClients still owing its line, in one poll:
+    // silent connections wait side by side, never one after another.
+    std::vector<pollfd> fds{{s.listen_fd, POLLIN, 0}};
+    for (const Impl::Overflow& o : overflow) fds.push_back({o.fd, POLLIN, 0});
+    if (::poll(fds.data(), fds.size(), 20) > 0) {
+      for (std::size_t i = 1; i < fds.size(); ++i) {
+        if (fds[i].revents != 0) s.read_overflow(shared, overflow[i - 1]);
+      }
+      if (fds[0].revents & POLLIN) {
+        for (int accepted = 0; accepted < 64; ++accepted) {  // the whole backlog, a bounded batch
+          const int client = ::accept4(s.listen_fd, nullptr, nullptr, SOCK_CLOEXEC | SOCK_NONBLOCK);
+          if (client < 0) break;
+          s.admit(shared, client, overflow);
         }
       }
     }
+    s.settle_overflow(overflow);
     const auto now = Clock::now();
     if (watchdog_us > 0 && now >= next_ping) {
       // Only while the board thread goes round its loop (or a run reports progress).
@@ -854,10 +1092,13 @@ int HostServer::run(const volatile std::sig_atomic_t& stop_signal) {
   // A run sees the same signal and stops at rest (within about 1 s); the board thread then
   // disables and ends. Bounded: after 5 s the shutdown goes on (the board's watchdog stops the torque).
   const auto give_up = Clock::now() + std::chrono::seconds(5);
+  for (Impl::Overflow& o : overflow) ::close(o.fd);
+  overflow.clear();
   for (;;) {
+    s.stop_homing();  // a homing ends at its next frame, drives off
     {
       std::lock_guard<std::mutex> lock(s.mutex);
-      if (!s.running) break;
+      if (!s.running && !s.homing) break;
       if (s.running) s.running->request(FeedRequest::kStop);  // a queued run must not start now
     }
     if (Clock::now() > give_up) break;

@@ -32,8 +32,13 @@
 // stops at rest if that client goes away (closes its socket) before the end. Without "wait":
 // {"ok": true, "event": "queued", "record"}. CODE is what `host run` would exit with (0, 2 bad
 // request, 3 fault/not ready/refused/busy, 4 link lost, 5 mismatch).
-// estop: the drives off ahead of anything queued (a streaming run's loop disables at its next
-// cycle; otherwise a disable goes first in the board thread's queue); never refused as busy.
+// estop: latched first, then the drives off ahead of anything queued (a streaming run's loop
+// disables at its next cycle, a homing ends at its next frame, queued work that would move is
+// refused; a disable goes first in the board thread's queue); never refused as busy; answered
+// when the drives are off. While latched ("state": "e-stopped", "estop": {"latched", "source",
+// "board_time_s"} in status), home, enable and run are refused for every client (exit 3) until
+// clear-fault, which clears the board's fault and the latch. SIGUSR1 to serve is an e-stop too.
+// stop also ends a homing (drives off, not homed).
 #pragma once
 
 #include <csignal>
@@ -72,6 +77,9 @@ class HostServer {
   // One request line answered as the socket answers it (a run is queued: "wait" is taken as
   // false); one reply line without the newline. For other front ends (a dashboard) while run() serves.
   std::string handle(const std::string& request_line);
+  // A counter a signal handler increments (SIGUSR1 in `host serve`): each change is an e-stop from
+  // the "signal", latched as a client's estop is. Set before run().
+  void set_estop_signal(const volatile std::sig_atomic_t* count);
   // The dashboard's "http://ADDR:PORT" as bound ("" without --http).
   std::string dashboard_url() const;
 
