@@ -550,6 +550,13 @@ void run_ctl(const CtlOptions& options) {
                   << "board: " << reply.value("port", std::string());
         if (reply.contains("description")) std::cout << ", " << reply["description"].get<std::string>();
         std::cout << "\n";
+        if (reply.contains("estop") && reply["estop"].value("latched", false)) {
+          const nlohmann::json& e = reply["estop"];
+          std::cout << "e-stop: latched, by the " << e.value("source", std::string("?"))
+                    << (e["board_time_s"].is_number() ? " at board time " + fixed(e["board_time_s"].get<double>(), 3) + " s"
+                                                      : std::string())
+                    << "; home, enable and run are refused until 'deltactl host ctl clear-fault'\n";
+        }
         if (reply.contains("run")) {
           std::cout << "run: " << reply["run"].value("played", 0) << " of " << reply["run"].value("planned", 0)
                     << " samples played (" << reply["run"].value("feed", std::string()) << ")\n";

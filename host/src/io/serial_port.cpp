@@ -69,7 +69,9 @@ SerialPort::SerialPort(const std::string& path, int baud) : path_(path) {
   if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
     const int error = errno;
     ::close(fd_);
-    throw std::system_error(error, std::generic_category(), path + ": in use by another program");
+    throw std::system_error(error, std::generic_category(),
+                            path + ": in use by another program (if that is the controller, deltactl host serve, "
+                                   "ask it: deltactl host ctl status)");
   }
   termios tio{};
   if (::tcgetattr(fd_, &tio) != 0) {
