@@ -10,8 +10,9 @@ with a body (a JSON POST reply with "ok" true), or the status a `# ... NNN ...` 
 names (then with "ok" false); a piped command (`| head`) must print Server-Sent Events. Between
 commands the test waits, as a person would, for what the previous one does (homed, the run
 streaming, held, streaming again, the run's end, the drives off, no fault). A command the docs
-document as refused must change nothing (no run, drives off). Every POST of the API has a curl
-example. Usage: doc_curl_test.py DELTACTL WEIGHTS SOURCE_DIR"""
+document as refused must change nothing (state, homed, drives, run). Every POST of the API has a
+curl example, and the e-stop's latch is shown: a run refused (409) after the e-stop, then the
+clear, then a run that moves. Usage: doc_curl_test.py DELTACTL WEIGHTS SOURCE_DIR"""
 import json
 import os
 import re
@@ -100,9 +101,11 @@ def settle(bench, name, refused, before):
     elif name == "stop":
         bench.wait_for(lambda s: s["run"] is None and not s["drives_enabled"], 20, "the run's end, drives off")
     elif name == "estop":
-        bench.wait_for(lambda s: s["run"] is None and not s["drives_enabled"], 10, "drives off after the e-stop")
+        bench.wait_for(lambda s: s["run"] is None and not s["drives_enabled"] and (s.get("estop") or {}).get("latched"),
+                       10, "drives off and the e-stop latched")
     elif name == "clear":
-        bench.wait_for(lambda s: s["fault"] is None, 10, "no fault after the clear")
+        bench.wait_for(lambda s: s["fault"] is None and not (s.get("estop") or {}).get("latched"), 10,
+                       "no fault and no e-stop latched after the clear")
 
 
 def run_checks(bench, commands, token_lines):
@@ -110,6 +113,14 @@ def run_checks(bench, commands, token_lines):
     for name in POSTS:
         check(name in shown, "the docs show POST /api/%s with curl" % name)
     check(token_lines, "the docs say how to set $TOKEN")
+    order = [(endpoint(c), documented) for _, c, documented in commands]
+    estop = next((i for i, (name, _) in enumerate(order) if name == "estop"), None)
+    clear = next((i for i, (name, _) in enumerate(order) if name == "clear" and estop is not None and i > estop), None)
+    check(estop is not None and clear is not None and
+          any(name == "run" and documented == 409 for name, documented in order[estop + 1:clear]),
+          "the docs show a run refused (409) between the e-stop and its clear (the latch)")
+    check(any(name == "run" and documented is None for name, documented in order[(clear or 0) + 1:]),
+          "the docs show a run after the clear")
     scratch = bench.dir + "/home"
     os.makedirs(scratch + "/.config")
     with open(scratch + "/.config/deltactl-token", "w") as f:
