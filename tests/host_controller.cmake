@@ -11,12 +11,12 @@ if(DELTA_HOST_ONLY)
 endif()
 delta_add_gtest(host_controller_tests
   SOURCES ${CMAKE_CURRENT_LIST_DIR}/host_controller/test_host_controller.cpp
-  LIBRARIES delta::controller delta::golden delta::nn delta::host
+  LIBRARIES delta::controller delta::golden delta::nn delta::host nlohmann_json::nlohmann_json
   LABELS host host_controller virtual_board
   # Alone on the machine: the virtual board and the host's 1 kHz streaming thread each need a core,
   # and a host starved beyond its 200 ms lead lets the board's watchdog fault the run (as it would on the robot).
   # The refusals before any byte is sent need neither.
-  SERIAL PARALLEL_TESTS HostRun.BadTrajectoriesAreRefusedBeforeAnyByteIsSent)
+  SERIAL PARALLEL_TESTS HostRun.BadTrajectoriesAreRefusedBeforeAnyByteIsSent HostRun.CheckPrintsTheBoxAndEveryProblemWithoutAPort)
 
 # `host serve` and `host ctl` against the model-fidelity virtual board (kept to real time).
 delta_add_gtest(host_serve_tests

@@ -12,7 +12,7 @@ endif()
 # merge's refusals of a truncated, garbled or at-rest stage file.
 delta_add_gtest(measure_board_tests
   SOURCES ${CMAKE_CURRENT_LIST_DIR}/measure/test_stage_board.cpp
-  LIBRARIES delta::host
+  LIBRARIES delta::host nlohmann_json::nlohmann_json
   LABELS measure virtual_board)
 
 # A closed-loop `host run` of a robot with play through a 250 Hz stage (60 s kept to real time,

@@ -228,7 +228,28 @@ struct RunOptions {
   int link_timeout_ms = link::kLinkTimeoutMs;
   double following_error_deg = 2.0;
   bool allow_unreferenced = false;
+  bool check = false;  // the plan checked, nothing opened or sent
 };
+
+// host run --check: the allowed box, then OK or every problem (exit 2).
+void run_check(const golden::BoardWeights& weights, const RunRequest& request, const std::string& weights_path) {
+  const JointTravel travel = joint_travel();
+  std::cout << "allowed box (" << weights_path << "'s trained range): "
+            << motion::box_text(weights.trained_min_m, weights.trained_max_m) << "; joint travel "
+            << fixed(travel.min_deg, 2) << " .. " << fixed(travel.max_deg, 2) << " deg\n";
+  const Path path = load_path(request.trajectory, request.duration_s);
+  const std::vector<std::string> problems = check_path(weights, path, request);
+  if (problems.empty()) {
+    std::cout << "check: OK, " << request.trajectory << " (" << path.samples.size() << " samples, "
+              << fixed(path.duration_s(), 3)
+              << " s) inside the box and the joint limits; nothing sent (the move from where the encoders put the "
+                 "plate to its start is checked when the run starts)\n";
+    return;
+  }
+  for (const std::string& problem : problems) std::cout << "problem: " << problem << '\n';
+  fail(kExitBadInput, request.trajectory + ": " + std::to_string(problems.size()) +
+                          (problems.size() == 1 ? " problem" : " problems") + " (listed above); nothing sent");
+}
 
 void run_run(const RunOptions& options) {
   // Everything checked before the port is opened (the trajectory whole, the recording's path).
@@ -240,6 +261,12 @@ void run_run(const RunOptions& options) {
   request.allow_unreferenced = options.allow_unreferenced;
   request.link_timeout_ms = options.link_timeout_ms;
   request.following_error_deg = options.following_error_deg;
+  if (options.check) return run_check(weights, request, options.weights);
+  for (const auto& [name, value] : {std::pair<const char*, const std::string*>{"--port", &options.port},
+                                    {"--record", &options.record}}) {
+    if (value->empty()) fail(kExitBadInput, std::string(name) + " is required (see 'deltactl host run --help'; "
+                                                                "--check needs neither)");
+  }
   auto job = or_exit([&] { return std::make_unique<RunJob>(weights, request); });
 
   // disconnected -> idle: identify; the board must run what W.json quantises to.
@@ -680,8 +707,15 @@ const RegisterCommand command("host", 75, [](CLI::App& root) {
       "memory when permitted) sends setpoints paced by the board's telemetry; no telemetry for\n"
       "--link-timeout-ms of wall time is link loss (exit 4). OUT.csv: one row per telemetry frame up to\n"
       "the final hold and disable, written under its name from the enable on (whatever ends the\n"
-      "process, the rows so far are there). A run lasts at most 600 s of trajectory time.");
-  r->add_option("--port", run->port, "serial port")->required();
+      "process, the rows so far are there). A run lasts at most 600 s of trajectory time. The summary\n"
+      "ends with the headline of 'deltactl run-report --run OUT.csv' (the joint tracking; the plate\n"
+      "needs the stage's log: run-report --stage).\n"
+      "--check: the plan checked as above with nothing opened or sent (no --port, no --record): the\n"
+      "allowed box (W.json's trained range; 'deltactl limits') is printed, then OK or every problem\n"
+      "(the first sample of each kind; a path outside the box names every axis it leaves it on), exit 2\n"
+      "on any. The move from the pose the encoders report to the path's start is checked at the run.\n"
+      "Example: deltactl host run --weights W.json --trajectory path.csv --check");
+  r->add_option("--port", run->port, "serial port (not with --check)");
   r->add_option("--weights", run->weights, "W.json the board must run (its CRC and this checkout's gateware)")
       ->required();
   r->add_option("--trajectory", run->trajectory,
@@ -690,7 +724,8 @@ const RegisterCommand command("host", 75, [](CLI::App& root) {
       ->required();
   r->add_option("--duration", run->duration_s, "seconds of trajectory time (default: all of it; at most 600)")
       ->check(options::real_number(0, kMaxRunSeconds, true));
-  r->add_option("--record", run->record, "OUT.csv: one row per telemetry frame")->required();
+  r->add_option("--record", run->record, "OUT.csv: one row per telemetry frame (not with --check)");
+  r->add_flag("--check", run->check, "check the whole plan, print the allowed box, send nothing (no port needed)");
   r->add_flag("--allow-unreferenced", run->allow_unreferenced,
               "run on a board homed by hand ('host home --by-hand'), not at its references");
   r->add_option("--link-timeout-ms", run->link_timeout_ms, "wall time without telemetry: link lost")

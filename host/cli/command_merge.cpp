@@ -10,6 +10,7 @@
 #include "command.hpp"
 #include "delta/csv.hpp"
 #include "delta/diagnosis/merge.hpp"
+#include "delta/diagnosis/stage_log.hpp"
 #include "delta/input_error.hpp"
 #include "delta/output_file.hpp"
 #include "delta/recording.hpp"
@@ -26,17 +27,6 @@ struct MergeOptions {
   std::string run, stage, out, report;
 };
 
-// Strictly increasing times (a stage log with a repeated time is not one).
-void check_increasing(const CsvTable& table) {
-  for (std::size_t i = 1; i < table.rows.size(); ++i) {
-    if (!(table.rows[i][0] > table.rows[i - 1][0])) {
-      throw InputError(table.path, table.line_numbers[i],
-                       "time does not increase (" + format_number(table.rows[i][0]) + " s after " +
-                           format_number(table.rows[i - 1][0]) + " s)");
-    }
-  }
-}
-
 // The run's columns carried into DATA.csv when present (after the SPEC columns).
 const std::vector<std::string> kCarried = {"drives_enabled", "alpha1_ref_deg", "alpha2_ref_deg", "alpha3_ref_deg",
                                            "x_ref_m",        "y_ref_m",        "z_ref_m",        "fault_bits",
@@ -45,35 +35,18 @@ const std::vector<std::string> kCarried = {"drives_enabled", "alpha1_ref_deg", "
 void run_merge(const MergeOptions& options) {
   const CsvTable run = read_csv(options.run, {"t_s", "alpha1_deg", "alpha2_deg", "alpha3_deg"}, kCarried);
   for (std::size_t i = 1; i < run.rows.size(); ++i) check_time_order(run, i, 0);
-  const CsvTable stage = read_csv(options.stage, {"t_s", "x_m", "y_m", "z_m"}, {"sync"});
-  check_increasing(stage);
-  std::vector<int> sync;  // the board's stage sync output as the stage logged it
-  if (stage.present[4]) {
-    sync.resize(stage.rows.size());
-    for (std::size_t i = 0; i < stage.rows.size(); ++i) {
-      const double level = stage.rows[i][4];
-      if (level != 0.0 && level != 1.0) {
-        throw InputError(stage.path, stage.line_numbers[i],
-                         "sync is " + format_number(level) + ": the logged level of the board's sync output, 0 or 1");
-      }
-      sync[i] = level != 0.0 ? 1 : 0;
-    }
-  }
-  std::vector<double> run_t(run.rows.size()), stage_t(stage.rows.size());
-  std::vector<Vec3> alpha(run.rows.size()), position(stage.rows.size());
+  const diagnosis::StageLog stage = diagnosis::read_stage_log(options.stage);
+  std::vector<double> run_t(run.rows.size());
+  std::vector<Vec3> alpha(run.rows.size());
   for (std::size_t i = 0; i < run.rows.size(); ++i) {
     run_t[i] = run.rows[i][0];
     alpha[i] = Vec3(run.rows[i][1], run.rows[i][2], run.rows[i][3]);
-  }
-  for (std::size_t i = 0; i < stage.rows.size(); ++i) {
-    stage_t[i] = stage.rows[i][0];
-    position[i] = Vec3(stage.rows[i][1], stage.rows[i][2], stage.rows[i][3]);
   }
   OutputFile data(options.out);
   std::unique_ptr<OutputFile> report;
   if (!options.report.empty()) report = std::make_unique<OutputFile>(options.report);
   const diagnosis::MergeResult m =
-      diagnosis::merge_logs(options.run, run_t, alpha, options.stage, stage_t, position, sync);
+      diagnosis::merge_logs(options.run, run_t, alpha, options.stage, stage.t_s, stage.position_m, stage.sync);
 
   std::ostream& out = data.stream();
   out << "# deltactl merge --run " << options.run << " --stage " << options.stage << "\n"
@@ -159,7 +132,7 @@ void run_merge(const MergeOptions& options) {
               << " s off (this drag cannot fix them: too short or too repetitive); the sync output's phase "
                  "corrected them, and the positions fit there as well\n";
   }
-  if (stage.present[4] && !m.from_sync) {
+  if (!stage.sync.empty() && !m.from_sync) {
     std::cout << "merge: the stage's sync column never changes (its input not wired to the board's stage_sync_o?): "
                  "the clocks come from the data alone\n";
   }

@@ -3,7 +3,9 @@
 // fast, too much acceleration or jerk, time going back, NaN); experiment 1 passes.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <iostream>
 
 #include "delta/motion/trajectory_check.hpp"
 #include "delta/trajectory.hpp"
@@ -91,6 +93,40 @@ TEST(TrajectoryCheck, EachFaultNamesTheFirstOffendingSampleAndItsLine) {
   ASSERT_TRUE(v);
   EXPECT_TRUE(v->reason.find("acceleration") != std::string::npos || v->reason.find("jerk") != std::string::npos)
       << v->reason;
+}
+
+// A path that leaves the box on two axes (x above, then z below) and comes back: one problem,
+// at the first sample outside, naming both axes with how far each goes and the box; every kind
+// of problem is listed once (a joint too fast as well).
+TEST(TrajectoryCheck, LeavingTheBoxNamesEveryAxisOutsideAndTheBoxInOneLine) {
+  TrajectoryLimits limits;
+  limits.trained_min_m = Vec3(-0.006, -0.006, -0.082);
+  limits.trained_max_m = Vec3(0.006, 0.006, -0.070);
+  std::vector<TrajectoryPoint> points = line(kCentre, kCentre + Vec3(0.008, 0.0, 0.0), 1.0);  // x to 8 mm
+  for (const auto& p : line(kCentre + Vec3(0.008, 0, 0), kCentre + Vec3(0.0, 0.0, -0.014), 1.0)) {
+    points.push_back({p.t_s + 1.01, p.position_m, p.source_line + 101});  // then z down to -85.3 mm
+  }
+  const auto samples = resample(points, kRate);
+  const auto v = first_violation(samples, kRate, Geometry::nominal(), limits);
+  ASSERT_TRUE(v);
+  std::cout << v->reason << '\n';
+  EXPECT_NE(v->reason.find("trained range"), std::string::npos) << v->reason;
+  EXPECT_NE(v->reason.find("x reaches 8.000 mm (above 6.000"), std::string::npos) << v->reason;
+  EXPECT_NE(v->reason.find("z reaches -85.300 mm (below -82.000"), std::string::npos) << v->reason;
+  EXPECT_EQ(v->reason.find("y reaches"), std::string::npos) << v->reason;
+  EXPECT_NE(v->reason.find("the box x -6.000 .. 6.000, y -6.000 .. 6.000, z -82.000 .. -70.000 mm"), std::string::npos)
+      << v->reason;
+  EXPECT_EQ(v->reason.find('\n'), std::string::npos);
+  EXPECT_NEAR(v->t_s, 0.75, 1.5e-3);  // x passes 6 mm three quarters of the way out
+  const auto all = all_violations(samples, kRate, Geometry::nominal(), limits);
+  EXPECT_EQ(all.size(), 1u);
+  limits.joint_velocity_deg_s = 2.0;
+  const auto more = all_violations(samples, kRate, Geometry::nominal(), limits);
+  ASSERT_GE(more.size(), 2u);
+  for (std::size_t i = 1; i < more.size(); ++i) EXPECT_LE(more[i - 1].sample, more[i].sample);
+  EXPECT_EQ(std::count_if(more.begin(), more.end(),
+                          [](const TrajectoryViolation& x) { return x.reason.find("trained range") != std::string::npos; }),
+            1);
 }
 
 TEST(TrajectoryCheck, TimeGoingBackAndNanAreRefusedNamingTheLine) {

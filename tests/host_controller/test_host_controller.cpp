@@ -27,6 +27,8 @@
 #include <thread>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "delta/board_facts.hpp"
 #include "delta/golden/fixed_network.hpp"
 #include "delta/io/pseudo_terminal.hpp"
@@ -199,6 +201,9 @@ TEST(HostRun, TheDeployedModelPlacesThePlateAsTheCosimulationDoes) {
   const double cosim_rms = cosim_plate_rms_m(bench.weights, 5.0);
   std::cout << "co-simulation of the same run: " << cosim_rms * 1e6 << " um RMS\n";
   EXPECT_LT(plate_rms, 1.2 * cosim_rms);
+  // The summary ends with run-report's headline: the joints (the plate needs a measurement).
+  EXPECT_NE(host.out().find("run-report: joint tracking (reference - encoder"), std::string::npos) << host.out();
+  EXPECT_NE(host.out().find("run-report: plate: not measured"), std::string::npos) << host.out();
   std::filesystem::remove_all(bench.dir);
 }
 
@@ -490,6 +495,60 @@ TEST(HostRun, BadTrajectoriesAreRefusedBeforeAnyByteIsSent) {
     std::uint8_t byte = 0;
     EXPECT_EQ(port.read_some(&byte, 1), 0u) << c.name << ": a byte reached the port";
   }
+  std::filesystem::remove_all(dir);
+}
+
+// host run --check: no port, no recording; the allowed box printed (limits prints the same box),
+// OK for experiment 1; a file outside the box on two axes and too fast: every problem listed, the
+// box problem naming both axes and the box in one line, exit 2. The refusal of the same file by a
+// run names both axes too, before the port is opened.
+TEST(HostRun, CheckPrintsTheBoxAndEveryProblemWithoutAPort) {
+  const std::string dir = temp_dir("check");
+  const nn::WeightsFile w = nn::read_weights_file(kWeights);
+  const CommandResult limits = run_deltactl("limits --weights " + kWeights + " --json");
+  ASSERT_EQ(limits.exit_code, 0) << limits.err;
+  const auto box = nlohmann::json::parse(limits.out)["box_mm"];
+  for (int a = 0; a < 3; ++a) {
+    const std::string axis(1, "xyz"[a]);
+    EXPECT_NEAR(box[axis][0].get<double>(), w.network.input_min[a] * 1e3, 1e-9) << axis;
+    EXPECT_NEAR(box[axis][1].get<double>(), w.network.input_max[a] * 1e3, 1e-9) << axis;
+  }
+  const CommandResult ok = run_deltactl("host run --weights " + kWeights + " --trajectory experiment1 --check");
+  std::cout << ok.out << ok.err;
+  EXPECT_EQ(ok.exit_code, 0) << ok.err;
+  EXPECT_NE(ok.out.find("allowed box"), std::string::npos) << ok.out;
+  EXPECT_NE(ok.out.find("check: OK"), std::string::npos) << ok.out;
+
+  // Out along x beyond the box's top, then down in z beyond its bottom, then 4 mm in 20 ms (too fast).
+  const Vec3 top = w.network.input_max + Vec3(0.002, 0, 0), low = w.network.input_min - Vec3(0, 0, 0.002);
+  std::ostringstream file;
+  file << "t_s,x_m,y_m,z_m\n0,0,0," << 0.5 * (w.network.input_min.z() + w.network.input_max.z()) << "\n2," << top.x() << ",0,"
+       << 0.5 * (w.network.input_min.z() + w.network.input_max.z()) << "\n4,0,0," << low.z() << "\n4.02,0.004,0," << low.z()
+       << "\n6,0.004,0," << low.z() << "\n";
+  write_text(dir + "/outside.csv", file.str());
+  const CommandResult bad = run_deltactl("host run --weights " + kWeights + " --trajectory " + dir + "/outside.csv --check");
+  std::cout << bad.out << bad.err;
+  EXPECT_EQ(bad.exit_code, 2);
+  std::size_t problems = 0, box_lines = 0;
+  std::istringstream lines(bad.out);
+  for (std::string line; std::getline(lines, line);) {
+    if (line.rfind("problem: ", 0) != 0) continue;
+    ++problems;
+    if (line.find("trained range") == std::string::npos) continue;
+    ++box_lines;
+    EXPECT_NE(line.find("x reaches"), std::string::npos) << line;
+    EXPECT_NE(line.find("z reaches"), std::string::npos) << line;
+    EXPECT_NE(line.find("the box x"), std::string::npos) << line;
+  }
+  EXPECT_EQ(box_lines, 1u);
+  EXPECT_GE(problems, 2u);  // and the velocity
+  EXPECT_EQ(std::count(bad.err.begin(), bad.err.end(), '\n'), 1) << bad.err;
+  const CommandResult run = run_deltactl("host run --port " + dir + "/no-such-tty --weights " + kWeights +
+                                         " --trajectory " + dir + "/outside.csv --record " + dir + "/out.csv");
+  EXPECT_EQ(run.exit_code, 2) << run.err;
+  EXPECT_NE(run.err.find("x reaches"), std::string::npos) << run.err;
+  EXPECT_NE(run.err.find("z reaches"), std::string::npos) << run.err;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/out.csv"));
   std::filesystem::remove_all(dir);
 }
 

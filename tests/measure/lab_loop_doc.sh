@@ -19,8 +19,8 @@ export PATH="$(dirname "$deltactl"):$PATH"
 set -x
 source ./lab_loop.sh
 set +x
-# The loop's outputs: the merged drag, the diagnosis, the trained weights, the closed-loop merge.
-for file in lab/drag.csv lab/sweep.csv lab/diagnosis.json lab/W.json lab/deploy/identify.mem lab/run_merged.csv; do
+# The loop's outputs: the merged drag, the diagnosis, the trained weights, the closed-loop run's report.
+for file in lab/drag.csv lab/sweep.csv lab/diagnosis.json lab/W.json lab/deploy/identify.mem lab/run_report.json; do
   [[ -s $file ]] || { echo "FAIL: $file missing"; exit 1; }
 done
 echo PASS

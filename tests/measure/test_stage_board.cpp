@@ -2,6 +2,8 @@
 // drag:...` with a robot none of the project's files has, `deltactl host record` (drives off),
 // `deltactl merge` of the run with the stage's own log (its own clock), checked against the virtual
 // board's truth at each board time; and `merge`'s refusals of bad files (exit 2, one line, no output).
+// Closed loop with the stage following: `merge` on the board's sync output, and `run-report --stage`
+// against `run-report --truth`.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -10,6 +12,8 @@
 #include <map>
 #include <random>
 #include <sstream>
+
+#include <nlohmann/json.hpp>
 
 #include "../support/followed_run.hpp"
 #include "../support/run_command.hpp"
@@ -184,6 +188,70 @@ TEST(StageFollow, AClosedLoopRunMergesOnTheBoardsSyncOutput) {
     EXPECT_NE(bad.err.find("sync"), std::string::npos) << name;
     EXPECT_FALSE(file_exists(dir + name + "_data.csv")) << name;
   }
+  if (!::testing::Test::HasFailure()) std::system(("rm -rf " + dir).c_str());
+}
+
+// run-report's acceptance: a closed-loop run (the paper-like robot homed, 15 s of experiment 2 on
+// the shipped deployed model) with the stage following on its own clock (31.4 s ahead, -120 ppm,
+// 500 Hz); `run-report --stage` (the stage's clock aligned by the merge) against `run-report
+// --truth` (the virtual board's truth, board time): the plate figures agree within 1 um RMS, the
+// plate error row by row within 1 um RMS per axis; the merged recording reports the same from its
+// own columns; the joint tracking is the run's either way. About 25 s.
+TEST(RunReport, TheStagesLogGivesThePlateFiguresOfTheTruthWithinAMicrometre) {
+  const std::string dir = folder();
+  const std::string weights = std::string(DELTA_SOURCE_DIR) + "/weights/paper_like_deployed.json";
+  followed_run_and_merge(dir, weights, {"--stage-clock", "31.4,-120", "--stage-rate", "500", "--stage-seed", "7"},
+                         "--trajectory experiment2 --duration 15");
+  if (::testing::Test::HasFatalFailure()) return;
+  struct Report {
+    CommandResult result;
+    nlohmann::json json;
+  };
+  auto report = [&](const std::string& name, const std::string& plate) {
+    Report r;
+    r.result = run_deltactl("run-report --run " + dir + (plate.empty() ? "data.csv" : "run.csv") + " " + plate +
+                            " --json " + dir + name + ".json");
+    std::cout << r.result.out << r.result.err;
+    EXPECT_EQ(r.result.exit_code, 0) << name;
+    if (r.result.exit_code == 0) r.json = nlohmann::json::parse(read_text(dir + name + ".json"));
+    return r;
+  };
+  const Report stage = report("stage", "--stage " + dir + "stage.csv");
+  const Report truth = report("truth", "--truth " + dir + "truth.csv");
+  const Report merged = report("merged", "");
+  if (::testing::Test::HasFailure()) return;
+  ASSERT_TRUE(stage.json["plate_measured"].get<bool>());
+  ASSERT_TRUE(truth.json["plate_measured"].get<bool>());
+  EXPECT_NE(stage.json["plate_note"].get<std::string>().find("sync"), std::string::npos);
+  EXPECT_GT(stage.json["plate_rows"].get<std::size_t>(), 14000u);
+  const double stage_rms = stage.json["plate"]["all"]["rms_distance_um"].get<double>();
+  const double truth_rms = truth.json["plate"]["all"]["rms_distance_um"].get<double>();
+  const double merged_rms = merged.json["plate"]["all"]["rms_distance_um"].get<double>();
+  std::cout << "plate - reference RMS: " << stage_rms << " um (--stage), " << truth_rms << " um (--truth), "
+            << merged_rms << " um (merged)\n";
+  EXPECT_LT(std::abs(stage_rms - truth_rms), 1.0);
+  EXPECT_NEAR(merged_rms, stage_rms, 1e-3);  // the same stage, the same alignment
+  for (const char* segment : {"moving", "at_rest", "reversals"}) {
+    if (!truth.json["plate"][segment]["rows"].get<std::size_t>()) continue;
+    EXPECT_LT(std::abs(stage.json["plate"][segment]["rms_distance_um"].get<double>() -
+                       truth.json["plate"][segment]["rms_distance_um"].get<double>()),
+              1.0)
+        << segment;
+  }
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_LT(std::abs(stage.json["plate"]["all"]["rms_um"][k].get<double>() -
+                       truth.json["plate"]["all"]["rms_um"][k].get<double>()),
+              1.0)
+        << "axis " << k;
+  }
+  EXPECT_EQ(stage.json["joint_tracking"], truth.json["joint_tracking"]);
+  EXPECT_EQ(stage.json["dwells"].size(), truth.json["dwells"].size());
+  EXPECT_EQ(stage.json["reversals"], truth.json["reversals"]);
+  // Row by row: the stage's plate error against the truth's (both at the run's board times).
+  std::size_t rows = 0;
+  const Vec3 rms = merged_error_rms(dir + "data.csv", dir + "truth.csv", &rows);
+  std::cout << rows << " rows, stage - truth RMS x/y/z " << rms.transpose() * 1e6 << " um\n";
+  EXPECT_LT(rms.maxCoeff(), 1e-6);
   if (!::testing::Test::HasFailure()) std::system(("rm -rf " + dir).c_str());
 }
 

@@ -26,6 +26,7 @@
 #include "delta/nn/trained_model.hpp"
 #include "delta/output_file.hpp"
 #include "delta/run_files.hpp"
+#include "delta/run_report.hpp"
 #include "delta/table.hpp"
 
 namespace delta::controller {
@@ -348,6 +349,20 @@ std::string summary_text(const StreamingResult& s, const link::LinkSession& sess
   return out.str();
 }
 
+// The headline of `deltactl run-report --run RECORD` (the recording read back as written): the joint
+// tracking, and the plate when the recording has it; why not (no row with the drives on), or "" without one.
+std::string run_headline(const std::string& record) {
+  if (record.empty()) return "";
+  try {
+    std::string text;
+    std::istringstream lines(report_headline(run_report_of_file(record)));
+    for (std::string line; std::getline(lines, line);) text += "run-report: " + line + "\n";
+    return text;
+  } catch (const InputError& error) {
+    return "run-report: " + std::string(error.what()) + "\n";
+  }
+}
+
 }  // namespace
 
 double board_seconds_between(const link::TelemetryPayload& from, const link::TelemetryPayload& to) {
@@ -355,14 +370,21 @@ double board_seconds_between(const link::TelemetryPayload& from, const link::Tel
   return ticks > 0 ? ticks * link::kTickSeconds : 0.0;
 }
 
+std::vector<std::string> check_path(const golden::BoardWeights& weights, const Path& path, const RunRequest& request) {
+  // The path alone (from its own start): the approach is checked once the pose is known.
+  const StreamPlan plan(path, path.samples.front().position_m, request.limits);
+  return check_plan_all(plan, request.trajectory, weights.trained_min_m, weights.trained_max_m, request.limits,
+                        &weights.model);
+}
+
+std::vector<std::string> check_run(const golden::BoardWeights& weights, const RunRequest& request) {
+  return check_path(weights, load_path(request.trajectory, request.duration_s), request);
+}
+
 RunJob::RunJob(const golden::BoardWeights& weights, const RunRequest& request)
     : weights_(weights), request_(request), path_(load_path(request.trajectory, request.duration_s)) {
-  // The path alone (from its own start): the approach is checked once the pose is known.
-  const StreamPlan plan(path_, path_.samples.front().position_m, request_.limits);
-  if (auto violation =
-          check_plan(plan, request_.trajectory, weights_.trained_min_m, weights_.trained_max_m, request_.limits)) {
-    throw HostFailure(kExitBadInput, *violation + "; nothing sent");
-  }
+  const std::vector<std::string> problems = check_path(weights_, path_, request_);
+  if (!problems.empty()) throw HostFailure(kExitBadInput, problems.front() + "; nothing sent");
   // Refuses a bad path before the port (kNew*: the name is reserved now).
   recorder_ = std::make_unique<TelemetryRecorder>(request_.record, request_.record_mode, true);
 }
@@ -469,8 +491,8 @@ RunOutcome RunJob::execute(link::LinkSession& session, const std::string& port_n
     throw HostFailure(kExitFault, port_name + ": the encoders' pose: " + error.what());
   }
   StreamPlan plan(path_, start, request_.limits);
-  if (auto violation =
-          check_plan(plan, request_.trajectory, weights_.trained_min_m, weights_.trained_max_m, request_.limits)) {
+  if (auto violation = check_plan(plan, request_.trajectory, weights_.trained_min_m, weights_.trained_max_m,
+                                  request_.limits, &weights_.model)) {
     throw HostFailure(kExitBadInput, *violation + " (from the encoders' pose; no motion)");
   }
 
@@ -680,6 +702,7 @@ RunOutcome RunJob::execute(link::LinkSession& session, const std::string& port_n
   out.summary = summary_text(result, session, recorder_->tracking, recorder_->ramp_in, underruns, recorder_->rows,
                              out.record, wall);
   if (!record_error.empty()) out.summary += "warning: the recording is incomplete: " + record_error + "\n";
+  out.summary += run_headline(out.record);
   if (queue.dropped() > 0)
     out.summary += "warning: " + std::to_string(queue.dropped()) + " telemetry records not recorded\n";
   out.played = result.played;

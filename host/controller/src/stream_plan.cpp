@@ -11,6 +11,7 @@
 #include "delta/board_facts.hpp"
 #include "delta/csv.hpp"
 #include "delta/input_error.hpp"
+#include "delta/nn/trained_model.hpp"
 #include "delta/trajectory.hpp"
 
 namespace delta::controller {
@@ -335,25 +336,64 @@ std::vector<motion::TrajectoryPoint> StreamPlan::points() const {
   return points;
 }
 
-std::optional<std::string> check_plan(const StreamPlan& plan, const std::string& source, const Vec3& trained_min_m,
-                                      const Vec3& trained_max_m, const StreamLimits& limits) {
+std::vector<std::string> check_plan_all(const StreamPlan& plan, const std::string& source, const Vec3& trained_min_m,
+                                        const Vec3& trained_max_m, const StreamLimits& limits,
+                                        const nn::WeightsFile* model) {
   motion::TrajectoryLimits check;
   check.trained_min_m = trained_min_m;
   check.trained_max_m = trained_max_m;
-  const double count_deg = board::kEncoderCountMicrodeg * 1e-6;
-  check.joint_min_deg = static_cast<double>(board::kMinTravelBlock * 1024) * count_deg;
-  check.joint_max_deg = static_cast<double>((board::kMaxTravelBlock + 1) * 1024 - 1) * count_deg;
+  const JointTravel travel = joint_travel();
+  check.joint_min_deg = travel.min_deg;
+  check.joint_max_deg = travel.max_deg;
   check.joint_velocity_deg_s = limits.joint_velocity_deg_s;
   check.joint_acceleration_deg_s2 = limits.joint_acceleration_deg_s2;
   check.joint_jerk_deg_s3 = limits.joint_jerk_deg_s3;
-  const auto violation = motion::first_violation(plan.points(), kStreamRateHz, Geometry::nominal(), check);
-  if (!violation) return std::nullopt;
-  const std::size_t k = violation->sample;
-  std::string where = source + (violation->source_line ? ":" + std::to_string(violation->source_line) : "") + ": ";
-  std::string when = k < plan.approach_samples()
-                         ? " (the move from the present pose to the start, sample " + std::to_string(k) + ")"
-                         : " (path time " + std::to_string(plan.tau(k)) + " s, sample " + std::to_string(k) + ")";
-  return where + violation->reason + when;
+  const std::vector<motion::TrajectoryPoint> points = plan.points();
+  std::vector<motion::TrajectoryViolation> violations =
+      motion::all_violations(points, kStreamRateHz, Geometry::nominal(), check);
+  if (model != nullptr) {
+    // What the network is asked: the setpoints as sent, shaped by a joint ripple table.
+    std::vector<motion::TrajectoryPoint> shaped = points;
+    bool any = false;
+    for (auto& point : shaped) {
+      const Vec3 sent = nn::shape_setpoint(*model, point.position_m);
+      any = any || sent != point.position_m;
+      point.position_m = sent;
+    }
+    if (any) {
+      if (auto v = motion::box_violation(shaped, trained_min_m, trained_max_m,
+                                         "the shaped setpoints (the model's joint ripple table) outside the "
+                                         "network's trained range")) {
+        violations.push_back(*v);
+        std::stable_sort(violations.begin(), violations.end(),
+                         [](const auto& a, const auto& b) { return a.sample < b.sample; });
+      }
+    }
+  }
+  std::vector<std::string> out;
+  for (const motion::TrajectoryViolation& violation : violations) {
+    const std::size_t k = violation.sample;
+    std::string where = source + (violation.source_line ? ":" + std::to_string(violation.source_line) : "") + ": ";
+    std::string when = k < plan.approach_samples()
+                           ? " (the move from the present pose to the start, sample " + std::to_string(k) + ")"
+                           : " (path time " + std::to_string(plan.tau(k)) + " s, sample " + std::to_string(k) + ")";
+    out.push_back(where + violation.reason + when);
+  }
+  return out;
+}
+
+std::optional<std::string> check_plan(const StreamPlan& plan, const std::string& source, const Vec3& trained_min_m,
+                                      const Vec3& trained_max_m, const StreamLimits& limits,
+                                      const nn::WeightsFile* model) {
+  const std::vector<std::string> all = check_plan_all(plan, source, trained_min_m, trained_max_m, limits, model);
+  if (all.empty()) return std::nullopt;
+  return all.front();
+}
+
+JointTravel joint_travel() {
+  const double count_deg = board::kEncoderCountMicrodeg * 1e-6;
+  return {static_cast<double>(board::kMinTravelBlock * 1024) * count_deg,
+          static_cast<double>((board::kMaxTravelBlock + 1) * 1024 - 1) * count_deg};
 }
 
 }  // namespace delta::controller

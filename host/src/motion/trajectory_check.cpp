@@ -1,6 +1,7 @@
 // The whole trajectory checked before any motion (see trajectory_check.hpp).
 #include "delta/motion/trajectory_check.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
@@ -54,13 +55,67 @@ std::vector<TrajectoryPoint> resample(const std::vector<TrajectoryPoint>& points
   return samples;
 }
 
-std::optional<TrajectoryViolation> first_violation(const std::vector<TrajectoryPoint>& samples, double rate_hz,
-                                                   const Geometry& geometry, const TrajectoryLimits& limits) {
-  std::vector<Vec3> alpha(samples.size());
-  auto violation = [&](std::size_t k, const std::string& reason) {
-    return TrajectoryViolation{k, samples[k].t_s, samples[k].source_line, reason};
-  };
+std::string box_text(const Vec3& min_m, const Vec3& max_m) {
   const char* axis = "xyz";
+  std::string text;
+  for (int i = 0; i < 3; ++i) {
+    text += std::string(i ? ", " : "") + axis[i] + " " + fixed(min_m[i] * 1e3, 3) + " .. " + fixed(max_m[i] * 1e3, 3);
+  }
+  return text + " mm";
+}
+
+std::optional<TrajectoryViolation> box_violation(const std::vector<TrajectoryPoint>& samples, const Vec3& min_m,
+                                                 const Vec3& max_m, const std::string& what) {
+  // Per axis and side: the first sample beyond it and the farthest value.
+  struct Side {
+    std::optional<std::size_t> first;
+    double extreme = 0.0;
+  };
+  Side low[3], high[3];
+  std::optional<std::size_t> first;
+  for (std::size_t k = 0; k < samples.size(); ++k) {
+    const Vec3& p = samples[k].position_m;
+    for (int i = 0; i < 3; ++i) {
+      Side* side = p[i] < min_m[i] ? &low[i] : p[i] > max_m[i] ? &high[i] : nullptr;
+      if (side == nullptr) continue;
+      if (!side->first) {
+        side->first = k;
+        side->extreme = p[i];
+      }
+      side->extreme = side == &low[i] ? std::min(side->extreme, p[i]) : std::max(side->extreme, p[i]);
+      if (!first) first = k;
+    }
+  }
+  if (!first) return std::nullopt;
+  const char* axis = "xyz";
+  std::string reason = what + ":";
+  bool any = false;
+  for (int i = 0; i < 3; ++i) {
+    for (const Side* side : {&low[i], &high[i]}) {
+      if (!side->first) continue;
+      reason += std::string(any ? "," : "") + " " + axis[i] + " reaches " + fixed(side->extreme * 1e3, 3) + " mm (" +
+                (side == &low[i] ? "below " : "above ") + fixed((side == &low[i] ? min_m[i] : max_m[i]) * 1e3, 3) +
+                ", from " + where(samples[*side->first]) + ")";
+      any = true;
+    }
+  }
+  reason += "; the box " + box_text(min_m, max_m);
+  return TrajectoryViolation{*first, samples[*first].t_s, samples[*first].source_line, reason};
+}
+
+std::vector<TrajectoryViolation> all_violations(const std::vector<TrajectoryPoint>& samples, double rate_hz,
+                                                const Geometry& geometry, const TrajectoryLimits& limits) {
+  // The first violation of each kind, by kind: unreachable, the box, then per joint travel,
+  // velocity, acceleration, jerk.
+  constexpr int kUnreachable = 0, kBox = 1, kTravel = 2, kDerivatives = 5;  // travel 2..4, then 3 x 3
+  std::vector<std::optional<TrajectoryViolation>> first(kDerivatives + 9);
+  auto note = [&](int kind, std::size_t k, const std::string& reason) {
+    if (!first[static_cast<std::size_t>(kind)]) {
+      first[static_cast<std::size_t>(kind)] = TrajectoryViolation{k, samples[k].t_s, samples[k].source_line, reason};
+    }
+  };
+  std::vector<Vec3> alpha(samples.size());
+  std::vector<bool> solved(samples.size(), false);
   // Backward differences at the rate: velocity from k-1, acceleration from k-2, jerk from k-3.
   struct Derivative {
     int order;
@@ -73,40 +128,62 @@ std::optional<TrajectoryViolation> first_violation(const std::vector<TrajectoryP
                                     {3, limits.joint_jerk_deg_s3, "jerk", "deg/s^3"}};
   for (std::size_t k = 0; k < samples.size(); ++k) {
     const Vec3& p = samples[k].position_m;
-    if (!p.allFinite()) return violation(k, "not a finite position");
+    if (!p.allFinite()) {
+      note(kUnreachable, k, "not a finite position");
+      continue;
+    }
     const IkSolution ik = inverse_kinematics(geometry, p);
-    if (!ik.ok()) return violation(k, "unreachable: " + ik.reason());
-    for (int i = 0; i < 3; ++i) {
-      if (p[i] < limits.trained_min_m[i] || p[i] > limits.trained_max_m[i]) {
-        return violation(k, std::string("outside the network's trained range: ") + axis[i] + " = " +
-                                fixed(p[i] * 1e3, 3) + " mm, trained " + fixed(limits.trained_min_m[i] * 1e3, 3) +
-                                " .. " + fixed(limits.trained_max_m[i] * 1e3, 3) + " mm");
-      }
+    if (!ik.ok()) {
+      note(kUnreachable, k, "unreachable: " + ik.reason());
+      continue;
     }
     for (int j = 0; j < 3; ++j) {
       if (ik.alpha_deg[j] < limits.joint_min_deg || ik.alpha_deg[j] > limits.joint_max_deg) {
-        return violation(k, "joint " + std::to_string(j + 1) + " at " + fixed(ik.alpha_deg[j], 3) +
-                                " deg, outside the travel " + fixed(limits.joint_min_deg, 2) + " .. " +
-                                fixed(limits.joint_max_deg, 2) + " deg");
+        note(kTravel + j, k,
+             "joint " + std::to_string(j + 1) + " at " + fixed(ik.alpha_deg[j], 3) + " deg, outside the travel " +
+                 fixed(limits.joint_min_deg, 2) + " .. " + fixed(limits.joint_max_deg, 2) + " deg");
       }
     }
     alpha[k] = ik.alpha_deg;
-    for (const Derivative& d : derivatives) {
-      if (k < static_cast<std::size_t>(d.order)) continue;
+    solved[k] = true;
+    for (int d = 0; d < 3; ++d) {
+      const Derivative& derivative = derivatives[d];
+      const auto order = static_cast<std::size_t>(derivative.order);
+      if (k < order) continue;
+      bool known = true;
+      for (std::size_t back = 1; back <= order; ++back) known = known && solved[k - back];
+      if (!known) continue;
       Vec3 difference = alpha[k];
-      if (d.order == 1) difference -= alpha[k - 1];
-      if (d.order == 2) difference += alpha[k - 2] - 2.0 * alpha[k - 1];
-      if (d.order == 3) difference += 3.0 * alpha[k - 2] - 3.0 * alpha[k - 1] - alpha[k - 3];
-      const Vec3 value = difference * std::pow(rate_hz, d.order);
+      if (order == 1) difference -= alpha[k - 1];
+      if (order == 2) difference += alpha[k - 2] - 2.0 * alpha[k - 1];
+      if (order == 3) difference += 3.0 * alpha[k - 2] - 3.0 * alpha[k - 1] - alpha[k - 3];
+      const Vec3 value = difference * std::pow(rate_hz, derivative.order);
       for (int j = 0; j < 3; ++j) {
-        if (std::abs(value[j]) > d.limit) {
-          return violation(k, "joint " + std::to_string(j + 1) + " " + d.name + " " + fixed(std::abs(value[j]), 1) +
-                                  " " + d.unit + " above the limit " + fixed(d.limit, 1) + " " + d.unit);
+        if (std::abs(value[j]) > derivative.limit) {
+          note(kDerivatives + 3 * j + d, k,
+               "joint " + std::to_string(j + 1) + " " + derivative.name + " " + fixed(std::abs(value[j]), 1) + " " +
+                   derivative.unit + " above the limit " + fixed(derivative.limit, 1) + " " + derivative.unit);
         }
       }
     }
   }
-  return std::nullopt;
+  // The box (a non-finite position compares inside: it is named above).
+  first[kBox] = box_violation(samples, limits.trained_min_m, limits.trained_max_m,
+                              "outside the network's trained range (the allowed box)");
+  std::vector<TrajectoryViolation> out;
+  for (const auto& v : first) {
+    if (v) out.push_back(*v);
+  }
+  std::stable_sort(out.begin(), out.end(),
+                   [](const TrajectoryViolation& a, const TrajectoryViolation& b) { return a.sample < b.sample; });
+  return out;
+}
+
+std::optional<TrajectoryViolation> first_violation(const std::vector<TrajectoryPoint>& samples, double rate_hz,
+                                                   const Geometry& geometry, const TrajectoryLimits& limits) {
+  const std::vector<TrajectoryViolation> all = all_violations(samples, rate_hz, geometry, limits);
+  if (all.empty()) return std::nullopt;
+  return all.front();
 }
 
 }  // namespace delta::motion

@@ -1,8 +1,9 @@
 // The whole trajectory checked before any motion: resampled at the streaming rate,
-// every sample must be reachable, inside the network's trained range and the joints' travel, and
-// the joint motion (finite differences of the inverse kinematics at the rate) within the
-// velocity, acceleration and jerk limits. The first offending sample is named with the source
-// line it comes from, so the command can say FILE:LINE: reason and send nothing.
+// every sample must be reachable, inside the network's trained range (the allowed box) and the
+// joints' travel, and the joint motion (finite differences of the inverse kinematics at the rate)
+// within the velocity, acceleration and jerk limits. Each offending sample is named with the
+// source line it comes from, so the command can say FILE:LINE: reason and send nothing; a path
+// that leaves the box is named once, with every axis it leaves it on and the box.
 #pragma once
 
 #include <cstddef>
@@ -42,9 +43,23 @@ struct TrajectoryViolation {
 // non-finite value.
 std::vector<TrajectoryPoint> resample(const std::vector<TrajectoryPoint>& points, double rate_hz);
 
-// The first sample that breaks a limit, or nothing. `geometry` is the model the check uses for the
-// joint angles (the nominal robot: the network's answers differ by at most about a degree).
+// Every problem, in time order: the first sample of each kind (unreachable; outside the box, every
+// axis it leaves the box on, with how far it goes and the box, in one reason; each joint's travel,
+// velocity, acceleration and jerk). `geometry` is the model the check uses for the joint angles
+// (the nominal robot: the network's answers differ by at most about a degree).
+std::vector<TrajectoryViolation> all_violations(const std::vector<TrajectoryPoint>& samples, double rate_hz,
+                                                const Geometry& geometry, const TrajectoryLimits& limits);
+
+// The first of them (the first sample that breaks a limit), or nothing.
 std::optional<TrajectoryViolation> first_violation(const std::vector<TrajectoryPoint>& samples, double rate_hz,
                                                    const Geometry& geometry, const TrajectoryLimits& limits);
+
+// The box alone: nothing when every sample is inside [min_m, max_m]; else the first sample outside,
+// its reason "`what`: x reaches ... mm (line L), ...; the box x A .. B, y ..., z ... mm".
+std::optional<TrajectoryViolation> box_violation(const std::vector<TrajectoryPoint>& samples, const Vec3& min_m,
+                                                 const Vec3& max_m, const std::string& what);
+
+// "x -12.000 .. 12.000, y -12.000 .. 12.000, z -83.300 .. -59.300 mm".
+std::string box_text(const Vec3& min_m, const Vec3& max_m);
 
 }  // namespace delta::motion

@@ -21,6 +21,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "delta/board_facts.hpp"
 #include "delta/controller/host_run.hpp"
@@ -109,6 +110,13 @@ struct RunProgress {
 // Board time from one telemetry frame to a later one, seconds: the 10 kHz tick is a u32 (it wraps
 // after 4.97 days); a later frame that shows an earlier tick (a restarted board) gives 0.
 double board_seconds_between(const link::TelemetryPayload& from, const link::TelemetryPayload& to);
+
+// `host run --check`: the path checked as a run checks it before the port is opened (from its own
+// start, every sample and, with a joint ripple table, every setpoint as sent), every problem (none:
+// empty); nothing opened, nothing sent. The move from where the encoders put the plate to the
+// path's start is checked when a run starts. InputError for a FILE.csv that is not one.
+std::vector<std::string> check_run(const golden::BoardWeights& weights, const RunRequest& request);
+std::vector<std::string> check_path(const golden::BoardWeights& weights, const Path& path, const RunRequest& request);
 
 struct TelemetryRecorder;  // the recording's rows (run_job.cpp)
 

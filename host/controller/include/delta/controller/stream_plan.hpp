@@ -22,6 +22,7 @@
 #include "delta/geometry.hpp"
 #include "delta/motion/motion_profile.hpp"
 #include "delta/motion/trajectory_check.hpp"
+#include "delta/nn/weights_file.hpp"
 
 namespace delta::controller {
 
@@ -141,10 +142,23 @@ class StreamPlan {
   std::vector<std::size_t> line_;
 };
 
-// The whole-plan check: reachable, inside the trained range, joint travel (the board's
-// -10.24 .. 92.15 deg), velocity, acceleration and jerk. The first offending sample as
-// "SOURCE:LINE: reason (sample k, t = ... s)", or nothing.
+// The whole-plan check: reachable, inside the trained range (the allowed box), joint travel (the
+// board's, joint_travel()), velocity, acceleration and jerk; with `model` (W.json's, a deployed
+// model with a joint ripple table) also the setpoints as sent, shaped, inside the trained range.
+// Every problem (the first sample of each kind, in time order) as "SOURCE:LINE: reason (sample k,
+// t = ... s)"; a path outside the box is one problem naming every axis it leaves it on, and the box.
+std::vector<std::string> check_plan_all(const StreamPlan& plan, const std::string& source, const Vec3& trained_min_m,
+                                        const Vec3& trained_max_m, const StreamLimits& limits,
+                                        const nn::WeightsFile* model = nullptr);
+// The first of them, or nothing.
 std::optional<std::string> check_plan(const StreamPlan& plan, const std::string& source, const Vec3& trained_min_m,
-                                      const Vec3& trained_max_m, const StreamLimits& limits);
+                                      const Vec3& trained_max_m, const StreamLimits& limits,
+                                      const nn::WeightsFile* model = nullptr);
+
+// The joints' travel the board allows (its travel blocks: -10.24 .. 92.15 deg), the same for every joint.
+struct JointTravel {
+  double min_deg = 0.0, max_deg = 0.0;
+};
+JointTravel joint_travel();
 
 }  // namespace delta::controller
