@@ -191,17 +191,52 @@ TEST(StageFollow, AClosedLoopRunMergesOnTheBoardsSyncOutput) {
   if (!::testing::Test::HasFailure()) std::system(("rm -rf " + dir).c_str());
 }
 
-// run-report's acceptance: a closed-loop run (the paper-like robot homed, 15 s of experiment 2 on
-// the shipped deployed model) with the stage following on its own clock (31.4 s ahead, -120 ppm,
-// 500 Hz); `run-report --stage` (the stage's clock aligned by the merge) against `run-report
-// --truth` (the virtual board's truth, board time): the plate figures agree within 1 um RMS, the
-// plate error row by row within 1 um RMS per axis; the merged recording reports the same from its
-// own columns; the joint tracking is the run's either way. About 25 s.
+// A path of rest-to-rest moves (cosine in time) between dwells, at 1 kHz: `samples` rows of
+// t_s,x_m,y_m,z_m. From the centre of the shipped model's box 4 mm out and back on each axis, the
+// last moves reversing through the centre without a stop.
+std::string dwell_path() {
+  struct Leg {
+    Vec3 to_mm;
+    double move_s, dwell_s;
+  };
+  const Vec3 centre_mm(0.5, 0.0, -75.5);
+  const std::vector<Leg> legs = {{{4, 0, 0}, 1.0, 1.0},  {{-4, 3, 0}, 1.5, 0.8}, {{0, -4, -3}, 1.5, 1.2},
+                                 {{0, 0, 3}, 1.2, 0.6},  {{3, 3, 0}, 1.0, 0.0},  {{-3, -3, 0}, 1.6, 0.0},
+                                 {{0, 0, 0}, 1.0, 0.7}};
+  std::ostringstream out;
+  out.precision(12);
+  out << "t_s,x_m,y_m,z_m\n";
+  double t = 0.0;
+  Vec3 at = Vec3::Zero();
+  auto row = [&](const Vec3& p) {
+    out << t << ',' << (centre_mm + p).x() * 1e-3 << ',' << (centre_mm + p).y() * 1e-3 << ','
+        << (centre_mm + p).z() * 1e-3 << '\n';
+    t += 1e-3;
+  };
+  for (int k = 0; k < 500; ++k) row(at);  // at rest first
+  for (const Leg& leg : legs) {
+    const auto n = static_cast<int>(leg.move_s * 1e3);
+    for (int k = 1; k <= n; ++k) row(at + 0.5 * (1.0 - std::cos(M_PI * k / n)) * (leg.to_mm - at));
+    at = leg.to_mm;
+    for (int k = 0; k < static_cast<int>(leg.dwell_s * 1e3); ++k) row(at);
+  }
+  return out.str();
+}
+
+// run-report's acceptance: a closed-loop run (the paper-like robot homed, the shipped deployed
+// model, the path above: dwells, moves, reversals) with the stage following on its own clock
+// (31.4 s ahead, -120 ppm, 500 Hz); `run-report --stage` (the stage's clock aligned by the merge)
+// against `run-report --truth` (the virtual board's truth, board time): the plate's figures
+// agree within 1 um RMS, overall, per axis and per segment (each dwell's mean within 1 um too);
+// the merged recording reports the same from its own columns; the joints and the segments are the
+// run's either way. Row by row the stage's plate is within 1.5 um RMS per axis of the truth (a
+// 500 Hz stage misses some of the controller's fast corrections: docs/lab_loop.md). About 30 s.
 TEST(RunReport, TheStagesLogGivesThePlateFiguresOfTheTruthWithinAMicrometre) {
   const std::string dir = folder();
   const std::string weights = std::string(DELTA_SOURCE_DIR) + "/weights/paper_like_deployed.json";
+  write_text(dir + "path.csv", dwell_path());
   followed_run_and_merge(dir, weights, {"--stage-clock", "31.4,-120", "--stage-rate", "500", "--stage-seed", "7"},
-                         "--trajectory experiment2 --duration 15");
+                         "--trajectory " + dir + "path.csv");
   if (::testing::Test::HasFatalFailure()) return;
   struct Report {
     CommandResult result;
@@ -245,13 +280,23 @@ TEST(RunReport, TheStagesLogGivesThePlateFiguresOfTheTruthWithinAMicrometre) {
         << "axis " << k;
   }
   EXPECT_EQ(stage.json["joint_tracking"], truth.json["joint_tracking"]);
-  EXPECT_EQ(stage.json["dwells"].size(), truth.json["dwells"].size());
   EXPECT_EQ(stage.json["reversals"], truth.json["reversals"]);
-  // Row by row: the stage's plate error against the truth's (both at the run's board times).
+  // The path's six dwells (and the rest before it, or the hold after it when long enough).
+  const auto& dwells = truth.json["dwells"];
+  EXPECT_GE(dwells.size(), 6u);
+  ASSERT_EQ(stage.json["dwells"].size(), dwells.size());
+  EXPECT_GT(truth.json["plate"]["at_rest"]["rows"].get<std::size_t>(), 4000u);
+  EXPECT_GT(truth.json["plate"]["reversals"]["rows"].get<std::size_t>(), 300u);
+  for (std::size_t d = 0; d < dwells.size(); ++d) {
+    if (dwells[d]["mean_um"].is_null()) continue;
+    EXPECT_LT(std::abs(stage.json["dwells"][d]["mean_um"].get<double>() - dwells[d]["mean_um"].get<double>()), 1.0)
+        << "dwell " << d + 1;
+  }
+  // Row by row: the stage's plate against the truth's (both at the run's board times).
   std::size_t rows = 0;
   const Vec3 rms = merged_error_rms(dir + "data.csv", dir + "truth.csv", &rows);
   std::cout << rows << " rows, stage - truth RMS x/y/z " << rms.transpose() * 1e6 << " um\n";
-  EXPECT_LT(rms.maxCoeff(), 1e-6);
+  EXPECT_LT(rms.maxCoeff(), 1.5e-6);
   if (!::testing::Test::HasFailure()) std::system(("rm -rf " + dir).c_str());
 }
 
