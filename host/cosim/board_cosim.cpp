@@ -150,7 +150,7 @@ CosimResult run_cosim(const CosimOptions& options) {
   const controller::Path path = controller::load_path(options.trajectory, options.duration_s);
   controller::StreamPlan plan(path, result.start_position_m, options.limits);
   if (auto violation = controller::check_plan(plan, options.trajectory, weights.trained_min_m, weights.trained_max_m,
-                                              options.limits)) {
+                                              options.limits, &weights.model)) {
     throw PlanRefused(*violation + "; nothing sent");
   }
   result.approach_samples = plan.approach_samples();

@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
+#include <optional>
 #include <iostream>
 #include <random>
 
@@ -12,6 +14,7 @@
 #include "delta/controller/stream_plan.hpp"
 #include "delta/golden/board_network.hpp"
 #include "delta/input_error.hpp"
+#include "delta/nn/trained_model.hpp"
 #include "support/tree_paths.hpp"
 
 namespace delta::controller {
@@ -197,6 +200,42 @@ TEST(StreamPlan, PointToPointMovesAreJerkLimitedRestToRestThroughTheWaypoints) {
   const auto violation = check_plan(far_plan, far.source, weights.trained_min_m, weights.trained_max_m, limits);
   ASSERT_TRUE(violation);
   EXPECT_NE(violation->find(":2: "), std::string::npos) << *violation;
+}
+
+// A model with a joint ripple table shapes the setpoints it sends: a path to a point on the box's
+// face whose shaped setpoint falls outside the box passes the check of the positions alone and is
+// refused by the run's check (the model given), naming the shaped setpoints, the axis and the box.
+TEST(StreamPlan, TheShapedSetpointsOfARippleTableAreCheckedAgainstTheBox) {
+  const golden::BoardWeights weights =
+      golden::read_board_weights(std::string(DELTA_SOURCE_DIR) + "/weights/paper_like_calibration_deployed.json");
+  ASSERT_FALSE(weights.model.joint_ripple.empty());
+  const Vec3 centre = 0.5 * (weights.trained_min_m + weights.trained_max_m);
+  // On the face x = max: the first grid point whose shaped setpoint lies beyond it.
+  std::optional<Vec3> edge;
+  for (int i = 1; i < 20 && !edge; ++i) {
+    for (int k = 1; k < 20 && !edge; ++k) {
+      const Vec3 s(1.0, i / 20.0, k / 20.0);
+      const Vec3 p = weights.trained_min_m + s.cwiseProduct(weights.trained_max_m - weights.trained_min_m);
+      if (nn::shape_setpoint(weights.model, p).x() > weights.trained_max_m.x()) edge = p;
+    }
+  }
+  ASSERT_TRUE(edge) << "no point of the face x = max shaped beyond it";
+  char move[160];
+  std::snprintf(move, sizeof move, "move:%.12f,%.12f,%.12f;%.12f,%.12f,%.12f", centre.x(), centre.y(), centre.z(),
+                edge->x(), edge->y(), edge->z());
+  const Path path = load_path(move, 0.0);
+  const StreamLimits limits;
+  const StreamPlan plan(path, centre, limits);
+  EXPECT_FALSE(check_plan(plan, "move", weights.trained_min_m, weights.trained_max_m, limits));
+  const auto refused = check_plan(plan, "move", weights.trained_min_m, weights.trained_max_m, limits, &weights.model);
+  ASSERT_TRUE(refused);
+  std::cout << *refused << "\n";
+  EXPECT_NE(refused->find("shaped setpoints"), std::string::npos) << *refused;
+  EXPECT_NE(refused->find("x reaches"), std::string::npos) << *refused;
+  EXPECT_NE(refused->find("the box x"), std::string::npos) << *refused;
+  RunRequest request;
+  request.trajectory = move;
+  EXPECT_EQ(check_run(weights, request).size(), 1u);
 }
 
 }  // namespace
