@@ -234,9 +234,9 @@ struct RunOptions {
 // host run --check: the allowed box, then OK or every problem (exit 2).
 void run_check(const golden::BoardWeights& weights, const RunRequest& request, const std::string& weights_path) {
   const JointTravel travel = joint_travel();
-  std::cout << "allowed box (" << weights_path << "'s trained range): "
-            << motion::box_text(weights.trained_min_m, weights.trained_max_m) << "; joint travel "
-            << fixed(travel.min_deg, 2) << " .. " << fixed(travel.max_deg, 2) << " deg\n";
+  std::cout << "allowed box (" << weights_path
+            << "'s trained range): " << motion::box_text(weights.trained_min_m, weights.trained_max_m)
+            << "; joint travel " << fixed(travel.min_deg, 2) << " .. " << fixed(travel.max_deg, 2) << " deg\n";
   const Path path = load_path(request.trajectory, request.duration_s);
   const std::vector<std::string> problems = check_path(weights, path, request);
   if (problems.empty()) {
@@ -262,10 +262,12 @@ void run_run(const RunOptions& options) {
   request.link_timeout_ms = options.link_timeout_ms;
   request.following_error_deg = options.following_error_deg;
   if (options.check) return run_check(weights, request, options.weights);
-  for (const auto& [name, value] : {std::pair<const char*, const std::string*>{"--port", &options.port},
-                                    {"--record", &options.record}}) {
-    if (value->empty()) fail(kExitBadInput, std::string(name) + " is required (see 'deltactl host run --help'; "
-                                                                "--check needs neither)");
+  for (const auto& [name, value] :
+       {std::pair<const char*, const std::string*>{"--port", &options.port}, {"--record", &options.record}}) {
+    if (value->empty())
+      fail(kExitBadInput, std::string(name) +
+                              " is required (see 'deltactl host run --help'; "
+                              "--check needs neither)");
   }
   auto job = or_exit([&] { return std::make_unique<RunJob>(weights, request); });
 

@@ -53,15 +53,14 @@ void run_limits(const LimitsOptions& options) {
     const char* axis[] = {"x", "y", "z"};
     for (int a = 0; a < 3; ++a) box[axis[a]] = {weights.trained_min_m[a] * 1e3, weights.trained_max_m[a] * 1e3};
     for (int j = 0; j < 3; ++j) spans.push_back({low[j], high[j]});
-    const nlohmann::json out = {
-        {"weights", options.weights},
-        {"box_mm", box},
-        {"joint_travel_deg", {travel.min_deg, travel.max_deg}},
-        {"box_joint_span_deg", unreachable == 0 ? spans : nlohmann::json(nullptr)},
-        {"box_unreachable_points", unreachable},
-        {"joint_velocity_deg_s", motion.joint_velocity_deg_s},
-        {"joint_acceleration_deg_s2", motion.joint_acceleration_deg_s2},
-        {"joint_jerk_deg_s3", motion.joint_jerk_deg_s3}};
+    const nlohmann::json out = {{"weights", options.weights},
+                                {"box_mm", box},
+                                {"joint_travel_deg", {travel.min_deg, travel.max_deg}},
+                                {"box_joint_span_deg", unreachable == 0 ? spans : nlohmann::json(nullptr)},
+                                {"box_unreachable_points", unreachable},
+                                {"joint_velocity_deg_s", motion.joint_velocity_deg_s},
+                                {"joint_acceleration_deg_s2", motion.joint_acceleration_deg_s2},
+                                {"joint_jerk_deg_s3", motion.joint_jerk_deg_s3}};
     std::cout << out.dump(2) << '\n';
     return;
   }
@@ -82,12 +81,14 @@ void run_limits(const LimitsOptions& options) {
   }
   joints.print(std::cout);
   if (unreachable > 0) {
-    std::cout << "\n" << unreachable << " of " << (kGrid + 1) * (kGrid + 1) * (kGrid + 1)
+    std::cout << "\n"
+              << unreachable << " of " << (kGrid + 1) * (kGrid + 1) * (kGrid + 1)
               << " points of the box are beyond the nominal robot's reach (refused as unreachable)\n";
   }
-  std::cout << "\nmotion: joint velocity <= " << fixed(motion.joint_velocity_deg_s, 0) << " deg/s, acceleration <= "
-            << format_number(motion.joint_acceleration_deg_s2) << " deg/s^2, jerk <= "
-            << format_number(motion.joint_jerk_deg_s3) << " deg/s^3 (1 kHz differences of the nominal model)\n";
+  std::cout << "\nmotion: joint velocity <= " << fixed(motion.joint_velocity_deg_s, 0)
+            << " deg/s, acceleration <= " << format_number(motion.joint_acceleration_deg_s2)
+            << " deg/s^2, jerk <= " << format_number(motion.joint_jerk_deg_s3)
+            << " deg/s^3 (1 kHz differences of the nominal model)\n";
 }
 
 const RegisterCommand command("limits", 74, [](CLI::App& root) {

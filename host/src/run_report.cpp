@@ -141,9 +141,9 @@ const char* segment_name(int segment) {
 }
 
 RunColumns read_run_columns(const std::string& path) {
-  const CsvTable table =
-      read_csv(path, {"t_s", "alpha1_deg", "alpha2_deg", "alpha3_deg", "alpha1_ref_deg", "alpha2_ref_deg", "alpha3_ref_deg"},
-               {"x_ref_m", "y_ref_m", "z_ref_m", "x_m", "y_m", "z_m", "drives_enabled"});
+  const CsvTable table = read_csv(
+      path, {"t_s", "alpha1_deg", "alpha2_deg", "alpha3_deg", "alpha1_ref_deg", "alpha2_ref_deg", "alpha3_ref_deg"},
+      {"x_ref_m", "y_ref_m", "z_ref_m", "x_m", "y_m", "z_m", "drives_enabled"});
   const bool reference = table.present[kXRef] && table.present[kYRef] && table.present[kZRef];
   const bool plate = table.present[kX] && table.present[kY] && table.present[kZ];
   RunColumns run;
@@ -272,8 +272,10 @@ RunReport make_run_report(const RunColumns& run, const PlateTrack* plate) {
   // The figures.
   const bool plate_known = plate != nullptr && report.has_reference_position;
   if (plate == nullptr) {
-    report.plate_source = run.plate_m.empty() ? "not measured: the run has no x_m,y_m,z_m (run-report --stage STAGE.csv or --truth TRUTH.csv measures it)"
-                                              : "not measured";
+    report.plate_source =
+        run.plate_m.empty()
+            ? "not measured: the run has no x_m,y_m,z_m (run-report --stage STAGE.csv or --truth TRUTH.csv measures it)"
+            : "not measured";
   } else if (!report.has_reference_position) {
     report.plate_source = "not measured: the run has no reference position (x_ref_m,y_ref_m,z_ref_m)";
   } else {
@@ -342,9 +344,9 @@ std::string report_text(const RunReport& r) {
   out << '\n';
   if (!r.plate_note.empty()) out << "  " << r.plate_note << '\n';
   const std::size_t rest_rows = r.joints[kAtRest].rows, reversal_rows = r.joints[kReversals].rows;
-  out << "segments of the reference (" << (r.has_reference_position ? "x/y/z_ref_m" : "the joint references") << "): "
-      << r.joints[kMoving].rows << " rows moving, " << rest_rows << " at rest in " << r.dwells.size() << " dwells, "
-      << reversal_rows << " through " << r.reversals.size() << " reversals\n\n";
+  out << "segments of the reference (" << (r.has_reference_position ? "x/y/z_ref_m" : "the joint references")
+      << "): " << r.joints[kMoving].rows << " rows moving, " << rest_rows << " at rest in " << r.dwells.size()
+      << " dwells, " << reversal_rows << " through " << r.reversals.size() << " reversals\n\n";
   if (r.plate_measured) {
     Table plate({"plate - reference", "rows", "rms x / y / z [um]", "max |x| / |y| / |z| [um]", "rms [um]", "max [um]",
                  "max at [s]"});
@@ -457,8 +459,9 @@ nlohmann::json report_json(const RunReport& r) {
 
 std::string report_headline(const RunReport& r) {
   const JointFigures& j = r.joints[kAllRows];
-  std::string line = "joint tracking (reference - encoder, " + std::to_string(j.rows) + " rows with the drives on): rms " +
-                     triple(j.rms_deg, 1.0, 4) + " deg, max " + triple(j.max_abs_deg, 1.0, 4) + " deg\n";
+  std::string line = "joint tracking (reference - encoder, " + std::to_string(j.rows) +
+                     " rows with the drives on): rms " + triple(j.rms_deg, 1.0, 4) + " deg, max " +
+                     triple(j.max_abs_deg, 1.0, 4) + " deg\n";
   if (!r.plate_measured) return line + "plate: " + r.plate_source + "\n";
   const PlateFigures& p = r.plate[kAllRows];
   line += "plate - reference: rms " + um(p.rms_distance_m) + " um (x / y / z " + triple(p.rms_m, 1e6, 2) + "), max " +

@@ -178,7 +178,8 @@ TEST(RunReport, TheCommandPrintsTheTablesAndRefusesBadInputWithOneLine) {
   }
   write_text(dir + "backwards.csv", backwards);
   std::string off = run_csv(false);
-  for (std::size_t at = off.find(",1\n"); at != std::string::npos; at = off.find(",1\n", at)) off.replace(at, 3, ",0\n");
+  for (std::size_t at = off.find(",1\n"); at != std::string::npos; at = off.find(",1\n", at))
+    off.replace(at, 3, ",0\n");
   write_text(dir + "off.csv", off);
   write_text(dir + "columns.csv", "t_s,alpha1_deg\n0,1\n");
   write_text(dir + "truth.csv", "t_s,x_m,y_m\n0,0,0\n");

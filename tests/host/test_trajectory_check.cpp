@@ -124,9 +124,10 @@ TEST(TrajectoryCheck, LeavingTheBoxNamesEveryAxisOutsideAndTheBoxInOneLine) {
   const auto more = all_violations(samples, kRate, Geometry::nominal(), limits);
   ASSERT_GE(more.size(), 2u);
   for (std::size_t i = 1; i < more.size(); ++i) EXPECT_LE(more[i - 1].sample, more[i].sample);
-  EXPECT_EQ(std::count_if(more.begin(), more.end(),
-                          [](const TrajectoryViolation& x) { return x.reason.find("trained range") != std::string::npos; }),
-            1);
+  EXPECT_EQ(
+      std::count_if(more.begin(), more.end(),
+                    [](const TrajectoryViolation& x) { return x.reason.find("trained range") != std::string::npos; }),
+      1);
 }
 
 TEST(TrajectoryCheck, TimeGoingBackAndNanAreRefusedNamingTheLine) {

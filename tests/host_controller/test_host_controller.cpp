@@ -522,11 +522,12 @@ TEST(HostRun, CheckPrintsTheBoxAndEveryProblemWithoutAPort) {
   // Out along x beyond the box's top, then down in z beyond its bottom, then 4 mm in 20 ms (too fast).
   const Vec3 top = w.network.input_max + Vec3(0.002, 0, 0), low = w.network.input_min - Vec3(0, 0, 0.002);
   std::ostringstream file;
-  file << "t_s,x_m,y_m,z_m\n0,0,0," << 0.5 * (w.network.input_min.z() + w.network.input_max.z()) << "\n2," << top.x() << ",0,"
-       << 0.5 * (w.network.input_min.z() + w.network.input_max.z()) << "\n4,0,0," << low.z() << "\n4.02,0.004,0," << low.z()
-       << "\n6,0.004,0," << low.z() << "\n";
+  file << "t_s,x_m,y_m,z_m\n0,0,0," << 0.5 * (w.network.input_min.z() + w.network.input_max.z()) << "\n2," << top.x()
+       << ",0," << 0.5 * (w.network.input_min.z() + w.network.input_max.z()) << "\n4,0,0," << low.z()
+       << "\n4.02,0.004,0," << low.z() << "\n6,0.004,0," << low.z() << "\n";
   write_text(dir + "/outside.csv", file.str());
-  const CommandResult bad = run_deltactl("host run --weights " + kWeights + " --trajectory " + dir + "/outside.csv --check");
+  const CommandResult bad =
+      run_deltactl("host run --weights " + kWeights + " --trajectory " + dir + "/outside.csv --check");
   std::cout << bad.out << bad.err;
   EXPECT_EQ(bad.exit_code, 2);
   std::size_t problems = 0, box_lines = 0;

@@ -6,8 +6,8 @@
 
 #include <cmath>
 #include <cstdio>
-#include <optional>
 #include <iostream>
+#include <optional>
 #include <random>
 
 #include "delta/controller/run_job.hpp"

@@ -38,7 +38,8 @@ StageLog read_stage_log(const std::string& path) {
 }
 
 PlateTrack plate_from_stage(const RunColumns& run, const StageLog& stage, MergeResult* merge) {
-  const MergeResult m = merge_logs(run.path, run.t_s, run.alpha_deg, stage.path, stage.t_s, stage.position_m, stage.sync);
+  const MergeResult m =
+      merge_logs(run.path, run.t_s, run.alpha_deg, stage.path, stage.t_s, stage.position_m, stage.sync);
   PlateTrack track;
   track.source = "the stage's log " + stage.path + ", its clock aligned to board time by the merge";
   track.measured.assign(run.t_s.size(), false);

@@ -45,10 +45,10 @@ struct RunColumns {
   std::vector<double> t_s;
   std::vector<std::size_t> line;  // file line of each row
   std::vector<Vec3> alpha_deg, alpha_ref_deg;
-  std::vector<bool> driven;        // drives on (every row when the file has no drives_enabled)
+  std::vector<bool> driven;  // drives on (every row when the file has no drives_enabled)
   bool has_drives_column = false;
-  std::vector<Vec3> reference_m;   // empty: no x_ref_m,y_ref_m,z_ref_m
-  std::vector<Vec3> plate_m;       // empty: no x_m,y_m,z_m
+  std::vector<Vec3> reference_m;  // empty: no x_ref_m,y_ref_m,z_ref_m
+  std::vector<Vec3> plate_m;      // empty: no x_m,y_m,z_m
 };
 
 // Reads RUN.csv: t_s, alpha1..3_deg and alpha1..3_ref_deg required; x_ref_m.., x_m..,
@@ -84,7 +84,7 @@ struct JointFigures {
 struct Dwell {
   double start_s = 0.0, duration_s = 0.0;
   std::size_t rows = 0, measured_rows = 0;
-  Vec3 reference_m = Vec3::Zero();  // where it rests (x_ref_m..; zero when the run has none)
+  Vec3 reference_m = Vec3::Zero();                     // where it rests (x_ref_m..; zero when the run has none)
   double mean_distance_m = 0.0, max_distance_m = 0.0;  // of the plate error (measured rows)
 };
 
