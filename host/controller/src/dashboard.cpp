@@ -2,6 +2,11 @@
 #include "delta/controller/dashboard.hpp"
 
 #include <fcntl.h>
+#include <ifaddrs.h>
+#include <netdb.h>
+#include <netinet/in.h>
+#include <poll.h>
+#include <sys/socket.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -26,12 +31,14 @@
 #include <thread>
 
 #include "delta/board_facts.hpp"
+#include "delta/controller/http_front_door.hpp"
 #include "delta/controller/run_job.hpp"
 #include "delta/exit_codes.hpp"
 #include "delta/input_error.hpp"
 #include "delta/recording_plot.hpp"
 #include "delta/shipped_data.hpp"
 #include "delta/trajectory.hpp"
+#include "delta/utf8_text.hpp"
 
 namespace delta::controller {
 namespace {
@@ -43,9 +50,11 @@ constexpr double kCountDeg = board::kEncoderCountMicrodeg * 1e-6;
 constexpr int kPublishMs = 40;             // one telemetry event per 40 ms: 25 events per second
 constexpr std::uint32_t kKeepTicks = 200;  // a sample kept per 20 ms of board time (ticks of 100 us)
 constexpr std::size_t kEventRing = 64;     // events a client may lag behind before it skips ahead
+constexpr int kMarkFeedHeld = 1;           // a sample's host marks (its last element): the operator's feed hold
+constexpr int kMarkEstopLatched = 2;       //   and a latched e-stop
 
 // One kept sample: [t_s, enc1..3 deg, ref1..3 deg, cur1..3 A, plate ref x,y,z mm (null: none),
-// flags, fault cause, underruns].
+// flags, fault cause, underruns]; the publisher adds the host's marks (kMark*).
 json sample_json(const TelemetryRecord& r) {
   const link::TelemetryPayload& t = r.telemetry;
   json row = json::array();
@@ -153,7 +162,173 @@ bool plain_name(const std::string& name) {
   });
 }
 
+// A reply's JSON text whatever its strings hold (bytes that are not UTF-8 replaced): dump never
+// throws, so no answer is an empty 500.
+std::string json_text(const json& value) { return value.dump(-1, ' ', false, json::error_handler_t::replace); }
+
+std::string lowercase(std::string text) {
+  for (char& c : text) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return text;
+}
+
+// "HOST:PORT" as a browser writes it in the Host header (an IPv6 address in brackets).
+std::string host_and_port(const std::string& host, int port) {
+  return (host.find(':') != std::string::npos ? "[" + host + "]" : host) + ":" + std::to_string(port);
+}
+
+bool is_wildcard_address(const std::string& address) {
+  return address.empty() || address == "0.0.0.0" || address == "::" || address == "0:0:0:0:0:0:0:0";
+}
+
+// The Host header values that name this server: the loopback's names, the --http address as
+// given, this machine's name, and for a listener on every address (0.0.0.0, [::]) each address of
+// each interface. Any other name is refused (DNS rebinding: a page of another site, its name
+// pointed at this machine, would otherwise read the robot's state and recordings).
+std::set<std::string> own_host_names(const std::string& address, int port) {
+  std::set<std::string> names;
+  auto add = [&](const std::string& host) {
+    if (host.empty()) return;
+    names.insert(lowercase(host_and_port(host, port)));
+    if (port == 80) names.insert(lowercase(host.find(':') != std::string::npos ? "[" + host + "]" : host));
+  };
+  for (const char* loopback : {"127.0.0.1", "localhost", "::1"}) add(loopback);
+  if (!is_wildcard_address(address)) add(address);
+  char name[256] = {};
+  if (::gethostname(name, sizeof name - 1) == 0) {
+    const std::string host = name;
+    add(host);
+    if (host.find('.') == std::string::npos) add(host + ".local");  // its mDNS name
+  }
+  if (is_wildcard_address(address)) {
+    ifaddrs* interfaces = nullptr;
+    if (::getifaddrs(&interfaces) == 0) {
+      for (const ifaddrs* i = interfaces; i; i = i->ifa_next) {
+        if (!i->ifa_addr || (i->ifa_addr->sa_family != AF_INET && i->ifa_addr->sa_family != AF_INET6)) continue;
+        const socklen_t size = i->ifa_addr->sa_family == AF_INET ? sizeof(sockaddr_in) : sizeof(sockaddr_in6);
+        char text[NI_MAXHOST] = {};
+        if (::getnameinfo(i->ifa_addr, size, text, sizeof text, nullptr, 0, NI_NUMERICHOST) != 0) continue;
+        const std::string host = text;
+        if (host.find('%') == std::string::npos) add(host);  // not a link-local address with its zone
+      }
+      ::freeifaddrs(interfaces);
+    }
+  }
+  return names;
+}
+
+// One connection as httplib reads and writes it: first the bytes the front door read (the head and
+// any of the body), then the socket (non-blocking), every read against one deadline for the rest
+// of the request and every write against its own timeout.
+class ConnectionStream final : public httplib::Stream {
+ public:
+  ConnectionStream(HttpConnection& connection, Clock::time_point read_deadline, std::chrono::milliseconds write_timeout)
+      : c_(connection), read_deadline_(read_deadline), write_timeout_(write_timeout) {}
+
+  bool is_readable() const override { return offset_ < c_.received.size() || wait(POLLIN, read_deadline_); }
+  bool is_writable() const override { return wait(POLLOUT, Clock::now() + write_timeout_); }
+
+  ssize_t read(char* ptr, std::size_t size) override {
+    if (offset_ >= c_.received.size()) {
+      c_.received.clear();
+      offset_ = 0;
+      if (!wait(POLLIN, read_deadline_)) return -1;
+      char buffer[4096];
+      const ssize_t n = ::recv(c_.fd, buffer, sizeof buffer, 0);
+      if (n <= 0) return n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK) ? -1 : n;
+      c_.received.assign(buffer, static_cast<std::size_t>(n));
+    }
+    const std::size_t n = std::min(size, c_.received.size() - offset_);
+    std::memcpy(ptr, c_.received.data() + offset_, n);
+    offset_ += n;
+    return static_cast<ssize_t>(n);
+  }
+
+  // All of it or -1 (httplib writes a response's head in one call).
+  ssize_t write(const char* ptr, std::size_t size) override {
+    const Clock::time_point deadline = Clock::now() + write_timeout_;
+    std::size_t done = 0;
+    while (done < size) {
+      if (!wait(POLLOUT, deadline)) return -1;
+      const ssize_t n = ::send(c_.fd, ptr + done, size - done, MSG_NOSIGNAL);
+      if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR)) continue;
+      if (n <= 0) return -1;
+      done += static_cast<std::size_t>(n);
+    }
+    return static_cast<ssize_t>(size);
+  }
+
+  void get_remote_ip_and_port(std::string& ip, int& port) const override { address_of(false, ip, port); }
+  void get_local_ip_and_port(std::string& ip, int& port) const override { address_of(true, ip, port); }
+  int socket() const override { return c_.fd; }
+
+ private:
+  bool wait(short events, Clock::time_point deadline) const {
+    for (;;) {
+      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()).count();
+      pollfd p{c_.fd, events, 0};
+      const int ready = ::poll(&p, 1, static_cast<int>(std::max<long long>(0, left)));
+      if (ready < 0 && errno == EINTR) continue;
+      return ready > 0 && (p.revents & events) && !(p.revents & (POLLERR | POLLNVAL)) &&
+             !(events == POLLOUT && (p.revents & POLLHUP));
+    }
+  }
+
+  void address_of(bool local, std::string& ip, int& port) const {
+    sockaddr_storage address{};
+    socklen_t size = sizeof address;
+    const int got = local ? ::getsockname(c_.fd, reinterpret_cast<sockaddr*>(&address), &size)
+                          : ::getpeername(c_.fd, reinterpret_cast<sockaddr*>(&address), &size);
+    char host[NI_MAXHOST] = {}, service[NI_MAXSERV] = {};
+    if (got != 0 || ::getnameinfo(reinterpret_cast<sockaddr*>(&address), size, host, sizeof host, service,
+                                  sizeof service, NI_NUMERICHOST | NI_NUMERICSERV) != 0) {
+      ip.clear();
+      port = 0;
+      return;
+    }
+    ip = host;
+    port = std::atoi(service);
+  }
+
+  HttpConnection& c_;
+  std::size_t offset_ = 0;
+  Clock::time_point read_deadline_;
+  std::chrono::milliseconds write_timeout_;
+};
+
+// httplib's routing and responses, on connections the front door accepted (its own accept loop is
+// never run: it hands every connection to one pool before reading a byte of it).
+class RoutedServer final : public httplib::Server {
+ public:
+  // Binds like httplib (port 0: any); the port, or -1.
+  int bind(const std::string& address, int port) {
+    if (port == 0) return bind_to_any_port(address);
+    return bind_to_port(address, port) ? port : -1;
+  }
+  int listening_socket() const { return svr_sock_; }
+  // One request on `stream`, answered with "Connection: close".
+  void serve(httplib::Stream& stream) {
+    bool closed = true;
+    process_request(stream, true, closed, nullptr);
+  }
+  // Ends the streams being written (httplib's writers stop when the server's socket is gone).
+  void close_listener() {
+    const int fd = svr_sock_.exchange(INVALID_SOCKET);
+    if (fd != INVALID_SOCKET) {
+      ::shutdown(fd, SHUT_RDWR);
+      ::close(fd);
+    }
+  }
+};
+
 }  // namespace
+
+std::string recording_name_problem(const std::string& file_name) {
+  if (file_name.size() < 5 || file_name.compare(file_name.size() - 4, 4, ".csv") != 0) return "a recording's name ends in .csv";
+  if (file_name[0] == '.') return "a recording's name does not start with '.' (hidden files are not listed)";
+  if (file_name.size() > 200) return "a recording's name has at most 200 characters";
+  if (!plain_name(file_name)) return "a recording's name has only letters, digits, '-', '_' and '.'";
+  return "";
+}
 
 void parse_http_address(const std::string& text, DashboardOptions& options) {
   const auto colon = text.rfind(':');
@@ -179,12 +354,12 @@ struct Dashboard::Impl {
   DashboardOptions options;
   DashboardBackend backend;
   std::string token;
-  httplib::Server server;
-  std::thread listener, publisher;
+  RoutedServer server;
+  std::unique_ptr<HttpFrontDoor> door;
+  std::thread publisher;
   std::atomic<bool> stopping{false};
   std::atomic<int> streams{0};
-  std::set<std::string> own_hosts;  // Host header values naming this server (loopback listener)
-  bool loopback = true;
+  std::set<std::string> own_hosts;  // Host header values naming this server, lowercase (own_host_names)
 
   // ---- telemetry in (on_telemetry) ----
   std::mutex incoming_mutex;
@@ -222,7 +397,10 @@ struct Dashboard::Impl {
       status["board_time_s"] = t.tick / 1e4;
       status["data_age_ms"] = std::chrono::duration<double, std::milli>(Clock::now() - at).count();
       status["counters"]["underruns"] = t.underruns;
-      if (status.value("state", std::string()) != "running" && status.value("state", std::string()) != "holding" &&
+      // The controller's state as its board thread last read it, from the newest frame instead;
+      // a state of the controller's own (e-stopped, homing, running, ...) stays.
+      const std::string state = status.value("state", std::string());
+      if ((state == "idle" || state == "homed" || state == "fault" || state == "unknown") &&
           status.value("connection", std::string()) == "connected") {
         status["state"] = state_name(state_of(t));
       }
@@ -231,12 +409,29 @@ struct Dashboard::Impl {
       json& run = status["run"];
       const double played = run.value("played", 0.0), planned = run.value("planned", 0.0);
       run["seconds"] = played / static_cast<double>(board::kSetpointRateHz);
-      run["total_s"] = planned / static_cast<double>(board::kSetpointRateHz);
-      run["percent"] = planned > 0 ? std::round(1000.0 * played / planned) / 10.0 : 0.0;
+      // Held, slowing to rest or stopping, the plan ends at the rest point: no share of the run.
+      const std::string feed = run.value("feed", std::string());
+      const bool whole_plan = feed == "streaming" || feed == "resuming";
+      run["total_s"] = whole_plan ? json(planned / static_cast<double>(board::kSetpointRateHz)) : json(nullptr);
+      run["percent"] = whole_plan && planned > 0 ? json(std::round(1000.0 * played / planned) / 10.0) : json(nullptr);
     } else {
       status["run"] = nullptr;
     }
     return status;
+  }
+
+  // What the host knows of a sample and the board does not: the operator's feed hold (the board
+  // also holds at every run's start and end) and a latched e-stop; kMark* bits.
+  static int host_marks(const json& status) {
+    int marks = 0;
+    if (status.contains("run") && status["run"].is_object()) {
+      const std::string feed = status["run"].value("feed", std::string());
+      if (feed == "held" || feed.rfind("holding", 0) == 0) marks |= kMarkFeedHeld;
+    }
+    if (status.contains("estop") && status["estop"].is_object() && status["estop"].value("latched", false)) {
+      marks |= kMarkEstopLatched;
+    }
+    return marks;
   }
 
   void publish_loop() {
@@ -252,10 +447,15 @@ struct Dashboard::Impl {
         fresh.swap(incoming);
       }
       // One event for all clients: its text is made here once and shared (a client only writes it).
+      const json now = enriched_status();
+      const int marks = host_marks(now);
       std::vector<std::string> texts;
       texts.reserve(fresh.size());
-      for (const json& sample : fresh) texts.push_back(sample.dump());
-      const std::string status = enriched_status().dump();
+      for (json& sample : fresh) {
+        sample.push_back(marks);
+        texts.push_back(json_text(sample));
+      }
+      const std::string status = json_text(now);
       std::lock_guard<std::mutex> lock(out_mutex);
       const std::string seq = std::to_string(++sequence);
       events.emplace_back(sequence, std::make_shared<const std::string>(
@@ -269,25 +469,68 @@ struct Dashboard::Impl {
     published.notify_all();
   }
 
+  // ---- connections: the front door's lanes ----
+  // A command from a client with the token never waits for a read: the e-stop has a lane of its
+  // own, the other commands another; reads, plots (a gnuplot each, one at a time) and telemetry
+  // streams (each holds its thread) have theirs. A client without the token only reaches those.
+  enum Lane : std::size_t { kEstopLane, kCommandLane, kReadLane, kPlotLane, kStreamLane };
+  static constexpr auto kRequestDeadline = std::chrono::milliseconds(2000);  // the rest of a request after its head
+  static constexpr auto kWriteTimeout = std::chrono::milliseconds(2000);     // a stuck browser's stream ends
+
+  static std::string busy(const std::string& what) {
+    return json_text(json{{"ok", false}, {"error", what}});
+  }
+
+  void open_front_door() {
+    std::vector<HttpLane> lanes(5);
+    lanes[kEstopLane] = {"e-stop", 2, 16, busy("busy: e-stops are being answered")};
+    lanes[kCommandLane] = {"commands", 3, 16, busy("busy: too many commands at once")};
+    lanes[kReadLane] = {"reads", 6, 64, busy("busy: too many reads at once; try again")};
+    lanes[kPlotLane] = {"plots", 1, 16, busy("busy: too many plots asked for at once; try again")};
+    lanes[kStreamLane] = {"telemetry", options.max_streams, 0,
+                          busy("too many telemetry clients (" + std::to_string(options.max_streams) + ")")};
+    door = std::make_unique<HttpFrontDoor>(
+        server.listening_socket(), std::move(lanes), [this](const HttpConnection& c) { return lane_of(c); },
+        [this](HttpConnection& c) {
+          ConnectionStream stream(c, Clock::now() + kRequestDeadline, kWriteTimeout);
+          server.serve(stream);
+        });
+  }
+
+  std::size_t lane_of(const HttpConnection& c) const {
+    if (c.method == "POST" && carries_token(c.header("Authorization"))) {
+      return c.path == "/api/estop" ? kEstopLane : kCommandLane;
+    }
+    if (c.method == "GET" && c.path == "/api/telemetry") return kStreamLane;
+    if (c.method == "GET" && c.path.rfind("/api/recordings/", 0) == 0 && c.path.size() > 4 &&
+        c.path.compare(c.path.size() - 4, 4, ".png") == 0) {
+      return kPlotLane;
+    }
+    return kReadLane;
+  }
+
+  bool carries_token(const std::string& authorization) const {
+    const std::string prefix = "Bearer ";
+    return authorization.rfind(prefix, 0) == 0 && equal_constant_time(trim(authorization.substr(prefix.size())), token);
+  }
+
   // ---- security ----
   // Empty when allowed; else the status to answer (401 or 403) and a reason in `why`.
   int refused(const httplib::Request& request, bool changes, std::string& why) const {
-    const std::string origin = request.get_header_value("Origin");
-    if (loopback) {
-      const std::string host = request.get_header_value("Host");
-      if (!own_hosts.count(host)) {
-        why = "Host '" + host + "' is not this dashboard's (loopback only)";
-        return 403;
-      }
+    const std::string origin = lowercase(request.get_header_value("Origin"));
+    const std::string host = lowercase(request.get_header_value("Host"));
+    if (!own_hosts.count(host)) {
+      std::string known;
+      for (const std::string& name : own_hosts) known += (known.empty() ? "" : ", ") + name;
+      why = "Host '" + escape_invalid_utf8(host) + "' is not one of this dashboard's names (" + known + ")";
+      return 403;
     }
-    if (!origin.empty() && origin != "http://" + request.get_header_value("Host")) {
-      why = "Origin '" + origin + "' is not this dashboard's";
+    if (!origin.empty() && origin != "http://" + host) {
+      why = "Origin '" + escape_invalid_utf8(origin) + "' is not this dashboard's";
       return 403;
     }
     if (!changes && is_loopback_address(request.remote_addr)) return 0;
-    const std::string authorization = request.get_header_value("Authorization");
-    const std::string prefix = "Bearer ";
-    if (authorization.rfind(prefix, 0) != 0 || !equal_constant_time(trim(authorization.substr(prefix.size())), token)) {
+    if (!carries_token(request.get_header_value("Authorization"))) {
       why = changes ? "a changing request needs 'Authorization: Bearer TOKEN' (the token file's content)"
                     : "reading from another host needs 'Authorization: Bearer TOKEN'";
       return 401;
@@ -301,7 +544,7 @@ struct Dashboard::Impl {
     if (status == 0) return true;
     response.status = status;
     if (status == 401) response.set_header("WWW-Authenticate", "Bearer realm=\"deltactl\"");
-    response.set_content(json{{"ok", false}, {"error", why}}.dump(), "application/json");
+    response.set_content(json_text(json{{"ok", false}, {"error", why}}), "application/json");
     return false;
   }
 
@@ -309,7 +552,7 @@ struct Dashboard::Impl {
     const bool ok = body.value("ok", false);
     const int exit = body.value("exit", ok ? 0 : 3);
     response.status = ok ? 200 : exit == kExitBadInput ? 400 : 409;
-    response.set_content(body.dump(), "application/json");
+    response.set_content(json_text(body), "application/json");
   }
 
   void routes() {
@@ -343,7 +586,7 @@ struct Dashboard::Impl {
     });
     server.Get("/api/status", [this](const httplib::Request& request, httplib::Response& response) {
       if (!allow(request, response, false)) return;
-      response.set_content(enriched_status().dump(), "application/json");
+      response.set_content(json_text(enriched_status()), "application/json");
     });
     server.Get("/api/trajectories", [this](const httplib::Request& request, httplib::Response& response) {
       if (!allow(request, response, false)) return;
@@ -351,11 +594,11 @@ struct Dashboard::Impl {
       for (const auto& [name, description] : trajectory_catalogue()) {
         list.push_back({{"name", name}, {"description", description}});
       }
-      response.set_content(list.dump(), "application/json");
+      response.set_content(json_text(list), "application/json");
     });
     server.Get("/api/recordings", [this](const httplib::Request& request, httplib::Response& response) {
       if (!allow(request, response, false)) return;
-      response.set_content(recordings().dump(), "application/json");
+      response.set_content(json_text(recordings()), "application/json");
     });
     server.Get(R"(/api/recordings/([A-Za-z0-9_.-]+)\.(csv|png))",
                [this](const httplib::Request& request, httplib::Response& response) {
@@ -383,10 +626,10 @@ struct Dashboard::Impl {
       if (!request.has_header("Content-Length") && !request.has_header("Transfer-Encoding")) {
         if (!allow(request, response, true)) return httplib::Server::HandlerResponse::Handled;
         response.status = 411;
-        response.set_content(json{{"ok", false},
-                                  {"error", request.path + ": a POST with a body needs Content-Length "
-                                                           "(curl: -d '{...}' or --json '{...}')"}}
-                                 .dump(),
+        response.set_content(json_text(json{{"ok", false},
+                                            {"error", escape_invalid_utf8(request.path) +
+                                                          ": a POST with a body needs Content-Length "
+                                                          "(curl: -d '{...}' or --json '{...}')"}}),
                              "application/json");
         return httplib::Server::HandlerResponse::Handled;
       }
@@ -404,33 +647,47 @@ struct Dashboard::Impl {
         reply(response,
               json{{"ok", false},
                    {"exit", kExitBadInput},
-                   {"error",
-                    std::string("run: the body is {\"trajectory\": NAME_OR_FILE, \"duration\": S}: ") + error.what()}});
+                   {"error", "run: the body is {\"trajectory\": NAME_OR_FILE, \"duration\": S}: " +
+                                 escape_invalid_utf8(error.what())}});
       }
+    });
+    // Whatever a handler throws: an answer with a body, its text escaped.
+    server.set_exception_handler([](const httplib::Request&, httplib::Response& response, std::exception_ptr failure) {
+      std::string what = "unknown";
+      try {
+        std::rethrow_exception(failure);
+      } catch (const std::exception& error) {
+        what = error.what();
+      } catch (...) {
+      }
+      response.status = 500;
+      response.set_content(json_text(json{{"ok", false}, {"error", escape_invalid_utf8(what)}}), "application/json");
     });
   }
 
   static std::string find_or(const std::string& root) { return root.empty() ? find_web_root() : root; }
 
+  // The recordings folder's regular files (not links, FIFOs or folders) named by the recording
+  // name rule, newest first.
   json recordings() const {
     json list = json::array();
     std::error_code error;
-    std::vector<fs::directory_entry> files;
+    std::vector<std::pair<fs::path, fs::file_time_type>> files;
     for (const auto& entry : fs::directory_iterator(options.record_folder, error)) {
       const std::string name = entry.path().filename().string();
-      if (entry.is_regular_file(error) && plain_name(name) && entry.path().extension() == ".csv") {
-        files.push_back(entry);
+      std::error_code ignored;
+      if (fs::is_regular_file(entry.symlink_status(ignored)) && recording_name_problem(name).empty()) {
+        files.emplace_back(entry.path(), fs::last_write_time(entry.path(), ignored));
       }
     }
-    std::sort(files.begin(), files.end(),
-              [](const auto& a, const auto& b) { return a.last_write_time() > b.last_write_time(); });
-    for (const auto& entry : files) {
-      const std::string stem = entry.path().stem().string();
-      const auto modified =
-          std::chrono::duration_cast<std::chrono::seconds>(entry.last_write_time() - fs::file_time_type::clock::now() +
-                                                           std::chrono::system_clock::now().time_since_epoch());
-      list.push_back({{"name", entry.path().filename().string()},
-                      {"bytes", entry.file_size(error)},
+    std::sort(files.begin(), files.end(), [](const auto& a, const auto& b) { return a.second > b.second; });
+    for (const auto& [path, written] : files) {
+      const std::string stem = path.stem().string();
+      const auto modified = std::chrono::duration_cast<std::chrono::seconds>(
+          written - fs::file_time_type::clock::now() + std::chrono::system_clock::now().time_since_epoch());
+      std::error_code ignored;
+      list.push_back({{"name", path.filename().string()},
+                      {"bytes", fs::file_size(path, ignored)},
                       {"modified_unix_s", modified.count()},
                       {"csv", "/api/recordings/" + stem + ".csv"},
                       {"plot", "/api/recordings/" + stem + ".png"}});
@@ -438,36 +695,64 @@ struct Dashboard::Impl {
     return list;
   }
 
+  // A regular file that is not a link.
+  static bool is_plain_file(const std::string& path) {
+    struct stat info {};
+    return ::lstat(path.c_str(), &info) == 0 && S_ISREG(info.st_mode);
+  }
+
+  // The content of a regular file, opened without following a link or waiting on a FIFO.
+  static std::optional<std::string> read_plain_file(const std::string& path) {
+    const int fd = ::open(path.c_str(), O_RDONLY | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC);
+    if (fd < 0) return std::nullopt;
+    struct stat info {};
+    std::optional<std::string> text;
+    if (::fstat(fd, &info) == 0 && S_ISREG(info.st_mode)) {
+      text.emplace();
+      char buffer[1 << 16];
+      ssize_t n;
+      while ((n = ::read(fd, buffer, sizeof buffer)) > 0) text->append(buffer, static_cast<std::size_t>(n));
+      if (n < 0) text.reset();
+    }
+    ::close(fd);
+    return text;
+  }
+
   void recording_file(const std::string& stem, const std::string& kind, httplib::Response& response) {
     const std::string csv = options.record_folder + "/" + stem + ".csv";
-    std::error_code error;
-    if (!plain_name(stem + ".csv") || !fs::is_regular_file(csv, error)) {
+    auto not_found = [&] {
       response.status = 404;
       response.set_content("no recording " + stem + ".csv\n", "text/plain");
-      return;
-    }
+    };
+    if (!recording_name_problem(stem + ".csv").empty() || !is_plain_file(csv)) return not_found();
     std::string path = csv;
     if (kind == "png") {
       const std::string folder = options.record_folder + "/.plots";
-      fs::create_directories(folder, error);
+      std::error_code error;
+      if (!fs::exists(fs::symlink_status(folder, error))) fs::create_directory(folder, error);
+      if (!fs::is_directory(fs::symlink_status(folder, error))) {
+        response.status = 422;
+        response.set_content(folder + " is not a folder (a link or a file): no plots are written there\n", "text/plain");
+        return;
+      }
       path = folder + "/" + stem + ".png";
       std::lock_guard<std::mutex> lock(plot_mutex);
-      if (!fs::is_regular_file(path, error) || fs::last_write_time(path, error) < fs::last_write_time(csv, error)) {
+      if (!is_plain_file(path) || fs::last_write_time(path, error) < fs::last_write_time(csv, error)) {
+        fs::remove(path, error);  // a link planted there is removed, never followed
         try {
           plot_recording(csv, path);
         } catch (const std::exception& failure) {
           response.status = 422;
-          response.set_content(std::string(failure.what()) + "\n", "text/plain");
+          response.set_content(escape_invalid_utf8(failure.what()) + "\n", "text/plain");
           return;
         }
       }
     } else {
       response.set_header("Content-Disposition", "attachment; filename=\"" + stem + ".csv\"");
     }
-    std::ifstream in(path, std::ios::binary);
-    std::ostringstream text;
-    text << in.rdbuf();
-    response.set_content(text.str(), content_type_of(path));
+    std::optional<std::string> text = read_plain_file(path);
+    if (!text) return not_found();
+    response.set_content(*text, content_type_of(path));
   }
 
   // Server-Sent Events: the history first, then each published event; a client that falls more
@@ -477,8 +762,8 @@ struct Dashboard::Impl {
       streams.fetch_sub(1);
       response.status = 503;
       response.set_content(
-          json{{"ok", false}, {"error", "too many telemetry clients (" + std::to_string(options.max_streams) + ")"}}
-              .dump(),
+          json_text(json{{"ok", false},
+                         {"error", "too many telemetry clients (" + std::to_string(options.max_streams) + ")"}}),
           "application/json");
       return;
     }
@@ -498,8 +783,10 @@ struct Dashboard::Impl {
               const json bits = {{"drive_enable", 1 << board::kFlagDriveEnable},
                                  {"homed", 1 << board::kFlagHomed},
                                  {"holding", 1 << board::kFlagHolding},
-                                 {"fault", 1 << board::kFlagFault}};
-              text = "event: history\ndata: {\"flag_bits\":" + bits.dump() +
+                                 {"fault", 1 << board::kFlagFault},
+                                 {"homing", 1 << board::kFlagHoming}};
+              const json marks = {{"feed_held", kMarkFeedHeld}, {"estop_latched", kMarkEstopLatched}};
+              text = "event: history\ndata: {\"flag_bits\":" + bits.dump() + ",\"mark_bits\":" + marks.dump() +
                      ",\"samples\":" + json_array(history.begin(), history.end()) + "}\n\n";
               *cursor = sequence;
             }
@@ -538,28 +825,16 @@ Dashboard::Dashboard(const DashboardOptions& options, DashboardBackend backend) 
                                         "/index.html (set DELTACTL_WEB_ROOT or install the package)");
   }
   d.token = load_token(d.options.token_file);
-  d.loopback = is_loopback_address(d.options.address);
-  // Streaming clients each hold a pool thread: the pool has room for all of them and the API.
-  const std::size_t threads = static_cast<std::size_t>(d.options.max_streams) + 8;
-  d.server.new_task_queue = [threads] { return new httplib::ThreadPool(threads); };
-  d.server.set_keep_alive_max_count(1);  // an idle keep-alive connection would hold a thread
-  d.server.set_read_timeout(5, 0);
-  d.server.set_write_timeout(2, 0);  // a stuck browser's stream ends; others go on
   d.server.set_payload_max_length(64 * 1024);
   d.routes();
-  int port = d.options.port;
-  if (port == 0) {
-    port = d.server.bind_to_any_port(d.options.address);
-  } else if (!d.server.bind_to_port(d.options.address, port)) {
-    port = -1;
-  }
+  const int port = d.server.bind(d.options.address, d.options.port);
   if (port <= 0) {
     throw HostFailure(kExitFailure, "--http " + d.options.address + ":" + std::to_string(d.options.port) +
                                         ": cannot listen (in use, or not an address of this machine)");
   }
   d.options.port = port;
-  const std::string p = std::to_string(port);
-  d.own_hosts = {"127.0.0.1:" + p, "localhost:" + p, "[::1]:" + p, d.options.address + ":" + p};
+  d.own_hosts = own_host_names(d.options.address, port);
+  d.open_front_door();
 }
 
 Dashboard::~Dashboard() { stop(); }
@@ -567,15 +842,15 @@ Dashboard::~Dashboard() { stop(); }
 void Dashboard::start() {
   Impl& d = *impl_;
   d.publisher = std::thread([&d] { d.publish_loop(); });
-  d.listener = std::thread([&d] { d.server.listen_after_bind(); });
+  d.door->start();
 }
 
 void Dashboard::stop() {
   Impl& d = *impl_;
   if (d.stopping.exchange(true)) return;
   d.published.notify_all();
-  d.server.stop();
-  if (d.listener.joinable()) d.listener.join();
+  d.door->stop();  // the streams see `stopping` within a second
+  d.server.close_listener();
   if (d.publisher.joinable()) d.publisher.join();
 }
 
