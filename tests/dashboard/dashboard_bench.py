@@ -26,7 +26,7 @@ def check(condition, what):
 class Bench:
     """A model-fidelity virtual board (kept to real time) and `host serve --http 127.0.0.1:0` on it."""
 
-    def __init__(self, deltactl, weights, name, extra_serve=()):
+    def __init__(self, deltactl, weights, name, extra_serve=(), http="127.0.0.1:0"):
         self.deltactl = deltactl
         self.weights = weights
         self.dir = tempfile.mkdtemp(prefix="dash_" + name + "_")
@@ -43,7 +43,7 @@ class Bench:
         self.serve_err = open(self.dir + "/serve.err", "w+")
         self.serve = subprocess.Popen(
             [deltactl, "host", "serve", "--port", self.link, "--weights", weights, "--socket", self.dir + "/ctl.sock",
-             "--record-folder", self.records, "--link-timeout-ms", "1000", "--http", "127.0.0.1:0",
+             "--record-folder", self.records, "--link-timeout-ms", "1000", "--http", http,
              "--http-token-file", self.token_file, *extra_serve],
             stdout=subprocess.DEVNULL, stderr=self.serve_err, text=True)
         self.port = None
@@ -51,7 +51,7 @@ class Bench:
         while self.port is None:
             if time.time() > deadline or self.serve.poll() is not None:
                 raise Failure("serve did not start: " + self.serve_log())
-            match = re.search(r"dashboard on http://127\.0\.0\.1:(\d+)/", self.serve_log())
+            match = re.search(r"dashboard on http://[^ /]+:(\d+)/", self.serve_log())
             if match:
                 self.port = int(match.group(1))
             time.sleep(0.05)

@@ -1,15 +1,20 @@
 // The operator's dashboard (docs/dashboard.md): telemetry over Server-Sent Events read with fetch
-// (so the token can go along), plots on canvases, controls that only ask: the controller decides.
+// (so the token can go along), one stream per browser shared by its tabs, plots on canvases,
+// controls that only ask: the controller decides.
 'use strict';
 
 const KEEP_S = 300;  // what the server keeps too (a reload shows it again)
+const GAP_S = 0.1;   // samples come every 20 ms: a longer silence is drawn as one, not bridged
 const COLOURS = ['#1f77b4', '#d62728', '#2ca02c'];
-// Sample layout (dashboard.cpp): t, enc1..3, ref1..3, cur1..3, plate ref x,y,z mm, flags, fault, underruns.
-const T = 0, ENC = 1, REF = 4, CUR = 7, PLATE = 10, FLAGS = 13;
+// Sample layout (dashboard.cpp): t, enc1..3, ref1..3, cur1..3, plate ref x,y,z mm, flags, fault,
+// underruns, the host's marks (the operator's feed hold, a latched e-stop).
+const T = 0, ENC = 1, REF = 4, CUR = 7, PLATE = 10, FLAGS = 13, MARKS = 16;
 
 const dash = {
-  samples: [], status: null, bits: { drive_enable: 1, homed: 2, holding: 4, fault: 8 },
+  samples: [], status: null, bits: { drive_enable: 1, homed: 2, holding: 4, fault: 8, homing: 64 },
+  marks: { feed_held: 1, estop_latched: 2 },
   events: 0, lastEventAt: 0, connected: false, dirty: true, lastDraw: 0, lastAge: 0, draws: 0,
+  role: 'starting',  // of the browser's shared stream: 'leader' (reads it), 'follower' (is told), 'alone'
 };
 window.dashboard = dash;  // for the browser test and the curious
 
@@ -24,17 +29,26 @@ function headers(json) {
   if (json) h['Content-Type'] = 'application/json';
   return h;
 }
+// The token bar: in the page's flow above the plots (it covers nothing); resolves when used or
+// cancelled.
+let tokenAnswered = null;
 function askToken() {
-  return new Promise((done) => {
-    const dialog = $('token-dialog');
-    $('token-input').value = '';
-    dialog.onclose = () => {
-      const value = $('token-input').value.trim();
-      if (dialog.returnValue === 'ok' && value) sessionStorage.setItem('deltactl-token', value);
-      done();
-    };
-    dialog.showModal();
-  });
+  const bar = $('token-bar');
+  if (!bar.hidden && tokenAnswered) return tokenAnswered.promise;
+  let done;
+  const promise = new Promise((resolve) => { done = resolve; });
+  tokenAnswered = { promise, done };
+  $('token-input').value = '';
+  bar.hidden = false;
+  $('token-input').focus();
+  return promise;
+}
+function tokenBarClosed(use) {
+  const value = $('token-input').value.trim();
+  if (use && value) sessionStorage.setItem('deltactl-token', value);
+  $('token-bar').hidden = true;
+  if (tokenAnswered) tokenAnswered.done();
+  tokenAnswered = null;
 }
 
 function say(text, ok) {
@@ -68,13 +82,14 @@ function accept(event, message) {
   if (event === 'history') {
     dash.samples = message.samples || [];
     if (message.flag_bits) dash.bits = message.flag_bits;
+    if (message.mark_bits) dash.marks = message.mark_bits;
   } else {
     const fresh = message.samples || [];
     if (fresh.length && dash.samples.length && fresh[0][T] < dash.samples[dash.samples.length - 1][T]) {
       dash.samples = dash.samples.filter((s) => s[T] < fresh[0][T]);  // the board restarted its clock
     }
     for (const s of fresh) dash.samples.push(s);
-    dash.status = message.status;
+    if (message.status) dash.status = message.status;
     dash.lastEventAt = performance.now();
     dash.events += 1;
     showStatus();
@@ -88,10 +103,12 @@ function accept(event, message) {
   dash.dirty = true;
 }
 
-async function stream() {
-  for (;;) {
+// The leader's stream: every event is drawn here and told to the browser's other tabs.
+async function stream(abort) {
+  while (!abort.signal.aborted) {
     try {
-      const response = await fetch('/api/telemetry', { headers: headers(false), cache: 'no-store' });
+      const response = await fetch('/api/telemetry', { headers: headers(false), cache: 'no-store',
+                                                        signal: abort.signal });
       if (response.status === 401) {
         say('reading from another host needs the token');
         await askToken();
@@ -115,15 +132,101 @@ async function stream() {
             if (line.startsWith('event:')) event = line.slice(6).trim();
             else if (line.startsWith('data:')) data += line.slice(5).trim();
           }
-          if (data) accept(event, JSON.parse(data));
+          if (!data) continue;
+          const message = JSON.parse(data);
+          accept(event, message);
+          tell({ kind: event === 'history' ? 'history' : 'event', message });
         }
       }
     } catch (e) {
+      if (abort.signal.aborted) break;
       say('telemetry: ' + e.message + ' (retrying)');
     }
     dash.connected = false;
     await sleep(1000);
   }
+  dash.connected = false;
+}
+
+// ---- one telemetry stream per browser ----
+// A browser opens at most 6 HTTP/1.1 connections to a host: a stream in every tab would leave the
+// e-stop's request none. The tabs elect one leader on a BroadcastChannel (the lowest id among
+// those that claim); it alone streams and tells the others each event. Followers that hear no
+// leader for LEADER_LOST_MS claim again; a leader closing says so first.
+const LEADER_LOST_MS = 3000, CLAIM_MS = 400, BEAT_MS = 500;
+const me = Math.random().toString(36).slice(2, 10) + '-' + Date.now().toString(36);
+const channel = 'BroadcastChannel' in window ? new BroadcastChannel('deltactl-telemetry') : null;
+const election = { leader: null, heardAt: 0, claimingSince: 0, abort: null };
+window.dashboard.election = election;
+
+function tell(message) {
+  if (channel && dash.role === 'leader') channel.postMessage(Object.assign({ from: me }, message));
+}
+
+function lead() {
+  dash.role = 'leader';
+  election.leader = me;
+  election.claimingSince = 0;
+  election.abort = new AbortController();
+  stream(election.abort);
+}
+
+function follow(leader) {
+  if (dash.role === 'leader' && election.abort) election.abort.abort();
+  const fresh = election.leader !== leader || dash.role !== 'follower';
+  dash.role = 'follower';
+  election.leader = leader;
+  election.heardAt = performance.now();
+  election.claimingSince = 0;
+  if (fresh) channel.postMessage({ kind: 'history?', from: me, to: leader });
+}
+
+function heard(m) {
+  if (m.kind === 'claim') {
+    if (dash.role === 'leader') {
+      channel.postMessage({ kind: 'beat', from: me });
+    } else if (election.claimingSince && m.from < me) {  // the lower id claims: it leads, this tab waits
+      election.claimingSince = 0;
+      election.heardAt = performance.now();
+    }
+  } else if (m.kind === 'beat' || m.kind === 'event' || m.kind === 'history') {
+    if (dash.role === 'leader' && m.from > me) return;  // two leaders for a moment: the lower id stays
+    if (dash.role !== 'follower' || election.leader !== m.from) follow(m.from);
+    election.heardAt = performance.now();
+    if (m.kind === 'event') { accept('message', m.message); dash.connected = true; }
+    if (m.kind === 'history' && m.to === me) accept('history', m.message);
+  } else if (m.kind === 'history?' && dash.role === 'leader' && m.to === me) {
+    channel.postMessage({ kind: 'history', from: me, to: m.from,
+                          message: { samples: dash.samples, flag_bits: dash.bits, mark_bits: dash.marks } });
+  } else if (m.kind === 'bye' && m.from === election.leader) {
+    election.heardAt = 0;
+    dash.connected = false;
+  }
+}
+
+function elect() {
+  const now = performance.now();
+  if (dash.role === 'leader') {
+    channel.postMessage({ kind: 'beat', from: me });
+  } else if (election.claimingSince) {
+    if (now - election.claimingSince >= CLAIM_MS) lead();
+  } else if (now - election.heardAt > LEADER_LOST_MS) {
+    if (dash.role === 'follower') dash.connected = false;
+    election.claimingSince = now;
+    channel.postMessage({ kind: 'claim', from: me });
+  }
+}
+
+function startTelemetry() {
+  if (!channel) {  // no way to share: this tab streams for itself
+    dash.role = 'alone';
+    stream(new AbortController());
+    return;
+  }
+  channel.onmessage = (e) => heard(e.data);
+  election.heardAt = performance.now() - LEADER_LOST_MS + 2 * BEAT_MS;  // a leader there is heard first
+  setInterval(elect, BEAT_MS / 2);
+  addEventListener('pagehide', () => { if (dash.role === 'leader') channel.postMessage({ kind: 'bye', from: me }); });
 }
 
 // ---- the status bar and the controls ----
@@ -131,29 +234,53 @@ async function stream() {
 function setText(element, text) { if (element.textContent !== text) element.textContent = text; }
 function setClass(element, name) { if (element.className !== name) element.className = name; }
 
+// A latched e-stop as the controller reports it ({latched, source, board_time_s}), or null.
+function latchedEstop(s) { return s && s.estop && s.estop.latched ? s.estop : null; }
+
+function runText(s) {
+  const run = s.run;
+  if (run && run.planned) {
+    if (run.percent === null || run.percent === undefined) {  // held or stopping: the plan ends at rest
+      return `${run.seconds.toFixed(1)} s played, ${run.feed}`;
+    }
+    return `${run.seconds.toFixed(1)} of ${run.total_s.toFixed(1)} s (${run.percent.toFixed(1)} %), ${run.feed}`;
+  }
+  if (run) return 'starting';
+  return s.last_run && s.last_run.outcome ? 'last run: ' + s.last_run.outcome : 'no run';
+}
+
 function showStatus() {
   const s = dash.status;
   if (!s) return;
+  const estop = latchedEstop(s);
   const state = $('state');
   setText(state, s.state || '-');
-  setClass(state, 'badge ' + (s.state || ''));
+  setClass(state, 'badge ' + (estop ? 'estopped' : s.state || ''));
   setText($('homed'), s.homed ? 'yes' : 'no');
   setText($('drives'), s.drives_enabled ? 'ON' : 'off');
   const fault = $('fault');
   setText(fault, s.fault ? s.fault : 'none');
   setClass(fault, s.fault ? 'active' : '');
+  setText($('run'), runText(s));
+  const banner = $('estop-banner');
+  banner.hidden = !estop;
+  if (estop) {
+    const when = typeof estop.board_time_s === 'number' ? ` at board time ${estop.board_time_s.toFixed(2)} s` : '';
+    setText(banner, `E-STOPPED by ${estop.source || 'an unknown source'}${when}: the drives stay off and ` +
+      'nothing moves until the e-stop is cleared ("Clear e-stop (reset)").');
+  }
   const run = s.run;
-  setText($('run'), run && run.planned
-    ? `${run.seconds.toFixed(1)} of ${run.total_s.toFixed(1)} s (${run.percent.toFixed(1)} %), ${run.feed}`
-    : run ? 'starting' : (s.last_run && s.last_run.outcome ? 'last run: ' + s.last_run.outcome : 'no run'));
   const connected = s.connection === 'connected';
   const feed = run ? run.feed : '';
-  $('home').disabled = !(connected && !run && !s.drives_enabled && !s.fault);
-  $('run-button').disabled = !(connected && !run && s.state === 'homed' && !s.fault);
+  $('home').disabled = !(connected && !run && !s.drives_enabled && !s.fault && !estop);
+  $('run-button').disabled = !(connected && !run && s.state === 'homed' && !s.fault && !estop);
   $('hold').disabled = !(run && (feed === 'streaming' || feed === 'resuming'));
   $('resume').disabled = !(run && (feed === 'held' || feed.startsWith('holding')));
   $('stop').disabled = !run;
-  $('clear').disabled = !s.fault;
+  const clear = $('clear');
+  clear.disabled = !(s.fault || estop);
+  setText(clear, estop ? 'Clear e-stop (reset)' : 'Clear fault');
+  setClass(clear, estop ? 'reset' : '');
   const b = s.board || {};
   setText($('identity'), `${s.connection} (${s.note}); port ${s.port}; weights ${s.weights} ` +
     `(CRC ${s.weights_crc}); board gateware ${b.gateware_build_id || '-'}, weights CRC ${b.weights_crc || '-'}` +
@@ -173,11 +300,13 @@ function showAge() {
 }
 
 // ---- plots ----
-// The samples to draw: all in the window, or, when there are more than two a pixel column (a long
-// window), the first, minimum and maximum of each column's samples, so a spike stays visible.
+// The samples to draw, as indices into `visible`: all, or, when there are more than two a pixel
+// column (a long window), the first, last, minimum and maximum of each column's samples, so a
+// spike stays visible.
 function thinned(visible, lines, x) {
   const column = (s) => Math.round(x(s[T]));
-  if (visible.length <= 2 * (column(visible[visible.length - 1]) - column(visible[0]) + 1)) return visible;
+  const all = visible.map((_, i) => i);
+  if (visible.length <= 2 * (column(visible[visible.length - 1]) - column(visible[0]) + 1)) return all;
   const keep = [];
   for (let start = 0; start < visible.length;) {
     let end = start;
@@ -193,11 +322,23 @@ function thinned(visible, lines, x) {
       }
       if (low >= 0) chosen.add(low).add(high);
     }
-    for (const i of [...chosen].sort((a, b) => a - b)) keep.push(visible[i]);
+    for (const i of [...chosen].sort((a, b) => a - b)) keep.push(i);
     start = end + 1;
   }
   return keep;
 }
+
+// The bands, each a rectangle per run of samples it holds for: what the board's flags and the
+// host's marks say. The board also holds at the start and end of every run (the enable and the
+// stop): only the operator's feed hold is drawn as one.
+const BANDS = [
+  { kind: 'off', colour: '#e0e0e0', on: (s) => !(s[FLAGS] & dash.bits.drive_enable) },
+  { kind: 'homing', colour: '#fff1b8', on: (s) => s[FLAGS] & dash.bits.homing },
+  { kind: 'hold', colour: '#cfe3f7', on: (s) => s[MARKS] & dash.marks.feed_held },
+  { kind: 'estop', colour: '#f2a6a6', on: (s) => s[MARKS] & dash.marks.estop_latched },
+  { kind: 'fault', colour: '#f8c9c9', on: (s) => s[FLAGS] & dash.bits.fault },
+];
+const NO_DATA = '#ffe0b2';
 
 function plot(canvas, lines, windowS) {
   const ctx = canvas.getContext('2d');
@@ -209,25 +350,39 @@ function plot(canvas, lines, windowS) {
   let first = all.length - 1;
   while (first > 0 && all[first - 1][T] >= t0) first -= 1;
   const x = (t) => left + (t - t0) / windowS * (W - left - right);
-  const visible = thinned(all.slice(first), lines, x);
-  // Bands: drives off, feed hold, fault (flags); one rectangle for each run of samples.
-  const bands = [['#e0e0e0', (f) => !(f & dash.bits.drive_enable)], ['#cfe3f7', (f) => f & dash.bits.holding],
-    ['#f8c9c9', (f) => f & dash.bits.fault]];
-  for (const [colour, on] of bands) {
-    ctx.fillStyle = colour;
-    for (let i = 0; i < visible.length; i += 1) {
-      if (!on(visible[i][FLAGS])) continue;
-      let j = i;
-      while (j + 1 < visible.length && on(visible[j + 1][FLAGS])) j += 1;
-      const end = j + 1 < visible.length ? visible[j + 1][T] : visible[j][T] + 0.02;
-      ctx.fillRect(x(visible[i][T]), top, Math.max(1, x(end) - x(visible[i][T])), H - top - bottom);
-      i = j;
+  const raw = all.slice(first);
+  // gaps[i]: the silences (no telemetry for more than GAP_S) up to raw[i]; no line, no band crosses one.
+  const gaps = new Array(raw.length).fill(0);
+  const drawn = { gap: 0 };
+  for (let i = 1; i < raw.length; i += 1) {
+    const silent = raw[i][T] - raw[i - 1][T] > GAP_S;
+    gaps[i] = gaps[i - 1] + (silent ? 1 : 0);
+    if (silent) {
+      ctx.fillStyle = NO_DATA;
+      ctx.fillRect(x(raw[i - 1][T]), top, Math.max(1, x(raw[i][T]) - x(raw[i - 1][T])), H - top - bottom);
+      drawn.gap += 1;
+    }
+  }
+  const kept = thinned(raw, lines, x);
+  const end = (k) => (k + 1 < kept.length && gaps[kept[k + 1]] === gaps[kept[k]] ? raw[kept[k + 1]][T]
+    : raw[kept[k]][T] + 0.02);
+  for (const band of BANDS) {
+    ctx.fillStyle = band.colour;
+    drawn[band.kind] = 0;
+    for (let k = 0; k < kept.length; k += 1) {
+      if (!band.on(raw[kept[k]])) continue;
+      let j = k;
+      while (j + 1 < kept.length && band.on(raw[kept[j + 1]]) && gaps[kept[j + 1]] === gaps[kept[j]]) j += 1;
+      const from = raw[kept[k]][T];
+      ctx.fillRect(x(from), top, Math.max(1, x(end(j)) - x(from)), H - top - bottom);
+      drawn[band.kind] += 1;
+      k = j;
     }
   }
   let lo = Infinity, hi = -Infinity;
   for (const line of lines) {
-    for (const s of visible) {
-      const v = line.value(s);
+    for (const k of kept) {
+      const v = line.value(raw[k]);
       if (v === null || !isFinite(v)) continue;
       lo = Math.min(lo, v); hi = Math.max(hi, v);
     }
@@ -248,31 +403,60 @@ function plot(canvas, lines, windowS) {
     const t = t0 + windowS * k / 5;
     ctx.fillText(t.toFixed(1) + ' s', x(t) - 14, H - 5);
   }
+  let longest = 0;  // the longest time a line joins, s
   for (const line of lines) {
     ctx.strokeStyle = line.colour; ctx.lineWidth = 1.4; ctx.setLineDash(line.dash || []);
     ctx.beginPath();
-    let pen = false;
-    for (const s of visible) {
-      const v = line.value(s);
-      if (v === null || !isFinite(v)) { pen = false; continue; }
-      if (pen) ctx.lineTo(x(s[T]), y(v)); else ctx.moveTo(x(s[T]), y(v));
-      pen = true;
+    let pen = -1;  // the index (into raw) the pen is at, or -1 when lifted
+    for (const k of kept) {
+      const v = line.value(raw[k]);
+      if (v === null || !isFinite(v)) { pen = -1; continue; }
+      if (pen >= 0 && gaps[pen] === gaps[k]) {
+        ctx.lineTo(x(raw[k][T]), y(v));
+        longest = Math.max(longest, raw[k][T] - raw[pen][T]);
+      } else {
+        ctx.moveTo(x(raw[k][T]), y(v));
+      }
+      pen = k;
     }
     ctx.stroke();
   }
   ctx.setLineDash([]);
   // What was drawn, for a look from outside (the browser test reads these from the DOM).
-  canvas.dataset.points = String(visible.length);
+  canvas.dataset.points = String(kept.length);
   canvas.dataset.newestS = t1.toFixed(2);
+  canvas.dataset.bands = JSON.stringify(drawn);
+  canvas.dataset.longestLineS = longest.toFixed(3);
+  canvas.dataset.colours = [...new Set(lines.map((l) => l.colour))].join(' ');
 }
 
-const joints = [], errors = [], currents = [], plate = [];
+// The four plots, their lines and each plot's legend (the lines' own colours).
+const PLOTS = [
+  { id: 'plot-joints', names: ['joint 1', 'joint 2', 'joint 3'], lines: [] },
+  { id: 'plot-error', names: ['joint 1', 'joint 2', 'joint 3'], lines: [] },
+  { id: 'plot-currents', names: ['joint 1', 'joint 2', 'joint 3'], lines: [] },
+  { id: 'plot-plate', names: ['x', 'y', 'z'], lines: [] },
+];
 for (let j = 0; j < 3; j += 1) {
-  joints.push({ colour: COLOURS[j], value: (s) => s[ENC + j] });
-  joints.push({ colour: COLOURS[j], dash: [6, 4], value: (s) => s[REF + j] });
-  errors.push({ colour: COLOURS[j], value: (s) => (s[FLAGS] & dash.bits.drive_enable ? s[ENC + j] - s[REF + j] : null) });
-  currents.push({ colour: COLOURS[j], value: (s) => s[CUR + j] });
-  plate.push({ colour: COLOURS[j], value: (s) => s[PLATE + j] });
+  PLOTS[0].lines.push({ colour: COLOURS[j], value: (s) => s[ENC + j] });
+  PLOTS[0].lines.push({ colour: COLOURS[j], dash: [6, 4], value: (s) => s[REF + j] });
+  PLOTS[1].lines.push({ colour: COLOURS[j],
+                        value: (s) => (s[FLAGS] & dash.bits.drive_enable ? s[ENC + j] - s[REF + j] : null) });
+  PLOTS[2].lines.push({ colour: COLOURS[j], value: (s) => s[CUR + j] });
+  PLOTS[3].lines.push({ colour: COLOURS[j], value: (s) => s[PLATE + j] });
+}
+for (const p of PLOTS) {
+  const legend = document.createElement('span');
+  legend.className = 'keys';
+  p.names.forEach((name, j) => {
+    const key = document.createElement('span');
+    key.className = 'key';
+    key.dataset.colour = COLOURS[j];
+    key.style.color = COLOURS[j];
+    key.textContent = '\u2501 ' + name;
+    legend.append(key);
+  });
+  $(p.id).parentElement.querySelector('figcaption').append(legend);
 }
 
 function frame(now) {
@@ -282,10 +466,7 @@ function frame(now) {
   }
   if (dash.dirty && now - dash.lastDraw >= 40) {  // at most 25 redraws a second
     const w = Number($('window').value);
-    plot($('plot-joints'), joints, w);
-    plot($('plot-error'), errors, w);
-    plot($('plot-currents'), currents, w);
-    plot($('plot-plate'), plate, w);
+    for (const p of PLOTS) plot($(p.id), p.lines, w);
     dash.dirty = false;
     dash.lastDraw = now;
     dash.draws += 1;
@@ -362,13 +543,16 @@ $('resume').onclick = () => command('resume');
 $('stop').onclick = () => command('stop');
 $('clear').onclick = () => command('clear');
 $('token').onclick = () => askToken();
+$('token-bar').onsubmit = (e) => { e.preventDefault(); tokenBarClosed(true); };
+$('token-cancel').onclick = () => tokenBarClosed(false);
 $('refresh').onclick = () => listRecordings();
 $('window').onchange = () => { dash.dirty = true; };
 for (const id of ['home', 'run-button', 'hold', 'resume', 'stop', 'clear']) $(id).disabled = true;
 
 listTrajectories();
 listRecordings();
-stream();
+startTelemetry();
 requestAnimationFrame(frame);
-// The e-stop is one click: the token is asked for once, when the page opens.
+// The e-stop is one click: the token is asked for once, when the page opens (in the page's flow,
+// above the plots, which stay in sight).
 if (!token() && !new URLSearchParams(location.search).has('no-token-prompt')) askToken();
