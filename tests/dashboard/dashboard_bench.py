@@ -128,6 +128,20 @@ class Bench:
                 rows.append(dict(zip(names, map(float, fields))))
         return rows
 
+    def check_drives_off_after(self, asked, bound_ms, what):
+        """The truth: drives on at board time `asked` (the newest telemetry before the e-stop), off
+        within bound_ms of board time after it. The delay in ms."""
+        time.sleep(1.5)  # the truth is flushed every second
+        rows = self.truth_rows()
+        on = [r for r in rows if r["t_s"] <= asked]
+        check(on and on[-1]["drives_enabled"] == 1, "truth: drives on at board time %.3f s before %s" % (asked, what))
+        off = [r["t_s"] for r in rows if r["t_s"] > asked and r["drives_enabled"] == 0]
+        check(off, "truth: drives off after " + what)
+        delay_ms = (off[0] - asked) * 1e3
+        check(delay_ms <= bound_ms, "truth: drives off %.1f ms of board time after the newest telemetry before %s "
+              "(<= %g)" % (delay_ms, what, bound_ms))
+        return delay_ms
+
     def close(self):
         for process in (self.serve, self.board):
             if process.poll() is None:
