@@ -1,4 +1,4 @@
-// deltactl host: the host controller on the lab PC (SPEC.md, "The board and the lab PC"): `status`
+// deltactl host: the host controller on the lab PC (docs/contracts.md, "The board and the lab PC"): `status`
 // identifies the board and prints its state, `home` homes against the robot's references (home
 // switches, delta/controller/homing.hpp) or, --by-hand, sets the counts where the arms are, `record` records the
 // telemetry with the drives off (the calibration drag), `run` checks a trajectory whole, enables, streams it paced by
@@ -582,8 +582,9 @@ void run_ctl(const CtlOptions& options) {
         if (reply.contains("estop") && reply["estop"].value("latched", false)) {
           const nlohmann::json& e = reply["estop"];
           std::cout << "e-stop: latched, by the " << e.value("source", std::string("?"))
-                    << (e["board_time_s"].is_number() ? " at board time " + fixed(e["board_time_s"].get<double>(), 3) + " s"
-                                                      : std::string())
+                    << (e["board_time_s"].is_number()
+                            ? " at board time " + fixed(e["board_time_s"].get<double>(), 3) + " s"
+                            : std::string())
                     << "; home, enable and run are refused until 'deltactl host ctl clear-fault'\n";
         }
         if (reply.contains("run")) {

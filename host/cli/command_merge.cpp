@@ -1,5 +1,5 @@
 // deltactl merge: a run recorded by the host and the measuring stage's own log, aligned without a
-// shared clock and merged into one recording on the run's board time (SPEC.md, "The lab's measurements").
+// shared clock and merged into one recording on the run's board time (docs/contracts.md, "The lab's measurements").
 #include <cmath>
 #include <iostream>
 #include <memory>

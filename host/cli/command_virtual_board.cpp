@@ -1,4 +1,4 @@
-// deltactl virtual-board: the virtual robot with its board behind a pseudo-terminal (SPEC.md, "The
+// deltactl virtual-board: the virtual robot with its board behind a pseudo-terminal (docs/contracts.md, "The
 // board and the lab PC"), so any program that opens PATH as a serial port talks to it as to the
 // iCEBreaker. RTL fidelity (the Verilated board) or model fidelity (the C++ model board,
 // bit-exact with it): delta/cosim/virtual_board.hpp, model_board.hpp.

@@ -1,4 +1,4 @@
-// The effect vocabulary of shared/SPEC.md: geometry, measuring frame and joint sensor chain.
+// The effect vocabulary of docs/contracts.md: geometry, measuring frame and joint sensor chain.
 #include "delta/effects.hpp"
 
 #include <Eigen/Geometry>

@@ -88,7 +88,7 @@ TEST(WeightsFile, RefusesACompensationItCannotRun) {
 }
 
 // The compensation on the angles the encoders would read without backlash gives what they read with
-// it: the play of the virtual robot (shared/SPEC.md), sample for sample, on a seeded random walk.
+// it: the play of the virtual robot (docs/contracts.md), sample for sample, on a seeded random walk.
 TEST(BacklashCompensation, ReproducesTheVirtualRobotsReadings) {
   const std::uint64_t seed = 1515;
   std::printf("seed %llu\n", static_cast<unsigned long long>(seed));

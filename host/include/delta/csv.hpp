@@ -1,4 +1,4 @@
-// Numeric CSV tables (shared/SPEC.md recording rules): one header line, '#' comments, any column
+// Numeric CSV tables (docs/contracts.md recording rules): one header line, '#' comments, any column
 // order, extra columns ignored, every error reported as FILE:LINE: reason.
 #pragma once
 

@@ -1,4 +1,4 @@
-// Effect files (shared/SPEC.md): a JSON object naming effects of the vocabulary with parameters.
+// Effect files (docs/contracts.md): a JSON object naming effects of the vocabulary with parameters.
 //
 // Per-joint effects take an array of three numbers. transmission_error takes either
 // {"amplitude_deg": [..3], "period_deg": [..3], "phase_rad": [..3]} or three [A, P, phi] triples.

@@ -1,4 +1,4 @@
-// Recordings of the robot (shared/SPEC.md): t_s, alpha1..3_deg, x_m, y_m, z_m, in time order.
+// Recordings of the robot (docs/contracts.md): t_s, alpha1..3_deg, x_m, y_m, z_m, in time order.
 #pragma once
 
 #include <string>

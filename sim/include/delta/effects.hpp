@@ -1,4 +1,4 @@
-// The unmodelled effects of a real Delta robot (shared/SPEC.md vocabulary), one definition shared
+// The unmodelled effects of a real Delta robot (docs/contracts.md vocabulary), one definition shared
 // by the virtual robot (which injects them) and the diagnosis (which identifies them).
 //
 // Lengths in metres, angles in degrees, phases in radians, scales dimensionless.

@@ -1,6 +1,6 @@
 // Closed-form Delta kinematics with per-chain parameters: inverse, forward, Jacobian.
 //
-// Frames follow shared/SPEC.md: base frame at the centre of the base joint circle, z up, chain j
+// Frames follow docs/contracts.md: base frame at the centre of the base joint circle, z up, chain j
 // along its angle about z; alpha_j in degrees, positive with the elbow below the base plane.
 // The per-chain inverse kinematics is a template on the scalar type so that automatic
 // differentiation (Eigen::AutoDiffScalar) can run through the very same code.

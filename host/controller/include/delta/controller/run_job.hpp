@@ -162,7 +162,7 @@ class RunJob {
 
 // `deltactl host record`: the drives stay off (nothing but identify is sent); every telemetry frame
 // is recorded for duration_s of board time (0: until a signal). The lab's calibration run, the
-// measuring stage dragging the plate (SPEC.md, "The lab's measurements").
+// measuring stage dragging the plate (docs/contracts.md, "The lab's measurements").
 struct RecordRequest {
   std::string record;       // RUN.csv
   double duration_s = 0.0;  // board time from the first telemetry frame

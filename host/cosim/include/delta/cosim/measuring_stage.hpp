@@ -1,4 +1,4 @@
-// The virtual measuring stage beside the virtual board (SPEC.md, "The lab's measurements"): a stage
+// The virtual measuring stage beside the virtual board (docs/contracts.md, "The lab's measurements"): a stage
 // controller with its own clock that either drags the plate along a trajectory with the drives off
 // (`drag`: the arms follow through the true geometry and every sensor effect) or measures the
 // plate wherever the robot carries it (`follow`), and writes its own log, t_s,x_m,y_m,z_m, as a

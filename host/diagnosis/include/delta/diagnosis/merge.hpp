@@ -1,4 +1,4 @@
-// Merging the host's recording of a run with the measuring stage's own log (SPEC.md, "The lab's
+// Merging the host's recording of a run with the measuring stage's own log (docs/contracts.md, "The lab's
 // measurements"): the two clocks are aligned from the data alone, then the stage is resampled at
 // the run's board times.
 //

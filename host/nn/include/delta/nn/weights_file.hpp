@@ -31,7 +31,7 @@
 //     "input_min": [3] (m), "input_max": [3] (m), "output_min": [3] (deg), "output_max": [3] (deg),
 //     "input_weights": [H rows of 3] (IW{1,1}), "hidden_bias": [H] (b{1}),
 //     "output_weights": [3 rows of H] (LW{2,1}), "output_bias": [3] (b{2}),
-//     "effects": {effect file object, shared/SPEC.md} (hybrid only),
+//     "effects": {effect file object, docs/contracts.md} (hybrid only),
 //     "compensation": {"backlash_half_play_deg": [3] (h_j, >= 0),
 //                      "joint_ripple": {"bin_deg": b, "first_deg": [3], "values_deg": [3 arrays]}
 //                        (optional, version 3: r_j at angles first_deg[j] + k b, linear between
