@@ -502,8 +502,7 @@ TEST(HostServeSafety, SilentConnectionsDoNotDelayAnEstop) {
   idle.clear();
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   // Latched for every client until a clear: a run and a home are refused, exit 3, naming it.
-  const nlohmann::json run =
-      ask(server.socket, R"({"cmd":"run","trajectory":"move:0,0,-0.0718","wait":false})");
+  const nlohmann::json run = ask(server.socket, R"({"cmd":"run","trajectory":"move:0,0,-0.0718","wait":false})");
   EXPECT_EQ(run.value("exit", 0), 3) << run.dump();
   EXPECT_NE(run.value("error", "").find("e-stopped"), std::string::npos) << run.dump();
   const nlohmann::json status = ask(server.socket, R"({"cmd":"status"})");

@@ -154,12 +154,12 @@ struct HostServer::Impl {
   // clears it: not a reconnect, not a queued request, not the end of the run it stopped.
   struct EstopLatch {
     bool latched = false;
-    std::string source;                 // who asked first: socket | dashboard | signal
-    std::optional<double> board_time_s; // the board's time then (null: no telemetry yet)
+    std::string source;                  // who asked first: socket | dashboard | signal
+    std::optional<double> board_time_s;  // the board's time then (null: no telemetry yet)
   };
   EstopLatch estop_latch;
-  std::string estop_file;  // the latch kept across a restart: <recordings>/.estop-latched (JSON)
-  bool homing = false;  // the board thread is homing (a stop, an estop or the shutdown ends it)
+  std::string estop_file;                      // the latch kept across a restart: <recordings>/.estop-latched (JSON)
+  bool homing = false;                         // the board thread is homing (a stop, an estop or the shutdown ends it)
   volatile std::sig_atomic_t homing_stop = 0;  // non-zero: the homing ends now, drives off
 
   // ---- client threads: counted, each ends on its own ----
@@ -218,7 +218,7 @@ struct HostServer::Impl {
       if (p.telemetry) t = p.telemetry;
       out["run"] = {{"played", p.played}, {"planned", p.planned}, {"feed", feed_name(p.feed)}};
     }
-    out["state"] = out["estop"]["latched"].get<bool>() ? "e-stopped"
+    out["state"] = out["estop"]["latched"].get<bool>()   ? "e-stopped"
                    : out["connection"] == "disconnected" ? state_name(HostState::kDisconnected)
                    : t                                   ? state_name(state_of(*t))
                                                          : "unknown";
@@ -250,9 +250,7 @@ struct HostServer::Impl {
     if (work->job) running = work->job;  // taken by the board thread next
     return std::nullopt;
   }
-  static bool moves(const std::string& command) {
-    return command == "home" || command == "enable" || command == "run";
-  }
+  static bool moves(const std::string& command) { return command == "home" || command == "enable" || command == "run"; }
   // The refusal of `command` while the e-stop is latched (mutex held).
   json estop_refusal(const std::string& command) const {
     std::string when;

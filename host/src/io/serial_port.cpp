@@ -70,8 +70,9 @@ SerialPort::SerialPort(const std::string& path, int baud) : path_(path) {
     const int error = errno;
     ::close(fd_);
     throw std::system_error(error, std::generic_category(),
-                            path + ": in use by another program (if that is the controller, deltactl host serve, "
-                                   "ask it: deltactl host ctl status)");
+                            path +
+                                ": in use by another program (if that is the controller, deltactl host serve, "
+                                "ask it: deltactl host ctl status)");
   }
   termios tio{};
   if (::tcgetattr(fd_, &tio) != 0) {
