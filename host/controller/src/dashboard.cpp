@@ -323,7 +323,8 @@ class RoutedServer final : public httplib::Server {
 }  // namespace
 
 std::string recording_name_problem(const std::string& file_name) {
-  if (file_name.size() < 5 || file_name.compare(file_name.size() - 4, 4, ".csv") != 0) return "a recording's name ends in .csv";
+  if (file_name.size() < 5 || file_name.compare(file_name.size() - 4, 4, ".csv") != 0)
+    return "a recording's name ends in .csv";
   if (file_name[0] == '.') return "a recording's name does not start with '.' (hidden files are not listed)";
   if (file_name.size() > 200) return "a recording's name has at most 200 characters";
   if (!plain_name(file_name)) return "a recording's name has only letters, digits, '-', '_' and '.'";
@@ -477,9 +478,7 @@ struct Dashboard::Impl {
   static constexpr auto kRequestDeadline = std::chrono::milliseconds(2000);  // the rest of a request after its head
   static constexpr auto kWriteTimeout = std::chrono::milliseconds(2000);     // a stuck browser's stream ends
 
-  static std::string busy(const std::string& what) {
-    return json_text(json{{"ok", false}, {"error", what}});
-  }
+  static std::string busy(const std::string& what) { return json_text(json{{"ok", false}, {"error", what}}); }
 
   void open_front_door() {
     std::vector<HttpLane> lanes(5);
@@ -626,11 +625,11 @@ struct Dashboard::Impl {
       if (!request.has_header("Content-Length") && !request.has_header("Transfer-Encoding")) {
         if (!allow(request, response, true)) return httplib::Server::HandlerResponse::Handled;
         response.status = 411;
-        response.set_content(json_text(json{{"ok", false},
-                                            {"error", escape_invalid_utf8(request.path) +
-                                                          ": a POST with a body needs Content-Length "
-                                                          "(curl: -d '{...}' or --json '{...}')"}}),
-                             "application/json");
+        response.set_content(
+            json_text(json{{"ok", false},
+                           {"error", escape_invalid_utf8(request.path) + ": a POST with a body needs Content-Length "
+                                                                         "(curl: -d '{...}' or --json '{...}')"}}),
+            "application/json");
         return httplib::Server::HandlerResponse::Handled;
       }
       return httplib::Server::HandlerResponse::Unhandled;
@@ -644,11 +643,10 @@ struct Dashboard::Impl {
         if (body.contains("duration") && !body["duration"].is_null()) run["duration"] = body["duration"].get<double>();
         reply(response, backend.dispatch(run));
       } catch (const json::exception& error) {
-        reply(response,
-              json{{"ok", false},
-                   {"exit", kExitBadInput},
-                   {"error", "run: the body is {\"trajectory\": NAME_OR_FILE, \"duration\": S}: " +
-                                 escape_invalid_utf8(error.what())}});
+        reply(response, json{{"ok", false},
+                             {"exit", kExitBadInput},
+                             {"error", "run: the body is {\"trajectory\": NAME_OR_FILE, \"duration\": S}: " +
+                                           escape_invalid_utf8(error.what())}});
       }
     });
     // Whatever a handler throws: an answer with a body, its text escaped.
@@ -732,7 +730,8 @@ struct Dashboard::Impl {
       if (!fs::exists(fs::symlink_status(folder, error))) fs::create_directory(folder, error);
       if (!fs::is_directory(fs::symlink_status(folder, error))) {
         response.status = 422;
-        response.set_content(folder + " is not a folder (a link or a file): no plots are written there\n", "text/plain");
+        response.set_content(folder + " is not a folder (a link or a file): no plots are written there\n",
+                             "text/plain");
         return;
       }
       path = folder + "/" + stem + ".png";

@@ -39,9 +39,8 @@ std::string trimmed(const std::string& text) {
 // for a head that never completes, one too long, or a lane that is full.
 void answer_and_close(int fd, int status, const char* reason, const std::string& json_body) {
   const std::string text = "HTTP/1.1 " + std::to_string(status) + " " + reason +
-                           "\r\nContent-Type: application/json\r\nContent-Length: " +
-                           std::to_string(json_body.size()) + "\r\nCache-Control: no-store\r\nConnection: close\r\n\r\n" +
-                           json_body;
+                           "\r\nContent-Type: application/json\r\nContent-Length: " + std::to_string(json_body.size()) +
+                           "\r\nCache-Control: no-store\r\nConnection: close\r\n\r\n" + json_body;
   (void)::send(fd, text.data(), text.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
   ::shutdown(fd, SHUT_WR);
   ::close(fd);
@@ -175,12 +174,14 @@ struct HttpFrontDoor::Impl {
     const std::size_t second = first == std::string::npos ? std::string::npos : line.find(' ', first + 1);
     c.method = line.substr(0, first);
     if (first != std::string::npos) {
-      const std::string target = trimmed(line.substr(first + 1, second == std::string::npos ? second : second - first - 1));
+      const std::string target =
+          trimmed(line.substr(first + 1, second == std::string::npos ? second : second - first - 1));
       c.path = target.substr(0, target.find('?'));
     }
     const std::size_t lane = std::min(lane_of(c), lanes.size() - 1);
     const int fd = c.fd;
-    if (!lanes[lane]->offer(std::move(c))) answer_and_close(fd, 503, "Service Unavailable", lanes[lane]->spec().busy_reply);
+    if (!lanes[lane]->offer(std::move(c)))
+      answer_and_close(fd, 503, "Service Unavailable", lanes[lane]->spec().busy_reply);
   }
 
   // Reads what arrived on `r`; true when it is done with (handed over or closed).
@@ -240,8 +241,8 @@ struct HttpFrontDoor::Impl {
       int timeout_ms = -1;
       if (!reading.empty()) {
         const auto left = reading.front().accepted + limits.head_deadline - Clock::now();
-        timeout_ms = static_cast<int>(std::max<long long>(
-            0, std::chrono::duration_cast<std::chrono::milliseconds>(left).count() + 1));
+        timeout_ms = static_cast<int>(
+            std::max<long long>(0, std::chrono::duration_cast<std::chrono::milliseconds>(left).count() + 1));
       }
       const int ready = ::poll(polled.data(), polled.size(), timeout_ms);
       if (ready < 0 && errno != EINTR) break;

@@ -43,8 +43,7 @@ class HttpFrontDoor {
   // `listen_fd` is bound and listening; the door makes it non-blocking with a backlog of 512 and
   // never closes it. `lane_of` picks a lane for each complete head; `serve` runs on that lane's
   // thread and answers the connection, which the lane then closes.
-  HttpFrontDoor(int listen_fd, std::vector<HttpLane> lanes,
-                std::function<std::size_t(const HttpConnection&)> lane_of,
+  HttpFrontDoor(int listen_fd, std::vector<HttpLane> lanes, std::function<std::size_t(const HttpConnection&)> lane_of,
                 std::function<void(HttpConnection&)> serve, HttpFrontDoorLimits limits = {});
   ~HttpFrontDoor();
   void start();
