@@ -9,7 +9,7 @@ attribute of each plot, grows, and points are drawn); then Hold (the page shows 
 no percent, Resume enabled) and Resume; the run completes, its recording is listed, and its plot
 has one feed-hold band (the operator's, not the board's hold at every run's start and end). Then
 8 tabs are open in the one browser (HTTP/1.1: 6 connections a host) and E-STOP is clicked in the
-last one during a run: the truth shows the drives off within 1 s of board time (the browser's
+last one during a run: the truth shows the drives off within 2 s of board time (the browser's
 own latency included; before, the run played on to its end); when the
 controller reports the e-stop latch, the page shows its banner naming the source, Run and Home
 disabled and Clear as the reset, and the reset clears it. Screenshots (running, held, at the end,
@@ -126,10 +126,11 @@ def estop_from_the_eighth_tab(browser, page, bench, out):
     stopped = bench.wait_for(lambda s: s["run"] is None and s.get("last_run"), 30, "the run's end after the e-stop")
     check(stopped["last_run"].get("outcome") == "e-stop", "the run ended by the page's e-stop (%s)"
           % stopped["last_run"].get("outcome"))
-    # The bound takes in the browser's own latency from the click to its request, which an 8-tab
-    # chromium on a loaded 2-core machine stretches (the server's 100 ms is Dashboard.Guard's); a
-    # request queued behind the tabs' streams never arrives: the run plays on to its end.
-    bench.check_drives_off_after(asked, 1000.0, "the click on E-STOP in tab 8 of 8")
+    # The bound takes in the browser's own latency from the click to its request: chromium's fetch
+    # took 20-420 ms at load 10 on the shared 2-core machine with 1 tab as with 8 (the server's
+    # 100 ms is Dashboard.Guard's). A request queued behind the tabs' streams never arrives: the
+    # run plays on to its end, 18 s later.
+    bench.check_drives_off_after(asked, 2000.0, "the click on E-STOP in tab 8 of 8")
     last.wait("document.getElementById('message').textContent.startsWith('estop:')", 10, "the e-stop's answer shown")
     latch = bench.status().get("estop")
     if latch is None:
