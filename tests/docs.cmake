@@ -10,7 +10,8 @@ add_test(NAME Docs.ContractsHoldEveryContractOfTheList
           ${PROJECT_SOURCE_DIR}/../shared/SPEC.md)
 add_test(NAME Docs.EveryLinkResolves
   COMMAND ${DELTA_PYTHON3} ${delta_docs_tests}/check_doc_links.py ${PROJECT_SOURCE_DIR})
-# Every `deltactl` command line of the docs names commands and options its --help lists.
+# Every `deltactl` command line of the docs names commands and options its --help lists, and every
+# scripts/ command line a script of the tree and options it reads.
 add_test(NAME Docs.EveryDeltactlCommandAndOptionExists
   COMMAND ${DELTA_PYTHON3} ${delta_docs_tests}/check_doc_commands.py $<TARGET_FILE:deltactl> ${PROJECT_SOURCE_DIR})
 set_tests_properties(Docs.ContractsHoldEveryContractOfTheList Docs.EveryLinkResolves

@@ -4,7 +4,8 @@ docs/*.md and every README.md of the tree, each `deltactl ...` in a fenced block
 (its `\\` continuations joined, up to a `|`, `;`, `&`, `)` or `#`) is read as `deltactl COMMAND
 [SUBCOMMAND ...] [ARGUMENTS]`: each command word must be one the `Subcommands:` of the `--help` above
 it lists (or one of the choices `{a,b,...}` of its first positional), and each `--option` must be in
-the `--help` of the command it belongs to. A paragraph or bullet that says "Not in this version yet"
+the `--help` of the command it belongs to. Each `scripts/NAME` command line names a script of the
+tree and options the script's text reads. A paragraph or bullet that says "Not in this version yet"
 (a contract still to come, docs/contracts.md) is left out. Usage: check_doc_commands.py DELTACTL
 SOURCE_DIR. Prints each unknown command or option as FILE:LINE: reason; exit 1 when there is one."""
 import os
@@ -79,7 +80,21 @@ def snippets(path):
                 continue
             for match in re.finditer(r"(?:^|[\s(/])deltactl((?:\s+[^\s|;&)#]+)*)", piece):
                 found.append((start, match.group(1)))
+            for match in re.finditer(r"(?:^|[\s(])((?:bash |python3 )?scripts/[\w/]+\.(?:sh|py))((?:\s+[^\s|;&)#]+)*)", piece):
+                found.append((start, match.group(1).split()[-1] + " " + match.group(2)))
     return found
+
+
+def check_script(root, words):
+    """The reasons `scripts/NAME --option ...` names an option the script does not read, or []."""
+    path = os.path.join(root, words[0])
+    if not os.path.isfile(path):
+        return ["%s is not in the tree" % words[0]]
+    text = open(path, encoding="utf-8").read()
+    if '"$@"' in text and "case" not in text:  # hands its arguments on (build.sh to cmake --build)
+        return []
+    return ["%s has no option %s" % (words[0], option.group(1)) for option in
+            (re.match(r"^(--[a-z][a-z0-9-]*)", w) for w in words[1:]) if option and option.group(1) not in text]
 
 
 def check(help_, words):
@@ -133,10 +148,11 @@ def main():
             if not words:
                 continue
             count += 1
-            broken += ["%s:%d: %s" % (os.path.relpath(path, root), number, r) for r in check(help_, words)]
+            reasons = check_script(root, words) if words[0].startswith("scripts/") else check(help_, words)
+            broken += ["%s:%d: %s" % (os.path.relpath(path, root), number, r) for r in reasons]
     for line in broken:
         print(line)
-    print("doc commands: %d deltactl command lines, %d unknown commands or options" % (count, len(broken)))
+    print("doc commands: %d deltactl and scripts/ command lines, %d unknown commands or options" % (count, len(broken)))
     return 1 if broken else 0
 
 
