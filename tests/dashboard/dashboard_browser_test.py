@@ -8,8 +8,8 @@ looks at the DOM show the plots moving (the board time of the newest plotted sam
 attribute of each plot, grows, and points are drawn); then Hold (the page shows the feed held with
 no percent, Resume enabled) and Resume; the run completes, its recording is listed, and its plot
 has one feed-hold band (the operator's, not the board's hold at every run's start and end). Then
-8 tabs are open in the one browser (HTTP/1.1: 6 connections a host) and E-STOP is clicked in the
-last one during a run: the truth shows the drives off within 2 s of board time (the browser's
+8 tabs are open in the one browser (HTTP/1.1: 6 connections a host), the token given to the new
+ones by the first, and E-STOP is clicked in the last one during a run: the truth shows the drives off within 2 s of board time (the browser's
 own latency included; before, the run played on to its end); when the
 controller reports the e-stop latch, the page shows its banner naming the source, Run and Home
 disabled and Clear as the reset, and the reset clears it. Screenshots (running, held, at the end,
@@ -117,7 +117,8 @@ def estop_from_the_eighth_tab(browser, page, bench, out):
     print("tabs' roles in the shared telemetry stream: %s" % roles)
     check(roles.count("leader") + roles.count("alone") <= 1, "one telemetry stream for the 8 tabs (%s)" % roles)
     last = tabs[-1]
-    last.js("sessionStorage.setItem('deltactl-token', %s)" % json.dumps(bench.token))
+    check(last.js("sessionStorage.getItem('deltactl-token')") == bench.token,
+          "tab 8 has the token from the tab it was typed in (its E-STOP is one click)")
     code, body = bench.post("run", {"trajectory": "experiment1", "duration": 20})
     check(code == 200, "POST /api/run (20 s): 200 (%d %s)" % (code, body))
     bench.wait_for(lambda s: s["run"] and s["run"]["played"] > 1000 and s["drives_enabled"], STALL_S, "the run going")

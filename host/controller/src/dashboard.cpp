@@ -508,9 +508,11 @@ struct Dashboard::Impl {
     return kReadLane;
   }
 
+  // "Bearer TOKEN", the scheme's name in any case (RFC 7235).
   bool carries_token(const std::string& authorization) const {
-    const std::string prefix = "Bearer ";
-    return authorization.rfind(prefix, 0) == 0 && equal_constant_time(trim(authorization.substr(prefix.size())), token);
+    const std::string prefix = "bearer ";
+    return lowercase(authorization.substr(0, prefix.size())) == prefix &&
+           equal_constant_time(trim(authorization.substr(prefix.size())), token);
   }
 
   // ---- security ----

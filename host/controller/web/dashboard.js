@@ -73,7 +73,8 @@ async function command(name, body) {
     return;
   }
   if (response.status === 401) sessionStorage.removeItem('deltactl-token');
-  say(name + ': ' + (response.ok ? (reply.event || 'done') : (reply.error || 'HTTP ' + response.status)), response.ok);
+  const text = response.ok ? (reply.event || 'done') : (reply.error || 'HTTP ' + response.status);
+  say(text.startsWith(name + ':') ? text : name + ': ' + text, response.ok);
   if (name === 'run' || response.ok) setTimeout(listRecordings, 1500);
 }
 
@@ -182,6 +183,19 @@ function follow(leader) {
 }
 
 function heard(m) {
+  // The token goes to a new tab of this browser from an open one (same origin only), so its E-STOP
+  // is one click too.
+  if (m.kind === 'token?') {
+    if (token()) channel.postMessage({ kind: 'token', from: me, to: m.from, token: token() });
+    return;
+  }
+  if (m.kind === 'token') {
+    if (m.to === me && !token() && m.token) {
+      sessionStorage.setItem('deltactl-token', m.token);
+      if (!$('token-bar').hidden) tokenBarClosed(false);
+    }
+    return;
+  }
   if (m.kind === 'claim') {
     if (dash.role === 'leader') {
       channel.postMessage({ kind: 'beat', from: me });
@@ -224,6 +238,7 @@ function startTelemetry() {
     return;
   }
   channel.onmessage = (e) => heard(e.data);
+  if (!token()) channel.postMessage({ kind: 'token?', from: me });
   election.heardAt = performance.now() - LEADER_LOST_MS + 2 * BEAT_MS;  // a leader there is heard first
   setInterval(elect, BEAT_MS / 2);
   addEventListener('pagehide', () => { if (dash.role === 'leader') channel.postMessage({ kind: 'bye', from: me }); });
@@ -554,5 +569,7 @@ listRecordings();
 startTelemetry();
 requestAnimationFrame(frame);
 // The e-stop is one click: the token is asked for once, when the page opens (in the page's flow,
-// above the plots, which stay in sight).
-if (!token() && !new URLSearchParams(location.search).has('no-token-prompt')) askToken();
+// above the plots, which stay in sight), unless an open tab of this browser answers with it first.
+setTimeout(() => {
+  if (!token() && !new URLSearchParams(location.search).has('no-token-prompt')) askToken();
+}, channel ? 300 : 0);
