@@ -25,3 +25,5 @@ set_tests_properties(Dashboard.PlotEveryRecording Dashboard.Api Dashboard.Guard 
   LABELS "dashboard;host;virtual_board" RUN_SERIAL TRUE TIMEOUT 300 SKIP_RETURN_CODE 77)
 # Its waits follow the board's progress (a loaded machine slows the model board): more time in all.
 set_tests_properties(Dashboard.Browser PROPERTIES TIMEOUT 600)
+# 30 plots of 600-s recordings, one gnuplot at a time: 30 s on an idle machine, 150 s seen at load 10.
+set_tests_properties(Dashboard.Guard PROPERTIES TIMEOUT 600)
