@@ -527,6 +527,15 @@ TEST(HostServeSafety, RecordingsStayInTheirFolderAndAreNeverOverwritten) {
     EXPECT_EQ(reply.value("exit", 0), 2) << record;
   }
   EXPECT_EQ(read_text(victim), "precious\n");
+  // Names the dashboard would never list (hidden, a newline, not .csv, in a subfolder): refused too.
+  std::filesystem::create_directories(server.runs + "/sub");
+  for (const std::string& record :
+       {std::string(".hidden.csv"), std::string("a\\nb.csv"), std::string("notes.txt"), std::string("sub/deep.csv")}) {
+    const nlohmann::json reply = ask(
+        server.socket, R"({"cmd":"run","trajectory":"move:0,0,-0.0718","wait":false,"record":")" + record + R"("})");
+    std::cout << reply.dump() << '\n';
+    EXPECT_EQ(reply.value("exit", 0), 2) << record;
+  }
   // A relative name is taken in the folder.
   const nlohmann::json relative =
       ask(server.socket, R"({"cmd":"run","trajectory":"move:0,0,-0.0718","wait":false,"record":"mine.csv"})");

@@ -74,7 +74,9 @@ bool send_line(int fd, const json& message) {
 }
 
 // The recording a client names, as serve writes it: a relative NAME in `folder`, an absolute path
-// only inside it (its folder resolved: links cannot lead out); "" takes a new run-TIME.csv there.
+// only directly inside it (its folder resolved: links cannot lead out; the file name by the
+// dashboard's rule, recording_name_problem, so every recording is listed); "" takes a new
+// run-TIME.csv there.
 // InputError (exit 2) otherwise. `folder` is canonical.
 std::string confined_record_path(const std::string& folder, const std::string& name, const std::string& stamp) {
   namespace fs = std::filesystem;
@@ -87,13 +89,18 @@ std::string confined_record_path(const std::string& folder, const std::string& n
   const std::string inside = parent.string() + "/";
   if (error) {
     throw InputError(name, 0,
-                     "no folder " + asked.parent_path().string() + " (the controller makes none: name a file in " +
-                         folder + ", or in a folder that is there)");
+                     "no folder " + asked.parent_path().string() + " (name a plain file, written in " + folder + ")");
   }
   if (inside.compare(0, folder.size() + 1, folder + "/") != 0) {
     throw InputError(
         name, 0,
         "recordings are written in the controller's recordings folder " + folder + " (a plain file name goes there)");
+  }
+  if (const std::string why = recording_name_problem(file.string()); !why.empty()) throw InputError(name, 0, why);
+  if (parent.string() != folder) {  // the dashboard lists the folder's own files: none in subfolders
+    throw InputError(name, 0,
+                     "recordings are written in the controller's recordings folder " + folder +
+                         " itself (a plain file name goes there)");
   }
   return (parent / file).string();
 }
