@@ -142,6 +142,24 @@ def run_checks(bench):
     check(code == 200 and b"t_s,x_ref_m" in csv, "a recording downloads as CSV (%d bytes)" % len(csv))
     code, body = bench.request("GET", "/api/recordings/..%2Fhttp-token.csv", token=False)
     check(code == 404, "a recording name outside the folder: 404 (%d)" % code)
+    # Each recording's run-report (the same rows as `deltactl run-report --run` of the download):
+    # the joints measured, the plate said not to be (the runs have no stage), the headline.
+    for entry in listing[:2]:
+        code, report = bench.request("GET", entry["report"], token=False)
+        ok = code == 200 and isinstance(report, dict)
+        check(ok and report["run"] == entry["name"] and report["driven_rows"] > 1000 and
+              len(report["joint_tracking"]["all"]["rms_deg"]) == 3 and
+              max(report["joint_tracking"]["all"]["rms_deg"]) < 0.05 and not report["plate_measured"] and
+              report["headline"].startswith("joint tracking (reference - encoder"),
+              "GET %s: the run's report (%s)" % (entry["report"], report.get("headline", "").strip() if ok else code))
+    code, body = bench.request("GET", "/api/recordings/..%2Fhttp-token.csv/report", token=False)
+    check(code == 404, "a report of a name outside the folder: 404 (%d)" % code)
+    with open(os.path.join(bench.records, "drag.csv"), "w") as drag:  # the drives off throughout
+        drag.write("t_s,alpha1_ref_deg,alpha2_ref_deg,alpha3_ref_deg,alpha1_deg,alpha2_deg,alpha3_deg,drives_enabled\n")
+        drag.write("0,30,30,30,30,30,30,0\n0.001,30,30,30,30,30,30,0\n")
+    code, body = bench.request("GET", "/api/recordings/drag.csv/report", token=False)
+    check(code == 422 and "drives on" in body.get("error", "") and bench.records not in body.get("error", ""),
+          "a recording with the drives off throughout has no report: 422 saying why (%d %s)" % (code, body))
 
     # ---- the history for a new client (a reload) ----
     again = EventReader(bench.port)

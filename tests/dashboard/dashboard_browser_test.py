@@ -7,7 +7,8 @@ the lines' own colours; the token is typed in. A homing through the API is drawn
 looks at the DOM show the plots moving (the board time of the newest plotted sample, a data
 attribute of each plot, grows, and points are drawn); then Hold (the page shows the feed held with
 no percent, Resume enabled) and Resume; the run completes, its recording is listed, and its plot
-has one feed-hold band (the operator's, not the board's hold at every run's start and end). Then
+has one feed-hold band (the operator's, not the board's hold at every run's start and end), its row
+the run-report's headline (the joint tracking). Then
 8 tabs are open in the one browser (HTTP/1.1: 6 connections a host), the token given to the new
 ones by the first, and E-STOP is clicked in the last one during a run: the truth shows the drives off within 2 s of board time (the browser's
 own latency included; before, the run played on to its end); when the
@@ -229,6 +230,9 @@ def main():
         check(page.js("document.getElementById('estop').offsetHeight > 0"), "the e-stop is on the page")
         page.js("document.getElementById('refresh').click(); true")
         page.wait("document.getElementById('recording-list').rows.length >= 1", 20, "the recording listed")
+        page.wait("(document.querySelector('#recording-list td.run-report') || {textContent: ''})"
+                  ".textContent.startsWith('joint tracking (reference - encoder')", 20,
+                  "the recording's run-report headline in its row")
         one_hold_band(page)
         page.screenshot(os.path.join(out, "dashboard_done.png"))
         estop_from_the_eighth_tab(browser, page, bench, out)

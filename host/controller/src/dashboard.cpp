@@ -36,6 +36,7 @@
 #include "delta/exit_codes.hpp"
 #include "delta/input_error.hpp"
 #include "delta/recording_plot.hpp"
+#include "delta/run_report.hpp"
 #include "delta/shipped_data.hpp"
 #include "delta/trajectory.hpp"
 #include "delta/utf8_text.hpp"
@@ -376,6 +377,17 @@ struct Dashboard::Impl {
   std::deque<std::pair<std::uint64_t, std::shared_ptr<const std::string>>> events;
   std::uint64_t sequence = 0;
   std::mutex plot_mutex;  // one gnuplot at a time
+  // The recordings' reports, by name, while their files stay as they were (the page asks for every
+  // listed one each time it lists them).
+  struct CachedReport {
+    fs::file_time_type written;
+    std::uintmax_t bytes = 0;
+    int status = 200;
+    json body;
+  };
+  static constexpr std::size_t kReportsKept = 256;
+  std::mutex report_mutex;
+  std::map<std::string, CachedReport> reports;
 
   json enriched_status() {
     json status = backend.status();
@@ -501,8 +513,9 @@ struct Dashboard::Impl {
       return c.path == "/api/estop" ? kEstopLane : kCommandLane;
     }
     if (c.method == "GET" && c.path == "/api/telemetry") return kStreamLane;
-    if (c.method == "GET" && c.path.rfind("/api/recordings/", 0) == 0 && c.path.size() > 4 &&
-        c.path.compare(c.path.size() - 4, 4, ".png") == 0) {
+    // A plot, or a run's report (a whole recording read): the plots' lane, not the reads'.
+    if (c.method == "GET" && c.path.rfind("/api/recordings/", 0) == 0 && c.path.size() > 7 &&
+        (c.path.compare(c.path.size() - 4, 4, ".png") == 0 || c.path.compare(c.path.size() - 7, 7, "/report") == 0)) {
       return kPlotLane;
     }
     return kReadLane;
@@ -606,6 +619,11 @@ struct Dashboard::Impl {
                  if (!allow(request, response, false)) return;
                  recording_file(request.matches[1], request.matches[2], response);
                });
+    server.Get(R"(/api/recordings/([A-Za-z0-9_.-]+)\.csv/report)",
+               [this](const httplib::Request& request, httplib::Response& response) {
+                 if (!allow(request, response, false)) return;
+                 recording_report(request.matches[1], response);
+               });
     server.Get("/api/telemetry", [this](const httplib::Request& request, httplib::Response& response) {
       if (!allow(request, response, false)) return;
       stream(response);
@@ -690,7 +708,8 @@ struct Dashboard::Impl {
                       {"bytes", fs::file_size(path, ignored)},
                       {"modified_unix_s", modified.count()},
                       {"csv", "/api/recordings/" + stem + ".csv"},
-                      {"plot", "/api/recordings/" + stem + ".png"}});
+                      {"plot", "/api/recordings/" + stem + ".png"},
+                      {"report", "/api/recordings/" + stem + ".csv/report"}});
     }
     return list;
   }
@@ -754,6 +773,42 @@ struct Dashboard::Impl {
     std::optional<std::string> text = read_plain_file(path);
     if (!text) return not_found();
     response.set_content(*text, content_type_of(path));
+  }
+
+  // run-report of a recording from its own columns (run_report.hpp: the joints, and the plate when
+  // the recording has it), with its headline; kept while the file's size and time stay the same. A
+  // recording that is no run (a drag with the drives off, a file cut short): 422 and why.
+  void recording_report(const std::string& stem, httplib::Response& response) {
+    const std::string csv = options.record_folder + "/" + stem + ".csv";
+    if (!recording_name_problem(stem + ".csv").empty() || !is_plain_file(csv)) {
+      response.status = 404;
+      response.set_content(json_text(json{{"ok", false}, {"error", "no recording " + stem + ".csv"}}),
+                           "application/json");
+      return;
+    }
+    std::error_code error;
+    const auto written = fs::last_write_time(csv, error);
+    const auto bytes = fs::file_size(csv, error);
+    std::lock_guard<std::mutex> lock(report_mutex);
+    auto cached = reports.find(stem);
+    if (cached == reports.end() || cached->second.written != written || cached->second.bytes != bytes) {
+      CachedReport entry{written, bytes, 200, json()};
+      try {
+        const RunReport report = run_report_of_file(csv);
+        entry.body = report_json(report);
+        entry.body["run"] = stem + ".csv";  // not the server's path
+        entry.body["headline"] = report_headline(report);
+      } catch (const std::exception& failure) {
+        std::string why = failure.what();
+        if (why.rfind(options.record_folder + "/", 0) == 0) why = why.substr(options.record_folder.size() + 1);
+        entry.status = 422;
+        entry.body = json{{"ok", false}, {"error", why}};
+      }
+      if (reports.size() >= kReportsKept) reports.clear();
+      cached = reports.insert_or_assign(stem, std::move(entry)).first;
+    }
+    response.status = cached->second.status;
+    response.set_content(json_text(cached->second.body), "application/json");
   }
 
   // Server-Sent Events: the history first, then each published event; a client that falls more

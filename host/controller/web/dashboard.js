@@ -505,11 +505,15 @@ async function listRecordings() {
   } catch (e) { return; }
   const body = $('recording-list');
   body.textContent = '';
+  const reports = [];  // [url, cell]: filled in order once the table is drawn
   for (const r of list.slice(0, 50)) {
     const row = body.insertRow();
     row.insertCell().textContent = r.name;
     row.insertCell().textContent = `${(r.bytes / 1024).toFixed(0)} KiB`;
     row.insertCell().textContent = new Date(r.modified_unix_s * 1000).toLocaleString();
+    const report = row.insertCell();
+    report.className = 'run-report';
+    reports.push([r.report, report]);
     const actions = row.insertCell();
     const show = document.createElement('button');
     show.textContent = 'plot';
@@ -528,6 +532,26 @@ async function listRecordings() {
       } catch (e) { say(e.message); }
     };
     actions.append(show, ' ', download);
+  }
+  for (const [url, cell] of reports) await showReport(url, cell);
+}
+
+// A recording's run-report headline (the joint tracking; the plate when the recording has it), or
+// why there is none (a drag with the drives off). The server keeps each report while the file stays.
+async function showReport(url, cell) {
+  try {
+    const response = await fetch(url, { headers: headers(false), cache: 'no-store' });
+    const report = await response.json();
+    if (!response.ok) {
+      cell.textContent = '-';
+      cell.title = report.error;
+      return;
+    }
+    const lines = report.headline.trim().split('\n');
+    cell.textContent = report.plate_measured ? lines.join('\n') : lines[0] + '\nplate: not measured (no stage)';
+    cell.title = report.plate_measured ? '' : report.plate_source;
+  } catch (e) {
+    cell.textContent = '-';
   }
 }
 
