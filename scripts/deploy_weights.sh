@@ -6,17 +6,24 @@
 #   flash (deltactl flash: writes the iCEBreaker's flash, waits for the board, checks its identify
 #   against the bitstream's build id and the weights CRC) -> verify (deltactl host status).
 # Without --flash it stops before touching the board and prints what flashing would do
-# (deltactl flash --dry-run). Every step's output is in OUT_DIR; the first failing step stops it.
+# (deltactl flash --dry-run). Every step's output is in DIR; the first failing step stops it.
 #
 # Usage: scripts/deploy_weights.sh --data FIT.csv --out-dir DIR [--holdout CHECK.csv] [--seed N]
 #                                  [--weights W.json] [--no-bitstream] [--flash] [--config FILE]
-#   --weights W.json: skip training, deploy these weights (e.g. trained elsewhere).
-#   --no-bitstream:   stop after quantising (the ROM files and identify.mem; no nextpnr run).
-#   --config FILE:    the lab PC's configuration (default /etc/deltactl/deltactl.conf) for the port;
-#                     the weights and bitstream it names are replaced by the new ones for flashing.
+#   --data FIT.csv:      the recording to retrain on (deltactl train; a merged drag, docs/lab_loop.md).
+#   --out-dir DIR:       where every step writes (W.json, the logs, mem/, the bitstream).
+#   --holdout CHECK.csv: also print Table 1 on this held-out recording (deltactl table1).
+#   --seed N:            the training seed (default 1).
+#   --weights W.json:    skip training, deploy these weights (e.g. trained elsewhere).
+#   --no-bitstream:      stop after quantising (the ROM files and identify.mem; no nextpnr run).
+#   --flash:             flash the board and verify it (else: a dry run of the flash).
+#   --config FILE:       the lab PC's configuration (default /etc/deltactl/deltactl.conf) for the
+#                        port; the weights and bitstream it names are replaced by the new ones.
+# Exit: 0 when every step passed; else the failing step's exit code (its log in DIR); 2: bad usage.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
-usage() { sed -n '2,18p' "$0" | sed 's/^# \{0,1\}//'; }
+# The usage: this file's leading comment block, without the '#'.
+usage() { awk 'NR == 1 { next } /^#/ { sub(/^# ?/, ""); print; next } { exit }' "$0"; }
 data="" holdout="" out="" seed=1 weights="" bitstream=1 flash=0 config=/etc/deltactl/deltactl.conf
 while (($#)); do
   case "$1" in

@@ -33,7 +33,7 @@ while [ $# -gt 0 ]; do
     --rtl) rtl=$2; shift 2 ;;
     --quiet) quiet=1; shift ;;
     --stop-at-failure) stop=1; shift ;;
-    -h|--help) sed -n '2,13p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) awk 'NR == 1 { next } /^#/ { sub(/^# ?/, ""); print; next } { exit }' "$0"; exit 0 ;;
     *) echo "formal.sh: unknown argument '$1' (try --help)" >&2; exit 2 ;;
   esac
 done

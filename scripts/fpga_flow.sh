@@ -15,7 +15,7 @@
 # post-route figure, the only one that counts.
 set -euo pipefail
 
-usage() { sed -n '2,16p' "$0" | sed 's/^# \{0,1\}//'; }
+usage() { awk 'NR == 1 { next } /^#/ { sub(/^# ?/, ""); print; next } { exit }' "$0"; }
 top="" pcf="" freq="" out="" seed=1 tries=1 params=() sources=()
 while (($#)); do
   case "$1" in

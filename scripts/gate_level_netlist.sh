@@ -14,7 +14,7 @@ while (($#)); do
     --top) top=$2; shift 2 ;;
     --out) out=$2; shift 2 ;;
     --param) params+=("$2"); shift 2 ;;
-    -h|--help) sed -n '2,9p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) awk 'NR == 1 { next } /^#/ { sub(/^# ?/, ""); print; next } { exit }' "$0"; exit 0 ;;
     -*) echo "gate_level_netlist: unknown option $1" >&2; exit 2 ;;
     *) sources+=("$1"); shift ;;
   esac

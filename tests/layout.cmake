@@ -10,3 +10,7 @@ set_tests_properties(Format.EveryCppFileFollowsClangFormat PROPERTIES LABELS hos
 add_test(NAME Readme.EveryCommandRunsAsWritten
   COMMAND ${PROJECT_SOURCE_DIR}/tests/layout/readme_commands.sh ${PROJECT_SOURCE_DIR} ${PROJECT_BINARY_DIR})
 set_tests_properties(Readme.EveryCommandRunsAsWritten PROPERTIES LABELS host TIMEOUT 900 RUN_SERIAL TRUE)
+# Every script's --help prints its usage (its leading comment block), never a line of its code.
+add_test(NAME Scripts.HelpPrintsTheUsageAndNoCode
+  COMMAND ${PROJECT_SOURCE_DIR}/tests/layout/script_help.sh ${PROJECT_SOURCE_DIR})
+set_tests_properties(Scripts.HelpPrintsTheUsageAndNoCode PROPERTIES LABELS host)

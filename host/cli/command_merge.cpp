@@ -34,7 +34,12 @@ const std::vector<std::string> kCarried = {"drives_enabled", "alpha1_ref_deg", "
 
 void run_merge(const MergeOptions& options) {
   const CsvTable run = read_csv(options.run, {"t_s", "alpha1_deg", "alpha2_deg", "alpha3_deg"}, kCarried);
-  for (std::size_t i = 1; i < run.rows.size(); ++i) check_time_order(run, i, 0);
+  for (std::size_t i = 0; i < run.rows.size(); ++i) {  // the bounds diagnose and train apply to DATA.csv
+    check_time_order(run, i, 0);
+    check_plausible_angles(run, i, 1, 3);
+    check_plausible_angles(run, i, 5, 3);     // alpha*_ref_deg (0 when absent)
+    check_plausible_positions(run, i, 8, 3);  // x/y/z_ref_m
+  }
   const diagnosis::StageLog stage = diagnosis::read_stage_log(options.stage);
   std::vector<double> run_t(run.rows.size());
   std::vector<Vec3> alpha(run.rows.size());

@@ -1,4 +1,5 @@
 // deltactl plot: a PNG of any recording the project writes, with the panels its columns support.
+#include <algorithm>
 #include <iostream>
 #include <memory>
 
@@ -24,10 +25,14 @@ const RegisterCommand command("plot", 25, [](CLI::App& root) {
       "                  true angles (true_alpha*_deg, true*_deg)\n"
       "  tracking error  encoder - reference (or encoder - true angle), degrees\n"
       "  currents        current*_a\n"
-      "  plate           x_m,y_m,z_m against x_ref_m.. or ref_x_m.. (mm), and their difference (um)\n"
+      "  plate           x_m,y_m,z_m against x_ref_m.. or ref_x_m.. (mm), and their difference (um);\n"
+      "                  z on its own axis at the right\n"
       "  other columns   any other numeric column (not the link's counters and indices)\n"
-      "Bands mark drives off (drives_enabled = 0), feed holds and faults (flags, fault_bits) and\n"
-      "underruns (the underruns counter going up). Works on host run and host record recordings,\n"
+      "With the drives off throughout (a drag) there is no tracking or current panel.\n"
+      "Bands mark drives off (drives_enabled = 0), feed holds while the stream plays and faults\n"
+      "(flags, fault_bits), underruns (the underruns counter going up) and an end that was not\n"
+      "normal (an e-stop, a fault, a lost link: the '# outcome:' line host run and host record end\n"
+      "their recordings with), from then to the end. Works on host run and host record recordings,\n"
       "merged and simulated recordings, virtual-board truth (--truth) and cosim samples (--out).\n"
       "Long recordings are thinned to the minimum and maximum of each of 1500 time buckets.\n"
       "Bad input (missing t_s, a non-numeric field, time going backwards, nothing to plot): one line\n"
@@ -37,7 +42,13 @@ const RegisterCommand command("plot", 25, [](CLI::App& root) {
   sub->add_option("--out", options->out, "the PNG to write")->required();
   sub->callback([options] {
     const RecordingPlot plot = plot_recording(options->in, options->out);
-    std::cout << options->out << ": " << plot.kind << ", " << plot.rows << " rows; panels:";
+    std::cout << options->out << ": " << plot.kind << ", " << plot.rows << " rows";
+    std::vector<std::string> bands;
+    for (const PlotSpan& span : plot.marks.spans) {
+      if (std::find(bands.begin(), bands.end(), span.label) == bands.end()) bands.push_back(span.label);
+    }
+    for (std::size_t k = 0; k < bands.size(); ++k) std::cout << (k ? ", " : "; bands: ") << bands[k];
+    std::cout << "; panels:";
     for (std::size_t k = 0; k < plot.panels.size(); ++k) std::cout << (k ? ", " : " ") << plot.panels[k];
     std::cout << '\n';
   });

@@ -8,9 +8,12 @@
 #include <cstdio>
 #include <cstdlib>
 #include <limits>
+#include <optional>
 #include <string>
 
 #include <CLI/CLI.hpp>
+
+#include "delta/csv.hpp"
 
 namespace delta::options {
 
@@ -37,11 +40,11 @@ inline CLI::Validator real_number(double minimum, double maximum, bool exclude_m
   const std::string range = text_range;
   return CLI::Validator(
       [minimum, maximum, exclude_minimum, range](std::string& text) -> std::string {
-        char* end = nullptr;
-        const double value = std::strtod(text.c_str(), &end);
+        const std::optional<double> parsed = parse_decimal(text);
+        const double value = parsed.value_or(NAN);
         const bool inside =
             std::isfinite(value) && value <= maximum && (exclude_minimum ? value > minimum : value >= minimum);
-        if (text.empty() || *end != '\0' || !inside) {
+        if (!parsed || !inside) {
           return "expected a finite number in " + range + ", got '" + text.substr(0, 40) + "'";
         }
         return "";

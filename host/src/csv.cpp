@@ -1,6 +1,7 @@
 // Strict numeric CSV reader with file and line in every error.
 #include "delta/csv.hpp"
 
+#include <cctype>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
@@ -57,6 +58,38 @@ bool read_line(std::istream& input, std::string& line, const std::string& path, 
 bool is_blank(const std::string& line) { return line.find_first_not_of(" \t\r") == std::string::npos; }
 
 }  // namespace
+
+std::optional<double> parse_decimal(const std::string& text) {
+  std::size_t i = 0;
+  if (i < text.size() && (text[i] == '+' || text[i] == '-')) ++i;
+  std::string word;
+  for (std::size_t k = i; k < text.size(); ++k)
+    word.push_back(static_cast<char>(std::tolower(static_cast<unsigned char>(text[k]))));
+  const bool non_finite = word == "inf" || word == "infinity" || word == "nan";
+  if (!non_finite) {
+    auto digits = [&] {
+      const std::size_t from = i;
+      while (i < text.size() && text[i] >= '0' && text[i] <= '9') ++i;
+      return i - from;
+    };
+    std::size_t mantissa = digits();
+    if (i < text.size() && text[i] == '.') {
+      ++i;
+      mantissa += digits();
+    }
+    if (mantissa == 0) return std::nullopt;
+    if (i < text.size() && (text[i] == 'e' || text[i] == 'E')) {
+      ++i;
+      if (i < text.size() && (text[i] == '+' || text[i] == '-')) ++i;
+      if (digits() == 0) return std::nullopt;
+    }
+    if (i != text.size()) return std::nullopt;
+  }
+  char* end = nullptr;
+  const double value = std::strtod(text.c_str(), &end);
+  if (end != text.c_str() + text.size()) return std::nullopt;
+  return value;
+}
 
 CsvTable read_csv(const std::string& path, const std::vector<std::string>& required_columns,
                   const std::vector<std::string>& optional_columns) {
@@ -121,12 +154,13 @@ CsvTable parse_csv(std::istream& input, const std::string& path, const std::vect
     for (std::size_t k = 0; k < table.columns.size(); ++k) {
       if (!table.present[k]) continue;
       const std::string text = trim(fields[field_index[k]]);
-      char* end = nullptr;
-      const double value = std::strtod(text.c_str(), &end);
-      if (text.empty() || end != text.c_str() + text.size()) {
+      const std::optional<double> parsed = parse_decimal(text);
+      if (!parsed) {
         throw InputError(path, line_number,
-                         "column '" + table.columns[k] + "': " + quoted_excerpt(text) + " is not a number");
+                         "column '" + table.columns[k] + "': " + quoted_excerpt(text) + " is not a number" +
+                             (text.find_first_of("xX") != std::string::npos ? " (decimal numbers only)" : ""));
       }
+      const double value = *parsed;
       if (!std::isfinite(value)) {
         throw InputError(path, line_number,
                          "column '" + table.columns[k] + "': " + quoted_excerpt(text) + " is not finite");

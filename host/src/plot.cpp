@@ -127,11 +127,23 @@ void write_plot(const std::string& png_path, const PlotSpec& spec, const PlotMar
     const PlotPanel& panel = spec.panels[p];
     script << "set title " << quoted(panel.title) << "\nset xlabel " << quoted(panel.x_label) << "\nset ylabel "
            << quoted(panel.y_label) << "\n"
-           << (panel.log_y ? "set logscale y\n" : "unset logscale y\n") << "plot ";
+           << (panel.log_y ? "set logscale y\n" : "unset logscale y\n");
+    auto on_right = [&](std::size_t s) {
+      return p < marks.right_axis.size() && s < marks.right_axis[p].size() && marks.right_axis[p][s];
+    };
+    bool right_axis = false;
+    for (std::size_t s = 0; s < panel.series.size(); ++s) right_axis |= on_right(s);
+    if (right_axis) {
+      script << "set ytics nomirror\nset y2tics\nset y2label "
+             << quoted(p < marks.y2_labels.size() ? marks.y2_labels[p] : std::string()) << "\n";
+    } else {
+      script << "set ytics mirror\nunset y2tics\nunset y2label\n";
+    }
+    script << "plot ";
     for (std::size_t s = 0; s < panel.series.size(); ++s) {
       const PlotSeries& series = panel.series[s];
-      script << (s ? ", " : "") << "$panel" << p << "_" << s << " using 1:2 with "
-             << (series.points ? "linespoints pt 7 ps 0.6" : "lines") << " lw 1.2 "
+      script << (s ? ", " : "") << "$panel" << p << "_" << s << " using 1:2 " << (on_right(s) ? "axes x1y2 " : "")
+             << "with " << (series.points ? "linespoints pt 7 ps 0.6" : "lines") << " lw 1.2 "
              << (p < marks.styles.size() && s < marks.styles[p].size() ? marks.styles[p][s] : "") << " title "
              << quoted(series.label);
     }

@@ -29,6 +29,14 @@ void check_plausible(const CsvTable& table, std::size_t row, std::size_t first, 
 
 }  // namespace
 
+void check_plausible_angles(const CsvTable& table, std::size_t row, std::size_t first, std::size_t count) {
+  check_plausible(table, row, first, count, kMaxPlausibleAngleDeg, "deg");
+}
+
+void check_plausible_positions(const CsvTable& table, std::size_t row, std::size_t first, std::size_t count) {
+  check_plausible(table, row, first, count, kMaxPlausiblePositionM, "m");
+}
+
 void check_time_order(const CsvTable& table, std::size_t row, std::size_t column) {
   if (row == 0 || !(table.rows[row][column] < table.rows[row - 1][column])) return;
   throw InputError(table.path, table.line_numbers[row],
@@ -45,8 +53,8 @@ Recording read_recording(const std::string& path) {
   for (std::size_t i = 0; i < table.rows.size(); ++i) {
     const std::vector<double>& row = table.rows[i];
     check_time_order(table, i, 0);
-    check_plausible(table, i, 1, 3, kMaxPlausibleAngleDeg, "deg");
-    check_plausible(table, i, 4, 3, kMaxPlausiblePositionM, "m");
+    check_plausible_angles(table, i, 1, 3);
+    check_plausible_positions(table, i, 4, 3);
     Sample sample;
     sample.t_s = row[0];
     sample.alpha_deg = Vec3(row[1], row[2], row[3]);
@@ -76,7 +84,7 @@ std::vector<Vec3> read_positions(const std::string& path) {
   std::vector<Vec3> positions;
   positions.reserve(table.rows.size());
   for (std::size_t i = 0; i < table.rows.size(); ++i) {
-    check_plausible(table, i, 0, 3, kMaxPlausiblePositionM, "m");
+    check_plausible_positions(table, i, 0, 3);
     positions.emplace_back(table.rows[i][0], table.rows[i][1], table.rows[i][2]);
   }
   return positions;

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <fstream>
 #include <functional>
 #include <map>
@@ -12,6 +13,7 @@
 #include "delta/board_facts.hpp"
 #include "delta/csv.hpp"
 #include "delta/input_error.hpp"
+#include "delta/input_file.hpp"
 #include "delta/output_file.hpp"
 #include "delta/plot.hpp"
 #include "delta/plot_marks.hpp"
@@ -41,6 +43,43 @@ std::vector<std::string> header_of(const std::string& path) {
     return names;
   }
   return {};
+}
+
+// The recording's own account of its end, when it has one: the trailer `host run` and `host
+// record` write, "# outcome: OUTCOME at board time T s (exit CODE)[: why]". Read from the file's
+// last 64 KiB (the trailer is its last line).
+struct Outcome {
+  std::string name;  // completed, stopped, e-stop, fault, link lost, drives off, ...
+  double t_s = 0.0;
+  int exit = 0;
+  bool normal() const { return (name == "completed" || name == "stopped") && (exit == 0 || exit >= 128); }
+};
+
+std::optional<Outcome> outcome_of(const std::string& path) {
+  std::ifstream in(path, std::ios::binary | std::ios::ate);
+  if (!in) return std::nullopt;
+  const std::streamoff size = in.tellg();
+  const std::streamoff from = std::max<std::streamoff>(0, size - (64 << 10));
+  in.seekg(from);
+  std::string tail(static_cast<std::size_t>(size - from), '\0');
+  in.read(tail.data(), static_cast<std::streamsize>(tail.size()));
+  const std::string key = "# outcome: ";
+  const std::size_t at = tail.rfind("\n" + key);
+  if (at == std::string::npos && tail.rfind(key, 0) != 0) return std::nullopt;
+  const std::size_t begin = at == std::string::npos ? key.size() : at + 1 + key.size();
+  const std::string line = tail.substr(begin, tail.find('\n', begin) - begin);
+  const std::size_t time = line.find(" at board time ");
+  if (time == std::string::npos) return std::nullopt;
+  Outcome outcome;
+  outcome.name = line.substr(0, time);
+  const std::string rest = line.substr(time + 15);
+  const std::size_t unit = rest.find(" s");
+  const std::optional<double> t = parse_decimal(rest.substr(0, unit));
+  if (unit == std::string::npos || !t || !std::isfinite(*t)) return std::nullopt;
+  outcome.t_s = *t;
+  const std::size_t code = rest.find("(exit ", unit);
+  if (code != std::string::npos) outcome.exit = std::atoi(rest.c_str() + code + 6);
+  return outcome;
 }
 
 struct Columns {
@@ -121,7 +160,8 @@ const std::set<std::string>& not_plotted() {
 
 }  // namespace
 
-RecordingPlot plot_recording(const std::string& csv_path, const std::string& png_path) {
+RecordingPlot describe_recording(const std::string& csv_path) {
+  check_input_file(csv_path);  // header_of opens it first: a FIFO would block there
   std::vector<std::string> header = header_of(csv_path);
   std::vector<std::string> optional;
   std::set<std::string> seen;
@@ -155,10 +195,16 @@ RecordingPlot plot_recording(const std::string& csv_path, const std::string& png
 
   RecordingPlot out;
   out.rows = n;
-  PlotSpec spec;
-  PlotMarks marks;
+  PlotSpec& spec = out.spec;
+  PlotMarks& marks = out.marks;
   marks.as_written = true;
+  // With the drives off throughout (a drag calibration, host record) the board's references and
+  // the currents say nothing: no tracking against the reference, no current panel.
+  const std::string drives = c.first({"drives_enabled"}).value_or("");
+  bool driven = drives.empty();
+  for (std::size_t i = 0; i < n && !driven; ++i) driven = c.at(i, drives) != 0.0;
   std::map<std::string, std::string> style_of;  // by series label (unique in a recording's plot)
+  std::set<std::string> on_right;               // series on their panel's right axis
   auto styled = [&](const std::string& label, const std::vector<double>& x, const std::vector<double>& y,
                     const std::string& style = "") {
     style_of[label] = style;
@@ -192,7 +238,7 @@ RecordingPlot plot_recording(const std::string& csv_path, const std::string& png
       used.insert(*truth);
       any_true = true;
     }
-    const auto against = reference ? reference : truth;
+    const auto against = reference && driven ? reference : truth;
     if (encoder && against) {
       const std::vector<double> e = column(*encoder), r = column(*against);
       std::vector<double> error(n);
@@ -202,7 +248,7 @@ RecordingPlot plot_recording(const std::string& csv_path, const std::string& png
   }
   if (!joints.series.empty()) spec.panels.push_back(joints);
   if (!tracking.series.empty()) {
-    if (!any_reference) tracking.title = "Encoder error (encoder - true angle)";
+    if (!any_reference || !driven) tracking.title = "Encoder error (encoder - true angle)";
     spec.panels.push_back(tracking);
   }
 
@@ -210,7 +256,7 @@ RecordingPlot plot_recording(const std::string& csv_path, const std::string& png
   PlotPanel currents{"Drive currents", "board time t [s]", "current [A]", {}, false};
   for (int j = 1; j <= 3; ++j) {
     if (const auto name = joint_column(j, {"current#_a"})) {
-      currents.series.push_back(styled(*name, t, column(*name), joint_style[j - 1]));
+      if (driven) currents.series.push_back(styled(*name, t, column(*name), joint_style[j - 1]));
       used.insert(*name);
     }
   }
@@ -218,8 +264,10 @@ RecordingPlot plot_recording(const std::string& csv_path, const std::string& png
 
   // ---- the plate ----
   const char* axis[3] = {"x", "y", "z"};
-  PlotPanel plate{"Plate position", "board time t [s]", "position [mm]", {}, false};
-  PlotPanel plate_error{"Plate error (measured - reference)", "board time t [s]", "error [um]", {}, false};
+  // z (about -70 mm) on its own axis at the right: on one scale with x and y (+-12 mm) it would
+  // flatten them.
+  PlotPanel plate{"Plate position", "board time t [s]", "x, y [mm]", {}, false};
+  PlotPanel plate_error{"Plate error (measured - reference)", "board time t [s]", "x, y error [um]", {}, false};
   bool measured = false, referenced = false;
   for (int k = 0; k < 3; ++k) {
     const std::string a = axis[k];
@@ -231,6 +279,7 @@ RecordingPlot plot_recording(const std::string& csv_path, const std::string& png
       std::vector<double> mm(n);
       for (std::size_t i = 0; i < n; ++i) mm[i] = p[i] * 1e3;
       plate.series.push_back(styled(*position, t, mm, joint_style[k]));
+      if (k == 2) on_right.insert(plate.series.back().label);
       used.insert(*position);
       measured = true;
     }
@@ -239,6 +288,7 @@ RecordingPlot plot_recording(const std::string& csv_path, const std::string& png
       std::vector<double> mm(n);
       for (std::size_t i = 0; i < n; ++i) mm[i] = r[i] * 1e3;
       plate.series.push_back(styled(*reference, t, mm, joint_style[k] + " dashtype 2"));
+      if (k == 2) on_right.insert(plate.series.back().label);
       used.insert(*reference);
       referenced = true;
     }
@@ -246,6 +296,7 @@ RecordingPlot plot_recording(const std::string& csv_path, const std::string& png
       std::vector<double> um(n);
       for (std::size_t i = 0; i < n; ++i) um[i] = (p[i] - r[i]) * 1e6;
       plate_error.series.push_back(styled(*position + " - " + *reference, t, um, joint_style[k]));
+      if (k == 2) on_right.insert(plate_error.series.back().label);
     }
   }
   if (!plate.series.empty()) {
@@ -273,7 +324,6 @@ RecordingPlot plot_recording(const std::string& csv_path, const std::string& png
   }
 
   // ---- marks on the time axis ----
-  const std::string drives = c.first({"drives_enabled"}).value_or("");
   if (!drives.empty()) {
     const std::vector<double> d = column(drives);
     add_spans(
@@ -281,10 +331,16 @@ RecordingPlot plot_recording(const std::string& csv_path, const std::string& png
   }
   if (c.has("flags")) {
     const std::vector<double> f = column("flags");
+    // A run's recording holds before its stream plays (the primed start) and after it ends (the
+    // stop before the disable): those frames are not the stream's (stream_sample -1). A feed hold
+    // is a hold while the stream is under way.
+    const std::vector<double> stream = c.has("stream_sample") ? column("stream_sample") : std::vector<double>(n, 0.0);
     add_spans(
         marks.spans, t,
-        [&](std::size_t i) { return (static_cast<long long>(f[i]) & (1LL << board::kFlagHolding)) != 0; }, "feed hold",
-        "#1f77b4");
+        [&](std::size_t i) {
+          return (static_cast<long long>(f[i]) & (1LL << board::kFlagHolding)) != 0 && stream[i] >= 0.0;
+        },
+        "feed hold", "#1f77b4");
     add_spans(
         marks.spans, t, [&](std::size_t i) { return (static_cast<long long>(f[i]) & (1LL << board::kFlagFault)) != 0; },
         "fault", "#d62728");
@@ -307,6 +363,15 @@ RecordingPlot plot_recording(const std::string& csv_path, const std::string& png
         marks.spans, t, [&](std::size_t i) { return i > 0 && u[i] > u[i - 1] && on[i] != 0.0; }, "underrun", "#ff7f0e");
   }
   if (marks.spans.size() > 400) marks.spans.resize(400);  // gnuplot's objects: enough to see a pattern
+  // An end that was not a normal one (e-stop, fault, link lost): from then to the recording's end.
+  const std::optional<Outcome> outcome = outcome_of(csv_path);
+  std::string ending;
+  if (outcome && !outcome->normal() && n > 0) {
+    const double tick = std::max((t.back() - t.front()) / 500.0, 1e-3);
+    const double from = std::clamp(outcome->t_s, t.front(), t.back());
+    marks.spans.push_back({from, std::max(t.back(), from + tick), "end: " + outcome->name, "#d62728"});
+    ending = ", ended by " + outcome->name + " at " + format_number(std::round(outcome->t_s * 1e3) / 1e3) + " s";
+  }
 
   // ---- the kind, from the columns ----
   if (any_reference && c.has("x_ref_m")) {
@@ -326,14 +391,26 @@ RecordingPlot plot_recording(const std::string& csv_path, const std::string& png
   if (const auto slash = name.rfind('/'); slash != std::string::npos) name = name.substr(slash + 1);
   const double span_s = n > 0 ? t.back() - t.front() : 0.0;
   spec.title = name + ": " + out.kind + ", " + std::to_string(n) + " rows, " +
-               format_number(std::round(span_s * 1e3) / 1e3) + " s";
+               format_number(std::round(span_s * 1e3) / 1e3) + " s" + ending;
   spec.panel_height_px = 300;
   for (const PlotPanel& panel : spec.panels) out.panels.push_back(panel.title);
   for (const PlotPanel& panel : spec.panels) {
     marks.styles.emplace_back();
-    for (const PlotSeries& series : panel.series) marks.styles.back().push_back(style_of[series.label]);
+    marks.right_axis.emplace_back();
+    for (const PlotSeries& series : panel.series) {
+      marks.styles.back().push_back(style_of[series.label]);
+      marks.right_axis.back().push_back(on_right.count(series.label) != 0);
+    }
+    marks.y2_labels.push_back(panel.title.rfind("Plate error", 0) == 0 ? "z error [um]"
+                              : panel.title.rfind("Plate", 0) == 0     ? "z [mm]"
+                                                                       : "");
   }
-  write_plot(png_path, spec, marks);
+  return out;
+}
+
+RecordingPlot plot_recording(const std::string& csv_path, const std::string& png_path) {
+  RecordingPlot out = describe_recording(csv_path);
+  write_plot(png_path, out.spec, out.marks);
   return out;
 }
 

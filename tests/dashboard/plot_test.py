@@ -3,7 +3,10 @@
 merge also writes), `cosim --out`, and against a model virtual board `host run --record`, the
 board's `--truth` and `host record` (when the command exists; else a telemetry file of its
 columns); each gives a real PNG of the width and the height its panels ask for, with the
-series' colours drawn. Bad input: exit 2, one line naming the file (and the line), no PNG.
+series' colours drawn. A run shows no feed hold it was not asked for (its primed start and final
+stop hold the board), a run the host ended with a fault is banded "end: fault", a drag (drives
+off) has no tracking or current panel. Bad input: exit 2, one line naming the file (and the
+line), no PNG.
 Usage: plot_test.py DELTACTL WEIGHTS OUT_DIR (the PNGs stay there as artefacts)"""
 import os
 import re
@@ -82,15 +85,23 @@ def plot(deltactl, csv, png):
     return result
 
 
-def plot_ok(deltactl, csv, png, expect_kind, expect_panels):
+def plot_ok(deltactl, csv, png, expect_kind, expect_panels, absent_panels=(), expect_bands=(), absent_bands=()):
     result = plot(deltactl, csv, png)
     check(result.returncode == 0, "deltactl plot %s: exit 0 (%d: %s)" % (os.path.basename(csv), result.returncode,
                                                                        result.stderr.strip()))
     check(expect_kind in result.stdout, "%s is told a %s (%s)" % (os.path.basename(csv), expect_kind,
                                                                   result.stdout.strip()))
-    panels = result.stdout.split("panels:")[1].count(",") + 1
+    panel_text = result.stdout.split("panels:")[1]
+    panels = panel_text.count(",") + 1
+    bands = result.stdout.split("bands:")[1].split(";")[0] if "bands:" in result.stdout else ""
     for name in expect_panels:
-        check(name in result.stdout, "%s: panel '%s'" % (os.path.basename(csv), name))
+        check(name in panel_text, "%s: panel '%s'" % (os.path.basename(csv), name))
+    for name in absent_panels:
+        check(name not in panel_text, "%s: no panel '%s' (%s)" % (os.path.basename(csv), name, panel_text.strip()))
+    for name in expect_bands:
+        check(name in bands, "%s: band '%s' (bands: %s)" % (os.path.basename(csv), name, bands.strip()))
+    for name in absent_bands:
+        check(name not in bands, "%s: no band '%s' (bands: %s)" % (os.path.basename(csv), name, bands.strip()))
     check_png(png, panels)
 
 
@@ -142,6 +153,15 @@ def main():
             subprocess.run([deltactl, "host", "run", "--port", link, "--weights", weights, "--trajectory",
                             "experiment1", "--duration", "3", "--record", run, "--link-timeout-ms", "1000"],
                            check=True, capture_output=True, timeout=120)
+            # A run the host ends with a fault (a following-error bound no joint can keep): its
+            # recording must not look like a normal end.
+            faulted = os.path.join(out, "host_run_fault.csv")
+            result = subprocess.run([deltactl, "host", "run", "--port", link, "--weights", weights, "--trajectory",
+                                     "experiment1", "--duration", "3", "--record", faulted, "--link-timeout-ms",
+                                     "1000", "--following-error-deg", "0.0001"], capture_output=True, text=True,
+                                    timeout=120)
+            check(result.returncode == 3, "a run beyond its following-error bound: exit 3 (%d: %s)" %
+                  (result.returncode, result.stderr.strip()[-200:]))
             record = os.path.join(out, "host_record.csv")
             listed = subprocess.run([deltactl, "host", "--help"], capture_output=True, text=True).stdout
             has_record = re.search(r"^\s+record\s", listed, re.M) is not None
@@ -151,8 +171,12 @@ def main():
         finally:
             board.terminate()
             board.wait(30)
+        # Primed start and final stop hold the board: no feed hold was asked, none is drawn.
         plot_ok(deltactl, run, os.path.join(out, "host_run.png"), "host run recording",
-                ["Joint angles", "Tracking error", "Drive currents", "Plate reference"])
+                ["Joint angles", "Tracking error", "Drive currents", "Plate reference"],
+                expect_bands=["drives off"], absent_bands=["feed hold", "end:"])
+        plot_ok(deltactl, faulted, os.path.join(out, "host_run_fault.png"), "host run recording",
+                ["Joint angles", "Tracking error"], expect_bands=["end: fault"], absent_bands=["feed hold"])
         plot_ok(deltactl, truth, os.path.join(out, "truth.png"), "virtual-board truth",
                 ["Joint angles", "Encoder error", "Drive currents", "Plate position (measured)"])
         if not has_record:  # the columns `host record` writes at least (SPEC), with the telemetry's status
@@ -164,8 +188,9 @@ def main():
                 for l in lines:
                     fields = l.split(",")
                     target.write(",".join(fields[k] for k in keep) + "\n")
+        # The drives off throughout (a drag's recording): no tracking, no currents.
         plot_ok(deltactl, record, os.path.join(out, "host_record.png"), "telemetry recording (host record)",
-                ["Joint angles"])
+                ["Joint angles"], absent_panels=["Tracking error", "Drive currents"])
 
         # ---- bad input ----
         plot_bad(deltactl, out, "missing", None, "")

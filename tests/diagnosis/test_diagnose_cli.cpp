@@ -100,6 +100,64 @@ TEST(DiagnoseCli, BadInputNamesFileAndLineAndWritesNothing) {
   EXPECT_FALSE(file_exists(json));
 }
 
+// The report reads in one order: the selection trace's models, the "gap shrinks" table's rows and
+// the summary's significant set all name the effects in the order forward selection added them
+// (here backlash, the larger effect, before joint_offset, which the vocabulary lists first). The
+// summary states how long the recordings are, not only how long the diagnosis took.
+TEST(DiagnoseReport, TraceGapTableAndSummaryFollowTheOrderEffectsWereAdded) {
+  EffectSet effects;
+  effects.backlash_deg = Vec3(0.4, 0.3, 0.35);
+  effects.joint_offset_deg = Vec3(0.04, -0.03, 0.05);
+  const VirtualRobot robot(effects);
+  RecordingOptions options;
+  options.samples = 2000;
+  const std::string fit = temp("order_fit.csv"), check = temp("order_check.csv");
+  const std::vector<Sample> fit_rows = robot.record(make_trajectory("sweep", 21), options).samples;
+  write_recording(fit, fit_rows);
+  options.samples = 700;
+  write_recording(check, robot.record(make_trajectory("sweep", 22), options).samples);
+  const std::string report = temp("order/report.md");
+  const CommandResult result =
+      run_deltactl("diagnose --data " + fit + " --holdout " + check + " --json " + temp("order.json") +
+                   " --predictions " + temp("order_pred.csv") + " --report " + report);
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  const std::string text = read_text(report);
+  // The gap table: "| + name ..." rows after the heading.
+  std::vector<std::string> gap;
+  std::istringstream lines(text.substr(text.find("## How far the gap shrinks")));
+  for (std::string line; std::getline(lines, line) && line.rfind("## Effects", 0) != 0;) {
+    if (line.rfind("| + ", 0) == 0) gap.push_back(line.substr(4, line.find(' ', 4) - 4));
+  }
+  ASSERT_EQ(gap.size(), 2u) << text;
+  EXPECT_EQ(gap[0], "backlash");
+  EXPECT_EQ(gap[1], "joint_offset");
+  // The trace: "- from **MODEL**: ... -> added NAME".
+  std::vector<std::pair<std::string, std::string>> trace;
+  std::istringstream steps(text.substr(text.find("## Selection trace")));
+  for (std::string line; std::getline(steps, line);) {
+    if (line.rfind("- from **", 0) != 0) continue;
+    const std::size_t end = line.find("**", 9), added = line.find("-> added ");
+    trace.push_back({line.substr(9, end - 9), added == std::string::npos ? "" : line.substr(added + 9)});
+  }
+  ASSERT_EQ(trace.size(), 3u) << text;
+  std::string model = "nominal";
+  for (std::size_t k = 0; k < trace.size(); ++k) {
+    EXPECT_EQ(trace[k].first, model) << "step " << k + 1;
+    if (k < gap.size()) {
+      EXPECT_EQ(trace[k].second, gap[k]) << "step " << k + 1;
+      model = k == 0 ? gap[k] : model + " + " + gap[k];
+    }
+  }
+  EXPECT_NE(result.out.find("significant: backlash + joint_offset;"), std::string::npos) << result.out;
+  // The recordings' lengths: FIT spans its first to its last t_s.
+  std::ostringstream span;
+  span.setf(std::ios::fixed);
+  span.precision(1);
+  span << "FIT " << fit_rows.back().t_s - fit_rows.front().t_s << " s (" << fit_rows.size() << " rows)";
+  EXPECT_NE(result.out.find(span.str()), std::string::npos) << result.out;
+  EXPECT_NE(result.out.find("computed in "), std::string::npos) << result.out;
+}
+
 // The example: chain angles plus radius offsets, which a frame misalignment plus radius
 // offsets imitates to within a few hundredths of the floor. The diagnosis must name the injected
 // set, or name an equivalent one and list the injected set among its alternatives; the verdict

@@ -11,6 +11,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 
 #include <matio.h>
 
@@ -194,11 +195,100 @@ TEST(Defect04And09, NumericOptionsAreRangeChecked) {
 
 // ---- Defect 5: unbounded reads.
 TEST(Defect05, InputsWithoutLineBreaksOrOfAbsurdSizeFailFast) {
-  const std::string out = temp("d5_out.csv");
-  expect_bad_input(run_deltactl("ik --model nominal --in /dev/zero --out " + out, kBounded),
-                   "/dev/zero:1: line longer than", "csv");
-  expect_bad_input(run_deltactl("simulate --effects /dev/zero --out " + out, kBounded), "/dev/zero: larger than",
+  const std::string out = temp("d5_out.csv"), no_breaks = temp("d5_no_breaks.csv"), huge = temp("d5_huge.json");
+  write_text(no_breaks, std::string(200000, '1'));
+  { std::ofstream(huge) << ""; }
+  fs::resize_file(huge, (std::uintmax_t{17} << 20));  // sparse: 17 MiB of zero bytes
+  expect_bad_input(run_deltactl("ik --model nominal --in " + no_breaks + " --out " + out, kBounded),
+                   no_breaks + ":1: line longer than", "csv");
+  expect_bad_input(run_deltactl("simulate --effects " + huge + " --out " + out, kBounded), huge + ": larger than",
                    "json");
+  // A device is not read at all (it might never end).
+  expect_bad_input(run_deltactl("ik --model nominal --in /dev/zero --out " + out, kBounded),
+                   "/dev/zero: not a regular file", "csv device");
+  expect_bad_input(run_deltactl("simulate --effects /dev/zero --out " + out, kBounded), "/dev/zero: not a regular file",
+                   "json device");
+  EXPECT_FALSE(fs::exists(out));
+}
+
+// ---- The lab's recording readers: a FIFO blocks an open until a writer comes, so every reader
+// refuses one before opening it (plot, merge's two logs, train, diagnose's two recordings, and
+// the other readers of recordings and JSON).
+TEST(LabInputs, EveryReaderRefusesAFifoAtOnce) {
+  const std::string fifo = temp("lab_fifo.csv"), out = temp("lab_fifo_out.csv"), out2 = temp("lab_fifo_out2.csv");
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  const std::string rec = good_recording();
+  const std::vector<std::string> commands = {
+      "plot " + fifo + " --out " + out,
+      "merge --run " + fifo + " --stage " + rec + " --out " + out,
+      "merge --run " + rec + " --stage " + fifo + " --out " + out,
+      "train --data " + fifo + " --out " + out,
+      "diagnose --data " + fifo + " --holdout " + rec + " --json " + out + " --predictions " + out2,
+      "diagnose --data " + rec + " --holdout " + fifo + " --json " + out + " --predictions " + out2,
+      "compare --data " + fifo,
+      "ik --model nominal --in " + fifo + " --out " + out,
+      "ik --weights " + fifo + " --in " + rec + " --out " + out,
+      "simulate --effects " + fifo + " --out " + out};
+  for (const std::string& command : commands) {
+    // timeout: before, each of these waited for a writer for ever (exit 124 here).
+    expect_bad_input(run_deltactl(command, "timeout 10 "), fifo + ": not a regular file", command);
+  }
+  EXPECT_FALSE(fs::exists(out));
+  EXPECT_FALSE(fs::exists(out2));
+}
+
+// Numbers in recordings are decimal: a hexadecimal float (0x1p5, which strtod reads as 32) is
+// not a number for any reader, named with its line.
+TEST(LabInputs, HexadecimalFloatsAreNotNumbers) {
+  const std::string hex = temp("lab_hex.csv"), out = temp("lab_hex_out.csv"), out2 = temp("lab_hex_out2.csv");
+  std::string text = recording_text(60);
+  const std::size_t line3 = text.find('\n', text.find('\n', text.find('\n') + 1) + 1) + 1;  // the 4th line
+  text.replace(line3, text.find(',', line3) - line3, "0x1p5");                              // its t_s
+  write_text(hex, text);
+  const std::string rec = good_recording();
+  for (const std::string& command :
+       {"plot " + hex + " --out " + out, "merge --run " + hex + " --stage " + rec + " --out " + out,
+        "merge --run " + rec + " --stage " + hex + " --out " + out, "train --data " + hex + " --out " + out,
+        "diagnose --data " + rec + " --holdout " + hex + " --json " + out + " --predictions " + out2,
+        "compare --data " + hex}) {
+    expect_bad_input(run_deltactl(command), hex + ":4: column 't_s': '0x1p5' is not a number", command);
+  }
+  // The same in the trajectory of a run (a waypoint of move:) and in a numeric option.
+  expect_bad_input(run_deltactl("host run --port " + temp("no_board") + " --weights " + kWeights +
+                                " --trajectory 'move:0,0,-0x1p-4' --record " + out),
+                   "waypoint", "move: waypoint");
+  expect_bad_input(run_deltactl("cosim --weights " + kWeights + " --duration 0x1p1"), "--duration", "--duration");
+  EXPECT_FALSE(fs::exists(out));
+  EXPECT_FALSE(fs::exists(out2));
+}
+
+// merge applies the bounds diagnose and train apply, to the file the value is in: a run row of
+// 1e308 deg or a stage row 1e6 m away is refused naming that file's line, and no DATA.csv.
+TEST(LabInputs, MergeRefusesImplausibleRowsOfTheFileTheyAreIn) {
+  const std::string rec = good_recording(), out = temp("lab_merge_out.csv");
+  std::string text = read_text(rec);
+  std::vector<std::string> lines;
+  std::istringstream stream(text);
+  for (std::string line; std::getline(stream, line);) lines.push_back(line);
+  std::size_t header = 0;
+  while (lines[header].rfind('#', 0) == 0) ++header;
+  auto with_field = [&](std::size_t row, std::size_t column, const std::string& value) {
+    std::vector<std::string> copy = lines;
+    std::string& line = copy[header + row];
+    std::size_t begin = 0;
+    for (std::size_t k = 0; k < column; ++k) begin = line.find(',', begin) + 1;
+    line.replace(begin, line.find(',', begin) - begin, value);
+    std::string joined;
+    for (const std::string& l : copy) joined += l + "\n";
+    return joined;
+  };
+  const std::string angle = temp("lab_merge_angle.csv"), far = temp("lab_merge_far.csv");
+  write_text(angle, with_field(200, 1, "1e308"));  // alpha1_deg
+  write_text(far, with_field(300, 4, "1e6"));      // x_m
+  expect_bad_input(run_deltactl("merge --run " + angle + " --stage " + rec + " --out " + out),
+                   angle + ":" + std::to_string(header + 201) + ": column 'alpha1_deg'", "run row");
+  expect_bad_input(run_deltactl("merge --run " + rec + " --stage " + far + " --out " + out),
+                   far + ":" + std::to_string(header + 301) + ": column 'x_m'", "stage row");
   EXPECT_FALSE(fs::exists(out));
 }
 

@@ -236,6 +236,37 @@ TEST(StreamPlan, TheShapedSetpointsOfARippleTableAreCheckedAgainstTheBox) {
   RunRequest request;
   request.trajectory = move;
   EXPECT_EQ(check_run(weights, request).size(), 1u);
+
+// A deployed model's joint ripple table moves every joint by the table's entry on top of the path
+// (nn::shape_setpoint): the plan check checks the joints so shaped too. A table within the reader's
+// bounds that zig-zags every 0.1 deg makes the shaped joints jerk beyond the limit on a path the
+// check passes unshaped: refused, naming the shaping; the shipped calibration model's table passes.
+TEST(StreamPlan, TheCheckSeesTheJointsAsTheRippleTableShapesThem) {
+  const golden::BoardWeights shipped =
+      golden::read_board_weights(std::string(DELTA_SOURCE_DIR) + "/weights/paper_like_calibration_deployed.json");
+  ASSERT_FALSE(shipped.model.joint_ripple.empty());
+  const Path path = load_path("experiment1", 3.0);
+  const StreamLimits limits;
+  const StreamPlan plan(path, path.samples.front().position_m, limits);
+  EXPECT_FALSE(check_plan(plan, "experiment1", shipped.trained_min_m, shipped.trained_max_m, limits, &shipped.model));
+  golden::BoardWeights zigzag = shipped;
+  nn::JointRippleTable& table = zigzag.model.joint_ripple;
+  table.bin_deg = 0.01;
+  table.first_deg = Vec3::Constant(10.0);
+  for (auto& values : table.values_deg) {
+    values.clear();
+    for (std::size_t k = 0; k < nn::kMaxJointRippleEntries; ++k) {  // a triangle of 0.1 deg, as steep as allowed
+      const double phase = static_cast<double>(k % 10);
+      values.push_back(nn::kMaxJointRippleSlope * table.bin_deg * (phase < 5 ? phase : 10 - phase));
+    }
+  }
+  EXPECT_NO_THROW(nn::parse_weights_file(nn::weights_file_text(zigzag.model), "zigzag.json"));
+  EXPECT_FALSE(check_plan(plan, "experiment1", zigzag.trained_min_m, zigzag.trained_max_m, limits));
+  const auto refused =
+      check_plan(plan, "experiment1", zigzag.trained_min_m, zigzag.trained_max_m, limits, &zigzag.model);
+  ASSERT_TRUE(refused);
+  EXPECT_NE(refused->find("joint ripple table"), std::string::npos) << *refused;
+  EXPECT_NE(refused->find("above the limit"), std::string::npos) << *refused;
 }
 
 }  // namespace

@@ -4,6 +4,8 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
+#include <functional>
 #include <random>
 
 #include "../support/run_command.hpp"
@@ -118,6 +120,72 @@ TEST(WeightsFile, JointRippleTableRoundTripsAsVersion3AndIsChecked) {
     broken.replace(at, from.size(), to);
     EXPECT_THROW(parse_weights_file(broken, "memory"), InputError);
   }
+}
+
+// A table whose shaping could move the joints beyond what the plan check saw is refused: a steep
+// one (entries changing by more than kMaxJointRippleSlope per degree: it chatters, or moves the
+// joints faster than the path) or a large one; every shipped model still loads.
+TEST(WeightsFile, JointRippleTablesThatWouldMoveTheJointsFarBeyondThePathAreRefused) {
+  const std::string text = weights_file_text(rippled_weights(17, 5));
+  auto with_table = [&](double bin_deg, const std::function<double(std::size_t)>& value, std::size_t entries) {
+    std::string table = "\"joint_ripple\": {\"bin_deg\": " + format_number(bin_deg) +
+                        ", \"first_deg\": [20, 20, 20], \"values_deg\": [";
+    for (int j = 0; j < 3; ++j) {
+      table += j ? ", [" : "[";
+      for (std::size_t k = 0; k < entries; ++k) table += (k ? ", " : "") + format_number(value(k));
+      table += "]";
+    }
+    std::string changed = text;
+    const std::size_t at = changed.find("\"joint_ripple\"");
+    const std::size_t end = changed.find("]]}", at) + 3;
+    changed.replace(at, end - at, table + "]}");
+    return changed;
+  };
+  struct Case {
+    std::string name;
+    std::string text;
+    std::string reason;
+  };
+  const std::vector<Case> refused = {// +-0.5 deg every 0.01 deg: joint references stepping by degrees per setpoint.
+                                     {"chatter",
+                                      with_table(
+                                          0.01, [](std::size_t k) { return k % 2 ? -0.5 : 0.5; }, 2000),
+                                      "beyond +-0.25"},
+                                     {"fine chatter",
+                                      with_table(
+                                          0.01, [](std::size_t k) { return k % 2 ? -0.1 : 0.1; }, 2000),
+                                      "steeper than 0.25"},
+                                     {"step",
+                                      with_table(
+                                          0.25, [](std::size_t k) { return k < 50 ? 0.0 : 0.1; }, 100),
+                                      "steeper than 0.25"},
+                                     {"constant shift",
+                                      with_table(
+                                          0.25, [](std::size_t) { return 0.5; }, 100),
+                                      "beyond +-0.25"}};
+  for (const Case& c : refused) {
+    SCOPED_TRACE(c.name);
+    try {
+      parse_weights_file(c.text, "W.json");
+      ADD_FAILURE() << "accepted";
+    } catch (const InputError& error) {
+      EXPECT_NE(std::string(error.what()).find(c.reason), std::string::npos) << error.what();
+      EXPECT_NE(std::string(error.what()).find("values_deg"), std::string::npos) << error.what();
+    }
+  }
+  // A real transmission ripple passes: 0.05 deg over a 2 deg period (slope 0.16 deg per deg).
+  EXPECT_NO_THROW(
+      parse_weights_file(with_table(
+                             0.25, [](std::size_t k) { return 0.05 * std::sin(2.0 * M_PI * 0.25 * k / 2.0); }, 200),
+                         "W.json"));
+  int shipped = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(std::string(DELTA_SOURCE_DIR) + "/weights")) {
+    if (entry.path().extension() != ".json") continue;
+    SCOPED_TRACE(entry.path().string());
+    EXPECT_NO_THROW(read_weights_file(entry.path().string()));
+    ++shipped;
+  }
+  EXPECT_GE(shipped, 3);
 }
 
 // The shipped board network (an inverse kinematics, as every trained model is) with the table above.

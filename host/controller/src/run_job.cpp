@@ -278,6 +278,13 @@ struct TelemetryRecorder {
     header += "bad_frames,underruns,rejected,slew_limits\n";
     file.open(header);
   }
+  // The last line: how the run ended, at the board time of the last frame the host acted on
+  // (`deltactl plot` bands an end that is not a normal one: an e-stop, a fault, a lost link).
+  void write_outcome(const std::string& outcome, std::uint32_t tick, int code, std::string error) {
+    for (char& c : error) c = c == '\n' || c == '\r' ? ' ' : c;
+    file.buffer() += "# outcome: " + outcome + " at board time " + format_number(tick / 1e4) + " s (exit " +
+                     std::to_string(code) + ")" + (error.empty() ? "" : ": " + error) + "\n";
+  }
   void write(const TelemetryRecord& r) {
     const link::TelemetryPayload& t = r.telemetry;
     std::string& out = file.buffer();
@@ -696,6 +703,7 @@ RunOutcome RunJob::execute(link::LinkSession& session, const std::string& port_n
       break;
   }
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  recorder_->write_outcome(out.outcome, result.last.tick, out.code, out.error);
   const std::string record_error = recorder_->file.close();
   const std::uint64_t underruns =
       recorder_->underruns_at_first_play ? recorder_->underruns_at_end - *recorder_->underruns_at_first_play : 0;
@@ -765,6 +773,7 @@ RunOutcome RecordJob::execute(link::LinkSession& session, const std::string& por
     out.code = kExitLinkLost;
     out.error = port_name + ": link lost: " + error.what();
   }
+  recorder_->write_outcome(out.outcome, t.tick, out.code, out.error);
   const std::string incomplete = recorder_->file.close();
   if (!incomplete.empty() && out.code == kExitOk) {
     out.code = kExitBadInput;

@@ -1,8 +1,6 @@
 // What host run streams, planned and checked whole (see stream_plan.hpp).
 #include "delta/controller/stream_plan.hpp"
 
-#include <sys/stat.h>
-
 #include <algorithm>
 #include <cmath>
 #include <sstream>
@@ -57,9 +55,9 @@ Path load_moves(const std::string& spec, const motion::MotionLimits& limits) {
     Vec3 p;
     int n = 0;
     while (std::getline(fields, field, ',')) {
-      char* end = nullptr;
-      const double value = std::strtod(field.c_str(), &end);
-      if (n >= 3 || end == field.c_str() || *end != '\0' || !std::isfinite(value)) {
+      const std::optional<double> parsed = parse_decimal(field);
+      const double value = parsed.value_or(NAN);
+      if (n >= 3 || !parsed || !std::isfinite(value)) {
         throw InputError(spec, points.size() + 1, "a waypoint is X,Y,Z in metres, finite ('" + item + "')");
       }
       p[n++] = value;
@@ -111,11 +109,6 @@ Path load_path(const std::string& name_or_file, double duration_s) {
       path.samples[k].position_m = trajectory.position_m(path.samples[k].t_s);
     }
     return path;
-  }
-  // A FIFO, a device or a folder would block or never end: refused before it is opened.
-  struct stat file {};
-  if (::stat(name_or_file.c_str(), &file) == 0 && !S_ISREG(file.st_mode)) {
-    throw InputError(name_or_file, 0, "not a regular file (a FIFO, a device or a folder); a trajectory is a CSV file");
   }
   const CsvTable table = read_csv(name_or_file, {"t_s", "x_m", "y_m", "z_m"});
   std::vector<motion::TrajectoryPoint> points;
@@ -367,6 +360,21 @@ std::vector<std::string> check_plan_all(const StreamPlan& plan, const std::strin
         violations.push_back(*v);
         std::stable_sort(violations.begin(), violations.end(),
                          [](const auto& a, const auto& b) { return a.sample < b.sample; });
+      }
+    }
+    // The joints as the shaping moves them: the network's answer plus the table's entry at it
+    // (N(shaped) = N(p) + r(N(p))), on top of the path's joints; checked when the path passes.
+    if (violations.empty() && model->deployed() && !model->joint_ripple.empty()) {
+      std::vector<Vec3> offsets(points.size(), Vec3::Zero());
+      for (std::size_t k = 0; k < points.size(); ++k) {
+        if (points[k].position_m.allFinite()) {
+          offsets[k] = model->joint_ripple.at(model->network.evaluate(points[k].position_m));
+        }
+      }
+      for (motion::TrajectoryViolation v : motion::all_violations(points, kStreamRateHz, Geometry::nominal(), check,
+                                                                  &offsets)) {
+        v.reason += " with the setpoints shaped by the model's joint ripple table";
+        violations.push_back(v);
       }
     }
   }

@@ -13,6 +13,7 @@
 #include <sstream>
 
 #include "delta/board_facts.hpp"
+#include "delta/csv.hpp"
 #include "delta/golden/board_network.hpp"
 #include "delta/golden/setpoint_interpolation.hpp"
 #include "delta/input_error.hpp"
@@ -74,12 +75,11 @@ bool is_regular_file(const std::string& path) {
 
 double parse_number(const std::string& value, const std::string& file, std::size_t line, const std::string& key) {
   errno = 0;
-  char* end = nullptr;
-  const double number = std::strtod(value.c_str(), &end);
-  if (value.empty() || end != value.c_str() + value.size() || errno == ERANGE || !std::isfinite(number)) {
+  const std::optional<double> number = parse_decimal(value);
+  if (!number || errno == ERANGE || !std::isfinite(*number)) {
     throw InputError(file, line, key + ": not a number: " + quoted_excerpt(value));
   }
-  return number;
+  return *number;
 }
 
 }  // namespace

@@ -398,6 +398,10 @@ Diagnosis diagnose(const std::vector<Sample>& fit, const std::vector<Sample>& ch
   const auto started = std::chrono::steady_clock::now();
   Diagnosis diagnosis;
   diagnosis.noise_floor_deg = options.noise_floor_deg;
+  diagnosis.fit_samples = fit.size();
+  diagnosis.check_samples = check.size();
+  if (!fit.empty()) diagnosis.fit_span_s = fit.back().t_s - fit.front().t_s;
+  if (!check.empty()) diagnosis.check_span_s = check.back().t_s - check.front().t_s;
   const double encoder_step_deg = options.noise_floor_deg * std::sqrt(12.0);
 
   // 1. Outlier rows (stage or encoder glitches) leave both recordings before anything is fitted.

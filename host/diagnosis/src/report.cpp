@@ -3,6 +3,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdlib>
@@ -179,9 +180,36 @@ json floor_test_json(const FloorTest& test) {
           {"at_floor", test.at_floor}};
 }
 
+// The order the effects were added in: the significant ones as ranked (the gap table's rows),
+// then the other families forward selection chose on its way (its trace), then the vocabulary's.
+std::vector<Family> added_order(const Diagnosis& diagnosis) {
+  std::vector<Family> order;
+  auto add = [&order](Family family) {
+    if (std::find(order.begin(), order.end(), family) == order.end()) order.push_back(family);
+  };
+  for (const EffectFinding& finding : diagnosis.findings) {
+    if (finding.significant) add(finding.family);
+  }
+  for (const SelectionStep& step : diagnosis.steps) {
+    if (step.chosen >= 0) add(family_at(step.chosen));
+  }
+  for (int f = 0; f < kFamilyCount; ++f) add(family_at(f));
+  return order;
+}
+
+// A set of families named in the order they were added, so that the selection trace, the gap
+// table and the summary read alike ("nominal" for none).
+std::string describe_as_added(FamilySet families, const Diagnosis& diagnosis) {
+  std::string text;
+  for (Family family : added_order(diagnosis)) {
+    if (families[index_of(family)]) text += (text.empty() ? "" : " + ") + std::string(family_name(family));
+  }
+  return text.empty() ? "nominal" : text;
+}
+
 // The final model's effects, new ones (outside the vocabulary) included.
 std::string model_name(const Diagnosis& diagnosis) {
-  std::string text = diagnosis.significant.any() ? describe(diagnosis.significant) : std::string();
+  std::string text = diagnosis.significant.any() ? describe_as_added(diagnosis.significant, diagnosis) : std::string();
   for (const NewEffect& effect : diagnosis.new_effects) text += (text.empty() ? "" : " + ") + effect.name;
   return text.empty() ? std::string("no effect") : text;
 }
@@ -393,9 +421,12 @@ json diagnosis_json(const Diagnosis& diagnosis) {
   document["holdout"] = {{"rmse_nominal_deg", triple(diagnosis.holdout_rmse_nominal_deg)},
                          {"rmse_after_deg", triple(diagnosis.holdout_rmse_after_deg)},
                          {"samples", diagnosis.check_after_deg.size()},
+                         {"span_s", diagnosis.check_span_s},
                          {"unreachable_rows", diagnosis.check_unreachable}};
   document["fit"] = {{"rmse_nominal_deg", triple(diagnosis.fit_rmse_nominal_deg)},
-                     {"rmse_after_deg", triple(diagnosis.fit_rmse_after_deg)}};
+                     {"rmse_after_deg", triple(diagnosis.fit_rmse_after_deg)},
+                     {"samples", diagnosis.fit_samples},
+                     {"span_s", diagnosis.fit_span_s}};
   document["fitted_effects"] = effects_to_json(diagnosis.fitted_effects);
   json steps = json::array();
   for (const SelectionStep& step : diagnosis.steps) {
@@ -459,7 +490,9 @@ void print_summary(std::ostream& out, const Diagnosis& diagnosis) {
                                     fixed(diagnosis.floor_test.threshold, 1)
                               : floor_test_missed(diagnosis.floor_test))
       << "; " << fixed(100.0 * diagnosis.explained_fraction, 1) << " % of the held-out excess removed); "
-      << "significant: " << model_name(diagnosis) << "; " << fixed(diagnosis.seconds, 1) << " s\n"
+      << "significant: " << model_name(diagnosis) << "; FIT " << fixed(diagnosis.fit_span_s, 1) << " s ("
+      << diagnosis.fit_samples << " rows), CHECK " << fixed(diagnosis.check_span_s, 1) << " s ("
+      << diagnosis.check_samples << " rows) of recording; computed in " << fixed(diagnosis.seconds, 1) << " s\n"
       << "verdict: " << verdict(diagnosis) << "\n";
   if (!diagnosis.outliers.empty()) out << diagnosis.outliers.size() << " outlier rows left out (listed in the JSON)\n";
   if (diagnosis.fit_closed_loop) out << closed_loop_note(diagnosis) << "\n";
@@ -640,7 +673,7 @@ void write_report(const std::string& markdown_path, const ReportInputs& inputs, 
 
   out << "\n## Selection trace (held-out RMSE, mean over joints, of each candidate)\n\n";
   for (const SelectionStep& step : diagnosis.steps) {
-    out << "- from **" << describe(step.base) << "**: ";
+    out << "- from **" << describe_as_added(step.base, diagnosis) << "**: ";
     for (std::size_t c = 0; c < step.candidate_mse.size(); ++c) {
       out << (c ? ", " : "") << family_name(step.candidate_mse[c].first) << " "
           << fixed(std::sqrt(step.candidate_mse[c].second), 5);

@@ -4,6 +4,7 @@
 #include "delta/csv.hpp"
 #include "delta/input_error.hpp"
 #include "delta/output_file.hpp"
+#include "delta/recording.hpp"
 #include "delta/table.hpp"
 
 namespace delta::diagnosis {
@@ -24,6 +25,7 @@ StageLog read_stage_log(const std::string& path) {
                        "time does not increase (" + format_number(row[0]) + " s after " +
                            format_number(table.rows[i - 1][0]) + " s)");
     }
+    check_plausible_positions(table, i, 1, 3);  // the bounds diagnose and train apply to DATA.csv
     log.t_s[i] = row[0];
     log.position_m[i] = Vec3(row[1], row[2], row[3]);
     if (table.present[4]) {

@@ -3,10 +3,17 @@
 #pragma once
 
 #include <istream>
+#include <optional>
 #include <string>
 #include <vector>
 
 namespace delta {
+
+// A number as the project's files write it, decimal only: an optional sign, digits with an optional
+// point, an optional exponent (1, -0.5, .25, 6.87e-9), or inf / nan (which the callers refuse as
+// not finite). Anything else is nullopt: hexadecimal floats (0x1p5, which strtod reads as 32),
+// spaces, trailing characters, an empty field. The one number parser of every input reader.
+std::optional<double> parse_decimal(const std::string& text);
 
 struct CsvTable {
   std::string path;

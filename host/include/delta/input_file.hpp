@@ -11,7 +11,11 @@ namespace delta {
 constexpr std::size_t kMaxInputBytes = 16u << 20;
 constexpr std::size_t kMaxLineBytes = 1u << 16;
 
-// Throws InputError(path, 0, reason) when the path is missing, a folder, or cannot be read.
+// Throws InputError(path, 0, reason) when the path is missing, a folder, not a regular file (a
+// FIFO, a device or a socket: opening a FIFO blocks until a writer comes, a device may never end),
+// or cannot be read. Every reader of an input file opens it through here, or calls
+// check_input_file first when it opens the file itself.
 std::ifstream open_input_file(const std::string& path);
+void check_input_file(const std::string& path);
 
 }  // namespace delta

@@ -1,5 +1,5 @@
 // More for a PNG plot (plot.hpp): bands marking stretches of the x axis on every panel, a style per
-// series, and titles printed as written.
+// series, a second y axis, and titles printed as written.
 #pragma once
 
 #include <string>
@@ -20,7 +20,11 @@ struct PlotSpan {
 struct PlotMarks {
   std::vector<PlotSpan> spans;                   // on every panel (all panels share the x axis then)
   std::vector<std::vector<std::string>> styles;  // styles[p][s]: more gnuplot style of panel p's series s
-  bool as_written = false;                       // noenhanced: file and column names keep their underscores
+  // right_axis[p][s]: panel p's series s is drawn on a second y axis at the right, on a scale of
+  // its own, labelled y2_labels[p].
+  std::vector<std::vector<bool>> right_axis;
+  std::vector<std::string> y2_labels;
+  bool as_written = false;  // noenhanced: file and column names keep their underscores
 };
 
 // write_plot (plot.hpp) with the marks.

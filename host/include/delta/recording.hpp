@@ -20,6 +20,13 @@ struct CsvTable;
 // before the previous row's: SPEC recordings are in time order.
 void check_time_order(const CsvTable& table, std::size_t row, std::size_t column);
 
+// Throw InputError naming the file, line and column when a value of row `row` in columns [first,
+// first + count) is not a measurement of this robot: a joint angle beyond one turn, a plate
+// position beyond 1 m (a corrupt row or a unit mix-up; one such row would dominate any fit). Every
+// reader of recordings applies them: diagnose, train, compare, ik, merge.
+void check_plausible_angles(const CsvTable& table, std::size_t row, std::size_t first, std::size_t count);
+void check_plausible_positions(const CsvTable& table, std::size_t row, std::size_t first, std::size_t count);
+
 // Throws InputError (file, line, reason) on any SPEC violation, including time going backwards.
 Recording read_recording(const std::string& path);
 

@@ -17,6 +17,7 @@
 #include <matio.h>
 #include <zlib.h>
 
+#include "delta/csv.hpp"
 #include "delta/input_error.hpp"
 #include "delta/input_file.hpp"
 #include "delta/nn/weights_file.hpp"
@@ -260,11 +261,9 @@ Variables read_csv_variables(const std::string& path) {
     Variable variable{Eigen::MatrixXd(rows, columns), line_number};
     for (Eigen::Index i = 0; i < rows * columns; ++i) {
       const std::string& text = fields[static_cast<std::size_t>(3 + i)];
-      char* end = nullptr;
-      const double value = std::strtod(text.c_str(), &end);
-      if (text.empty() || *end != '\0')
-        throw InputError(path, line_number, fields[0] + ": '" + text + "' is not a number");
-      variable.value.data()[i] = value;
+      const std::optional<double> value = parse_decimal(text);
+      if (!value) throw InputError(path, line_number, fields[0] + ": '" + text + "' is not a number");
+      variable.value.data()[i] = *value;
     }
     variables[fields[0]] = variable;
   }

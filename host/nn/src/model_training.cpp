@@ -341,6 +341,12 @@ RippleFit ripple_table(const std::vector<Vec3>& model_deg, const std::vector<Vec
     values.insert(values.end(), detrended.values.begin(), detrended.values.end());
     const double last_deg = first_deg + static_cast<double>(detrended.values.size() - 1) * kResidualBinDeg;
     for (std::size_t b = 1; b <= extra; ++b) values.push_back(sinusoid.at(last_deg + b * kResidualBinDeg));
+    // Within the bounds a weights file may carry: each entry within the slope bound of the next
+    // (one backward pass makes every step so), then the size (a clamp keeps the steps).
+    const double step_deg = kMaxJointRippleSlope * kResidualBinDeg;
+    for (std::size_t k = values.size() - 1; k-- > 0;) {
+      values[k] = std::clamp(values[k], values[k + 1] - step_deg, values[k + 1] + step_deg);
+    }
     for (double& value : values) value = std::clamp(value, -kMaxJointRippleDeg, kMaxJointRippleDeg);
     detrended.values.clear();
     fit.line[static_cast<std::size_t>(j)] = std::move(detrended);

@@ -109,7 +109,16 @@ JointRippleTable parse_joint_ripple(const Reader& part) {
         part.fail("values_deg", "values_deg: joint " + std::to_string(j + 1) + " has " + format_number(entry) +
                                     " deg, beyond +-" + format_number(kMaxJointRippleDeg));
       }
-      table.values_deg[j].push_back(entry);
+      std::vector<double>& entries = table.values_deg[j];
+      if (!entries.empty() && std::abs(entry - entries.back()) > kMaxJointRippleSlope * table.bin_deg * (1 + 1e-9)) {
+        part.fail("values_deg", "values_deg: joint " + std::to_string(j + 1) + " changes by " +
+                                    format_number(entry - entries.back()) + " deg from entry " +
+                                    std::to_string(entries.size()) + " to " + std::to_string(entries.size() + 1) +
+                                    " (bin " + format_number(table.bin_deg) + " deg), steeper than " +
+                                    format_number(kMaxJointRippleSlope) +
+                                    " deg per deg: the shaping would move the joint beyond the path's checked speed");
+      }
+      entries.push_back(entry);
     }
   }
   return table;

@@ -104,7 +104,8 @@ std::optional<TrajectoryViolation> box_violation(const std::vector<TrajectoryPoi
 }
 
 std::vector<TrajectoryViolation> all_violations(const std::vector<TrajectoryPoint>& samples, double rate_hz,
-                                                const Geometry& geometry, const TrajectoryLimits& limits) {
+                                                const Geometry& geometry, const TrajectoryLimits& limits,
+                                                const std::vector<Vec3>* joint_offsets_deg) {
   // The first violation of each kind, by kind: unreachable, the box, then per joint travel,
   // velocity, acceleration, jerk.
   constexpr int kUnreachable = 0, kBox = 1, kTravel = 2, kDerivatives = 5;  // travel 2..4, then 3 x 3
@@ -132,11 +133,12 @@ std::vector<TrajectoryViolation> all_violations(const std::vector<TrajectoryPoin
       note(kUnreachable, k, "not a finite position");
       continue;
     }
-    const IkSolution ik = inverse_kinematics(geometry, p);
+    IkSolution ik = inverse_kinematics(geometry, p);
     if (!ik.ok()) {
       note(kUnreachable, k, "unreachable: " + ik.reason());
       continue;
     }
+    if (joint_offsets_deg != nullptr && k < joint_offsets_deg->size()) ik.alpha_deg += (*joint_offsets_deg)[k];
     for (int j = 0; j < 3; ++j) {
       if (ik.alpha_deg[j] < limits.joint_min_deg || ik.alpha_deg[j] > limits.joint_max_deg) {
         note(kTravel + j, k,
@@ -180,8 +182,9 @@ std::vector<TrajectoryViolation> all_violations(const std::vector<TrajectoryPoin
 }
 
 std::optional<TrajectoryViolation> first_violation(const std::vector<TrajectoryPoint>& samples, double rate_hz,
-                                                   const Geometry& geometry, const TrajectoryLimits& limits) {
-  const std::vector<TrajectoryViolation> all = all_violations(samples, rate_hz, geometry, limits);
+                                                   const Geometry& geometry, const TrajectoryLimits& limits,
+                                                   const std::vector<Vec3>* joint_offsets_deg) {
+  const std::vector<TrajectoryViolation> all = all_violations(samples, rate_hz, geometry, limits, joint_offsets_deg);
   if (all.empty()) return std::nullopt;
   return all.front();
 }

@@ -47,12 +47,16 @@ std::vector<TrajectoryPoint> resample(const std::vector<TrajectoryPoint>& points
 // axis it leaves the box on, with how far it goes and the box, in one reason; each joint's travel,
 // velocity, acceleration and jerk). `geometry` is the model the check uses for the joint angles
 // (the nominal robot: the network's answers differ by at most about a degree).
+// `joint_offsets_deg`, when given (one per sample), is added to each sample's joint angles before
+// the travel and the derivatives are checked: what a setpoint shaping adds to the joints.
 std::vector<TrajectoryViolation> all_violations(const std::vector<TrajectoryPoint>& samples, double rate_hz,
-                                                const Geometry& geometry, const TrajectoryLimits& limits);
+                                                const Geometry& geometry, const TrajectoryLimits& limits,
+                                                const std::vector<Vec3>* joint_offsets_deg = nullptr);
 
 // The first of them (the first sample that breaks a limit), or nothing.
 std::optional<TrajectoryViolation> first_violation(const std::vector<TrajectoryPoint>& samples, double rate_hz,
-                                                   const Geometry& geometry, const TrajectoryLimits& limits);
+                                                   const Geometry& geometry, const TrajectoryLimits& limits,
+                                                   const std::vector<Vec3>* joint_offsets_deg = nullptr);
 
 // The box alone: nothing when every sample is inside [min_m, max_m]; else the first sample outside,
 // its reason "`what`: x reaches ... mm (line L), ...; the box x A .. B, y ..., z ... mm".

@@ -144,7 +144,9 @@ class StreamPlan {
 
 // The whole-plan check: reachable, inside the trained range (the allowed box), joint travel (the
 // board's, joint_travel()), velocity, acceleration and jerk; with `model` (W.json's, a deployed
-// model with a joint ripple table) also the setpoints as sent, shaped, inside the trained range.
+// model with a joint ripple table) also the setpoints as sent, shaped, inside the trained range,
+// and the joints as the shaping moves them (the table's entry on top of each joint) within the
+// travel and the velocity, acceleration and jerk limits.
 // Every problem (the first sample of each kind, in time order) as "SOURCE:LINE: reason (sample k,
 // t = ... s)"; a path outside the box is one problem naming every axis it leaves it on, and the box.
 std::vector<std::string> check_plan_all(const StreamPlan& plan, const std::string& source, const Vec3& trained_min_m,

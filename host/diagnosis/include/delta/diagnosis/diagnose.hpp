@@ -212,7 +212,10 @@ struct Diagnosis {
   // 1.96 standard errors of each fitted parameter (internal units), from the covariance of the
   // final fit: residual variance on FIT times the inverse of J^T J (with the weak prior).
   Parameters confidence_95 = Parameters::Zero();
-  double seconds = 0.0;
+  double seconds = 0.0;  // how long the diagnosis took to compute (wall clock)
+  // The recordings: rows and the time they span (last t_s - first t_s, seconds of recording).
+  std::size_t fit_samples = 0, check_samples = 0;
+  double fit_span_s = 0.0, check_span_s = 0.0;
 };
 
 // Fits on `fit` only; `check` is used to choose effects and to report held-out errors.

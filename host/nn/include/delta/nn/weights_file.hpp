@@ -61,8 +61,14 @@ constexpr int kFirstWeightsFileVersion = 1;
 // Largest half-play a deployed model may carry, degrees (a play wider than this is not backlash).
 constexpr double kMaxBacklashHalfPlayDeg = 2.0;
 // Largest joint ripple entry, degrees, and most entries per joint (a quarter-degree table over 500 deg).
-constexpr double kMaxJointRippleDeg = 0.5;
+constexpr double kMaxJointRippleDeg = 0.25;
 constexpr std::size_t kMaxJointRippleEntries = 2000;
+// Steepest joint ripple table, degrees of entry per degree of joint angle: successive entries
+// differ by at most kMaxJointRippleSlope * bin_deg. The shaping moves a joint by r(alpha) on top of
+// the path, so its speed is at most (1 + slope) times the path's and a table cannot chatter (the
+// shipped tables reach 0.025; a ripple of amplitude A and period P has a slope 2 pi A / P: 0.25
+// allows 0.05 deg at 1.25 deg, 0.25 deg at 6.3 deg). The plan check then checks the shaped joints.
+constexpr double kMaxJointRippleSlope = 0.25;
 // Most hidden neurons a weights file may have: checked when reading, writing and importing.
 constexpr long long kMaxHiddenNeurons = 10000;
 
