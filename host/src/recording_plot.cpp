@@ -271,6 +271,7 @@ RecordingPlot describe_recording(const std::string& csv_path) {
   bool measured = false, referenced = false;
   for (int k = 0; k < 3; ++k) {
     const std::string a = axis[k];
+    const std::string right = k == 2 ? " (right axis)" : "";
     const auto position = c.first({a + "_m"});
     const auto reference = c.first({a + "_ref_m", "ref_" + a + "_m"});
     std::vector<double> p, r;
@@ -278,7 +279,7 @@ RecordingPlot describe_recording(const std::string& csv_path) {
       p = column(*position);
       std::vector<double> mm(n);
       for (std::size_t i = 0; i < n; ++i) mm[i] = p[i] * 1e3;
-      plate.series.push_back(styled(*position, t, mm, joint_style[k]));
+      plate.series.push_back(styled(*position + right, t, mm, joint_style[k]));
       if (k == 2) on_right.insert(plate.series.back().label);
       used.insert(*position);
       measured = true;
@@ -287,7 +288,7 @@ RecordingPlot describe_recording(const std::string& csv_path) {
       r = column(*reference);
       std::vector<double> mm(n);
       for (std::size_t i = 0; i < n; ++i) mm[i] = r[i] * 1e3;
-      plate.series.push_back(styled(*reference, t, mm, joint_style[k] + " dashtype 2"));
+      plate.series.push_back(styled(*reference + right, t, mm, joint_style[k] + " dashtype 2"));
       if (k == 2) on_right.insert(plate.series.back().label);
       used.insert(*reference);
       referenced = true;
@@ -295,7 +296,7 @@ RecordingPlot describe_recording(const std::string& csv_path) {
     if (position && reference) {
       std::vector<double> um(n);
       for (std::size_t i = 0; i < n; ++i) um[i] = (p[i] - r[i]) * 1e6;
-      plate_error.series.push_back(styled(*position + " - " + *reference, t, um, joint_style[k]));
+      plate_error.series.push_back(styled(*position + " - " + *reference + right, t, um, joint_style[k]));
       if (k == 2) on_right.insert(plate_error.series.back().label);
     }
   }
@@ -359,8 +360,20 @@ RecordingPlot describe_recording(const std::string& csv_path) {
   if (c.has("underruns")) {  // while the drives are on (the counter also counts before a stream starts)
     const std::vector<double> u = column("underruns");
     const std::vector<double> on = drives.empty() ? std::vector<double>(n, 1.0) : column(drives);
+    // A run's: while its stream had samples left to play (once its last sample has played the
+    // buffer runs empty until the final hold; that is no underrun of the stream).
+    std::vector<double> stream(n, 0.0);
+    double last_sample = 1.0;
+    if (c.has("stream_sample")) {
+      stream = column("stream_sample");
+      last_sample = *std::max_element(stream.begin(), stream.end());
+    }
     add_spans(
-        marks.spans, t, [&](std::size_t i) { return i > 0 && u[i] > u[i - 1] && on[i] != 0.0; }, "underrun", "#ff7f0e");
+        marks.spans, t,
+        [&](std::size_t i) {
+          return i > 0 && u[i] > u[i - 1] && on[i] != 0.0 && stream[i] >= 0.0 && stream[i] < last_sample;
+        },
+        "underrun", "#ff7f0e");
   }
   if (marks.spans.size() > 400) marks.spans.resize(400);  // gnuplot's objects: enough to see a pattern
   // An end that was not a normal one (e-stop, fault, link lost): from then to the recording's end.

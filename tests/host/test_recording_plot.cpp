@@ -33,6 +33,7 @@ struct Row {
   bool holding = false;
   long stream_sample = -1;
   bool fault = false;
+  int underruns = 0;  // the board's counter
 };
 
 constexpr int kHoldingBit = 2, kFaultBit = 3;  // docs/board_link.md: flags
@@ -55,7 +56,8 @@ std::string run_recording(const std::string& name, int rows, const std::function
     for (int j = 0; j < 3; ++j) out << ',' << 30.0 + 3.0 * s + j + 0.001;
     for (int j = 0; j < 3; ++j) out << ',' << (r.drives ? 0.05 * s : 0.0);
     out << ',' << (r.fault ? 4 : 0) << ',' << flags << ',' << (r.drives ? 1 : 0) << ',' << 1000 + i << ",200,"
-        << (r.stream_sample >= 0 ? r.stream_sample * 1e-3 : 0.0) << ',' << r.stream_sample << ",0,0,0,0\n";
+        << (r.stream_sample >= 0 ? r.stream_sample * 1e-3 : 0.0) << ',' << r.stream_sample << ",0," << r.underruns
+        << ",0,0\n";
   }
   out << trailer;
   return path;
@@ -68,7 +70,8 @@ std::vector<std::string> band_labels(const RecordingPlot& plot) {
 }
 
 // A run with one feed hold in the middle: primed (held before the stream plays), the hold, the
-// final hold and the disable. Only the middle one is a feed hold.
+// final hold and the disable. Only the middle one is a feed hold. Its one underrun while the
+// stream plays is banded, the board's count after the last sample has played is not.
 TEST(RecordingPlot, AFeedHoldIsAHoldWhileTheStreamPlaysNotTheRunsPrimedStartOrItsStop) {
   const std::string path = run_recording("held.csv", 3000, [](int i) {
     Row r;
@@ -79,12 +82,18 @@ TEST(RecordingPlot, AFeedHoldIsAHoldWhileTheStreamPlaysNotTheRunsPrimedStartOrIt
     } else if (i < 1500) {
       r.holding = true;  // the operator's hold: the stream's sample stays
       r.stream_sample = 1000;
-    } else if (i < 2700) {
+    } else if (i < 2600) {
       r.stream_sample = i - 500;
+      r.underruns = i < 2000 ? 0 : 1;  // one underrun while the stream plays
+    } else if (i < 2700) {
+      r.stream_sample = 2099;  // the last sample played: the buffer runs empty before the stop
+      r.underruns = i < 2650 ? 1 : 2;
     } else if (i < 2800) {
       r.holding = true;  // the stop: hold, then disable (not the stream's frames)
+      r.underruns = 2;
     } else {
       r.drives = false;
+      r.underruns = 2;
     }
     return r;
   });
@@ -96,6 +105,13 @@ TEST(RecordingPlot, AFeedHoldIsAHoldWhileTheStreamPlaysNotTheRunsPrimedStartOrIt
   ASSERT_EQ(holds.size(), 1u) << "bands: " << ::testing::PrintToString(band_labels(plot));
   EXPECT_NEAR(holds[0].from, 11.2, 1e-9);
   EXPECT_NEAR(holds[0].to, 11.499, 1e-9);
+  // Likewise an underrun: the one while the stream plays, not the empty buffer after its end.
+  std::vector<PlotSpan> underruns;
+  for (const PlotSpan& span : plot.marks.spans) {
+    if (span.label == "underrun") underruns.push_back(span);
+  }
+  ASSERT_EQ(underruns.size(), 1u) << "bands: " << ::testing::PrintToString(band_labels(plot));
+  EXPECT_NEAR(underruns[0].from, 12.0, 1e-9);
   // The disable at the end is drives off; without a trailer nothing says the end was not normal.
   for (const PlotSpan& span : plot.marks.spans) EXPECT_EQ(span.label.rfind("end: ", 0), std::string::npos);
   EXPECT_EQ(holds[0].label, "feed hold");
