@@ -236,6 +236,7 @@ TEST(StreamPlan, TheShapedSetpointsOfARippleTableAreCheckedAgainstTheBox) {
   RunRequest request;
   request.trajectory = move;
   EXPECT_EQ(check_run(weights, request).size(), 1u);
+}
 
 // A deployed model's joint ripple table moves every joint by the table's entry on top of the path
 // (nn::shape_setpoint): the plan check checks the joints so shaped too. A table within the reader's

@@ -371,8 +371,8 @@ std::vector<std::string> check_plan_all(const StreamPlan& plan, const std::strin
           offsets[k] = model->joint_ripple.at(model->network.evaluate(points[k].position_m));
         }
       }
-      for (motion::TrajectoryViolation v : motion::all_violations(points, kStreamRateHz, Geometry::nominal(), check,
-                                                                  &offsets)) {
+      for (motion::TrajectoryViolation v :
+           motion::all_violations(points, kStreamRateHz, Geometry::nominal(), check, &offsets)) {
         v.reason += " with the setpoints shaped by the model's joint ripple table";
         violations.push_back(v);
       }
