@@ -50,7 +50,8 @@ const RegisterCommand command("run-report", 62, [](CLI::App& root) {
   sub->footer(
       "\nRUN.csv: a 'deltactl host run' recording (t_s board time, x/y/z_ref_m the pose asked for,\n"
       "alpha*_ref_deg the board's joint references, alpha*_deg the encoders, drives_enabled), or the\n"
-      "DATA.csv 'deltactl merge' made of one (it carries those columns and the stage's x_m,y_m,z_m).\n"
+      "DATA.csv 'deltactl merge' made of one (it carries those columns and the stage's x_m,y_m,z_m),\n"
+      "or a co-simulation's 'deltactl cosim --out' (its net*_deg and ref_*_m the same quantities).\n"
       "The rows with the drives on are reported, at each row's board time:\n"
       "  plate - reference: the plate (x_m,y_m,z_m, in the frame of what measured it: the stage's,\n"
       "    the frame the model was trained in) minus x/y/z_ref_m; RMS and max per axis and of the\n"

@@ -34,6 +34,12 @@ enum Column : std::size_t {
   kY,
   kZ,
   kDrives,
+  kNet1,  // a co-simulation's (cosim --out): its joint references and reference position
+  kNet2,
+  kNet3,
+  kCosimXRef,
+  kCosimYRef,
+  kCosimZRef,
 };
 
 struct Accumulator {
@@ -141,9 +147,27 @@ const char* segment_name(int segment) {
 }
 
 RunColumns read_run_columns(const std::string& path) {
-  const CsvTable table = read_csv(
-      path, {"t_s", "alpha1_deg", "alpha2_deg", "alpha3_deg", "alpha1_ref_deg", "alpha2_ref_deg", "alpha3_ref_deg"},
-      {"x_ref_m", "y_ref_m", "z_ref_m", "x_m", "y_m", "z_m", "drives_enabled"});
+  CsvTable table =
+      read_csv(path, {"t_s", "alpha1_deg", "alpha2_deg", "alpha3_deg"},
+               {"alpha1_ref_deg", "alpha2_ref_deg", "alpha3_ref_deg", "x_ref_m", "y_ref_m", "z_ref_m", "x_m", "y_m",
+                "z_m", "drives_enabled", "net1_deg", "net2_deg", "net3_deg", "ref_x_m", "ref_y_m", "ref_z_m"});
+  // A co-simulation's recording names the same quantities otherwise: taken in their place.
+  auto take = [&](std::size_t to, std::size_t from) {
+    if (table.present[to] || !table.present[from]) return;
+    table.present[to] = true;
+    for (auto& row : table.rows) row[to] = row[from];
+  };
+  for (std::size_t k = 0; k < 3; ++k) {
+    take(kRef1 + k, kNet1 + k);
+    take(kXRef + k, kCosimXRef + k);
+  }
+  for (std::size_t k = kRef1; k <= kRef3; ++k) {
+    if (!table.present[k]) {
+      throw InputError(path, 0,
+                       "missing column '" + table.columns[k] +
+                           "' (the board's joint references: a host run's recording, or net1..3_deg of a cosim's)");
+    }
+  }
   const bool reference = table.present[kXRef] && table.present[kYRef] && table.present[kZRef];
   const bool plate = table.present[kX] && table.present[kY] && table.present[kZ];
   RunColumns run;

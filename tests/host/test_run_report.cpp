@@ -122,6 +122,31 @@ TEST(RunReport, FiguresDwellsAndReversalsOfARunOfKnownErrors) {
   std::system(("rm -rf " + dir).c_str());
 }
 
+// A co-simulation's recording (`cosim --out`) names the references otherwise (net1..3_deg,
+// ref_x_m..): read the same, the same figures.
+TEST(RunReport, ACosimulationsRecordingGivesTheSameReport) {
+  const std::string dir = folder();
+  std::string text = run_csv(true);
+  const std::string host_header =
+      "t_s,x_ref_m,y_ref_m,z_ref_m,alpha1_ref_deg,alpha2_ref_deg,alpha3_ref_deg,alpha1_deg,alpha2_deg,alpha3_deg";
+  const std::string cosim_header =
+      "t_s,ref_x_m,ref_y_m,ref_z_m,net1_deg,net2_deg,net3_deg,alpha1_deg,alpha2_deg,alpha3_deg";
+  ASSERT_NE(text.find(host_header), std::string::npos);
+  write_text(dir + "run.csv", text);
+  write_text(dir + "cosim.csv", text.replace(text.find(host_header), host_header.size(), cosim_header));
+  const RunReport host = run_report_of_file(dir + "run.csv");
+  const RunReport cosim = run_report_of_file(dir + "cosim.csv");
+  ASSERT_TRUE(cosim.plate_measured);
+  EXPECT_EQ(cosim.dwells.size(), host.dwells.size());
+  EXPECT_EQ(cosim.reversals.size(), host.reversals.size());
+  for (int s = 0; s < kRunSegments; ++s) {
+    EXPECT_EQ(cosim.plate[s].rows, host.plate[s].rows) << segment_name(s);
+    EXPECT_DOUBLE_EQ(cosim.plate[s].rms_distance_m, host.plate[s].rms_distance_m) << segment_name(s);
+    EXPECT_EQ(cosim.joints[s].rms_deg, host.joints[s].rms_deg) << segment_name(s);
+  }
+  std::system(("rm -rf " + dir).c_str());
+}
+
 TEST(RunReport, TheTruthAtOtherInstantsAndARunWithoutAPlate) {
   const std::string dir = folder();
   write_text(dir + "run.csv", run_csv(false));

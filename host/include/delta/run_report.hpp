@@ -52,7 +52,8 @@ struct RunColumns {
 };
 
 // Reads RUN.csv: t_s, alpha1..3_deg and alpha1..3_ref_deg required; x_ref_m.., x_m..,
-// drives_enabled optional. InputError (file, line, reason) for csv.hpp's reasons, time going
+// drives_enabled optional; a co-simulation's recording (`cosim --out`: net1..3_deg, ref_x_m..)
+// is read the same. InputError (file, line, reason) for csv.hpp's reasons, time going
 // backwards, an angle beyond 360 deg or a position beyond 1 m.
 RunColumns read_run_columns(const std::string& path);
 
