@@ -26,6 +26,7 @@
 #include "delta/cosim/board_inputs.hpp"
 #include "delta/cosim/measuring_stage.hpp"
 #include "delta/cosim/virtual_board.hpp"
+#include "delta/csv.hpp"
 #include "delta/gateware.hpp"
 #include "delta/golden/export.hpp"
 #include "delta/golden/fixed_network.hpp"
@@ -73,14 +74,8 @@ Vec3 parse_start_angles(const std::string& text) {
   for (int j = 0; j < 3; ++j) {
     const std::size_t comma = j < 2 ? text.find(',', at) : text.size();
     const std::string field = comma == std::string::npos ? "" : text.substr(at, comma - at);
-    double value = 0.0;
-    std::size_t used = 0;
-    try {
-      value = std::stod(field, &used);
-    } catch (const std::logic_error&) {
-      used = 0;
-    }
-    if (field.empty() || used != field.size() || !std::isfinite(value)) {
+    const double value = parse_decimal(field).value_or(NAN);
+    if (!std::isfinite(value)) {
       throw InputError("--start-angles", 0, "'" + text + "': give three angles in degrees, A1,A2,A3, e.g. 12.5,40,33");
     }
     const double low = board::kMinTravelBlock * 1024 * kCountDeg,
@@ -105,14 +100,13 @@ std::tuple<int, int, double> parse_count_slip(const std::string& text) {
   const auto first = text.find(','), second = first == std::string::npos ? first : text.find(',', first + 1);
   if (second == std::string::npos) throw fail();
   try {
-    std::size_t used_j = 0, used_c = 0, used_s = 0;
+    std::size_t used_j = 0, used_c = 0;
     const std::string js = text.substr(0, first), cs = text.substr(first + 1, second - first - 1),
                       ss = text.substr(second + 1);
     const int joint = std::stoi(js, &used_j);
     const int counts = std::stoi(cs, &used_c);
-    const double at = std::stod(ss, &used_s);
-    if (used_j != js.size() || used_c != cs.size() || used_s != ss.size() || joint < 1 || joint > 3 ||
-        !std::isfinite(at) || at < 0.0) {
+    const double at = parse_decimal(ss).value_or(NAN);
+    if (used_j != js.size() || used_c != cs.size() || joint < 1 || joint > 3 || !std::isfinite(at) || at < 0.0) {
       throw fail();
     }
     return {joint - 1, counts, at};
@@ -126,12 +120,9 @@ std::pair<double, double> parse_stage_clock(const std::string& text) {
   const auto comma = text.find(',');
   try {
     if (comma == std::string::npos) throw std::invalid_argument(text);
-    std::size_t used = 0;
-    const double offset = std::stod(text.substr(0, comma), &used);
-    if (used != comma) throw std::invalid_argument(text);
-    const std::string ppm_text = text.substr(comma + 1);
-    const double ppm = std::stod(ppm_text, &used);
-    if (used != ppm_text.size() || !std::isfinite(offset) || !std::isfinite(ppm) || std::abs(ppm) > 1e5) {
+    const double offset = parse_decimal(text.substr(0, comma)).value_or(NAN);
+    const double ppm = parse_decimal(text.substr(comma + 1)).value_or(NAN);
+    if (!std::isfinite(offset) || !std::isfinite(ppm) || std::abs(ppm) > 1e5) {
       throw std::invalid_argument(text);
     }
     return {offset, ppm};

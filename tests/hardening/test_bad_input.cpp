@@ -258,6 +258,8 @@ TEST(LabInputs, HexadecimalFloatsAreNotNumbers) {
                                 " --trajectory 'move:0,0,-0x1p-4' --record " + out),
                    "waypoint", "move: waypoint");
   expect_bad_input(run_deltactl("cosim --weights " + kWeights + " --duration 0x1p1"), "--duration", "--duration");
+  expect_bad_input(run_deltactl("virtual-board --link " + temp("hex_tty") + " --start-angles 30,0x1e,30"),
+                   "--start-angles", "--start-angles");
   EXPECT_FALSE(fs::exists(out));
   EXPECT_FALSE(fs::exists(out2));
 }
