@@ -149,6 +149,7 @@ TEST(DiagnoseReport, TraceGapTableAndSummaryFollowTheOrderEffectsWereAdded) {
     }
   }
   EXPECT_NE(result.out.find("significant: backlash + joint_offset;"), std::string::npos) << result.out;
+  EXPECT_NE(result.out.find("verdict: backlash + joint_offset"), std::string::npos) << result.out;
   // The recordings' lengths: FIT spans its first to its last t_s.
   std::ostringstream span;
   span.setf(std::ios::fixed);

@@ -198,7 +198,7 @@ std::vector<Family> added_order(const Diagnosis& diagnosis) {
 }
 
 // A set of families named in the order they were added, so that the selection trace, the gap
-// table and the summary read alike ("nominal" for none).
+// table, the summary and the equivalent sets read alike ("nominal" for none).
 std::string describe_as_added(FamilySet families, const Diagnosis& diagnosis) {
   std::string text;
   for (Family family : added_order(diagnosis)) {
@@ -252,7 +252,7 @@ std::string verdict(const Diagnosis& diagnosis) {
   std::ostringstream text;
   text << model_name(diagnosis);
   for (const Alternative& alternative : diagnosis.alternatives) {
-    text << ", or equivalently " << describe(alternative.families)
+    text << ", or equivalently " << describe_as_added(alternative.families, diagnosis)
          << " (to tell them apart: " << alternative.separate_by << ")";
   }
   const FloorTest& test = diagnosis.floor_test;
@@ -585,7 +585,7 @@ void write_report(const std::string& markdown_path, const ReportInputs& inputs, 
       std::ostringstream difference;
       difference.precision(3);
       difference << alternative.mse_difference_deg2;
-      table.add_row({describe(alternative.families),
+      table.add_row({describe_as_added(alternative.families, diagnosis),
                      fixed(alternative.holdout_rmse_deg[0], 5) + " / " + fixed(alternative.holdout_rmse_deg[1], 5) +
                          " / " + fixed(alternative.holdout_rmse_deg[2], 5),
                      difference.str(), fixed(alternative.paired_z, 2), alternative.separate_by});
