@@ -223,6 +223,8 @@ TEST(DeployedTraining, AShortRippleGoesToTheJointRippleTableAndTheSweepStaysNear
   const JointRippleTable& table = result.weights.joint_ripple;
   ASSERT_FALSE(table.empty());
   EXPECT_EQ(result.weights.version(), 3);
+  // Within the bounds a reader takes (entries, slope): what train writes, host run loads.
+  EXPECT_NO_THROW(parse_weights_file(weights_file_text(result.weights), "trained.json"));
   const TransmissionError& ripple = *effects.transmission_error;
   for (int j = 0; j < 3; ++j) {
     // Correlation of the table with the injected ripple over the recorded travel (the table's
