@@ -8,7 +8,7 @@
 # Usage: scripts/area_by_module.sh --top MODULE --out FILE [--param NAME=VALUE]... SOURCE.sv...
 #   (cmake --build build --target area_by_module writes build/rtl/board/fpga/area_by_module.txt)
 set -euo pipefail
-usage() { sed -n '2,10p' "$0" | sed 's/^# \{0,1\}//'; }
+usage() { awk 'NR == 1 { next } /^#/ { sub(/^# ?/, ""); print; next } { exit }' "$0"; }
 top="" out="" params=() sources=()
 while (($#)); do
   case "$1" in
