@@ -61,6 +61,7 @@ struct VirtualBoardCommandOptions {
   double stage_noise_m = 20e-9;
   std::int64_t stage_seed = -1;
   bool stage_no_sync = false;
+  double stage_after_home_s = -1.0;    // < 0: the drag's clock starts at the host's first frame
   std::string start_angles;            // A1,A2,A3 [deg], true shaft angles; empty: the home pose
   int inject_seized_joint = 0;         // 1..3; 0: none
   int inject_missing_home_switch = 0;  // 1..3; 0: none
@@ -191,13 +192,22 @@ void run_virtual_board(const VirtualBoardCommandOptions& options) {
     stage_options.rate_hz = options.stage_rate_hz;
     stage_options.noise_m = options.stage_noise_m;
     stage_options.log_sync = !options.stage_no_sync;
+    if (options.stage_after_home_s >= 0.0) {
+      if (options.stage.rfind("drag:", 0) != 0) throw InputError("--stage-after-home", 0, "needs --stage drag:...");
+      stage_options.after_home_s = options.stage_after_home_s;
+    }
     stage_options.seed = options.stage_seed >= 0 ? static_cast<std::uint64_t>(options.stage_seed)
                                                  : static_cast<std::uint64_t>(std::random_device{}()) & 0xffffffffu;
     stage = std::make_unique<MeasuringStage>(stage_options, effects, Geometry::nominal());
     if (stage->drags()) board_options.drag = [s = stage.get()](double t) { return s->drag(t); };
     std::cout << "virtual-board: stage " << options.stage << ", log " << options.stage_log << " on its clock "
               << options.stage_clock << " (offset s, ppm) at " << format_number(options.stage_rate_hz) << " Hz, noise "
-              << format_number(options.stage_noise_m) << " m RMS, seed " << stage_options.seed << std::endl;
+              << format_number(options.stage_noise_m) << " m RMS, seed " << stage_options.seed
+              << (stage_options.after_home_s >= 0.0
+                      ? "; the drag takes hold " + format_number(stage_options.after_home_s) +
+                            " s after the board is homed at its references"
+                      : "")
+              << std::endl;
   }
   const auto make_board = [&]() {
     try {
@@ -268,7 +278,12 @@ void run_virtual_board(const VirtualBoardCommandOptions& options) {
   // buffer): a writer faster than the line is slowed down and finally blocked, as by a real port.
   constexpr std::size_t kReceiveQueueBytes = 4096;
   const auto start = std::chrono::steady_clock::now();
-  const auto origin = start;
+  auto origin = start;  // the wall time of board time 0 while pacing
+  // Free-running, the model board still keeps to real time while its drives are on: a host's homing
+  // or run then meets the board's watchdog (250 ms of board time) as on the real board, whatever the
+  // host's scheduling; with them off it runs free again.
+  const bool free_run = model && options.free_run;
+  bool pacing = paced;
   std::chrono::steady_clock::duration largest_lag{};
   auto last_flush = start;
   std::uint64_t bytes_in = 0, bytes_out = 0, bytes_dropped = 0, turns = 0;
@@ -286,15 +301,24 @@ void run_virtual_board(const VirtualBoardCommandOptions& options) {
       }
     }
     if (++turns % 128 == 0) pty->release_exclusive();
-    board.step((model && !paced) || behind ? kClocksPerMillisecond : kClocksPerTick);
+    if (free_run && board.pins().drive_enable != pacing) {
+      pacing = !pacing;
+      behind = false;
+      if (pacing) {
+        origin = std::chrono::steady_clock::now() - std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                                        std::chrono::duration<double>(board.time_s()));
+      }
+    }
+    board.step((model && !pacing) || behind ? kClocksPerMillisecond : kClocksPerTick);
     const std::size_t out = board.read(buffer, sizeof buffer);
     if (out > 0) {
+      if (stage) stage->board_bytes(buffer, out, board.time_s());
       const std::size_t written = write_what_fits(fd, buffer, out, &pty_full);
       bytes_out += written;
       bytes_dropped += out - written;
     }
     auto now = std::chrono::steady_clock::now();
-    if (paced) {
+    if (pacing) {
       const auto due = origin + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                                     std::chrono::duration<double>(board.time_s()));
       behind = now - due > std::chrono::milliseconds(1);
@@ -319,7 +343,10 @@ void run_virtual_board(const VirtualBoardCommandOptions& options) {
     if (!stage->finish()) std::cerr << "deltactl: error: " << options.stage_log << ": write failed\n";
     std::cerr << "virtual-board: stage: " << stage->samples() << " samples logged"
               << (stage->drags()
-                      ? (stage->drag_start_s() < 0 ? "; no valid frame came, the plate never moved"
+                      ? (stage->drag_start_s() < 0 ? (stage->after_home() ? "; the board was never homed at its "
+                                                                            "references, the plate never moved"
+                                                                          : "; no valid frame came, the plate never "
+                                                                            "moved")
                                                    : "; drag from board time " + fixed(stage->drag_start_s(), 4) +
                                                          " s, " + fixed(stage->path_duration_s(), 1) + " s long")
                       : "")
@@ -352,7 +379,9 @@ const RegisterCommand command("virtual-board", 72, [](CLI::App& root) {
           "it can, about 0.4 x real time: a host paces itself by the board's telemetry, never by its\n"
           "own clock. --fidelity model runs the C++ model board instead (bit-exact with the RTL at its\n"
           "pins: the same bytes, PWM and encoder counts), kept to wall-clock time unless --free-run (over\n"
-          "100 x real time with nobody reading), as SCHED_FIFO 70 when permitted (the board's hardware\n"
+          "100 x real time with nobody reading, and at real time while its drives are on, so that a host's\n"
+          "homing or run meets the board's watchdog as on the real board), as SCHED_FIFO 70 when permitted (the "
+          "board's hardware\n"
           "never waits for the PC). Board time is real time, as on the real board: a paced\n"
           "board that falls behind, its process not scheduled, catches up on the bytes that arrived\n"
           "meanwhile and sends the telemetry of the time it missed at once; the largest lag is printed\n"
@@ -373,9 +402,11 @@ const RegisterCommand command("virtual-board", 72, [](CLI::App& root) {
           "quadrature state: the board latches fault cause 0, encoder skip), for the host's fault tests.\n"
           "--stage: a measuring stage beside the robot (docs/contracts.md, \"The lab's measurements\"). drag:NAME or\n"
           "drag:FILE.csv (t_s,x_m,y_m,z_m): with the drives off the stage moves the plate, the arms following\n"
-          "through the true geometry and every effect; from one second of board time after the board's\n"
-          "first valid frame (a quintic move to the start during that second) along the trajectory, then\n"
-          "holds it at the end. follow: it only measures. --stage-log gets the stage controller's own log,\n"
+          "through the true geometry and every effect; it takes hold at the board's first valid frame (with\n"
+          "--stage-after-home S: S seconds of board time after the board's telemetry first shows it homed at\n"
+          "its references with the drives off, so 'host home' runs first, undisturbed), moves the plate to\n"
+          "the trajectory's start in one second (quintic), along the trajectory, then holds it at the end.\n"
+          "follow: it only measures. --stage-log gets the stage controller's own log,\n"
           "t_s,x_m,y_m,z_m, on its clock (t_stage = OFFSET + (1 + PPM 1e-6) t_board) at --stage-rate, the\n"
           "plate through the frame misalignment with --stage-noise, quantised to 6.87 nm; the seed is printed.\n"
           "A fifth column, sync, is the board's stage sync output (bit ") +
@@ -396,7 +427,8 @@ const RegisterCommand command("virtual-board", 72, [](CLI::App& root) {
   sub->add_option("--fidelity", options->fidelity, "rtl: the Verilated board core; model: the C++ model board")
       ->capture_default_str()
       ->check(CLI::IsMember({"rtl", "model"}));
-  sub->add_flag("--free-run", options->free_run, "model fidelity: run as fast as possible, not at real time");
+  sub->add_flag("--free-run", options->free_run,
+                "model fidelity: run as fast as possible while the drives are off (at real time while they are on)");
   sub->add_option("--inject-encoder-skip-at", options->inject_encoder_skip_at_s,
                   "fault injection: from this board time [s] joint 1's encoder skips a quadrature state")
       ->check(options::real_number(0, 1e6));
@@ -427,6 +459,10 @@ const RegisterCommand command("virtual-board", 72, [](CLI::App& root) {
       ->capture_default_str();
   sub->add_option("--stage-seed", options->stage_seed, "seed of the stage's noise (default: drawn, printed)")
       ->check(options::whole_number(0, 4294967295LL));
+  sub->add_option("--stage-after-home", options->stage_after_home_s,
+                  "S: the drag takes hold S seconds of board time after the board is first homed at its references "
+                  "(drives off), not at the host's first frame")
+      ->check(options::real_number(0, 3600));
   sub->add_flag("--stage-no-sync", options->stage_no_sync,
                 "the stage logs no sync column (its input not wired to the board's sync output)");
   sub->callback([options] { run_virtual_board(*options); });

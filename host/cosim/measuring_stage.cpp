@@ -7,6 +7,7 @@
 #include "delta/controller/stream_plan.hpp"
 #include "delta/input_error.hpp"
 #include "delta/kinematics.hpp"
+#include "delta/link/payloads.hpp"
 #include "delta/output_file.hpp"
 #include "delta/trajectory.hpp"
 
@@ -50,8 +51,20 @@ MeasuringStage::MeasuringStage(const StageOptions& options, const EffectSet& eff
 }
 
 void MeasuringStage::host_bytes(const std::uint8_t* data, std::size_t size, double t_s) {
-  if (start_s_ || !path_) return;
+  if (start_s_ || !path_ || options_.after_home_s >= 0.0) return;
   if (!decoder_.feed(data, size).empty()) start_s_ = t_s;
+}
+
+void MeasuringStage::board_bytes(const std::uint8_t* data, std::size_t size, double t_s) {
+  if (start_s_ || !path_ || options_.after_home_s < 0.0) return;
+  for (const link::Frame& frame : telemetry_decoder_.feed(data, size)) {
+    if (frame.type != link::FrameType::kTelemetry) continue;
+    const link::TelemetryPayload t = link::decode_telemetry(frame.payload);
+    if (t.has(link::TelemetryFlag::kReferenced) && !t.has(link::TelemetryFlag::kDriveEnable)) {
+      start_s_ = t_s + options_.after_home_s;
+      return;
+    }
+  }
 }
 
 std::optional<Vec3> MeasuringStage::drag(double t_s) const {

@@ -7,12 +7,15 @@
 // column `sync`: the board's stage sync output (delta_board_pkg::StageSyncBit) on the stage's
 // digital input, sampled with the positions.
 //
-// The drag starts one second of board time after the board first receives a valid frame: a
-// quintic move from where the plate rests to the trajectory's start during that second, then the
-// trajectory at its own time; at its end the stage holds the plate there.
+// The stage takes hold of the plate when the board first receives a valid frame (or, with
+// after_home_s, that long after the board's telemetry first shows every joint referenced at its
+// home switch with the drives off): a quintic move from where the plate rests to the trajectory's
+// start during one second, then the trajectory at its own time; at its end the stage holds the
+// plate there.
 //
-// Wiring (deltactl virtual-board): the host's bytes go to host_bytes(), drag() to the world
-// (VirtualBoardOptions::drag), sample() to the board's period observer.
+// Wiring (deltactl virtual-board): the host's bytes go to host_bytes(), the board's to
+// board_bytes(), drag() to the world (VirtualBoardOptions::drag), sample() to the board's period
+// observer.
 #pragma once
 
 #include <cstdint>
@@ -38,6 +41,10 @@ struct StageOptions {
   double noise_m = 20e-9;       // RMS per axis
   std::uint64_t seed = 1;
   bool log_sync = true;  // the board's stage_sync_o wired to the stage's input, logged as `sync`
+  // >= 0: the stage takes hold this many seconds of board time after the board is first homed at
+  // its references (telemetry: referenced, drives off), so that `host home` runs undisturbed;
+  // < 0: at the host's first valid frame.
+  double after_home_s = -1.0;
 };
 
 class MeasuringStage {
@@ -48,8 +55,12 @@ class MeasuringStage {
   MeasuringStage(const StageOptions& options, const EffectSet& effects, const Geometry& nominal);
 
   bool drags() const { return static_cast<bool>(path_); }
-  // Bytes the host sent, at board time t_s: the first valid frame starts the drag's clock.
+  // Bytes the host sent, at board time t_s: the first valid frame starts the drag's clock (unless
+  // after_home_s >= 0).
   void host_bytes(const std::uint8_t* data, std::size_t size, double t_s);
+  // Bytes the board sent, at board time t_s: with after_home_s >= 0, the first telemetry frame
+  // that shows the board referenced with the drives off starts the drag's clock after_home_s later.
+  void board_bytes(const std::uint8_t* data, std::size_t size, double t_s);
   // The plate's true position held by the stage at board time t_s (nothing: not holding yet).
   std::optional<Vec3> drag(double t_s) const;
   // At the start of each control period (board time t_s), with the world and the board's sync
@@ -63,6 +74,7 @@ class MeasuringStage {
 
   std::uint64_t samples() const { return samples_; }
   double drag_start_s() const { return start_s_ ? *start_s_ + 1.0 : -1.0; }
+  bool after_home() const { return options_.after_home_s >= 0.0; }
   double path_duration_s() const { return duration_s_; }
 
  private:
@@ -70,8 +82,9 @@ class MeasuringStage {
   std::function<Vec3(double)> path_;  // drag: the trajectory's true position at its own time
   double duration_s_ = 0.0;
   link::FrameDecoder decoder_{link::Receiver::kBoard};
-  std::optional<double> start_s_;  // board time of the first valid frame
-  std::optional<Vec3> rest_m_;     // where the plate rested then
+  link::FrameDecoder telemetry_decoder_{link::Receiver::kHost};  // the board's frames (after_home_s)
+  std::optional<double> start_s_;                                // board time the stage takes hold
+  std::optional<Vec3> rest_m_;                                   // where the plate rested then
   std::ofstream log_;
   std::mt19937_64 generator_;
   std::normal_distribution<double> noise_;
