@@ -49,3 +49,12 @@ delta_add_gtest(homing_tests
   LABELS host host_controller virtual_board
   # The jogs' bounds are arithmetic on the shipped networks: no board.
   SERIAL PARALLEL_TESTS Homing.EveryJogMeetsTheHomingBoundsWithTheShippedNetworksIncludingTheCalibrationDrags)
+
+# A calibration tied to the robot's reference: host record refuses a board not homed at its
+# references and its header says how the counts were referenced, the stage that drags after homing
+# (the acceptance: a random power-up pose, home, drag, record), lost frames, park.
+delta_add_gtest(referenced_calibration_tests
+  SOURCES ${CMAKE_CURRENT_LIST_DIR}/host_controller/test_referenced_calibration.cpp
+  LIBRARIES delta::host nlohmann_json::nlohmann_json
+  LABELS host host_controller virtual_board
+  SERIAL)

@@ -23,6 +23,7 @@ struct DiagnoseOptions {
   std::string predictions;
   std::string report;
   double significance = 0.05;
+  bool unreferenced = false;  // take recordings whose counts were not referenced at the home switches
 };
 
 constexpr std::size_t kMinimumRows = 50;
@@ -48,6 +49,8 @@ void check_reachable(const Recording& recording) {
 void run_diagnose(const DiagnoseOptions& options) {
   const Recording fit = read_recording(options.data);
   const Recording check = read_recording(options.holdout);
+  check_referenced(fit, options.unreferenced);
+  check_referenced(check, options.unreferenced);
   check_reachable(fit);
   check_reachable(check);
   // Open the outputs before the long computation, so an unwritable folder fails at once.
@@ -105,6 +108,9 @@ const RegisterCommand command("diagnose", 60, [](CLI::App& root) {
   sub->add_option("--json", options->json, "result document to write")->required();
   sub->add_option("--predictions", options->predictions, "predicted angles for every CHECK row")->required();
   sub->add_option("--report", options->report, "Markdown report to write (PNG plots go beside it)");
+  sub->add_flag("--unreferenced", options->unreferenced,
+                "diagnose recordings whose header says their counts were not referenced at the home switches "
+                "('# referenced: hand' or 'none'; refused otherwise)");
   sub->add_option("--significance", options->significance,
                   "stopping rule: minimum held-out MSE drop in units of floor^2")
       ->capture_default_str()

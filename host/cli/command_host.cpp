@@ -116,6 +116,9 @@ void run_status(const StatusOptions& options) {
   const Connected c = connect(session);
   const link::TelemetryPayload& t = c.telemetry;
   const bool gateware_matches = c.identify.build_id == kGatewareBuildId;
+  const Referencing referencing = board_referencing(t);
+  // Homing not finished (stopped or failed): the board stays homing with provisional counts.
+  const bool unfinished = referencing == Referencing::kNone && t.has(link::TelemetryFlag::kHoming);
   if (options.json) {
     nlohmann::json out = {{"port", port->name()},
                           {"low_latency", port->info().low_latency},
@@ -132,10 +135,11 @@ void run_status(const StatusOptions& options) {
                           {"tick", t.tick},
                           {"sample_index", t.sample_index},
                           {"encoder_deg", {t.counts[0] * kCountDeg, t.counts[1] * kCountDeg, t.counts[2] * kCountDeg}},
-                          {"homed", t.has(link::TelemetryFlag::kHomed) || t.has(link::TelemetryFlag::kReferenced)},
-                          {"homed_by", t.has(link::TelemetryFlag::kReferenced) ? "reference"
-                                       : t.has(link::TelemetryFlag::kHomed)    ? "hand"
-                                                                               : "none"},
+                          {"homed", referencing != Referencing::kNone},
+                          {"homed_by", referencing == Referencing::kHomeSwitches ? "reference"
+                                       : referencing == Referencing::kHand       ? "hand"
+                                                                                 : "none"},
+                          {"homing_unfinished", unfinished},
                           {"homing", t.has(link::TelemetryFlag::kHoming)},
                           {"referenced", {t.referenced(0), t.referenced(1), t.referenced(2)}},
                           {"home_switches", {t.home_switch(0), t.home_switch(1), t.home_switch(2)}},
@@ -154,6 +158,10 @@ void run_status(const StatusOptions& options) {
             << ", weights CRC " << hex(c.identify.weights_crc) << ", board clock " << c.identify.board_clock_hz
             << " Hz\n"
             << "state: " << state_name(state_of(t)) << " (" << link::describe_state(t) << ")\n"
+            << "homed: "
+            << (referencing == Referencing::kHomeSwitches ? std::string("at the home switches")
+                                                          : "no (" + unreferenced_reason(t) + "; deltactl host home)")
+            << '\n'
             << "encoders: " << fixed(t.counts[0] * kCountDeg, 2) << ", " << fixed(t.counts[1] * kCountDeg, 2) << ", "
             << fixed(t.counts[2] * kCountDeg, 2) << " deg; board time " << fixed(t.tick / 1e4, 4)
             << " s; counters: bad frames " << t.bad_frames << ", underruns " << t.underruns << ", refused "
@@ -186,6 +194,12 @@ void run_home(const HomeOptions& options) {
   }
   if (options.by_hand) {
     try {
+      // A homing that did not finish (stopped, failed) leaves the board homing: a hold ends it, so
+      // that the board is homed by hand, not homing with provisional counts.
+      if (c.telemetry.has(link::TelemetryFlag::kHoming)) {
+        session.command(link::Command::kHold,
+                        [](const link::TelemetryPayload& f) { return !f.has(link::TelemetryFlag::kHoming); });
+      }
       // Set home gives the joints not referenced the home count; referenced joints keep theirs.
       const link::TelemetryPayload homed = session.set_home();
       const int referenced = (homed.home >> 3) & 7;
@@ -251,7 +265,9 @@ void run_check(const golden::BoardWeights& weights, const RunRequest& request, c
                           (problems.size() == 1 ? " problem" : " problems") + " (listed above); nothing sent");
 }
 
-void run_run(const RunOptions& options) {
+// `temporary_record`: the recording is the caller's to remove when the run completes, so the
+// summary does not name it then.
+void run_run(const RunOptions& options, bool temporary_record = false) {
   // Everything checked before the port is opened (the trajectory whole, the recording's path).
   const golden::BoardWeights weights = golden::read_board_weights(options.weights);
   RunRequest request;
@@ -291,7 +307,15 @@ void run_run(const RunOptions& options) {
           next_print += std::chrono::seconds(5);
         });
   });
-  std::cout << escape_invalid_utf8(outcome.summary);
+  std::string summary = outcome.summary;
+  if (temporary_record && outcome.error.empty() && outcome.code == kExitOk) {
+    const std::size_t line = summary.find("recording: ");
+    if (line != std::string::npos && (line == 0 || summary[line - 1] == '\n')) {
+      summary.erase(line, summary.find('\n', line) == std::string::npos ? std::string::npos
+                                                                        : summary.find('\n', line) + 1 - line);
+    }
+  }
+  std::cout << escape_invalid_utf8(summary);
   if (!outcome.error.empty()) fail(outcome.code, outcome.error);
   if (outcome.code != kExitOk) throw CommandExit{outcome.code};
 }
@@ -328,7 +352,7 @@ void run_park(const ParkOptions& options) {
     run.record =
         (std::filesystem::temp_directory_path() / ("deltactl-park-" + std::to_string(::getpid()) + ".csv")).string();
   }
-  run_run(run);  // exits (keeping the recording) unless the plate is parked
+  run_run(run, options.record.empty());  // exits (keeping the recording, named) unless the plate is parked
   if (options.record.empty()) std::filesystem::remove(run.record);
   std::cout << "park: ok, the plate at " << fixed(pose.x() * 1e3, 3) << ", " << fixed(pose.y() * 1e3, 3) << ", "
             << fixed(pose.z() * 1e3, 3) << " mm (the network's frame), drives off\n";
@@ -340,12 +364,14 @@ struct RecordOptions {
   std::string out;
   double duration_s = 0.0;
   int link_timeout_ms = 100;
+  bool unreferenced = false;
 };
 
 void run_record(const RecordOptions& options) {
   RecordRequest request;
   request.record = options.out;
   request.duration_s = options.duration_s;
+  request.unreferenced = options.unreferenced;
   RecordJob job(request);  // the recording's path refused before the port is opened
   auto port = open_port(options.port);
   link::LinkSession session(*port, session_options(options.link_timeout_ms));
@@ -772,11 +798,20 @@ const RegisterCommand command("host", 75, [](CLI::App& root) {
       "alpha*_deg encoders, alpha*_ref_deg, currents, fault_bits, flags, drives_enabled, counters) for\n"
       "--duration seconds of board time (default: until SIGINT or SIGTERM). Then merge it with the\n"
       "stage's own log: deltactl merge --run RUN.csv --stage STAGE.csv --out DATA.csv (docs/lab_loop.md).\n"
+      "The board must be homed at its references first ('host home'): counts set by hand or never set\n"
+      "(30.00 deg wherever the arms were at power-up) would enter the calibration as joint offsets; such\n"
+      "a board is refused (exit 3, nothing recorded) unless --unreferenced. RUN.csv's header states it:\n"
+      "'# referenced: home switches' (or hand, or none); diagnose and train refuse the last two unless\n"
+      "told. Frames lost on the way (the line, or a host that did not keep up) are counted in the\n"
+      "summary, with a warning; the rows there are keep their board time.\n"
       "Exit codes as 'host run' (3 also when the drives are on, or go on during the recording).");
   rec->add_option("--port", record->port, "serial port")->required();
   rec->add_option("--out", record->out, "RUN.csv: one row per telemetry frame")->required();
   rec->add_option("--duration", record->duration_s, "seconds of board time (default: until a signal)")
       ->check(options::real_number(0, 1e6, true));
+  rec->add_flag("--unreferenced", record->unreferenced,
+                "record a board not homed at its references (homed by hand, never homed, or a homing that did not "
+                "finish); the header says so");
   rec->add_option("--link-timeout-ms", record->link_timeout_ms, "wall time without telemetry: link lost")
       ->check(options::whole_number(10, 60000))
       ->capture_default_str();

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <iostream>
 #include <memory>
+#include <optional>
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
@@ -34,6 +35,7 @@ const std::vector<std::string> kCarried = {"drives_enabled", "alpha1_ref_deg", "
 
 void run_merge(const MergeOptions& options) {
   const CsvTable run = read_csv(options.run, {"t_s", "alpha1_deg", "alpha2_deg", "alpha3_deg"}, kCarried);
+  const std::optional<Referencing> referencing = referencing_of(run);  // carried into DATA.csv
   for (std::size_t i = 0; i < run.rows.size(); ++i) {  // the bounds diagnose and train apply to DATA.csv
     check_time_order(run, i, 0);
     check_plausible_angles(run, i, 1, 3);
@@ -59,8 +61,9 @@ void run_merge(const MergeOptions& options) {
       << format_number(m.offset_sd_s) << " s, rate " << format_number(m.rate_ppm) << " +- "
       << format_number(m.rate_sd_ppm) << " ppm (from "
       << (m.from_sync ? std::to_string(m.sync_changes) + " changes of the board's sync output" : "the data alone")
-      << "); x/y/z_m: the stage at the aligned instants\n"
-      << "t_s,alpha1_deg,alpha2_deg,alpha3_deg,x_m,y_m,z_m";
+      << "); x/y/z_m: the stage at the aligned instants\n";
+  if (referencing) out << "# " << referencing_comment(*referencing) << "\n";
+  out << "t_s,alpha1_deg,alpha2_deg,alpha3_deg,x_m,y_m,z_m";
   std::vector<std::size_t> carried;
   for (std::size_t k = 0; k < kCarried.size(); ++k) {
     if (run.present[4 + k]) {
@@ -132,6 +135,11 @@ void run_merge(const MergeOptions& options) {
                                   fixed(m.data_rate_ppm - m.rate_ppm, 3) + " ppm off it)"
                             : std::string("the data alone"))
             << "; residual " << fixed(m.residual_rms_m * 1e6, 2) << " um RMS -> " << options.out << '\n';
+  if (referencing && *referencing != Referencing::kHomeSwitches) {
+    std::cout << "merge: warning: " << options.run << " says its counts were not referenced at the home switches "
+              << "(referenced: " << referencing_name(*referencing) << "), and so does " << options.out
+              << ": diagnose and train refuse it unless --unreferenced\n";
+  }
   if (m.sync_corrected_lost_alignment) {
     std::cout << "merge: the positions alone put the clocks " << fixed(m.sync_shift_s, 3)
               << " s off (this drag cannot fix them: too short or too repetitive); the sync output's phase "

@@ -44,7 +44,9 @@ void run_simulate(const SimulateOptions& options) {
   write_recording(options.out, report.samples,
                   {"deltactl simulate --experiment " + options.experiment + " --seed " + std::to_string(options.seed),
                    "effects: " + (effect_names.empty() ? std::string("none") : effect_names) +
-                       (options.effects.empty() ? "" : " (" + options.effects + ")")});
+                       (options.effects.empty() ? "" : " (" + options.effects + ")"),
+                   // The virtual robot's encoders read the home count at its home switches.
+                   referencing_comment(Referencing::kHomeSwitches)});
   std::cerr << "simulate: " << report.samples.size() << " samples of '" << options.experiment << "' -> " << options.out
             << '\n';
 }

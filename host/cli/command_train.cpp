@@ -22,6 +22,7 @@ struct TrainOptions {
   std::string out;
   std::string model = "deployed";
   TrainingOptions training;
+  bool unreferenced = false;  // take a recording whose counts were not referenced at the home switches
 };
 
 // A high-rate recording (the host's 1 kHz telemetry merged with a stage, deltactl merge) is thinned
@@ -71,6 +72,7 @@ void report_floors(const ModelTraining& result, int hidden) {
 
 void run_train(const TrainOptions& options) {
   Recording recording = read_recording(options.data);
+  check_referenced(recording, options.unreferenced);
   if (recording.samples.size() > kMaxTrainingRows) {
     const std::size_t stride = (recording.samples.size() + kMaxTrainingRows - 1) / kMaxTrainingRows;
     std::vector<Sample> kept;
@@ -135,6 +137,9 @@ const RegisterCommand command("train", 40, [](CLI::App& root) {
       "Example: deltactl train --data rec.csv --out W.json --seed 1 --hidden 25");
   sub->add_option("--data", options->data, "recording to fit (CSV, docs/contracts.md)")->required();
   sub->add_option("--out", options->out, "weights file to write (W.json)")->required();
+  sub->add_flag("--unreferenced", options->unreferenced,
+                "train on a recording whose header says its counts were not referenced at the home switches "
+                "('# referenced: hand' or 'none'; refused otherwise)");
   add_training_options(sub, options->training);
   sub->add_option("--model", options->model,
                   "deployed (static network + backlash compensation), network (the paper's) or hybrid (math model + "

@@ -111,7 +111,14 @@ CsvTable parse_csv(std::istream& input, const std::string& path, const std::vect
   std::size_t line_number = 0;
   while (read_line(input, line, path, line_number + 1)) {
     ++line_number;
-    if (is_blank(line) || trim(line).rfind('#', 0) == 0) continue;
+    if (is_blank(line)) continue;
+    if (trim(line).rfind('#', 0) == 0) {
+      if (!have_header) {
+        table.comments.push_back(trim(trim(line).substr(1)));
+        table.comment_lines.push_back(line_number);
+      }
+      continue;
+    }
     const std::vector<std::string> fields = split_fields(line);
     if (!have_header) {
       have_header = true;

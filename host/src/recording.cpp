@@ -15,6 +15,8 @@ namespace {
 constexpr double kMaxPlausiblePositionM = 1.0;
 constexpr double kMaxPlausibleAngleDeg = 360.0;
 
+constexpr const char* kReferencedKey = "referenced:";
+
 void check_plausible(const CsvTable& table, std::size_t row, std::size_t first, std::size_t count, double limit,
                      const char* unit) {
   for (std::size_t k = first; k < first + count; ++k) {
@@ -44,11 +46,64 @@ void check_time_order(const CsvTable& table, std::size_t row, std::size_t column
                        format_number(table.rows[row - 1][column]) + ")");
 }
 
+const char* referencing_name(Referencing referencing) {
+  switch (referencing) {
+    case Referencing::kHomeSwitches:
+      return "home switches";
+    case Referencing::kHand:
+      return "hand";
+    case Referencing::kNone:
+      break;
+  }
+  return "none";
+}
+
+std::string referencing_comment(Referencing referencing) {
+  return std::string(kReferencedKey) + " " + referencing_name(referencing);
+}
+
+std::optional<Referencing> referencing_of(const CsvTable& table) {
+  std::optional<Referencing> found;
+  for (std::size_t k = 0; k < table.comments.size(); ++k) {
+    const std::string& comment = table.comments[k];
+    if (comment.rfind(kReferencedKey, 0) != 0) continue;
+    const std::string value = comment.substr(std::string(kReferencedKey).size());
+    std::optional<Referencing> here;
+    for (const Referencing r : {Referencing::kHomeSwitches, Referencing::kHand, Referencing::kNone}) {
+      const std::string name = std::string(" ") + referencing_name(r);
+      // The name, then the end or an explanation after a space ("none (the power-up count)").
+      if (value.rfind(name, 0) == 0 && (value.size() == name.size() || value[name.size()] == ' ')) here = r;
+    }
+    if (!here) {
+      throw InputError(table.path, table.comment_lines[k],
+                       "'# " + comment.substr(0, 80) + "': the referencing is home switches, hand or none");
+    }
+    if (found && *found != *here) {
+      throw InputError(table.path, table.comment_lines[k], "a second '# referenced:' line that says otherwise");
+    }
+    found = here;
+  }
+  return found;
+}
+
+void check_referenced(const Recording& recording, bool allow) {
+  if (allow || !recording.referencing || *recording.referencing == Referencing::kHomeSwitches) return;
+  throw InputError(recording.path, recording.referencing_line,
+                   std::string("its counts were not referenced at the home switches (referenced: ") +
+                       referencing_name(*recording.referencing) +
+                       "): the arms' pose when the counts were set would be taken for joint offsets; home the board "
+                       "(deltactl host home) and record again, or pass --unreferenced");
+}
+
 Recording read_recording(const std::string& path) {
   const CsvTable table = read_csv(path, {"t_s", "alpha1_deg", "alpha2_deg", "alpha3_deg", "x_m", "y_m", "z_m"});
   Recording recording;
   recording.path = path;
   recording.line_numbers = table.line_numbers;
+  recording.referencing = referencing_of(table);
+  for (std::size_t k = 0; k < table.comments.size(); ++k) {
+    if (table.comments[k].rfind(kReferencedKey, 0) == 0) recording.referencing_line = table.comment_lines[k];
+  }
   recording.samples.reserve(table.rows.size());
   for (std::size_t i = 0; i < table.rows.size(); ++i) {
     const std::vector<double>& row = table.rows[i];

@@ -1,7 +1,9 @@
 // deltactl diagnose: the SPEC contract (outputs, bad input) and a quick subset of the blind suite.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
+#include <fstream>
 #include <set>
 #include <sstream>
 
@@ -226,6 +228,102 @@ TEST(DiagnoseCli, NamesEquivalentExplanationsAndIntervals) {
 // (the validation trajectory's 16-20 deg) may be effects of the vocabulary that this FIT cannot
 // separate: the verdict says so, with the travel and the drag that turns the joints further; on a
 // FIT that travels 30 deg or more it names an effect outside the vocabulary alone.
+// A recording whose header says its counts were not referenced at the home switches ("# referenced:
+// hand" or "none": host record --unreferenced) is refused by diagnose and train (exit 2, one line
+// naming the file and --unreferenced, nothing written) unless --unreferenced; "home switches" and a
+// recording that does not say are taken; a header that says something else is refused naming its line.
+TEST(DiagnoseCli, ARecordingWhoseCountsWereNotReferencedIsRefusedUnlessTold) {
+  EffectSet effects;
+  effects.joint_offset_deg = Vec3(0.2, -0.1, 0.3);
+  RecordingOptions options;
+  options.samples = 2000;
+  const VirtualRobot robot(effects);
+  const std::vector<Sample> fit_rows = robot.record(make_trajectory("sweep", 11), options).samples;
+  options.samples = 700;
+  const std::string check = temp("ref_check.csv");
+  write_recording(check, robot.record(make_trajectory("sweep", 12), options).samples,
+                  {referencing_comment(Referencing::kHomeSwitches)});
+  const std::string json = temp("ref.json"), predictions = temp("ref_pred.csv"), weights = temp("ref_w.json");
+  for (const Referencing referencing : {Referencing::kHand, Referencing::kNone}) {
+    const std::string fit = temp(std::string("ref_fit_") + referencing_name(referencing) + ".csv");
+    write_recording(fit, fit_rows, {"deltactl host record", referencing_comment(referencing)});
+    std::filesystem::remove(json);
+    const std::string diagnose =
+        "diagnose --data " + fit + " --holdout " + check + " --json " + json + " --predictions " + predictions;
+    const CommandResult refused = run_deltactl(diagnose);
+    EXPECT_EQ(refused.exit_code, 2) << refused.err;
+    EXPECT_EQ(std::count(refused.err.begin(), refused.err.end(), '\n'), 1) << refused.err;
+    EXPECT_NE(refused.err.find(fit + ":2:"), std::string::npos) << refused.err;  // the file and its line
+    EXPECT_NE(refused.err.find("--unreferenced"), std::string::npos) << refused.err;
+    EXPECT_NE(refused.err.find("host home"), std::string::npos) << refused.err;
+    EXPECT_FALSE(std::filesystem::exists(json));
+    // The held-out recording is held to the same rule.
+    const CommandResult swapped = run_deltactl("diagnose --data " + check + " --holdout " + fit + " --json " + json +
+                                               " --predictions " + predictions);
+    EXPECT_EQ(swapped.exit_code, 2) << swapped.err;
+    const CommandResult train = run_deltactl("train --data " + fit + " --out " + weights);
+    EXPECT_EQ(train.exit_code, 2) << train.err;
+    EXPECT_NE(train.err.find(fit), std::string::npos) << train.err;
+    EXPECT_FALSE(std::filesystem::exists(weights));
+    if (referencing == Referencing::kNone) {
+      const CommandResult told = run_deltactl(diagnose + " --unreferenced");
+      EXPECT_EQ(told.exit_code, 0) << told.err;
+      const CommandResult trained =
+          run_deltactl("train --data " + fit + " --out " + weights + " --unreferenced --max-epochs 2 --threads 1");
+      EXPECT_EQ(trained.exit_code, 0) << trained.err;
+    }
+  }
+  const std::string odd = temp("ref_odd.csv");
+  write_recording(odd, fit_rows, {"referenced: somewhere"});
+  const CommandResult bad = run_deltactl("diagnose --data " + odd + " --holdout " + check + " --json " + json +
+                                         " --predictions " + predictions);
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.err.find(odd + ":1:"), std::string::npos) << bad.err;
+}
+
+// simulate's recordings say they are referenced at the home switches (the virtual robot's encoders
+// read the home count there).
+TEST(DiagnoseCli, SimulateSaysItsCountsAreReferencedAtTheHomeSwitches) {
+  const std::string out = temp("simulated.csv");
+  const CommandResult simulate = run_deltactl("simulate --experiment sweep --samples 200 --out " + out);
+  ASSERT_EQ(simulate.exit_code, 0) << simulate.err;
+  EXPECT_NE(read_text(out).find("\n# referenced: home switches\n"), std::string::npos) << read_text(out).substr(0, 400);
+}
+
+// A joint offset no assembled robot has (beyond 2 deg: counts not referenced at the home switches)
+// is a warning naming the joint and homing, in the summary and the JSON's "warnings"; the
+// paper-like sizes (tenths of a degree) are not.
+TEST(DiagnoseCli, WarnsOfAJointOffsetNoAssembledRobotHasNamingHoming) {
+  for (const double offset : {3.5, 0.3}) {
+    EffectSet effects;
+    effects.joint_offset_deg = Vec3(offset, -0.1, 0.2);
+    RecordingOptions options;
+    options.samples = 2000;
+    const VirtualRobot robot(effects);
+    const std::string fit = temp("offset_fit.csv"), check = temp("offset_check.csv");
+    write_recording(fit, robot.record(make_trajectory("sweep", 11), options).samples);
+    options.samples = 700;
+    write_recording(check, robot.record(make_trajectory("sweep", 12), options).samples);
+    const std::string json = temp("offset.json");
+    const CommandResult result = run_deltactl("diagnose --data " + fit + " --holdout " + check + " --json " + json +
+                                              " --predictions " + temp("offset_pred.csv"));
+    ASSERT_EQ(result.exit_code, 0) << result.err;
+    nlohmann::json document;
+    std::ifstream(json) >> document;
+    ASSERT_TRUE(document.contains("warnings")) << "offset " << offset;
+    if (offset > diagnosis::kPlausibleJointOffsetDeg) {
+      ASSERT_EQ(document["warnings"].size(), 1u) << document["warnings"].dump();
+      const std::string warning = document["warnings"][0].get<std::string>();
+      EXPECT_NE(warning.find("joint 1's offset 3.50 deg"), std::string::npos) << warning;
+      EXPECT_NE(warning.find("host home"), std::string::npos) << warning;
+      EXPECT_NE(result.out.find("warning: joint 1's offset"), std::string::npos) << result.out;
+    } else {
+      EXPECT_TRUE(document["warnings"].empty()) << document["warnings"].dump();
+      EXPECT_EQ(result.out.find("warning:"), std::string::npos) << result.out;
+    }
+  }
+}
+
 TEST(DiagnoseReport, ANotExplainedVerdictSaysWhenTheFitTravelsTooLittleToSeparateARipple) {
   diagnosis::Diagnosis d;
   d.explained = false;

@@ -154,7 +154,9 @@ struct Bench {
     std::vector<std::string> arguments = {"--weights", weights, "--truth", truth};
     arguments.insert(arguments.end(), extra.begin(), extra.end());
     board = std::make_unique<VirtualBoardProcess>(link, arguments);
-    const std::string ready = board->ready_line(60'000);
+    std::string ready = board->ready_line(60'000);
+    // With --stage, the stage's line comes first.
+    if (ready.rfind("virtual-board: stage", 0) == 0) ready = board->ready_line(60'000);
     if (ready.find(link) == std::string::npos) throw std::runtime_error("virtual board not ready: " + ready);
     if (!home_it) return;
     const CommandResult home =

@@ -459,3 +459,69 @@ TEST(Homing, AStopRequestedEndsHomingAtTheNextFrameWithTheDrivesOffAndEveryFrame
 }
 
 }  // namespace delta::test
+
+#include "delta/kinematics.hpp"
+
+namespace delta::test {
+
+// Homing goes down only to clear: a joint that starts below its switch goes down by the clear
+// margin (0.5 deg) and is then held while the others clear, so over the whole homing no joint goes
+// lower than the clear margin below where it started or below its switch, and never below the
+// board's travel. Seeded random starts, each with one arm low (below its switch, -8..15 deg) and the
+// others high (35..75 deg, a long clear); the lowest TRUE angle of each joint over the homing from
+// the virtual board's truth. Before, the low arm went down with the others, to -11.6..-15 deg.
+TEST(Homing, NoJointGoesMoreThanTheClearMarginBelowItsStartOrItsSwitch) {
+  constexpr double kClearMarginDeg = 0.5;  // HomingOptions::clear_margin_deg
+  // Beyond the margin: the jog's stop (8 deg/s, the drives off within a frame, and the arm's coast:
+  // 0.06-0.11 deg with the plain network), a held joint's creep while the others move (homing picks
+  // a jog whose held joints creep up, when there is one) and, with the deployed model, the kick of
+  // the first jog's reversal across joint 1's 0.15 deg of play (0.17 deg beyond the margin measured).
+  constexpr double kSlackDeg = 0.25;
+  const double travel_low_deg = board::kMinTravelBlock * 1024 * 0.01;
+  const unsigned seed = std::random_device{}();
+  std::printf("seed %u\n", seed);
+  std::mt19937 random(seed);
+  std::uniform_real_distribution<double> low(-8.0, 15.0), high(35.0, 75.0);
+  std::uniform_int_distribution<int> which(0, 2);
+  for (int trial = 0; trial < 3; ++trial) {
+    std::array<double, 3> start{};
+    for (int attempt = 0;; ++attempt) {
+      const int low_joint = which(random);
+      for (int j = 0; j < 3; ++j) start[j] = j == low_joint ? low(random) : high(random);
+      if (forward_kinematics(Geometry::nominal(), Vec3(start[0], start[1], start[2])).ok()) break;
+      ASSERT_LT(attempt, 100) << "no reachable start drawn";
+    }
+    // The plain network and the deployed model (its play: a held joint's answer inside it moves nothing).
+    const std::string weights =
+        trial % 2 == 0 ? kWeights : std::string(DELTA_SOURCE_DIR) + "/weights/paper_like_deployed.json";
+    SCOPED_TRACE("seed " + std::to_string(seed) + ", start " + angles_text(start) + ", " + weights);
+    Bench bench("homing_low" + std::to_string(trial), {"--fidelity", "model", "--start-angles", angles_text(start)},
+                false, weights);
+    const CommandResult home = run_deltactl(home_command(bench));
+    EXPECT_EQ(home.exit_code, 0) << home.out << home.err;
+    ASSERT_EQ(bench.board->terminate(), 0);
+    const Table truth = read_table(bench.truth);
+    const std::size_t last = truth.rows.size() - 1;
+    for (int j = 0; j < 3; ++j) {
+      const std::string column = "true_alpha" + std::to_string(j + 1) + "_deg";
+      double lowest = truth.at(0, column);
+      for (std::size_t i = 0; i < truth.rows.size(); ++i) lowest = std::min(lowest, truth.at(i, column));
+      // The switch, in true angle: where the robot's own encoder reading last reached the home
+      // count from below (the virtual robot places each switch there).
+      const std::string encoder = "encoder" + std::to_string(j + 1) + "_deg";
+      double at_switch = std::nan("");
+      for (std::size_t i = 1; i < truth.rows.size(); ++i) {
+        if (truth.at(i - 1, encoder) < 29.995 && truth.at(i, encoder) >= 29.995) at_switch = truth.at(i, column);
+      }
+      ASSERT_FALSE(std::isnan(at_switch)) << "joint " << j + 1 << " never came up to its switch";
+      const double bound = std::max(std::min(start[j], at_switch) - kClearMarginDeg - kSlackDeg, travel_low_deg);
+      std::printf(
+          "start %s: joint %d lowest true angle %.3f deg (start %.3f, its switch %.3f, at rest %.3f; bound %.3f)\n",
+          angles_text(start).c_str(), j + 1, lowest, start[j], at_switch, truth.at(last, column), bound);
+      EXPECT_GE(lowest, bound) << "joint " << j + 1;
+    }
+    std::filesystem::remove_all(bench.dir);
+  }
+}
+
+}  // namespace delta::test

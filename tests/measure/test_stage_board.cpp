@@ -57,12 +57,16 @@ Drag record_drag(const std::string& dir, const std::string& trajectory, double s
   const std::string link = dir + "tty";
   VirtualBoardProcess board(
       link, {"--fidelity", "model", "--free-run", "--effects", dir + "robot.json", "--truth", d.truth, "--stage",
-             "drag:" + trajectory, "--stage-log", d.stage, "--stage-clock", clock.str(), "--stage-rate",
-             std::to_string(rate_hz), "--stage-seed", std::to_string(seed)});
+             "drag:" + trajectory, "--stage-after-home", "20", "--stage-log", d.stage, "--stage-clock", clock.str(),
+             "--stage-rate", std::to_string(rate_hz), "--stage-seed", std::to_string(seed)});
   const std::string stage_line = board.ready_line(20000);
   std::cout << stage_line << '\n';
   EXPECT_NE(stage_line.find("seed " + std::to_string(seed)), std::string::npos) << stage_line;
   EXPECT_NE(board.ready_line(20000).find("ready"), std::string::npos);
+  // Homed at the references first, as the lab does (docs/lab_loop.md); the stage takes hold 20 s of board time after.
+  const CommandResult home = run_deltactl("host home --quiet --port " + link + " --weights " + DELTA_SOURCE_DIR +
+                                          "/weights/paper_like_deployed.json --link-timeout-ms 3000");
+  EXPECT_EQ(home.exit_code, 0) << home.out << home.err;
   const CommandResult record = run_deltactl("host record --port " + link + " --out " + d.run +
                                             " --link-timeout-ms 3000 --duration " + std::to_string(seconds));
   std::cout << record.out << record.err;
@@ -112,6 +116,9 @@ TEST(StageDrag, HostRecordAndMergeGiveThePlateWithinAMicrometreOfTheTruth) {
             << " merged rows, error RMS x/y/z " << rms.transpose() * 1e6 << " um\n";
   EXPECT_GT(rows, 590000u);
   EXPECT_LT(rms.maxCoeff(), 1e-6);
+  // Homed first: the run says so, and merge carries it into DATA.csv.
+  EXPECT_NE(read_text(d.run).find("# referenced: home switches\n"), std::string::npos);
+  EXPECT_NE(read_text(dir + "data.csv").find("\n# referenced: home switches\n"), std::string::npos);
   const std::string report = read_text(dir + "merge.json");
   EXPECT_NE(report.find("offset_sd_s"), std::string::npos);
 

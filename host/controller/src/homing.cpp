@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <string>
+#include <tuple>
 #include <utility>
 
 #include <Eigen/Dense>
@@ -49,6 +50,26 @@ struct StopRequested {
 };
 
 }  // namespace
+
+Referencing board_referencing(const link::TelemetryPayload& telemetry) {
+  if (telemetry.has(link::TelemetryFlag::kReferenced)) return Referencing::kHomeSwitches;
+  if (telemetry.has(link::TelemetryFlag::kHoming)) return Referencing::kNone;
+  return telemetry.has(link::TelemetryFlag::kHomed) ? Referencing::kHand : Referencing::kNone;
+}
+
+std::string unreferenced_reason(const link::TelemetryPayload& telemetry) {
+  switch (board_referencing(telemetry)) {
+    case Referencing::kHomeSwitches:
+      return "";
+    case Referencing::kHand:
+      return "homed by hand, not at its home switches: the counts were set where the arms stood";
+    case Referencing::kNone:
+      break;
+  }
+  return telemetry.has(link::TelemetryFlag::kHoming)
+             ? "a homing that did not finish (stopped or failed): the counts are provisional"
+             : "never homed: the counts started at 30.00 deg wherever the arms were at power-up";
+}
 
 std::optional<link::TelemetryPayload> arms_at_rest(link::LinkSession& session,
                                                    const std::function<void(const link::TelemetryPayload&)>& each) {
@@ -123,14 +144,19 @@ std::array<std::int32_t, 3> jog_setpoint(const golden::BoardWeights& weights,
     }
     return d;
   };
+  // Among the points within the bounds, the least downward creep of the held joints comes first:
+  // a held joint creeps for as long as the others move (a joint that has cleared its switch, or a
+  // referenced one, while another searches for seconds), and down is toward the end of its travel.
   const auto cost = [&](const std::array<std::int32_t, 3>& d) {
     double worst = 0.0;
     double sum = 0.0;
+    double held_down = 0.0;
     for (int j = 0; j < 3; ++j) {
       worst = std::max(worst, jog_miss(delta_q8[j], d[j]));
       sum += (delta_q8[j] == 0 ? 100.0 : 1.0) * std::abs(d[j] - delta_q8[j]);
+      if (delta_q8[j] == 0) held_down += std::max(0, -d[j]);
     }
-    return std::make_pair(worst, sum);
+    return std::make_tuple(std::max(worst, 1.0), held_down, worst, sum);
   };
   std::array<std::int64_t, 3> lsb{};
   for (int k = 0; k < 3; ++k) lsb[k] = std::int64_t{1} << std::max(0, weights.network.input_shift[k]);
@@ -391,12 +417,14 @@ HomingReport home_at_references(link::LinkSession& session, const golden::BoardW
                               f.home_switch(j) && !f.referenced(j);
           closed_frames[j] = missed ? closed_frames[j] + 1 : 0;
         }
-        bool goal = clearing;
+        // Clearing: the drives stop as soon as one moving joint has cleared its switch by the margin,
+        // so that joint is held (delta 0) from the next jog on while the others clear, never carried
+        // down with them (into the end of its travel: from a start below its switch it would follow
+        // the longest clear of the others).
+        bool goal = false;
         for (int j = 0; j < 3; ++j) {
           if (closed_frames[j] >= 5) goal = true;
-        }
-        for (int j = 0; j < 3; ++j) {
-          if (clearing && delta[j] != 0 && open_run[j] < options.clear_margin_deg) goal = false;
+          if (clearing && delta[j] != 0 && open_run[j] >= options.clear_margin_deg) goal = true;
         }
         bool recentre = false;
         for (int j = 0; j < 3; ++j) {

@@ -261,9 +261,11 @@ struct TelemetryRecorder {
   TelemetryRecorder(const std::string& path, RecordMode mode, bool streaming)
       : file(path, mode), streaming(streaming) {}
   const bool streaming;
-  void open() {
-    std::string header =
-        streaming ? "# deltactl host run: one row per board telemetry frame (1 kHz of board time), up to the final\n"
+  // `referencing`: how the counts the rows carry were referenced (recording.hpp), stated in the header.
+  void open(Referencing referencing) {
+    std::string header = "# " + referencing_comment(referencing) + "\n";
+    header += streaming
+                  ? "# deltactl host run: one row per board telemetry frame (1 kHz of board time), up to the final\n"
                     "# hold and disable\n"
                     "# t_s: board time; *_ref_m: the position sent for the sample whose answer is the joint\n"
                     "# reference at t_s; alpha*_ref_deg: the board's joint references; alpha*_deg: encoders\n"
@@ -517,7 +519,7 @@ RunOutcome RunJob::execute(link::LinkSession& session, const std::string& port_n
   // ---- homed -> running ----
   const std::string lock_note = lock_memory();
   if (estop_.load()) throw HostFailure(kExitFault, port_name + ": e-stop before the run started; nothing enabled");
-  recorder_->open();  // under its name before the first motion
+  recorder_->open(board_referencing(t0));  // under its name before the first motion
   out.record = recorder_->file.path();
   link::TelemetryPayload enabled;
   try {
@@ -718,6 +720,9 @@ RunOutcome RunJob::execute(link::LinkSession& session, const std::string& port_n
   return out;
 }
 
+// Beyond this share of the frames lost, the record's warning says what to do about it.
+constexpr double kLostFramesAdvicePercent = 1.0;
+
 RecordJob::RecordJob(const RecordRequest& request)
     : request_(request), recorder_(std::make_unique<TelemetryRecorder>(request.record, RecordMode::kReplace, false)) {}
 
@@ -726,10 +731,22 @@ RecordJob::~RecordJob() = default;
 RunOutcome RecordJob::execute(link::LinkSession& session, const std::string& port_name,
                               const link::TelemetryPayload& t0, const volatile std::sig_atomic_t& stop_signal,
                               const std::function<void(const std::string&)>& log) {
+  const Referencing referencing = board_referencing(t0);
+  if (referencing != Referencing::kHomeSwitches && !request_.unreferenced) {  // one line, before anything else
+    throw HostFailure(kExitFault, port_name + ": the board is not homed at its references (" + unreferenced_reason(t0) +
+                                      "): a calibration drag would carry that pose as joint offsets; run "
+                                      "deltactl host home first (or record anyway with --unreferenced); "
+                                      "nothing recorded");
+  }
   log(std::string(state_name(HostState::kDisconnected)) + " -> " + state_name(state_of(t0)) + " (" +
       link::describe_state(t0) + ")");
   if (t0.has(link::TelemetryFlag::kDriveEnable)) {
     throw HostFailure(kExitFault, port_name + ": the drives are on (another controller?); record only with them off");
+  }
+  if (referencing != Referencing::kHomeSwitches) {
+    log("warning: the board is not homed at its references (" + unreferenced_reason(t0) +
+        "); recording anyway (--unreferenced): the recording says 'referenced: " + referencing_name(referencing) +
+        "', and diagnose and train refuse it unless told");
   }
   RunOutcome out;
   out.outcome = "completed";
@@ -739,7 +756,7 @@ RunOutcome RecordJob::execute(link::LinkSession& session, const std::string& por
       request_.duration_s > 0.0 ? static_cast<std::int64_t>(t0.tick) + std::llround(request_.duration_s * 1e4) : -1;
   link::TelemetryPayload t = t0, first = t0;
   std::uint64_t frames = 1;
-  recorder_->open();
+  recorder_->open(referencing);
   TelemetryRecord r0;
   r0.telemetry = t0;
   recorder_->write(r0);
@@ -781,11 +798,28 @@ RunOutcome RecordJob::execute(link::LinkSession& session, const std::string& por
   }
   const link::LinkStatistics& link = session.statistics();
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  // Frames the board sent that never became rows (the line dropped them, or the host did not read in
+  // time and the port's buffer overflowed): each row keeps its board time, so merge and the fits
+  // are right on the rows there are, but the drag's coverage has gaps.
+  const std::uint64_t lost = link.lost_telemetry + link.skipped_telemetry;
+  const double lost_percent = 100.0 * static_cast<double>(lost) / static_cast<double>(frames + lost);
   std::ostringstream summary;
   summary << "record: " << frames << " telemetry frames over " << fixed((t.tick - first.tick) / 1e4, 3)
-          << " s of board time (" << fixed(wall, 1) << " s wall), drives off; lost on the line " << link.lost_telemetry
-          << ", skipped " << link.skipped_telemetry << "\nrecording: " << request_.record << " (" << recorder_->rows
-          << " rows)\n";
+          << " s of board time (" << fixed(wall, 1) << " s wall), drives off; " << lost << " lost ("
+          << fixed(lost_percent, 2) << " %: on the line " << link.lost_telemetry << ", skipped "
+          << link.skipped_telemetry << "); referenced: " << referencing_name(referencing)
+          << "\nrecording: " << request_.record << " (" << recorder_->rows << " rows)\n";
+  if (lost > 0) {
+    const std::string warning = "warning: " + std::to_string(lost) + " of " + std::to_string(frames + lost) +
+                                " telemetry frames (" + fixed(lost_percent, 2) +
+                                " %) were lost and are missing from the recording" +
+                                (lost_percent > kLostFramesAdvicePercent
+                                     ? ": the host did not keep up or the line drops frames; give the host a core of "
+                                       "its own (or a low-latency port) and record again"
+                                     : "");
+    log(warning);
+    summary << warning << '\n';
+  }
   out.summary = summary.str();
   out.played = frames;
   return out;

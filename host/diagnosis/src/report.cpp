@@ -418,6 +418,7 @@ json diagnosis_json(const Diagnosis& diagnosis) {
   }
   document["outliers"] = outliers;
   document["verdict"] = verdict(diagnosis);
+  document["warnings"] = diagnosis_warnings(diagnosis);
   document["holdout"] = {{"rmse_nominal_deg", triple(diagnosis.holdout_rmse_nominal_deg)},
                          {"rmse_after_deg", triple(diagnosis.holdout_rmse_after_deg)},
                          {"samples", diagnosis.check_after_deg.size()},
@@ -466,6 +467,21 @@ void write_predictions(std::ostream& out, const std::vector<Sample>& check, cons
   }
 }
 
+std::vector<std::string> diagnosis_warnings(const Diagnosis& diagnosis) {
+  std::vector<std::string> warnings;
+  if (!diagnosis.fitted_effects.joint_offset_deg) return warnings;
+  const Vec3& offset = *diagnosis.fitted_effects.joint_offset_deg;
+  for (int j = 0; j < 3; ++j) {
+    if (!(std::abs(offset[j]) > kPlausibleJointOffsetDeg)) continue;
+    warnings.push_back("joint " + std::to_string(j + 1) + "'s offset " + fixed(offset[j], 2) + " deg is beyond the " +
+                       fixed(kPlausibleJointOffsetDeg, 0) +
+                       " deg any assembled robot has: its counts were most likely not referenced at the home "
+                       "switches when recorded (homed by hand, never homed, or a homing that did not finish); home the "
+                       "board (deltactl host home), record again, and do not train on this recording");
+  }
+  return warnings;
+}
+
 void print_summary(std::ostream& out, const Diagnosis& diagnosis) {
   Table table({"model", "held-out RMSE alpha_1 [deg]", "alpha_2 [deg]", "alpha_3 [deg]", "x noise floor"});
   const double floor = diagnosis.noise_floor_deg;
@@ -494,6 +510,7 @@ void print_summary(std::ostream& out, const Diagnosis& diagnosis) {
       << diagnosis.fit_samples << " rows), CHECK " << fixed(diagnosis.check_span_s, 1) << " s ("
       << diagnosis.check_samples << " rows) of recording; computed in " << fixed(diagnosis.seconds, 1) << " s\n"
       << "verdict: " << verdict(diagnosis) << "\n";
+  for (const std::string& warning : diagnosis_warnings(diagnosis)) out << "warning: " << warning << "\n";
   if (!diagnosis.outliers.empty()) out << diagnosis.outliers.size() << " outlier rows left out (listed in the JSON)\n";
   if (diagnosis.fit_closed_loop) out << closed_loop_note(diagnosis) << "\n";
 }
@@ -575,6 +592,7 @@ void write_report(const std::string& markdown_path, const ReportInputs& inputs, 
       << " rows). Noise floor (encoder quantisation 0.01 deg / sqrt(12)): " << fixed(floor, 5) << " deg.\n\n"
       << "**Verdict:** " << verdict(diagnosis) << "; " << fixed(100.0 * diagnosis.explained_fraction, 1)
       << " % of the held-out mean-square error above the floor removed.\n\n";
+  for (const std::string& warning : diagnosis_warnings(diagnosis)) out << "**Warning:** " << warning << "\n\n";
   if (diagnosis.fit_closed_loop) out << closed_loop_note(diagnosis) << ".\n\n";
   if (!diagnosis.alternatives.empty()) {
     out << "## Equivalent explanations\n\nSets the held-out data cannot tell from the chosen one (held-out MSE "

@@ -17,10 +17,12 @@ std::optional<double> parse_decimal(const std::string& text);
 
 struct CsvTable {
   std::string path;
-  std::vector<std::string> columns;       // the requested columns, in request order (required, then optional)
-  std::vector<bool> present;              // present[k]: column k is in the file (always for required ones)
-  std::vector<std::vector<double>> rows;  // rows[i][k]: requested column k of data row i (0 when absent)
-  std::vector<std::size_t> line_numbers;  // file line of each data row, for later errors
+  std::vector<std::string> columns;        // the requested columns, in request order (required, then optional)
+  std::vector<bool> present;               // present[k]: column k is in the file (always for required ones)
+  std::vector<std::vector<double>> rows;   // rows[i][k]: requested column k of data row i (0 when absent)
+  std::vector<std::size_t> line_numbers;   // file line of each data row, for later errors
+  std::vector<std::string> comments;       // the '#' lines before the header, each without its '#', trimmed
+  std::vector<std::size_t> comment_lines;  // file line of each
 };
 
 // Reads the requested columns; all of them must be present, numeric and finite on every row.

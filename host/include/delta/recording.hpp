@@ -1,6 +1,7 @@
 // Recordings of the robot (docs/contracts.md): t_s, alpha1..3_deg, x_m, y_m, z_m, in time order.
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -8,13 +9,35 @@
 
 namespace delta {
 
+// How a recording's joint angles (the board's counts) were referenced, as its header says in a
+// comment line "# referenced: home switches|hand|none" (docs/lab_loop.md): at the robot's home
+// switches (`host home`; simulate's recordings by construction), by hand (`host home --by-hand`:
+// the counts set where the arms stood) or not at all (the power-up count, 30.00 deg wherever the
+// arms were). Counts not referenced at the switches carry the arms' pose then as joint offsets.
+enum class Referencing { kHomeSwitches, kHand, kNone };
+const char* referencing_name(Referencing referencing);  // "home switches", "hand", "none"
+// The header comment, without its '#': "referenced: home switches".
+std::string referencing_comment(Referencing referencing);
+
+struct CsvTable;
+
+// The "# referenced: ..." line among a table's header comments (nothing: the file does not say).
+// Throws InputError naming the line when it names something else.
+std::optional<Referencing> referencing_of(const CsvTable& table);
+
 struct Recording {
   std::string path;
   std::vector<Sample> samples;
-  std::vector<std::size_t> line_numbers;  // file line of each sample
+  std::vector<std::size_t> line_numbers;   // file line of each sample
+  std::optional<Referencing> referencing;  // as the header says (nothing: it does not)
+  std::size_t referencing_line = 0;        // the file line that says it
 };
 
-struct CsvTable;
+// For the commands that fit a robot to a recording (diagnose, train): throws InputError (exit 2)
+// naming the file and its "# referenced:" line when that says the counts were not referenced at
+// the home switches, unless `allow` (their --unreferenced). A recording that does not say is taken
+// as it is (older recordings; every deltactl command that writes one says).
+void check_referenced(const Recording& recording, bool allow);
 
 // Throws InputError naming the file and line when row `row`'s time (column `column`, seconds) is
 // before the previous row's: SPEC recordings are in time order.

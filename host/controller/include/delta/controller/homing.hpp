@@ -8,7 +8,8 @@
 //   1. home start (drives off): the board forgets the references and starts homing;
 //   2. clear: every joint not referenced moves down until its switch has been open over
 //      `clear_margin_deg` of its own motion (so each approach comes from below, the backlash's play
-//      taken up the same way every time);
+//      taken up the same way every time); the drives stop as each joint gets there, and it is held
+//      while the others go on, so no joint goes lower than that margin below its start or switch;
 //   3. search: every joint not referenced moves up at `search_deg_s` until its switch closes: the
 //      board references it and stops the drives; the others go on after the next enable.
 //
@@ -29,6 +30,7 @@
 
 #include "delta/golden/board_network.hpp"
 #include "delta/link/session.hpp"
+#include "delta/recording.hpp"
 
 namespace delta::controller {
 
@@ -64,6 +66,14 @@ struct HomingReport {
 HomingReport home_at_references(link::LinkSession& session, const golden::BoardWeights& weights,
                                 const HomingOptions& options, const std::function<void(const std::string&)>& log,
                                 const volatile std::sig_atomic_t* stop = nullptr);
+
+// How the board's counts are referenced now: at the home switches (every joint referenced), by hand
+// (set home outside homing: 'host home --by-hand'), or not at all: never homed, or a homing that did
+// not finish (stopped, failed: the board stays homing, its provisional counts set at each jog, until
+// a hold or the next homing).
+Referencing board_referencing(const link::TelemetryPayload& telemetry);
+// One line of why counts that are not referenced at the home switches are not ("" when they are).
+std::string unreferenced_reason(const link::TelemetryPayload& telemetry);
 
 // Reads telemetry until the counts have been still for 30 frames (the arms at rest with the drives
 // off), at most 2000 frames: that last frame, or nothing if they never came to rest. `each` (may be

@@ -164,8 +164,9 @@ class RunJob {
 // is recorded for duration_s of board time (0: until a signal). The lab's calibration run, the
 // measuring stage dragging the plate (docs/contracts.md, "The lab's measurements").
 struct RecordRequest {
-  std::string record;       // RUN.csv
-  double duration_s = 0.0;  // board time from the first telemetry frame
+  std::string record;         // RUN.csv
+  double duration_s = 0.0;    // board time from the first telemetry frame
+  bool unreferenced = false;  // record a board not homed at its references (else HostFailure, exit 3)
 };
 
 class RecordJob {
@@ -173,7 +174,8 @@ class RecordJob {
   // Opens the recording before any byte is sent (InputError, exit 2).
   explicit RecordJob(const RecordRequest& request);
   ~RecordJob();
-  // On an identified board whose telemetry is t0 (drives off, else HostFailure exit 3): records
+  // On an identified board whose telemetry is t0 (drives off, and homed at its references unless
+  // request.unreferenced, else HostFailure exit 3 before anything is recorded): records
   // until the duration or a signal (code 128 + N), a drive enable by anyone else (exit 3) or link
   // loss (exit 4). The recording is committed.
   RunOutcome execute(link::LinkSession& session, const std::string& port_name, const link::TelemetryPayload& t0,

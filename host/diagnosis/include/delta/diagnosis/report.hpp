@@ -3,6 +3,7 @@
 
 #include <ostream>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -16,6 +17,16 @@ nlohmann::json family_parameters_json(Family family, const Parameters& theta);
 // The SPEC result document (noise_floor_deg, explained, ranked effects, holdout) plus the
 // selection trace, location, identifiability and the fitted effects as an effect file.
 nlohmann::json diagnosis_json(const Diagnosis& diagnosis);
+
+// A joint offset beyond this no assembled robot has (an arm keyed to its shaft, its home switch
+// set at its reference: tenths of a degree, the paper-like robot's 0.2-0.5): counts not referenced
+// where the robot was homed (homed by hand elsewhere, never homed, a homing that did not finish).
+constexpr double kPlausibleJointOffsetDeg = 2.0;
+
+// One line per thing in the result a person should act on: each fitted joint offset beyond
+// kPlausibleJointOffsetDeg, naming homing as its likely cause (JSON "warnings", the summary, the
+// report).
+std::vector<std::string> diagnosis_warnings(const Diagnosis& diagnosis);
 
 // t_s,alpha1_deg,alpha2_deg,alpha3_deg for every CHECK row, in order (final model).
 void write_predictions(std::ostream& out, const std::vector<Sample>& check, const Diagnosis& diagnosis);
