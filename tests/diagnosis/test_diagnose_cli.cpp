@@ -248,6 +248,7 @@ TEST(DiagnoseCli, ARecordingWhoseCountsWereNotReferencedIsRefusedUnlessTold) {
     const std::string fit = temp(std::string("ref_fit_") + referencing_name(referencing) + ".csv");
     write_recording(fit, fit_rows, {"deltactl host record", referencing_comment(referencing)});
     std::filesystem::remove(json);
+    std::filesystem::remove(weights);
     const std::string diagnose =
         "diagnose --data " + fit + " --holdout " + check + " --json " + json + " --predictions " + predictions;
     const CommandResult refused = run_deltactl(diagnose);
