@@ -274,17 +274,17 @@ joint_speeds() {
 # ---- Per robot: effects, the held-out sweep, the deployed model -----------------------------------
 status=0
 # DIR NAME STAGE SECONDS EFFECTS TRAJECTORY: a drag on the free-running model board, homed first
-# (the stage takes hold 30 s of board time after the homing, docs/lab_loop.md), merged.
+# (the stage takes hold as host record starts, docs/lab_loop.md), merged.
 drag() {
   local dir=$1 name=$2 trajectory=$6 clock rate seed
   read -r clock rate seed <<<"$3"
   start_board "$dir/tty" "$dir/${name}_board.log" --free-run --effects "$5" --truth "$dir/${name}_truth.csv" \
-    --stage "drag:$trajectory" --stage-after-home 30 --stage-log "$dir/${name}_stage.csv" --stage-clock "$clock" \
+    --stage "drag:$trajectory" --stage-after-home 0 --stage-log "$dir/${name}_stage.csv" --stage-clock "$clock" \
     --stage-rate "$rate" --stage-seed "$seed" || return 1
   step "$name: host home" "$dir/${name}_home.log" "$deltactl" host home --port "$dir/tty" \
     --weights "$repo/weights/paper_like_deployed.json" || { stop_board; return 1; }
   step "$name: host record" "$dir/${name}_record.log" "$deltactl" host record --port "$dir/tty" \
-    --out "$dir/${name}_run.csv" --duration "$(($4 + 30))" --link-timeout-ms 3000 || { stop_board; return 1; }
+    --out "$dir/${name}_run.csv" --duration "$4" --link-timeout-ms 3000 || { stop_board; return 1; }
   stop_board
   step "$name: merge" "$dir/${name}_merge.log" "$deltactl" merge --run "$dir/${name}_run.csv" \
     --stage "$dir/${name}_stage.csv" --out "$dir/$name.csv" --report "$dir/${name}_merge.json" || return 1

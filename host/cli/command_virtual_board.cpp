@@ -205,7 +205,7 @@ void run_virtual_board(const VirtualBoardCommandOptions& options) {
               << format_number(options.stage_noise_m) << " m RMS, seed " << stage_options.seed
               << (stage_options.after_home_s >= 0.0
                       ? "; the drag takes hold " + format_number(stage_options.after_home_s) +
-                            " s after the board is homed at its references"
+                            " s after the first command that follows the homing at the references starts"
                       : "")
               << std::endl;
   }
@@ -403,9 +403,10 @@ const RegisterCommand command("virtual-board", 72, [](CLI::App& root) {
           "--stage: a measuring stage beside the robot (docs/contracts.md, \"The lab's measurements\"). drag:NAME or\n"
           "drag:FILE.csv (t_s,x_m,y_m,z_m): with the drives off the stage moves the plate, the arms following\n"
           "through the true geometry and every effect; it takes hold at the board's first valid frame (with\n"
-          "--stage-after-home S: S seconds of board time after the board's telemetry first shows it homed at\n"
-          "its references with the drives off, so 'host home' runs first, undisturbed), moves the plate to\n"
-          "the trajectory's start in one second (quintic), along the trajectory, then holds it at the end.\n"
+          "--stage-after-home S: S seconds of board time after the first command that follows the board's\n"
+          "homing at its references starts, 'host record' after 'host home': homing runs undisturbed and the\n"
+          "drag starts with the recording), moves the plate to the trajectory's start in one second\n"
+          "(quintic), along the trajectory, then holds it at the end.\n"
           "follow: it only measures. --stage-log gets the stage controller's own log,\n"
           "t_s,x_m,y_m,z_m, on its clock (t_stage = OFFSET + (1 + PPM 1e-6) t_board) at --stage-rate, the\n"
           "plate through the frame misalignment with --stage-noise, quantised to 6.87 nm; the seed is printed.\n"
@@ -460,8 +461,9 @@ const RegisterCommand command("virtual-board", 72, [](CLI::App& root) {
   sub->add_option("--stage-seed", options->stage_seed, "seed of the stage's noise (default: drawn, printed)")
       ->check(options::whole_number(0, 4294967295LL));
   sub->add_option("--stage-after-home", options->stage_after_home_s,
-                  "S: the drag takes hold S seconds of board time after the board is first homed at its references "
-                  "(drives off), not at the host's first frame")
+                  "S: the drag takes hold S seconds of board time after the first command that follows the "
+                  "board's homing at its references starts (host record after host home), not at the host's first "
+                  "frame")
       ->check(options::real_number(0, 3600));
   sub->add_flag("--stage-no-sync", options->stage_no_sync,
                 "the stage logs no sync column (its input not wired to the board's sync output)");

@@ -51,17 +51,31 @@ MeasuringStage::MeasuringStage(const StageOptions& options, const EffectSet& eff
 }
 
 void MeasuringStage::host_bytes(const std::uint8_t* data, std::size_t size, double t_s) {
-  if (start_s_ || !path_ || options_.after_home_s >= 0.0) return;
-  if (!decoder_.feed(data, size).empty()) start_s_ = t_s;
+  if (start_s_ || !path_) return;
+  const std::vector<link::Frame> frames = decoder_.feed(data, size);  // (fed throughout: frames span reads)
+  if (options_.after_home_s < 0.0) {
+    if (!frames.empty()) start_s_ = t_s;
+    return;
+  }
+  // After the homing: its last command (the disable that ends `host home`), then the next
+  // command's identify request (the start of `host record`).
+  for (const link::Frame& frame : frames) {
+    if (!homed_s_) break;
+    if (frame.type == link::FrameType::kCommand) homing_ended_ = true;
+    if (homing_ended_ && frame.type == link::FrameType::kIdentifyRequest) {
+      start_s_ = t_s + options_.after_home_s;
+      return;
+    }
+  }
 }
 
 void MeasuringStage::board_bytes(const std::uint8_t* data, std::size_t size, double t_s) {
-  if (start_s_ || !path_ || options_.after_home_s < 0.0) return;
+  if (homed_s_ || !path_ || options_.after_home_s < 0.0) return;
   for (const link::Frame& frame : telemetry_decoder_.feed(data, size)) {
     if (frame.type != link::FrameType::kTelemetry) continue;
     const link::TelemetryPayload t = link::decode_telemetry(frame.payload);
     if (t.has(link::TelemetryFlag::kReferenced) && !t.has(link::TelemetryFlag::kDriveEnable)) {
-      start_s_ = t_s + options_.after_home_s;
+      homed_s_ = t_s;
       return;
     }
   }

@@ -110,13 +110,13 @@ TEST(ReferencedCalibration, HostRecordRefusesABoardNotHomedAtItsReferencesAndThe
   std::filesystem::remove_all(homed.dir);
 }
 
-// The acceptance: from a seeded random power-up pose, with the stage set to drag 1 s after the board
-// is homed at its references: `host record` refuses the unhomed board (exit 3); `host home` homes
-// undisturbed (before, the stage dragged from the host's first frame and homing fought it: a
-// following-error fault); the drag recorded after it carries the robot's own counts: every recorded
+// The acceptance: from a seeded random power-up pose, with the stage set to take hold as the first
+// command after the board's homing at its references starts (host record): `host record` refuses the
+// unhomed board (exit 3); `host home` homes undisturbed (before, the stage dragged from the host's first frame and
+// homing fought it: a following-error fault); the drag recorded after it carries the robot's own counts: every recorded
 // encoder within 2 counts (0.02 deg, the home reference's own accuracy) of the reading the robot's
 // encoder gives at the true pose at that board time, while the stage moved the plate by
-// millimetres; the plate held still until the stage took hold after the homing. (`merge` carrying the
+// millimetres; the plate held still from the homing until the recording started. (`merge` carrying the
 // header into DATA.csv: StageDrag.HostRecordAndMerge..., whose drag is long enough to merge.)
 TEST(ReferencedCalibration, FromARandomPowerUpPoseHomeThenDragRecordsTheRobotsOwnCounts) {
   const unsigned seed = std::random_device{}();
@@ -132,7 +132,7 @@ TEST(ReferencedCalibration, FromARandomPowerUpPoseHomeThenDragRecordsTheRobotsOw
   SCOPED_TRACE(std::string("seed ") + std::to_string(seed) + ", start " + start_text);
   const std::string stage_log = temp_dir("ref_accept_stage") + "/stage.csv";
   Bench bench("ref_accept",
-              {"--fidelity", "model", "--start-angles", start_text, "--stage", "drag:sweep", "--stage-after-home", "1",
+              {"--fidelity", "model", "--start-angles", start_text, "--stage", "drag:sweep", "--stage-after-home", "0",
                "--stage-log", stage_log, "--stage-seed", std::to_string(seed % 1000)},
               false, kDeployed);
   const std::string run = bench.dir + "/drag.csv";
@@ -140,7 +140,6 @@ TEST(ReferencedCalibration, FromARandomPowerUpPoseHomeThenDragRecordsTheRobotsOw
   EXPECT_EQ(unhomed.exit_code, 3) << unhomed.err;
   const CommandResult home = run_deltactl(home_command(bench));
   ASSERT_EQ(home.exit_code, 0) << home.err;
-  const double homed_s = board_status(bench.link).value("tick", 0.0) / 1e4;
   const CommandResult record = run_deltactl(record_command(bench, run, 5.0));
   ASSERT_EQ(record.exit_code, 0) << record.err;
   ASSERT_EQ(bench.board->terminate(), 0);
@@ -162,23 +161,29 @@ TEST(ReferencedCalibration, FromARandomPowerUpPoseHomeThenDragRecordsTheRobotsOw
           std::abs(recorded.at(i, "alpha" + n + "_deg") - truth.at(found->second, "encoder" + n + "_deg")) / 0.01);
     }
   }
-  // The plate: still from the end of the homing until the stage takes hold, then dragged.
+  // The plate: still from the end of the homing until the recording starts (the stage takes hold at
+  // its first frame), then dragged.
+  const double recording_s = recorded.at(0, "t_s");
   const auto plate = [&](std::size_t i) { return Vec3(truth.at(i, "x_m"), truth.at(i, "y_m"), truth.at(i, "z_m")); };
-  std::size_t at_home = 0;
-  while (at_home + 1 < truth.rows.size() && truth.at(at_home + 1, "t_s") <= homed_s) ++at_home;
+  std::size_t at_home = 0;  // the homing's last row with the drives on
+  for (std::size_t i = 0; i < truth.rows.size() && truth.at(i, "t_s") < recording_s; ++i) {
+    if (truth.at(i, "drives_enabled") == 1.0) at_home = i;
+  }
+  ASSERT_GT(at_home, 0u) << "no homing in the truth";
   double moved_before = 0.0, moved_after = 0.0;
   for (std::size_t i = at_home; i < truth.rows.size(); ++i) {
     const double d = (plate(i) - plate(at_home)).norm();
-    if (truth.at(i, "t_s") < homed_s + 0.5) moved_before = std::max(moved_before, d);
+    if (truth.at(i, "t_s") < recording_s) moved_before = std::max(moved_before, d);
     moved_after = std::max(moved_after, d);
   }
   std::printf(
       "start %s: %zu recorded rows against the truth, recorded - the robot's encoder at most %.1f counts; "
-      "plate moved %.1f um in the 0.5 s after homing, %.2f mm in all\n",
+      "plate moved %.1f um from the homing to the recording's start, %.2f mm in all\n",
       start_text, compared, worst_counts, moved_before * 1e6, moved_after * 1e3);
   EXPECT_GT(compared, 4500u);
   EXPECT_LE(worst_counts, 2.0 + 1e-9);
-  EXPECT_LT(moved_before, 5e-6) << "the stage took hold before the homing was over";
+  EXPECT_LT(moved_before, 5e-6) << "the stage took hold before the recording started";
+  EXPECT_GT(recording_s, truth.at(at_home, "t_s"));
   EXPECT_GT(moved_after, 1e-3) << "the stage never dragged the plate";
   EXPECT_EQ(referenced_line(run), "# referenced: home switches");
   // The drives were off throughout the recording.

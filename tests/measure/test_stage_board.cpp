@@ -57,13 +57,13 @@ Drag record_drag(const std::string& dir, const std::string& trajectory, double s
   const std::string link = dir + "tty";
   VirtualBoardProcess board(
       link, {"--fidelity", "model", "--free-run", "--effects", dir + "robot.json", "--truth", d.truth, "--stage",
-             "drag:" + trajectory, "--stage-after-home", "20", "--stage-log", d.stage, "--stage-clock", clock.str(),
+             "drag:" + trajectory, "--stage-after-home", "0", "--stage-log", d.stage, "--stage-clock", clock.str(),
              "--stage-rate", std::to_string(rate_hz), "--stage-seed", std::to_string(seed)});
   const std::string stage_line = board.ready_line(20000);
   std::cout << stage_line << '\n';
   EXPECT_NE(stage_line.find("seed " + std::to_string(seed)), std::string::npos) << stage_line;
   EXPECT_NE(board.ready_line(20000).find("ready"), std::string::npos);
-  // Homed at the references first, as the lab does (docs/lab_loop.md); the stage takes hold 20 s of board time after.
+  // Homed at the references first, as the lab does (docs/lab_loop.md); the stage takes hold as host record starts.
   const CommandResult home = run_deltactl("host home --quiet --port " + link + " --weights " + DELTA_SOURCE_DIR +
                                           "/weights/paper_like_deployed.json --link-timeout-ms 3000");
   EXPECT_EQ(home.exit_code, 0) << home.out << home.err;

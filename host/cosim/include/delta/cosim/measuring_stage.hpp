@@ -8,10 +8,11 @@
 // digital input, sampled with the positions.
 //
 // The stage takes hold of the plate when the board first receives a valid frame (or, with
-// after_home_s, that long after the board's telemetry first shows every joint referenced at its
-// home switch with the drives off): a quintic move from where the plate rests to the trajectory's
-// start during one second, then the trajectory at its own time; at its end the stage holds the
-// plate there.
+// after_home_s, that long after the next command starts once the board is homed at its references:
+// after the board's telemetry first shows every joint referenced with the drives off, the homing's
+// last command (the disable `host home` ends with), then the next command's identify request, that
+// of `host record`): a quintic move from where the plate rests to the trajectory's start during one
+// second, then the trajectory at its own time; at its end the stage holds the plate there.
 //
 // Wiring (deltactl virtual-board): the host's bytes go to host_bytes(), the board's to
 // board_bytes(), drag() to the world (VirtualBoardOptions::drag), sample() to the board's period
@@ -41,9 +42,9 @@ struct StageOptions {
   double noise_m = 20e-9;       // RMS per axis
   std::uint64_t seed = 1;
   bool log_sync = true;  // the board's stage_sync_o wired to the stage's input, logged as `sync`
-  // >= 0: the stage takes hold this many seconds of board time after the board is first homed at
-  // its references (telemetry: referenced, drives off), so that `host home` runs undisturbed;
-  // < 0: at the host's first valid frame.
+  // >= 0: the stage takes hold this many seconds of board time after the first command that
+  // follows the board's homing at its references starts (its identify request), so that `host home`
+  // runs undisturbed and the drag starts with the recording; < 0: at the host's first valid frame.
   double after_home_s = -1.0;
 };
 
@@ -55,11 +56,11 @@ class MeasuringStage {
   MeasuringStage(const StageOptions& options, const EffectSet& effects, const Geometry& nominal);
 
   bool drags() const { return static_cast<bool>(path_); }
-  // Bytes the host sent, at board time t_s: the first valid frame starts the drag's clock (unless
-  // after_home_s >= 0).
+  // Bytes the host sent, at board time t_s: the first valid frame starts the drag's clock (with
+  // after_home_s >= 0, the identify request of the first command after the homing).
   void host_bytes(const std::uint8_t* data, std::size_t size, double t_s);
   // Bytes the board sent, at board time t_s: with after_home_s >= 0, the first telemetry frame
-  // that shows the board referenced with the drives off starts the drag's clock after_home_s later.
+  // that shows the board referenced with the drives off is the homing's end.
   void board_bytes(const std::uint8_t* data, std::size_t size, double t_s);
   // The plate's true position held by the stage at board time t_s (nothing: not holding yet).
   std::optional<Vec3> drag(double t_s) const;
@@ -84,7 +85,9 @@ class MeasuringStage {
   link::FrameDecoder decoder_{link::Receiver::kBoard};
   link::FrameDecoder telemetry_decoder_{link::Receiver::kHost};  // the board's frames (after_home_s)
   std::optional<double> start_s_;                                // board time the stage takes hold
-  std::optional<Vec3> rest_m_;                                   // where the plate rested then
+  std::optional<double> homed_s_;  // board time the board was first seen homed (after_home_s)
+  bool homing_ended_ = false;      // the host's first command after that (the homing's disable) seen
+  std::optional<Vec3> rest_m_;     // where the plate rested then
   std::ofstream log_;
   std::mt19937_64 generator_;
   std::normal_distribution<double> noise_;
