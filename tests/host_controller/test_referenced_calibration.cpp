@@ -110,9 +110,10 @@ TEST(ReferencedCalibration, HostRecordRefusesABoardNotHomedAtItsReferencesAndThe
   std::filesystem::remove_all(homed.dir);
 }
 
-// The acceptance: from a seeded random power-up pose, with the stage set to take hold as the first
-// command after the board's homing at its references starts (host record): `host record` refuses the
-// unhomed board (exit 3); `host home` homes undisturbed (before, the stage dragged from the host's first frame and
+// The acceptance: from a seeded random power-up pose, with the stage set to take hold 2 s after the
+// first command that follows the board's homing at its references starts (host record; 2 s: its
+// first row comes once it has identified the board, tens of milliseconds after its first frame): `host record` refuses
+// the unhomed board (exit 3); `host home` homes undisturbed (before, the stage dragged from the host's first frame and
 // homing fought it: a following-error fault); the drag recorded after it carries the robot's own counts: every recorded
 // encoder within 2 counts (0.02 deg, the home reference's own accuracy) of the reading the robot's
 // encoder gives at the true pose at that board time, while the stage moved the plate by
@@ -132,7 +133,7 @@ TEST(ReferencedCalibration, FromARandomPowerUpPoseHomeThenDragRecordsTheRobotsOw
   SCOPED_TRACE(std::string("seed ") + std::to_string(seed) + ", start " + start_text);
   const std::string stage_log = temp_dir("ref_accept_stage") + "/stage.csv";
   Bench bench("ref_accept",
-              {"--fidelity", "model", "--start-angles", start_text, "--stage", "drag:sweep", "--stage-after-home", "0",
+              {"--fidelity", "model", "--start-angles", start_text, "--stage", "drag:sweep", "--stage-after-home", "2",
                "--stage-log", stage_log, "--stage-seed", std::to_string(seed % 1000)},
               false, kDeployed);
   const std::string run = bench.dir + "/drag.csv";
@@ -140,7 +141,7 @@ TEST(ReferencedCalibration, FromARandomPowerUpPoseHomeThenDragRecordsTheRobotsOw
   EXPECT_EQ(unhomed.exit_code, 3) << unhomed.err;
   const CommandResult home = run_deltactl(home_command(bench));
   ASSERT_EQ(home.exit_code, 0) << home.err;
-  const CommandResult record = run_deltactl(record_command(bench, run, 5.0));
+  const CommandResult record = run_deltactl(record_command(bench, run, 6.0));
   ASSERT_EQ(record.exit_code, 0) << record.err;
   ASSERT_EQ(bench.board->terminate(), 0);
 
@@ -180,9 +181,10 @@ TEST(ReferencedCalibration, FromARandomPowerUpPoseHomeThenDragRecordsTheRobotsOw
       "start %s: %zu recorded rows against the truth, recorded - the robot's encoder at most %.1f counts; "
       "plate moved %.1f um from the homing to the recording's start, %.2f mm in all\n",
       start_text, compared, worst_counts, moved_before * 1e6, moved_after * 1e3);
-  EXPECT_GT(compared, 4500u);
+  EXPECT_GT(compared, 5500u);
   EXPECT_LE(worst_counts, 2.0 + 1e-9);
-  EXPECT_LT(moved_before, 5e-6) << "the stage took hold before the recording started";
+  // (With the drives off after homing the arms settle by a few micrometres; the drag moves millimetres.)
+  EXPECT_LT(moved_before, 50e-6) << "the stage took hold before the recording started";
   EXPECT_GT(recording_s, truth.at(at_home, "t_s"));
   EXPECT_GT(moved_after, 1e-3) << "the stage never dragged the plate";
   EXPECT_EQ(referenced_line(run), "# referenced: home switches");
