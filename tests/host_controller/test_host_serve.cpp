@@ -352,6 +352,8 @@ TEST(HostServe, EstopDuringHomingAndRunLatchesForEveryClientUntilAClear) {
   EXPECT_TRUE(status["estop"].value("latched", false)) << status.dump();
   EXPECT_EQ(status["estop"].value("source", ""), "socket") << status.dump();
   ASSERT_TRUE(status["estop"]["board_time_s"].is_number()) << status.dump();
+  EXPECT_EQ(status.value("homed_by", ""), "none") << "an e-stopped homing homes nothing: " << status.dump();
+  EXPECT_TRUE(status.value("homing_unfinished", false)) << status.dump();
   const double estopped_at = status["estop"]["board_time_s"].get<double>();
 
   // Whatever any client asks now, nothing moves: home, enable and run refused, exit 3, naming the e-stop.

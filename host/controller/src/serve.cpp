@@ -198,6 +198,7 @@ struct HostServer::Impl {
   json status() {
     std::shared_ptr<RunJob> job;
     std::optional<link::TelemetryPayload> t;
+    bool homing_now = false;
     json out = success();
     {
       std::lock_guard<std::mutex> lock(mutex);
@@ -215,6 +216,7 @@ struct HostServer::Impl {
       }
       t = telemetry;
       job = running;
+      homing_now = homing;
       out["last_run"] = last_run;
       out["estop"] = estop_json();
     }
@@ -232,6 +234,13 @@ struct HostServer::Impl {
     if (t) {
       out["description"] = link::describe_state(*t);
       out["fault_bits"] = t->fault_cause;
+      const Referencing referencing = board_referencing(*t);
+      out["homed_by"] = referencing == Referencing::kHomeSwitches ? "reference"
+                        : referencing == Referencing::kHand       ? "hand"
+                                                                  : "none";
+      out["homing_unfinished"] =
+          referencing == Referencing::kNone && t->has(link::TelemetryFlag::kHoming) && !homing_now;
+      out["referencing"] = unreferenced_reason(*t);  // "" when homed at the references
       out["board_time_s"] = t->tick / 1e4;
       out["encoder_deg"] = {t->counts[0] * kCountDeg, t->counts[1] * kCountDeg, t->counts[2] * kCountDeg};
       out["counters"] = {{"bad_frames", t->bad_frames},
