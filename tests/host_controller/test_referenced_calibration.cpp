@@ -117,7 +117,7 @@ TEST(ReferencedCalibration, HostRecordRefusesABoardNotHomedAtItsReferencesAndThe
 // homing fought it: a following-error fault); the drag recorded after it carries the robot's own counts: every recorded
 // encoder within 2 counts (0.02 deg, the home reference's own accuracy) of the reading the robot's
 // encoder gives at the true pose at that board time, while the stage moved the plate by
-// millimetres; the plate held still from the homing until the recording started. (`merge` carrying the
+// millimetres; the plate held still for 1.5 s after the homing. (`merge` carrying the
 // header into DATA.csv: StageDrag.HostRecordAndMerge..., whose drag is long enough to merge.)
 TEST(ReferencedCalibration, FromARandomPowerUpPoseHomeThenDragRecordsTheRobotsOwnCounts) {
   const unsigned seed = std::random_device{}();
@@ -171,10 +171,12 @@ TEST(ReferencedCalibration, FromARandomPowerUpPoseHomeThenDragRecordsTheRobotsOw
     if (truth.at(i, "drives_enabled") == 1.0) at_home = i;
   }
   ASSERT_GT(at_home, 0u) << "no homing in the truth";
-  double moved_before = 0.0, moved_after = 0.0;
+  double moved_before = 0.0, moved_after = 0.0, moved_after_home = 0.0;
+  const double homed_s = truth.at(at_home, "t_s");
   for (std::size_t i = at_home; i < truth.rows.size(); ++i) {
     const double d = (plate(i) - plate(at_home)).norm();
     if (truth.at(i, "t_s") < recording_s) moved_before = std::max(moved_before, d);
+    if (truth.at(i, "t_s") < homed_s + 1.5) moved_after_home = std::max(moved_after_home, d);
     moved_after = std::max(moved_after, d);
   }
   std::printf(
@@ -184,7 +186,10 @@ TEST(ReferencedCalibration, FromARandomPowerUpPoseHomeThenDragRecordsTheRobotsOw
   EXPECT_GT(compared, 5500u);
   EXPECT_LE(worst_counts, 2.0 + 1e-9);
   // (With the drives off after homing the arms settle by a few micrometres; the drag moves millimetres.)
-  EXPECT_LT(moved_before, 50e-6) << "the stage took hold before the recording started";
+  // The stage takes hold 2 s after the first identify that follows the homing's end (host record's;
+  // on a loaded machine an earlier one of the homing's own tail can start it, so the recording may
+  // miss the drag's first moments, never the homing): the plate is still for 1.5 s after the homing.
+  EXPECT_LT(moved_after_home, 50e-6) << "the stage took hold during or right after the homing";
   EXPECT_GT(recording_s, truth.at(at_home, "t_s"));
   EXPECT_GT(moved_after, 1e-3) << "the stage never dragged the plate";
   EXPECT_EQ(referenced_line(run), "# referenced: home switches");
