@@ -106,12 +106,21 @@ Connected connect(link::LinkSession& session) {
 // ---------------------------------------------------------------------------------------------
 struct StatusOptions {
   std::string port;
+  std::string socket;  // the controller's, when it holds the port ("": the config's)
   bool json = false;
   int link_timeout_ms = link::kLinkTimeoutMs;
 };
+bool status_from_controller(const StatusOptions& options);
 
 void run_status(const StatusOptions& options) {
-  auto port = open_port(options.port);
+  std::unique_ptr<io::SerialPort> port;
+  try {
+    port = open_board_port(options.port);
+  } catch (const HostFailure& error) {
+    // Held by the controller (host serve owns the port): its status, the e-stop latch with it.
+    if (status_from_controller(options)) return;
+    fail(error.code(), error.what());
+  }
   link::LinkSession session(*port, session_options(options.link_timeout_ms));
   const Connected c = connect(session);
   const link::TelemetryPayload& t = c.telemetry;
@@ -458,6 +467,37 @@ std::string control_socket(const CtlOptions& options) {
   return deploy::DeployConfig{}.socket;
 }
 
+void run_ctl(const CtlOptions& options);
+
+// `host status` on a port the controller holds: the controller's status, as `host ctl status`
+// prints it (false when no controller answers on its socket).
+bool status_from_controller(const StatusOptions& options) {
+  CtlOptions ctl;
+  ctl.socket = options.socket;
+  ctl.json = options.json;
+  ctl.command = "status";
+  std::string path;
+  try {
+    path = control_socket(ctl);
+  } catch (const std::exception&) {
+    return false;
+  }
+  const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  sockaddr_un address{};
+  address.sun_family = AF_UNIX;
+  if (fd < 0 || path.size() >= sizeof address.sun_path) {
+    if (fd >= 0) ::close(fd);
+    return false;
+  }
+  std::copy(path.begin(), path.end(), address.sun_path);
+  const bool answers = ::connect(fd, reinterpret_cast<const sockaddr*>(&address), sizeof address) == 0;
+  ::close(fd);
+  if (!answers) return false;
+  std::cerr << "host status: " << options.port << " is held by the controller on " << path << "; its status:\n";
+  run_ctl(ctl);
+  return true;
+}
+
 // A connection to the controller; exits 4 when it cannot be reached.
 int connect_controller(const std::string& path) {
   const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
@@ -686,6 +726,9 @@ const RegisterCommand command("host", 75, [](CLI::App& root) {
   CLI::App* s = host->add_subcommand("status", "Identify the board and print its state");
   s->add_option("--port", status->port, "serial port (see 'deltactl host --help')")->required();
   s->add_flag("--json", status->json, "one JSON object on stdout");
+  s->add_option("--socket", status->socket,
+                "when 'host serve' holds the port: its control socket (default: the config's), whose status "
+                "(with the e-stop latch) is printed instead");
   s->add_option("--link-timeout-ms", status->link_timeout_ms, "wall time without a frame: link lost")
       ->check(options::whole_number(10, 60000))
       ->capture_default_str();

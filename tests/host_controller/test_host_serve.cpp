@@ -354,6 +354,12 @@ TEST(HostServe, EstopDuringHomingAndRunLatchesForEveryClientUntilAClear) {
   ASSERT_TRUE(status["estop"]["board_time_s"].is_number()) << status.dump();
   EXPECT_EQ(status.value("homed_by", ""), "none") << "an e-stopped homing homes nothing: " << status.dump();
   EXPECT_TRUE(status.value("homing_unfinished", false)) << status.dump();
+  // `host status` on the port the controller holds: the controller's status, the latch in it.
+  const CommandResult held =
+      run_deltactl("host status --port " + server.bench.link + " --socket " + server.socket + " --json");
+  EXPECT_EQ(held.exit_code, 0) << held.err;
+  const nlohmann::json via = nlohmann::json::parse(held.out, nullptr, false);
+  EXPECT_TRUE(via.is_object() && via.value("state", "") == "e-stopped") << held.out << held.err;
   const double estopped_at = status["estop"]["board_time_s"].get<double>();
 
   // Whatever any client asks now, nothing moves: home, enable and run refused, exit 3, naming the e-stop.
