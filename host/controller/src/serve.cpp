@@ -669,16 +669,17 @@ struct HostServer::Impl {
       send_line(o.fd, overflow_busy());
       return;
     }
-    if (command == "estop") estop_begin("socket");  // latched and the disable queued now, not after a thread starts
+    // An e-stop is latched and its disable queued now, not after a thread starts.
+    const std::shared_ptr<Work> begun = command == "estop" ? estop_begin("socket") : nullptr;
     // The reply (an e-stop's waits for the drives off) on a thread of its own: the accepting thread goes on.
     const int fd = ::dup(o.fd);
     if (fd < 0) return;
     const json asked = *request;
     try {
-      std::thread([shared, fd, asked] {
+      std::thread([shared, fd, asked, begun] {
         const int flags = ::fcntl(fd, F_GETFL);
         ::fcntl(fd, F_SETFL, flags & ~O_NONBLOCK);
-        send_line(fd, shared->reply_to(asked));
+        send_line(fd, begun ? shared->estop_reply(begun) : shared->reply_to(asked));
         ::close(fd);
       }).detach();
     } catch (const std::system_error&) {
@@ -783,8 +784,9 @@ struct HostServer::Impl {
   // drives off ahead of anything queued: a streaming run's loop disables at its next cycle, a
   // homing ends at its next telemetry frame, work queued that would move is refused, and a disable
   // goes first in the board thread's queue. Answered when that disable is done (the drives off).
-  json estop(const std::string& source) {
-    const std::shared_ptr<Work> work = estop_begin(source);
+  json estop(const std::string& source) { return estop_reply(estop_begin(source)); }
+  // The e-stop's answer once its disable (estop_begin's work) is done, or 3 s have passed.
+  json estop_reply(const std::shared_ptr<Work>& work) {
     std::unique_lock<std::mutex> lock(mutex);
     work_done.wait_for(lock, std::chrono::seconds(3), [&] { return work->done || shutting_down.load(); });
     json reply = work->done ? work->reply
