@@ -34,7 +34,7 @@ class RtlIkBackend : public IkBackend {
     }
     quantised_ = golden::quantise_file(weights_path, weights_);  // a deployed model's half-plays too
     golden::write_export(quantised_, directory_.path());
-    network_ = std::make_unique<NetworkHarness<Vdelta_network>>(quantised_.formats.input_bits,
+    network_ = std::make_unique<NetworkHarness<Vdelta_network>>(quantised_.formats.scaled_input_bits,
                                                                 quantised_.formats.output_bits, directory_.path());
     compensation_ = std::make_unique<CompensationHarness<Vbacklash_compensation>>(
         quantised_.formats.output_bits, quantised_.formats.half_play_bits, quantised_.compensation.half_play);
@@ -52,7 +52,8 @@ class RtlIkBackend : public IkBackend {
       const std::array<std::int64_t, 3> codes =
           golden::encode_position(quantised_.formats, nn::shape_setpoint(weights_, positions_m[i]), &clamped);
       if (clamped) ++clamped_positions_;
-      const NetworkRun run = network_->run(codes);
+      // Spec step 2 on the host, as for the board's setpoints; the RTL network takes u.
+      const NetworkRun run = network_->run(golden::scale_input(quantised_, codes).code);
       latency_cycles_ = run.latency_cycles;
       rows[i].raw = run.outputs;
       if (compensate) {

@@ -105,9 +105,9 @@ constexpr int kWholeByteClocks = 3;
 constexpr std::uint64_t kWholeUpdateSlack = 4;
 
 // ---- setpoint_buffer: a setpoint payload is its sample index, then the positions' bytes ----
-constexpr int kIndexBytes = static_cast<int>(board::kSetpointPositionOffset);  // u32 sample index
-constexpr int kPositionBytes = static_cast<int>(board::kSetpointPayloadBytes - board::kSetpointPositionOffset);
-constexpr int kPositionCodeBytes = kPositionBytes / 3;  // one i32 network input code
+constexpr int kIndexBytes = static_cast<int>(board::kSetpointInputOffset);  // u32 sample index
+constexpr int kPositionBytes = static_cast<int>(board::kSetpointPayloadBytes - board::kSetpointInputOffset);
+constexpr int kPositionCodeBytes = kPositionBytes / 3;  // one i16 scaled input code
 
 // ---- link_tx's payload RAM: identify words from 0, telemetry words from kTelemetryWordBase ----
 constexpr int kTelemetryWordBase = static_cast<int>(board::kLinkTxTelemetryWord);
@@ -1357,15 +1357,15 @@ void ModelBoard::setpoint_buffer_next(const State& s, State& n, Wires& w) {
     n.starting = true;
     // The network (golden, bit for bit): its answer arrives long before the update reads it.
     const auto& entry = m.ram[s.sample_index % kDepth];
-    std::array<std::int64_t, 3> position{};
+    std::array<std::int64_t, 3> scaled{};
     for (int k = 0; k < 3; ++k) {
       std::uint32_t code = 0;
       for (int b = 0; b < kPositionCodeBytes; ++b) {
         code |= static_cast<std::uint32_t>(entry[kPositionCodeBytes * k + b]) << (8 * b);
       }
-      position[k] = static_cast<std::int32_t>(code);
+      scaled[k] = static_cast<std::int16_t>(code);
     }
-    const golden::RawOutput answer = golden::evaluate_raw(*s.network, position);
+    const golden::RawOutput answer = golden::evaluate_scaled(*s.network, scaled);
     for (int j = 0; j < kJoints; ++j) {
       n.net_outputs[j] = sign_extend(static_cast<std::uint32_t>(answer.alpha[j]), kNetworkOutputBits);
     }

@@ -59,7 +59,7 @@ module board_core #(
 );
   localparam int unsigned NumInputs   = delta_network_pkg::NumInputs;
   localparam int unsigned NumOutputs  = delta_network_pkg::NumOutputs;
-  localparam int unsigned InputWidth  = delta_network_pkg::InputWidth;
+  localparam int unsigned InputWidth  = delta_network_pkg::ScaledInputWidth;  // the setpoints' u codes
   localparam int unsigned OutputWidth = delta_network_pkg::OutputWidth;
   localparam int unsigned TickWidth   = $clog2(ClocksPerPeriod);
 
@@ -287,9 +287,9 @@ module board_core #(
     .ap_done     (net_clk_done),
     .ap_idle     (net_idle),
     .ap_ready    (net_clk_ready),
-    .x_0         (net_clk_inputs[0*InputWidth +: InputWidth]),
-    .x_1         (net_clk_inputs[1*InputWidth +: InputWidth]),
-    .x_2         (net_clk_inputs[2*InputWidth +: InputWidth]),
+    .u_0         (net_clk_inputs[0*InputWidth +: InputWidth]),
+    .u_1         (net_clk_inputs[1*InputWidth +: InputWidth]),
+    .u_2         (net_clk_inputs[2*InputWidth +: InputWidth]),
     .y_0         (net_clk_outputs[0*OutputWidth +: OutputWidth]),
     .y_0_ap_vld  (net_output_valid[0]),
     .y_1         (net_clk_outputs[1*OutputWidth +: OutputWidth]),

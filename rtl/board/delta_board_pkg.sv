@@ -32,7 +32,7 @@ package delta_board_pkg;
   // length..payload; CRC-16/CCITT-FALSE: polynomial 0x1021, initial value 0xFFFF.
   localparam int LinkBaud /*verilator public*/ = 1_000_000;  // FT2232H: 3 MHz / 3, exact
   localparam int LinkClocksPerBit /*verilator public*/ = 23;  // BoardClockHz / 23 = 1,010,870 baud, +1.09 %
-  localparam int ProtocolVersion /*verilator public*/ = 2;
+  localparam int ProtocolVersion /*verilator public*/ = 3;
   localparam int FrameSync /*verilator public*/ = 32'h7E;
   localparam int FrameHeaderBytes /*verilator public*/ = 4;  // sync, length, sequence, type
   localparam int FrameCrcBytes /*verilator public*/ = 2;
@@ -42,10 +42,12 @@ package delta_board_pkg;
   localparam int FrameTypeIdentifyRequest /*verilator public*/ = 32'h01;  // host -> board, no payload
   localparam int FrameTypeSetpoint /*verilator public*/ = 32'h02;  // host -> board: sample index, 3 position codes
   localparam int FrameTypeCommand /*verilator public*/ = 32'h03;  // host -> board: one command byte
+  localparam int FrameTypeModel /*verilator public*/ = 32'h04;  // host -> board: one word of the model (frame number, 48 bits)
   localparam int FrameTypeIdentify /*verilator public*/ = 32'h81;  // board -> host, answers 0x01 (same sequence)
   localparam int FrameTypeTelemetry /*verilator public*/ = 32'h82;  // board -> host, 1 kHz
-  localparam int SetpointPayloadBytes /*verilator public*/ = 16;
+  localparam int SetpointPayloadBytes /*verilator public*/ = 10;
   localparam int CommandPayloadBytes /*verilator public*/ = 1;
+  localparam int ModelPayloadBytes /*verilator public*/ = 8;
   localparam int IdentifyPayloadBytes /*verilator public*/ = 24;
   localparam int TelemetryPayloadBytes /*verilator public*/ = 48;
   localparam int RxRingBytes /*verilator public*/ = 512;  // received bytes kept for the rescan after a drop
@@ -58,7 +60,24 @@ package delta_board_pkg;
   localparam int SetpointDepth /*verilator public*/ = 256;  // entries (256 ms; one block RAM per 16-bit lane)
   localparam int StreamLeadSetpoints /*verilator public*/ = 200;  // the host keeps 200 ms sent ahead (< SetpointDepth)
   localparam int SetpointIndexOffset /*verilator public*/ = 0;  // u32 sample index
-  localparam int SetpointPositionOffset /*verilator public*/ = 4;  // 3 x i32 network input codes x, y, z
+  localparam int SetpointInputOffset /*verilator public*/ = 4;  // 3 x i16 scaled network input codes u_x, u_y, u_z (Q1.15)
+
+  // The model as data (docs/board_link.md, "The model"): frames of type FrameTypeModel, payload u16
+  // frame number n at ModelFrameOffset and a 48-bit word w (3 x u16, low first) at ModelWordOffset.
+  // n = 0 starts a load (the model is void at once); each next n is taken in order with the drives
+  // off; the words go into the network's memories; n = ModelCommitFrame carries the CRC-32 of the
+  // words of frames 0 .. ModelCommitFrame - 1 (6 bytes each, little-endian) and ends the load.
+  localparam int ModelFrameOffset /*verilator public*/ = 0;  // u16 frame number n
+  localparam int ModelWordOffset /*verilator public*/ = 2;  // 3 x u16: the 48-bit word, low lane first
+  localparam int ModelWeight1Frame /*verilator public*/ = 0;  // IW'_kj, word 3k + j (input_weights.mem), 24 bits
+  localparam int ModelBias1Frame /*verilator public*/ = 75;  // b1'_k (hidden_bias.mem), 38 bits
+  localparam int ModelWeight2Frame /*verilator public*/ = 100;  // LW'_ok, word 25o + k (output_weights.mem), 24 bits
+  localparam int ModelBias2Frame /*verilator public*/ = 175;  // b2'_o + 2^19 (output_bias.mem plus the output cast's rounding half), 47 bits
+  localparam int ModelPlayFrame /*verilator public*/ = 178;  // joint j's play: H_j, the play shift's ends and rounding (docs)
+  localparam int ModelScalingFrame /*verilator public*/ = 181;  // input j's centre (bits 0-31) and shift (32-39): the host scales, the CRC covers them
+  localparam int ModelCommitFrame /*verilator public*/ = 184;  // CRC-32/ISO-HDLC of the words before it (bits 0-31)
+  localparam int ModelFrames /*verilator public*/ = 185;
+  localparam int ModelWordBits /*verilator public*/ = 48;
 
   // Interpolation: reference r(k) = B + round(D * K(k) / 2^InterpolationShift), K(k) = round(k 2^14 / 10).
   localparam int InterpolationShift /*verilator public*/ = 14;
@@ -77,7 +96,7 @@ package delta_board_pkg;
   localparam int IdentifyProtocolOffset /*verilator public*/ = 0;  // u16 ProtocolVersion
   localparam int IdentifyDepthOffset /*verilator public*/ = 2;  // u16 SetpointDepth
   localparam int IdentifyBuildIdOffset /*verilator public*/ = 4;  // u32 gateware build id
-  localparam int IdentifyWeightsCrcOffset /*verilator public*/ = 8;  // u32 CRC-32 of the network's ROM codes
+  localparam int IdentifyWeightsCrcOffset /*verilator public*/ = 8;  // u32 CRC-32 of the loaded model (0: none)
   localparam int IdentifyNetworkClockOffset /*verilator public*/ = 12;  // u32 NetworkClockHz
   localparam int IdentifyBoardClockOffset /*verilator public*/ = 16;  // u32 BoardClockHz
   localparam int IdentifyControlRateOffset /*verilator public*/ = 20;  // u16 ControlRateHz
@@ -110,6 +129,7 @@ package delta_board_pkg;
   localparam int FlagEncoderError /*verilator public*/ = 4;
   localparam int FlagReferenced /*verilator public*/ = 5;  // every joint homed against its reference
   localparam int FlagHoming /*verilator public*/ = 6;  // homing (CommandHomeStart .. every joint referenced, a hold, a fault)
+  localparam int FlagModel /*verilator public*/ = 7;  // a complete model whose CRC-32 checked is loaded (else enable is refused)
 
   // ---- joints ----
   // Homing (docs/homing.md): each upper arm closes its home switch at and above its reference angle.

@@ -1,9 +1,9 @@
-// The setpoint buffer (docs/board_link.md, "Setpoints"): Depth entries of three 32-bit position
-// codes in block RAM, addressed by sample index, and their playback into the network.
+// The setpoint buffer (docs/board_link.md, "Setpoints"): Depth entries of three 16-bit scaled
+// input codes in block RAM, addressed by sample index, and their playback into the network.
 //
 // Filling: link_rx presents a setpoint frame's payload byte by byte; the sample index (bytes 0..3)
 // is compared with the next free index (sample_index_o + fill_o) as it passes, and the position
-// codes (bytes 4..15) are written into the next free slot (not yet part of the buffer, so the
+// codes (bytes 4..9) are written into the next free slot (not yet part of the buffer, so the
 // reader never sees them). On frame_ok_i the entry is committed if the index matched, the
 // buffer was not full when the frame began and accept_i (drives on) holds; otherwise refused_o
 // pulses. flush_i empties the buffer (the sample index stays) and vetoes the commit of a frame in
@@ -34,20 +34,20 @@ module setpoint_buffer #(
   output logic        underrun_o,       // pulse: play_i with the buffer empty
   output logic        start_o,
   input  logic        ready_i,
-  output logic [95:0] inputs_o,         // x, y, z codes at [32k +: 32]
+  output logic [47:0] inputs_o,         // u_x, u_y, u_z codes at [16k +: 16]
   output logic [31:0] sample_index_o,
   output logic [15:0] fill_o
 );
   localparam int unsigned SlotWidth = $clog2(Depth);
   localparam int unsigned FillWidth = $clog2(Depth + 1);
 
-  // ---- RAM: one 96-bit entry per slot (six block RAMs side by side), written a byte at a time;
+  // ---- RAM: one 48-bit entry per slot (three block RAMs side by side), written a byte at a time;
   // its output register holds the popped entry for the network (no flip-flops of ours).
-  logic [95:0]          entry_q;
+  logic [47:0]          entry_q;
   logic [SlotWidth-1:0] write_slot;
   logic [3:0]           write_lane;
   logic                 write_enable, pop;
-  for (genvar w = 0; w < 6; w++) begin : g_ram  // bytes 2w and 2w+1 of every entry
+  for (genvar w = 0; w < 3; w++) begin : g_ram  // bytes 2w and 2w+1 of every entry
     // no_rw_check: no read-during-write logic; the slot written (next free) is never the slot read
     // (the oldest entry) because a full buffer takes no write. One write port per RAM, the high or
     // the low byte (the block RAM's bit mask).

@@ -2,9 +2,10 @@
 // hls/README.md (formats and casts: delta_network_pkg.sv), with the block-level interface a Vitis
 // HLS export of the HLS top has.
 //
-// Interface (Vitis HLS ap_ctrl_hs; the port names are exactly the HLS export's, so one testbench
-// drives either): ap_start is sampled while ap_idle is high and must stay high until ap_ready;
-// ap_ready is high in the cycle the inputs x_0..x_2 are captured (the first one). ap_done and
+// Interface (Vitis HLS ap_ctrl_hs, as the HLS export's but for the inputs: u_0..u_2 are the scaled
+// inputs of spec step 2, which the host computes from the position and the model's input scaling,
+// golden::scale_input; the board's setpoints carry them): ap_start is sampled while ap_idle is high and must stay high until ap_ready;
+// ap_ready is high in the cycle the inputs u_0..u_2 are captured (the first one). ap_done and
 // y_k_ap_vld pulse together for one cycle with y_0..y_2 valid; y keeps its value until the next
 // ap_done. ap_rst is synchronous and active high. Latency from the ap_start edge to ap_done:
 // Steps + 14 cycles, Steps = (NumHidden + 1) * ReuseFactor / NumHidden (40 at 25, 92 at 75).
@@ -27,7 +28,7 @@
 //       a = min(|n|, 2^20 - 1) as |s| mod 2^20 and   S11 acc2 += product
 //       |s| >= 2^20, s = acc1 >> 17 (pkg)            S12 round_shift(acc2, 20) (carry resolved)
 //   S5  a (the clamp); tanh ROM address i, fraction f S13 alpha = sat_24(..) (last token only)
-// The input scaling (spec step 2) runs in S0 of token 0, so u is ready in S1.
+// The inputs u are registered at the accept, so they are ready in S1 of token 0.
 module delta_network #(
   parameter int unsigned ReuseFactor = 75,  // 25 or 75, see above
   parameter              MemDir      = "."  // directory of the .mem files (+delta_mem_dir in sim)
@@ -38,9 +39,9 @@ module delta_network #(
   output logic                                              ap_done,
   output logic                                              ap_idle,
   output logic                                              ap_ready,
-  input  logic signed [delta_network_pkg::InputWidth-1:0]   x_0,  // metres, Q4.28
-  input  logic signed [delta_network_pkg::InputWidth-1:0]   x_1,
-  input  logic signed [delta_network_pkg::InputWidth-1:0]   x_2,
+  input  logic signed [delta_network_pkg::ScaledInputWidth-1:0] u_0,  // scaled inputs, Q1.15 (spec step 2)
+  input  logic signed [delta_network_pkg::ScaledInputWidth-1:0] u_1,
+  input  logic signed [delta_network_pkg::ScaledInputWidth-1:0] u_2,
   output logic signed [delta_network_pkg::OutputWidth-1:0]  y_0,  // degrees, Q10.14
   output logic                                              y_0_ap_vld,
   output logic signed [delta_network_pkg::OutputWidth-1:0]  y_1,
@@ -52,10 +53,7 @@ module delta_network #(
   localparam int unsigned NumInputs          = delta_network_pkg::NumInputs;
   localparam int unsigned NumHidden          = delta_network_pkg::NumHidden;
   localparam int unsigned NumOutputs         = delta_network_pkg::NumOutputs;
-  localparam int unsigned InputWidth         = delta_network_pkg::InputWidth;
   localparam int unsigned ScaledInputWidth   = delta_network_pkg::ScaledInputWidth;
-  localparam int unsigned InputShiftWidth    = delta_network_pkg::InputShiftWidth;
-  localparam int unsigned OffsetWidth        = delta_network_pkg::OffsetWidth;
   localparam int unsigned Weight1Width       = delta_network_pkg::Weight1Width;
   localparam int unsigned Bias1Width         = delta_network_pkg::Bias1Width;
   localparam int unsigned Product1Width      = delta_network_pkg::Product1Width;
@@ -150,47 +148,15 @@ module delta_network #(
     groups_q  <= {groups_q[(LastStage-1)*GroupWidth-1:0], group_q};
   end
 
-  // ---- spec step 2: scaled inputs, ready in S1 of token 0 ---------------------------------------
-  logic [NumInputs*InputWidth-1:0]      centre_words;
-  logic [NumInputs*InputShiftWidth-1:0] shift_words;
-  readmemh_table #(
-    .Depth  (NumInputs),
-    .Width  (InputWidth),
-    .MemDir (MemDir),
-    .MemFile(delta_network_pkg::InputCentreFile)
-  ) u_input_centre (
-    .words_o(centre_words)
-  );
-  readmemh_table #(
-    .Depth  (NumInputs),
-    .Width  (InputShiftWidth),
-    .MemDir (MemDir),
-    .MemFile(delta_network_pkg::InputShiftFile)
-  ) u_input_shift (
-    .words_o(shift_words)
-  );
-
-  // round_shift(x_j - centre_j, shift_j) = (x_j - (centre_j - 2^(shift_j - 1))) >>> shift_j: the
-  // difference with the rounding half folded in is registered in the accept cycle straight from
-  // the ports (offset_q); the shift (wires: shift_j is a constant of the weights, folded by
-  // synthesis) and sat_16 follow in S0 of token 0 (scaled_q). shift_j >= 1 (hls/README.md).
-  logic signed [InputWidth-1:0]       x [NumInputs];
-  logic signed [OffsetWidth-1:0]      offset_q [NumInputs];
+  // ---- spec step 2 is the host's: the inputs are the scaled codes u, captured at the accept ----
+  logic signed [ScaledInputWidth-1:0] u [NumInputs];
   logic signed [ScaledInputWidth-1:0] scaled_q [NumInputs];
-  assign x[0] = x_0;
-  assign x[1] = x_1;
-  assign x[2] = x_2;
-
-  for (genvar j = 0; j < NumInputs; j++) begin : g_scale
-    logic [InputShiftWidth-1:0]    shift;
-    logic signed [OffsetWidth-1:0] rounded_centre;  // centre_j - 2^(shift_j - 1)
-    assign shift          = shift_words[j*InputShiftWidth +: InputShiftWidth];
-    assign rounded_centre = OffsetWidth'(signed'(centre_words[j*InputWidth +: InputWidth])) -
-                            (OffsetWidth'(1) << (shift - 1'b1));
+  assign u[0] = u_0;
+  assign u[1] = u_1;
+  assign u[2] = u_2;
+  for (genvar j = 0; j < NumInputs; j++) begin : g_input
     always_ff @(posedge ap_clk) begin
-      if (accept) offset_q[j] <= OffsetWidth'(x[j]) - rounded_centre;
-      // offset_q is signed, so >>> is arithmetic.
-      scaled_q[j] <= delta_network_pkg::saturate_scaled_input(offset_q[j] >>> shift);
+      if (accept) scaled_q[j] <= u[j];
     end
   end
 

@@ -1,4 +1,4 @@
-// The identify payload's two ids: the weights CRC over the network's ROM codes (delta::weights_crc)
+// The identify payload's two ids: the weights CRC over the model's load image (delta::weights_crc)
 // and the gateware build id (cmake/GatewareId.cmake), and identify.mem as `deltactl quantise`
 // writes it: decoded through IdentifyPayload, it holds the package's facts and both ids.
 #include <gtest/gtest.h>
@@ -80,7 +80,8 @@ TEST(WeightsCrc, ChangesWhenAnyOneCodeChangesByOneLsb) {
     const std::size_t t = random() % q.tanh_table.size(), o = random() % q.output_weights.size();
     EXPECT_TRUE(changed([&](golden::QuantisedNetwork& n) { n.input_weights[i] += 1; })) << i;
     EXPECT_TRUE(changed([&](golden::QuantisedNetwork& n) { n.hidden_bias[k] -= 1; })) << k;
-    EXPECT_TRUE(changed([&](golden::QuantisedNetwork& n) { n.tanh_table[t] ^= 1; })) << t;
+    // The tanh table is the gateware's, not the model's: a network with another one cannot load.
+    EXPECT_THROW(changed([&](golden::QuantisedNetwork& n) { n.tanh_table[t] ^= 1; }), std::invalid_argument) << t;
     EXPECT_TRUE(changed([&](golden::QuantisedNetwork& n) { n.output_weights[o] += 1; })) << o;
   }
   for (int j = 0; j < 3; ++j) {
@@ -89,23 +90,46 @@ TEST(WeightsCrc, ChangesWhenAnyOneCodeChangesByOneLsb) {
     EXPECT_TRUE(changed([&](golden::QuantisedNetwork& n) { n.output_bias[j] -= 1; })) << j;
     EXPECT_TRUE(changed([&](golden::QuantisedNetwork& n) { n.compensation.half_play[j] += 16; })) << j;
   }
-  EXPECT_TRUE(changed([&](golden::QuantisedNetwork& n) { n.tanh_slope.back() += 1; }));
+  EXPECT_THROW(changed([&](golden::QuantisedNetwork& n) { n.tanh_slope.back() += 1; }), std::invalid_argument);
 }
 
-TEST(WeightsCrc, IsTheCrcOfTheMemFilesWordsAsLittleEndianBytes) {
-  // An independent reading of the canonical order: the quantise output files, parsed as text.
+TEST(WeightsCrc, IsTheCrcOfTheLoadImageBuiltFromTheMemFiles) {
+  // An independent reading of docs/board_link.md "The model": the quantise output files, parsed
+  // as text, laid out as the load's 48-bit words, each as 6 little-endian bytes.
   const std::string dir = out_dir("crc");
   const test::CommandResult result = test::run_deltactl("quantise --weights " + kWeights + " --out-dir " + dir);
   ASSERT_EQ(result.exit_code, 0) << result.err;
-  std::vector<std::uint8_t> bytes;
-  for (const char* name : {"input_centre", "input_shift", "input_weights", "hidden_bias", "tanh_table", "tanh_slope",
-                           "output_weights", "output_bias", "half_play"}) {
+  auto words_of = [&](const char* name) {
     const MemWords mem = read_mem(dir + "/" + name + ".mem");
-    ASSERT_GT(mem.bits, 0) << name;
-    ASSERT_FALSE(mem.words.empty()) << name;
-    for (std::uint64_t word : mem.words) {
-      for (int i = 0; i < (mem.bits + 7) / 8; ++i) bytes.push_back(static_cast<std::uint8_t>(word >> (8 * i)));
-    }
+    EXPECT_FALSE(mem.words.empty()) << name;
+    return mem;
+  };
+  auto sign_extend = [](std::uint64_t word, int bits) {
+    const std::uint64_t sign = std::uint64_t{1} << (bits - 1);
+    return static_cast<std::int64_t>((word ^ sign) - sign);
+  };
+  std::vector<std::uint64_t> image;
+  for (const char* name : {"input_weights", "hidden_bias", "output_weights"}) {
+    for (std::uint64_t w : words_of(name).words) image.push_back(w);
+  }
+  const MemWords bias2 = words_of("output_bias");
+  for (std::uint64_t w : bias2.words) {
+    image.push_back(static_cast<std::uint64_t>(sign_extend(w, bias2.bits) + (1 << 19)) &
+                    ((std::uint64_t{1} << 47) - 1));
+  }
+  for (std::uint64_t h : words_of("half_play").words) {  // H in Q.8 counts
+    const bool rounds = ((h >> 7) & 1) == ((h >> 6) & 1);
+    const std::int64_t g = rounds ? 128 : 0;
+    const std::int64_t above = (static_cast<std::int64_t>(h) + g) >> 8, below = (g - static_cast<std::int64_t>(h)) >> 8;
+    image.push_back(h | (static_cast<std::uint64_t>(above) & 0x3FF) << 17 |
+                    (static_cast<std::uint64_t>(below) & 0x3FF) << 27 | std::uint64_t{rounds} << 37);
+  }
+  const MemWords centre = words_of("input_centre"), shift = words_of("input_shift");
+  for (int j = 0; j < 3; ++j) image.push_back(centre.words[j] | shift.words[j] << 32);
+  ASSERT_EQ(image.size(), static_cast<std::size_t>(board::kModelCommitFrame));
+  std::vector<std::uint8_t> bytes;
+  for (std::uint64_t w : image) {
+    for (int i = 0; i < 6; ++i) bytes.push_back(static_cast<std::uint8_t>(w >> (8 * i)));
   }
   const golden::QuantisedNetwork q = shipped_network();
   EXPECT_EQ(bytes, golden::weights_crc_bytes(q));
@@ -131,7 +155,7 @@ TEST(IdentifyMem, QuantiseWritesTheIdentifyPayloadAsLittleEndianWords) {
   EXPECT_EQ(identify.protocol_version, board::kProtocolVersion);
   EXPECT_EQ(identify.setpoint_depth, board::kSetpointDepth);
   EXPECT_EQ(identify.build_id, kGatewareBuildId);
-  EXPECT_EQ(identify.weights_crc, weights_crc(shipped_network()));
+  EXPECT_EQ(identify.weights_crc, 0u);  // the gateware holds no model: the board reports the loaded one's
   EXPECT_EQ(identify.network_clock_hz, board::kNetworkClockHz);
   EXPECT_EQ(identify.board_clock_hz, board::kBoardClockHz);
   EXPECT_EQ(identify.control_rate_hz, board::kControlRateHz);

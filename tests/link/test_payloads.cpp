@@ -32,12 +32,12 @@ TEST(LinkPayloads, SetpointRoundTripsOnRandomValues) {
   for (int trial = 0; trial < kTrials; ++trial) {
     SetpointPayload sent;
     sent.sample_index = random_value<std::uint32_t>(random);
-    fill(random, sent.position_code);
+    fill(random, sent.input_code);
     const std::vector<std::uint8_t> bytes = encode(sent);
     ASSERT_EQ(bytes.size(), static_cast<std::size_t>(board::kSetpointPayloadBytes));
     const SetpointPayload received = decode_setpoint(bytes);
     ASSERT_EQ(received.sample_index, sent.sample_index) << "trial " << trial;
-    ASSERT_EQ(received.position_code, sent.position_code) << "trial " << trial;
+    ASSERT_EQ(received.input_code, sent.input_code) << "trial " << trial;
     ASSERT_EQ(encode(received), bytes);
   }
 }
@@ -171,10 +171,10 @@ TEST(LinkPayloads, FieldsAreLittleEndianAtThePackagesOffsets) {
   EXPECT_EQ(bytes[board::kTelemetryRejectedOffset + 1], 0xAB);
   EXPECT_EQ(decode_telemetry(bytes).references, telemetry.references);
   SetpointPayload setpoint;
-  setpoint.position_code = {-1, 0, 0x7F000000};
+  setpoint.input_code = {-1, 0, 0x7F00};
   const std::vector<std::uint8_t> position = encode(setpoint);
-  for (int i = 0; i < 4; ++i) EXPECT_EQ(position[board::kSetpointPositionOffset + i], 0xFF);
-  EXPECT_EQ(position[board::kSetpointPositionOffset + 11], 0x7F);
+  for (int i = 0; i < 2; ++i) EXPECT_EQ(position[board::kSetpointInputOffset + i], 0xFF);
+  EXPECT_EQ(position[board::kSetpointInputOffset + 5], 0x7F);
 }
 
 TEST(LinkPayloads, FlagAndFaultHelpersUseThePackagesBits) {
@@ -244,10 +244,11 @@ TEST(LinkPayloads, LayoutTablesTileEachPayload) {
   // shows a drift is caught: one field moved by a byte no longer tiles.
   EXPECT_TRUE(layout::tiles(layout::kTelemetry, board::kTelemetryPayloadBytes));
   EXPECT_TRUE(layout::tiles(layout::kIdentify, board::kIdentifyPayloadBytes));
-  layout::Field moved[] = {layout::kSetpointIndex, layout::kSetpointPosition};
+  EXPECT_TRUE(layout::tiles(layout::kModel, board::kModelPayloadBytes));
+  layout::Field moved[] = {layout::kSetpointIndex, layout::kSetpointInput};
   moved[1].offset += 1;
   EXPECT_FALSE(layout::tiles(moved, board::kSetpointPayloadBytes));
-  const layout::Field shrunk[] = {layout::kSetpointIndex, layout::kSetpointPosition};
+  const layout::Field shrunk[] = {layout::kSetpointIndex, layout::kSetpointInput};
   EXPECT_FALSE(layout::tiles(shrunk, board::kSetpointPayloadBytes + 1));
 }
 

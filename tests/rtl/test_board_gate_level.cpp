@@ -69,12 +69,11 @@ Outcome run_scenario(const std::string& mem_dir, const golden::QuantisedNetwork&
     link::SetpointPayload setpoint;
     setpoint.sample_index = n;
     const Vec3 p = centre + Vec3(0.0005 * std::sin(0.3 * n), 0.0005 * std::cos(0.3 * n) - 0.0005, 0.0);
-    const auto codes = golden::encode_position(q.formats, p);
-    for (int j = 0; j < 3; ++j) setpoint.position_code[j] = static_cast<std::int32_t>(codes[j]);
+    setpoint.input_code = golden::setpoint_input(q, golden::encode_position(q.formats, p));
     std::vector<std::uint8_t> bytes = link::encode_frame(link::make_frame(sequence++, setpoint));
     bench.send(bytes);
     if (n % 4 == 3) {
-      bytes[4 + random() % 16] ^= static_cast<std::uint8_t>(1u << (random() % 8));
+      bytes[4 + random() % board::kSetpointPayloadBytes] ^= static_cast<std::uint8_t>(1u << (random() % 8));
       bench.send(bytes);
       ++outcome.corrupted;
     }

@@ -313,9 +313,7 @@ StaleRun run_stale_setpoints(cosim::BoardFidelity fidelity, const golden::Quanti
   const link::TelemetryPayload homed = session.set_home();
   const auto code = golden::encode_position(q.formats, Vec3(0.006, 0.0055, -0.0706));
   for (std::uint32_t i = 0; i < 64; ++i) {
-    session.send_setpoint(
-        homed.sample_index + i,
-        {static_cast<std::int32_t>(code[0]), static_cast<std::int32_t>(code[1]), static_cast<std::int32_t>(code[2])});
+    session.send_setpoint(homed.sample_index + i, golden::setpoint_input(q, code));
   }
   for (int i = 0; i < 30; ++i) out.before = session.next_telemetry();  // the line carries them in 15 ms
   out.enabled = session.enable();
@@ -420,7 +418,8 @@ HomingRun run_homing(cosim::BoardFidelity fidelity, const golden::QuantisedNetwo
     for (int j = 0; j < 3; ++j) delta[j] = off.referenced(j) ? 0 : search;
     const std::array<std::int32_t, 3> code = controller::jog_setpoint(weights, off.references, delta, &actual);
     const link::TelemetryPayload on = session.enable();
-    session.send_setpoint(on.sample_index + on.fill, code);
+    session.send_setpoint(on.sample_index + on.fill,
+                          golden::setpoint_input(weights.network, {code[0], code[1], code[2]}));
     ++out.jogs;
     for (int frame = 1; frame < 4000; ++frame) {
       const link::TelemetryPayload t = session.next_telemetry();

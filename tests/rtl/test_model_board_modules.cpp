@@ -230,9 +230,6 @@ std::vector<std::uint32_t> rtl_memory(const Root& x, const std::string& memory) 
       out.push_back(x.board_core__DOT__u_setpoints__DOT__g_ram__BRA__0__KET____DOT__ram_q[e]);
       out.push_back(x.board_core__DOT__u_setpoints__DOT__g_ram__BRA__1__KET____DOT__ram_q[e]);
       out.push_back(x.board_core__DOT__u_setpoints__DOT__g_ram__BRA__2__KET____DOT__ram_q[e]);
-      out.push_back(x.board_core__DOT__u_setpoints__DOT__g_ram__BRA__3__KET____DOT__ram_q[e]);
-      out.push_back(x.board_core__DOT__u_setpoints__DOT__g_ram__BRA__4__KET____DOT__ram_q[e]);
-      out.push_back(x.board_core__DOT__u_setpoints__DOT__g_ram__BRA__5__KET____DOT__ram_q[e]);
     }
   }
   return out;
@@ -491,19 +488,15 @@ class Stimulus {
     return frame(link::FrameType::kCommand, {static_cast<std::uint8_t>(code)});
   }
   std::vector<std::uint8_t> identify() { return frame(link::FrameType::kIdentifyRequest, {}); }
-  // A setpoint: its sample index and three position codes (mostly inside the trained cube).
+  // A setpoint: its sample index and three scaled input codes (mostly inside the trained cube).
   std::vector<std::uint8_t> setpoint(std::uint32_t index) {
     std::vector<std::uint8_t> p;
     for (int b = 0; b < 4; ++b) p.push_back(static_cast<std::uint8_t>(index >> (8 * b)));
-    std::array<std::int64_t, 3> codes{};
     for (int j = 0; j < 3; ++j) {
-      // Mostly near the trained range's centre (within half the scaled input's span), else any code.
-      const std::int64_t span = std::int64_t{1} << (q_.input_shift[j] + 14);
-      codes[j] = chance(0.9) ? q_.input_centre[j] + std::uniform_int_distribution<std::int64_t>(-span, span)(rng_)
-                             : static_cast<std::int32_t>(rng_());
-    }
-    for (const std::int64_t c : codes) {
-      for (int b = 0; b < 4; ++b) p.push_back(static_cast<std::uint8_t>(static_cast<std::uint64_t>(c) >> (8 * b)));
+      // Mostly within half the scaled input's span, else any code.
+      const std::int64_t c = chance(0.9) ? std::uniform_int_distribution<std::int64_t>(-16384, 16384)(rng_)
+                                         : static_cast<std::int16_t>(rng_());
+      for (int b = 0; b < 2; ++b) p.push_back(static_cast<std::uint8_t>(static_cast<std::uint64_t>(c) >> (8 * b)));
     }
     return frame(link::FrameType::kSetpoint, p);
   }
@@ -736,7 +729,8 @@ TEST(ModelBoardModules, ReferenceInterpolatorEqualsTheRtlUnderStreamedSetpoints)
     if (pick < 85) {  // keep two or three setpoints ahead of the plays
       ok = session.send(s.setpoint(session.next_index()));
       if (ok && session.fill() >= 3)
-        ok = session.wait(kSetpointClocks - kByteClocks * 22 + static_cast<std::uint64_t>(s.uniform(0, 500)));
+        ok = session.wait(kSetpointClocks - kByteClocks * (board::kSetpointPayloadBytes + 6) +
+                          static_cast<std::uint64_t>(s.uniform(0, 500)));
     } else if (pick < 90) {
       ok = session.command(board::kCommandHold, static_cast<std::uint64_t>(s.uniform(0, 3)) * kSetpointClocks) &&
            session.command(board::kCommandEnable);

@@ -24,7 +24,7 @@ TEST(NetworkGateLevel, BitExactOnTenThousandVectors) {
   const golden::QuantisedNetwork q = golden::quantise(weights.network);
   std::cout << "weights " << weights_path << ", vector seed " << kSeed << "\n";
   // The netlist ignores +delta_mem_dir; an empty directory proves it needs no .mem file.
-  rtl::NetworkHarness<Vdelta_network_gate> netlist(q.formats.input_bits, q.formats.output_bits,
+  rtl::NetworkHarness<Vdelta_network_gate> netlist(q.formats.scaled_input_bits, q.formats.output_bits,
                                                    fresh_directory("gate_level_no_mem"));
   // Saturation corners first, then random positions in and beyond the range and random codes.
   std::vector<golden::RawInput> vectors = golden::saturation_corners(q);
@@ -33,7 +33,7 @@ TEST(NetworkGateLevel, BitExactOnTenThousandVectors) {
   golden::SaturationCounters counters;
   for (std::size_t v = 0; v < vectors.size(); ++v) {
     const golden::RawOutput expected = golden::evaluate_raw(q, vectors[v], &counters);
-    const rtl::NetworkRun run = netlist.run(vectors[v]);
+    const rtl::NetworkRun run = netlist.run(golden::scale_input(q, vectors[v]).code);
     ASSERT_EQ(run.outputs, expected.alpha)
         << "vector " << v << " x = (" << vectors[v][0] << ", " << vectors[v][1] << ", " << vectors[v][2] << ")";
     ASSERT_EQ(run.latency_cycles, 92) << "vector " << v;

@@ -14,7 +14,7 @@
 namespace delta::test {
 namespace {
 
-constexpr int kInputWidth = 32;   // x: Q4.28 (hls/README.md step 1)
+constexpr int kInputWidth = 16;   // u: Q1.15 (hls/README.md step 2, the host's: golden::scale_input)
 constexpr int kOutputWidth = 24;  // alpha: Q10.14 (step 6)
 
 template <class Model>
@@ -30,7 +30,7 @@ void expect_bit_exact(std::uint32_t network_seed, std::uint64_t vector_seed, lon
   for (long v = 0; v < vectors; ++v) {
     const std::array<std::int64_t, 3> x = inputs.next();
     const golden::RawOutput expected = golden::evaluate_raw(q, x, &counters);
-    const rtl::NetworkRun run = rtl.run(x);
+    const rtl::NetworkRun run = rtl.run(golden::scale_input(q, x).code);
     ASSERT_EQ(run.latency_cycles, expected_latency) << "vector " << v;
     if (run.outputs != expected.alpha && ++mismatches <= 5) {
       ADD_FAILURE() << "vector " << v << " x = (" << x[0] << ", " << x[1] << ", " << x[2] << "): rtl ("
@@ -69,7 +69,8 @@ TEST(NetworkRtl, OutputSaturationIsBitExact) {
   golden::SaturationCounters counters;
   for (int v = 0; v < 20'000; ++v) {
     const std::array<std::int64_t, 3> x = inputs.next();
-    ASSERT_EQ(rtl.run(x).outputs, golden::evaluate_raw(q, x, &counters).alpha) << "vector " << v;
+    ASSERT_EQ(rtl.run(golden::scale_input(q, x).code).outputs, golden::evaluate_raw(q, x, &counters).alpha)
+        << "vector " << v;
   }
   std::cout << "output saturations: " << counters.output << " of " << counters.evaluations << "\n";
   EXPECT_GT(counters.output, 0u);
@@ -83,9 +84,9 @@ TEST(NetworkRtl, HandshakeFollowsApCtrlHs) {
   // Back-to-back inferences give the same answer as single ones (no state leaks between runs).
   InputVectors inputs(q, 3);
   const std::array<std::int64_t, 3> a = inputs.next(), b = inputs.next();
-  const auto first = rtl.run(a).outputs;
-  EXPECT_EQ(rtl.run(b).outputs, golden::evaluate_raw(q, b).alpha);
-  EXPECT_EQ(rtl.run(a).outputs, first);
+  const auto first = rtl.run(golden::scale_input(q, a).code).outputs;
+  EXPECT_EQ(rtl.run(golden::scale_input(q, b).code).outputs, golden::evaluate_raw(q, b).alpha);
+  EXPECT_EQ(rtl.run(golden::scale_input(q, a).code).outputs, first);
   EXPECT_EQ(first, golden::evaluate_raw(q, a).alpha);
 }
 
@@ -105,7 +106,7 @@ TEST(NetworkRtl, WritesFstWaveformOnRequest) {
   {
     rtl::NetworkHarness<Vdelta_network_reuse25> rtl(kInputWidth, kOutputWidth, mem_dir, fst);
     InputVectors inputs(q, 5);
-    rtl.run(inputs.next());
+    rtl.run(golden::scale_input(q, inputs.next()).code);
   }
   ASSERT_TRUE(std::filesystem::exists(fst));
   EXPECT_GT(std::filesystem::file_size(fst), 1000u);

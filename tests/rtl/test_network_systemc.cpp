@@ -29,7 +29,7 @@ SC_MODULE(NetworkDriver) {
   sc_in<bool> clk;
   sc_out<bool> ap_rst, ap_start;
   sc_in<bool> ap_done, ap_idle, ap_ready;
-  sc_out<std::uint32_t> x_0, x_1, x_2;
+  sc_out<std::uint32_t> u_0, u_1, u_2;  // scaled inputs (golden::scale_input), 16 bits
   sc_in<std::uint32_t> y_0, y_1, y_2;
   sc_in<bool> y_0_ap_vld, y_1_ap_vld, y_2_ap_vld;
 
@@ -50,9 +50,10 @@ SC_MODULE(NetworkDriver) {
     ap_rst.write(false);
     wait();
     for (const delta::golden::RawInput& x : *vectors) {
-      x_0.write(static_cast<std::uint32_t>(x[0]));
-      x_1.write(static_cast<std::uint32_t>(x[1]));
-      x_2.write(static_cast<std::uint32_t>(x[2]));
+      const auto u = delta::golden::scale_input(*network, x).code;
+      u_0.write(static_cast<std::uint32_t>(u[0]) & 0xFFFFu);
+      u_1.write(static_cast<std::uint32_t>(u[1]) & 0xFFFFu);
+      u_2.write(static_cast<std::uint32_t>(u[2]) & 0xFFFFu);
       ap_start.write(true);
       do wait();
       while (!ap_ready.read());  // this edge took ap_start
@@ -100,7 +101,7 @@ int sc_main(int argc, char* argv[]) {
 
   sc_clock clk("clk", 10, SC_NS);
   sc_signal<bool> ap_rst, ap_start, ap_done, ap_idle, ap_ready, y_0_ap_vld, y_1_ap_vld, y_2_ap_vld;
-  sc_signal<std::uint32_t> x_0, x_1, x_2, y_0, y_1, y_2;
+  sc_signal<std::uint32_t> u_0, u_1, u_2, y_0, y_1, y_2;
   Vdelta_network_sc network("network");
   NetworkDriver driver("driver");
   network.ap_clk(clk);
@@ -113,9 +114,9 @@ int sc_main(int argc, char* argv[]) {
   DELTA_BIND(ap_done);
   DELTA_BIND(ap_idle);
   DELTA_BIND(ap_ready);
-  DELTA_BIND(x_0);
-  DELTA_BIND(x_1);
-  DELTA_BIND(x_2);
+  DELTA_BIND(u_0);
+  DELTA_BIND(u_1);
+  DELTA_BIND(u_2);
   DELTA_BIND(y_0);
   DELTA_BIND(y_1);
   DELTA_BIND(y_2);

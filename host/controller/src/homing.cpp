@@ -348,7 +348,8 @@ HomingReport home_at_references(link::LinkSession& session, const golden::BoardW
         if (on.references[j] != off.references[j]) fail(kExitFault, joint_name(j) + " moved with the drives off");
       }
       checked([&] {
-        session.send_setpoint(on.sample_index + on.fill, code);
+        session.send_setpoint(on.sample_index + on.fill,
+                              golden::setpoint_input(weights.network, {code[0], code[1], code[2]}));
         return 0;
       });
 

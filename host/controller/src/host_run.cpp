@@ -131,7 +131,7 @@ void StreamingLoop::run() {
     const auto code = golden::encode_position(network_.formats, shaped);
     codes[k] = {static_cast<std::int32_t>(code[0]), static_cast<std::int32_t>(code[1]),
                 static_cast<std::int32_t>(code[2])};
-    session_.send_setpoint(index, codes[k]);
+    session_.send_setpoint(index, golden::setpoint_input(network_, code));
   };
   auto record = [&](const link::TelemetryPayload& frame) {
     TelemetryRecord r;

@@ -1,5 +1,6 @@
 // $readmemh files and the C++ weights header of a quantised network.
 #include "delta/golden/export.hpp"
+#include "delta/golden/model_image.hpp"
 
 #include <cmath>
 #include <memory>
@@ -170,24 +171,13 @@ std::vector<ExportFile> export_files(const QuantisedNetwork& q) {
   return files;
 }
 
-std::vector<std::uint8_t> weights_crc_bytes(const QuantisedNetwork& q) {
-  std::vector<std::uint8_t> bytes;
-  for (const MemSpec& spec : mem_specs(q)) {
-    const std::uint64_t mask = spec.bits >= 64 ? ~std::uint64_t{0} : (std::uint64_t{1} << spec.bits) - 1;
-    const int word_bytes = (spec.bits + 7) / 8;
-    for (std::int64_t code : spec.words) {
-      const std::uint64_t word = static_cast<std::uint64_t>(code) & mask;  // as hex_word writes it
-      for (int i = 0; i < word_bytes; ++i) bytes.push_back(static_cast<std::uint8_t>(word >> (8 * i)));
-    }
-  }
-  return bytes;
-}
+std::vector<std::uint8_t> weights_crc_bytes(const QuantisedNetwork& q) { return model_crc_bytes(q); }
 
 ExportFile identify_mem_file(const link::IdentifyPayload& identify) {
   static_assert(board::kIdentifyPayloadBytes % 2 == 0, "identify.mem holds 16-bit words");
   const std::vector<std::uint8_t> payload = link::encode(identify);
   std::ostringstream mem;
-  mem << "// delta board link v2 (docs/board_link.md): identify.mem, the identify payload ("
+  mem << "// delta board link v3 (docs/board_link.md): identify.mem, the identify payload ("
       << board::kIdentifyPayloadBytes << " bytes)\n"
       << "// protocol " << identify.protocol_version << ", setpoint depth " << identify.setpoint_depth
       << ", gateware build id " << hex_word(identify.build_id, 32) << ", weights CRC-32 "
@@ -219,7 +209,10 @@ void write_export(const QuantisedNetwork& q, const std::string& directory) {
 }
 
 ExportFile board_identify_file(const QuantisedNetwork& q) {
-  return identify_mem_file(link::board_identify(kGatewareBuildId, weights_crc(q)));
+  // The model is data the board loads over the link: the gateware's identify words hold no model
+  // (CRC 0); the board writes the loaded model's CRC into them.
+  static_cast<void>(q);
+  return identify_mem_file(link::board_identify(kGatewareBuildId, 0));
 }
 
 }  // namespace delta::golden

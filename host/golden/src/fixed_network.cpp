@@ -63,6 +63,32 @@ std::int64_t quantise_value(double value, int fraction, int bits, const std::str
 
 }  // namespace
 
+void fill_tanh_tables(QuantisedNetwork& q) {
+  const Formats& f = q.formats;
+  q.tanh_table.clear();
+  q.tanh_slope.clear();
+  // tanh table over |n| in [0, 2^range): entries in Q0.(F_h + G), capped so h <= 1 - 2^-F_h.
+  const int segments = f.tanh_segments();
+  const int entry_fraction = f.tanh_entry_fraction_bits();
+  const std::int64_t entry_cap = ((std::int64_t{1} << f.hidden_fraction_bits) - 1) << f.tanh_guard_bits;
+  std::vector<std::int64_t> entries;
+  for (int i = 0; i <= segments; ++i) {
+    // tanh is concave for n > 0, so a chord lies below it by up to step^2 |tanh''| / 8 mid-segment;
+    // raising each node by half of that local figure halves the worst interpolation error.
+    const double step = std::ldexp(1.0, -f.tanh_segments_per_unit_log2);
+    const double n = i * step;
+    const double t = std::tanh(n);
+    const double curvature = 2.0 * t * (1.0 - t * t);  // |tanh''(n)|
+    const double node = t + step * step * curvature / 16.0;
+    const std::int64_t entry = static_cast<std::int64_t>(std::floor(std::ldexp(node, entry_fraction) + 0.5));
+    entries.push_back(std::min(entry, entry_cap));
+  }
+  for (int i = 0; i < segments; ++i) {
+    q.tanh_table.push_back(entries[i]);
+    q.tanh_slope.push_back(entries[i + 1] - entries[i]);
+  }
+}
+
 QuantisedNetwork quantise(const nn::Network& network, const Formats& formats) {
   formats.validate();
   QuantisedNetwork q;
@@ -100,26 +126,7 @@ QuantisedNetwork quantise(const nn::Network& network, const Formats& formats) {
     }
     q.hidden_bias.push_back(quantise_value(bias, acc1_fraction, bias1_bits, "b1'(" + std::to_string(k + 1) + ")"));
   }
-  // tanh table over |n| in [0, 2^range): entries in Q0.(F_h + G), capped so h <= 1 - 2^-F_h.
-  const int segments = f.tanh_segments();
-  const int entry_fraction = f.tanh_entry_fraction_bits();
-  const std::int64_t entry_cap = ((std::int64_t{1} << f.hidden_fraction_bits) - 1) << f.tanh_guard_bits;
-  std::vector<std::int64_t> entries;
-  for (int i = 0; i <= segments; ++i) {
-    // tanh is concave for n > 0, so a chord lies below it by up to step^2 |tanh''| / 8 mid-segment;
-    // raising each node by half of that local figure halves the worst interpolation error.
-    const double step = std::ldexp(1.0, -f.tanh_segments_per_unit_log2);
-    const double n = i * step;
-    const double t = std::tanh(n);
-    const double curvature = 2.0 * t * (1.0 - t * t);  // |tanh''(n)|
-    const double node = t + step * step * curvature / 16.0;
-    const std::int64_t entry = static_cast<std::int64_t>(std::floor(std::ldexp(node, entry_fraction) + 0.5));
-    entries.push_back(std::min(entry, entry_cap));
-  }
-  for (int i = 0; i < segments; ++i) {
-    q.tanh_table.push_back(entries[i]);
-    q.tanh_slope.push_back(entries[i + 1] - entries[i]);
-  }
+  fill_tanh_tables(q);
   // Output: alpha = LW' h + b2' with the mapminmax unscaling folded in (degrees).
   const Vec3 output_half = (network.output_max - network.output_min) / 2.0;
   const int acc2_fraction = f.output_accumulator_fraction_bits();
@@ -152,15 +159,27 @@ std::int64_t tanh_code(const QuantisedNetwork& q, std::int64_t tanh_input, bool*
   return tanh_input < 0 ? -hidden : hidden;
 }
 
-RawOutput evaluate_raw(const QuantisedNetwork& q, const std::array<std::int64_t, 3>& position_code,
-                       SaturationCounters* counters) {
-  const Formats& f = q.formats;
-  RawOutput out;
-  std::array<std::int64_t, 3> scaled{};
+ScaledInput scale_input(const QuantisedNetwork& q, const std::array<std::int64_t, 3>& position_code) {
+  ScaledInput in;
   for (int j = 0; j < 3; ++j) {
     const std::int64_t offset = position_code[j] - q.input_centre[j];
-    scaled[j] = saturate(round_shift(offset, q.input_shift[j]), f.scaled_input_bits, &out.scaled_input_saturated);
+    in.code[j] = saturate(round_shift(offset, q.input_shift[j]), q.formats.scaled_input_bits, &in.saturated);
   }
+  return in;
+}
+
+std::array<std::int16_t, 3> setpoint_input(const QuantisedNetwork& q,
+                                           const std::array<std::int64_t, 3>& position_code) {
+  const ScaledInput in = scale_input(q, position_code);
+  return {static_cast<std::int16_t>(in.code[0]), static_cast<std::int16_t>(in.code[1]),
+          static_cast<std::int16_t>(in.code[2])};
+}
+
+RawOutput evaluate_scaled(const QuantisedNetwork& q, const std::array<std::int64_t, 3>& scaled,
+                          SaturationCounters* counters, bool scaled_input_saturated) {
+  const Formats& f = q.formats;
+  RawOutput out;
+  out.scaled_input_saturated = scaled_input_saturated;
   const int tanh_shift = f.hidden_accumulator_fraction_bits() - f.tanh_input_fraction_bits;
   std::vector<std::int64_t> hidden(q.hidden);
   for (int k = 0; k < q.hidden; ++k) {
@@ -182,6 +201,12 @@ RawOutput evaluate_raw(const QuantisedNetwork& q, const std::array<std::int64_t,
     ++counters->evaluations;
   }
   return out;
+}
+
+RawOutput evaluate_raw(const QuantisedNetwork& q, const std::array<std::int64_t, 3>& position_code,
+                       SaturationCounters* counters) {
+  const ScaledInput in = scale_input(q, position_code);
+  return evaluate_scaled(q, in.code, counters, in.saturated);
 }
 
 std::array<std::int64_t, 3> encode_position(const Formats& formats, const Vec3& position_m, bool* clamped) {

@@ -15,6 +15,8 @@ std::optional<std::size_t> payload_bytes(std::uint8_t type) {
       return board::kSetpointPayloadBytes;
     case board::kFrameTypeCommand:
       return board::kCommandPayloadBytes;
+    case board::kFrameTypeModel:
+      return board::kModelPayloadBytes;
     case board::kFrameTypeIdentify:
       return board::kIdentifyPayloadBytes;
     case board::kFrameTypeTelemetry:
@@ -29,6 +31,7 @@ std::optional<std::size_t> payload_bytes(Receiver receiver, std::uint8_t type) {
     case board::kFrameTypeIdentifyRequest:
     case board::kFrameTypeSetpoint:
     case board::kFrameTypeCommand:
+    case board::kFrameTypeModel:
       return receiver == Receiver::kBoard ? payload_bytes(type) : std::nullopt;
     case board::kFrameTypeIdentify:
     case board::kFrameTypeTelemetry:

@@ -18,7 +18,8 @@ static_assert(fits<std::uint16_t>(board::kProtocolVersion) && fits<std::uint16_t
                   fits<std::uint16_t>(board::kControlRateHz) && fits<std::uint16_t>(board::kSetpointRateHz),
               "a board fact does not fit its identify field");
 static_assert(board::kFlagDriveEnable < 8 && board::kFlagHomed < 8 && board::kFlagHolding < 8 &&
-                  board::kFlagFault < 8 && board::kFlagEncoderError < 8 && board::kFaultCauseBits <= 8,
+                  board::kFlagFault < 8 && board::kFlagEncoderError < 8 && board::kFlagReferenced < 8 &&
+                  board::kFlagHoming < 8 && board::kFlagModel < 8 && board::kFaultCauseBits <= 8,
               "telemetry flag and fault-cause bits are one byte each");
 
 template <typename T>
@@ -81,7 +82,13 @@ void read(const std::vector<std::uint8_t>& bytes, const layout::Field& field, st
 template <typename Payload, typename Visit>
 void visit_setpoint(Payload& p, Visit&& visit) {
   visit(layout::kSetpointIndex, p.sample_index);
-  visit(layout::kSetpointPosition, p.position_code);
+  visit(layout::kSetpointInput, p.input_code);
+}
+
+template <typename Payload, typename Visit>
+void visit_model(Payload& p, Visit&& visit) {
+  visit(layout::kModelFrame, p.frame);
+  visit(layout::kModelWord, p.word);
 }
 
 template <typename Payload, typename Visit>
@@ -118,7 +125,7 @@ void visit_telemetry(Payload& p, Visit&& visit) {
 void check_size(const char* what, const std::vector<std::uint8_t>& payload, long long expected) {
   if (payload.size() != static_cast<std::size_t>(expected)) {
     throw std::invalid_argument(std::string(what) + " payload of " + std::to_string(payload.size()) +
-                                " bytes: the link v2 " + what + " payload has " + std::to_string(expected));
+                                " bytes: the link v3 " + what + " payload has " + std::to_string(expected));
   }
 }
 
@@ -151,6 +158,12 @@ std::vector<std::uint8_t> encode(const SetpointPayload& payload) {
   return bytes;
 }
 
+std::vector<std::uint8_t> encode(const ModelPayload& payload) {
+  std::vector<std::uint8_t> bytes(board::kModelPayloadBytes);
+  visit_model(payload, [&bytes](const layout::Field& field, const auto& value) { write(bytes, field, value); });
+  return bytes;
+}
+
 std::vector<std::uint8_t> encode(Command command) {
   std::vector<std::uint8_t> bytes(board::kCommandPayloadBytes);
   write(bytes, layout::kCommandByte, static_cast<std::uint8_t>(command));
@@ -180,6 +193,13 @@ SetpointPayload decode_setpoint(const std::vector<std::uint8_t>& payload) {
   SetpointPayload setpoint;
   visit_setpoint(setpoint, [&payload](const layout::Field& field, auto& value) { read(payload, field, value); });
   return setpoint;
+}
+
+ModelPayload decode_model(const std::vector<std::uint8_t>& payload) {
+  check_size("model", payload, board::kModelPayloadBytes);
+  ModelPayload model;
+  visit_model(model, [&payload](const layout::Field& field, auto& value) { read(payload, field, value); });
+  return model;
 }
 
 std::optional<Command> decode_command(const std::vector<std::uint8_t>& payload) {
@@ -217,6 +237,9 @@ TelemetryPayload decode_telemetry(const std::vector<std::uint8_t>& payload) {
 
 Frame make_frame(std::uint8_t sequence, const SetpointPayload& payload) {
   return frame_of(sequence, FrameType::kSetpoint, encode(payload));
+}
+Frame make_frame(std::uint8_t sequence, const ModelPayload& payload) {
+  return frame_of(sequence, FrameType::kModel, encode(payload));
 }
 Frame make_frame(std::uint8_t sequence, Command command) {
   return frame_of(sequence, FrameType::kCommand, encode(command));

@@ -98,10 +98,10 @@ std::optional<TelemetryPayload> LinkSession::take_telemetry() {
   return telemetry;
 }
 
-void LinkSession::send_setpoint(std::uint32_t sample_index, const std::array<std::int32_t, 3>& position_code) {
+void LinkSession::send_setpoint(std::uint32_t sample_index, const std::array<std::int16_t, 3>& input_code) {
   SetpointPayload setpoint;
   setpoint.sample_index = sample_index;
-  setpoint.position_code = position_code;
+  setpoint.input_code = input_code;
   send_frame(make_frame(sequence_++, setpoint));
   ++statistics_.setpoints_sent;
 }

@@ -29,6 +29,7 @@ enum class FrameType : std::uint8_t {
   kIdentifyRequest = board::kFrameTypeIdentifyRequest,
   kSetpoint = board::kFrameTypeSetpoint,
   kCommand = board::kFrameTypeCommand,
+  kModel = board::kFrameTypeModel,
   kIdentify = board::kFrameTypeIdentify,
   kTelemetry = board::kFrameTypeTelemetry,
 };

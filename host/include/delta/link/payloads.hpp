@@ -1,5 +1,5 @@
-// The payloads of the board link v2 (docs/board_link.md, "Payloads"): setpoint, command, identify,
-// telemetry, as value structs with encode and decode. Little-endian; every offset comes from
+// The payloads of the board link v3 (docs/board_link.md, "Payloads"): setpoint, command, model,
+// identify, telemetry, as value structs with encode and decode. Little-endian; every offset comes from
 // rtl/board/delta_board_pkg.sv through delta/board_facts.hpp, every field width from the struct's
 // C++ type, and static_asserts below check that the fields tile each payload exactly (no gap, no
 // overlap, the package's payload size), so the package cannot drift from this codec.
@@ -17,11 +17,27 @@
 
 namespace delta::link {
 
-// Setpoint (host -> board): the sample index and the three network input codes (raw positions,
-// metres * 2^28, the format of `deltactl quantise`).
+// Setpoint (host -> board): the sample index and the three scaled network input codes u_j =
+// sat_16(round_shift(x_j - centre_j, shift_j)) (Q1.15, hls/README.md step 2): the host scales the
+// position with its model (golden::scale_input), the board's network starts from u.
 struct SetpointPayload {
   std::uint32_t sample_index = 0;
-  std::array<std::int32_t, 3> position_code{};
+  std::array<std::int16_t, 3> input_code{};
+};
+
+// One word of the model (host -> board, docs/board_link.md "The model"): frame number n
+// (0 .. board::kModelFrames - 1) and its 48-bit word, three 16-bit lanes, low first.
+struct ModelPayload {
+  std::uint16_t frame = 0;
+  std::array<std::uint16_t, 3> word{};
+  std::uint64_t value() const {
+    return std::uint64_t{word[0]} | std::uint64_t{word[1]} << 16 | std::uint64_t{word[2]} << 32;
+  }
+  static ModelPayload of(std::uint16_t frame, std::uint64_t value) {
+    return ModelPayload{frame,
+                        {static_cast<std::uint16_t>(value), static_cast<std::uint16_t>(value >> 16),
+                         static_cast<std::uint16_t>(value >> 32)}};
+  }
 };
 
 // Command byte (host -> board).
@@ -39,7 +55,7 @@ struct IdentifyPayload {
   std::uint16_t protocol_version = 0;  // board::kProtocolVersion
   std::uint16_t setpoint_depth = 0;    // board::kSetpointDepth, entries
   std::uint32_t build_id = 0;          // gateware build id: first 32 bits of SHA-256 of rtl/**/*.sv
-  std::uint32_t weights_crc = 0;       // delta::weights_crc of the network's ROM codes
+  std::uint32_t weights_crc = 0;       // CRC-32 of the loaded model (delta::weights_crc), 0 with none
   std::uint32_t network_clock_hz = 0;
   std::uint32_t board_clock_hz = 0;
   std::uint16_t control_rate_hz = 0;
@@ -59,6 +75,7 @@ enum class TelemetryFlag : std::uint8_t {
   kEncoderError = board::kFlagEncoderError,
   kReferenced = board::kFlagReferenced,  // every joint homed against its reference
   kHoming = board::kFlagHoming,
+  kModel = board::kFlagModel,  // a complete model whose CRC-32 checked is loaded
 };
 
 // Bits of TelemetryPayload::fault_cause.
@@ -109,6 +126,7 @@ struct TelemetryPayload {
 // Encoding: exactly the type's payload size (board::k*PayloadBytes). A value that does not fit a
 // field narrower than its C++ type throws std::invalid_argument (no field is narrower today).
 std::vector<std::uint8_t> encode(const SetpointPayload& payload);
+std::vector<std::uint8_t> encode(const ModelPayload& payload);
 std::vector<std::uint8_t> encode(Command command);
 std::vector<std::uint8_t> encode(const IdentifyPayload& payload);
 std::vector<std::uint8_t> encode(const TelemetryPayload& payload);
@@ -117,12 +135,14 @@ std::vector<std::uint8_t> encode(const TelemetryPayload& payload);
 // is not the type's size. decode_command returns nothing for a byte that is no Command (the board
 // refuses it and counts it in `rejected`).
 SetpointPayload decode_setpoint(const std::vector<std::uint8_t>& payload);
+ModelPayload decode_model(const std::vector<std::uint8_t>& payload);
 std::optional<Command> decode_command(const std::vector<std::uint8_t>& payload);
 IdentifyPayload decode_identify(const std::vector<std::uint8_t>& payload);
 TelemetryPayload decode_telemetry(const std::vector<std::uint8_t>& payload);
 
 // Whole frames of a payload, ready for encode_frame.
 Frame make_frame(std::uint8_t sequence, const SetpointPayload& payload);
+Frame make_frame(std::uint8_t sequence, const ModelPayload& payload);
 Frame make_frame(std::uint8_t sequence, Command command);
 Frame make_frame(std::uint8_t sequence, const IdentifyPayload& payload);
 Frame make_frame(std::uint8_t sequence, const TelemetryPayload& payload);
@@ -144,8 +164,12 @@ constexpr Field field(long long offset, std::size_t count = 1, long long element
 }
 
 constexpr Field kSetpointIndex = field<std::uint32_t>(board::kSetpointIndexOffset);
-constexpr Field kSetpointPosition = field<std::int32_t>(board::kSetpointPositionOffset, 3);
-constexpr Field kSetpoint[] = {kSetpointIndex, kSetpointPosition};
+constexpr Field kSetpointInput = field<std::int16_t>(board::kSetpointInputOffset, 3);
+constexpr Field kSetpoint[] = {kSetpointIndex, kSetpointInput};
+
+constexpr Field kModelFrame = field<std::uint16_t>(board::kModelFrameOffset);
+constexpr Field kModelWord = field<std::uint16_t>(board::kModelWordOffset, 3);
+constexpr Field kModel[] = {kModelFrame, kModelWord};
 
 constexpr Field kCommandByte = field<std::uint8_t>(0);
 constexpr Field kCommand[] = {kCommandByte};
@@ -195,10 +219,13 @@ constexpr bool tiles(const Field (&fields)[N], long long payload_bytes) {
 
 static_assert(tiles(kSetpoint, board::kSetpointPayloadBytes), "setpoint payload: package offsets and fields differ");
 static_assert(tiles(kCommand, board::kCommandPayloadBytes), "command payload: package and codec differ");
+static_assert(tiles(kModel, board::kModelPayloadBytes), "model payload: package offsets and fields differ");
+static_assert(board::kModelWordBits == 48, "a model word is three 16-bit lanes");
 static_assert(tiles(kIdentify, board::kIdentifyPayloadBytes), "identify payload: package offsets and fields differ");
 static_assert(tiles(kTelemetry, board::kTelemetryPayloadBytes), "telemetry payload: package offsets and fields differ");
 static_assert(board::kSetpointPayloadBytes <= board::kFrameMaxPayloadBytes &&
                   board::kCommandPayloadBytes <= board::kFrameMaxPayloadBytes &&
+                  board::kModelPayloadBytes <= board::kFrameMaxPayloadBytes &&
                   board::kIdentifyPayloadBytes <= board::kFrameMaxPayloadBytes &&
                   board::kTelemetryPayloadBytes <= board::kFrameMaxPayloadBytes,
               "a payload larger than a frame holds");

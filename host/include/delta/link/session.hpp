@@ -184,7 +184,8 @@ class LinkSession {
   // returns the frames taken; the oldest unread telemetry frame; one setpoint or command frame.
   std::size_t poll_frames();
   std::optional<TelemetryPayload> take_telemetry();
-  void send_setpoint(std::uint32_t sample_index, const std::array<std::int32_t, 3>& position_code);
+  // input_code: the scaled network inputs u (golden::setpoint_input of the position's codes).
+  void send_setpoint(std::uint32_t sample_index, const std::array<std::int16_t, 3>& input_code);
   void send_command(Command command);
   // An identify request: a valid frame that changes nothing (it feeds the board's watchdog); the
   // reply is taken and dropped.

@@ -30,11 +30,8 @@ void write_export_files(const std::vector<ExportFile>& files, const std::string&
 // One word as ceil(bits/4) hex digits of its two's complement masked to `bits`.
 std::string hex_word(std::int64_t value, int bits);
 
-// The bytes the weights CRC covers, in its canonical order: the network's ROM files in the order
-// export_files writes them (input_centre, input_shift, input_weights, hidden_bias, tanh_table,
-// tanh_slope, output_weights, output_bias), each file's words in file order, each word exactly as
-// its .mem line holds it (two's complement masked to the file's width) as ceil(width/8)
-// little-endian bytes, zero above the width. No headers, names or lengths: the codes alone.
+// The bytes the weights CRC covers: the model as the board loads it, golden::model_crc_bytes
+// (model_image.hpp: every word of the load's frames as 6 little-endian bytes, in frame order).
 std::vector<std::uint8_t> weights_crc_bytes(const QuantisedNetwork& q);
 
 // identify.mem: the identify payload for the board's 256 x 16 block RAM ($readmemh): comment
@@ -48,8 +45,8 @@ ExportFile board_identify_file(const QuantisedNetwork& q);
 
 namespace delta {
 
-// CRC-32/ISO-HDLC (delta::crc32) of golden::weights_crc_bytes(q): the weights CRC of the identify
-// payload, so the host can tell which network a board holds.
+// CRC-32/ISO-HDLC (delta::crc32) of golden::weights_crc_bytes(q): the model's CRC, which a board
+// that loaded it reports in its identify payload, so the host can tell which model a board holds.
 std::uint32_t weights_crc(const golden::QuantisedNetwork& q);
 
 }  // namespace delta

@@ -135,12 +135,31 @@ std::int64_t saturate(std::int64_t value, int bits, bool* clamped);
 // when a weight or bias would saturate its format (the export refuses such weights).
 QuantisedNetwork quantise(const nn::Network& network, const Formats& formats = Formats());
 
+// The tanh table and slopes of q.formats (part of quantise; the board's gateware holds them).
+void fill_tanh_tables(QuantisedNetwork& q);
+
 // tanh(n) for a tanh-input code n, as a hidden code (Q1.F_h): table with linear interpolation.
 std::int64_t tanh_code(const QuantisedNetwork& q, std::int64_t tanh_input, bool* clamped = nullptr);
 
-// The network on raw input codes (positions, metres * 2^input_fraction_bits).
+// The network on raw input codes (positions, metres * 2^input_fraction_bits):
+// evaluate_scaled(scale_input(position_code)).
 RawOutput evaluate_raw(const QuantisedNetwork& q, const std::array<std::int64_t, 3>& position_code,
                        SaturationCounters* counters = nullptr);
+
+// Spec step 2, which the host does for the board (the setpoint carries u): u_j =
+// sat_16(round_shift(x_j - centre_j, shift_j)).
+struct ScaledInput {
+  std::array<std::int64_t, 3> code{};  // u_j, Q1.15
+  bool saturated = false;              // a position beyond the representable margin
+};
+ScaledInput scale_input(const QuantisedNetwork& q, const std::array<std::int64_t, 3>& position_code);
+// scale_input's codes as a setpoint carries them (link::SetpointPayload::input_code).
+std::array<std::int16_t, 3> setpoint_input(const QuantisedNetwork& q, const std::array<std::int64_t, 3>& position_code);
+
+// Spec steps 3-6 on scaled inputs u (what the board's network computes from a setpoint).
+// `scaled_input_saturated` is carried into the result and the counters.
+RawOutput evaluate_scaled(const QuantisedNetwork& q, const std::array<std::int64_t, 3>& scaled,
+                          SaturationCounters* counters = nullptr, bool scaled_input_saturated = false);
 
 // Host-side conversions of the interface (not part of the hardware): round half up, saturated.
 std::array<std::int64_t, 3> encode_position(const Formats& formats, const Vec3& position_m, bool* clamped = nullptr);

@@ -1,7 +1,7 @@
 // Drives a Verilated network (RTL or gate-level netlist) through its Vitis HLS ap_ctrl_hs ports.
 //
 // Model is any Verilated class with the ports of delta_network.sv: ap_clk, ap_rst, ap_start,
-// ap_done, ap_idle, ap_ready, x_0..x_2 (raw input codes) and y_0..y_2 (raw output codes) with
+// ap_done, ap_idle, ap_ready, u_0..u_2 (scaled input codes, golden::scale_input) and y_0..y_2 (raw output codes) with
 // y_k_ap_vld. Codes travel as two's complement in InputWidth / OutputWidth bits; the harness
 // sign-extends outputs back to int64. Owns its VerilatedContext; FST waveforms only when asked.
 #pragma once
@@ -66,9 +66,9 @@ class NetworkHarness {
   // One inference: inputs must fit input_width bits (checked), returns the output codes.
   NetworkRun run(const std::array<std::int64_t, 3>& inputs, int max_cycles = 10000) {
     if (!model_->ap_idle) throw std::runtime_error("network_harness: ap_idle low before ap_start");
-    set_input(model_->x_0, inputs[0]);
-    set_input(model_->x_1, inputs[1]);
-    set_input(model_->x_2, inputs[2]);
+    set_input(model_->u_0, inputs[0]);
+    set_input(model_->u_1, inputs[1]);
+    set_input(model_->u_2, inputs[2]);
     model_->ap_start = 1;
     NetworkRun result;
     bool ready_seen = false;
