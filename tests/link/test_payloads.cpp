@@ -9,6 +9,7 @@
 #include <string>
 
 #include "delta/link/payloads.hpp"
+#include "delta/link/session.hpp"
 
 namespace delta::link {
 namespace {
@@ -250,6 +251,22 @@ TEST(LinkPayloads, LayoutTablesTileEachPayload) {
   EXPECT_FALSE(layout::tiles(moved, board::kSetpointPayloadBytes));
   const layout::Field shrunk[] = {layout::kSetpointIndex, layout::kSetpointInput};
   EXPECT_FALSE(layout::tiles(shrunk, board::kSetpointPayloadBytes + 1));
+}
+
+}  // namespace
+}  // namespace delta::link
+
+namespace delta::link {
+namespace {
+
+TEST(LinkState, AHomingStoppedWithTheDrivesOffSaysHowFarItGot) {
+  TelemetryPayload t;
+  t.set(TelemetryFlag::kHomed, true);
+  t.set(TelemetryFlag::kHoming, true);
+  t.home = 1u << 3;  // joint 1 referenced
+  EXPECT_EQ(describe_state(t), "drives off, homed by hand, homing unfinished (1 of 3 joints referenced)");
+  t.set(TelemetryFlag::kDriveEnable, true);
+  EXPECT_EQ(describe_state(t), "drives on, homed by hand, homing");
 }
 
 }  // namespace

@@ -225,7 +225,15 @@ std::string describe_state(const TelemetryPayload& t) {
   } else {
     out += ", not homed";
   }
-  if (t.has(TelemetryFlag::kHoming)) out += ", homing";
+  if (t.has(TelemetryFlag::kHoming)) {
+    // The board keeps its homing flag through a disable (between jogs, or a homing stopped by its
+    // host): with the drives off, say how far it got.
+    int referenced = 0;
+    for (int j = 0; j < 3; ++j) referenced += t.referenced(j) ? 1 : 0;
+    out += t.has(TelemetryFlag::kDriveEnable)
+               ? ", homing"
+               : ", homing unfinished (" + std::to_string(referenced) + " of 3 joints referenced)";
+  }
   if (t.has(TelemetryFlag::kHolding)) out += ", holding";
   if (t.has(TelemetryFlag::kEncoderError)) out += ", encoder error seen";
   if (t.has(TelemetryFlag::kFault)) out += "; fault: " + describe_fault(t.fault_cause);
