@@ -4,6 +4,13 @@ delta_add_gtest(stream_plan_tests
   LIBRARIES delta::controller
   LABELS host host_controller)
 
+# A model load (host load, serve) against a scripted board: paced by the board's acceptance, the
+# refusals named, the retry from frame 0 (no board needed).
+delta_add_gtest(model_load_tests
+  SOURCES ${CMAKE_CURRENT_LIST_DIR}/host_controller/test_model_load.cpp
+  LIBRARIES delta::controller delta::golden delta::host delta::gateware
+  LABELS host host_controller)
+
 # The host controller (`deltactl host`) against the virtual board through a pty: its
 # acceptance. Needs the virtual board (Verilator), so not in the host-only build.
 if(DELTA_HOST_ONLY)

@@ -210,8 +210,11 @@ Check check_identify(const std::string& port, const deploy::DeployConfig* config
     check.fix = "is the bitstream on the board? deltactl flash; is the service holding the port? (it is exclusive)";
     return check;
   }
+  // The model is data the host loads (deltactl host load): identify's weights CRC is the loaded
+  // model's, 0 with none (a board after power-up, a reset or a flash).
+  const bool model = board.weights_crc != 0;
   check.detail = "protocol " + std::to_string(board.protocol_version) + ", build id " + deploy::hex32(board.build_id) +
-                 ", weights CRC-32 " + deploy::hex32(board.weights_crc);
+                 (model ? ", model CRC-32 " + deploy::hex32(board.weights_crc) : ", no model loaded");
   check.verdict = Verdict::kOk;
   if (board.build_id != static_cast<std::uint32_t>(kGatewareBuildId)) {
     check.verdict = Verdict::kFail;
@@ -219,15 +222,20 @@ Check check_identify(const std::string& port, const deploy::DeployConfig* config
     check.fix = "deltactl flash (the package's bitstream), or install the deltactl built with the board's gateware";
   }
   if (!config) {
-    check.detail += "; weights not compared: " + config_note;
+    check.detail += "; model not compared: " + config_note;
     if (check.verdict == Verdict::kOk) check.verdict = Verdict::kWarn;
     return check;
   }
   const std::uint32_t crc = deploy::weights_file_crc(config->weights);
-  if (crc != board.weights_crc) {
+  const std::string load = "deltactl host load --port " + port + " --weights " + config->weights;
+  if (!model) {
+    if (check.verdict == Verdict::kOk) check.verdict = Verdict::kWarn;
+    check.detail += " (" + config->weights + " has " + deploy::hex32(crc) + ")";
+    if (check.fix.empty()) check.fix = load + " (or start the service: it loads its configured model)";
+  } else if (crc != board.weights_crc) {
     check.verdict = Verdict::kFail;
     check.detail += "; " + config->weights + " has " + deploy::hex32(crc);
-    check.fix = "deltactl flash with a bitstream built from " + config->weights + ", or configure the board's W.json";
+    if (check.fix.empty()) check.fix = load;
   } else {
     check.detail += " = " + config->weights;
   }

@@ -1,6 +1,8 @@
 // deltactl flash: writes the bitstream to the iCEBreaker's SPI flash (iceprog, or openFPGALoader
 // -b ice40_generic), waits for the board's UART to come back and checks its identify against the
-// bitstream's (identify.mem beside it) and the configured W.json. --dry-run prints the plan only.
+// bitstream's gateware build id (identify.mem beside it). The gateware is the same for every model:
+// the model is data the host loads (deltactl host load), so a flashed board comes back with none.
+// --dry-run prints the plan only.
 #include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -61,7 +63,6 @@ void flash(const FlashOptions& options) {
                      "no identify.mem beside the bitstream: cannot tell which weights and gateware it holds");
   }
   const link::IdentifyPayload expected = deploy::read_identify_mem(*identify_path);
-  const std::uint32_t configured_crc = deploy::weights_file_crc(config.weights);
   std::vector<std::string> command;
   if (options.programmer == "iceprog") {
     command = {"iceprog", bitstream};
@@ -71,18 +72,8 @@ void flash(const FlashOptions& options) {
   std::cout << "bitstream: " << bitstream << ": iCE40 UP5K, " << layout.bytes << " bytes, CRC " << std::hex
             << layout.crc << std::dec << "\n"
             << "  identify.mem: " << *identify_path << ": gateware build id " << deploy::hex32(expected.build_id)
-            << ", weights CRC-32 " << deploy::hex32(expected.weights_crc) << "\n"
-            << "configured weights: " << config.weights << ": weights CRC-32 " << deploy::hex32(configured_crc) << "\n"
+            << "\n"
             << "this deltactl: gateware build id " << deploy::hex32(kGatewareBuildId) << "\n";
-  if (expected.weights_crc != configured_crc) {
-    if (!options.force) {
-      throw InputError(*identify_path, 0,
-                       "the bitstream holds weights CRC-32 " + deploy::hex32(expected.weights_crc) + ", " +
-                           config.weights + " has " + deploy::hex32(configured_crc) +
-                           " (rebuild the bitstream from it, or --force)");
-    }
-    std::cout << "warning: the bitstream was built from other weights than " << config.weights << " (--force)\n";
-  }
   if (expected.build_id != static_cast<std::uint32_t>(kGatewareBuildId)) {
     // This deltactl speaks the link of its own gateware only: after such a flash every run fails.
     if (!options.force) {
@@ -98,8 +89,9 @@ void flash(const FlashOptions& options) {
   for (const std::string& arg : command) std::cout << ' ' << arg;
   std::cout << "\nverify: wait up to " << options.wait_s << " s for " << config.port
             << " to come back, send an identify request (" << config.baud
-            << " baud, 1 s timeout), expect gateware build id " << deploy::hex32(expected.build_id)
-            << " and weights CRC-32 " << deploy::hex32(expected.weights_crc) << "\n";
+            << " baud, 1 s timeout), expect gateware build id " << deploy::hex32(expected.build_id) << "\n"
+            << "then: deltactl host load --port " << config.port << " --weights " << config.weights
+            << " (the model; the service loads its own when it starts)\n";
   if (options.dry_run) {
     std::cout << "dry run: nothing written\n";
     return;
@@ -113,12 +105,17 @@ void flash(const FlashOptions& options) {
   while (std::chrono::steady_clock::now() < deadline) {
     try {
       const link::IdentifyPayload board = deploy::identify_board(config.port, static_cast<int>(config.baud), 1000);
-      std::cout << "board: gateware build id " << deploy::hex32(board.build_id) << ", weights CRC-32 "
-                << deploy::hex32(board.weights_crc) << "\n";
-      if (board.build_id != expected.build_id || board.weights_crc != expected.weights_crc) {
-        throw std::runtime_error("the board's identify differs from the bitstream's");
+      std::cout << "board: gateware build id " << deploy::hex32(board.build_id)
+                << (board.weights_crc != 0 ? ", model CRC-32 " + deploy::hex32(board.weights_crc) : ", no model")
+                << "\n";
+      if (board.build_id != expected.build_id) {
+        throw std::runtime_error("the board's gateware build id differs from the bitstream's");
       }
       std::cout << "flash: verified\n";
+      if (board.weights_crc == 0) {
+        std::cout << "load the model: deltactl host load --port " << config.port << " --weights " << config.weights
+                  << "\n";
+      }
       return;
     } catch (const std::runtime_error& error) {
       last_error = error.what();
@@ -133,8 +130,10 @@ const RegisterCommand kRegister("flash", 91, [](CLI::App& root) {
   auto* sub = root.add_subcommand("flash", "Write the bitstream to the iCEBreaker's flash and verify its identify");
   sub->footer(
       "\nThe bitstream must be an iCE40 UP5K bitstream (sync word, the UP5K's configuration banks, its CRC);\n"
-      "its identify.mem (beside it) must hold this deltactl's gateware build id and the configured W.json's\n"
-      "weights CRC, or --force.\n"
+      "its identify.mem (beside it) must hold this deltactl's gateware build id, or --force. The gateware\n"
+      "is the same for every model: a flashed board comes back without one, and 'deltactl host load\n"
+      "--port PORT --weights W.json' loads it in well under a second (the service loads its configured\n"
+      "model when it starts). A new model needs no flashing.\n"
       "Example: deltactl flash --dry-run");
   sub->add_option("--config", options->config, "configuration file")->capture_default_str();
   sub->add_option("--bitstream", options->bitstream, "bitstream (.bin; default: network.bitstream of the config)");
@@ -145,9 +144,7 @@ const RegisterCommand kRegister("flash", 91, [](CLI::App& root) {
       ->check(CLI::Range(1, 120))
       ->capture_default_str();
   sub->add_flag("--dry-run", options->dry_run, "print the programmer command and the verification, write nothing");
-  sub->add_flag(
-      "--force", options->force,
-      "flash a bitstream built from other weights, or another gateware, than this deltactl's and the config's");
+  sub->add_flag("--force", options->force, "flash a bitstream of another gateware than this deltactl's");
   sub->callback([options] { flash(*options); });
 });
 

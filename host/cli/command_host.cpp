@@ -1,5 +1,6 @@
 // deltactl host: the host controller on the lab PC (docs/contracts.md, "The board and the lab PC"): `status`
-// identifies the board and prints its state, `home` homes against the robot's references (home
+// identifies the board and prints its state, `load` loads a model (W.json) onto it
+// (delta/controller/model_load.hpp), `home` homes against the robot's references (home
 // switches, delta/controller/homing.hpp) or, --by-hand, sets the counts where the arms are, `record` records the
 // telemetry with the drives off (the calibration drag), `run` checks a trajectory whole, enables, streams it paced by
 // telemetry, stops and disables, recording every telemetry frame (delta/controller/run_job.hpp); `serve` is the
@@ -32,6 +33,7 @@
 #include "delta/board_facts.hpp"
 #include "delta/controller/homing.hpp"
 #include "delta/controller/host_run.hpp"
+#include "delta/controller/model_load.hpp"
 #include "delta/controller/realtime.hpp"
 #include "delta/controller/run_job.hpp"
 #include "delta/controller/serve.hpp"
@@ -40,6 +42,7 @@
 #include "delta/gateware.hpp"
 #include "delta/golden/board_network.hpp"
 #include "delta/golden/export.hpp"
+#include "delta/golden/model_image.hpp"
 #include "delta/input_error.hpp"
 #include "delta/io/serial_port.hpp"
 #include "delta/output_file.hpp"
@@ -128,6 +131,7 @@ void run_status(const StatusOptions& options) {
   const Referencing referencing = board_referencing(t);
   // Homing not finished (stopped or failed): the board stays homing with provisional counts.
   const bool unfinished = referencing == Referencing::kNone && t.has(link::TelemetryFlag::kHoming);
+  const bool model = board_has_model(t);  // a complete model whose CRC checked (identify's CRC is its)
   if (options.json) {
     nlohmann::json out = {{"port", port->name()},
                           {"low_latency", port->info().low_latency},
@@ -135,7 +139,8 @@ void run_status(const StatusOptions& options) {
                           {"protocol", c.identify.protocol_version},
                           {"gateware_build_id", hex(c.identify.build_id)},
                           {"gateware_matches_host", gateware_matches},
-                          {"weights_crc", hex(c.identify.weights_crc)},
+                          {"weights_crc", model ? nlohmann::json(hex(c.identify.weights_crc)) : nlohmann::json()},
+                          {"model", model ? "loaded" : "none"},
                           {"board_clock_hz", c.identify.board_clock_hz},
                           {"network_clock_hz", c.identify.network_clock_hz},
                           {"state", state_name(state_of(t))},
@@ -164,8 +169,11 @@ void run_status(const StatusOptions& options) {
   std::cout << "board on " << port->name() << (port->info().low_latency ? " (low latency)" : "") << ": link protocol "
             << c.identify.protocol_version << ", gateware " << hex(c.identify.build_id)
             << (gateware_matches ? " (this checkout's)" : " (not this checkout's " + hex(kGatewareBuildId) + ")")
-            << ", weights CRC " << hex(c.identify.weights_crc) << ", board clock " << c.identify.board_clock_hz
-            << " Hz\n"
+            << ", board clock " << c.identify.board_clock_hz << " Hz\n"
+            << "model: "
+            << (model ? "loaded, weights CRC " + hex(c.identify.weights_crc)
+                      : "no model (deltactl host load --port " + options.port + " --weights W.json)")
+            << '\n'
             << "state: " << state_name(state_of(t)) << " (" << link::describe_state(t) << ")\n"
             << "homed: "
             << (referencing == Referencing::kHomeSwitches ? std::string("at the home switches")
@@ -175,6 +183,45 @@ void run_status(const StatusOptions& options) {
             << fixed(t.counts[2] * kCountDeg, 2) << " deg; board time " << fixed(t.tick / 1e4, 4)
             << " s; counters: bad frames " << t.bad_frames << ", underruns " << t.underruns << ", refused "
             << t.rejected << ", slew limits " << t.slew_limits << ", saturations " << t.saturations << '\n';
+}
+
+// ---------------------------------------------------------------------------------------------
+struct LoadOptions {
+  std::string port;
+  std::string weights;
+  bool json = false;
+  int link_timeout_ms = link::kLinkTimeoutMs;
+};
+
+void run_load(const LoadOptions& options) {
+  // W.json read, quantised and imaged before the port is opened: a bad file sends nothing.
+  const golden::BoardWeights weights = golden::read_board_weights(options.weights);
+  try {
+    golden::model_frames(weights.network);
+  } catch (const std::invalid_argument& error) {
+    fail(kExitBadInput, options.weights + ": not a model this board takes: " + error.what());
+  }
+  auto port = open_port(options.port);
+  link::LinkSession session(*port, session_options(options.link_timeout_ms));
+  const Connected c = connect(session);
+  const ModelLoaded loaded = or_exit([&] { return load_board_model(session, c, weights.network, port->name()); });
+  if (options.json) {
+    std::cout << nlohmann::json{{"port", port->name()},
+                                {"weights", options.weights},
+                                {"weights_crc", hex(loaded.crc)},
+                                {"model", "loaded"},
+                                {"frames", loaded.frames},
+                                {"attempts", loaded.attempts},
+                                {"retry_reason", loaded.retry_reason.empty() ? nlohmann::json()
+                                                                             : nlohmann::json(loaded.retry_reason)},
+                                {"seconds", loaded.seconds}}
+                     .dump()
+              << '\n';
+    return;
+  }
+  std::cout << "load: model " << hex(loaded.crc) << " (" << options.weights << ") on " << port->name() << ", "
+            << loaded.frames << " frames in " << fixed(loaded.seconds, 3) << " s"
+            << (loaded.attempts > 1 ? " (the second attempt; the first: " + loaded.retry_reason + ")" : "") << '\n';
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -223,7 +270,7 @@ void run_home(const HomeOptions& options) {
     }
     return;
   }
-  or_exit([&] { check_board_identity(c.identify, *weights, options.weights, port->name()); });
+  or_exit([&] { check_board_identity(c, *weights, options.weights, port->name()); });
   const auto log = [&](const std::string& line) {
     if (!options.quiet) std::cerr << line << std::endl;
   };
@@ -301,7 +348,7 @@ void run_run(const RunOptions& options, bool temporary_record = false) {
   link::LinkSession session(*port, session_options(options.link_timeout_ms));
   const Connected c = connect(session);
   or_exit([&] {
-    check_board_identity(c.identify, weights, options.weights, port->name());
+    check_board_identity(c, weights, options.weights, port->name());
     return 0;
   });
   install_stop_handlers();
@@ -719,8 +766,8 @@ const RegisterCommand command("host", 75, [](CLI::App& root) {
       "1 Mbaud, exclusively, with the driver's low-latency flag where it has one.\n"
       "Exit codes: 0 completed; 2 bad input, found before any motion; 3 the board faulted or is not\n"
       "ready (the cause is printed); 4 the link was lost (or the port cannot be opened); 5 the board's\n"
-      "gateware or weights differ from W.json; 128+N after a controlled stop on signal N (SIGINT,\n"
-      "SIGTERM, SIGHUP, SIGQUIT).");
+      "gateware is not this checkout's, or it holds no model or another than W.json's (deltactl host\n"
+      "load); 128+N after a controlled stop on signal N (SIGINT, SIGTERM, SIGHUP, SIGQUIT).");
 
   auto status = std::make_shared<StatusOptions>();
   CLI::App* s = host->add_subcommand("status", "Identify the board and print its state");
@@ -733,6 +780,31 @@ const RegisterCommand command("host", 75, [](CLI::App& root) {
       ->check(options::whole_number(10, 60000))
       ->capture_default_str();
   s->callback([status] { run_status(*status); });
+
+  auto load = std::make_shared<LoadOptions>();
+  CLI::App* ld = host->add_subcommand("load", "Load a model (W.json) onto the board, drives off: seconds, no flashing");
+  ld->footer(
+      "\nThe gateware is the same for every model: the network's weights and biases, the deployed model's\n"
+      "half-plays and the input scaling are data the board takes over the link (docs/board_link.md, \"The\n"
+      "model\"). A board starts with no model and refuses to enable until a load has checked.\n"
+      "host load identifies the board (its protocol and gateware build id must be this checkout's, else\n"
+      "exit 5 naming both), needs the drives off (else exit 3, nothing sent), sends W.json's 185 model\n"
+      "frames paced by the board's acceptance (26 ms of line time) and confirms the load: the telemetry's\n"
+      "model flag and the identify's weights CRC equal to W.json's. A refused frame or a mismatch is\n"
+      "tried once more from frame 0; then exit 3 naming what failed (the frame refused, the board's CRC\n"
+      "against the file's). Prints one line: the model's CRC, the frames sent, the seconds taken.\n"
+      "A bad W.json: exit 2, one line, nothing sent. The model stays until the board is reset, powered\n"
+      "down, flashed or loaded again; 'host status' says which is loaded ('no model' after a reset).\n"
+      "'host run', 'home' and 'park' refuse (exit 5) a board without W.json's model, naming this command.\n"
+      "Example: deltactl host load --port icebreaker --weights weights/paper_like_deployed.json");
+  ld->add_option("--port", load->port, "serial port (see 'deltactl host --help')")->required();
+  ld->add_option("--weights", load->weights, "W.json: the model to load (deltactl train or quantise writes one)")
+      ->required();
+  ld->add_flag("--json", load->json, "one JSON object on stdout");
+  ld->add_option("--link-timeout-ms", load->link_timeout_ms, "wall time without a frame: link lost")
+      ->check(options::whole_number(10, 60000))
+      ->capture_default_str();
+  ld->callback([load] { run_load(*load); });
 
   auto home = std::make_shared<HomeOptions>();
   CLI::App* h = host->add_subcommand("home", "Home against the robot's references (its home switches)");

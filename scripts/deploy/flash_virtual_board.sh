@@ -2,10 +2,12 @@
 # `deltactl flash` without --dry-run (CTest Deploy.FlashVirtualBoard, full build only): a stand-in
 # `iceprog` on PATH records its arguments, and `deltactl virtual-board` on a pseudo-terminal is the
 # board that comes back. Checks: the programmer ran exactly once with the bitstream as its only
-# argument, and flash verified the board's identify against the bitstream's identify.mem (exit 0);
-# with a board holding other weights than the bitstream (WEIGHTS with one output bias changed),
-# flash fails (exit 1) after programming. The bitstream is an empty design of the UP5K's layout
-# (BLANK_BITSTREAM_TOOL): flash refuses anything that is not an iCE40 UP5K bitstream.
+# argument, and flash verified the board's identify against the bitstream's gateware build id
+# (identify.mem beside it; exit 0), with the hint to load the model; a bitstream of another gateware
+# (its identify.mem's build id changed) is refused without --force, and with --force flash fails
+# (exit 1) after programming when the board comes back with this build's gateware. The bitstream is
+# an empty design of the UP5K's layout (BLANK_BITSTREAM_TOOL): flash refuses anything that is not an
+# iCE40 UP5K bitstream.
 # Usage: scripts/deploy/flash_virtual_board.sh DELTACTL WEIGHTS BLANK_BITSTREAM_TOOL
 set -euo pipefail
 deltactl=${1:?usage: flash_virtual_board.sh DELTACTL WEIGHTS BLANK_BITSTREAM_TOOL}
@@ -43,12 +45,21 @@ PATH="$work/bin:$PATH" "$deltactl" flash --config "$work/deltactl.conf" --wait 5
 grep -q '^flash: verified$' "$work/out" || fail "not verified: $(cat "$work/out")"
 stop_board
 
-other="$work/other.json"
-python3 -c 'import json, sys
-w = json.load(open(sys.argv[1])); w["output_bias"][0] += 0.01; json.dump(w, open(sys.argv[2], "w"))' "$weights" "$other"
-start_board "$other"  # the board comes back with other weights than the bitstream's
+grep -q "^then: deltactl host load --port $work/tty --weights $weights" "$work/out" || fail "no load hint: $(cat "$work/out")"
+
+# Another gateware: identify.mem's build id (payload bytes 4..7, words 2 and 3) changed.
+python3 -c 'import sys
+lines = open(sys.argv[1]).read().splitlines()
+words = [i for i, l in enumerate(lines) if l and not l.startswith("//")]
+lines[words[2]] = "%04x" % (int(lines[words[2]], 16) ^ 0x0ff0)
+open(sys.argv[1], "w").write("\n".join(lines) + "\n")' "$work/bits/identify.mem"
 status=0
 PATH="$work/bin:$PATH" "$deltactl" flash --config "$work/deltactl.conf" --wait 2 >"$work/out2" 2>&1 || status=$?
-[[ $status -eq 1 ]] || fail "flash against a board of other weights: exit $status: $(cat "$work/out2")"
-grep -q "the board's identify differs from the bitstream's" "$work/out2" || fail "$(cat "$work/out2")"
-echo "PASS: flash ran the programmer once and verified the board; a board of other weights fails"
+[[ $status -eq 2 ]] || fail "flash of another gateware without --force: exit $status: $(cat "$work/out2")"
+grep -q "is not this deltactl's" "$work/out2" || fail "$(cat "$work/out2")"
+start_board "$weights"
+status=0
+PATH="$work/bin:$PATH" "$deltactl" flash --force --config "$work/deltactl.conf" --wait 2 >"$work/out3" 2>&1 || status=$?
+[[ $status -eq 1 ]] || fail "flash --force of another gateware: exit $status: $(cat "$work/out3")"
+grep -q "the board's gateware build id differs from the bitstream's" "$work/out3" || fail "$(cat "$work/out3")"
+echo "PASS: flash ran the programmer once and verified the board's gateware; another gateware is refused, or fails"

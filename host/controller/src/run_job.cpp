@@ -131,14 +131,23 @@ Connected connect_board(link::LinkSession& session) {
   }
 }
 
-void check_board_identity(const link::IdentifyPayload& identify, const golden::BoardWeights& weights,
-                          const std::string& weights_path, const std::string& port_name) {
+void check_board_identity(const Connected& board, const golden::BoardWeights& weights, const std::string& weights_path,
+                          const std::string& port_name) {
   const std::uint32_t crc = weights_crc(weights.network);
-  if (identify.build_id != kGatewareBuildId || identify.weights_crc != crc) {
-    throw HostFailure(kExitMismatch, port_name + ": the board runs gateware " + hex(identify.build_id) +
-                                         " with weights CRC " + hex(identify.weights_crc) +
-                                         "; this host expects gateware " + hex(kGatewareBuildId) + " and weights CRC " +
-                                         hex(crc) + " (" + weights_path + ")");
+  const std::string load = "deltactl host load --port " + port_name + " --weights " + weights_path;
+  if (board.identify.build_id != kGatewareBuildId) {
+    throw HostFailure(kExitMismatch, port_name + ": the board runs gateware " + hex(board.identify.build_id) +
+                                         "; this host expects gateware " + hex(kGatewareBuildId) +
+                                         " (flash this checkout's: deltactl flash)");
+  }
+  if (!board.telemetry.has(link::TelemetryFlag::kModel)) {
+    throw HostFailure(kExitMismatch, port_name + ": the board has no model; load " + weights_path + "'s (CRC " +
+                                         hex(crc) + "): " + load);
+  }
+  if (board.identify.weights_crc != crc) {
+    throw HostFailure(kExitMismatch, port_name + ": the board runs another model (CRC " +
+                                         hex(board.identify.weights_crc) + "), not " + weights_path + "'s (CRC " +
+                                         hex(crc) + "): " + load);
   }
 }
 

@@ -31,6 +31,7 @@
 #include "delta/board_facts.hpp"
 #include "delta/controller/dashboard.hpp"
 #include "delta/controller/homing.hpp"
+#include "delta/controller/model_load.hpp"
 #include "delta/controller/run_job.hpp"
 #include "delta/exit_codes.hpp"
 #include "delta/gateware.hpp"
@@ -149,6 +150,7 @@ struct HostServer::Impl {
   std::string note = "not yet connected";
   std::optional<link::IdentifyPayload> identify;
   std::optional<link::TelemetryPayload> telemetry;
+  std::string model_load;  // the last load of the configured model at a connection ("" before any)
   std::string port_name;
   json last_run;                    // null until a run ended
   std::shared_ptr<RunJob> running;  // queued or running
@@ -210,10 +212,13 @@ struct HostServer::Impl {
       out["gateware_build_id"] = golden::hex_word(kGatewareBuildId, 32);
       out["recordings"] = escape_invalid_utf8(record_folder);
       if (identify) {
+        const bool model = telemetry && board_has_model(*telemetry);
         out["board"] = {{"gateware_build_id", golden::hex_word(identify->build_id, 32)},
-                        {"weights_crc", golden::hex_word(identify->weights_crc, 32)},
+                        {"weights_crc", model ? json(golden::hex_word(identify->weights_crc, 32)) : json()},
+                        {"model", model ? "loaded" : "none"},
                         {"protocol", identify->protocol_version}};
       }
+      out["model_load"] = model_load.empty() ? json() : json(escape_invalid_utf8(model_load));
       t = telemetry;
       job = running;
       homing_now = homing;
@@ -343,16 +348,39 @@ struct HostServer::Impl {
           try {
             port = open_board_port(options.port);
             session = std::make_unique<link::LinkSession>(*port, host_session_options(options.link_timeout_ms));
-            const Connected c = connect_board(*session);
+            Connected c = connect_board(*session);
+            // The configured model onto a board without it (a board starts with none: after a
+            // power-up, a reset or a flash), with the drives off; a failed load is said and the
+            // board stays "mismatch" (runs refused) until the next connection tries again.
+            std::string loaded;
+            if (c.identify.build_id == kGatewareBuildId && !c.telemetry.has(link::TelemetryFlag::kDriveEnable) &&
+                !(board_has_model(c.telemetry) && c.identify.weights_crc == weights_crc(weights.network))) {
+              try {
+                const ModelLoaded load = load_board_model(*session, c, weights.network, port->name());
+                c.identify = session->identify();
+                c.telemetry = load.telemetry;
+                loaded = "; loaded its model " + golden::hex_word(load.crc, 32) + " (" + std::to_string(load.frames) +
+                         " frames in " + std::to_string(static_cast<int>(load.seconds * 1000 + 0.5)) + " ms)";
+                std::cerr << "host serve: " << port->name() << ": loaded the model " << options.weights_path << " ("
+                          << golden::hex_word(load.crc, 32) << "), " << load.frames << " frames in "
+                          << static_cast<int>(load.seconds * 1000 + 0.5) << " ms" << std::endl;
+              } catch (const HostFailure& error) {
+                if (error.code() == kExitLinkLost) throw;
+                loaded = std::string("; the model's load failed: ") + error.what();
+                std::cerr << "host serve: " << error.what() << std::endl;
+                if (session->last_telemetry()) c.telemetry = *session->last_telemetry();
+              }
+            }
             std::string mismatch;
             try {
-              check_board_identity(c.identify, weights, options.weights_path, port->name());
+              check_board_identity(c, weights, options.weights_path, port->name());
             } catch (const HostFailure& error) {
               mismatch = error.what();
             }
             std::lock_guard<std::mutex> lock(mutex);
             connection = mismatch.empty() ? "connected" : "mismatch";
-            note = mismatch.empty() ? "identified" : mismatch;
+            note = (mismatch.empty() ? std::string("identified") : mismatch) + loaded;
+            model_load = loaded.empty() ? model_load : loaded.substr(2);
             identify = c.identify;
             telemetry = c.telemetry;
             port_name = port->name();

@@ -298,7 +298,8 @@ function showStatus() {
   setClass(clear, estop ? 'reset' : '');
   const b = s.board || {};
   setText($('identity'), `${s.connection} (${s.note}); port ${s.port}; weights ${s.weights} ` +
-    `(CRC ${s.weights_crc}); board gateware ${b.gateware_build_id || '-'}, weights CRC ${b.weights_crc || '-'}` +
+    `(CRC ${s.weights_crc}); board gateware ${b.gateware_build_id || '-'}, ` +
+    (b.model === 'none' ? 'no model' : `model CRC ${b.weights_crc || '-'}`) +
     (s.counters ? `; underruns ${s.counters.underruns}, bad frames ${s.counters.bad_frames}` : ''));
 }
 

@@ -1,4 +1,4 @@
-// A host's session with a board over the link v2 (see session.hpp).
+// A host's session with a board over the link v3 (see session.hpp).
 #include "delta/link/session.hpp"
 
 #include <algorithm>
@@ -168,6 +168,11 @@ TelemetryPayload LinkSession::command(Command command, const std::function<bool(
     if (frames % kCommandResendFrames == 0 && frames < options_.command_timeout_frames) send_command(command);
   }
   const TelemetryPayload& last = *last_telemetry_;
+  if (last.rejected != before.rejected && command == Command::kEnable && !last.has(TelemetryFlag::kModel)) {
+    throw LinkError(LinkError::Kind::kRefused,
+                    stream_.name() + ": the board refused the enable: it has no model (load one: deltactl host load " +
+                        "--port " + stream_.name() + " --weights W.json)");
+  }
   if (last.rejected != before.rejected) {
     throw LinkError(LinkError::Kind::kRefused, stream_.name() + ": the board refused command " +
                                                    std::to_string(static_cast<int>(command)) + " (" +
@@ -204,6 +209,98 @@ TelemetryPayload LinkSession::clear_fault() {
   return command(Command::kClearFault, [](const TelemetryPayload& t) { return !t.has(TelemetryFlag::kFault); });
 }
 
+ModelLoadReport LinkSession::load_model(const std::vector<ModelPayload>& frames) {
+  // The baseline: the newest frame the board sent before the load (what waited in the device's
+  // buffer read first).
+  poll_frames();
+  while (!unread_telemetry_.empty()) next_telemetry();
+  if (!last_telemetry_) next_telemetry();
+  const TelemetryPayload before = *last_telemetry_;
+  ModelLoadReport report;
+  report.telemetry = before;
+  if (frames.empty()) {
+    report.problem = "no frames to load";
+    return report;
+  }
+  const std::size_t frame_bytes = encode_frame(make_frame(0, frames.front())).size();
+  const std::size_t window = std::max<std::size_t>(1, kModelLoadWindowBytes / frame_bytes);
+  // Each frame's sequence number, never the one the board showed last (a telemetry frame showing
+  // it would look like an answer), so that the telemetry's `sequence` names the newest frame taken:
+  // at most `window` (< 255) frames are on their way, all with distinct numbers.
+  std::vector<std::uint8_t> sequences(frames.size());
+  std::size_t sent = 0;
+  std::size_t accepted = 0;  // frames the board accepted (taken or refused), in order
+  int frames_without_progress = 0;
+  auto rejected_since = [&](const TelemetryPayload& t) {
+    return static_cast<std::uint16_t>(t.rejected - before.rejected);
+  };
+  while (true) {
+    while (sent < frames.size() && sent - accepted < window) {
+      if (sequence_ == before.sequence) ++sequence_;
+      sequences[sent] = sequence_;
+      send_frame(make_frame(sequence_++, frames[sent]));
+      ++sent;
+    }
+    const TelemetryPayload t = next_telemetry();
+    report.telemetry = t;
+    std::size_t newest = accepted;
+    for (std::size_t i = sent; i > accepted; --i) {
+      if (sequences[i - 1] == t.sequence) {
+        newest = i;
+        break;
+      }
+    }
+    frames_without_progress = newest > accepted ? 0 : frames_without_progress + 1;
+    accepted = newest;
+    if (rejected_since(t) != 0) {
+      // Refused: nothing more is sent. The frames still on their way are refused too; once the board
+      // has taken them (or a few frames passed) the count says where the load stopped: every frame
+      // after the first refused one is refused (out of order), so the first is accepted - refused.
+      TelemetryPayload last = t;
+      for (int waited = 0; waited < 4 || (accepted < sent && waited < options_.command_timeout_frames); ++waited) {
+        last = next_telemetry();
+        for (std::size_t i = sent; i > accepted; --i) {
+          if (sequences[i - 1] == last.sequence) {
+            accepted = i;
+            break;
+          }
+        }
+      }
+      report.telemetry = last;
+      const std::size_t refused = rejected_since(last);
+      const std::size_t first = accepted > refused ? accepted - refused : 0;
+      report.taken = first;
+      report.sent = sent;
+      report.refused_frame = frames[std::min(first, frames.size() - 1)].frame;
+      const std::uint16_t lost = static_cast<std::uint16_t>(last.bad_frames - before.bad_frames);
+      report.problem = "the board refused model frame " + std::to_string(*report.refused_frame) + " (" +
+                       describe_state(last) +
+                       (last.has(TelemetryFlag::kDriveEnable) ? "; a model is taken only with the drives off" : "") +
+                       (lost != 0 ? "; frames lost on the line: " + std::to_string(lost) : "") + ")";
+      return report;
+    }
+    if (accepted == frames.size()) break;
+    if (frames_without_progress > options_.command_timeout_frames) {
+      report.taken = accepted;
+      report.sent = sent;
+      report.problem = "the board took no model frame after frame " +
+                       (accepted == 0 ? std::string("none") : std::to_string(frames[accepted - 1].frame)) + " in " +
+                       std::to_string(options_.command_timeout_frames) + " telemetry frames (lost on the line?)";
+      return report;
+    }
+  }
+  // The commit taken: the next frame shows whether the board's own CRC checked.
+  report.telemetry = next_telemetry();
+  report.taken = accepted;
+  report.sent = sent;
+  report.loaded = report.telemetry.has(TelemetryFlag::kModel);
+  if (!report.loaded) {
+    report.problem = "the board took all " + std::to_string(frames.size()) +
+                     " model frames but shows no model (its CRC of the words it took is not the commit's)";
+  }
+  return report;
+}
+
 std::string describe_fault(std::uint8_t fault_cause) {
   std::string out;
   auto add = [&out](const char* what) { out += (out.empty() ? "" : ", ") + std::string(what); };
@@ -225,6 +322,7 @@ std::string describe_state(const TelemetryPayload& t) {
   } else {
     out += ", not homed";
   }
+  if (!t.has(TelemetryFlag::kModel)) out += ", no model";
   if (t.has(TelemetryFlag::kHoming)) {
     // The board keeps its homing flag through a disable (between jogs, or a homing stopped by its
     // host): with the drives off, say how far it got.

@@ -157,6 +157,21 @@ class SetpointPacer {
   std::uint64_t resent_ = 0;
 };
 
+// What a model load did (LinkSession::load_model).
+struct ModelLoadReport {
+  bool loaded = false;                         // every frame taken and the board shows a model (flag 7)
+  std::size_t taken = 0;                       // frames the board took in order (0 .. frames)
+  std::size_t sent = 0;                        // frames sent
+  std::optional<std::uint16_t> refused_frame;  // the first frame number the board refused
+  std::string problem;                         // "" when loaded, else what failed (one line)
+  TelemetryPayload telemetry;                  // the frame that told
+};
+
+// Bytes of model frames a load keeps on their way to the board beyond the last one its telemetry
+// shows accepted: half the board's receive ring (board::kRxRingBytes), whatever the latency of the
+// line, the USB adapter and the host.
+constexpr std::size_t kModelLoadWindowBytes = static_cast<std::size_t>(board::kRxRingBytes) / 2;
+
 class LinkSession {
  public:
   explicit LinkSession(io::ByteStream& stream, SessionOptions options = {});
@@ -178,6 +193,16 @@ class LinkSession {
   TelemetryPayload hold();      // drives on: the reference stops at the end of the segment
   TelemetryPayload disable();   // drives off, buffer flushed
   TelemetryPayload clear_fault();
+
+  // Sends a model load (golden::model_frames: frames 0 .. the commit, in order) paced by the
+  // board's acceptance: at most kModelLoadWindowBytes of frames beyond the last one the telemetry's
+  // `sequence` shows accepted, so the board's receive ring never overflows. A rise of the board's
+  // `rejected` counter (the drives on; a frame out of order after one lost on the line) ends it:
+  // the first refused frame is named (the board refuses every frame after the one it missed). So
+  // does a load that stalls (no frame accepted for command_timeout_frames telemetry frames) and a
+  // commit after which the board shows no model (its CRC of the words it took differs). Nothing
+  // is resent: the caller starts again from frame 0. Throws kLinkLost only when the link is.
+  ModelLoadReport load_model(const std::vector<ModelPayload>& frames);
 
   // Non-blocking primitives for a loop with its own timing (the host controller's streaming
   // thread): reads and decodes what the stream has (throws kLinkLost when it failed or hung up),

@@ -64,9 +64,11 @@ struct Connected {
   link::TelemetryPayload telemetry;
 };
 Connected connect_board(link::LinkSession& session);
-// HostFailure (exit 5) unless the board runs this checkout's gateware and the weights' CRC.
-void check_board_identity(const link::IdentifyPayload& identify, const golden::BoardWeights& weights,
-                          const std::string& weights_path, const std::string& port_name);
+// HostFailure (exit 5) unless the board runs this checkout's gateware and holds W.json's model (the
+// telemetry's model flag and identify's weights CRC): the message names which differs (the
+// gateware, no model, another model) and, for the model, `deltactl host load`.
+void check_board_identity(const Connected& board, const golden::BoardWeights& weights, const std::string& weights_path,
+                          const std::string& port_name);
 
 // Where a run's plan starts: the network's inverse at the counts of `rest` (the arms at rest, the
 // drives off), moved to the deployed model's resting shift (the answer keeps each joint at the end of

@@ -3,7 +3,8 @@
 // `deltactl host ctl` and any other client.
 //
 // Threads: the board thread owns the port and the link session: it connects (identify; the board
-// must run this checkout's gateware and W.json's weights), reads telemetry while idle (no
+// must run this checkout's gateware; one without W.json's model, the drives off, is given it:
+// model_load.hpp, status "model_load" says how that went), reads telemetry while idle (no
 // telemetry for the link bound: disconnected, the port closed and opened again every second), and
 // executes the clients' commands and runs one at a time (RunJob, the same as `host run`). Each
 // client has a thread, at most kMaxClients at once (one more is answered "busy" and closed, but
@@ -52,7 +53,7 @@ namespace delta::controller {
 
 struct ServeOptions {
   std::string port;           // the board's serial device (resolve_port)
-  std::string weights_path;   // W.json the board must run
+  std::string weights_path;   // W.json the board must run (loaded onto it when it has another model or none)
   std::string socket_path;    // the control socket
   std::string record_folder;  // where runs without "record" are recorded
   int link_timeout_ms = link::kLinkTimeoutMs;
