@@ -212,8 +212,8 @@ void run_load(const LoadOptions& options) {
                                 {"model", "loaded"},
                                 {"frames", loaded.frames},
                                 {"attempts", loaded.attempts},
-                                {"retry_reason", loaded.retry_reason.empty() ? nlohmann::json()
-                                                                             : nlohmann::json(loaded.retry_reason)},
+                                {"retry_reason",
+                                 loaded.retry_reason.empty() ? nlohmann::json() : nlohmann::json(loaded.retry_reason)},
                                 {"seconds", loaded.seconds}}
                      .dump()
               << '\n';

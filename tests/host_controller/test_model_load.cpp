@@ -41,11 +41,11 @@ const std::string kOtherWeights = std::string(DELTA_SOURCE_DIR) + "/weights/pape
 // if and only if the CRC-32 of the words taken is the commit's; nothing is taken with the drives on.
 class ScriptedBoard : public io::ByteStream {
  public:
-  double byte_cost = 1.0;                        // board byte times per received byte (model frames)
-  bool drives_on = false;                        // every model frame refused
-  std::optional<std::size_t> corrupt_byte;       // of the host's bytes (0-based): flipped on the line
-  std::optional<std::uint16_t> corrupt_word;     // frame whose word is stored with a bit flipped (every load)
-  std::optional<std::uint32_t> reported_crc;     // identify reports this instead of the checked CRC
+  double byte_cost = 1.0;                     // board byte times per received byte (model frames)
+  bool drives_on = false;                     // every model frame refused
+  std::optional<std::size_t> corrupt_byte;    // of the host's bytes (0-based): flipped on the line
+  std::optional<std::uint16_t> corrupt_word;  // frame whose word is stored with a bit flipped (every load)
+  std::optional<std::uint32_t> reported_crc;  // identify reports this instead of the checked CRC
   std::uint32_t build_id = kGatewareBuildId;
 
   std::size_t ring_high_water = 0;  // the most bytes waiting in the ring (more than board::kRxRingBytes: overflowed)
@@ -62,7 +62,7 @@ class ScriptedBoard : public io::ByteStream {
   void write_all(const std::uint8_t* data, std::size_t size, int) override {
     for (std::size_t i = 0; i < size; ++i, ++host_bytes_) {
       adapter_.push_back(corrupt_byte && *corrupt_byte == host_bytes_ ? static_cast<std::uint8_t>(data[i] ^ 0x10)
-                                                                       : data[i]);
+                                                                      : data[i]);
     }
   }
   int fd() const override { return -1; }
@@ -102,8 +102,9 @@ class ScriptedBoard : public io::ByteStream {
   void take(const link::Frame& frame) {
     last_sequence_ = frame.sequence;
     if (frame.type == link::FrameType::kIdentifyRequest) {
-      const link::IdentifyPayload identify =
-          link::board_identify(build_id, reported_crc ? *reported_crc : model ? model_crc : 0);
+      const link::IdentifyPayload identify = link::board_identify(build_id, reported_crc ? *reported_crc
+                                                                            : model      ? model_crc
+                                                                                         : 0);
       send(link::make_frame(frame.sequence, identify));
       return;
     }

@@ -14,9 +14,9 @@ namespace {
 std::string hex(std::uint32_t value) { return golden::hex_word(value, 32); }
 
 int link_error_code(const link::LinkError& error) {
-  return error.kind() == link::LinkError::Kind::kLinkLost  ? kExitLinkLost
+  return error.kind() == link::LinkError::Kind::kLinkLost   ? kExitLinkLost
          : error.kind() == link::LinkError::Kind::kProtocol ? kExitMismatch
-                                                             : kExitFault;
+                                                            : kExitFault;
 }
 
 }  // namespace
@@ -33,8 +33,9 @@ ModelLoaded load_board_model(link::LinkSession& session, const Connected& c, con
                                          " (flash this checkout's: deltactl flash); no model sent");
   }
   if (c.telemetry.has(link::TelemetryFlag::kDriveEnable)) {
-    throw HostFailure(kExitFault, port_name + ": the drives are on: disable first (a model is taken only with the "
-                                              "drives off); nothing sent");
+    throw HostFailure(kExitFault, port_name +
+                                      ": the drives are on: disable first (a model is taken only with the "
+                                      "drives off); nothing sent");
   }
   ModelLoaded out;
   out.crc = crc;
