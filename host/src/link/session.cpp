@@ -231,6 +231,13 @@ ModelLoadReport LinkSession::load_model(const std::vector<ModelPayload>& frames)
   std::size_t sent = 0;
   std::size_t accepted = 0;  // frames the board accepted (taken or refused), in order
   int frames_without_progress = 0;
+  // The frames the board has accepted per telemetry frame t: up to the newest on its way that t names.
+  auto accepted_by = [&](const TelemetryPayload& t) {
+    for (std::size_t i = sent; i > accepted; --i) {
+      if (sequences[i - 1] == t.sequence) return i;
+    }
+    return accepted;
+  };
   auto rejected_since = [&](const TelemetryPayload& t) {
     return static_cast<std::uint16_t>(t.rejected - before.rejected);
   };
@@ -243,13 +250,7 @@ ModelLoadReport LinkSession::load_model(const std::vector<ModelPayload>& frames)
     }
     const TelemetryPayload t = next_telemetry();
     report.telemetry = t;
-    std::size_t newest = accepted;
-    for (std::size_t i = sent; i > accepted; --i) {
-      if (sequences[i - 1] == t.sequence) {
-        newest = i;
-        break;
-      }
-    }
+    const std::size_t newest = accepted_by(t);
     frames_without_progress = newest > accepted ? 0 : frames_without_progress + 1;
     accepted = newest;
     if (rejected_since(t) != 0) {
@@ -259,12 +260,7 @@ ModelLoadReport LinkSession::load_model(const std::vector<ModelPayload>& frames)
       TelemetryPayload last = t;
       for (int waited = 0; waited < 4 || (accepted < sent && waited < options_.command_timeout_frames); ++waited) {
         last = next_telemetry();
-        for (std::size_t i = sent; i > accepted; --i) {
-          if (sequences[i - 1] == last.sequence) {
-            accepted = i;
-            break;
-          }
-        }
+        accepted = accepted_by(last);
       }
       report.telemetry = last;
       const std::size_t refused = rejected_since(last);
