@@ -108,6 +108,16 @@ class ScriptedBoard : public io::ByteStream {
       send(link::make_frame(frame.sequence, identify));
       return;
     }
+    if (frame.type == link::FrameType::kCommand) {  // enable only: refused without a model
+      if (link::decode_command(frame.payload) == link::Command::kEnable) {
+        if (model) {
+          drives_on = true;
+        } else {
+          ++rejected_;
+        }
+      }
+      return;
+    }
     if (frame.type != link::FrameType::kModel) return;
     const link::ModelPayload p = link::decode_model(frame.payload);
     if (drives_on) {
@@ -351,6 +361,21 @@ TEST(ModelLoad, TheRunsCheckNamesNoModelAnotherModelAndTheLoadCommand) {
   EXPECT_NE(refusal().find("deltactl host load --port /dev/ttyX --weights W.json"), std::string::npos) << refusal();
   c.identify.weights_crc = weights_crc(weights.network);
   EXPECT_EQ(refusal(), "");
+}
+
+TEST(ModelLoad, AnEnableRefusedForWantOfAModelSaysSoAndNamesHostLoad) {
+  Loading l;
+  try {
+    l.session.enable();
+    ADD_FAILURE() << "enabled without a model";
+  } catch (const link::LinkError& error) {
+    const std::string what = error.what();
+    EXPECT_EQ(error.kind(), link::LinkError::Kind::kRefused);
+    EXPECT_NE(what.find("the board refused the enable: it has no model"), std::string::npos) << what;
+    EXPECT_NE(what.find("deltactl host load --port scripted-board --weights W.json"), std::string::npos) << what;
+  }
+  l.board.load_directly(network(kWeights));
+  EXPECT_TRUE(l.session.enable().has(link::TelemetryFlag::kDriveEnable));
 }
 
 }  // namespace
