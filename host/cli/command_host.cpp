@@ -860,7 +860,8 @@ const RegisterCommand command("host", 75, [](CLI::App& root) {
       "on any. The move from the pose the encoders report to the path's start is checked at the run.\n"
       "Example: deltactl host run --weights W.json --trajectory path.csv --check");
   r->add_option("--port", run->port, "serial port (not with --check)");
-  r->add_option("--weights", run->weights, "W.json the board must run (its CRC and this checkout's gateware)")
+  r->add_option("--weights", run->weights,
+                "W.json the board must run (its model CRC, loaded by 'host load', and this checkout's gateware)")
       ->required();
   r->add_option("--trajectory", run->trajectory,
                 "a trajectory of 'deltactl simulate' (experiment1, ...), FILE.csv with t_s,x_m,y_m,z_m, or "
@@ -936,7 +937,9 @@ const RegisterCommand command("host", 75, [](CLI::App& root) {
   CLI::App* sv = host->add_subcommand("serve", "The long-running controller: owns the port, answers a control socket");
   sv->footer(
       "\nOwns the board's port (reconnects every second when it vanishes, e.g. while flashing; never\n"
-      "enables by itself), and answers JSON lines on a local socket: status, run, hold, resume, stop,\n"
+      "enables by itself); at each connection it loads W.json's model onto a board without it, the\n"
+      "drives off (as 'host load'; status says how: model_load), and answers JSON lines on a local\n"
+      "socket: status, run, hold, resume, stop,\n"
       "home, enable, disable, clear-fault ('deltactl host ctl' is its client; the protocol is in\n"
       "host/controller/include/delta/controller/serve.hpp). Runs are those of 'host run', recorded\n"
       "in --record-folder (a client names a file there, never elsewhere, and never replaces one; runs\n"
@@ -953,7 +956,9 @@ const RegisterCommand command("host", 75, [](CLI::App& root) {
       "Example: deltactl host serve --config /etc/deltactl/deltactl.conf --http 127.0.0.1:8080");
   sv->add_option("--config", serve->config, "the lab PC's configuration (port, weights, limits, socket)");
   sv->add_option("--port", serve->port, "serial port (overrides the config)");
-  sv->add_option("--weights", serve->weights, "W.json the board must run (overrides the config)");
+  sv->add_option("--weights", serve->weights,
+                 "W.json the board runs, loaded onto it when it has another model or none "
+                 "(overrides the config)");
   sv->add_option("--socket", serve->socket, "control socket path (overrides the config)");
   sv->add_option("--record-folder", serve->record_folder,
                  "recordings of runs that name none (default: $STATE_DIRECTORY/runs, else ./runs)");
