@@ -973,7 +973,9 @@ const RegisterCommand command("host", 75, [](CLI::App& root) {
   auto ctl = std::make_shared<CtlOptions>();
   CLI::App* c = host->add_subcommand("ctl", "Talk to a running 'host serve': status, run, hold, resume, stop, ...");
   c->footer(
-      "\nCOMMAND: status | run | hold | resume | stop | estop | home | enable | disable | clear-fault.\n"
+      "\nCOMMAND: status | run | hold | resume | stop | estop | home | enable | disable | clear-fault | load.\n"
+      "load loads the controller's configured model onto the board again (the drives off; as it does\n"
+      "at each connection).\n"
       "run streams --trajectory (NAME or FILE.csv) through the controller and prints its progress every\n"
       "second and its summary; hold and resume are a feed hold (the plate slows to rest on the path,\n"
       "then comes back to speed); stop ends the run at rest and disables. Ctrl-C (or SIGTERM, SIGHUP,\n"
@@ -986,7 +988,7 @@ const RegisterCommand command("host", 75, [](CLI::App& root) {
   c->add_option("command", ctl->command, "what to ask")
       ->required()
       ->check(CLI::IsMember(
-          {"status", "run", "hold", "resume", "stop", "estop", "home", "enable", "disable", "clear-fault"}));
+          {"status", "run", "hold", "resume", "stop", "estop", "home", "enable", "disable", "clear-fault", "load"}));
   c->add_option("--socket", ctl->socket, "control socket (default: the config's [service] socket)");
   c->add_option("--config", ctl->config, "configuration file naming the socket")->capture_default_str();
   c->add_flag("--json", ctl->json, "print the controller's JSON replies as they come");

@@ -549,6 +549,28 @@ struct HostServer::Impl {
       }
       std::lock_guard<std::mutex> lock(mutex);
       holding_enabled = true;
+    } else if (work.command == "load") {
+      // The configured model onto the board again (as at a connection), the drives off.
+      Connected c;
+      c.identify = session.identify();
+      c.telemetry = fresh_telemetry(session);
+      const ModelLoaded load = load_board_model(session, c, weights.network, name);
+      const link::IdentifyPayload now = session.identify();
+      const std::string said = "loaded its model " + golden::hex_word(load.crc, 32) + " (" +
+                               std::to_string(load.frames) + " frames in " +
+                               std::to_string(static_cast<int>(load.seconds * 1000 + 0.5)) + " ms)";
+      std::cerr << "host serve: " << name << ": " << said << std::endl;
+      std::lock_guard<std::mutex> lock(mutex);
+      identify = now;
+      model_load = said;
+      connection = "connected";  // load_board_model checked the gateware and the model's CRC
+      note = "identified; " + said;
+      json reply = success();
+      reply["weights_crc"] = golden::hex_word(load.crc, 32);
+      reply["frames"] = load.frames;
+      reply["seconds"] = load.seconds;
+      reply["state"] = state_name(state_of(*session.last_telemetry()));
+      return reply;
     } else if (work.command == "disable") {
       session.disable();
     } else if (work.command == "clear-fault") {
@@ -785,7 +807,8 @@ struct HostServer::Impl {
         return success();
       }
       if (command == "estop") return estop(source);
-      if (command == "home" || command == "enable" || command == "disable" || command == "clear-fault") {
+      if (command == "home" || command == "enable" || command == "disable" || command == "clear-fault" ||
+          command == "load") {
         auto work = std::make_shared<Work>();
         work->command = command;
         return submit(work);
@@ -802,7 +825,7 @@ struct HostServer::Impl {
       }
       return failure(kExitBadInput,
                      "unknown command '" + command +
-                         "' (status, run, hold, resume, stop, estop, home, enable, disable, clear-fault)");
+                         "' (status, run, hold, resume, stop, estop, home, enable, disable, clear-fault, load)");
     } catch (const std::exception& error) {
       return failure(kExitFailure, error.what());
     }

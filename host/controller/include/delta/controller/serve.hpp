@@ -22,7 +22,9 @@
 // Protocol: one JSON object per line each way (at most 64 KiB; any bytes: a line that is not a
 // JSON object of the right types is answered with exit 2; text in replies is valid UTF-8, bytes
 // that were not shown as \xHH). Requests: {"cmd": C, ...} with C one of
-//   status | home | enable | disable | clear-fault | hold | resume | stop | estop
+//   status | home | enable | disable | clear-fault | load | hold | resume | stop | estop
+//   (load: the configured W.json's model onto the board again, the drives off, as at a connection:
+//   {"ok", "weights_crc", "frames", "seconds"}; refused, exit 3, with the drives on)
 //   run {"trajectory": NAME|/abs/FILE.csv|move:..., "duration": S (0 < S <= kMaxRunSeconds; 0 or
 //       absent: all of it), "record": NAME.csv (in the recordings folder: a relative name is taken
 //       there, an absolute one must lie inside it; an existing file is never replaced; default: a
