@@ -7,7 +7,26 @@
 set(DELTA_RTL_WAIVERS ${PROJECT_SOURCE_DIR}/rtl/lint_waivers.vlt)
 # `include search path (readmemh_load.svh).
 set(DELTA_RTL_INCLUDE -I${PROJECT_SOURCE_DIR}/rtl/network)
-set(DELTA_ICE40_CELLS_SIM /usr/share/yosys/ice40/cells_sim.v)
+# The FPGA tools the netlists are made with (scripts/ice40_synth.sh: yosys 0.55 from npm when
+# scripts/setup.sh has installed it, else Debian's yosys 0.23) and their iCE40 cell models, which
+# simulate those netlists.
+get_property(delta_fpga_tools GLOBAL PROPERTY DELTA_FPGA_TOOLS_CHOSEN)
+if(NOT delta_fpga_tools)
+  execute_process(
+    COMMAND bash -c "source '${PROJECT_SOURCE_DIR}/scripts/ice40_synth.sh' && echo \"$fpga_tools;$ice40_cells_sim\""
+    OUTPUT_VARIABLE delta_fpga_tools OUTPUT_STRIP_TRAILING_WHITESPACE RESULT_VARIABLE delta_fpga_tools_result)
+  if(NOT delta_fpga_tools_result EQUAL 0)
+    message(FATAL_ERROR "scripts/ice40_synth.sh: cannot choose the FPGA tools")
+  endif()
+  set_property(GLOBAL PROPERTY DELTA_FPGA_TOOLS_CHOSEN "${delta_fpga_tools}")
+  if(delta_fpga_tools MATCHES "^yowasp;")
+    message(STATUS "FPGA tools: yosys 0.55, nextpnr-ice40 0.8 (YoWASP, npm)")
+  else()
+    message(STATUS "FPGA tools: Debian's yosys 0.23, nextpnr-ice40 0.4 (scripts/setup.sh installs the newer ones from npm)")
+  endif()
+endif()
+list(GET delta_fpga_tools 0 DELTA_FPGA_TOOLS)
+list(GET delta_fpga_tools 1 DELTA_ICE40_CELLS_SIM)
 find_package(ZLIB REQUIRED)  # Verilator's FST writer
 
 function(_delta_absolute_paths out_var)

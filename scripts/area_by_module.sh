@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
-# Where the UP5K's logic goes, module by module: the bitstream's synthesis (scripts/ice40_synth.sh)
-# with the hierarchy kept (-noflatten), then per module its LUT4s, carries, flip-flops, block RAMs
-# and DSPs, times its instances. Kept apart, modules cannot share logic across their ports, so the
+# Where the UP5K's logic goes, module by module: the bitstream's synthesis (scripts/ice40_synth.sh,
+# with its tools) with the hierarchy kept (-noflatten), then per module its LUT4s, carries,
+# flip-flops, block RAMs and DSPs, times its instances. Kept apart, modules cannot share logic across their ports, so the
 # sum is above the flat design's logic cells (resources.txt of the bitstream): read the shares,
 # not the sum.
 #
@@ -41,8 +41,10 @@ source "$(dirname "$0")/ice40_synth.sh"
   echo "$ice40_synth -noflatten -top $top"
   echo "tee -q -o $work/stat.txt stat"
 } > "$work/script.ys"
-echo "area_by_module: yosys $ice40_synth -noflatten ($top), a few minutes" >&2
-yosys -q -l "$work/yosys.log" -s "$work/script.ys" > /dev/null 2>&1 ||
+FPGA_MOUNTS=("$work")
+fpga_mount_inputs
+echo "area_by_module: yosys ($fpga_tools) $ice40_synth -noflatten ($top), a few minutes" >&2
+fpga_yosys -q -l "$work/yosys.log" -s "$work/script.ys" > /dev/null 2>&1 ||
   { echo "area_by_module: yosys failed:" >&2; tail -5 "$work/yosys.log" >&2; exit 1; }
 python3 - "$work/stat.txt" "$top" > "$out.tmp" <<'PY'
 import re, sys

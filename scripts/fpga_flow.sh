@@ -7,6 +7,8 @@
 #   --tries K: place and route with seeds N, N+1, .. N+K-1 until every clock meets its target
 #     (default 1: seed N only); synthesis runs once.
 #   --param sets a top-level parameter (string values are given with their quotes: MemDir='"/abs"').
+# The tools (yosys 0.55 / nextpnr-ice40 0.8 from npm when installed, else Debian's; DELTA_FPGA_TOOLS
+# chooses) and the synthesis command: scripts/ice40_synth.sh.
 # Writes in DIR: TOP.json (netlist), TOP.asc, TOP.bin (bitstream), yosys.log, nextpnr.log,
 #   timing.txt (post-route Fmax of each clock against its target, and the seed; exit code 1 when
 #   timing fails) and resources.txt (logic cells, DSPs, block RAMs, I/O, PLLs used out of the
@@ -55,28 +57,17 @@ read_sources=""
 for source in "${sources[@]}"; do read_sources+="read_verilog -defer -sv$includes $(realpath "$source"); "; done
 # shellcheck source=ice40_synth.sh
 source "$(dirname "$0")/ice40_synth.sh"
-# DELTA_FPGA_TOOLS=yowasp: yosys and nextpnr-ice40 from npm (WebAssembly under Node.js).
-if [[ ${DELTA_FPGA_TOOLS:-debian} == yowasp ]]; then
-  yowasp_mounts=(--mount "$out" --mount "$(dirname "$(realpath "$pcf")")")
-  for source in "${sources[@]}"; do yowasp_mounts+=(--mount "$(dirname "$(realpath "$source")")"); done
-  for param in "${params[@]}"; do
-    value=${param#*=}; value=${value//\"/}
-    [[ -d $value ]] && yowasp_mounts+=(--mount "$value")
-  done
-  yosys_tool=(node "$(dirname "$0")/yowasp_run.mjs" yosys "${yowasp_mounts[@]}" --)
-  nextpnr_tool=(node "$(dirname "$0")/yowasp_run.mjs" nextpnr-ice40 "${yowasp_mounts[@]}" --)
-else
-  yosys_tool=(yosys)
-  nextpnr_tool=(nextpnr-ice40)
-fi
-echo "fpga_flow: yosys $ice40_synth ($top)" >&2
-"${yosys_tool[@]}" -q -l "$out/yosys.log" -p "$read_sources $chparams $ice40_synth -top $top -json $out/$top.json" >/dev/null
+# The folders a YoWASP tool sees: the output, the .pcf's, the sources' and those a parameter names.
+FPGA_MOUNTS=("$(realpath "$out")" "$(dirname "$(realpath "$pcf")")")
+fpga_mount_inputs
+echo "fpga_flow: yosys ($fpga_tools) $ice40_synth ($top)" >&2
+fpga_yosys -q -l "$out/yosys.log" -p "$read_sources $chparams $ice40_synth -top $top -json $out/$top.json" >/dev/null
 
 # Place and route with one seed; writes timing.txt and sets timing_ok.
 place_and_route() {
   local seed=$1
-  echo "fpga_flow: nextpnr-ice40 --up5k, seed $seed (clocks without a pcf target: $freq MHz)" >&2
-  "${nextpnr_tool[@]}" --up5k --package sg48 --pcf "$pcf" --json "$out/$top.json" --asc "$out/$top.asc" \
+  echo "fpga_flow: nextpnr-ice40 ($fpga_tools) --up5k, seed $seed (clocks without a pcf target: $freq MHz)" >&2
+  fpga_nextpnr --up5k --package sg48 --pcf "$pcf" --json "$out/$top.json" --asc "$out/$top.asc" \
     --freq "$freq" --seed "$seed" --timing-allow-fail --log "$out/nextpnr.log" -q >/dev/null 2>&1 ||
     { echo "fpga_flow: nextpnr failed, see $out/nextpnr.log" >&2; tail -5 "$out/nextpnr.log" >&2; exit 1; }
 

@@ -34,16 +34,23 @@ for source in "${sources[@]}"; do
   dir="-I$(dirname "$(relative "$source")")"
   [[ " $includes " == *" $dir "* ]] || includes+=" $dir"
 done
+# shellcheck source=ice40_synth.sh
+source "$(dirname "$0")/ice40_synth.sh"
+# yosys writes into a scratch folder (a YoWASP tool sees only the folders it is given).
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
 script=""
 for source in "${sources[@]}"; do script+="read_verilog -defer -sv$includes $(relative "$source"); "; done
 for param in "${params[@]}"; do script+="chparam -set ${param%%=*} ${param#*=} $top; "; done
-# shellcheck source=ice40_synth.sh
-source "$(dirname "$0")/ice40_synth.sh"
-script+="$ice40_synth -top $top; write_verilog -noattr $out.tmp"
+script+="$ice40_synth -top $top; write_verilog -noattr $work/netlist.v"
 log="$out.yosys.log"
-(cd "$root" && yosys -q -l "$log" -p "$script" >/dev/null 2>&1) || { tail -5 "$log" >&2; echo "gate_level_netlist: yosys failed, see $log" >&2; exit 1; }
+FPGA_MOUNTS=("$work")
+fpga_mount_inputs relative
+(cd "$root" && fpga_yosys -q -l "$work/yosys.log" -p "$script" >/dev/null 2>&1) ||
+  { cp "$work/yosys.log" "$log" 2>/dev/null; tail -5 "$log" >&2; echo "gate_level_netlist: yosys ($fpga_tools) failed, see $log" >&2; exit 1; }
+cp "$work/yosys.log" "$log"
 if grep -E "is implicitly declared|out of bounds|multiple conflicting drivers" "$log" | grep -v "^$" >&2; then
   echo "gate_level_netlist: yosys warnings above change the design; see $log" >&2
   exit 1
 fi
-mv "$out.tmp" "$out"
+mv "$work/netlist.v" "$out"

@@ -1,5 +1,9 @@
 #!/usr/bin/env bash
-# Installs everything the project uses from Debian's packages; quick and silent when all is present.
+# Installs everything the project uses from Debian's packages, and the newer FPGA tools (yosys
+# 0.55, nextpnr-ice40 0.8, YoWASP builds) from npm into $DELTA_YOWASP (default
+# ~/.cache/delta-yowasp/node_modules, where scripts/ice40_synth.sh finds them); quick and silent
+# when all is present. Without npm (or the registry) the FPGA flow keeps Debian's yosys 0.23 and
+# nextpnr-ice40 0.4, and says so.
 set -euo pipefail
 
 packages=(
@@ -16,6 +20,29 @@ packages=(
   libcpp-httplib-dev                       # the dashboard's HTTP server (host serve --http)
   chromium                                 # the dashboard's real-browser test (headless)
 )
+# The FPGA tools from npm, pinned (scripts/ice40_synth.sh's synthesis command is theirs); they need
+# Node.js 18 or newer and npm on the PATH, which this script does not install.
+npm_packages=(@yowasp/yosys@0.55.944 @yowasp/nextpnr-ice40@0.8.621)
+
+# Installs the npm packages that are missing or at another version (after the Debian ones: npm).
+install_npm_packages() {
+  local root=${DELTA_YOWASP:-$HOME/.cache/delta-yowasp/node_modules} package name version present missing_npm=()
+  for package in "${npm_packages[@]}"; do
+    name=${package%@*} version=${package##*@}
+    present=$(sed -n 's/^  "version": "\(.*\)",$/\1/p' "$root/$name/package.json" 2>/dev/null || true)
+    [[ $present == "$version" ]] || missing_npm+=("$package")
+  done
+  ((${#missing_npm[@]} == 0)) && return 0
+  if ! command -v npm >/dev/null || ! command -v node >/dev/null; then
+    echo "setup: no npm: the FPGA flow uses Debian's yosys 0.23 and nextpnr-ice40 0.4" >&2
+    return 0
+  fi
+  echo "setup: installing ${missing_npm[*]} (npm) into $root" >&2
+  mkdir -p "$(dirname "$root")"
+  if ! npm install --silent --no-audit --no-fund --prefix "$(dirname "$root")" "${missing_npm[@]}" >/dev/null; then
+    echo "setup: npm install failed: the FPGA flow uses Debian's yosys 0.23 and nextpnr-ice40 0.4" >&2
+  fi
+}
 
 missing=()
 for package in "${packages[@]}"; do
@@ -23,6 +50,7 @@ for package in "${packages[@]}"; do
   [[ "$status" == "install ok installed" ]] || missing+=("$package")
 done
 if ((${#missing[@]} == 0)); then
+  install_npm_packages
   exit 0
 fi
 
@@ -35,4 +63,5 @@ fi
 export DEBIAN_FRONTEND=noninteractive
 $sudo apt-get update -qq
 $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+install_npm_packages
 echo "setup: done" >&2

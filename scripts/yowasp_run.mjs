@@ -2,7 +2,10 @@
 // system: the tool sees the given directories at their own absolute paths, and every file it
 // writes under them is written back to disk.
 //
-// Usage: node scripts/yowasp_run.mjs yosys|nextpnr-ice40 --mount DIR [--mount DIR]... -- ARGS...
+// Usage: node scripts/yowasp_run.mjs yosys|nextpnr-ice40 [--mount DIR | --relative DIR]... -- ARGS...
+//   --mount DIR: DIR at its absolute path; --relative DIR (a path relative to the current
+//   directory): DIR at that relative path from the tool's working directory, so that a tool given
+//   relative paths (gate_level_netlist.sh) names its files as they are named on disk.
 //   The packages are found in $DELTA_YOWASP (default ~/.cache/delta-yowasp/node_modules, where
 //   scripts/setup.sh installs them). Exit code: the tool's.
 import fs from "node:fs";
@@ -15,11 +18,18 @@ const tool = argv.shift();
 const mounts = [];
 while (argv.length && argv[0] !== "--") {
   const option = argv.shift();
-  if (option !== "--mount" || !argv.length) {
-    console.error(`yowasp_run: expected --mount DIR or --, got ${option}`);
+  if ((option !== "--mount" && option !== "--relative") || !argv.length) {
+    console.error(`yowasp_run: expected --mount DIR, --relative DIR or --, got ${option}`);
     process.exit(2);
   }
-  mounts.push(path.resolve(argv.shift()));
+  const dir = argv.shift();
+  if (option === "--relative" && (path.isAbsolute(dir) || path.normalize(dir).startsWith(".."))) {
+    console.error(`yowasp_run: --relative ${dir}: not a directory below the current one`);
+    process.exit(2);
+  }
+  // The tool's working directory is its tree's root.
+  const disk = path.resolve(dir);
+  mounts.push({ disk, at: option === "--relative" ? path.join("/", path.normalize(dir)) : disk });
 }
 argv.shift();
 const packages = { yosys: ["@yowasp/yosys", "runYosys"], "nextpnr-ice40": ["@yowasp/nextpnr-ice40", "runNextpnrIce40"] };
@@ -36,7 +46,7 @@ if (!fs.existsSync(bundle)) {
 }
 const module = await import(pathToFileURL(bundle).href);
 
-// The tree of the mounted directories, at their absolute paths; sizes/mtimes kept to see writes.
+// The tree of the mounted directories; their files' contents kept to see writes.
 const tree = {};
 const before = new Map();
 function readDirectory(dir) {
@@ -53,25 +63,32 @@ function readDirectory(dir) {
   return node;
 }
 for (const mount of mounts) {
-  fs.mkdirSync(mount, { recursive: true });
-  const parts = mount.split(path.sep).filter(Boolean);
+  fs.mkdirSync(mount.disk, { recursive: true });
+  const parts = mount.at.split(path.sep).filter(Boolean);
   let node = tree;
   for (const part of parts.slice(0, -1)) node = node[part] ??= {};
-  node[parts[parts.length - 1]] = readDirectory(mount);
+  node[parts[parts.length - 1]] = readDirectory(mount.disk);
 }
 
+// A file the tool names `at` is on disk at the mount's `disk` path; files outside every mount
+// (the tool's scratch files) are not written.
+function diskPath(at) {
+  const mount = mounts.find((m) => at.startsWith(m.at + path.sep));
+  return mount ? path.join(mount.disk, path.relative(mount.at, at)) : null;
+}
 function writeBack(node, dir) {
   for (const [entryName, value] of Object.entries(node)) {
-    const full = path.join(dir, entryName);
+    const at = path.join(dir, entryName);
     if (value instanceof Uint8Array || typeof value === "string") {
-      if (!mounts.some((m) => full.startsWith(m + path.sep))) continue;
+      const full = diskPath(at);
+      if (!full) continue;
       const data = typeof value === "string" ? Buffer.from(value) : Buffer.from(value);
       const old = before.get(full);
       if (old && old.equals(data)) continue;
-      fs.mkdirSync(dir, { recursive: true });
+      fs.mkdirSync(path.dirname(full), { recursive: true });
       fs.writeFileSync(full, data);
     } else {
-      writeBack(value, full);
+      writeBack(value, at);
     }
   }
 }

@@ -14,3 +14,8 @@ set_tests_properties(Readme.EveryCommandRunsAsWritten PROPERTIES LABELS host TIM
 add_test(NAME Scripts.HelpPrintsTheUsageAndNoCode
   COMMAND ${PROJECT_SOURCE_DIR}/tests/layout/script_help.sh ${PROJECT_SOURCE_DIR})
 set_tests_properties(Scripts.HelpPrintsTheUsageAndNoCode PROPERTIES LABELS host)
+# The FPGA tools' choice (YoWASP's yosys 0.55 / nextpnr 0.8 when installed, else Debian's) and the
+# YoWASP runner's mounts, with a stand-in for the npm packages (no synthesis).
+add_test(NAME Scripts.FpgaToolsChoiceAndYowaspMounts
+  COMMAND ${PROJECT_SOURCE_DIR}/tests/layout/fpga_tools.sh ${PROJECT_SOURCE_DIR})
+set_tests_properties(Scripts.FpgaToolsChoiceAndYowaspMounts PROPERTIES LABELS host)
