@@ -47,6 +47,7 @@ class ScriptedBoard : public io::ByteStream {
   std::optional<std::uint16_t> corrupt_word;  // frame whose word is stored with a bit flipped (every load)
   std::optional<std::uint32_t> reported_crc;  // identify reports this instead of the checked CRC
   std::uint32_t build_id = kGatewareBuildId;
+  int ms_before_each_write = 0;  // board time that passes before each write of the host reaches the line
 
   std::size_t ring_high_water = 0;  // the most bytes waiting in the ring (more than board::kRxRingBytes: overflowed)
   int loads_started = 0;            // frame 0 taken
@@ -60,6 +61,9 @@ class ScriptedBoard : public io::ByteStream {
     return n;
   }
   void write_all(const std::uint8_t* data, std::size_t size, int) override {
+    // A board faster than the host: board time runs before the host's bytes reach the line, its
+    // telemetry piling up for the host.
+    for (long steps = 0; steps < 100L * ms_before_each_write; ++steps) step();
     for (std::size_t i = 0; i < size; ++i, ++host_bytes_) {
       adapter_.push_back(corrupt_byte && *corrupt_byte == host_bytes_ ? static_cast<std::uint8_t>(data[i] ^ 0x10)
                                                                       : data[i]);
@@ -204,6 +208,18 @@ TEST(ModelLoad, PacedByTheBoardsAcceptanceTheRingNeverOverflowsOnABoardSlowerTha
     EXPECT_LE(l.board.ring_high_water, link::kModelLoadWindowBytes) << "byte cost " << cost;
     std::cout << "byte cost " << cost << ": ring high water " << l.board.ring_high_water << " bytes\n";
   }
+}
+
+TEST(ModelLoad, TelemetryThatPiledUpWhileTheHostWroteIsNoStall) {
+  // The virtual board running free makes 25 ms of board time (25 telemetry frames, more than the
+  // 20 a stall waits) before each write of the host reaches it: only the newest frame counts.
+  const golden::QuantisedNetwork q = network(kWeights);
+  Loading l;
+  l.board.ms_before_each_write = 25;
+  const link::ModelLoadReport report = l.session.load_model(golden::model_frames(q));
+  EXPECT_TRUE(report.loaded) << report.problem;
+  EXPECT_EQ(report.sent, static_cast<std::size_t>(board::kModelFrames));
+  EXPECT_EQ(l.board.model_crc, weights_crc(q));
 }
 
 TEST(ModelLoad, WithoutPacingTheSlowBoardsRingWouldOverflow) {

@@ -228,6 +228,15 @@ ModelLoadReport LinkSession::load_model(const std::vector<ModelPayload>& frames)
   // it would look like an answer), so that the telemetry's `sequence` names the newest frame taken:
   // at most `window` (< 255) frames are on their way, all with distinct numbers.
   std::vector<std::uint8_t> sequences(frames.size());
+  // The newest telemetry frame: at least one more, then whatever else is there. Frames that piled
+  // up while the host wrote (a board faster than the host: the virtual board running free) are
+  // stale: only the newest says how far the board got, and a count of stale ones is no stall.
+  auto newest_telemetry = [this] {
+    TelemetryPayload t = next_telemetry();
+    poll_frames();
+    while (std::optional<TelemetryPayload> more = take_telemetry()) t = *more;
+    return t;
+  };
   std::size_t sent = 0;
   std::size_t accepted = 0;  // frames the board accepted (taken or refused), in order
   int frames_without_progress = 0;
@@ -248,7 +257,7 @@ ModelLoadReport LinkSession::load_model(const std::vector<ModelPayload>& frames)
       send_frame(make_frame(sequence_++, frames[sent]));
       ++sent;
     }
-    const TelemetryPayload t = next_telemetry();
+    const TelemetryPayload t = newest_telemetry();
     report.telemetry = t;
     const std::size_t newest = accepted_by(t);
     frames_without_progress = newest > accepted ? 0 : frames_without_progress + 1;
@@ -259,7 +268,7 @@ ModelLoadReport LinkSession::load_model(const std::vector<ModelPayload>& frames)
       // after the first refused one is refused (out of order), so the first is accepted - refused.
       TelemetryPayload last = t;
       for (int waited = 0; waited < 4 || (accepted < sent && waited < options_.command_timeout_frames); ++waited) {
-        last = next_telemetry();
+        last = newest_telemetry();
         accepted = accepted_by(last);
       }
       report.telemetry = last;
@@ -286,7 +295,7 @@ ModelLoadReport LinkSession::load_model(const std::vector<ModelPayload>& frames)
     }
   }
   // The commit taken: the next frame shows whether the board's own CRC checked.
-  report.telemetry = next_telemetry();
+  report.telemetry = newest_telemetry();
   report.taken = accepted;
   report.sent = sent;
   report.loaded = report.telemetry.has(TelemetryFlag::kModel);
