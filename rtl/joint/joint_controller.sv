@@ -395,6 +395,15 @@ module joint_controller (
   always_comb begin
     reset_in_the_first_cycle: assume (ap_rst || f_past_valid);
   end
+  // The state memory builds no bypass for a read of the word written in the same cycle
+  // (joint_state_ram's no_rw_check): no read, consumed or not, ever meets the write.
+  always_comb begin
+    if (f_past_valid && write_enable) the_memory_never_reads_the_word_written: assert (read_address != write_address);
+    the_memory_never_reads_the_word_written_c: cover (f_past_valid && !ap_rst && state_q == StateRun && write_enable);
+    // Lemma: outside a run the microprogram waits at its start.
+    if (f_past_valid && state_q != StateRun) outside_a_run_the_program_is_at_its_start: assert (pc_q == 5'd0 && phase_q == 3'd0);
+    outside_a_run_the_program_is_at_its_start_c: cover (f_past_valid && !ap_rst && state_q == StateLoad);
+  end
   always_comb begin
     if (state_q == StateIdle && write_enable) the_peek_never_reads_the_word_written: assert (
         read_address[3] == !bank_q && write_address[3] == bank_q && read_address != write_address);
