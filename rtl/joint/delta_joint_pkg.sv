@@ -137,4 +137,53 @@ package delta_joint_pkg;
     endcase
   endfunction
 
+  // The datapath only adds (joint_controller.sv, "Schedule"): a negative coefficient c multiplies
+  // the operand's complement ~x = -x - 1 by |c|, and |c| is added once, so the sum is x c; the
+  // rounding constant 2^(shift-1) of an OpInit whose frac differs from its shift (its bit is inside
+  // the shifted state) is added with the next instruction, which is always an OpMac. Those two
+  // constants are the OpMac's correction (the others are 0, and an OpInit ORs its rounding bit).
+  // Both tables are constants of the program (no adder is built for them).
+  function automatic logic [AccumulatorWidth-1:0] correction_at(logic [4:0] pc);
+    logic [InstructionWidth-1:0] rom_word, rom_previous;  // fields of these read (a lint waiver)
+    logic [23:0] c;
+    logic [4:0] shift;
+    rom_word = program_rom(pc);
+    rom_previous = program_rom(pc - 5'd1);
+    c = coefficient_value(rom_word[InstructionWidth-1-2-3*SourceWidth-3 -: 4]);
+    correction_at = c[23] ? AccumulatorWidth'(24'(-c)) : '0;
+    shift = rom_previous[7:3];
+    if (pc != 5'd0 && rom_previous[InstructionWidth-1 -: 2] == OpInit && rom_previous[12:8] != shift)
+      correction_at = correction_at + (AccumulatorWidth'(1) << (shift - 5'd1));
+  endfunction
+
+  function automatic logic [32*AccumulatorWidth-1:0] correction_table();
+    for (int pc = 0; pc < 32; pc++) correction_table[AccumulatorWidth * pc +: AccumulatorWidth] = correction_at(5'(pc));
+  endfunction
+
+  // |c| when c is negative, else c: the bit-serial multiplier's 23 coefficient bits.
+  function automatic logic [22:0] magnitude_of(logic [23:0] c);
+    magnitude_of = c[23] ? 23'(24'(-c)) : c[22:0];
+  endfunction
+
+  function automatic logic [16*23-1:0] magnitude_table();
+    for (int k = 0; k < 16; k++) magnitude_table[23 * k +: 23] = magnitude_of(coefficient_value(4'(k)));
+  endfunction
+
+  localparam logic [32*AccumulatorWidth-1:0] MacCorrections = correction_table();
+  localparam logic [16*23-1:0] CoefficientMagnitudes = magnitude_table();
+
+  function automatic logic [AccumulatorWidth-1:0] mac_correction(logic [4:0] pc);
+    mac_correction = MacCorrections[AccumulatorWidth * pc +: AccumulatorWidth];
+  endfunction
+
+  function automatic logic [22:0] coefficient_magnitude(logic [3:0] coefficient);
+    coefficient_magnitude = CoefficientMagnitudes[23 * coefficient +: 23];
+  endfunction
+
+  function automatic logic coefficient_negative(logic [3:0] coefficient);
+    logic [23:0] rom_coefficient;  // its sign read (a lint waiver)
+    rom_coefficient = coefficient_value(coefficient);
+    coefficient_negative = rom_coefficient[23];
+  endfunction
+
 endpackage

@@ -11,9 +11,14 @@
 // copies, 3 x 355 for the joints, 1 done cycle): 46.1 us at the board's 23.25 MHz, 46 % of the 100 us period.
 //
 // Schedule: per joint the 21 instructions of delta_joint_pkg::program_rom, each
-//   OpInit 3 cycles (read, register, load acc), OpMac 30 (read a, b, c; a - b shifted; minus c;
-//   saturate; 24 bit-serial steps over the coefficient), OpStore 2 (shift, then saturate and
-//   write): 5 x 3 + 11 x 30 + 5 x 2 = 355.
+//   OpInit 3 cycles (read, register, load acc), OpMac 30 (read a, b, c; a - b shifted; minus c and
+//   the correction into the multiplicand; saturate, add the correction; 24 bit-serial steps over
+//   the coefficient's magnitude), OpStore 2 (shift, then saturate and write): 5 x 3 + 11 x 30 +
+//   5 x 2 = 355.
+// The accumulator has one adder and only adds (delta_joint_pkg::mac_correction): a negative
+// coefficient multiplies the complemented operand by its magnitude plus a correction, and an
+// OpInit's rounding constant is ORed in or, where its bit is inside the state, is the next OpMac's
+// correction.
 // The instruction, every memory word (word_q), each step of the operand and the shifted
 // accumulator pass a register, so no path holds more than one carry chain: 25 MHz beside the
 // network on the UP5K.
@@ -63,7 +68,7 @@ module joint_controller (
   logic         primed_q, primed_d;  // an earlier period has filled the old bank
   logic [AccWidth-1:0] acc_q, acc_d;
   logic [AccWidth-1:0] multiplicand_q, multiplicand_d;  // operand << bit
-  logic [23:0]  coefficient_q, coefficient_d;
+  logic [22:0]  coefficient_q, coefficient_d;  // |c|, shifted right a bit per step
   logic [31:0]  word_q, word_d;      // the word read two cycles ago, masked (pipeline register)
   logic [31:0]  first_q, first_d;    // operand a
   logic [57:0]  shifted_difference_q, shifted_difference_d;  // (a - b) << operand_shift
@@ -119,19 +124,19 @@ module joint_controller (
            (source[4:3] == delta_joint_pkg::SourceOld && !primed && !is_input_slot(source[2:0]));
   endfunction
 
-  // Constant shifts selected per instruction (a barrel shifter would cost far more logic).
+  // Constant shifts selected per instruction (a barrel shifter would cost far more logic). The
+  // rounding constant 2^(shift-1) is ORed in when frac = shift (its bit is below the state's);
+  // otherwise it is the next OpMac's correction (delta_joint_pkg::mac_correction).
   function automatic logic [AccWidth-1:0] init_value(logic [31:0] word, logic [4:0] frac, logic [4:0] shift);
-    logic [AccWidth-1:0] extended, shifted, half;
+    logic [AccWidth-1:0] extended, shifted;
     extended = {{(AccWidth - 32){word[31]}}, word};
     unique case (frac)
-      5'd26:   shifted = extended << 26;
-      5'd25:   shifted = extended << 25;
-      5'd22:   shifted = extended << 22;
-      default: shifted = extended << 20;
+      5'd26:   shifted = (extended << 26) | (shift == 5'd26 ? AccWidth'(1) << 25 : '0);
+      5'd25:   shifted = (extended << 25) | (shift == 5'd25 ? AccWidth'(1) << 24 : '0);
+      5'd22:   shifted = (extended << 22) | (shift == 5'd22 ? AccWidth'(1) << 21 : '0);
+      default: shifted = (extended << 20) | (shift == 5'd20 ? AccWidth'(1) << 19 : '0);
     endcase
-    half = '0;
-    half[7'(shift) - 7'd1] = 1'b1;
-    init_value = shifted + half;
+    init_value = shifted;
   endfunction
 
   function automatic logic [AccWidth-1:0] shift_right(logic [AccWidth-1:0] value, logic [4:0] shift);
@@ -159,7 +164,12 @@ module joint_controller (
   logic [57:0]         operand_wide;
   logic [39:0]         operand;
   logic                operand_saturated;
-  logic [AccWidth-1:0] shifted_acc, shifted_acc_q;  // acc >>> shift, registered for the stores
+  logic [AccWidth-1:0] shifted_acc;    // acc >>> shift; its low word and overflow registered
+  logic [31:0]         shifted_word_q;   // (acc >>> shift)[31:0]
+  logic                shifted_sign_q;   // acc < 0
+  logic                shifted_over_q;   // acc >>> shift does not fit 32 bits
+  logic [AccWidth-1:0] acc_sum;          // the accumulator's one adder
+  logic                coefficient_negative;
   logic                state_saturated;
   logic [31:0]         state_word;
   logic                current_high, current_low;
@@ -170,13 +180,18 @@ module joint_controller (
     operand_wide = operand_wide_q;
     operand_saturated = operand_wide[57:39] != {19{operand_wide[57]}};
     operand = operand_saturated ? {operand_wide[57], {39{!operand_wide[57]}}} : operand_wide[39:0];
-    shifted_acc = shifted_acc_q;
-    state_saturated = shifted_acc[AccWidth-1:31] != {(AccWidth - 31){shifted_acc[AccWidth-1]}};
-    state_word = state_saturated ? {shifted_acc[AccWidth-1], {31{!shifted_acc[AccWidth-1]}}} : shifted_acc[31:0];
-    current_high = $signed(shifted_acc) > $signed({{(AccWidth - 16){1'b0}}, delta_joint_pkg::CurrentLimit});
-    current_low = $signed(shifted_acc) < -$signed({{(AccWidth - 16){1'b0}}, delta_joint_pkg::CurrentLimit});
+    shifted_acc = shift_right(acc_q, instr_shift);
+    state_saturated = shifted_over_q;
+    state_word = state_saturated ? {shifted_sign_q, {31{!shifted_sign_q}}} : shifted_word_q;
+    // acc >>> shift beyond +-CurrentLimit: beyond 32 bits, or its word beyond.
+    current_high = !shifted_sign_q && (shifted_over_q ||
+                   $signed(shifted_word_q) > $signed({16'd0, delta_joint_pkg::CurrentLimit}));
+    current_low = shifted_sign_q && (shifted_over_q ||
+                  $signed(shifted_word_q) < $signed(32'(-{16'd0, delta_joint_pkg::CurrentLimit})));
     current_word = current_high ? delta_joint_pkg::CurrentLimit :
-                   current_low  ? 16'(-delta_joint_pkg::CurrentLimit) : shifted_acc[15:0];
+                   current_low  ? 16'(-delta_joint_pkg::CurrentLimit) : shifted_word_q[15:0];
+    acc_sum = acc_q + multiplicand_q;
+    coefficient_negative = delta_joint_pkg::coefficient_negative(coefficient);
   end
 
   assign source_data = reads_zero(source_q, primed_q) ? 32'd0 : read_data;
@@ -259,16 +274,20 @@ module joint_controller (
               3'd0, 3'd1: ;  // reads of a and b issued
               3'd2: first_d = word_q;
               3'd3: shifted_difference_d = shift_difference({first_q[31], first_q} - {word_q[31], word_q}, operand_shift);
-              3'd4: operand_wide_d = shifted_difference_q - {{26{word_q[31]}}, word_q};
+              3'd4: begin
+                operand_wide_d = shifted_difference_q - {{26{word_q[31]}}, word_q};
+                multiplicand_d = delta_joint_pkg::mac_correction(pc_q);
+              end
               3'd5: begin
-                multiplicand_d = {{(AccWidth - 40){operand[39]}}, operand};
-                coefficient_d  = delta_joint_pkg::coefficient_value(coefficient);
+                acc_d          = acc_sum;  // + the correction
+                multiplicand_d = {{(AccWidth - 40){operand[39]}}, operand} ^ {AccWidth{coefficient_negative}};
+                coefficient_d  = delta_joint_pkg::coefficient_magnitude(coefficient);
                 bit_d          = 5'd0;
                 overflow_event = operand_saturated;
               end
               default: begin
-                // Bit-serial two's complement product: the sign bit (23) weighs -2^23.
-                if (coefficient_q[0]) acc_d = bit_q == 5'd23 ? acc_q - multiplicand_q : acc_q + multiplicand_q;
+                // Bit-serial product of the (complemented) operand and |c|; bit 23 of |c| is 0.
+                if (coefficient_q[0]) acc_d = acc_sum;
                 multiplicand_d = multiplicand_q << 1;
                 coefficient_d  = coefficient_q >> 1;
                 bit_d          = bit_q + 5'd1;
@@ -347,7 +366,9 @@ module joint_controller (
       overflow_q     <= '0;
       current_valid_q <= '0;
       instruction_q  <= delta_joint_pkg::program_rom(5'd0);
-      shifted_acc_q  <= '0;
+      shifted_word_q <= '0;
+      shifted_sign_q <= 1'b0;
+      shifted_over_q <= 1'b0;
     end else begin
       state_q        <= state_d;
       load_q         <= load_d;
@@ -369,7 +390,9 @@ module joint_controller (
       overflow_q     <= overflow_d;
       current_valid_q <= current_valid_d;
       instruction_q  <= delta_joint_pkg::program_rom(pc_d);
-      shifted_acc_q  <= shift_right(acc_q, instr_shift);
+      shifted_word_q <= shifted_acc[31:0];
+      shifted_sign_q <= acc_q[AccWidth-1];
+      shifted_over_q <= shifted_acc[AccWidth-1:31] != {(AccWidth - 31){shifted_acc[AccWidth-1]}};
     end
   end
 
