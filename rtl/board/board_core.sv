@@ -95,12 +95,14 @@ module board_core #(
   logic [7:0] frame_sequence /*verilator public_flat_rd*/;
   logic [7:0] payload_byte /*verilator public_flat_rd*/;
   logic [5:0] payload_index /*verilator public_flat_rd*/;
+  logic       model_stall;
 
   link_rx u_link_rx (
     .clk_i,
     .rst_ni,
     .rx_data_i      (rx_data),
     .rx_valid_i     (rx_valid),
+    .stall_i        (model_stall),
     .start_o        (frame_start),
     .type_o         (frame_type),
     .sequence_o     (frame_sequence),
@@ -111,10 +113,45 @@ module board_core #(
     .bad_o          (frame_bad)
   );
 
-  logic is_setpoint, is_command, is_identify_request;
+  logic is_setpoint, is_command, is_identify_request, is_model;
   assign is_setpoint         = frame_type == 8'(delta_board_pkg::FrameTypeSetpoint);
   assign is_command          = frame_type == 8'(delta_board_pkg::FrameTypeCommand);
   assign is_identify_request = frame_type == 8'(delta_board_pkg::FrameTypeIdentifyRequest);
+  assign is_model            = frame_type == 8'(delta_board_pkg::FrameTypeModel);
+
+  // ---- the model (docs/board_link.md, "The model") -------------------------------------------------
+  // The loader takes the model frames with the drives off: the network's memories and the play words
+  // are written through its port, and the model flag rises at a commit whose CRC-32 matched.
+  logic        model_loaded /*verilator public_flat_rd*/;
+  logic        model_refused, model_write;
+  logic [7:0]  model_address;
+  logic [47:0] model_word;
+  logic [31:0] model_crc;
+  model_loader u_model_loader (
+    .clk_i,
+    .rst_ni,
+    .is_model_i     (is_model),
+    .payload_valid_i(payload_valid),
+    .payload_index_i(payload_index),
+    .payload_byte_i (payload_byte),
+    .frame_ok_i     (frame_ok),
+    .stall_o        (model_stall),
+    .drives_on_i    (enabled_q),
+    .refused_o      (model_refused),
+    .write_o        (model_write),
+    .address_o      (model_address),
+    .word_o         (model_word),
+    .loaded_o       (model_loaded),
+    .crc_o          (model_crc)
+  );
+  // The network's port takes frame numbers as its memories' layout (delta_network.sv); the package's
+  // frames must be that layout.
+  if (delta_board_pkg::ModelBias1Frame != NumInputs * delta_network_pkg::NumHidden ||
+      delta_board_pkg::ModelWeight2Frame != delta_board_pkg::ModelBias1Frame + delta_network_pkg::NumHidden ||
+      delta_board_pkg::ModelBias2Frame != delta_board_pkg::ModelWeight2Frame + NumOutputs * delta_network_pkg::NumHidden ||
+      delta_board_pkg::ModelPlayFrame != delta_board_pkg::ModelBias2Frame + NumOutputs) begin : g_bad_model_layout
+    $error("board_core: delta_board_pkg's model frames are not the network's memory layout");
+  end
 
   // ---- commands and the drive state ------------------------------------------------------------------
   logic       enabled_q, holding_q, homed_q, flush, home, clear_fault, command_refused;
@@ -133,7 +170,7 @@ module board_core #(
     command_refused = 1'b0;
     if (command_ok) begin
       unique case (command_q)
-        8'(delta_board_pkg::CommandEnable):     command_refused = fault || !homed_q || (enabled_q && !holding_q);
+        8'(delta_board_pkg::CommandEnable):     command_refused = fault || !homed_q || !model_loaded || (enabled_q && !holding_q);
         8'(delta_board_pkg::CommandDisable):    flush = 1'b1;
         8'(delta_board_pkg::CommandHold):       command_refused = !enabled_q;
         8'(delta_board_pkg::CommandClearFault): begin
@@ -280,7 +317,7 @@ module board_core #(
     .net_inputs_o  (net_clk_inputs),
     .net_outputs_i (net_clk_outputs)
   );
-  delta_network #(.MemDir(MemDir)) u_network (
+  delta_network #(.MemDir(MemDir), .ModelFromFiles(1'b0)) u_network (
     .ap_clk      (clk_network_i),
     .ap_rst      (!rst_network_ni),
     .ap_start    (net_clk_start),
@@ -295,7 +332,11 @@ module board_core #(
     .y_1         (net_clk_outputs[1*OutputWidth +: OutputWidth]),
     .y_1_ap_vld  (net_output_valid[1]),
     .y_2         (net_clk_outputs[2*OutputWidth +: OutputWidth]),
-    .y_2_ap_vld  (net_output_valid[2])
+    .y_2_ap_vld  (net_output_valid[2]),
+    .model_clk_i    (clk_i),
+    .model_write_i  (model_write),
+    .model_address_i(model_address),
+    .model_word_i   (model_word)
   );
 
   // ---- joint references ------------------------------------------------------------------------------
@@ -306,17 +347,13 @@ module board_core #(
   logic [47:0] counts;
   logic [2:0]  counts_rising;  // bit j: joint j's count last stepped up (the side its play was taken up on)
   logic        slew_limited;
-  // The deployed model's backlash half-plays H_j (Q.8 counts; zero for the plain network): constants
-  // from the weights' half_play.mem.
-  logic [3*delta_board_pkg::HalfPlayBits-1:0] half_plays;
-  readmemh_table #(
-    .Depth  (3),
-    .Width  (delta_board_pkg::HalfPlayBits),
-    .MemDir (MemDir),
-    .MemFile("half_play.mem")
-  ) u_half_plays (
-    .words_o(half_plays)
-  );
+  // The deployed model's play words (H_j and the play shift's ends; zero for the plain network):
+  // frames ModelPlayFrame + j of a load.
+  logic play_write;
+  logic [7:0] play_index;
+  assign play_index = model_address - 8'(delta_board_pkg::ModelPlayFrame);
+  assign play_write = model_write && model_address >= 8'(delta_board_pkg::ModelPlayFrame) &&
+                      model_address < 8'(delta_board_pkg::ModelPlayFrame + 3);
   reference_interpolator u_interpolator (
     .clk_i,
     .rst_ni,
@@ -328,7 +365,9 @@ module board_core #(
     .outputs_i     (net_outputs),
     .counts_i      (counts),
     .rising_i      (counts_rising),
-    .half_plays_i  (half_plays),
+    .play_write_i  (play_write),
+    .play_joint_i  (play_index[1:0]),
+    .play_word_i   (model_word[delta_board_pkg::HalfPlayBits+20:0]),
     .references_o  (references),
     .shift_write_o (shift_write),
     .shift_joint_o (shift_joint),
@@ -405,7 +444,7 @@ module board_core #(
       if (frame_bad) bad_frames_q <= saturating_increment(bad_frames_q);
       if (underrun && !homing_q) underruns_q <= saturating_increment(underruns_q);
       if (slew_limited) slew_limits_q <= saturating_increment(slew_limits_q);
-      if (command_refused || setpoint_refused) refused_q <= saturating_increment(refused_q);
+      if (command_refused || setpoint_refused || model_refused) refused_q <= saturating_increment(refused_q);
       if (frame_ok) last_sequence_q <= frame_sequence;
     end
   end
@@ -449,6 +488,7 @@ module board_core #(
     flags[delta_board_pkg::FlagEncoderError] = encoder_error_o != '0;
     flags[delta_board_pkg::FlagReferenced]   = referenced_q == 3'b111;
     flags[delta_board_pkg::FlagHoming]       = homing_q;
+    flags[delta_board_pkg::FlagModel]        = model_loaded;
     unique case (5'(word_index_q))
       5'(delta_board_pkg::TelemetrySampleIndexOffset / 2):     telemetry_word = sample_index[15:0];
       5'(delta_board_pkg::TelemetrySampleIndexOffset / 2 + 1): telemetry_word = sample_index[31:16];
@@ -477,13 +517,14 @@ module board_core #(
     .word_i             (telemetry_word),
     .identify_i         (frame_ok && is_identify_request),
     .identify_sequence_i(frame_sequence),
+    .weights_crc_i      (model_crc),
     .tx_data_o          (tx_data),
     .tx_valid_o         (tx_valid),
     .tx_ready_i         (tx_ready)
   );
 
   logic unused_status;
-  assign unused_status = ^{net_idle, net_output_valid, rx_frame_error};
+  assign unused_status = ^{net_idle, net_output_valid, rx_frame_error, play_index[7:2]};
 
   // ---- status LEDs -------------------------------------------------------------------------------------
   // On for the window of 2^LedWindowBits control periods (0.2 s) after one in which a frame was

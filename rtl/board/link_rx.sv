@@ -2,7 +2,7 @@
 //
 // Every received byte goes into a ring of RingBytes (one block RAM). A parser reads the ring one
 // byte every two cycles: it hunts for the sync byte, reads length, sequence and type, takes the
-// frame only if the type is one the board receives (identify request, setpoint, command) and the
+// frame only if the type is one the board receives (identify request, setpoint, command, model) and the
 // length is that type's payload size, then runs the CRC-16 over length..payload and compares it
 // with the two CRC bytes. A frame that fails any check is dropped (bad_o pulses) and the parser
 // rescans from the byte after the dropped frame's sync, so a frame that began inside it is still
@@ -14,7 +14,9 @@
 // payload_valid_o presents each payload byte once (tentatively: the frame is not checked yet),
 // then ok_o pulses if the CRC matches (act on the frame) or bad_o if not. Consumers keep what the
 // payload says and act only on ok_o. The parser is far faster than the line (2 cycles per byte
-// against ClocksPerBit * 10), so the ring never fills.
+// against ClocksPerBit * 10), so the ring never fills. stall_i holds the parser (every register
+// keeps its value, nothing is delivered) while the ring keeps receiving: the model loader's CRC
+// takes ModelCrcClocks clocks after a model frame's ok_o, less than a byte's time on the line.
 module link_rx #(
   parameter int unsigned RingBytes = delta_board_pkg::RxRingBytes
 ) (
@@ -22,6 +24,7 @@ module link_rx #(
   input  logic       rst_ni,
   input  logic [7:0] rx_data_i,        // from uart_rx
   input  logic       rx_valid_i,
+  input  logic       stall_i,          // the parser waits (model_loader's CRC)
   output logic       start_o,          // a header passed: a frame of type_o begins
   output logic [7:0] type_o,
   output logic [7:0] sequence_o,
@@ -85,6 +88,7 @@ module link_rx #(
       8'(delta_board_pkg::FrameTypeIdentifyRequest): size = 8'd0;
       8'(delta_board_pkg::FrameTypeSetpoint):        size = 8'(delta_board_pkg::SetpointPayloadBytes);
       8'(delta_board_pkg::FrameTypeCommand):         size = 8'(delta_board_pkg::CommandPayloadBytes);
+      8'(delta_board_pkg::FrameTypeModel):           size = 8'(delta_board_pkg::ModelPayloadBytes);
       default: begin
         known = 1'b0;
         size  = 8'd0;
@@ -108,7 +112,9 @@ module link_rx #(
     payload_valid_o = 1'b0;
     ok_o            = 1'b0;
     bad_o           = 1'b0;
-    if (!fetched_q) begin
+    if (stall_i) begin
+      fetched_d = fetched_q;  // hold: the ring reads read_q again
+    end else if (!fetched_q) begin
       // Wait for a byte: the ring reads read_q in this cycle, the byte is there in the next.
       fetched_d = read_q != write_q;
     end else begin
@@ -205,10 +211,20 @@ module link_rx #(
     if (rx_valid_i) f_gap_q <= '0;
     else if (f_gap_q != $clog2(FByteGap+1)'(FByteGap)) f_gap_q <= f_gap_q + 1'b1;
   end
+  // The model loader stalls the parser only in the ModelCrcClocks clocks after a model frame's ok_o.
+  localparam int FStallClocks = delta_board_pkg::ModelCrcClocks;
+  logic [$clog2(FStallClocks+1)-1:0] f_stall_left_q = '0;
+  always_ff @(posedge clk_i) begin
+    if (ok_o && type_q == 8'(delta_board_pkg::FrameTypeModel)) f_stall_left_q <= $clog2(FStallClocks+1)'(FStallClocks);
+    else if (f_stall_left_q != '0) f_stall_left_q <= f_stall_left_q - 1'b1;
+  end
   always_comb begin
     reset_only_in_the_first_cycle: assume (rst_ni == f_past_valid);
     bytes_arrive_at_most_at_the_line_rate: assume (!rx_valid_i || (f_gap_q == $clog2(FByteGap+1)'(FByteGap) && rst_ni));
+    the_parser_stalls_only_for_a_model_frames_crc: assume (!stall_i || f_stall_left_q != '0);
   end
+  logic f_take;  // the parser consumes the byte it fetched
+  assign f_take = fetched_q && !stall_i;
 
   // The specification of the frame rules (docs/board_link.md), written independently: a parser
   // of the bytes as this receiver consumes them (ring_data_q while fetched_q), and a bit-serial
@@ -226,6 +242,7 @@ module link_rx #(
     if (frame_type == 8'(delta_board_pkg::FrameTypeIdentifyRequest)) f_size = 8'd0;
     if (frame_type == 8'(delta_board_pkg::FrameTypeSetpoint)) f_size = 8'(delta_board_pkg::SetpointPayloadBytes);
     if (frame_type == 8'(delta_board_pkg::FrameTypeCommand)) f_size = 8'(delta_board_pkg::CommandPayloadBytes);
+    if (frame_type == 8'(delta_board_pkg::FrameTypeModel)) f_size = 8'(delta_board_pkg::ModelPayloadBytes);
   endfunction
   logic [7:0]  f_pos_q = '0, f_length_q = '0, f_type_q = '0, f_sequence_q = '0, f_high_q = '0;
   logic [15:0] f_crc_q = '0;
@@ -233,20 +250,20 @@ module link_rx #(
   logic        f_header_ok, f_start, f_drop_header, f_payload, f_end, f_crc_ok;
   assign f_byte        = ring_data_q;
   assign f_header_ok   = f_size(f_byte) != 8'hFF && f_length_q == f_size(f_byte);
-  assign f_start       = fetched_q && f_pos_q == 8'd3 && f_header_ok;
-  assign f_drop_header = fetched_q && f_pos_q == 8'd3 && !f_header_ok;
+  assign f_start       = f_take && f_pos_q == 8'd3 && f_header_ok;
+  assign f_drop_header = f_take && f_pos_q == 8'd3 && !f_header_ok;
   // Positions in 9 bits: a length byte up to 255 (dropped at the type, but the header's bytes are
   // read before that) must not wrap 5 + length onto a header position.
   logic [8:0]  f_pos9, f_payload_end;
   assign f_pos9        = 9'(f_pos_q);
   assign f_payload_end = 9'd4 + 9'(f_length_q);  // the CRC's high byte
-  assign f_payload     = fetched_q && f_pos9 >= 9'd4 && f_pos9 < f_payload_end;
-  assign f_end         = fetched_q && f_pos9 >= 9'd4 && f_pos9 == f_payload_end + 9'd1;
+  assign f_payload     = f_take && f_pos9 >= 9'd4 && f_pos9 < f_payload_end;
+  assign f_end         = f_take && f_pos9 >= 9'd4 && f_pos9 == f_payload_end + 9'd1;
   assign f_crc_ok      = f_high_q == f_crc_q[15:8] && f_byte == f_crc_q[7:0];
   always_ff @(posedge clk_i) begin
     if (!rst_ni) begin
       f_pos_q <= '0;
-    end else if (fetched_q) begin
+    end else if (f_take) begin
       if (f_pos_q == 8'd0) begin
         if (f_byte == Sync) f_pos_q <= 8'd1;
         f_crc_q <= 16'(delta_board_pkg::FrameCrcInit);
@@ -351,8 +368,10 @@ module link_rx #(
     if (f_past2_valid && $past(rst_ni, 2)) begin
       // A byte into an idle ring (nothing fetched, nothing unread) is fetched in the next clock and
       // processed in the one after, from its slot (the model board takes the three clocks at once).
+      // (No stall meets it: a stall follows a frame's last byte by at most ModelCrcClocks + 2 clocks,
+      // and the next byte comes at least 9 bit times after that one.)
       if ($past(rx_valid_i && !fetched_q && read_q == write_q, 2)) an_idle_ring_processes_a_byte_two_clocks_after_it: assert (
-          fetched_q && read_q == $past(write_q, 2));
+          fetched_q && read_q == $past(write_q, 2) && !stall_i && !$past(stall_i));
       an_idle_ring_processes_a_byte_two_clocks_after_it_c: cover ($past(rx_valid_i && !fetched_q && read_q == write_q, 2) && f_pos_q == 8'd1);
     end
   end

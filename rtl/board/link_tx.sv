@@ -2,7 +2,9 @@
 //
 // One block RAM of 256 x 16-bit words holds both payloads: words 0..11 the identify payload,
 // filled by $readmemh from MemDir/MemFile (identify.mem, written by `deltactl quantise` beside the
-// weights: protocol version, build id, weights CRC, clocks) and never written; words 16..37 the
+// weights: protocol version, build id, clocks; its weights CRC words are 0) and never written:
+// the identify frame carries weights_crc_i (the loaded model's CRC-32, 0 without one) in their
+// place, at payload bytes IdentifyWeightsCrcOffset .. + 3; words 16..37 the
 // telemetry snapshot. snapshot_i starts a snapshot: for TelemetryWords cycles word_index_o names a
 // telemetry word, and the caller answers each on word_i one cycle later (it may read a RAM), which
 // is written to the RAM; then a telemetry frame is queued. The snapshot is what makes the frame consistent: the fields change
@@ -23,6 +25,7 @@ module link_tx #(
   input  logic [15:0] word_i,              // that word, from the caller
   input  logic       identify_i,           // pulse: send the identify reply
   input  logic [7:0] identify_sequence_i,  // its sequence number (held with identify_i)
+  input  logic [31:0] weights_crc_i,       // the loaded model's CRC-32 (0: none), for identify
   output logic [7:0] tx_data_o,            // to uart_tx
   output logic       tx_valid_o,
   input  logic       tx_ready_i
@@ -83,6 +86,8 @@ module link_tx #(
       default: begin
         if (index_q == length_q + 6'd4) tx_data_o = crc[15:8];
         else if (index_q == length_q + 6'd5) tx_data_o = crc[7:0];
+        else if (is_identify_q && payload_byte[5:2] == 4'(delta_board_pkg::IdentifyWeightsCrcOffset / 4))
+          tx_data_o = weights_crc_i[8 * payload_byte[1:0] +: 8];
         else tx_data_o = payload_byte[0] ? read_data_q[15:8] : read_data_q[7:0];
       end
     endcase

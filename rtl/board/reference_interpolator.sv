@@ -15,7 +15,10 @@
 //
 // Backlash compensation (the deployed model): play(d, H) = d - H for d > H, d + H for
 // d < -H, else 0: the segment's target moves only when the answer leaves the play of half-width
-// H_j (half_plays_i, Q.8 counts) around the reference the joint holds, and then trails it by H_j.
+// H_j (Q.8 counts) around the reference the joint holds, and then trails it by H_j. The play words
+// (H_j and the play shift's ends, docs/board_link.md "The model", frames 178 .. 180) are data: the
+// model loader writes joint j's (play_write_i) into a small block RAM, read by joint (a register's
+// read: the word of the joint being computed is there from its step 1 on; zero until written).
 // With H = 25 h / 16 (h: the model's half-play in output LSBs, a whole number of 16) the target
 // is exactly round_shift(25 r, 4) of the golden compensation r of the answers (golden
 // SetpointInterpolator). H = 0 (the plain network) passes d unchanged. d = C - r: 33 bits;
@@ -26,7 +29,8 @@
 // each); r and D rotate through it, so no joint needs a multiplexer. One multiplier (an iCE40
 // DSP), used twice per joint.
 module reference_interpolator #(
-  parameter int unsigned HalfPlayBits = delta_board_pkg::HalfPlayBits
+  parameter int unsigned HalfPlayBits = delta_board_pkg::HalfPlayBits,
+  localparam int unsigned PlayWordBits = HalfPlayBits + 21
 ) (
   input  logic        clk_i,
   input  logic        rst_ni,
@@ -38,7 +42,9 @@ module reference_interpolator #(
   input  logic [71:0] outputs_i,      // y_j at [24j +: 24], Q10.14 degrees, held
   input  logic [47:0] counts_i,       // encoder counts, joint j at [16j +: 16]
   input  logic [2:0]  rising_i,       // bit j: joint j's count last stepped up (quadrature_counter)
-  input  logic [3*HalfPlayBits-1:0] half_plays_i,  // H_j at [HalfPlayBits j +: HalfPlayBits], constant
+  input  logic        play_write_i,   // pulse: play_word_i is joint play_joint_i's play word
+  input  logic [1:0]  play_joint_i,
+  input  logic [PlayWordBits-1:0] play_word_i,  // H (bits 0-16), above (17-26), below (27-36), rounds (37)
   output logic [95:0] references_o,   // r_j at [32j +: 32], Q24.8 counts, stable between updates
   output logic        shift_write_o,  // pulse: shift_o is joint shift_joint_o's play shift for the next period
   output logic [1:0]  shift_joint_o,
@@ -84,24 +90,33 @@ module reference_interpolator #(
   logic [15:0]        count;
   logic [HalfPlayBits-1:0] half_play;
 
+  // The play words: one block RAM (no_rw_check: a word written in the clock it is read is taken
+  // only with the drives off, where the next update reads it again).
+  (* ram_style = "block", no_rw_check *) logic [PlayWordBits-1:0] play_words [4];
+  logic [PlayWordBits-1:0] play_q;  // the word of joint_q (read a clock before)
+  initial begin
+    for (int j = 0; j < 4; j++) play_words[j] = '0;
+  end
+  always_ff @(posedge clk_i) begin
+    if (play_write_i) play_words[play_joint_i] <= play_word_i;
+    play_q <= play_words[joint_q];
+  end
+
   assign k_next = (phase_i == 4'(delta_board_pkg::PeriodsPerSetpoint - 1)) ? 4'(delta_board_pkg::PeriodsPerSetpoint)
                                                                          : phase_i + 4'd1;
   always_comb begin
     unique case (joint_q)
       2'd1: begin
-        y         = outputs_i[24 +: 24];
-        count     = counts_i[16 +: 16];
-        half_play = half_plays_i[HalfPlayBits +: HalfPlayBits];
+        y     = outputs_i[24 +: 24];
+        count = counts_i[16 +: 16];
       end
       2'd2: begin
-        y         = outputs_i[48 +: 24];
-        count     = counts_i[32 +: 16];
-        half_play = half_plays_i[2*HalfPlayBits +: HalfPlayBits];
+        y     = outputs_i[48 +: 24];
+        count = counts_i[32 +: 16];
       end
       default: begin
-        y         = outputs_i[0 +: 24];
-        count     = counts_i[0 +: 16];
-        half_play = half_plays_i[0 +: HalfPlayBits];
+        y     = outputs_i[0 +: 24];
+        count = counts_i[0 +: 16];
       end
     endcase
   end
@@ -132,25 +147,15 @@ module reference_interpolator #(
   logic answered_q;
   logic pick_end, end_up;
   logic       in_play, half_up, rising;
-  logic [9:0] shift_new, shift_above, shift_below, above [3], below [3];
-  logic [2:0] rounds;
-  for (genvar j = 0; j < 3; j++) begin : g_ends  // per joint, before the multiplexer: constants
-    logic [HalfPlayBits-1:0] h;
-    logic signed [HalfPlayBits+1:0] high, low;
-    assign h         = half_plays_i[HalfPlayBits * j +: HalfPlayBits];
-    assign rounds[j] = h[7] == h[6];
-    assign high      = $signed({2'b00, h}) + (rounds[j] ? 19'sd128 : 19'sd0);
-    assign low       = (rounds[j] ? 19'sd128 : 19'sd0) - $signed({2'b00, h});
-    assign above[j]  = high[17:8];
-    assign below[j]  = low[17:8];
-    logic unused_ends;
-    assign unused_ends = ^{high[18], high[7:0], low[18], low[7:0]};
-  end
+  logic [9:0] shift_new, shift_above, shift_below;
+  // The ends floor((H + g) / 256) and floor((g - H) / 256) and g's choice come with H in the play
+  // word (the host works them out: golden model_words).
+  assign {half_up, shift_below, shift_above, half_play} = play_q;
   always_comb begin
     unique case (joint_q)
-      2'd1:    {shift_above, shift_below, half_up, rising} = {above[1], below[1], rounds[1], rising_i[1]};
-      2'd2:    {shift_above, shift_below, half_up, rising} = {above[2], below[2], rounds[2], rising_i[2]};
-      default: {shift_above, shift_below, half_up, rising} = {above[0], below[0], rounds[0], rising_i[0]};
+      2'd1:    rising = rising_i[1];
+      2'd2:    rising = rising_i[2];
+      default: rising = rising_i[0];
     endcase
   end
   assign in_play   = played_q[32] != diff_q[32];

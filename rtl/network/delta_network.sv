@@ -29,9 +29,21 @@
 //       |s| >= 2^20, s = acc1 >> 17 (pkg)            S12 round_shift(acc2, 20) (carry resolved)
 //   S5  a (the clamp); tanh ROM address i, fraction f S13 alpha = sat_24(..) (last token only)
 // The inputs u are registered at the accept, so they are ready in S1 of token 0.
+//
+// The model (IW', b1', LW', b2' + 2^19) is data in block RAM, written through the model port in
+// the board's clock (model_clk_i): word n of a load (docs/board_link.md, "The model"; the board's
+// model_loader.sv) goes to IW' address n (n < 75), b1' address n - 75 (n < 100), LW' address
+// n - 100 (n < 178: LW'_ok at 25o + k, then b2'_o + 2^19 at 75 + o, a 48-bit memory). The neuron-0
+// tokens of layer 2, whose product is never accumulated, read the bias words instead: their S10
+// product register takes b2'_o + 2^19, and the accumulators, zeroed at the accept, add it as the
+// first term. ModelFromFiles = 1 (the standalone network and its tests): the memories start with
+// the .mem files of MemDir and b2' comes from output_bias.mem (the model port still writes the
+// memories); 0 (the board): every memory starts at zero and the model comes only through the port.
+// The tanh tables stay ROMs of MemDir in both.
 module delta_network #(
-  parameter int unsigned ReuseFactor = 75,  // 25 or 75, see above
-  parameter              MemDir      = "."  // directory of the .mem files (+delta_mem_dir in sim)
+  parameter int unsigned ReuseFactor    = 75,   // 25 or 75, see above
+  parameter              MemDir         = ".",  // directory of the .mem files (+delta_mem_dir in sim)
+  parameter bit          ModelFromFiles = 1'b1  // the model from MemDir's files (1) or the port only (0)
 ) (
   input  logic                                              ap_clk,
   input  logic                                              ap_rst,
@@ -47,7 +59,12 @@ module delta_network #(
   output logic signed [delta_network_pkg::OutputWidth-1:0]  y_1,
   output logic                                              y_1_ap_vld,
   output logic signed [delta_network_pkg::OutputWidth-1:0]  y_2,
-  output logic                                              y_2_ap_vld
+  output logic                                              y_2_ap_vld,
+  // the model port (board clock): word model_word_i of frame model_address_i
+  input  logic                                              model_clk_i,
+  input  logic                                              model_write_i,
+  input  logic [7:0]                                        model_address_i,
+  input  logic [47:0]                                       model_word_i
 );
   // Formats from the package (yosys 0.23 reads no `import`: qualified names only).
   localparam int unsigned NumInputs          = delta_network_pkg::NumInputs;
@@ -81,8 +98,19 @@ module delta_network #(
   localparam int unsigned Weight1Depth        = NumHidden * NumInputs;
   localparam int unsigned Weight2Depth        = NumOutputs * NumHidden;
   localparam int unsigned Weight1AddressWidth = $clog2(Weight1Depth);
-  localparam int unsigned Weight2AddressWidth = $clog2(Weight2Depth);
   localparam int unsigned Bias1AddressWidth   = $clog2(NumHidden);
+  localparam int unsigned Weight2Words        = Weight2Depth + NumOutputs;  // LW', then b2' + 2^19
+  localparam int unsigned Weight2AddressWidth = $clog2(Weight2Words);
+  localparam int unsigned Weight2WordWidth    = 48;  // b2' + 2^19: Accum2Width bits
+  // The model port's frame numbers (docs/board_link.md; delta_board_pkg's Model*Frame facts,
+  // checked in board_core.sv).
+  localparam int unsigned Bias1Frame   = Weight1Depth;
+  localparam int unsigned Weight2Frame = Bias1Frame + NumHidden;
+  localparam int unsigned ModelWords   = Weight2Frame + Weight2Words;
+  logic weight1_write, bias1_write, weight2_write;
+  assign weight1_write = model_write_i && model_address_i < 8'(Bias1Frame);
+  assign bias1_write   = model_write_i && model_address_i >= 8'(Bias1Frame) && model_address_i < 8'(Weight2Frame);
+  assign weight2_write = model_write_i && model_address_i >= 8'(Weight2Frame) && model_address_i < 8'(ModelWords);
 
   if (ReuseFactor % NumHidden != 0 || NumInputs % (ReuseFactor / NumHidden) != 0 ||
       NumOutputs != NumInputs) begin : g_bad_reuse_factor
@@ -172,15 +200,20 @@ module delta_network #(
     // Token (h, g), lane l multiplies u[g * Lanes + l] by IW'[h][g * Lanes + l], stored at
     // h * NumInputs + g * Lanes + l = step * Lanes + l (row-major IW').
     logic [Weight1Width-1:0] weight1_word;
-    readmemh_rom #(
-      .Depth  (Weight1Depth),
-      .Width  (Weight1Width),
-      .MemDir (MemDir),
-      .MemFile(delta_network_pkg::Weight1File)
-    ) u_weight1_rom (
-      .clk_i    (ap_clk),
-      .address_i(Weight1AddressWidth'(step_q * Lanes + lane)),
-      .data_o   (weight1_word)
+    model_ram #(
+      .Depth       (Weight1Depth),
+      .Width       (Weight1Width),
+      .InitFromFile(ModelFromFiles),
+      .MemDir      (MemDir),
+      .MemFile     (delta_network_pkg::Weight1File)
+    ) u_weight1_ram (
+      .clk_i          (ap_clk),
+      .address_i      (Weight1AddressWidth'(step_q * Lanes + lane)),
+      .data_o         (weight1_word),
+      .write_clk_i    (model_clk_i),
+      .write_i        (weight1_write),
+      .write_address_i(Weight1AddressWidth'(model_address_i)),
+      .write_data_i   (model_word_i[Weight1Width-1:0])
     );
 
     always_ff @(posedge ap_clk) begin
@@ -192,15 +225,20 @@ module delta_network #(
   end
 
   logic [Bias1Width-1:0] bias1_word;
-  readmemh_rom #(
-    .Depth  (NumHidden),
-    .Width  (Bias1Width),
-    .MemDir (MemDir),
-    .MemFile(delta_network_pkg::Bias1File)
-  ) u_bias1_rom (
-    .clk_i    (ap_clk),
-    .address_i(Bias1AddressWidth'(neuron_q)),
-    .data_o   (bias1_word)
+  model_ram #(
+    .Depth       (NumHidden),
+    .Width       (Bias1Width),
+    .InitFromFile(ModelFromFiles),
+    .MemDir      (MemDir),
+    .MemFile     (delta_network_pkg::Bias1File)
+  ) u_bias1_ram (
+    .clk_i          (ap_clk),
+    .address_i      (Bias1AddressWidth'(neuron_q)),
+    .data_o         (bias1_word),
+    .write_clk_i    (model_clk_i),
+    .write_i        (bias1_write),
+    .write_address_i(Bias1AddressWidth'(model_address_i - 8'(Bias1Frame))),
+    .write_data_i   (model_word_i[Bias1Width-1:0])
   );
 
   // S3: acc1 starts from the bias at the neuron's first group; exact in 41 bits (spec step 3).
@@ -290,7 +328,9 @@ module delta_network #(
   );
 
   // ---- layer 2: S8 addresses, S9 data, S10 multiply, S11 accumulate -----------------------------
-  logic signed [Product2Width-1:0] product2_q [Lanes];  // S11
+  // S11: the product of the token (sign-extended to the accumulator), or for a neuron-0 token the
+  // bias b2'_o + 2^19 of its output.
+  logic signed [Accum2Width-1:0] product2_q [Lanes];
   // acc2 of output o = accum2_high_q[o] * 2^24 + accum2_low_q[o], the low part 25 bits wide: its
   // bit 24 is the carry of the last update, added to the high part by the next one. Two 24-bit
   // carry chains instead of one of 47 (the DSP's product register is far from the fabric).
@@ -298,61 +338,86 @@ module delta_network #(
   localparam int unsigned Accum2HighWidth = Accum2Width - Accum2LowWidth;
   logic [Accum2LowWidth:0]                accum2_low_q [NumOutputs];
   logic signed [Accum2HighWidth-1:0]      accum2_high_q [NumOutputs];
-  logic [NumOutputs*Bias2Width-1:0] bias2_words;
+
+  // b2' + 2^19 of output o (+ 2^19: the rounding half of alpha = round_shift(acc2, 20), so S12 only
+  // shifts and saturates): from the LW' memory's words 75 + o, or with ModelFromFiles from
+  // output_bias.mem (constants).
+  logic [NumOutputs*Accum2Width-1:0] file_biases;
+  if (ModelFromFiles) begin : g_file_bias2
+    logic [NumOutputs*Bias2Width-1:0] bias2_words;
+    readmemh_table #(
+      .Depth  (NumOutputs),
+      .Width  (Bias2Width),
+      .MemDir (MemDir),
+      .MemFile(delta_network_pkg::Bias2File)
+    ) u_bias2_table (
+      .words_o(bias2_words)
+    );
+    for (genvar o = 0; o < NumOutputs; o++) begin : g_output
+      assign file_biases[o*Accum2Width +: Accum2Width] =
+          Accum2Width'(signed'(bias2_words[o*Bias2Width +: Bias2Width])) +
+          (Accum2Width'(1) <<< (delta_network_pkg::OutputShift - 1));
+    end
+  end else begin : g_no_file_bias2
+    assign file_biases = '0;
+  end
 
   for (genvar lane = 0; lane < Lanes; lane++) begin : g_layer2_lane
     // Token (h + 1, g) in S8 addresses LW'[g * Lanes + l][h], stored at (g * Lanes + l) *
-    // NumHidden + h (row-major LW'); the neuron-0 tokens read a word that is never accumulated.
-    logic [Weight2Width-1:0]        weight2_word;
-    logic signed [Weight2Width-1:0] weight2_q;
+    // NumHidden + h (row-major LW'); the neuron-0 tokens address the bias of output g * Lanes + l,
+    // stored at Weight2Depth + g * Lanes + l.
+    logic [Weight2WordWidth-1:0]    weight2_word;
+    logic [Accum2Width-1:0]         weight2_q;  // LW' in its low 24 bits, or b2' + 2^19
     logic signed [HiddenWidth-1:0]  activation_lane_q;
-    // The address is computed from the token in S7 and registered: the ROM may be LUTs, and the
-    // adder in front of them would otherwise share their cycle.
+    logic                           bias_token_s10_q;  // the token in S10 is a neuron-0 token
+    // The address is computed from the token in S7 and registered: the adder in front of the RAM
+    // would otherwise share its cycle.
     logic [Weight2AddressWidth-1:0] weight2_address_q;
     always_ff @(posedge ap_clk) begin
-      weight2_address_q <= Weight2AddressWidth'((group_s[7] * Lanes + lane) * NumHidden) +
-                           ((neuron_s[7] != '0) ? Weight2AddressWidth'(neuron_s[7]) - Weight2AddressWidth'(1)
-                                                : Weight2AddressWidth'(0));
+      weight2_address_q <= (neuron_s[7] != '0)
+          ? Weight2AddressWidth'((group_s[7] * Lanes + lane) * NumHidden) + Weight2AddressWidth'(neuron_s[7]) -
+                Weight2AddressWidth'(1)
+          : Weight2AddressWidth'(Weight2Depth + group_s[7] * Lanes + lane);
     end
-    readmemh_rom #(
-      .Depth  (Weight2Depth),
-      .Width  (Weight2Width),
-      .MemDir (MemDir),
-      .MemFile(delta_network_pkg::Weight2File)
-    ) u_weight2_rom (
-      .clk_i    (ap_clk),
-      .address_i(weight2_address_q),
-      .data_o   (weight2_word)
+    model_ram #(
+      .Depth       (Weight2Words),
+      .Width       (Weight2WordWidth),
+      .InitFromFile(ModelFromFiles),
+      .MemDir      (MemDir),
+      .MemFile     (delta_network_pkg::Weight2File)
+    ) u_weight2_ram (
+      .clk_i          (ap_clk),
+      .address_i      (weight2_address_q),
+      .data_o         (weight2_word),
+      .write_clk_i    (model_clk_i),
+      .write_i        (weight2_write),
+      .write_address_i(Weight2AddressWidth'(model_address_i - 8'(Weight2Frame))),
+      .write_data_i   (model_word_i)
     );
     always_ff @(posedge ap_clk) begin
-      weight2_q         <= signed'(weight2_word);
+      logic signed [Product2Width-1:0] product;
+      weight2_q         <= weight2_word[Accum2Width-1:0];
       activation_lane_q <= activation_q;
-      product2_q[lane]  <= Product2Width'(activation_lane_q) * Product2Width'(weight2_q);
+      bias_token_s10_q  <= neuron_s[9] == '0;
+      product           = Product2Width'(activation_lane_q) * Product2Width'(signed'(weight2_q[Weight2Width-1:0]));
+      if (!bias_token_s10_q) product2_q[lane] <= Accum2Width'(product);
+      else if (ModelFromFiles) product2_q[lane] <= file_biases[(group_s[10] * Lanes + lane) * Accum2Width +: Accum2Width];
+      else product2_q[lane] <= weight2_q;
     end
+    logic unused_word_bits;
+    assign unused_word_bits = ^weight2_word[Weight2WordWidth-1:Accum2Width];
   end
 
-  readmemh_table #(
-    .Depth  (NumOutputs),
-    .Width  (Bias2Width),
-    .MemDir (MemDir),
-    .MemFile(delta_network_pkg::Bias2File)
-  ) u_bias2_table (
-    .words_o(bias2_words)
-  );
-
   // S11: output o accumulates in group o / Lanes, lane o % Lanes; exact in 47 bits (spec step 5).
+  // The accumulators start at zero (the accept); the neuron-0 token adds the bias first.
   always_ff @(posedge ap_clk) begin
-    logic signed [Accum2Width-1:0] start;    // b2' + 2^19
-    logic signed [Accum2Width-1:0] product;  // sign-extended
+    logic signed [Accum2Width-1:0] product;
     for (int o = 0; o < NumOutputs; o++) begin
-      // + 2^19: the rounding half of alpha = round_shift(acc2, 20), so S12 only shifts and saturates.
-      start   = Accum2Width'(signed'(bias2_words[o*Bias2Width +: Bias2Width])) +
-                (Accum2Width'(1) <<< (delta_network_pkg::OutputShift - 1));
-      product = Accum2Width'(product2_q[o % Lanes]);
+      product = product2_q[o % Lanes];
       if (accept) begin
-        accum2_low_q[o]  <= {1'b0, start[Accum2LowWidth-1:0]};
-        accum2_high_q[o] <= start[Accum2Width-1:Accum2LowWidth];
-      end else if (valid_q[11] && neuron_s[11] != '0 && group_s[11] == GroupWidth'(o / Lanes)) begin
+        accum2_low_q[o]  <= '0;
+        accum2_high_q[o] <= '0;
+      end else if (valid_q[11] && group_s[11] == GroupWidth'(o / Lanes)) begin
         accum2_low_q[o]  <= {1'b0, accum2_low_q[o][Accum2LowWidth-1:0]} +
                             {1'b0, product[Accum2LowWidth-1:0]};
         accum2_high_q[o] <= accum2_high_q[o] + product[Accum2Width-1:Accum2LowWidth] +

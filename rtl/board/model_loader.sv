@@ -1,0 +1,103 @@
+// The model loader (docs/board_link.md, "The model"): takes the host's model frames (type 0x04)
+// one word at a time into the network's memories and the interpolator's play words, and checks
+// the load with its own CRC-32/ISO-HDLC before the board may enable.
+//
+// A model frame's payload (u16 frame number n, a 48-bit word) is kept as link_rx presents it
+// (tentatively: the frame is not checked yet); only frame_ok_i acts on it:
+//   - drives on (drives_on_i): refused (refused_o), nothing changes;
+//   - n = 0: a load starts: the model is void (loaded_o low) and word 0 is written (write_o);
+//   - n = the next frame number of a load in progress, below the commit: the word is written;
+//   - n = ModelCommitFrame as the next frame: the load ends; the model is loaded if and only if the
+//     CRC-32 of the words taken (6 little-endian bytes each) equals the commit word's bits 0-31;
+//   - anything else: refused, nothing changes.
+// Every taken word (frames 0 .. ModelCommitFrame - 1) then runs bit-serially through the CRC, bit 0
+// first (the CRC is reflected: byte 0 LSB first is word bit 0 first), one bit a clock for
+// ModelCrcClocks clocks (the word register shifts into it); stall_o holds link_rx's parser
+// meanwhile, so the next frame's bytes wait in its ring (a taken frame's CRC always ends before the
+// next frame is parsed). The flag (loaded_o) and the CRC change in the clock after the commit's
+// frame_ok_i (delta_board_pkg: ModelCrcClocks, the facts of the loader).
+module model_loader (
+  input  logic        clk_i,
+  input  logic        rst_ni,
+  // from link_rx
+  input  logic        is_model_i,        // the frame in flight is a model frame
+  input  logic        payload_valid_i,
+  input  logic [5:0]  payload_index_i,
+  input  logic [7:0]  payload_byte_i,
+  input  logic        frame_ok_i,
+  output logic        stall_o,           // link_rx's parser waits: the CRC runs
+  input  logic        drives_on_i,       // model frames are refused with the drives on
+  output logic        refused_o,         // pulse: a checked model frame was refused
+  // the word taken, into the memories (frame numbers below ModelCommitFrame)
+  output logic        write_o,           // pulse: word_o is frame address_o's word
+  output logic [7:0]  address_o,
+  output logic [47:0] word_o,
+  // the model
+  output logic        loaded_o,          // a complete load whose CRC matched (flag 7)
+  output logic [31:0] crc_o              // its CRC-32 (identify), 0 without a model
+);
+  localparam int unsigned WordBits   = delta_board_pkg::ModelWordBits;
+  localparam logic [7:0]  CommitFrame = 8'(delta_board_pkg::ModelCommitFrame);
+  localparam logic [31:0] Polynomial  = 32'hEDB8_8320;  // CRC-32/ISO-HDLC, reflected
+  localparam int unsigned CountWidth  = $clog2(delta_board_pkg::ModelCrcClocks + 1);
+
+  logic [WordBits-1:0]   word_q;          // the frame's word; then shifted into the CRC
+  logic [7:0]            number_q;        // frame number, low byte
+  logic                  number_high_q;   // its high byte is not zero
+  logic [7:0]            expected_q;      // the next frame number of the load in progress
+  logic                  loading_q, loaded_q;
+  logic [31:0]           crc_q;           // the running CRC register (not yet inverted)
+  logic [CountWidth-1:0] shift_count_q;   // CRC bits still to shift
+
+  logic take, start, commit;
+  assign start     = !number_high_q && number_q == 8'd0;
+  assign take      = frame_ok_i && is_model_i && !drives_on_i &&
+                     (start || (loading_q && !number_high_q && number_q == expected_q));
+  assign commit    = take && number_q == CommitFrame;
+  assign refused_o = frame_ok_i && is_model_i && !take;
+  assign write_o   = take && !commit;
+  assign address_o = number_q;
+  assign word_o    = word_q;
+  assign stall_o   = shift_count_q != '0;
+
+  always_ff @(posedge clk_i or negedge rst_ni) begin
+    if (!rst_ni) begin
+      word_q        <= '0;
+      number_q      <= '0;
+      number_high_q <= 1'b0;
+      expected_q    <= '0;
+      loading_q     <= 1'b0;
+      loaded_q      <= 1'b0;
+      crc_q         <= '0;
+      shift_count_q <= '0;
+    end else begin
+      if (payload_valid_i && is_model_i) begin
+        unique case (payload_index_i)
+          6'd0:    number_q <= payload_byte_i;
+          6'd1:    number_high_q <= payload_byte_i != 8'd0;
+          default: word_q[8 * (payload_index_i - 6'd2) +: 8] <= payload_byte_i;
+        endcase
+      end
+      if (stall_o) begin
+        crc_q         <= (crc_q >> 1) ^ ((crc_q[0] ^ word_q[0]) ? Polynomial : 32'd0);
+        word_q        <= word_q >> 1;
+        shift_count_q <= shift_count_q - 1'b1;
+      end
+      if (take) begin
+        if (commit) begin
+          loading_q <= 1'b0;
+          loaded_q  <= ~crc_q == word_q[31:0];
+        end else begin
+          loading_q     <= 1'b1;
+          loaded_q      <= 1'b0;
+          expected_q    <= number_q + 8'd1;
+          shift_count_q <= CountWidth'(delta_board_pkg::ModelCrcClocks);
+          if (start) crc_q <= '1;
+        end
+      end
+    end
+  end
+
+  assign loaded_o = loaded_q;
+  assign crc_o    = loaded_q ? ~crc_q : '0;
+endmodule
