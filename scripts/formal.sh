@@ -82,15 +82,17 @@ job joint_safety joint_safety "$rtl/joint/joint_safety.sv"
 job joint_pwm joint_pwm "$rtl/joint/joint_pwm.sv"
 job setpoint_buffer setpoint_buffer "$rtl/board/setpoint_buffer.sv"
 job link_rx link_rx "$rtl/board/link_crc16.sv $rtl/board/link_rx.sv"
+# The model loader (the model flag, the drives-on refusal, the serial CRC against CRC-32).
+job model_loader model_loader "$rtl/board/model_loader.sv"
 # The UART receiver twice: under an 8N1 transmitter, and under any line at all.
 job uart_rx uart_rx "$rtl/board/uart_rx.sv"
 job uart_rx_any_line uart_rx "$rtl/board/uart_rx.sv"
 job_config uart_rx_any_line "define FORMAL_UART_RX_ANY_LINE 1"
 # The board's command logic with joint_axes (fault latch, PWM, encoders) and the setpoint buffer;
 # link_rx (job link_rx) and the controllers' current clamp (job joint_controller) trusted.
-job board_core board_core "$rtl/network/delta_network_pkg.sv $rtl/board/board_core.sv $rtl/board/setpoint_buffer.sv $rtl/joint/joint_axes.sv
+job board_core board_core "$rtl/network/delta_network_pkg.sv $rtl/board/board_core.sv $rtl/board/setpoint_buffer.sv $rtl/board/model_loader.sv $rtl/joint/joint_axes.sv
     $rtl/joint/joint_safety.sv $rtl/joint/joint_pwm.sv $rtl/joint/quadrature_counter.sv" \
-  "$rtl/network/readmemh_table.sv $rtl/network/delta_network.sv $rtl/board/network_crossing.sv
+  "$rtl/network/readmemh_table.sv $rtl/network/model_ram.sv $rtl/network/delta_network.sv $rtl/board/network_crossing.sv
     $rtl/board/reference_interpolator.sv $rtl/board/link_tx.sv $rtl/board/uart_tx.sv $rtl/board/uart_rx.sv
     $rtl/board/link_rx.sv $rtl/joint/joint_controller.sv" \
   "setpoint_buffer joint_pwm"
@@ -118,7 +120,10 @@ cover_search_depth joint_controller 1100
 cover_config uart_rx "chparam -set ClocksPerBit 4 uart_rx"
 cover_config uart_tx "chparam -set ClocksPerBit 4 uart_tx"
 cover_config uart_rx_any_line "chparam -set ClocksPerBit 4 uart_rx"
-cover_config board_core "chparam -set ClocksPerPeriod 4 board_core"
+cover_config board_core "chparam -set ClocksPerPeriod 4 board_core; chparam -set ModelCommitFrame 1 board_core"
+cover_config model_loader "chparam -set CommitFrameNumber 2 model_loader"
+job_depth model_loader 60
+cover_search_depth model_loader 200
 
 # ---- build the models: one AIGER per assertion and per cover (negated) ---------------------------
 cat >"$work/cover2assert.v" <<'EOF'

@@ -35,7 +35,8 @@ module board_core #(
   parameter int unsigned ClocksPerPeriod = delta_board_pkg::ClocksPerPeriod,   // clk_i / 10 kHz
   parameter int unsigned LedWindowBits   = delta_board_pkg::LedWindowBits,     // LED windows: 2^LedWindowBits periods
   parameter logic [15:0] HomeCount       = 16'(delta_board_pkg::HomeCount),    // encoder counts at reset and set home
-  parameter              MemDir          = "."  // directory of the network's .mem files and identify.mem
+  parameter              MemDir          = ".",  // directory of the network's tanh tables and identify.mem
+  parameter int unsigned ModelCommitFrame = delta_board_pkg::ModelCommitFrame  // the formal covers shorten the load
 ) (
   input  logic       clk_i,           // board clock: link, joints
   input  logic       rst_ni,          // asynchronous assertion, synchronous release in clk_i
@@ -123,11 +124,12 @@ module board_core #(
   // The loader takes the model frames with the drives off: the network's memories and the play words
   // are written through its port, and the model flag rises at a commit whose CRC-32 matched.
   logic        model_loaded /*verilator public_flat_rd*/;
-  logic        model_refused, model_write;
+  logic        model_refused;
+  logic        model_write /*verilator public_flat_rd*/;  // read by the simulation's idle skip
   logic [7:0]  model_address;
   logic [47:0] model_word;
   logic [31:0] model_crc;
-  model_loader u_model_loader (
+  model_loader #(.CommitFrameNumber(ModelCommitFrame)) u_model_loader (
     .clk_i,
     .rst_ni,
     .is_model_i     (is_model),
@@ -590,16 +592,20 @@ module board_core #(
     plays_only_with_the_drives_on_and_no_fault_c: cover (play);
     holding_only_while_enabled: assert (!holding_q || enabled_q);
     holding_only_while_enabled_c: cover (holding_q);
+    // The model (model_loader.sv): the drives are never on without a loaded model (its flag rises only
+    // at a commit whose CRC matched, and a load, which voids it, is taken only with the drives off).
+    the_drives_are_never_on_without_a_model: assert (!enabled_q || model_loaded);
+    the_drives_are_never_on_without_a_model_c: cover (enabled_q && model_loaded);
   end
   always_ff @(posedge clk_i) begin
     if (f_past_valid && $past(rst_ni)) begin
-      // Enable: only after an enable command in a CRC-valid frame, homed, no fault latched.
-      if (!$past(enabled_q) && enabled_q) enables_only_on_a_valid_enable_homed_without_fault: assert ($past(f_valid_enable) && $past(homed_q) && !$past(fault));
+      // Enable: only after an enable command in a CRC-valid frame, homed, a model loaded, no fault latched.
+      if (!$past(enabled_q) && enabled_q) enables_only_on_a_valid_enable_homed_without_fault: assert ($past(f_valid_enable) && $past(homed_q) && $past(model_loaded) && !$past(fault));
       enables_only_on_a_valid_enable_homed_without_fault_c: cover (!$past(enabled_q) && enabled_q);
       if (!$past(drive_enable_o) && drive_enable_o) drives_on_only_a_clock_after_the_enable: assert ($past(enabled_q) && !$past(fault));
       drives_on_only_a_clock_after_the_enable_c: cover (!$past(drive_enable_o) && drive_enable_o);
       // Progress: a valid enable in the allowed state enables in the next clock.
-      if ($past(f_valid_enable) && $past(homed_q) && !$past(fault) && !$past(homed_at_switch) &&
+      if ($past(f_valid_enable) && $past(homed_q) && $past(model_loaded) && !$past(fault) && !$past(homed_at_switch) &&
           !($past(enabled_q) && !$past(holding_q))) begin
         a_valid_enable_homed_without_fault_enables: assert (enabled_q && !holding_q);
       end
@@ -627,6 +633,10 @@ module board_core #(
       references_only_while_homing_with_the_drives_on_c: cover ($past(homed_at_switch) && $past(homing_q) && $past(enabled_q));
       referenced_only_at_a_switch_edge: assert ((referenced_q & ~$past(referenced_q) & ~$past(switch_edge)) == '0);
       referenced_only_at_a_switch_edge_c: cover (referenced_q == 3'b111);
+      // A model frame with the drives on changes nothing: the model stays, nothing is written.
+      if ($past(frame_ok && is_model && enabled_q)) a_model_frame_with_the_drives_on_changes_nothing: assert (
+          model_loaded == $past(model_loaded) && model_crc == $past(model_crc) && !$past(model_write) && $past(model_refused));
+      a_model_frame_with_the_drives_on_changes_nothing_c: cover ($past(frame_ok && is_model && enabled_q) && model_loaded);
     end
   end
 `endif

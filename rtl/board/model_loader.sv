@@ -16,7 +16,10 @@
 // meanwhile, so the next frame's bytes wait in its ring (a taken frame's CRC always ends before the
 // next frame is parsed). The flag (loaded_o) and the CRC change in the clock after the commit's
 // frame_ok_i (delta_board_pkg: ModelCrcClocks, the facts of the loader).
-module model_loader (
+module model_loader #(
+  // The commit's frame number (the package's; the formal covers shorten the load)
+  parameter int unsigned CommitFrameNumber = delta_board_pkg::ModelCommitFrame
+) (
   input  logic        clk_i,
   input  logic        rst_ni,
   // from link_rx
@@ -37,7 +40,7 @@ module model_loader (
   output logic [31:0] crc_o              // its CRC-32 (identify), 0 without a model
 );
   localparam int unsigned WordBits   = delta_board_pkg::ModelWordBits;
-  localparam logic [7:0]  CommitFrame = 8'(delta_board_pkg::ModelCommitFrame);
+  localparam logic [7:0]  CommitFrame = 8'(CommitFrameNumber);
   localparam logic [31:0] Polynomial  = 32'hEDB8_8320;  // CRC-32/ISO-HDLC, reflected
   localparam int unsigned CountWidth  = $clog2(delta_board_pkg::ModelCrcClocks + 1);
 
@@ -71,12 +74,10 @@ module model_loader (
       crc_q         <= '0;
       shift_count_q <= '0;
     end else begin
-      if (payload_valid_i && is_model_i) begin
-        unique case (payload_index_i)
-          6'd0:    number_q <= payload_byte_i;
-          6'd1:    number_high_q <= payload_byte_i != 8'd0;
-          default: word_q[8 * (payload_index_i - 6'd2) +: 8] <= payload_byte_i;
-        endcase
+      if (payload_valid_i && is_model_i && payload_index_i == 6'd0) number_q <= payload_byte_i;
+      if (payload_valid_i && is_model_i && payload_index_i == 6'd1) number_high_q <= payload_byte_i != 8'd0;
+      for (int b = 0; b < WordBits / 8; b++) begin  // byte b of the word is payload byte 2 + b
+        if (payload_valid_i && is_model_i && payload_index_i == 6'(2 + b)) word_q[8 * b +: 8] <= payload_byte_i;
       end
       if (stall_o) begin
         crc_q         <= (crc_q >> 1) ^ ((crc_q[0] ^ word_q[0]) ? Polynomial : 32'd0);
@@ -100,4 +101,68 @@ module model_loader (
 
   assign loaded_o = loaded_q;
   assign crc_o    = loaded_q ? ~crc_q : '0;
+`ifdef FORMAL
+  // ---- Formal properties (scripts/formal.sh; docs/formal.md) ----
+  // Environment: reset in the first cycle only; link_rx delivers nothing while it is stalled (its
+  // own job proves the stall holds it); every other input free.
+  logic f_past_valid = 1'b0;
+  always_ff @(posedge clk_i) f_past_valid <= 1'b1;
+  always_comb begin
+    reset_only_in_the_first_cycle: assume (rst_ni == f_past_valid);
+    nothing_is_delivered_while_stalled: assume (!stall_o || (!frame_ok_i && !payload_valid_i));
+  end
+  // The specification, written independently: the frame number and word as the payload presents
+  // them, and the CRC-32/ISO-HDLC of a word's six little-endian bytes in one step.
+  function automatic logic [31:0] f_crc32_word(logic [31:0] crc, logic [47:0] word);
+    logic [31:0] value;
+    value = crc;
+    for (int i = 0; i < 48; i++) value = (value >> 1) ^ ((value[0] ^ word[i]) ? 32'hEDB8_8320 : 32'd0);
+    f_crc32_word = value;
+  endfunction
+  logic [15:0] f_number_q = '0;
+  logic [47:0] f_word_q = '0;
+  always_ff @(posedge clk_i) begin
+    if (payload_valid_i && is_model_i) begin
+      if (payload_index_i == 6'd0) f_number_q[7:0] <= payload_byte_i;
+      if (payload_index_i == 6'd1) f_number_q[15:8] <= payload_byte_i;
+      if (payload_index_i >= 6'd2 && payload_index_i < 6'd8) f_word_q[8 * (payload_index_i - 6'd2) +: 8] <= payload_byte_i;
+    end
+  end
+  // The CRC a taken word must leave once its clocks are over.
+  logic [31:0] f_crc_expected_q = '0;
+  always_ff @(posedge clk_i) begin
+    if (take && !commit) f_crc_expected_q <= f_crc32_word(start ? 32'hFFFF_FFFF : crc_q, f_word_q);
+  end
+  logic f_model_frame, f_drives_on_frame;
+  assign f_model_frame     = frame_ok_i && is_model_i;
+  assign f_drives_on_frame = f_model_frame && drives_on_i;
+  always_comb begin
+    // The word written is the frame's, at its frame number, only for a frame taken with the drives off.
+    if (write_o) a_word_is_written_only_from_a_frame_taken_with_the_drives_off: assert (
+        f_model_frame && !drives_on_i && f_number_q < 16'(CommitFrame) &&
+        address_o == f_number_q[7:0] && word_o == f_word_q);
+    a_word_is_written_only_from_a_frame_taken_with_the_drives_off_c: cover (write_o && address_o == 8'd1);
+    if (f_drives_on_frame) a_model_frame_with_the_drives_on_is_refused: assert (refused_o && !write_o);
+    a_model_frame_with_the_drives_on_is_refused_c: cover (f_drives_on_frame);
+  end
+  always_ff @(posedge clk_i) begin
+    if (f_past_valid && $past(rst_ni)) begin
+      // The flag rises only at a commit, the frame after 0 .. ModelCommitFrame - 1 taken in order,
+      // whose CRC-32 equals the board's CRC of the words taken.
+      if (!$past(loaded_q) && loaded_q) the_model_flag_rises_only_at_a_commit_whose_crc_matched: assert (
+          $past(f_model_frame) && !$past(drives_on_i) && $past(f_number_q) == 16'(CommitFrame) &&
+          $past(loading_q) && $past(expected_q) == CommitFrame &&
+          $past(f_word_q[31:0]) == ~$past(crc_q));
+      the_model_flag_rises_only_at_a_commit_whose_crc_matched_c: cover (!$past(loaded_q) && loaded_q);
+      // A model frame with the drives on changes nothing (the model, its CRC, the load in progress).
+      if ($past(f_drives_on_frame)) a_model_frame_with_the_drives_on_changes_nothing: assert (
+          loaded_q == $past(loaded_q) && crc_q == $past(crc_q) && loading_q == $past(loading_q) &&
+          expected_q == $past(expected_q) && shift_count_q == $past(shift_count_q));
+      a_model_frame_with_the_drives_on_changes_nothing_c: cover ($past(f_drives_on_frame) && loaded_q);
+      // The bit-serial CRC: a taken word's ModelCrcClocks clocks leave the CRC-32 of its six bytes.
+      if ($past(stall_o) && !stall_o) the_serial_crc_is_the_crc32_of_the_word: assert (crc_q == f_crc_expected_q);
+      the_serial_crc_is_the_crc32_of_the_word_c: cover ($past(stall_o) && !stall_o);
+    end
+  end
+`endif
 endmodule

@@ -1,6 +1,7 @@
 // A bench around a Verilated board core (RTL or gate-level netlist) for the link v2 tests: its two
 // clocks, a serial line at the board's pins (UartLine, the board's own 23 clocks per bit), the
 // host's FrameDecoder on what the board sends, and quadrature encoders that can follow a target.
+// A board starts with no model: load_model sends one through the link as a host does.
 #pragma once
 
 #include <verilated.h>
@@ -14,6 +15,8 @@
 #include <vector>
 
 #include "delta/board_facts.hpp"
+#include "delta/golden/fixed_network.hpp"
+#include "delta/golden/model_image.hpp"
 #include "delta/link/frame_codec.hpp"
 #include "delta/link/payloads.hpp"
 #include "delta/robot_world.hpp"
@@ -104,6 +107,24 @@ class LinkBench {
     return telemetry_.back();
   }
   link::Frame command(link::Command command) { return link::make_frame(next_sequence_++, command); }
+
+  // The frames of q's load (golden::model_frames) as the host sends them.
+  std::vector<link::Frame> model_frames(const golden::QuantisedNetwork& q) {
+    std::vector<link::Frame> frames;
+    for (const link::ModelPayload& payload : golden::model_frames(q)) frames.push_back(link::make_frame(next_sequence_++, payload));
+    return frames;
+  }
+  // Sends frames back to back and runs until the board has taken the last (its CRC included).
+  void send_all(const std::vector<link::Frame>& frames) {
+    for (const link::Frame& frame : frames) send(frame);
+    run_until_sent();
+    run(kFrameSettleCycles);
+  }
+  // Loads q's model through the link as a host does (the drives off): the board then holds it.
+  void load_model(const golden::QuantisedNetwork& q) { send_all(model_frames(q)); }
+  // Cycles from a frame's last stop bit until the board has acted on it (uart_rx, link_rx, the
+  // loader's CRC), with a margin.
+  static constexpr std::int64_t kFrameSettleCycles = 4 * kLinkClocksPerBit + board::kModelCrcClocks;
   std::uint8_t next_sequence() { return next_sequence_++; }
 
   // Encoders: counts moved from the home count, stepped one quadrature state every 16 cycles

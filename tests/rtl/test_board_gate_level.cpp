@@ -2,8 +2,8 @@
 // block RAMs with the shipped weights and identify.mem) against its RTL, in lockstep through the
 // link: the same bytes on both RX pins and the same encoder lines, every output pin equal on every
 // board cycle (UART TX, PWM, direction, enable, fault and its causes, encoder errors, LEDs), and
-// the netlist's own frames decoded by the host codec: identify, telemetry, commands, setpoints
-// played, corrupted frames counted.
+// the netlist's own frames decoded by the host codec: identify without and with the model, the
+// model loaded through its frames, telemetry, commands, setpoints played, corrupted frames counted.
 #include <gtest/gtest.h>
 
 #include <array>
@@ -48,7 +48,8 @@ struct Outcome {
 };
 
 // The scenario, the same for both models (two Verilated models alive in one thread hang in
-// eval(), so the RTL runs first and the netlist after it): identify, set home, enable, 12
+// eval(), so the RTL runs first and the netlist after it): identify, the model's load, identify,
+// set home, enable, 12
 // setpoints around the home pose in one burst with a corrupted copy after every fourth, the
 // board plays them and holds while the joints follow the references the telemetry reports, then
 // disable.
@@ -60,6 +61,9 @@ Outcome run_scenario(const std::string& mem_dir, const golden::QuantisedNetwork&
   std::mt19937_64 random(seed);
   std::uint8_t sequence = 1;
   bench.send(link::make_identify_request(0x33));
+  bench.run(2 * kCyclesPerMillisecond);
+  bench.load_model(q);
+  bench.send(link::make_identify_request(0x34));
   bench.send(link::make_frame(sequence++, Command::kSetHome));
   bench.run(2 * kCyclesPerMillisecond);
   bench.homed();
@@ -100,7 +104,8 @@ TEST(BoardGateLevel, NetlistAndRtlAgreePinForPinOverTheLink) {
   const std::string weights = std::string(DELTA_SOURCE_DIR) + "/weights/paper_like_deployed.json";
   const golden::QuantisedNetwork q = golden::quantise_file(weights, nn::read_weights_file(weights));
   ASSERT_TRUE(q.compensation.any());
-  // The netlist carries the build's shipped weights (rtl/network/mem); the RTL loads the same files.
+  // Both load the model through the link; the netlist's block RAMs hold the build's tanh tables and
+  // identify.mem (rtl/network/mem), the RTL reads the same files.
   const std::string mem_dir = std::string(DELTA_BINARY_DIR) + "/rtl/network/mem";
   const Outcome rtl = run_scenario<Vboard_core>(mem_dir, q, seed);
   const auto start = std::chrono::steady_clock::now();
@@ -117,11 +122,13 @@ TEST(BoardGateLevel, NetlistAndRtlAgreePinForPinOverTheLink) {
   }
   EXPECT_EQ(mismatches, 0);
 
-  ASSERT_EQ(gate.identify.size(), 1u);
+  ASSERT_EQ(gate.identify.size(), 2u);
   EXPECT_EQ(gate.identify[0].sequence, 0x33);
+  EXPECT_EQ(gate.identify[1].sequence, 0x34);
   const link::IdentifyPayload identify = link::decode_identify(gate.identify[0].payload);
   EXPECT_EQ(identify.build_id, kGatewareBuildId);
-  EXPECT_EQ(identify.weights_crc, weights_crc(q));
+  EXPECT_EQ(identify.weights_crc, 0u) << "no model before the load";
+  EXPECT_EQ(link::decode_identify(gate.identify[1].payload).weights_crc, weights_crc(q));
   ASSERT_GE(gate.telemetry.size(), 20u);
   const link::TelemetryPayload& last = gate.telemetry.back();
   std::cout << gate.telemetry.size() << " telemetry frames from the netlist; played " << last.sample_index
@@ -130,6 +137,7 @@ TEST(BoardGateLevel, NetlistAndRtlAgreePinForPinOverTheLink) {
   EXPECT_EQ(last.bad_frames, gate.corrupted);
   EXPECT_FALSE(last.has(link::TelemetryFlag::kDriveEnable));
   EXPECT_FALSE(last.has(link::TelemetryFlag::kFault));
+  EXPECT_TRUE(last.has(link::TelemetryFlag::kModel));
   EXPECT_EQ(gate.host_decoder.bad_crc, 0u);
   bool drove = false;
   for (const auto& t : gate.telemetry)

@@ -3,7 +3,8 @@
 // board's): identify; the receiver against the host's FrameDecoder on the same byte streams
 // (valid, corrupted, truncated, oversized, unknown and wrong-direction frames, junk); random bytes
 // never enable the drives nor move a reference; the watchdog; the commands and their refusals;
-// setpoints played at 1 kHz and the 10 kHz references bit for bit against the golden interpolation.
+// setpoints played at 1 kHz and the 10 kHz references bit for bit against the golden interpolation;
+// the model loaded through the link (its rules: drives off, in order, the CRC-32 checked).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -104,6 +105,12 @@ TEST(BoardLink, IdentifyAnswersWithItsBuildIdWeightsCrcAndClocks) {
   for (std::size_t i = 1; i < sequences.size(); ++i)
     EXPECT_EQ(static_cast<std::uint8_t>(sequences[i - 1] + 1), sequences[i]);
   EXPECT_EQ(bench.host_decoder().bad_crc + bench.host_decoder().bad_length + bench.host_decoder().unknown_type, 0u);
+  // With the model loaded, its CRC-32 (the host's weights CRC).
+  bench.load_model(q);
+  bench.send(link::make_identify_request(0x43));
+  ASSERT_TRUE(bench.run_until([&] { return bench.identify_frames().size() == 2; }, 3 * kCyclesPerMillisecond));
+  EXPECT_EQ(link::decode_identify(bench.identify_frames().back().payload).weights_crc, weights_crc(q));
+  EXPECT_NE(weights_crc(q), 0u);
 }
 
 // ---- the receiver against the codec ------------------------------------------------------------
@@ -129,12 +136,20 @@ class FrameStream {
   std::vector<std::uint8_t> valid_frame() {
     Frame frame;
     frame.sequence = byte();
-    const int type = static_cast<int>(random_() % 3);
-    frame.type = type == 0 ? FrameType::kIdentifyRequest : type == 1 ? FrameType::kSetpoint : FrameType::kCommand;
+    const int type = static_cast<int>(random_() % 4);
+    frame.type = type == 0   ? FrameType::kIdentifyRequest
+                 : type == 1 ? FrameType::kSetpoint
+                 : type == 2 ? FrameType::kCommand
+                             : FrameType::kModel;
     frame.payload.resize(*link::payload_bytes(link::Receiver::kBoard, static_cast<std::uint8_t>(frame.type)));
     for (auto& b : frame.payload) b = byte();
     // Commands: mostly harmless ones (hold, clear fault, unknown); setpoints: any bytes.
     if (frame.type == FrameType::kCommand && frame.payload[0] == board::kCommandSetHome) frame.payload[0] = 0x77;
+    // Model frames: mostly the first frames of a load (taken: the parser stalls for their CRC).
+    if (frame.type == FrameType::kModel && random_() % 2 == 0) {
+      frame.payload[0] = static_cast<std::uint8_t>(random_() % 3);
+      frame.payload[1] = 0;
+    }
     return link::encode_frame(frame);
   }
   std::vector<std::uint8_t> corrupt(std::vector<std::uint8_t> bytes) {
@@ -227,7 +242,9 @@ TEST(BoardLink, ReceiverAndCodecAcceptTheSameFramesAndDropTheSameCount) {
 TEST(BoardLink, RandomBytesNeverEnableTheDrivesNorMoveAReferenceAndEveryDropIsCounted) {
   const std::uint64_t seed = 77;
   std::cout << "seed " << seed << "\n";
-  Bench bench(export_directory(shipped_network(), "board_link_random"));
+  const golden::QuantisedNetwork q = shipped_network();
+  Bench bench(export_directory(q, "board_link_random"));
+  bench.load_model(q);  // only the homing stands between the random bytes and the drives
   ReceiverLog log;
   bool ever_enabled = false;
   bool reference_moved = false;
@@ -266,7 +283,9 @@ TEST(BoardLink, RandomBytesNeverEnableTheDrivesNorMoveAReferenceAndEveryDropIsCo
 // ---- commands and safety -----------------------------------------------------------------------
 
 TEST(BoardLink, CommandsAreTakenOnlyWhenAllowedAndAFaultNeverReenables) {
-  Bench bench(export_directory(shipped_network(), "board_link_commands"));
+  const golden::QuantisedNetwork q = shipped_network();
+  Bench bench(export_directory(q, "board_link_commands"));
+  bench.load_model(q);
   link::TelemetryPayload t = bench.exchange(bench.command(Command::kEnable));
   EXPECT_FALSE(t.has(link::TelemetryFlag::kDriveEnable)) << "enable before set home";
   EXPECT_EQ(t.rejected, 1);
@@ -312,7 +331,9 @@ TEST(BoardLink, CommandsAreTakenOnlyWhenAllowedAndAFaultNeverReenables) {
 }
 
 TEST(BoardLink, ClearFaultIsRefusedWhileACausePersists) {
-  Bench bench(export_directory(shipped_network(), "board_link_clear"));
+  const golden::QuantisedNetwork q = shipped_network();
+  Bench bench(export_directory(q, "board_link_clear"));
+  bench.load_model(q);
   bench.exchange(bench.command(Command::kSetHome));
   bench.homed();
   bench.exchange(bench.command(Command::kEnable));
@@ -340,7 +361,9 @@ TEST(BoardLink, ClearFaultIsRefusedWhileACausePersists) {
 }
 
 TEST(BoardLink, WatchdogTurnsTheTorqueOffWithinItsBoundOfTheLastValidFrame) {
-  Bench bench(export_directory(shipped_network(), "board_link_watchdog"));
+  const golden::QuantisedNetwork q = shipped_network();
+  Bench bench(export_directory(q, "board_link_watchdog"));
+  bench.load_model(q);
   std::int64_t last_valid = 0;
   bench.hook = [&] {
     if (bench.core().rootp->board_core__DOT__frame_ok) last_valid = bench.cycles();
@@ -371,8 +394,12 @@ Vec3 home_position() { return forward_kinematics(Geometry::nominal(), Vec3(30.0,
 
 // Streams 400 setpoints (a circle with a slew-limited jump) to the board and compares every
 // period's references with the golden interpolation (with q's backlash half-plays, if any).
-void expect_references_equal_the_golden_interpolation(const golden::QuantisedNetwork& q, const std::string& name) {
+// first: a model loaded before q's, which q's load replaces.
+void expect_references_equal_the_golden_interpolation(const golden::QuantisedNetwork& q, const std::string& name,
+                                                      const golden::QuantisedNetwork* first = nullptr) {
   Bench bench(export_directory(q, name));
+  if (first) bench.load_model(*first);
+  bench.load_model(q);
   Vboard_core& core = bench.core();
   auto& root = *core.rootp;
   // The plant: the encoders follow the references (a perfect joint), so no following error.
@@ -495,6 +522,137 @@ TEST(BoardLink, TheDeployedModelsBacklashCompensationEqualsTheGoldenInterpolatio
   std::cout << "half-plays " << q.compensation.half_play[0] << ' ' << q.compensation.half_play[1] << ' '
             << q.compensation.half_play[2] << " output LSBs\n";
   expect_references_equal_the_golden_interpolation(q, "board_link_setpoints_deployed");
+}
+
+
+// The second model's load replaces the first: the references are the golden interpolation of the
+// second's answers (the random network of the RTL tests, deployed model's memories overwritten).
+TEST(BoardLink, ASecondLoadReplacesTheModelAndTheBoardPlaysIt) {
+  const std::string path = std::string(DELTA_SOURCE_DIR) + "/weights/paper_like_deployed.json";
+  const golden::QuantisedNetwork deployed = golden::quantise_file(path, nn::read_weights_file(path));
+  const golden::QuantisedNetwork shipped = shipped_network();
+  ASSERT_NE(weights_crc(deployed), weights_crc(shipped));
+  expect_references_equal_the_golden_interpolation(shipped, "board_link_second_load", &deployed);
+}
+
+// ---- the model (docs/board_link.md, "The model") ------------------------------------------------
+
+link::IdentifyPayload identify(Bench& bench) {
+  const std::size_t seen = bench.identify_frames().size();
+  bench.send(link::make_identify_request(bench.next_sequence()));
+  bench.run_until([&] { return bench.identify_frames().size() > seen; }, 3 * kCyclesPerMillisecond);
+  EXPECT_GT(bench.identify_frames().size(), seen) << "no identify reply";
+  return link::decode_identify(bench.identify_frames().back().payload);
+}
+
+TEST(BoardModel, WithoutAModelEnableIsRefusedAndCountedAndNothingMoves) {
+  const golden::QuantisedNetwork q = shipped_network();
+  Bench bench(export_directory(q, "board_model_none"));
+  bool ever_enabled = false;
+  bench.hook = [&] { ever_enabled = ever_enabled || bench.core().drive_enable_o || bench.core().drive_pwm_o; };
+  link::TelemetryPayload t = bench.exchange(bench.command(Command::kSetHome));
+  bench.homed();
+  EXPECT_TRUE(t.has(link::TelemetryFlag::kHomed));
+  EXPECT_FALSE(t.has(link::TelemetryFlag::kModel));
+  t = bench.exchange(bench.command(Command::kEnable));
+  EXPECT_FALSE(t.has(link::TelemetryFlag::kDriveEnable)) << "enable without a model";
+  EXPECT_EQ(t.rejected, 1);
+  link::SetpointPayload setpoint;
+  setpoint.sample_index = 0;
+  t = bench.exchange(link::make_frame(bench.next_sequence(), setpoint));
+  EXPECT_EQ(t.rejected, 2) << "a setpoint with the drives off";
+  bench.run(5 * kCyclesPerMillisecond);
+  EXPECT_FALSE(ever_enabled);
+  EXPECT_EQ(bench.next_telemetry().sample_index, 0u);
+  EXPECT_EQ(identify(bench).weights_crc, 0u);
+  // The same board with the model: the enable is taken.
+  bench.load_model(q);
+  t = bench.exchange(bench.command(Command::kEnable));
+  EXPECT_TRUE(t.has(link::TelemetryFlag::kModel));
+  EXPECT_TRUE(t.has(link::TelemetryFlag::kDriveEnable));
+  EXPECT_EQ(t.rejected, 2);
+}
+
+TEST(BoardModel, AGoodLoadSetsTheFlagAndIdentifiesItsCrc) {
+  const golden::QuantisedNetwork q = shipped_network();
+  Bench bench(export_directory(q, "board_model_good"));
+  EXPECT_FALSE(bench.next_telemetry().has(link::TelemetryFlag::kModel));
+  bench.load_model(q);
+  const link::TelemetryPayload t = bench.next_telemetry();
+  EXPECT_TRUE(t.has(link::TelemetryFlag::kModel));
+  EXPECT_EQ(t.rejected, 0);
+  EXPECT_EQ(t.bad_frames, 0);
+  EXPECT_EQ(identify(bench).weights_crc, weights_crc(q));
+}
+
+TEST(BoardModel, ALoadWithTheDrivesOnIsRefusedAndChangesNothing) {
+  const golden::QuantisedNetwork q = shipped_network();
+  const std::string path = std::string(DELTA_SOURCE_DIR) + "/weights/paper_like_deployed.json";
+  const golden::QuantisedNetwork other = golden::quantise_file(path, nn::read_weights_file(path));
+  Bench bench(export_directory(q, "board_model_drives_on"));
+  bench.load_model(q);
+  bench.exchange(bench.command(Command::kSetHome));
+  bench.homed();
+  link::TelemetryPayload t = bench.exchange(bench.command(Command::kEnable));
+  ASSERT_TRUE(t.has(link::TelemetryFlag::kDriveEnable));
+  const std::vector<Frame> frames = bench.model_frames(other);
+  bench.send_all(frames);
+  t = bench.next_telemetry();
+  EXPECT_EQ(t.rejected, static_cast<int>(frames.size())) << "every frame refused";
+  EXPECT_TRUE(t.has(link::TelemetryFlag::kModel));
+  EXPECT_TRUE(t.has(link::TelemetryFlag::kDriveEnable));
+  EXPECT_EQ(identify(bench).weights_crc, weights_crc(q));
+  // Not even a start: after the disable the board still holds q and the first frames of a load
+  // other than 0 are refused.
+  bench.exchange(bench.command(Command::kDisable));
+  bench.send_all({frames[1], frames[2]});
+  t = bench.next_telemetry();
+  EXPECT_EQ(t.rejected, static_cast<int>(frames.size()) + 2);
+  EXPECT_TRUE(t.has(link::TelemetryFlag::kModel));
+}
+
+TEST(BoardModel, ALoadCutOffHalfWayLeavesNoModelAndResumesWhereItStopped) {
+  const golden::QuantisedNetwork q = shipped_network();
+  Bench bench(export_directory(q, "board_model_cut"));
+  bench.load_model(q);
+  const std::vector<Frame> frames = bench.model_frames(q);
+  const std::size_t half = frames.size() / 2;
+  bench.send_all(std::vector<Frame>(frames.begin(), frames.begin() + static_cast<std::ptrdiff_t>(half)));
+  link::TelemetryPayload t = bench.next_telemetry();
+  EXPECT_FALSE(t.has(link::TelemetryFlag::kModel)) << "a load void the model from its frame 0";
+  EXPECT_EQ(identify(bench).weights_crc, 0u);
+  bench.exchange(bench.command(Command::kSetHome));
+  bench.homed();
+  t = bench.exchange(bench.command(Command::kEnable));
+  EXPECT_FALSE(t.has(link::TelemetryFlag::kDriveEnable));
+  EXPECT_EQ(t.rejected, 1);
+  // A lost frame: the rest is refused, frame by frame, until the host resends from there.
+  bench.send_all(std::vector<Frame>(frames.begin() + static_cast<std::ptrdiff_t>(half) + 1, frames.end()));
+  t = bench.next_telemetry();
+  EXPECT_FALSE(t.has(link::TelemetryFlag::kModel));
+  EXPECT_EQ(t.rejected, 1 + static_cast<int>(frames.size() - half - 1));
+  bench.send_all(std::vector<Frame>(frames.begin() + static_cast<std::ptrdiff_t>(half), frames.end()));
+  t = bench.next_telemetry();
+  EXPECT_TRUE(t.has(link::TelemetryFlag::kModel));
+  EXPECT_EQ(identify(bench).weights_crc, weights_crc(q));
+}
+
+TEST(BoardModel, OneCorruptedWordUnderTheOriginalsCrcLeavesNoModel) {
+  const golden::QuantisedNetwork q = shipped_network();
+  Bench bench(export_directory(q, "board_model_corrupt"));
+  for (const std::size_t frame : {std::size_t{0}, std::size_t{90}, std::size_t{board::kModelCommitFrame - 1}}) {
+    std::vector<link::ModelPayload> payloads = golden::model_frames(q);
+    payloads[frame].word[0] ^= 0x0100;  // one bit of the word; the commit keeps the original's CRC
+    std::vector<Frame> frames;
+    for (const link::ModelPayload& payload : payloads) frames.push_back(link::make_frame(bench.next_sequence(), payload));
+    bench.send_all(frames);
+    const link::TelemetryPayload t = bench.next_telemetry();
+    EXPECT_FALSE(t.has(link::TelemetryFlag::kModel)) << "frame " << frame << " corrupted";
+    EXPECT_EQ(t.rejected, 0);
+    EXPECT_EQ(identify(bench).weights_crc, 0u);
+  }
+  bench.load_model(q);
+  EXPECT_TRUE(bench.next_telemetry().has(link::TelemetryFlag::kModel));
 }
 
 }  // namespace

@@ -53,8 +53,11 @@ void reset_board(BoardCore& core) {
 // when first_group_s3_q is low, which needs a token of group > 0. The crossing's network side
 // holds when its request synchroniser already shows request_q, request_seen_q matches it and
 // start_q is low; request_q toggles only at a board edge where ready is high (then the second
-// network edge of that board clock would see it). kFlushEdges network edges of idle, a margin
-// over the 26 stages, before the first skip.
+// network edge of that board clock would see it). The memories the pipeline reads are the
+// model's, which the loader writes in the board clock (model_write): a write changes the words at
+// those constant addresses, so a board clock that writes one is not quiet, and the pipeline's
+// fixed point is reached again only kFlushEdges network edges later. kFlushEdges network edges of
+// idle, a margin over the 26 stages, before the first skip.
 //
 // One evaluation per rising edge: Verilator 5 finds a rising edge of a clock against the level the
 // last eval() saw, which it keeps in the model (__Vtrigrprev__TOP__<clock>). board_core acts on
@@ -89,7 +92,7 @@ class IdleNetworkSkip {
                        !root.board_core__DOT__u_crossing__DOT__start_q &&
                        root.board_core__DOT__u_crossing__DOT__request_sync_q == (request ? 3u : 0u) &&
                        root.board_core__DOT__u_crossing__DOT__request_seen_q == request &&
-                       !root.board_core__DOT__u_crossing__DOT__ready;
+                       !root.board_core__DOT__u_crossing__DOT__ready && !root.board_core__DOT__model_write;
     const bool skip = quiet && idle_edges_ >= kFlushEdges;
     if (!quiet) {
       idle_edges_ = 0;
