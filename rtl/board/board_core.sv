@@ -134,7 +134,7 @@ module board_core #(
     .rst_ni,
     .is_model_i     (is_model),
     .payload_valid_i(payload_valid),
-    .payload_index_i(payload_index),
+    .payload_index_i(payload_index[2:0]),
     .payload_byte_i (payload_byte),
     .frame_ok_i     (frame_ok),
     .stall_o        (model_stall),

@@ -25,7 +25,7 @@ module model_loader #(
   // from link_rx
   input  logic        is_model_i,        // the frame in flight is a model frame
   input  logic        payload_valid_i,
-  input  logic [5:0]  payload_index_i,
+  input  logic [2:0]  payload_index_i,   // a model frame's bytes 0 .. 7 (link_rx presents exactly 8)
   input  logic [7:0]  payload_byte_i,
   input  logic        frame_ok_i,
   output logic        stall_o,           // link_rx's parser waits: the CRC runs
@@ -50,6 +50,8 @@ module model_loader #(
   logic [7:0]            expected_q;      // the next frame number of the load in progress
   logic                  loading_q, loaded_q;
   logic [31:0]           crc_q;           // the running CRC register (not yet inverted)
+  logic                  restart_q;       // the word shifting is frame 0's: the CRC starts from all ones
+  logic [31:0]           crc_base;
   logic [CountWidth-1:0] shift_count_q;   // CRC bits still to shift
 
   logic take, start, commit;
@@ -62,6 +64,9 @@ module model_loader #(
   assign address_o = number_q;
   assign word_o    = word_q;
   assign stall_o   = shift_count_q != '0;
+  // The CRC's initial value enters at frame 0's first bit (a register of all ones then), so the
+  // register itself only ever shifts.
+  assign crc_base  = restart_q ? '1 : crc_q;
 
   always_ff @(posedge clk_i or negedge rst_ni) begin
     if (!rst_ni) begin
@@ -72,15 +77,17 @@ module model_loader #(
       loading_q     <= 1'b0;
       loaded_q      <= 1'b0;
       crc_q         <= '0;
+      restart_q     <= 1'b0;
       shift_count_q <= '0;
     end else begin
-      if (payload_valid_i && is_model_i && payload_index_i == 6'd0) number_q <= payload_byte_i;
-      if (payload_valid_i && is_model_i && payload_index_i == 6'd1) number_high_q <= payload_byte_i != 8'd0;
+      if (payload_valid_i && is_model_i && payload_index_i == 3'd0) number_q <= payload_byte_i;
+      if (payload_valid_i && is_model_i && payload_index_i == 3'd1) number_high_q <= payload_byte_i != 8'd0;
       for (int b = 0; b < WordBits / 8; b++) begin  // byte b of the word is payload byte 2 + b
-        if (payload_valid_i && is_model_i && payload_index_i == 6'(2 + b)) word_q[8 * b +: 8] <= payload_byte_i;
+        if (payload_valid_i && is_model_i && payload_index_i == 3'(2 + b)) word_q[8 * b +: 8] <= payload_byte_i;
       end
       if (stall_o) begin
-        crc_q         <= (crc_q >> 1) ^ ((crc_q[0] ^ word_q[0]) ? Polynomial : 32'd0);
+        crc_q         <= (crc_base >> 1) ^ ((crc_base[0] ^ word_q[0]) ? Polynomial : 32'd0);
+        restart_q     <= 1'b0;
         word_q        <= word_q >> 1;
         shift_count_q <= shift_count_q - 1'b1;
       end
@@ -93,7 +100,7 @@ module model_loader #(
           loaded_q      <= 1'b0;
           expected_q    <= number_q + 8'd1;
           shift_count_q <= CountWidth'(delta_board_pkg::ModelCrcClocks);
-          if (start) crc_q <= '1;
+          restart_q     <= start;
         end
       end
     end
@@ -123,9 +130,9 @@ module model_loader #(
   logic [47:0] f_word_q = '0;
   always_ff @(posedge clk_i) begin
     if (payload_valid_i && is_model_i) begin
-      if (payload_index_i == 6'd0) f_number_q[7:0] <= payload_byte_i;
-      if (payload_index_i == 6'd1) f_number_q[15:8] <= payload_byte_i;
-      if (payload_index_i >= 6'd2 && payload_index_i < 6'd8) f_word_q[8 * (payload_index_i - 6'd2) +: 8] <= payload_byte_i;
+      if (payload_index_i == 3'd0) f_number_q[7:0] <= payload_byte_i;
+      if (payload_index_i == 3'd1) f_number_q[15:8] <= payload_byte_i;
+      if (payload_index_i >= 3'd2) f_word_q[8 * (payload_index_i - 3'd2) +: 8] <= payload_byte_i;
     end
   end
   // The CRC a taken word must leave once its clocks are over.

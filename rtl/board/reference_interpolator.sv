@@ -176,6 +176,17 @@ module reference_interpolator #(
   assign step         = rounded - rounded_now_q;
   assign r_new        = enabled_i ? $signed(r_q[0]) + 32'(step) : {{8{count[15]}}, count, 8'd0};
 
+  // c - r -/+ H in one adder: d + H for d < 0, d + ~H + 1 for d >= 0 (the + 1 enters as the
+  // carry out of a low bit that is 1 + 1).
+  logic        add_half_play;
+  logic [32:0] half_play_wide;
+  logic [33:0] played_sum;
+  assign add_half_play  = diff_q[32];
+  assign half_play_wide = 33'(half_play);
+  assign played_sum     = {diff_q, 1'b1} + {add_half_play ? half_play_wide : ~half_play_wide, !add_half_play};
+  logic unused_played_sum;
+  assign unused_played_sum = played_sum[0];
+
   // 25 y + 8 = y + 8 y + (16 y | 8): the rounding constant fills bit 3 of 16 y for free.
   logic signed [28:0] y25_rounded;
   logic signed [24:0] c;  // round_shift(25 y, 4)
@@ -187,7 +198,7 @@ module reference_interpolator #(
     y25_q       <= 29'(y) + (29'(y) <<< 3);
     y25_rounded <= y25_q + ((29'(y) <<< 4) | 29'sd8);
     diff_q      <= 33'(c) - 33'($signed(r_q[0]));
-    played_q    <= diff_q[32] ? diff_q + 33'(half_play) : diff_q - 33'(half_play);
+    played_q    <= played_sum[33:1];
     delta_q     <= take_answer ? delta_saturated : $signed(d_q[0]);
     product_q   <= $signed(delta_q) * $signed(k_multiplier);
     if (step_q == 4'd6) rounded_now_q <= rounded;

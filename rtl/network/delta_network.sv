@@ -32,8 +32,9 @@
 //
 // The model (IW', b1', LW', b2' + 2^19) is data in block RAM, written through the model port in
 // the board's clock (model_clk_i): word n of a load (docs/board_link.md, "The model"; the board's
-// model_loader.sv) goes to IW' address n (n < 75), b1' address n - 75 (n < 100), LW' address
-// n - 100 (n < 178: LW'_ok at 25o + k, then b2'_o + 2^19 at 75 + o, a 48-bit memory). The neuron-0
+// model_loader.sv) is written at address n of every one of the three memories (256 words each),
+// which read their own frames only: IW' at 0 .. 74, b1' at 75 .. 99, LW' at 100 .. 177 (LW'_ok at
+// 100 + 25o + k, then b2'_o + 2^19 at 175 + o, a 48-bit memory); no decoder. The neuron-0
 // tokens of layer 2, whose product is never accumulated, read the bias words instead: their S10
 // product register takes b2'_o + 2^19, and the accumulators, zeroed at the accept, add it as the
 // first term. ModelFromFiles = 1 (the standalone network and its tests): the memories start with
@@ -97,20 +98,14 @@ module delta_network #(
   localparam int unsigned GroupWidth  = (Groups > 1) ? $clog2(Groups) : 1;
   localparam int unsigned Weight1Depth        = NumHidden * NumInputs;
   localparam int unsigned Weight2Depth        = NumOutputs * NumHidden;
-  localparam int unsigned Weight1AddressWidth = $clog2(Weight1Depth);
-  localparam int unsigned Bias1AddressWidth   = $clog2(NumHidden);
-  localparam int unsigned Weight2Words        = Weight2Depth + NumOutputs;  // LW', then b2' + 2^19
-  localparam int unsigned Weight2AddressWidth = $clog2(Weight2Words);
+  localparam int unsigned ModelAddressWidth   = 8;    // the model port's frame number: every memory's address
+  localparam int unsigned ModelDepth          = 256;
   localparam int unsigned Weight2WordWidth    = 48;  // b2' + 2^19: Accum2Width bits
   // The model port's frame numbers (docs/board_link.md; delta_board_pkg's Model*Frame facts,
   // checked in board_core.sv).
   localparam int unsigned Bias1Frame   = Weight1Depth;
   localparam int unsigned Weight2Frame = Bias1Frame + NumHidden;
-  localparam int unsigned ModelWords   = Weight2Frame + Weight2Words;
-  logic weight1_write, bias1_write, weight2_write;
-  assign weight1_write = model_write_i && model_address_i < 8'(Bias1Frame);
-  assign bias1_write   = model_write_i && model_address_i >= 8'(Bias1Frame) && model_address_i < 8'(Weight2Frame);
-  assign weight2_write = model_write_i && model_address_i >= 8'(Weight2Frame) && model_address_i < 8'(ModelWords);
+  localparam int unsigned Bias2Frame   = Weight2Frame + Weight2Depth;
 
   if (ReuseFactor % NumHidden != 0 || NumInputs % (ReuseFactor / NumHidden) != 0 ||
       NumOutputs != NumInputs) begin : g_bad_reuse_factor
@@ -201,18 +196,19 @@ module delta_network #(
     // h * NumInputs + g * Lanes + l = step * Lanes + l (row-major IW').
     logic [Weight1Width-1:0] weight1_word;
     model_ram #(
-      .Depth       (Weight1Depth),
+      .Depth       (ModelDepth),
       .Width       (Weight1Width),
       .InitFromFile(ModelFromFiles),
       .MemDir      (MemDir),
-      .MemFile     (delta_network_pkg::Weight1File)
+      .MemFile     (delta_network_pkg::Weight1File),
+      .FileAddress (0)
     ) u_weight1_ram (
       .clk_i          (ap_clk),
-      .address_i      (Weight1AddressWidth'(step_q * Lanes + lane)),
+      .address_i      (ModelAddressWidth'(step_q * Lanes + lane)),
       .data_o         (weight1_word),
       .write_clk_i    (model_clk_i),
-      .write_i        (weight1_write),
-      .write_address_i(Weight1AddressWidth'(model_address_i)),
+      .write_i        (model_write_i),
+      .write_address_i(model_address_i),
       .write_data_i   (model_word_i[Weight1Width-1:0])
     );
 
@@ -226,18 +222,19 @@ module delta_network #(
 
   logic [Bias1Width-1:0] bias1_word;
   model_ram #(
-    .Depth       (NumHidden),
+    .Depth       (ModelDepth),
     .Width       (Bias1Width),
     .InitFromFile(ModelFromFiles),
     .MemDir      (MemDir),
-    .MemFile     (delta_network_pkg::Bias1File)
+    .MemFile     (delta_network_pkg::Bias1File),
+    .FileAddress (Bias1Frame)
   ) u_bias1_ram (
     .clk_i          (ap_clk),
-    .address_i      (Bias1AddressWidth'(neuron_q)),
+    .address_i      (ModelAddressWidth'(Bias1Frame) + ModelAddressWidth'(neuron_q)),
     .data_o         (bias1_word),
     .write_clk_i    (model_clk_i),
-    .write_i        (bias1_write),
-    .write_address_i(Bias1AddressWidth'(model_address_i - 8'(Bias1Frame))),
+    .write_i        (model_write_i),
+    .write_address_i(model_address_i),
     .write_data_i   (model_word_i[Bias1Width-1:0])
   );
 
@@ -372,26 +369,27 @@ module delta_network #(
     logic                           bias_token_s10_q;  // the token in S10 is a neuron-0 token
     // The address is computed from the token in S7 and registered: the adder in front of the RAM
     // would otherwise share its cycle.
-    logic [Weight2AddressWidth-1:0] weight2_address_q;
+    logic [ModelAddressWidth-1:0]   weight2_address_q;
     always_ff @(posedge ap_clk) begin
       weight2_address_q <= (neuron_s[7] != '0)
-          ? Weight2AddressWidth'((group_s[7] * Lanes + lane) * NumHidden) + Weight2AddressWidth'(neuron_s[7]) -
-                Weight2AddressWidth'(1)
-          : Weight2AddressWidth'(Weight2Depth + group_s[7] * Lanes + lane);
+          ? ModelAddressWidth'(Weight2Frame + (group_s[7] * Lanes + lane) * NumHidden) + ModelAddressWidth'(neuron_s[7]) -
+                ModelAddressWidth'(1)
+          : ModelAddressWidth'(Bias2Frame + group_s[7] * Lanes + lane);
     end
     model_ram #(
-      .Depth       (Weight2Words),
+      .Depth       (ModelDepth),
       .Width       (Weight2WordWidth),
       .InitFromFile(ModelFromFiles),
       .MemDir      (MemDir),
-      .MemFile     (delta_network_pkg::Weight2File)
+      .MemFile     (delta_network_pkg::Weight2File),
+      .FileAddress (Weight2Frame)
     ) u_weight2_ram (
       .clk_i          (ap_clk),
       .address_i      (weight2_address_q),
       .data_o         (weight2_word),
       .write_clk_i    (model_clk_i),
-      .write_i        (weight2_write),
-      .write_address_i(Weight2AddressWidth'(model_address_i - 8'(Weight2Frame))),
+      .write_i        (model_write_i),
+      .write_address_i(model_address_i),
       .write_data_i   (model_word_i)
     );
     always_ff @(posedge ap_clk) begin
