@@ -82,9 +82,9 @@ package delta_board_pkg;
   // of its frame_ok, then runs bit-serially through the board's CRC-32 for ModelCrcClocks clocks,
   // during which link_rx's parser stalls (its ring keeps receiving); the model flag and identify's
   // CRC change in the clock after the commit's frame_ok. Words land in the network's memories at
-  // IW' address n, b1' address n - ModelBias1Frame, LW' address n - ModelWeight2Frame (the b2'
-  // words at LW' addresses 75 .. 77, read by the neuron-0 tokens), and in the interpolator's play
-  // word n - ModelPlayFrame.
+  // the network's memories at address n (each memory reads only its own frames: IW', b1', LW' and
+  // the b2' words' own memory, read by the neuron-0 tokens), and in the interpolator's play word
+  // n - ModelPlayFrame.
   localparam int ModelCrcClocks /*verilator public*/ = 48;  // one CRC bit a clock, ModelWordBits
 
   // Interpolation: reference r(k) = B + round(D * K(k) / 2^InterpolationShift), K(k) = round(k 2^14 / 10).

@@ -32,12 +32,12 @@
 //
 // The model (IW', b1', LW', b2' + 2^19) is data in block RAM, written through the model port in
 // the board's clock (model_clk_i): word n of a load (docs/board_link.md, "The model"; the board's
-// model_loader.sv) is written at address n of every one of the three memories (256 words each),
-// which read their own frames only: IW' at 0 .. 74, b1' at 75 .. 99, LW' at 100 .. 177 (LW'_ok at
-// 100 + 25o + k, then b2'_o + 2^19 at 175 + o, a 48-bit memory); no decoder. The neuron-0
-// tokens of layer 2, whose product is never accumulated, read the bias words instead: their S10
-// product register takes b2'_o + 2^19, and the accumulators, zeroed at the accept, add it as the
-// first term. ModelFromFiles = 1 (the standalone network and its tests): the memories start with
+// model_loader.sv) is written at address n of every one of the four memories (256 words each),
+// which read their own frames only: IW' at 0 .. 74, b1' at 75 .. 99, LW' at 100 .. 174 (LW'_ok at
+// 100 + 25o + k), b2'_o + 2^19 at 175 + o (a 48-bit memory of its own); no decoder. The neuron-0
+// tokens of layer 2, whose product is never used, add the bias instead: in S11 their addend is
+// b2'_o + 2^19 from the bias memory (read in S10), and the accumulators, zeroed at the accept,
+// take it as the first term; the product register stays the DSPs'. ModelFromFiles = 1 (the standalone network and its tests): the memories start with
 // the .mem files of MemDir and b2' comes from output_bias.mem (the model port still writes the
 // memories); 0 (the board): every memory starts at zero and the model comes only through the port.
 // The tanh tables stay ROMs of MemDir in both.
@@ -100,7 +100,7 @@ module delta_network #(
   localparam int unsigned Weight2Depth        = NumOutputs * NumHidden;
   localparam int unsigned ModelAddressWidth   = 8;    // the model port's frame number: every memory's address
   localparam int unsigned ModelDepth          = 256;
-  localparam int unsigned Weight2WordWidth    = 48;  // b2' + 2^19: Accum2Width bits
+  localparam int unsigned Bias2WordWidth      = 48;  // b2' + 2^19: Accum2Width bits
   // The model port's frame numbers (docs/board_link.md; delta_board_pkg's Model*Frame facts,
   // checked in board_core.sv).
   localparam int unsigned Bias1Frame   = Weight1Depth;
@@ -325,9 +325,10 @@ module delta_network #(
   );
 
   // ---- layer 2: S8 addresses, S9 data, S10 multiply, S11 accumulate -----------------------------
-  // S11: the product of the token (sign-extended to the accumulator), or for a neuron-0 token the
-  // bias b2'_o + 2^19 of its output.
-  logic signed [Accum2Width-1:0] product2_q [Lanes];
+  logic signed [Product2Width-1:0] product2_q [Lanes];  // S11
+  // S11's addend of lane l: the product, or for a neuron-0 token (whose product is never needed)
+  // the bias b2'_o + 2^19 of the lane's output, read from the bias memory in S10.
+  logic signed [Accum2Width-1:0]   addend2 [Lanes];
   // acc2 of output o = accum2_high_q[o] * 2^24 + accum2_low_q[o], the low part 25 bits wide: its
   // bit 24 is the carry of the last update, added to the high part by the next one. Two 24-bit
   // carry chains instead of one of 47 (the DSP's product register is far from the fabric).
@@ -337,7 +338,7 @@ module delta_network #(
   logic signed [Accum2HighWidth-1:0]      accum2_high_q [NumOutputs];
 
   // b2' + 2^19 of output o (+ 2^19: the rounding half of alpha = round_shift(acc2, 20), so S12 only
-  // shifts and saturates): from the LW' memory's words 75 + o, or with ModelFromFiles from
+  // shifts and saturates): from the bias memory's words 175 + o, or with ModelFromFiles from
   // output_bias.mem (constants).
   logic [NumOutputs*Accum2Width-1:0] file_biases;
   if (ModelFromFiles) begin : g_file_bias2
@@ -361,24 +362,21 @@ module delta_network #(
 
   for (genvar lane = 0; lane < Lanes; lane++) begin : g_layer2_lane
     // Token (h + 1, g) in S8 addresses LW'[g * Lanes + l][h], stored at (g * Lanes + l) *
-    // NumHidden + h (row-major LW'); the neuron-0 tokens address the bias of output g * Lanes + l,
-    // stored at Weight2Depth + g * Lanes + l.
-    logic [Weight2WordWidth-1:0]    weight2_word;
-    logic [Accum2Width-1:0]         weight2_q;  // LW' in its low 24 bits, or b2' + 2^19
+    // NumHidden + h (row-major LW'); the neuron-0 tokens read a word that is never used.
+    logic [Weight2Width-1:0]        weight2_word;
+    logic signed [Weight2Width-1:0] weight2_q;
     logic signed [HiddenWidth-1:0]  activation_lane_q;
-    logic                           bias_token_s10_q;  // the token in S10 is a neuron-0 token
     // The address is computed from the token in S7 and registered: the adder in front of the RAM
     // would otherwise share its cycle.
     logic [ModelAddressWidth-1:0]   weight2_address_q;
     always_ff @(posedge ap_clk) begin
-      weight2_address_q <= (neuron_s[7] != '0)
-          ? ModelAddressWidth'(Weight2Frame + (group_s[7] * Lanes + lane) * NumHidden) + ModelAddressWidth'(neuron_s[7]) -
-                ModelAddressWidth'(1)
-          : ModelAddressWidth'(Bias2Frame + group_s[7] * Lanes + lane);
+      weight2_address_q <= ModelAddressWidth'(Weight2Frame + (group_s[7] * Lanes + lane) * NumHidden) +
+                           ((neuron_s[7] != '0) ? ModelAddressWidth'(neuron_s[7]) - ModelAddressWidth'(1)
+                                                : ModelAddressWidth'(0));
     end
     model_ram #(
       .Depth       (ModelDepth),
-      .Width       (Weight2WordWidth),
+      .Width       (Weight2Width),
       .InitFromFile(ModelFromFiles),
       .MemDir      (MemDir),
       .MemFile     (delta_network_pkg::Weight2File),
@@ -390,20 +388,39 @@ module delta_network #(
       .write_clk_i    (model_clk_i),
       .write_i        (model_write_i),
       .write_address_i(model_address_i),
-      .write_data_i   (model_word_i)
+      .write_data_i   (model_word_i[Weight2Width-1:0])
     );
     always_ff @(posedge ap_clk) begin
-      logic signed [Product2Width-1:0] product;
-      weight2_q         <= weight2_word[Accum2Width-1:0];
+      weight2_q         <= signed'(weight2_word);
       activation_lane_q <= activation_q;
-      bias_token_s10_q  <= neuron_s[9] == '0;
-      product           = Product2Width'(activation_lane_q) * Product2Width'(signed'(weight2_q[Weight2Width-1:0]));
-      if (!bias_token_s10_q) product2_q[lane] <= Accum2Width'(product);
-      else if (ModelFromFiles) product2_q[lane] <= file_biases[(group_s[10] * Lanes + lane) * Accum2Width +: Accum2Width];
-      else product2_q[lane] <= weight2_q;
+      product2_q[lane]  <= Product2Width'(activation_lane_q) * Product2Width'(weight2_q);
     end
-    logic unused_word_bits;
-    assign unused_word_bits = ^weight2_word[Weight2WordWidth-1:Accum2Width];
+
+    // The bias memory: its own block RAM (the LW' memory's one read port is busy every cycle),
+    // read with the group of the token in S10, so its output register holds the bias in S11.
+    logic [Bias2WordWidth-1:0] bias2_word;
+    model_ram #(
+      .Depth       (ModelDepth),
+      .Width       (Bias2WordWidth),
+      .InitFromFile(1'b0),
+      .MemDir      (MemDir),
+      .MemFile     (delta_network_pkg::Bias2File),
+      .FileAddress (Bias2Frame)
+    ) u_bias2_ram (
+      .clk_i          (ap_clk),
+      .address_i      (ModelAddressWidth'(Bias2Frame + group_s[10] * Lanes + lane)),
+      .data_o         (bias2_word),
+      .write_clk_i    (model_clk_i),
+      .write_i        (model_write_i),
+      .write_address_i(model_address_i),
+      .write_data_i   (model_word_i[Bias2WordWidth-1:0])
+    );
+    logic [Accum2Width-1:0] bias2;
+    assign bias2 = ModelFromFiles ? file_biases[(group_s[11] * Lanes + lane) * Accum2Width +: Accum2Width]
+                                  : bias2_word[Accum2Width-1:0];
+    assign addend2[lane] = (neuron_s[11] == '0) ? signed'(bias2) : Accum2Width'(product2_q[lane]);
+    logic unused_bias_bits;
+    assign unused_bias_bits = ^bias2_word[Bias2WordWidth-1:Accum2Width];
   end
 
   // S11: output o accumulates in group o / Lanes, lane o % Lanes; exact in 47 bits (spec step 5).
@@ -411,7 +428,7 @@ module delta_network #(
   always_ff @(posedge ap_clk) begin
     logic signed [Accum2Width-1:0] product;
     for (int o = 0; o < NumOutputs; o++) begin
-      product = product2_q[o % Lanes];
+      product = addend2[o % Lanes];
       if (accept) begin
         accum2_low_q[o]  <= '0;
         accum2_high_q[o] <= '0;

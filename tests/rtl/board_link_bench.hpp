@@ -111,7 +111,8 @@ class LinkBench {
   // The frames of q's load (golden::model_frames) as the host sends them.
   std::vector<link::Frame> model_frames(const golden::QuantisedNetwork& q) {
     std::vector<link::Frame> frames;
-    for (const link::ModelPayload& payload : golden::model_frames(q)) frames.push_back(link::make_frame(next_sequence_++, payload));
+    for (const link::ModelPayload& payload : golden::model_frames(q))
+      frames.push_back(link::make_frame(next_sequence_++, payload));
     return frames;
   }
   // Sends frames back to back and runs until the board has taken the last (its CRC included).

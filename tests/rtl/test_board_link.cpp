@@ -524,7 +524,6 @@ TEST(BoardLink, TheDeployedModelsBacklashCompensationEqualsTheGoldenInterpolatio
   expect_references_equal_the_golden_interpolation(q, "board_link_setpoints_deployed");
 }
 
-
 // The second model's load replaces the first: the references are the golden interpolation of the
 // second's answers (the random network of the RTL tests, deployed model's memories overwritten).
 TEST(BoardLink, ASecondLoadReplacesTheModelAndTheBoardPlaysIt) {
@@ -644,7 +643,8 @@ TEST(BoardModel, OneCorruptedWordUnderTheOriginalsCrcLeavesNoModel) {
     std::vector<link::ModelPayload> payloads = golden::model_frames(q);
     payloads[frame].word[0] ^= 0x0100;  // one bit of the word; the commit keeps the original's CRC
     std::vector<Frame> frames;
-    for (const link::ModelPayload& payload : payloads) frames.push_back(link::make_frame(bench.next_sequence(), payload));
+    for (const link::ModelPayload& payload : payloads)
+      frames.push_back(link::make_frame(bench.next_sequence(), payload));
     bench.send_all(frames);
     const link::TelemetryPayload t = bench.next_telemetry();
     EXPECT_FALSE(t.has(link::TelemetryFlag::kModel)) << "frame " << frame << " corrupted";

@@ -124,6 +124,14 @@ int sc_main(int argc, char* argv[]) {
   DELTA_BIND(y_1_ap_vld);
   DELTA_BIND(y_2_ap_vld);
 #undef DELTA_BIND
+  // The model port, unused: the network holds the model of its .mem files (ModelFromFiles).
+  sc_signal<bool> model_clk, model_write;
+  sc_signal<std::uint32_t> model_address;
+  sc_signal<std::uint64_t> model_word;
+  network.model_clk_i(model_clk);
+  network.model_write_i(model_write);
+  network.model_address_i(model_address);
+  network.model_word_i(model_word);
   driver.network = &q;
   driver.vectors = &vectors;
 
