@@ -111,12 +111,20 @@ module model_loader #(
 `ifdef FORMAL
   // ---- Formal properties (scripts/formal.sh; docs/formal.md) ----
   // Environment: reset in the first cycle only; link_rx delivers nothing while it is stalled (its
-  // own job proves the stall holds it); every other input free.
+  // own job proves the stall holds it), and a model frame's ok only after its 8 payload bytes
+  // (job link_rx: payload_bytes_presented_once_in_order, ok_only_with_a_matching_crc); every other
+  // input free.
   logic f_past_valid = 1'b0;
   always_ff @(posedge clk_i) f_past_valid <= 1'b1;
+  logic [7:0] f_seen_q = '0;  // the model payload bytes presented since the last frame's end
+  always_ff @(posedge clk_i) begin
+    if (frame_ok_i || !rst_ni) f_seen_q <= '0;
+    else if (payload_valid_i && is_model_i) f_seen_q[payload_index_i] <= 1'b1;
+  end
   always_comb begin
     reset_only_in_the_first_cycle: assume (rst_ni == f_past_valid);
     nothing_is_delivered_while_stalled: assume (!stall_o || (!frame_ok_i && !payload_valid_i));
+    a_model_frames_ok_follows_its_payload: assume (!(frame_ok_i && is_model_i) || f_seen_q == 8'hFF);
   end
   // The specification, written independently: the frame number and word as the payload presents
   // them, and the CRC-32/ISO-HDLC of a word's six little-endian bytes in one step.
@@ -129,7 +137,7 @@ module model_loader #(
   logic [15:0] f_number_q = '0;
   logic [47:0] f_word_q = '0;
   always_ff @(posedge clk_i) begin
-    if (payload_valid_i && is_model_i) begin
+    if (rst_ni && payload_valid_i && is_model_i) begin
       if (payload_index_i == 3'd0) f_number_q[7:0] <= payload_byte_i;
       if (payload_index_i == 3'd1) f_number_q[15:8] <= payload_byte_i;
       if (payload_index_i >= 3'd2) f_word_q[8 * (payload_index_i - 3'd2) +: 8] <= payload_byte_i;
@@ -159,7 +167,7 @@ module model_loader #(
       if (!$past(loaded_q) && loaded_q) the_model_flag_rises_only_at_a_commit_whose_crc_matched: assert (
           $past(f_model_frame) && !$past(drives_on_i) && $past(f_number_q) == 16'(CommitFrame) &&
           $past(loading_q) && $past(expected_q) == CommitFrame &&
-          $past(f_word_q[31:0]) == ~$past(crc_q));
+          $past(word_q[31:0]) == ~$past(crc_q));
       the_model_flag_rises_only_at_a_commit_whose_crc_matched_c: cover (!$past(loaded_q) && loaded_q);
       // A model frame with the drives on changes nothing (the model, its CRC, the load in progress).
       if ($past(f_drives_on_frame)) a_model_frame_with_the_drives_on_changes_nothing: assert (

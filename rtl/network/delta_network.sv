@@ -390,10 +390,12 @@ module delta_network #(
       .write_address_i(model_address_i),
       .write_data_i   (model_word_i[Weight2Width-1:0])
     );
+    logic bias_token_s11_q;  // the token in S11 is a neuron-0 token (a register: off the carry chain's path)
     always_ff @(posedge ap_clk) begin
       weight2_q         <= signed'(weight2_word);
       activation_lane_q <= activation_q;
       product2_q[lane]  <= Product2Width'(activation_lane_q) * Product2Width'(weight2_q);
+      bias_token_s11_q  <= neuron_s[10] == '0;
     end
 
     // The bias memory: its own block RAM (the LW' memory's one read port is busy every cycle),
@@ -418,7 +420,7 @@ module delta_network #(
     logic [Accum2Width-1:0] bias2;
     assign bias2 = ModelFromFiles ? file_biases[(group_s[11] * Lanes + lane) * Accum2Width +: Accum2Width]
                                   : bias2_word[Accum2Width-1:0];
-    assign addend2[lane] = (neuron_s[11] == '0) ? signed'(bias2) : Accum2Width'(product2_q[lane]);
+    assign addend2[lane] = bias_token_s11_q ? signed'(bias2) : Accum2Width'(product2_q[lane]);
     logic unused_bias_bits;
     assign unused_bias_bits = ^bias2_word[Bias2WordWidth-1:Accum2Width];
   end
