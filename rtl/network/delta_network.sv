@@ -35,9 +35,9 @@
 // model_loader.sv) is written at address n of every one of the four memories (256 words each),
 // which read their own frames only: IW' at 0 .. 74, b1' at 75 .. 99, LW' at 100 .. 174 (LW'_ok at
 // 100 + 25o + k), b2'_o + 2^19 at 175 + o (a 48-bit memory of its own); no decoder. The neuron-0
-// tokens of layer 2, whose product is never used, add the bias instead: in S11 their addend is
-// b2'_o + 2^19 from the bias memory (read in S10), and the accumulators, zeroed at the accept,
-// take it as the first term; the product register stays the DSPs'. ModelFromFiles = 1 (the standalone network and its tests): the memories start with
+// tokens of layer 2, whose product is never used, add the bias instead: their S11 product
+// register takes b2'_o + 2^19 from the bias memory (read in S9), and the accumulators, zeroed at
+// the accept, take it as the first term. ModelFromFiles = 1 (the standalone network and its tests): the memories start with
 // the .mem files of MemDir and b2' comes from output_bias.mem (the model port still writes the
 // memories); 0 (the board): every memory starts at zero and the model comes only through the port.
 // The tanh tables stay ROMs of MemDir in both.
@@ -325,10 +325,11 @@ module delta_network #(
   );
 
   // ---- layer 2: S8 addresses, S9 data, S10 multiply, S11 accumulate -----------------------------
-  logic signed [Product2Width-1:0] product2_q [Lanes];  // S11
-  // S11's addend of lane l: the product, or for a neuron-0 token (whose product is never needed)
-  // the bias b2'_o + 2^19 of the lane's output, read from the bias memory in S10.
-  logic signed [Accum2Width-1:0]   addend2 [Lanes];
+  // S11: lane l's product, or for a neuron-0 token (whose product is never needed) the bias
+  // b2'_o + 2^19 of the lane's output, read from the bias memory in S9. The select sits before
+  // the register (the DSPs' outputs are far from the fabric; the accumulators' carry chains start
+  // at this register).
+  logic signed [Accum2Width-1:0]   product2_q [Lanes];
   // acc2 of output o = accum2_high_q[o] * 2^24 + accum2_low_q[o], the low part 25 bits wide: its
   // bit 24 is the carry of the last update, added to the high part by the next one. Two 24-bit
   // carry chains instead of one of 47 (the DSP's product register is far from the fabric).
@@ -390,17 +391,19 @@ module delta_network #(
       .write_address_i(model_address_i),
       .write_data_i   (model_word_i[Weight2Width-1:0])
     );
-    logic bias_token_s11_q;  // the token in S11 is a neuron-0 token (a register: off the carry chain's path)
+    // The bias memory: its own block RAM (the LW' memory's one read port is busy every cycle),
+    // read with the group of the token in S9, so its output register holds the bias in S10.
+    logic [Bias2WordWidth-1:0] bias2_word;
+    logic [Accum2Width-1:0]    bias2;
+    logic                      bias_token_s10_q;  // the token in S10 is a neuron-0 token
     always_ff @(posedge ap_clk) begin
+      logic signed [Product2Width-1:0] product;
       weight2_q         <= signed'(weight2_word);
       activation_lane_q <= activation_q;
-      product2_q[lane]  <= Product2Width'(activation_lane_q) * Product2Width'(weight2_q);
-      bias_token_s11_q  <= neuron_s[10] == '0;
+      bias_token_s10_q  <= neuron_s[9] == '0;
+      product           = Product2Width'(activation_lane_q) * Product2Width'(weight2_q);
+      product2_q[lane]  <= bias_token_s10_q ? signed'(bias2) : Accum2Width'(product);
     end
-
-    // The bias memory: its own block RAM (the LW' memory's one read port is busy every cycle),
-    // read with the group of the token in S10, so its output register holds the bias in S11.
-    logic [Bias2WordWidth-1:0] bias2_word;
     model_ram #(
       .Depth       (ModelDepth),
       .Width       (Bias2WordWidth),
@@ -410,17 +413,15 @@ module delta_network #(
       .FileAddress (Bias2Frame)
     ) u_bias2_ram (
       .clk_i          (ap_clk),
-      .address_i      (ModelAddressWidth'(Bias2Frame + group_s[10] * Lanes + lane)),
+      .address_i      (ModelAddressWidth'(Bias2Frame + group_s[9] * Lanes + lane)),
       .data_o         (bias2_word),
       .write_clk_i    (model_clk_i),
       .write_i        (model_write_i),
       .write_address_i(model_address_i),
       .write_data_i   (model_word_i[Bias2WordWidth-1:0])
     );
-    logic [Accum2Width-1:0] bias2;
-    assign bias2 = ModelFromFiles ? file_biases[(group_s[11] * Lanes + lane) * Accum2Width +: Accum2Width]
+    assign bias2 = ModelFromFiles ? file_biases[(group_s[10] * Lanes + lane) * Accum2Width +: Accum2Width]
                                   : bias2_word[Accum2Width-1:0];
-    assign addend2[lane] = bias_token_s11_q ? signed'(bias2) : Accum2Width'(product2_q[lane]);
     logic unused_bias_bits;
     assign unused_bias_bits = ^bias2_word[Bias2WordWidth-1:Accum2Width];
   end
@@ -430,7 +431,7 @@ module delta_network #(
   always_ff @(posedge ap_clk) begin
     logic signed [Accum2Width-1:0] product;
     for (int o = 0; o < NumOutputs; o++) begin
-      product = addend2[o % Lanes];
+      product = product2_q[o % Lanes];
       if (accept) begin
         accum2_low_q[o]  <= '0;
         accum2_high_q[o] <= '0;
