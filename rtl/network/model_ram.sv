@@ -4,8 +4,8 @@
 // have separate read and write clocks, so the two ports are one SB_RAM40_4K's.
 //
 // InitFromFile = 1 (the standalone network: its tests, `ik --backend rtl`, its gate-level netlist):
-// the memory starts at zero with MemDir/MemFile's words from address FileAddress on ($readmemh;
-// +delta_mem_dir=DIR in simulation, a missing file fatal, as readmemh_load.svh). InitFromFile = 0
+// the memory holds MemDir/MemFile's words from address FileAddress on ($readmemh; +delta_mem_dir=DIR
+// in simulation, a missing file fatal, as readmemh_load.svh; the other words are never read). InitFromFile = 0
 // (the board): it starts at zero, and the model comes only through the write port.
 module model_ram #(
   parameter int unsigned Depth        = 32,
@@ -27,10 +27,11 @@ module model_ram #(
   // no_rw_check: the two ports are in different clocks; a word the network reads while the loader
   // writes it is never used (the drives are off during a load, so the network is not started).
   (* ram_style = "block", no_rw_check *) logic [Width-1:0] words [Depth];
-  initial begin
-    for (int i = 0; i < Depth; i++) words[i] = '0;
-  end
-  if (InitFromFile) begin : g_file
+  if (!InitFromFile) begin : g_zero
+    initial begin
+      for (int i = 0; i < Depth; i++) words[i] = '0;
+    end
+  end else begin : g_file
 `ifdef SYNTHESIS
     initial $readmemh({MemDir, "/", MemFile}, words, FileAddress);
 `else
