@@ -50,6 +50,7 @@ struct VirtualBoardCommandOptions {
   // The shipped weights and the paper-like robot (shipped_data.hpp: this build's, or the package's).
   std::string effects = shipped_data_dir() + "/paper_like_effects.json";
   std::string weights = shipped_data_dir() + "/weights/paper_like_deployed.json";
+  bool no_model = false;  // the board starts with no model (else it holds --weights, loaded at start)
   std::string truth;
   std::string fidelity = "rtl";
   double inject_encoder_skip_at_s = -1.0;
@@ -162,14 +163,16 @@ void run_virtual_board(const VirtualBoardCommandOptions& options) {
   // The model keeps to wall-clock time unless told to run free; the RTL cannot keep up anyway.
   const bool paced = model && !options.free_run;
   // Everything is checked before PATH or TRUTH appear.
+  // (--no-model: the shipped weights only for the gateware's files, whose identify.mem and tables
+  // are the same for every model.)
   const golden::QuantisedNetwork quantised = read_board_network(options.weights);
   const EffectSet effects = read_board_effects(options.effects);
 
-  const TemporaryDirectory mem("deltactl_virtual_board");  // the network's .mem files and identify.mem
+  const TemporaryDirectory mem("deltactl_virtual_board");  // the gateware's .mem files and identify.mem
   golden::write_export(quantised, mem.path());
   VirtualBoardOptions board_options;
   board_options.fidelity = model ? BoardFidelity::kModel : BoardFidelity::kRtl;
-  board_options.network = &quantised;
+  board_options.network = options.no_model ? nullptr : &quantised;  // loaded through its frames at start
   board_options.mem_dir = mem.path();
   board_options.effects = effects;
   board_options.inject_encoder_skip_at_s = options.inject_encoder_skip_at_s;
@@ -257,8 +260,9 @@ void run_virtual_board(const VirtualBoardCommandOptions& options) {
   // (below the host controller's 80) when permitted, so that a busy PC does not stop its clock.
   const std::string scheduling = paced ? controller::make_thread_realtime(kPacedPriority) : "";
   std::cout << "virtual-board: ready on " << options.link << " (" << pty->slave_path() << "), "
-            << (model ? "model" : "RTL") << " fidelity" << (paced ? " (real time)" : "") << ", weights CRC "
-            << golden::hex_word(weights_crc(quantised), 32) << ", gateware " << golden::hex_word(kGatewareBuildId, 32)
+            << (model ? "model" : "RTL") << " fidelity" << (paced ? " (real time)" : "")
+            << (options.no_model ? ", no model" : ", weights CRC " + golden::hex_word(weights_crc(quantised), 32))
+            << ", gateware " << golden::hex_word(kGatewareBuildId, 32)
             << (!paced               ? ""
                 : scheduling.empty() ? ", SCHED_FIFO " + std::to_string(kPacedPriority)
                                      : ", normal scheduling (" + scheduling + ")")
@@ -278,7 +282,9 @@ void run_virtual_board(const VirtualBoardCommandOptions& options) {
   // buffer): a writer faster than the line is slowed down and finally blocked, as by a real port.
   constexpr std::size_t kReceiveQueueBytes = 4096;
   const auto start = std::chrono::steady_clock::now();
-  auto origin = start;  // the wall time of board time 0 while pacing
+  // The wall time of board time 0 while pacing (the model's load at start took board time: now is that).
+  auto origin = start - std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                            std::chrono::duration<double>(board.time_s()));
   // Free-running, the model board still keeps to real time while its drives are on: a host's homing
   // or run then meets the board's watchdog (250 ms of board time) as on the real board, whatever the
   // host's scheduling; with them off it runs free again.
@@ -394,7 +400,11 @@ const RegisterCommand command("virtual-board", 72, [](CLI::App& root) {
           "--truth: CSV at 1 kHz of board time, written as it runs (flushed twice a second, complete on\n"
           "exit): t_s (board time since reset), x/y/z_m (the plate as the measuring stage sees it),\n"
           "true_alpha*_deg (plant angles), drives_enabled, encoder*_deg, current*_a.\n"
-          "Defaults: the deployed model the bitstream ships (weights/paper_like_deployed.json; the plain\n"
+          "The board holds a model when the host starts: before the first host byte the virtual board\n"
+          "loads --weights over its link as 'deltactl host load' does (the model's frames, docs/board_link.md\n"
+          "\"The model\"; 26 ms of board time) and the ready line names its CRC. --no-model: it starts as a\n"
+          "board after power-up, with no model (enable refused) until a host loads one.\n"
+          "Defaults: the deployed model (weights/paper_like_deployed.json; the plain\n"
           "network: --weights weights/paper_like.json) and the paper-like robot\n"
           "(sim/paper_like_effects.json), both of the checkout deltactl was built from; --effects '' is the\n"
           "nominal robot.\n"
@@ -421,9 +431,14 @@ const RegisterCommand command("virtual-board", 72, [](CLI::App& root) {
       ->required();
   sub->add_option("--effects", options->effects,
                   "virtual robot's effects (JSON; default: the paper-like robot, sim/paper_like_effects.json)");
-  sub->add_option("--weights", options->weights,
-                  "network weights the board runs (W.json: model 'deployed' or 'network', 25 hidden; default: what "
-                  "the bitstream ships, weights/paper_like_deployed.json)");
+  CLI::Option* weights = sub->add_option(
+      "--weights", options->weights,
+      "the model the board holds at start, loaded over its link (W.json: model 'deployed' or 'network', 25 hidden; "
+      "default: weights/paper_like_deployed.json)");
+  sub->add_flag("--no-model", options->no_model,
+                "the board starts with no model, as after power-up: enable is refused until a host loads one "
+                "(deltactl host load)")
+      ->excludes(weights);
   sub->add_option("--truth", options->truth, "CSV of the ground truth at 1 kHz of board time");
   sub->add_option("--fidelity", options->fidelity, "rtl: the Verilated board core; model: the C++ model board")
       ->capture_default_str()

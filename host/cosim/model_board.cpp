@@ -12,7 +12,9 @@
 #include <vector>
 
 #include "delta/board_facts.hpp"
+#include "delta/crc32.hpp"
 #include "delta/golden/joint_fixed.hpp"
+#include "delta/golden/model_image.hpp"
 #include "delta/golden/setpoint_interpolation.hpp"
 #include "delta/link/frame_codec.hpp"
 
@@ -138,6 +140,7 @@ int payload_size(std::uint8_t type, bool* known) {
   if (type == board::kFrameTypeIdentifyRequest) return 0;
   if (type == board::kFrameTypeSetpoint) return static_cast<int>(board::kSetpointPayloadBytes);
   if (type == board::kFrameTypeCommand) return static_cast<int>(board::kCommandPayloadBytes);
+  if (type == board::kFrameTypeModel) return static_cast<int>(board::kModelPayloadBytes);
   *known = false;
   return 0;
 }
@@ -343,11 +346,62 @@ void store_current(Registers& n, std::uint64_t elapsed) {
   }
 }
 
+std::int32_t sign_extend(std::uint32_t value, int bits) {
+  const std::uint32_t m = 1u << (bits - 1);
+  value &= (bits == 32) ? 0xFFFFFFFFu : ((1u << bits) - 1);
+  return static_cast<std::int32_t>((value ^ m) - m);
+}
+
+// CRC-32/ISO-HDLC, reflected (model_loader.sv's bit-serial CRC).
+constexpr std::uint32_t kCrc32Polynomial = 0xEDB88320u;
+
+// Joint j's play word as the loader wrote it (frame ModelPlayFrame + j, docs/board_link.md, "The
+// model"): H_j (Q.8 counts) and the play shift's ends and rounding, which the interpolator takes as
+// they are (golden::model_words derives them from H_j; a word that came corrupted keeps its own).
+constexpr int kHalfPlayBits = static_cast<int>(board::kHalfPlayBits);
+constexpr int kPlayEndBits = golden::kShiftBits;  // above_j, below_j: a play shift each
+constexpr int kPlayAboveShift = kHalfPlayBits;
+constexpr int kPlayBelowShift = kPlayAboveShift + kPlayEndBits;
+constexpr int kPlayRoundsBit = kPlayBelowShift + kPlayEndBits;
+constexpr int kPlayWordBits = kPlayRoundsBit + 1;
+static_assert(kPlayAboveShift == 17 && kPlayBelowShift == 27 && kPlayRoundsBit == 37,
+              "the play word's fields are not docs/board_link.md's");
+struct PlayWord {
+  std::int32_t half_play = 0;          // H_j, unsigned
+  std::uint32_t above = 0, below = 0;  // the ends, kPlayEndBits bits
+  bool rounds = false;
+};
+PlayWord play_word(std::uint64_t word) {
+  PlayWord p;
+  p.half_play = static_cast<std::int32_t>(word & ((1u << kHalfPlayBits) - 1));
+  p.above = static_cast<std::uint32_t>(word >> kPlayAboveShift) & ((1u << kPlayEndBits) - 1);
+  p.below = static_cast<std::uint32_t>(word >> kPlayBelowShift) & ((1u << kPlayEndBits) - 1);
+  p.rounds = ((word >> kPlayRoundsBit) & 1) != 0;
+  return p;
+}
+
+// identify's weights CRC (model_loader.sv's crc_o): the checked CRC with a model, else 0.
+template <typename Registers>
+std::uint32_t identify_crc(const Registers& s) {
+  return s.loaded ? ~s.load_crc : 0;
+}
+
+// Joint j's play word in the interpolator's RAM as of clock `cycle` (its content in that clock,
+// before the clock's write): the word written at play_written[j] is there from the next clock.
+// The interpolator reads it into a register every clock (play_q, the word of the joint it works
+// on), and its pipeline takes H from that register a clock later: an update's step 4 (D) sees H
+// as of two clocks before, its step 7 the play's ends as of a clock before and H (inside the
+// play or not) as of two.
+template <typename Registers>
+PlayWord play_as_of(const Registers& s, int j, std::uint64_t cycle) {
+  return play_word(cycle > s.play_written[j] ? s.play[j] : s.play_before[j]);
+}
+
 // reference_interpolator.sv, step 4: joint j's segment change D, the play taken out of the distance
 // from the reference r to its answer (C), saturated; the held D unless a new answer is taken.
-std::int32_t segment_delta(std::int32_t answer, std::int32_t r, std::int32_t half_play, bool take, std::int32_t held,
+std::int32_t segment_delta(std::int32_t answer, std::int32_t r, const PlayWord& play, bool take, std::int32_t held,
                            bool* saturated) {
-  const std::int64_t diff = golden::play(golden::interpolation::reference_counts(answer) - r, half_play);
+  const std::int64_t diff = golden::play(golden::interpolation::reference_counts(answer) - r, play.half_play);
   *saturated = diff > golden::interpolation::kDeltaMax || diff < golden::interpolation::kDeltaMin;
   if (!take) return held;
   return static_cast<std::int32_t>(
@@ -361,12 +415,23 @@ int rising_bits(const Registers& s) {
 }
 
 // Step 7: the play's shift of the reference r toward its answer once one has come since the
-// enable, else the resting shift on the side joint j's count last stepped to (reference_interpolator.sv).
+// enable, else the resting shift on the side joint j's count last stepped to (reference_interpolator.sv:
+// an end of the play word, or inside the play floor((d + g) / 256), g = 128 where the word rounds;
+// golden interpolation::play_shift and resting_shift for a word golden::model_words wrote).
+// `ends`: the play word as the step sees its ends, `play`: as it sees H.
 template <typename Registers>
-std::int16_t reference_shift(const Registers& s, int j, std::int32_t half_play) {
-  if (!s.answered) return golden::interpolation::resting_shift(s.rising[j], half_play);
-  return golden::interpolation::play_shift(
-      std::int64_t{golden::interpolation::reference_counts(s.net_outputs[j])} - s.r[j], half_play);
+std::int16_t reference_shift(const Registers& s, int j, const PlayWord& ends, const PlayWord& play) {
+  const std::int64_t diff = std::int64_t{golden::interpolation::reference_counts(s.net_outputs[j])} - s.r[j];
+  const std::int64_t played = diff < 0 ? diff + play.half_play : diff - play.half_play;
+  const bool in_play = (played < 0) != (diff < 0);
+  std::uint32_t shift = 0;
+  if (!s.answered || !in_play) {
+    const bool end_up = s.answered ? diff >= 0 : s.rising[j];
+    shift = end_up ? ends.above : ends.below;
+  } else {
+    shift = static_cast<std::uint32_t>((diff >> 8) + ((ends.rounds && ((diff >> 7) & 1) != 0) ? 1 : 0));
+  }
+  return static_cast<std::int16_t>(sign_extend(shift, kPlayEndBits));
 }
 
 // Step 7: the reference's change over the period from weight K_phase to K_phase+1 of D.
@@ -385,19 +450,12 @@ std::int64_t reference_step(std::int32_t delta, int phase) {
 // change kept for the next period d' (0 with the drives off and at a segment's end unless homing)
 // and the play shift written for the next period.
 template <typename Registers>
-void reference_next(const Registers& s, int j, bool enabled, std::int32_t half_play, std::int32_t* r, std::int32_t* d,
-                    std::int16_t* shift) {
+void reference_next(const Registers& s, int j, bool enabled, std::int32_t* r, std::int32_t* d, std::int16_t* shift) {
   const std::int64_t step = reference_step(s.delta, s.phase);
   *r = enabled ? static_cast<std::int32_t>(static_cast<std::uint32_t>(s.r[j]) + static_cast<std::uint32_t>(step))
                : static_cast<std::int32_t>(static_cast<std::int16_t>(s.count[j])) * (1 << kReferenceFractionBits);
   *d = (!enabled || (s.phase == kLastPhase && !s.homing)) ? 0 : s.delta;
-  *shift = reference_shift(s, j, half_play);
-}
-
-std::int32_t sign_extend(std::uint32_t value, int bits) {
-  const std::uint32_t m = 1u << (bits - 1);
-  value &= (bits == 32) ? 0xFFFFFFFFu : ((1u << bits) - 1);
-  return static_cast<std::int32_t>((value ^ m) - m);
+  *shift = reference_shift(s, j, play_as_of(s, j, s.cycle - 1), play_as_of(s, j, s.cycle - 2));
 }
 
 // joint_safety.sv's pipeline registers of joint j from the period's reference r (Q24.8) and latched
@@ -434,10 +492,11 @@ struct ModelBoard::Memories {
   std::array<std::uint8_t, board::kRxRingBytes> ring{};                               // link_rx
   std::array<std::array<std::uint8_t, kPositionBytes>, board::kSetpointDepth> ram{};  // setpoint_buffer
   std::array<std::uint16_t, board::kLinkTxWords> words{};                             // link_tx: identify, telemetry
+  // The model's words as the loader wrote them (frame n's at n; the scaling frames' are not kept).
+  std::array<std::uint64_t, board::kModelCommitFrame> model{};
 };
 
 struct ModelBoard::State {
-  const golden::QuantisedNetwork* network = nullptr;
   golden::JointFixedCoefficients coefficients = golden::make_fixed_coefficients(golden::JointControllerParameters{});
   std::uint64_t cycle = 0;
 
@@ -462,6 +521,22 @@ struct ModelBoard::State {
   std::uint32_t sample_index = 0;
   int fill = 0;
   bool full_at_start = false, index_match = false, vetoed = false, starting = false;
+  // model_loader: the model frame's payload as link_rx presents it (number_q, the frame number's
+  // low byte; number_high_q, its high byte not zero; word_q, then shifted into the CRC), the load's
+  // next frame (expected_q), loading_q, loaded_q (flag 7), the CRC register crc_q and the bits it
+  // still takes (shift_count_q: link_rx's parser stalls meanwhile)
+  int load_number = 0;
+  bool load_number_high = false;
+  std::uint64_t load_word = 0;
+  int load_expected = 0;
+  bool loading = false, loaded = false;
+  std::uint32_t load_crc = 0;
+  int load_shift = 0;
+  // reference_interpolator's play words (its block RAM, frames ModelPlayFrame + j), each word
+  // before its last write and that write's clock (the interpolator's read register and pipeline
+  // see a write a clock and two clocks late: play_as_of)
+  std::array<std::uint64_t, 3> play{}, play_before{};
+  std::array<std::uint64_t, 3> play_written{};
   // network (its answer, held) and the interpolator
   std::array<std::int32_t, 3> net_outputs{};
   bool answer_pending = false;
@@ -521,14 +596,11 @@ struct ModelBoard::State {
   std::uint64_t uart_free = 0;     // the first clock uart_tx is ready after it
 };
 
-ModelBoard::ModelBoard(const golden::QuantisedNetwork& network, const std::string& identify_mem)
+ModelBoard::ModelBoard(const std::string& identify_mem)
     : memories_(std::make_unique<Memories>()),
       state_(std::make_unique<State>()),
       next_state_(std::make_unique<State>()) {
   State& s = *state_;
-  network_ = network;
-  s.network = &network_;
-  half_plays_ = golden::interpolation::half_play_counts(network_.compensation);
   s.count.fill(static_cast<std::uint16_t>(board::kHomeCount));
   std::ifstream in(identify_mem);
   if (!in) throw std::runtime_error("model board: cannot read " + identify_mem);
@@ -567,6 +639,7 @@ bool ModelBoard::quiet() const {
   // reference) of each joint; the steps between only count.
   const bool interpolating = s.busy && (s.step == kDeltaStep || s.step == kReferenceStep);
   if (s.starting || interpolating || s.slew_limited || s.check || s.checked) return false;
+  if (s.load_shift != 0) return false;  // the loader's CRC (link_rx stalled)
   if (s.step_error[0] || s.step_error[1] || s.step_error[2]) return false;
   if (switch_edge(s) != 0) return false;
   const bool fault = s.fault_cause != 0;
@@ -630,6 +703,17 @@ bool ModelBoard::quiet() const {
   X(shift)                             \
   X(delta)                             \
   X(slew_limited)                      \
+  X(load_number)                       \
+  X(load_number_high)                  \
+  X(load_word)                         \
+  X(load_expected)                     \
+  X(loading)                           \
+  X(loaded)                            \
+  X(load_crc)                          \
+  X(load_shift)                        \
+  X(play)                              \
+  X(play_before)                       \
+  X(play_written)                      \
   X(enc_a_meta)                        \
   X(enc_a)                             \
   X(enc_b_meta)                        \
@@ -729,7 +813,7 @@ std::uint64_t ModelBoard::skip(std::uint64_t limit, int encoder_a, int encoder_b
   checking_ = false;
   if (const char* name = differing_register(*state_, after)) fail(std::string("register ") + name);
   if (memories_->ring != memories_after.ring || memories_->ram != memories_after.ram ||
-      memories_->words != memories_after.words) {
+      memories_->words != memories_after.words || memories_->model != memories_after.model) {
     fail("a block RAM");
   }
   if (tx_line_.size() != tx_line_after.size() || rx_line_.size() != rx_line_after.size()) fail("a serial line");
@@ -922,7 +1006,7 @@ bool ModelBoard::plan_micro_clock(int encoder_a, int encoder_b, std::uint64_t li
   const State& s = *state_;
   const bool fault = s.fault_cause != 0;
   if (s.step_error[0] || s.step_error[1] || s.step_error[2] || s.slew_limited || s.check || switch_edge(s) != 0 ||
-      (fault && (s.enabled || s.holding || s.homing)) || (s.answered && (!s.enabled || fault)) ||
+      s.load_shift != 0 || (fault && (s.enabled || s.holding || s.homing)) || (s.answered && (!s.enabled || fault)) ||
       (!s.enabled && s.silent_periods != 0) || (s.enabled && s.silent_periods > board::kWatchdogPeriods) ||
       (s.tx_state == kTxIdle && (s.telemetry_pending || s.identify_pending))) {
     return false;
@@ -978,10 +1062,10 @@ bool ModelBoard::plan_micro_clock(int encoder_a, int encoder_b, std::uint64_t li
   if (c.interpolating && s.step == kDeltaStep) {
     const int j = s.joint;
     bool saturated = false;
-    c.delta = segment_delta(s.net_outputs[j], s.r[j], half_plays_[j], c.take_answer, s.d[j], &saturated);
+    c.delta = segment_delta(s.net_outputs[j], s.r[j], play_as_of(s, j, s.cycle - 2), c.take_answer, s.d[j], &saturated);
     c.slew_limited = c.take_answer && saturated && interpolator_enabled;
   } else if (c.interpolating) {
-    reference_next(s, s.joint, interpolator_enabled, half_plays_[s.joint], &c.r, &c.d, &c.shift);
+    reference_next(s, s.joint, interpolator_enabled, &c.r, &c.d, &c.shift);
   }
 
   // ---- joint controller ----
@@ -1019,6 +1103,7 @@ void ModelBoard::micro_link_rx(const MicroClock& c) {
     const int payload_index = (c.old_index - kHeaderBytes) & kFrameIndexMask;
     if (rx.payload_valid && s.type == board::kFrameTypeCommand) s.command = c.ring_byte;
     setpoint_payload_next(s, s, rx.frame_start, rx.payload_valid, payload_index, c.ring_byte);
+    model_payload_next(s, s, rx.payload_valid, payload_index, c.ring_byte);
   }
 }
 
@@ -1044,10 +1129,13 @@ void ModelBoard::micro_interpolator(const MicroClock& c) {
     const bool take = s.answer_pending && s.phase == 0;
     for (int j = 0; j < kJoints; ++j) {
       bool saturated = false;
-      s.delta = segment_delta(s.net_outputs[j], s.r[j], half_plays_[j], take, s.d[j], &saturated);
+      // (joint j's step 4 and 7 come 8 j + 5 and 8 j + 8 clocks after this one)
+      const std::uint64_t step4 = s.cycle + static_cast<std::uint64_t>(kStepsPerJoint * j + kDeltaStep + 1);
+      const std::uint64_t step7 = s.cycle + static_cast<std::uint64_t>(kStepsPerJoint * j + kReferenceStep + 1);
+      s.delta = segment_delta(s.net_outputs[j], s.r[j], play_as_of(s, j, step4 - 2), take, s.d[j], &saturated);
       if (take && saturated) s.slew_limits = saturating_increment(s.slew_limits);
       const std::int64_t step = reference_step(s.delta, s.phase);
-      s.shift[j] = reference_shift(s, j, half_plays_[j]);
+      s.shift[j] = reference_shift(s, j, play_as_of(s, j, step7 - 1), play_as_of(s, j, step7 - 2));
       s.r[j] = static_cast<std::int32_t>(static_cast<std::uint32_t>(s.r[j]) + static_cast<std::uint32_t>(step));
       s.d[j] = (s.phase == kLastPhase && !s.homing) ? 0 : s.delta;
     }
@@ -1113,6 +1201,7 @@ std::uint16_t ModelBoard::telemetry_word_of(const State& s) {
   if (s.encoder_error != 0) flags |= 1 << board::kFlagEncoderError;
   if (s.referenced == kAllJoints) flags |= 1 << board::kFlagReferenced;
   if (s.homing) flags |= 1 << board::kFlagHoming;
+  if (s.loaded) flags |= 1 << board::kFlagModel;
   const int w = s.word_index;
   if (w == board::kTelemetrySampleIndexOffset / 2)
     return s.sample_index & 0xFFFF;
@@ -1158,16 +1247,50 @@ void ModelBoard::start_frame(State& n, std::uint64_t start) {
   frame.sequence = n.tx_sequence;
   frame.type = n.is_identify ? link::FrameType::kIdentify : link::FrameType::kTelemetry;
   frame.payload.resize(static_cast<std::size_t>(n.tx_length));
+  constexpr int kCrcWord = static_cast<int>(board::kIdentifyWeightsCrcOffset / 2);
   for (int p = 0; p < n.tx_length; ++p) {
-    const std::uint16_t word = m.words[((n.is_identify ? 0 : kTelemetryWordBase) + (p >> 1)) & kTxWordMask];
+    const int w = p >> 1;
+    std::uint16_t word = m.words[((n.is_identify ? 0 : kTelemetryWordBase) + w) & kTxWordMask];
+    // identify's weights CRC: the loaded model's (0: none), not identify.mem's
+    if (n.is_identify && (w == kCrcWord || w == kCrcWord + 1)) {
+      word = static_cast<std::uint16_t>(identify_crc(n) >> (w == kCrcWord ? 0 : 16));
+    }
     frame.payload[static_cast<std::size_t>(p)] = static_cast<std::uint8_t>((p & 1) ? word >> 8 : word & 0xFF);
   }
   const std::vector<std::uint8_t> bytes = link::encode_frame(frame);
   const std::uint64_t first = std::max(start + 1, n.uart_free);
+  if (n.is_identify) {
+    identify_frame_ = bytes;
+    identify_first_load_ = first;
+  }
   for (std::size_t k = 0; k < bytes.size(); ++k)
     tx_line_.push_back({first + kTxByteClocks * k + kTxByteDelay, bytes[k]});
   n.tx_last_load = first + kTxByteClocks * (bytes.size() - 1);
   n.uart_free = n.tx_last_load + kTxByteClocks;
+}
+
+// identify's CRC changed in clock s.cycle (a commit or a load's start) while link_tx sends an
+// identify reply: the CRC bytes it hands uart_tx from the next clock on are the new CRC's, and the
+// frame's CRC-16 (sent last) follows (link_tx.sv reads weights_crc_i as each byte goes out).
+void ModelBoard::patch_identify_crc(const State& s, const State& n) {
+  if (s.tx_state == kTxIdle || !s.is_identify || identify_frame_.empty()) return;
+  const std::size_t crc_byte = board::kFrameHeaderBytes + board::kIdentifyWeightsCrcOffset;
+  const std::uint32_t crc = identify_crc(n);
+  auto load_cycle = [this](std::size_t k) { return identify_first_load_ + kTxByteClocks * k; };
+  std::vector<std::uint8_t> bytes = identify_frame_;
+  for (std::size_t i = 0; i < 4; ++i) {
+    if (load_cycle(crc_byte + i) > s.cycle) bytes[crc_byte + i] = static_cast<std::uint8_t>(crc >> (8 * i));
+  }
+  const std::size_t payload_end = board::kFrameHeaderBytes + board::kIdentifyPayloadBytes;
+  const std::uint16_t frame_crc = link::crc16(bytes.data() + 1, payload_end - 1);
+  bytes[payload_end] = static_cast<std::uint8_t>(frame_crc >> 8);
+  bytes[payload_end + 1] = static_cast<std::uint8_t>(frame_crc & 0xFF);
+  for (TxByte& b : tx_line_) {
+    if (b.cycle < identify_first_load_ + kTxByteDelay) continue;
+    const std::uint64_t k = (b.cycle - kTxByteDelay - identify_first_load_) / kTxByteClocks;
+    if (k < bytes.size() && b.cycle == load_cycle(k) + kTxByteDelay) b.byte = bytes[k];
+  }
+  identify_frame_ = bytes;
 }
 
 // The counters of one clock (what a quiet run of one does), with the drive pins of the clock.
@@ -1189,7 +1312,9 @@ struct ModelBoard::Wires {
   RxProcessed rx;
   int payload_index = 0;
   std::uint8_t payload_byte = 0;
-  bool is_setpoint = false, is_command = false, is_identify_request = false;
+  bool is_setpoint = false, is_command = false, is_identify_request = false, is_model = false;
+  // the model loader
+  bool model_refused = false;
   // joint_axes' fault latch, the commands, the home switches
   bool fault = false, command_ok = false;
   int edge = 0;  // bit j: joint j's home switch references it
@@ -1212,6 +1337,7 @@ void ModelBoard::clock(int encoder_a, int encoder_b) {
   uart_rx_next(s, n);
   link_rx_next(s, n, w);
   commands_next(s, n, w);
+  model_loader_next(s, n, w);
   schedule_next(s, n, w);
   setpoint_buffer_next(s, n, w);
   interpolator_next(s, n, w);
@@ -1250,7 +1376,9 @@ void ModelBoard::uart_rx_next(const State& s, State& n) {
 void ModelBoard::link_rx_next(const State& s, State& n, Wires& w) {
   Memories& m = *memories_;
   n.fetched = false;
-  if (!s.fetched) {
+  if (s.load_shift != 0) {
+    n.fetched = s.fetched;  // the loader's CRC runs: the parser holds (the ring keeps receiving)
+  } else if (!s.fetched) {
     n.fetched = s.read != s.write;
   } else {
     w.rx = process_rx_byte(s, s.ring_data, n);
@@ -1265,6 +1393,7 @@ void ModelBoard::link_rx_next(const State& s, State& n, Wires& w) {
   w.is_setpoint = s.type == board::kFrameTypeSetpoint;
   w.is_command = s.type == board::kFrameTypeCommand;
   w.is_identify_request = s.type == board::kFrameTypeIdentifyRequest;
+  w.is_model = s.type == board::kFrameTypeModel;
 }
 
 // ---- joint_axes: fault, commands (board_core.sv's commands and home switches) ----
@@ -1276,7 +1405,7 @@ void ModelBoard::commands_next(const State& s, State& n, Wires& w) {
   if (w.command_ok) {
     switch (s.command) {
       case board::kCommandEnable:
-        w.command_refused = w.fault || !s.homed || (s.enabled && !s.holding);
+        w.command_refused = w.fault || !s.homed || !s.loaded || (s.enabled && !s.holding);
         break;
       case board::kCommandDisable:
         w.flush = true;
@@ -1325,6 +1454,68 @@ void ModelBoard::commands_next(const State& s, State& n, Wires& w) {
   if (w.fault) n.homing = false;
 }
 
+// ---- model_loader (docs/board_link.md, "The model") ----
+// A model frame's payload byte (tentative: its frame number, low byte then whether the high one is
+// zero, then its word, low byte first). n may be s.
+void ModelBoard::model_payload_next(const State& s, State& n, bool payload_valid, int payload_index,
+                                    std::uint8_t byte) {
+  if (!payload_valid || s.type != board::kFrameTypeModel) return;
+  const int word_byte = payload_index - static_cast<int>(board::kModelWordOffset);
+  if (payload_index == board::kModelFrameOffset) {
+    n.load_number = byte;
+  } else if (payload_index == board::kModelFrameOffset + 1) {
+    n.load_number_high = byte != 0;
+  } else if (word_byte >= 0 && word_byte < board::kModelWordBits / 8) {
+    const int shift = 8 * word_byte;
+    n.load_word = (s.load_word & ~(std::uint64_t{0xFF} << shift)) | (std::uint64_t{byte} << shift);
+  }
+}
+
+// A model frame taken (its frame_ok): refused with the drives on or out of order; n = 0 starts a
+// load (no model from now on), the next frame's word is written into the memories and then shifts
+// through the CRC, a bit a clock for ModelCrcClocks clocks (link_rx's parser stalls); the commit
+// ends the load, the model loaded if the board's CRC equals the commit's word. identify's CRC
+// (the checked one, 0 without a model) changes with a commit or a start: a reply on the TX line
+// takes it in the bytes link_tx has not yet handed uart_tx (patch_identify_crc).
+void ModelBoard::model_loader_next(const State& s, State& n, Wires& w) {
+  model_payload_next(s, n, w.rx.payload_valid, w.payload_index, w.payload_byte);
+  if (s.load_shift != 0) {
+    const bool feedback = ((s.load_crc ^ static_cast<std::uint32_t>(s.load_word)) & 1) != 0;
+    n.load_crc = (s.load_crc >> 1) ^ (feedback ? kCrc32Polynomial : 0);
+    n.load_word = s.load_word >> 1;
+    n.load_shift = s.load_shift - 1;
+  }
+  if (!(w.rx.frame_ok && w.is_model)) return;
+  const bool start = !s.load_number_high && s.load_number == 0;
+  const bool take = !s.enabled && (start || (s.loading && !s.load_number_high && s.load_number == s.load_expected));
+  if (!take) {
+    w.model_refused = true;
+    return;
+  }
+  if (s.load_number == board::kModelCommitFrame) {
+    n.loading = false;
+    n.loaded = ~s.load_crc == static_cast<std::uint32_t>(s.load_word);
+  } else {
+    n.loading = true;
+    n.loaded = false;
+    n.load_expected = (s.load_number + 1) & 0xFF;
+    n.load_shift = static_cast<int>(board::kModelCrcClocks);
+    if (start) n.load_crc = ~std::uint32_t{0};
+    const std::size_t address = static_cast<std::size_t>(s.load_number);
+    if (address < memories_->model.size()) {
+      memories_->model[address] = s.load_word & ((std::uint64_t{1} << board::kModelWordBits) - 1);
+      network_stale_ = true;
+    }
+    if (address >= board::kModelPlayFrame && address < board::kModelPlayFrame + kJoints) {
+      const std::size_t j = address - static_cast<std::size_t>(board::kModelPlayFrame);
+      n.play_before[j] = s.play[j];
+      n.play[j] = s.load_word & ((std::uint64_t{1} << kPlayWordBits) - 1);
+      n.play_written[j] = s.cycle;
+    }
+  }
+  if (identify_crc(n) != identify_crc(s)) patch_identify_crc(s, n);
+}
+
 // ---- period schedule ----
 void ModelBoard::schedule_next(const State& s, State& n, Wires& w) {
   if (s.tick == 0) {
@@ -1365,7 +1556,12 @@ void ModelBoard::setpoint_buffer_next(const State& s, State& n, Wires& w) {
       }
       scaled[k] = static_cast<std::int16_t>(code);
     }
-    const golden::RawOutput answer = golden::evaluate_scaled(*s.network, scaled);
+    // The network the memories hold (a load wrote them since the last play: rebuilt).
+    if (network_stale_) {
+      network_ = golden::network_of_model_words({m.model.begin(), m.model.end()});
+      network_stale_ = false;
+    }
+    const golden::RawOutput answer = golden::evaluate_scaled(network_, scaled);
     for (int j = 0; j < kJoints; ++j) {
       n.net_outputs[j] = sign_extend(static_cast<std::uint32_t>(answer.alpha[j]), kNetworkOutputBits);
     }
@@ -1415,11 +1611,11 @@ void ModelBoard::interpolator_next(const State& s, State& n, const Wires& w) con
     n.step = s.step + 1;
     if (s.step == kDeltaStep) {
       bool saturated = false;
-      n.delta = segment_delta(s.net_outputs[j], s.r[j], half_plays_[j], take_answer, s.d[j], &saturated);
+      n.delta = segment_delta(s.net_outputs[j], s.r[j], play_as_of(s, j, s.cycle - 2), take_answer, s.d[j], &saturated);
       if (take_answer && saturated && interpolator_enabled) n.slew_limited = true;
     }
     if (s.step == kReferenceStep) {
-      reference_next(s, j, interpolator_enabled, half_plays_[j], &n.r[j], &n.d[j], &n.shift[j]);
+      reference_next(s, j, interpolator_enabled, &n.r[j], &n.d[j], &n.shift[j]);
       n.step = 0;
       n.joint = j + 1;
       if (j == kJoints - 1) {
@@ -1527,7 +1723,7 @@ void ModelBoard::counters_next(const State& s, State& n, const Wires& w) {
   if (w.rx.frame_bad) n.bad_frames = saturating_increment(s.bad_frames);
   if (w.underrun && !s.homing) n.underruns = saturating_increment(s.underruns);
   if (s.slew_limited) n.slew_limits = saturating_increment(s.slew_limits);
-  if (w.command_refused || w.setpoint_refused) n.refused = saturating_increment(s.refused);
+  if (w.command_refused || w.setpoint_refused || w.model_refused) n.refused = saturating_increment(s.refused);
   if (w.rx.frame_ok) n.last_sequence = s.sequence;
 }
 
@@ -1714,18 +1910,51 @@ std::vector<ModelBoard::ProbedRegister> ModelBoard::probe_registers(const std::s
     add("length_q", static_cast<std::uint64_t>(s.tx_length));
     add("sequence_q", s.tx_sequence);
     add("state_q", static_cast<std::uint64_t>(s.tx_state));  // Idle, or Send (the model folds Fetch into it)
+  } else if (instance == "u_model_loader") {
+    add("word_q", s.load_word);
+    add("number_q", static_cast<std::uint64_t>(s.load_number));
+    add("number_high_q", s.load_number_high);
+    add("expected_q", static_cast<std::uint64_t>(s.load_expected));
+    add("loading_q", s.loading);
+    add("loaded_q", s.loaded);
+    add("crc_q", s.load_crc);
+    add("shift_count_q", static_cast<std::uint64_t>(s.load_shift));
   } else {
     throw std::invalid_argument("model board probe: no instance " + instance);
   }
   return out;
 }
 
-std::vector<std::uint32_t> ModelBoard::probe_memory(const std::string& memory) const {
+std::vector<std::uint64_t> ModelBoard::probe_memory(const std::string& memory) const {
   const Memories& m = *memories_;
   if (memory == "u_link_rx.ring_q") return {m.ring.begin(), m.ring.end()};
   if (memory == "u_link_tx.words") return {m.words.begin(), m.words.end()};
+  // The model's memories (delta_network.sv's model port, the interpolator's play words): frame n's
+  // word at its address, in the memory's width.
+  auto model_words = [&m](long long first, long long last, int width) {
+    std::vector<std::uint64_t> out;
+    const std::uint64_t mask = width == 64 ? ~std::uint64_t{0} : (std::uint64_t{1} << width) - 1;
+    for (long long n = first; n < last; ++n) out.push_back(m.model[static_cast<std::size_t>(n)] & mask);
+    return out;
+  };
+  const golden::Formats formats;
+  if (memory == "u_network.u_weight1_ram.words") {
+    return model_words(board::kModelWeight1Frame, board::kModelBias1Frame, formats.input_weight_bits);
+  }
+  if (memory == "u_network.u_bias1_ram.words") {
+    const int bias1_bits =
+        formats.tanh_input_bits + (formats.hidden_accumulator_fraction_bits() - formats.tanh_input_fraction_bits);
+    return model_words(board::kModelBias1Frame, board::kModelWeight2Frame, bias1_bits);
+  }
+  if (memory == "u_network.u_weight2_ram.words") {
+    return model_words(board::kModelWeight2Frame, board::kModelPlayFrame, static_cast<int>(board::kModelWordBits));
+  }
+  if (memory == "u_interpolator.play_words") {
+    const State& s = *state_;
+    return {s.play[0], s.play[1], s.play[2], 0};
+  }
   if (memory == "u_setpoints.ram_q") {
-    std::vector<std::uint32_t> out;
+    std::vector<std::uint64_t> out;
     for (const auto& entry : m.ram) {
       for (int w = 0; w < kPositionBytes / 2; ++w) out.push_back(entry[2 * w] | (entry[2 * w + 1] << 8));
     }

@@ -4,12 +4,18 @@
 
 #include <algorithm>
 #include <chrono>
+#include <optional>
 #include <stdexcept>
 #include <vector>
 
 #include "Vboard_core.h"
 #include "Vboard_core___024root.h"
 #include "delta/cosim/model_board.hpp"
+#include "delta/crc32.hpp"
+#include "delta/golden/export.hpp"
+#include "delta/golden/model_image.hpp"
+#include "delta/link/frame_codec.hpp"
+#include "delta/link/payloads.hpp"
 #include "delta/rtl/board_clock.hpp"
 #include "delta/rtl/uart_line.hpp"
 #include "verilated.h"
@@ -82,8 +88,7 @@ class RtlBoardModel final : public BoardModel {
 
 std::unique_ptr<BoardModel> make_board(const VirtualBoardOptions& options) {
   if (options.fidelity == BoardFidelity::kRtl) return std::make_unique<RtlBoardModel>(options);
-  if (options.network == nullptr) throw std::invalid_argument("the model board needs the network's weights");
-  auto board = std::make_unique<ModelBoard>(*options.network, options.mem_dir + "/identify.mem");
+  auto board = std::make_unique<ModelBoard>(options.mem_dir + "/identify.mem");
   board->check_runs(options.check_model_runs);
   return board;
 }
@@ -112,6 +117,44 @@ VirtualBoard::VirtualBoard(const VirtualBoardOptions& options) : board_(make_boa
   if (options.inject_slip_joint >= 0) {
     world_->slip_encoder(options.inject_slip_joint, options.inject_slip_counts,
                          static_cast<std::uint64_t>(options.inject_slip_at_s * kBoardClockHz));
+  }
+  if (options.network != nullptr) load_at_start(*options.network);
+}
+
+// The model's load as a host sends it (`deltactl host load`: its frames in order, then an
+// identify), before any host byte; the board runs until the identify's answer has come and the
+// line from it is between frames, so a host starts on a whole frame.
+void VirtualBoard::load_at_start(const golden::QuantisedNetwork& network) {
+  std::vector<std::uint8_t> bytes;
+  std::uint8_t sequence = 0;
+  for (const link::ModelPayload& payload : golden::model_frames(network)) {
+    const std::vector<std::uint8_t> frame = link::encode_frame(link::make_frame(sequence++, payload));
+    bytes.insert(bytes.end(), frame.begin(), frame.end());
+  }
+  const std::vector<std::uint8_t> identify =
+      link::encode_frame(link::Frame{sequence, link::FrameType::kIdentifyRequest, {}});
+  bytes.insert(bytes.end(), identify.begin(), identify.end());
+  write(bytes.data(), bytes.size());
+  const std::uint32_t crc = weights_crc(network);
+  link::FrameDecoder decoder(link::Receiver::kHost);
+  std::optional<std::uint32_t> board_crc;
+  // The load's line time and the identify's answer, with a margin (a telemetry frame before it).
+  const std::uint64_t limit = clocks_ + (bytes.size() + 4 * link::kMaxFrameBytes) * 10 * kClocksPerBit;
+  while (!(board_crc && decoder.bytes_to_decide() == 1) && clocks_ < limit) {
+    step(kClocksPerTick);
+    std::uint8_t buffer[256];
+    for (std::size_t n; (n = read(buffer, sizeof buffer)) > 0;) {
+      for (const link::Frame& frame : decoder.feed(buffer, n)) {
+        if (frame.type == link::FrameType::kIdentify && frame.sequence == sequence) {
+          board_crc = link::decode_identify(frame.payload).weights_crc;
+        }
+      }
+    }
+  }
+  if (!board_crc || *board_crc != crc) {
+    throw std::runtime_error("virtual board: the board did not take the model (" +
+                             (board_crc ? "its CRC " + golden::hex_word(*board_crc, 32) : std::string("no identify")) +
+                             ", the model's " + golden::hex_word(crc, 32) + ")");
   }
 }
 

@@ -18,6 +18,7 @@
 #include "delta/golden/export.hpp"
 #include "delta/golden/fixed_network.hpp"
 #include "delta/golden/fixed_point_backend.hpp"
+#include "delta/golden/model_image.hpp"
 #include "delta/io/byte_stream.hpp"
 #include "delta/link/payloads.hpp"
 #include "delta/nn/weights_file.hpp"
@@ -354,6 +355,124 @@ TEST(ModelBoard, NeitherBoardPlaysSetpointsSentWhileTheDrivesWereOff) {
     }
     std::cout << name << ": joints moved at most " << moved_deg << " deg; refused " << run->before.rejected << "\n";
     EXPECT_LT(moved_deg, 0.5) << name << ": motion the host did not command";
+  }
+  ASSERT_EQ(model.telemetry.size(), rtl.telemetry.size());
+  for (std::size_t i = 0; i < rtl.telemetry.size(); ++i) {
+    ASSERT_EQ(link::encode(model.telemetry[i]), link::encode(rtl.telemetry[i])) << "telemetry frame " << i;
+  }
+  expect_same_periods(rtl.periods, model.periods);
+}
+
+// The model as data (docs/board_link.md, "The model") on both boards: a board with no model
+// (--no-model) refuses the enable; a load with one word corrupted (the commit carries the image's
+// CRC) leaves it with no model; the good load gives flag 7 and identify's CRC; the drives come
+// on and the lab loop streams a circle; a load begun with the drives on is refused and changes
+// nothing; after the disable a second load replaces the model with itself. Every telemetry frame
+// and every period equal.
+struct LoadRun {
+  std::vector<link::TelemetryPayload> telemetry;
+  std::vector<PeriodRecord> periods;
+  std::uint32_t crc_before = 1, crc_corrupted = 1, crc_loaded = 0, crc_after_refused = 0, crc_reloaded = 0;
+  link::TelemetryPayload refused_enable, after_corrupted, loaded, refused_load;
+  bool enable_refused = false;
+  LabStream stream;
+};
+
+// The frames of a load (golden::model_frames, word `corrupt` with bit 0 flipped unless < 0) as a
+// host sends them, then telemetry until the board has taken them all.
+link::TelemetryPayload send_load(cosim::VirtualBoard& board, link::LinkSession& session,
+                                 const golden::QuantisedNetwork& q, int corrupt, std::uint8_t& sequence) {
+  std::vector<link::ModelPayload> frames = golden::model_frames(q);
+  if (corrupt >= 0) frames[static_cast<std::size_t>(corrupt)].word[0] ^= 1;
+  std::vector<std::uint8_t> bytes;
+  for (const link::ModelPayload& frame : frames) {
+    const std::vector<std::uint8_t> encoded = link::encode_frame(link::make_frame(sequence++, frame));
+    bytes.insert(bytes.end(), encoded.begin(), encoded.end());
+  }
+  board.write(bytes.data(), bytes.size());
+  link::TelemetryPayload t = session.next_telemetry();
+  while (board.bytes_to_board() != 0) t = session.next_telemetry();
+  for (int i = 0; i < 3; ++i) t = session.next_telemetry();
+  return t;
+}
+
+LoadRun run_load_session(cosim::BoardFidelity fidelity, const golden::QuantisedNetwork& q, const std::string& mem_dir) {
+  LoadRun out;
+  cosim::VirtualBoardOptions options;
+  options.fidelity = fidelity;
+  options.network = nullptr;  // no model
+  options.mem_dir = mem_dir;
+  options.effects = read_effect_file(kEffects);
+  cosim::VirtualBoard board(options);
+  board.observe_periods([&out](std::uint64_t clocks, const cosim::BoardPins& pins, const RobotWorld& world) {
+    out.periods.push_back({clocks, world.current_a(), world.encoder_deg(), world.true_alpha_deg(), pins});
+  });
+  cosim::VirtualBoardStream stream(board);
+  link::LinkSession session(stream);
+  std::uint8_t sequence = 128;  // the model frames' own sequence numbers (the session's count from 0)
+  out.crc_before = session.identify().weights_crc;
+  session.set_home();
+  try {
+    session.enable();
+  } catch (const link::LinkError& error) {
+    out.enable_refused = error.kind() == link::LinkError::Kind::kRefused;
+  }
+  out.refused_enable = *session.last_telemetry();
+  out.after_corrupted = send_load(board, session, q, 40, sequence);
+  out.crc_corrupted = session.identify().weights_crc;
+  out.loaded = send_load(board, session, q, -1, sequence);
+  out.crc_loaded = session.identify().weights_crc;
+  const link::TelemetryPayload enabled = session.enable();
+  // A load begun with the drives on: its first frame is refused.
+  const std::vector<std::uint8_t> first =
+      link::encode_frame(link::make_frame(sequence++, golden::model_frames(q).front()));
+  board.write(first.data(), first.size());
+  Vec3 counts_deg;
+  for (int j = 0; j < 3; ++j) counts_deg[j] = enabled.counts[j] * cosim::kCountDeg;
+  const Vec3 start = cosim::locate_plate(q, Geometry::nominal(), counts_deg);
+  std::vector<Vec3> points;
+  for (std::size_t k = 0; k < 200; ++k) {
+    const double phase = 2.0 * M_PI * static_cast<double>(k) / 200.0;
+    points.push_back(start + 1e-3 * Vec3(std::sin(phase), std::cos(phase) - 1.0, 0.0) * std::min(1.0, k / 50.0));
+  }
+  cosim::BoardTimeClock clock(board);
+  out.stream = stream_with_the_lab_loop(session, q, points, &clock);
+  out.refused_load = *session.last_telemetry();
+  out.crc_after_refused = session.identify().weights_crc;
+  session.disable();
+  send_load(board, session, q, -1, sequence);
+  out.crc_reloaded = session.identify().weights_crc;
+  for (int i = 0; i < 5; ++i) session.next_telemetry();
+  out.telemetry = session.telemetry();
+  return out;
+}
+
+TEST(ModelBoard, EqualsTheRtlBoardThroughARefusedEnableACorruptedLoadALoadAndARun) {
+  const golden::QuantisedNetwork q = deployed_network();
+  const std::string mem_dir = fresh_directory("model_board_load_mem");
+  golden::write_export(q, mem_dir);
+  const LoadRun rtl = run_load_session(cosim::BoardFidelity::kRtl, q, mem_dir);
+  const LoadRun model = run_load_session(cosim::BoardFidelity::kModel, q, mem_dir);
+  const std::uint32_t crc = weights_crc(q);
+  std::cout << "RTL: " << rtl.telemetry.size() << " telemetry frames, " << rtl.periods.size() << " periods\n";
+  for (const LoadRun* run : {&rtl, &model}) {
+    const char* name = run == &rtl ? "RTL" : "model";
+    EXPECT_EQ(run->crc_before, 0u) << name << ": a board starts with no model";
+    EXPECT_TRUE(run->enable_refused) << name;
+    EXPECT_FALSE(run->refused_enable.has(link::TelemetryFlag::kDriveEnable)) << name;
+    EXPECT_FALSE(run->refused_enable.has(link::TelemetryFlag::kModel)) << name;
+    EXPECT_GT(run->refused_enable.rejected, 0) << name;
+    EXPECT_FALSE(run->after_corrupted.has(link::TelemetryFlag::kModel)) << name << ": a corrupted word loaded";
+    EXPECT_EQ(run->crc_corrupted, 0u) << name;
+    EXPECT_TRUE(run->loaded.has(link::TelemetryFlag::kModel)) << name;
+    EXPECT_EQ(run->loaded.rejected, run->refused_enable.rejected) << name << ": a frame of a load refused";
+    EXPECT_EQ(run->crc_loaded, crc) << name;
+    EXPECT_EQ(run->stream.result.outcome, controller::StreamingResult::Outcome::kCompleted)
+        << name << ": " << run->stream.result.cause;
+    EXPECT_TRUE(run->refused_load.has(link::TelemetryFlag::kModel)) << name << ": the model went with the drives on";
+    EXPECT_GT(run->refused_load.rejected, run->loaded.rejected) << name << ": the frame with the drives on was taken";
+    EXPECT_EQ(run->crc_after_refused, crc) << name;
+    EXPECT_EQ(run->crc_reloaded, crc) << name;
   }
   ASSERT_EQ(model.telemetry.size(), rtl.telemetry.size());
   for (std::size_t i = 0; i < rtl.telemetry.size(); ++i) {

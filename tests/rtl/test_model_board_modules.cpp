@@ -32,7 +32,9 @@
 #include "delta/golden/fixed_network.hpp"
 #include "delta/golden/fixed_point_backend.hpp"
 #include "delta/golden/joint_fixed.hpp"
+#include "delta/golden/model_image.hpp"
 #include "delta/link/frame_codec.hpp"
+#include "delta/link/payloads.hpp"
 #include "delta/nn/weights_file.hpp"
 #include "delta/rtl/board_clock.hpp"
 #include "delta/rtl/uart_line.hpp"
@@ -216,11 +218,28 @@ std::unordered_map<std::string, Reader> rtl_registers() {
   DELTA_TX(sequence_q)
   DELTA_TX(state_q)
 #undef DELTA_TX
+#define DELTA_ML(name)                                              \
+  r["u_model_loader." #name] = [](const Root& x) -> std::uint64_t { \
+    return x.board_core__DOT__u_model_loader__DOT__##name;          \
+  };
+  DELTA_ML(word_q)
+  DELTA_ML(number_q)
+  DELTA_ML(number_high_q)
+  DELTA_ML(expected_q)
+  DELTA_ML(loading_q)
+  DELTA_ML(loaded_q)
+  DELTA_ML(crc_q)
+  DELTA_ML(shift_count_q)
+#undef DELTA_ML
   return r;
 }
 
-std::vector<std::uint32_t> rtl_memory(const Root& x, const std::string& memory) {
-  std::vector<std::uint32_t> out;
+// The model's memories (the network's model port, the interpolator's play words).
+const std::vector<std::string> kModelMemories = {"u_network.u_weight1_ram.words", "u_network.u_bias1_ram.words",
+                                                 "u_network.u_weight2_ram.words", "u_interpolator.play_words"};
+
+std::vector<std::uint64_t> rtl_memory(const Root& x, const std::string& memory) {
+  std::vector<std::uint64_t> out;
   if (memory == "u_link_rx.ring_q") {
     for (int i = 0; i < board::kRxRingBytes; ++i) out.push_back(x.board_core__DOT__u_link_rx__DOT__ring_q[i]);
   } else if (memory == "u_link_tx.words") {
@@ -231,6 +250,16 @@ std::vector<std::uint32_t> rtl_memory(const Root& x, const std::string& memory) 
       out.push_back(x.board_core__DOT__u_setpoints__DOT__g_ram__BRA__1__KET____DOT__ram_q[e]);
       out.push_back(x.board_core__DOT__u_setpoints__DOT__g_ram__BRA__2__KET____DOT__ram_q[e]);
     }
+  } else if (memory == "u_network.u_weight1_ram.words") {
+    for (const auto w : x.board_core__DOT__u_network__DOT__g_layer1_lane__BRA__0__KET____DOT__u_weight1_ram__DOT__words)
+      out.push_back(w);
+  } else if (memory == "u_network.u_bias1_ram.words") {
+    for (const auto w : x.board_core__DOT__u_network__DOT__u_bias1_ram__DOT__words) out.push_back(w);
+  } else if (memory == "u_network.u_weight2_ram.words") {
+    for (const auto w : x.board_core__DOT__u_network__DOT__g_layer2_lane__BRA__0__KET____DOT__u_weight2_ram__DOT__words)
+      out.push_back(w);
+  } else if (memory == "u_interpolator.play_words") {
+    for (const auto w : x.board_core__DOT__u_interpolator__DOT__play_words) out.push_back(w);
   }
   return out;
 }
@@ -242,7 +271,7 @@ class Lockstep {
   Lockstep(const golden::QuantisedNetwork& q, const std::string& mem_dir, std::vector<std::string> instances,
            std::vector<std::string> memories)
       : context_(std::make_unique<VerilatedContext>()),
-        model_(q, mem_dir + "/identify.mem"),
+        model_(mem_dir + "/identify.mem"),
         line_(kClocksPerBit),
         readers_(rtl_registers()),
         instances_(std::move(instances)),
@@ -424,8 +453,13 @@ class Lockstep {
       }
     }
     for (const std::string& memory : memories_) {
-      const std::vector<std::uint32_t> a = model_.probe_memory(memory), b = rtl_memory(rtl(), memory);
-      for (std::size_t i = 0; i < a.size() && i < b.size(); ++i) {
+      const std::vector<std::uint64_t> a = model_.probe_memory(memory), b = rtl_memory(rtl(), memory);
+      if (a.size() != b.size()) {
+        fail_with("memory " + memory + ": the model has " + std::to_string(a.size()) + " words, the RTL " +
+                  std::to_string(b.size()));
+        return;
+      }
+      for (std::size_t i = 0; i < a.size(); ++i) {
         if (a[i] != b[i]) {
           std::ostringstream what;
           what << "memory " << memory << "[" << i << "]: model 0x" << std::hex << a[i] << ", RTL 0x" << b[i];
@@ -488,6 +522,12 @@ class Stimulus {
     return frame(link::FrameType::kCommand, {static_cast<std::uint8_t>(code)});
   }
   std::vector<std::uint8_t> identify() { return frame(link::FrameType::kIdentifyRequest, {}); }
+  // A model frame (frame number n, a 48-bit word).
+  std::vector<std::uint8_t> model(const link::ModelPayload& payload) {
+    link::Frame f = link::make_frame(sequence_++, payload);
+    return link::encode_frame(f);
+  }
+  const golden::QuantisedNetwork& network() const { return q_; }
   // A setpoint: its sample index and three scaled input codes (mostly inside the trained cube).
   std::vector<std::uint8_t> setpoint(std::uint32_t index) {
     std::vector<std::uint8_t> p;
@@ -641,8 +681,15 @@ class Session {
     return wait(gap);
   }
   bool command(int code, std::uint64_t gap = 0) { return send(s_.command(code), gap); }
-  // Drives on from reset: set home, enable.
-  bool enable() { return command(board::kCommandSetHome) && command(board::kCommandEnable); }
+  // The model's load (golden::model_frames of the fixture's network), frame by frame.
+  bool load() {
+    for (const link::ModelPayload& frame : golden::model_frames(s_.network())) {
+      if (!send(s_.model(frame))) return false;
+    }
+    return true;
+  }
+  // Drives on from reset: the model loaded, set home, enable.
+  bool enable() { return load() && command(board::kCommandSetHome) && command(board::kCommandEnable); }
   std::uint32_t next_index() {
     return static_cast<std::uint32_t>(run_.model_register("u_setpoints", "sample_index_q") +
                                       run_.model_register("u_setpoints", "fill_q"));
@@ -797,6 +844,72 @@ TEST(ModelBoardModules, JointAxesEqualTheRtlUnderRandomEncodersSwitchesAndComman
             << run.model_register("u_joint_axes", "encoder_error_q")
             << "\n  joint_safety registers of a rotated reference (RTL only): " << run.rotated_reference_clocks()
             << "\n";
+}
+
+// model_loader (docs/board_link.md, "The model"; and board_core's counters, the identify frames'
+// CRC on the TX line, the network's answers on the loaded words): loads whole and cut short,
+// restarted at frame 0, frames out of order (repeated, skipped, random numbers), corrupted on the
+// line (dropped) and with a word changed under a valid frame CRC (the commit's CRC no longer
+// matches), loads begun with the drives on (refused), with identify requests, enables (refused
+// without a model) and setpoints between them; the words in the memories compared every clock.
+TEST(ModelBoardModules, ModelLoaderEqualsTheRtlUnderGoodCorruptedAndOutOfOrderLoads) {
+  std::cout << "seed " << test_seed() << " (DELTA_TEST_SEED)\n";
+  const auto start = std::chrono::steady_clock::now();
+  Fixture& f = fixture();
+  Lockstep run(f.q, f.mem_dir, {"u_loader", "board_core"}, kModelMemories);
+  Stimulus s(f.q, test_seed() + 5);
+  Session session(run, s);
+  session.step_chance = 1.0 / 200;
+  const std::vector<link::ModelPayload> image = golden::model_frames(f.q);
+  const std::uint64_t kClocks = 1800 * kPeriod;
+  int loads = 0, taken = 0, enables = 0;
+  bool ok = session.command(board::kCommandSetHome);
+  while (ok && run.clocks() < kClocks && !run.failed()) {
+    const int pick = s.uniform(0, 99);
+    if (pick < 35) {  // a load: whole or cut short, now and then a word changed (valid frame CRC)
+      const int corrupt = s.chance(0.3) ? s.uniform(0, static_cast<int>(board::kModelCommitFrame) - 1) : -1;
+      const int end = s.chance(0.75) ? static_cast<int>(image.size()) : s.uniform(1, static_cast<int>(image.size()));
+      for (int n = 0; ok && n < end; ++n) {
+        link::ModelPayload frame = image[static_cast<std::size_t>(n)];
+        if (n == corrupt)
+          frame.word[static_cast<std::size_t>(s.uniform(0, 2))] ^= static_cast<std::uint16_t>(1u << s.uniform(0, 15));
+        // Now and then the line spoils it (dropped: the load stops there unless resent) or the
+        // host resends or skips one.
+        if (s.chance(0.01)) {
+          ok = session.send(s.corrupt(s.model(frame)));
+          if (s.chance(0.5)) continue;
+        }
+        if (s.chance(0.005)) ok = ok && session.send(s.model(image[static_cast<std::size_t>(s.uniform(0, n))]));
+        if (s.chance(0.003)) continue;
+        ok = ok && session.send(s.model(frame), s.chance(0.9) ? 0 : static_cast<std::uint64_t>(s.uniform(0, 3000)));
+      }
+      ++loads;
+    } else if (pick < 50) {  // frames with random numbers and words
+      for (int i = s.uniform(1, 6); ok && i > 0; --i) {
+        const int n = s.chance(0.5) ? s.uniform(0, static_cast<int>(board::kModelFrames) + 2) : s.uniform(0, 65535);
+        ok = session.send(s.model(link::ModelPayload::of(static_cast<std::uint16_t>(n), s.rng()())));
+      }
+    } else if (pick < 65) {  // an enable (refused without a model); a load begun with the drives on
+      ok = session.command(board::kCommandEnable);
+      ++enables;
+      for (int n = 0; ok && n < s.uniform(0, 3); ++n) ok = session.send(s.model(image[static_cast<std::size_t>(n)]));
+      for (int i = s.uniform(0, 4); ok && i > 0; --i) ok = session.send(s.setpoint(session.next_index()));
+      if (ok && s.chance(0.7)) ok = session.command(board::kCommandDisable);
+    } else if (pick < 85) {
+      ok = session.send(s.identify(), static_cast<std::uint64_t>(s.uniform(0, static_cast<int>(kPeriod))));
+    } else {
+      ok = session.send(s.setpoint(session.next_index()),
+                        static_cast<std::uint64_t>(s.uniform(0, 2 * static_cast<int>(kPeriod))));
+    }
+    if (run.model_register("u_loader", "loaded_q") != 0) ++taken;
+  }
+  report("model_loader", run, start);
+  EXPECT_FALSE(run.failed());
+  std::cout << "  loads " << loads << ", steps with a model " << taken << ", enables " << enables << ", refused "
+            << run.model_register("board_core", "refused_q") << ", bad frames "
+            << run.model_register("board_core", "bad_frames_q") << "\n";
+  EXPECT_GT(taken, 0);
+  EXPECT_GT(loads, 2);
 }
 
 // link_tx (its capture, the telemetry words it writes, the frames it sends: the TX line's bytes

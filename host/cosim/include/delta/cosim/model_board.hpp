@@ -33,8 +33,9 @@ namespace delta::cosim {
 
 class ModelBoard final : public BoardModel {
  public:
-  // identify_mem: the path of identify.mem (12 lines of one 16-bit hex word).
-  ModelBoard(const golden::QuantisedNetwork& network, const std::string& identify_mem);
+  // identify_mem: the path of identify.mem (12 lines of one 16-bit hex word). The board starts
+  // with no model, as the RTL's: a host loads one over the link (docs/board_link.md, "The model").
+  explicit ModelBoard(const std::string& identify_mem);
   ~ModelBoard();
   ModelBoard(const ModelBoard&) = delete;
   ModelBoard& operator=(const ModelBoard&) = delete;
@@ -94,8 +95,10 @@ class ModelBoard final : public BoardModel {
   std::vector<ProbedRegister> probe_registers(const std::string& instance) const;
   // Test probe, read-only: a block RAM's words by address, as the RTL's memory holds them:
   // "u_link_rx.ring_q" (bytes), "u_setpoints.ram_q" (entry e's 16-bit lane w at 6 e + w),
-  // "u_link_tx.words".
-  std::vector<std::uint32_t> probe_memory(const std::string& memory) const;
+  // "u_link_tx.words"; the model's: "u_network.u_weight1_ram.words" (IW'),
+  // "u_network.u_bias1_ram.words" (b1'), "u_network.u_weight2_ram.words" (LW', then b2' + 2^19),
+  // "u_interpolator.play_words" (4 words, the fourth never written).
+  std::vector<std::uint64_t> probe_memory(const std::string& memory) const;
   // The clocks run since reset (the model's cycle).
   std::uint64_t cycle() const;
 
@@ -136,10 +139,15 @@ class ModelBoard final : public BoardModel {
   void telemetry_capture_next(const State& s, State& n, std::uint16_t word, bool snapshot, bool sending_telemetry);
   void setpoint_payload_next(const State& s, State& n, bool frame_start, bool payload_valid, int payload_index,
                              std::uint8_t byte);
+  static void model_payload_next(const State& s, State& n, bool payload_valid, int payload_index, std::uint8_t byte);
+  void model_loader_next(const State& s, State& n, Wires& w);
+  void patch_identify_crc(const State& s, const State& n);
 
   struct Memories;
+  // The network the model memories hold (golden::network_of_model_words), rebuilt at a play after
+  // a load wrote them.
   golden::QuantisedNetwork network_;
-  std::array<std::int32_t, 3> half_plays_{};  // H_j, Q24.8 counts (half_play.mem): constant
+  bool network_stale_ = true;
   std::unique_ptr<Memories> memories_;
   std::unique_ptr<State> state_;
   std::unique_ptr<State> next_state_;  // clock()'s next values
@@ -160,6 +168,9 @@ class ModelBoard final : public BoardModel {
     std::uint8_t byte;
   };
   std::deque<TxByte> tx_line_;
+  // The identify reply link_tx sends or sent last, and the clock it handed uart_tx its first byte.
+  std::vector<std::uint8_t> identify_frame_;
+  std::uint64_t identify_first_load_ = 0;
 };
 
 }  // namespace delta::cosim

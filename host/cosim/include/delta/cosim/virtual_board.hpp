@@ -48,9 +48,13 @@ constexpr double kCountDeg = board::kEncoderCountMicrodeg * 1e-6;
 
 struct VirtualBoardOptions {
   BoardFidelity fidelity = BoardFidelity::kRtl;
-  // The network's weights (the same as in mem_dir): required at model fidelity.
+  // The model the board holds when the host starts: at start, before any host byte, its load
+  // (golden::model_frames, docs/board_link.md "The model") goes onto the board's RX line as
+  // `deltactl host load` sends it, and the board runs until it has taken it (an identify confirms
+  // the CRC; the bytes the board sent meanwhile are dropped, as nobody read them). nullptr: the
+  // board starts with no model, as after power-up.
   const golden::QuantisedNetwork* network = nullptr;
-  std::string mem_dir;  // the network's .mem files and identify.mem (deltactl quantise, golden::write_export)
+  std::string mem_dir;  // the gateware's .mem files and identify.mem (golden::write_export)
   EffectSet effects;    // the virtual robot
   Geometry nominal = Geometry::nominal();
   JointPlantParameters plant;
@@ -92,9 +96,10 @@ struct TruthSample {
 
 class VirtualBoard {
  public:
-  // Loads the network and identify.mem from options.mem_dir (through the model's plusarg
+  // Reads identify.mem (and the RTL's tables) from options.mem_dir (through the model's plusarg
   // +delta_mem_dir), resets the board, places the robot at rest where the encoders read the home
-  // count. Throws std::runtime_error if the robot has no such pose.
+  // count, loads options.network if given. Throws std::invalid_argument if the robot has no such
+  // pose, std::runtime_error if the board did not take the model.
   explicit VirtualBoard(const VirtualBoardOptions& options);
   ~VirtualBoard();
   VirtualBoard(const VirtualBoard&) = delete;
@@ -138,6 +143,7 @@ class VirtualBoard {
   void flush_world();
   void run(std::uint64_t board_clocks, std::size_t until_bytes);  // until_bytes 0: all board_clocks
   void observe(bool drives_enabled);
+  void load_at_start(const golden::QuantisedNetwork& network);
   // Calls an observer, its wall time counted in observer_s_ (not the board's).
   template <typename Call>
   void observed(Call&& call) {
