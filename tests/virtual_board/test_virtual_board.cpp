@@ -28,6 +28,7 @@
 #include "delta/gateware.hpp"
 #include "delta/golden/export.hpp"
 #include "delta/golden/fixed_network.hpp"
+#include "delta/golden/model_image.hpp"
 #include "delta/io/serial_port.hpp"
 #include "delta/link/frame_codec.hpp"
 #include "delta/link/session.hpp"
@@ -330,6 +331,54 @@ TEST(VirtualBoard, ExclusiveModeEndsWithItsProgramAndASecondBoardCannotTakeTheLi
   }
   EXPECT_EQ(board.terminate(), 0);
   EXPECT_FALSE(std::filesystem::exists(std::filesystem::symlink_status(link))) << "the board left its link";
+  std::filesystem::remove_all(dir);
+}
+
+// --no-model: the board starts as after power-up, with no model (docs/board_link.md, "The model"):
+// identify's CRC 0, flag 7 clear, the enable refused; a host's load over the pty (the model's
+// frames as `host load` sends them) gives flag 7 and the model's CRC, and then the enable is taken.
+TEST(VirtualBoard, WithNoModelItRefusesTheEnableUntilAHostLoadsOne) {
+  const std::string dir = ::testing::TempDir() + "virtual_board_no_model_" + std::to_string(::getpid());
+  std::filesystem::create_directories(dir);
+  const std::string link = dir + "/tty";
+  VirtualBoardProcess board(link, {"--no-model", "--fidelity", "model", "--free-run"});
+  const std::string ready = board.ready_line(60'000);
+  ASSERT_NE(ready.find("no model"), std::string::npos) << "ready line: '" << ready << "'";
+  const golden::QuantisedNetwork network = golden::quantise(nn::read_weights_file(kWeights).network);
+  {
+    io::SerialPort port(link, static_cast<int>(board::kLinkBaud));
+    link::LinkSession session(port);
+    EXPECT_EQ(session.identify().weights_crc, 0u);
+    const link::TelemetryPayload homed = session.set_home();
+    EXPECT_FALSE(homed.has(link::TelemetryFlag::kModel));
+    bool refused = false;
+    try {
+      session.enable();
+    } catch (const link::LinkError& error) {
+      refused = error.kind() == link::LinkError::Kind::kRefused;
+    }
+    EXPECT_TRUE(refused) << "the enable was taken with no model";
+    EXPECT_FALSE(session.last_telemetry()->has(link::TelemetryFlag::kDriveEnable));
+
+    std::vector<std::uint8_t> bytes;
+    std::uint8_t sequence = 200;
+    for (const link::ModelPayload& frame : golden::model_frames(network)) {
+      const std::vector<std::uint8_t> encoded = link::encode_frame(link::make_frame(sequence++, frame));
+      bytes.insert(bytes.end(), encoded.begin(), encoded.end());
+    }
+    port.write_all(bytes.data(), bytes.size(), 1000);
+    link::TelemetryPayload t = session.next_telemetry();
+    for (int i = 0; i < 200 && !t.has(link::TelemetryFlag::kModel); ++i) t = session.next_telemetry();
+    EXPECT_TRUE(t.has(link::TelemetryFlag::kModel)) << link::describe_state(t);
+    EXPECT_EQ(session.identify().weights_crc, weights_crc(network));
+    EXPECT_TRUE(session.enable().has(link::TelemetryFlag::kDriveEnable));
+    session.disable();
+  }
+  EXPECT_EQ(board.terminate(), 0);
+  // --no-model and --weights exclude each other.
+  const CommandResult both = run_deltactl("virtual-board --link " + dir + "/tty2 --no-model --weights " + kWeights);
+  EXPECT_EQ(both.exit_code, 2) << both.err;
+  EXPECT_FALSE(std::filesystem::exists(std::filesystem::symlink_status(dir + "/tty2")));
   std::filesystem::remove_all(dir);
 }
 

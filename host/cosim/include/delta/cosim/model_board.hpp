@@ -1,10 +1,14 @@
 // The board at model fidelity: board_core's behaviour in C++ without Verilator, one board clock
 // per step with the RTL's event times, for the virtual board (virtual_board.hpp, --fidelity
 // model). The small control logic (uart_rx/tx, link_rx with its ring and rescan, the setpoint
-// buffer, commands, counters, link_tx, quadrature counters, joint_safety, joint_pwm) is stepped
-// per clock as a register-level translation; the arithmetic runs once per event on the golden
-// models, bit for bit what the RTL computes:
-//   network (golden::evaluate_raw) when a setpoint is played (tick PlayTick = 1 of phase 0),
+// buffer, commands, counters, the model loader, link_tx, quadrature counters, joint_safety,
+// joint_pwm) is stepped per clock as a register-level translation; the arithmetic runs once per
+// event on the golden models, bit for bit what the RTL computes:
+//   the model as data (docs/board_link.md, "The model"): no model at start; model_loader.sv's
+//     registers (its bit-serial CRC-32 with link_rx's parser stalled for ModelCrcClocks clocks),
+//     the words it writes into the network's memories and the interpolator's play words;
+//   network (golden::evaluate_scaled on golden::network_of_model_words of those memories) when a
+//     setpoint is played (tick PlayTick = 1 of phase 0),
 //   reference interpolation (setpoint_interpolation.hpp's rule) at tick ClocksPerPeriod -
 //     InterpolationLeadClocks (2225), joint j's reference written in its step
 //     InterpolatorReferenceStep (8 clocks a joint),
