@@ -352,6 +352,9 @@ std::int32_t sign_extend(std::uint32_t value, int bits) {
   return static_cast<std::int32_t>((value ^ m) - m);
 }
 
+// The network's model memories: 256 words each, addressed by frame number (delta_network.sv).
+constexpr std::size_t kModelMemoryWords = 256;
+
 // CRC-32/ISO-HDLC, reflected (model_loader.sv's bit-serial CRC).
 constexpr std::uint32_t kCrc32Polynomial = 0xEDB88320u;
 
@@ -531,6 +534,7 @@ struct ModelBoard::State {
   int load_expected = 0;
   bool loading = false, loaded = false;
   std::uint32_t load_crc = 0;
+  bool load_restart = false;  // restart_q: the word shifting is frame 0's (the CRC from all ones)
   int load_shift = 0;
   // reference_interpolator's play words (its block RAM, frames ModelPlayFrame + j), each word
   // before its last write and that write's clock (the interpolator's read register and pipeline
@@ -710,6 +714,7 @@ bool ModelBoard::quiet() const {
   X(loading)                           \
   X(loaded)                            \
   X(load_crc)                          \
+  X(load_restart)                      \
   X(load_shift)                        \
   X(play)                              \
   X(play_before)                       \
@@ -1480,8 +1485,10 @@ void ModelBoard::model_payload_next(const State& s, State& n, bool payload_valid
 void ModelBoard::model_loader_next(const State& s, State& n, Wires& w) {
   model_payload_next(s, n, w.rx.payload_valid, w.payload_index, w.payload_byte);
   if (s.load_shift != 0) {
-    const bool feedback = ((s.load_crc ^ static_cast<std::uint32_t>(s.load_word)) & 1) != 0;
-    n.load_crc = (s.load_crc >> 1) ^ (feedback ? kCrc32Polynomial : 0);
+    const std::uint32_t base = s.load_restart ? ~std::uint32_t{0} : s.load_crc;
+    const bool feedback = ((base ^ static_cast<std::uint32_t>(s.load_word)) & 1) != 0;
+    n.load_crc = (base >> 1) ^ (feedback ? kCrc32Polynomial : 0);
+    n.load_restart = false;
     n.load_word = s.load_word >> 1;
     n.load_shift = s.load_shift - 1;
   }
@@ -1500,7 +1507,7 @@ void ModelBoard::model_loader_next(const State& s, State& n, Wires& w) {
     n.loaded = false;
     n.load_expected = (s.load_number + 1) & 0xFF;
     n.load_shift = static_cast<int>(board::kModelCrcClocks);
-    if (start) n.load_crc = ~std::uint32_t{0};
+    n.load_restart = start;
     const std::size_t address = static_cast<std::size_t>(s.load_number);
     if (address < memories_->model.size()) {
       memories_->model[address] = s.load_word & ((std::uint64_t{1} << board::kModelWordBits) - 1);
@@ -1918,6 +1925,7 @@ std::vector<ModelBoard::ProbedRegister> ModelBoard::probe_registers(const std::s
     add("loading_q", s.loading);
     add("loaded_q", s.loaded);
     add("crc_q", s.load_crc);
+    add("restart_q", s.load_restart);
     add("shift_count_q", static_cast<std::uint64_t>(s.load_shift));
   } else {
     throw std::invalid_argument("model board probe: no instance " + instance);
@@ -1929,26 +1937,21 @@ std::vector<std::uint64_t> ModelBoard::probe_memory(const std::string& memory) c
   const Memories& m = *memories_;
   if (memory == "u_link_rx.ring_q") return {m.ring.begin(), m.ring.end()};
   if (memory == "u_link_tx.words") return {m.words.begin(), m.words.end()};
-  // The model's memories (delta_network.sv's model port, the interpolator's play words): frame n's
-  // word at its address, in the memory's width.
-  auto model_words = [&m](long long first, long long last, int width) {
-    std::vector<std::uint64_t> out;
-    const std::uint64_t mask = width == 64 ? ~std::uint64_t{0} : (std::uint64_t{1} << width) - 1;
-    for (long long n = first; n < last; ++n) out.push_back(m.model[static_cast<std::size_t>(n)] & mask);
+  // The network's memories (delta_network.sv's model port): every word of a load at its frame
+  // number in each, in the memory's width (each reads its own frames); 256 words.
+  auto model_words = [&m](int width) {
+    std::vector<std::uint64_t> out(kModelMemoryWords, 0);
+    const std::uint64_t mask = (std::uint64_t{1} << width) - 1;
+    for (std::size_t n = 0; n < m.model.size(); ++n) out[n] = m.model[n] & mask;
     return out;
   };
   const golden::Formats formats;
-  if (memory == "u_network.u_weight1_ram.words") {
-    return model_words(board::kModelWeight1Frame, board::kModelBias1Frame, formats.input_weight_bits);
-  }
+  if (memory == "u_network.u_weight1_ram.words") return model_words(formats.input_weight_bits);
   if (memory == "u_network.u_bias1_ram.words") {
-    const int bias1_bits =
-        formats.tanh_input_bits + (formats.hidden_accumulator_fraction_bits() - formats.tanh_input_fraction_bits);
-    return model_words(board::kModelBias1Frame, board::kModelWeight2Frame, bias1_bits);
+    return model_words(formats.tanh_input_bits +
+                       (formats.hidden_accumulator_fraction_bits() - formats.tanh_input_fraction_bits));
   }
-  if (memory == "u_network.u_weight2_ram.words") {
-    return model_words(board::kModelWeight2Frame, board::kModelPlayFrame, static_cast<int>(board::kModelWordBits));
-  }
+  if (memory == "u_network.u_weight2_ram.words") return model_words(static_cast<int>(board::kModelWordBits));
   if (memory == "u_interpolator.play_words") {
     const State& s = *state_;
     return {s.play[0], s.play[1], s.play[2], 0};

@@ -229,12 +229,14 @@ std::unordered_map<std::string, Reader> rtl_registers() {
   DELTA_ML(loading_q)
   DELTA_ML(loaded_q)
   DELTA_ML(crc_q)
+  DELTA_ML(restart_q)
   DELTA_ML(shift_count_q)
 #undef DELTA_ML
   return r;
 }
 
-// The model's memories (the network's model port, the interpolator's play words).
+// The model's memories (the network's model port: 256 words each, the interpolator's play words).
+constexpr int kModelMemoryWords = 256;
 const std::vector<std::string> kModelMemories = {"u_network.u_weight1_ram.words", "u_network.u_bias1_ram.words",
                                                  "u_network.u_weight2_ram.words", "u_interpolator.play_words"};
 
@@ -252,13 +254,13 @@ std::vector<std::uint64_t> rtl_memory(const Root& x, const std::string& memory) 
     }
   } else if (memory == "u_network.u_weight1_ram.words") {
     const auto& words = x.board_core__DOT__u_network__DOT__g_layer1_lane__BRA__0__KET____DOT__u_weight1_ram__DOT__words;
-    for (int i = 0; i < board::kModelBias1Frame - board::kModelWeight1Frame; ++i) out.push_back(words[i]);
+    for (int i = 0; i < kModelMemoryWords; ++i) out.push_back(words[i]);
   } else if (memory == "u_network.u_bias1_ram.words") {
     const auto& words = x.board_core__DOT__u_network__DOT__u_bias1_ram__DOT__words;
-    for (int i = 0; i < board::kModelWeight2Frame - board::kModelBias1Frame; ++i) out.push_back(words[i]);
+    for (int i = 0; i < kModelMemoryWords; ++i) out.push_back(words[i]);
   } else if (memory == "u_network.u_weight2_ram.words") {
     const auto& words = x.board_core__DOT__u_network__DOT__g_layer2_lane__BRA__0__KET____DOT__u_weight2_ram__DOT__words;
-    for (int i = 0; i < board::kModelPlayFrame - board::kModelWeight2Frame; ++i) out.push_back(words[i]);
+    for (int i = 0; i < kModelMemoryWords; ++i) out.push_back(words[i]);
   } else if (memory == "u_interpolator.play_words") {
     for (int i = 0; i < 4; ++i) out.push_back(x.board_core__DOT__u_interpolator__DOT__play_words[i]);
   }
@@ -862,7 +864,7 @@ TEST(ModelBoardModules, ModelLoaderEqualsTheRtlUnderGoodCorruptedAndOutOfOrderLo
   Session session(run, s);
   session.step_chance = 1.0 / 200;
   const std::vector<link::ModelPayload> image = golden::model_frames(f.q);
-  const std::uint64_t kClocks = 1300 * kPeriod;
+  const std::uint64_t kClocks = 1000 * kPeriod;
   int loads = 0, loaded = 0, enables = 0;
   bool ok = session.command(board::kCommandSetHome);
   while (ok && run.clocks() < kClocks && !run.failed()) {
