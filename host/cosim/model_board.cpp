@@ -1951,7 +1951,8 @@ std::vector<std::uint64_t> ModelBoard::probe_memory(const std::string& memory) c
     return model_words(formats.tanh_input_bits +
                        (formats.hidden_accumulator_fraction_bits() - formats.tanh_input_fraction_bits));
   }
-  if (memory == "u_network.u_weight2_ram.words") return model_words(static_cast<int>(board::kModelWordBits));
+  if (memory == "u_network.u_weight2_ram.words") return model_words(formats.output_weight_bits);
+  if (memory == "u_network.u_bias2_ram.words") return model_words(static_cast<int>(board::kModelWordBits));
   if (memory == "u_interpolator.play_words") {
     const State& s = *state_;
     return {s.play[0], s.play[1], s.play[2], 0};

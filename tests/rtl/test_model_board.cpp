@@ -62,6 +62,16 @@ void expect_same_periods(const std::vector<PeriodRecord>& a, const std::vector<P
   }
 }
 
+// Every telemetry frame and every period of run b equal run a's (a run with `telemetry` and `periods`).
+template <typename Run>
+void expect_same_session(const Run& a, const Run& b) {
+  ASSERT_EQ(b.telemetry.size(), a.telemetry.size());
+  for (std::size_t i = 0; i < a.telemetry.size(); ++i) {
+    ASSERT_EQ(link::encode(b.telemetry[i]), link::encode(a.telemetry[i])) << "telemetry frame " << i;
+  }
+  expect_same_periods(a.periods, b.periods);
+}
+
 struct BoardRun {
   cosim::CosimResult result;
   std::vector<PeriodRecord> periods;
@@ -356,11 +366,7 @@ TEST(ModelBoard, NeitherBoardPlaysSetpointsSentWhileTheDrivesWereOff) {
     std::cout << name << ": joints moved at most " << moved_deg << " deg; refused " << run->before.rejected << "\n";
     EXPECT_LT(moved_deg, 0.5) << name << ": motion the host did not command";
   }
-  ASSERT_EQ(model.telemetry.size(), rtl.telemetry.size());
-  for (std::size_t i = 0; i < rtl.telemetry.size(); ++i) {
-    ASSERT_EQ(link::encode(model.telemetry[i]), link::encode(rtl.telemetry[i])) << "telemetry frame " << i;
-  }
-  expect_same_periods(rtl.periods, model.periods);
+  expect_same_session(rtl, model);
 }
 
 // The model as data (docs/board_link.md, "The model") on both boards: a board with no model
@@ -474,11 +480,7 @@ TEST(ModelBoard, EqualsTheRtlBoardThroughARefusedEnableACorruptedLoadALoadAndARu
     EXPECT_EQ(run->crc_after_refused, crc) << name;
     EXPECT_EQ(run->crc_reloaded, crc) << name;
   }
-  ASSERT_EQ(model.telemetry.size(), rtl.telemetry.size());
-  for (std::size_t i = 0; i < rtl.telemetry.size(); ++i) {
-    ASSERT_EQ(link::encode(model.telemetry[i]), link::encode(rtl.telemetry[i])) << "telemetry frame " << i;
-  }
-  expect_same_periods(rtl.periods, model.periods);
+  expect_same_session(rtl, model);
 }
 
 // Homing at the switches (docs/homing.md) on both boards, a host script that depends on nothing
@@ -567,11 +569,7 @@ TEST(ModelBoard, EqualsTheRtlBoardThroughAHomingAtTheSwitches) {
   for (int j = 0; j < 3; ++j) {
     EXPECT_NEAR(last.counts[j] * cosim::kCountDeg, rtl.periods.back().encoder_deg[j], 1e-9) << "joint " << j + 1;
   }
-  ASSERT_EQ(model.telemetry.size(), rtl.telemetry.size());
-  for (std::size_t i = 0; i < rtl.telemetry.size(); ++i) {
-    ASSERT_EQ(link::encode(model.telemetry[i]), link::encode(rtl.telemetry[i])) << "telemetry frame " << i;
-  }
-  expect_same_periods(rtl.periods, model.periods);
+  expect_same_session(rtl, model);
 }
 
 // The RTL board's idle-network skip (rtl::IdleNetworkSkip: board clocks without the network

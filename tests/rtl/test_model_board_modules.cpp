@@ -238,7 +238,8 @@ std::unordered_map<std::string, Reader> rtl_registers() {
 // The model's memories (the network's model port: 256 words each, the interpolator's play words).
 constexpr int kModelMemoryWords = 256;
 const std::vector<std::string> kModelMemories = {"u_network.u_weight1_ram.words", "u_network.u_bias1_ram.words",
-                                                 "u_network.u_weight2_ram.words", "u_interpolator.play_words"};
+                                                 "u_network.u_weight2_ram.words", "u_network.u_bias2_ram.words",
+                                                 "u_interpolator.play_words"};
 
 std::vector<std::uint64_t> rtl_memory(const Root& x, const std::string& memory) {
   std::vector<std::uint64_t> out;
@@ -260,6 +261,9 @@ std::vector<std::uint64_t> rtl_memory(const Root& x, const std::string& memory) 
     for (int i = 0; i < kModelMemoryWords; ++i) out.push_back(words[i]);
   } else if (memory == "u_network.u_weight2_ram.words") {
     const auto& words = x.board_core__DOT__u_network__DOT__g_layer2_lane__BRA__0__KET____DOT__u_weight2_ram__DOT__words;
+    for (int i = 0; i < kModelMemoryWords; ++i) out.push_back(words[i]);
+  } else if (memory == "u_network.u_bias2_ram.words") {
+    const auto& words = x.board_core__DOT__u_network__DOT__g_layer2_lane__BRA__0__KET____DOT__u_bias2_ram__DOT__words;
     for (int i = 0; i < kModelMemoryWords; ++i) out.push_back(words[i]);
   } else if (memory == "u_interpolator.play_words") {
     for (int i = 0; i < 4; ++i) out.push_back(x.board_core__DOT__u_interpolator__DOT__play_words[i]);

@@ -99,8 +99,9 @@ class ModelBoard final : public BoardModel {
   std::vector<ProbedRegister> probe_registers(const std::string& instance) const;
   // Test probe, read-only: a block RAM's words by address, as the RTL's memory holds them:
   // "u_link_rx.ring_q" (bytes), "u_setpoints.ram_q" (entry e's 16-bit lane w at 6 e + w),
-  // "u_link_tx.words"; the model's: "u_network.u_weight1_ram.words" (IW'),
-  // "u_network.u_bias1_ram.words" (b1'), "u_network.u_weight2_ram.words" (LW', then b2' + 2^19),
+  // "u_link_tx.words"; the model's (every word of a load at its frame number in each of the
+  // network's, in its width): "u_network.u_weight1_ram.words" (IW'), "u_network.u_bias1_ram.words"
+  // (b1'), "u_network.u_weight2_ram.words" (LW'), "u_network.u_bias2_ram.words" (b2' + 2^19), and
   // "u_interpolator.play_words" (4 words, the fourth never written).
   std::vector<std::uint64_t> probe_memory(const std::string& memory) const;
   // The clocks run since reset (the model's cycle).
