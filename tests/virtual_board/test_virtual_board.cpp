@@ -341,7 +341,7 @@ TEST(VirtualBoard, WithNoModelItRefusesTheEnableUntilAHostLoadsOne) {
   const std::string dir = ::testing::TempDir() + "virtual_board_no_model_" + std::to_string(::getpid());
   std::filesystem::create_directories(dir);
   const std::string link = dir + "/tty";
-  VirtualBoardProcess board(link, {"--no-model", "--fidelity", "model", "--free-run"});
+  VirtualBoardProcess board(link, {"--no-model", "--fidelity", "model"});  // kept to real time
   const std::string ready = board.ready_line(60'000);
   ASSERT_NE(ready.find("no model"), std::string::npos) << "ready line: '" << ready << "'";
   const golden::QuantisedNetwork network = golden::quantise(nn::read_weights_file(kWeights).network);
@@ -368,8 +368,10 @@ TEST(VirtualBoard, WithNoModelItRefusesTheEnableUntilAHostLoadsOne) {
     }
     port.write_all(bytes.data(), bytes.size(), 1000);
     link::TelemetryPayload t = session.next_telemetry();
-    for (int i = 0; i < 200 && !t.has(link::TelemetryFlag::kModel); ++i) t = session.next_telemetry();
-    EXPECT_TRUE(t.has(link::TelemetryFlag::kModel)) << link::describe_state(t);
+    for (int i = 0; i < 1000 && !t.has(link::TelemetryFlag::kModel); ++i) t = session.next_telemetry();
+    EXPECT_TRUE(t.has(link::TelemetryFlag::kModel))
+        << link::describe_state(t) << "; refused " << t.rejected << ", bad frames " << t.bad_frames << ", sequence "
+        << int(t.sequence);
     EXPECT_EQ(session.identify().weights_crc, weights_crc(network));
     EXPECT_TRUE(session.enable().has(link::TelemetryFlag::kDriveEnable));
     session.disable();
