@@ -3,7 +3,7 @@
 
 Starts the virtual board on a pseudo-terminal, opens its path as a serial port, sends an identify
 request built here from docs/board_link.md (sync 0x7E, length, sequence, type 0x01, CRC-16/CCITT-FALSE
-high byte first over length..payload), and checks the reply: protocol version 2, setpoint depth 256,
+high byte first over length..payload), and checks the reply: protocol version 3, setpoint depth 256,
 and the build id and weights CRC that `deltactl quantise` prints for the same weights. Then SIGTERM:
 the board must exit 0 and remove the path.
 
@@ -119,7 +119,7 @@ def main():
               " %d telemetry frames before it" % (protocol, depth, build_id, weights_crc, network_hz, board_hz,
                                                   control_hz, setpoint_hz, telemetry))
         checks = [(got_sequence == sequence, "reply sequence %d, request %d" % (got_sequence, sequence)),
-                  (protocol == 2, "protocol version %d" % protocol),
+                  (protocol == 3, "protocol version %d" % protocol),
                   (depth == 256, "setpoint depth %d" % depth),
                   (build_id == expected_build, "build id %08x, quantise says %08x" % (build_id, expected_build)),
                   (weights_crc == expected_crc, "weights CRC %08x, quantise says %08x" % (weights_crc, expected_crc)),
