@@ -25,6 +25,14 @@ delta_add_gtest(host_controller_tests
   # The refusals before any byte is sent need neither.
   SERIAL PARALLEL_TESTS HostRun.BadTrajectoriesAreRefusedBeforeAnyByteIsSent HostRun.CheckPrintsTheBoxAndEveryProblemWithoutAPort)
 
+# `host load` onto virtual boards started with no model (both fidelities): status before and after,
+# a load with the drives on refused, host run refusing no model or another model, then running.
+delta_add_gtest(host_load_tests
+  SOURCES ${CMAKE_CURRENT_LIST_DIR}/host_controller/test_host_load.cpp
+  LIBRARIES delta::golden delta::host nlohmann_json::nlohmann_json
+  LABELS host host_controller virtual_board
+  SERIAL)
+
 # `host serve` and `host ctl` against the model-fidelity virtual board (kept to real time).
 delta_add_gtest(host_serve_tests
   SOURCES ${CMAKE_CURRENT_LIST_DIR}/host_controller/test_host_serve.cpp

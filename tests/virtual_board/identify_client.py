@@ -1,11 +1,13 @@
 #!/usr/bin/env python3
 """An independent client of `deltactl virtual-board`: pyserial and this file only, no project code.
 
-Starts the virtual board on a pseudo-terminal, opens its path as a serial port, sends an identify
-request built here from docs/board_link.md (sync 0x7E, length, sequence, type 0x01, CRC-16/CCITT-FALSE
-high byte first over length..payload), and checks the reply: protocol version 3, setpoint depth 256,
-and the build id and weights CRC that `deltactl quantise` prints for the same weights. Then SIGTERM:
-the board must exit 0 and remove the path.
+Starts the virtual board on a pseudo-terminal with no model (`--no-model`), opens its path as a
+serial port, sends an identify request built here from docs/board_link.md (sync 0x7E, length,
+sequence, type 0x01, CRC-16/CCITT-FALSE high byte first over length..payload), and checks the reply
+and the telemetry: protocol version 3, setpoint depth 256, the build id `deltactl quantise` prints,
+weights CRC 0 and the model flag (telemetry flags bit 7) clear. Then `deltactl host load` loads the
+weights, and the same client reads them back: the weights CRC quantise prints, the model flag set.
+Then SIGTERM: the board must exit 0 and remove the path.
 
 Usage: identify_client.py DELTACTL WEIGHTS WORK_DIR
 """
@@ -87,7 +89,7 @@ def main():
     expected_crc, expected_build = int(match.group(1), 16), int(match.group(2), 16)
 
     link = os.path.join(work, "tty")
-    board = subprocess.Popen([deltactl, "virtual-board", "--link", link, "--weights", weights],
+    board = subprocess.Popen([deltactl, "virtual-board", "--link", link, "--no-model"],
                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         ready = board.stdout.readline()
@@ -97,37 +99,53 @@ def main():
         if not os.path.islink(link):
             fail(link + " is not a symbolic link")
 
-        port = serial.Serial(link, 1000000, timeout=0.05)
-        port.reset_input_buffer()  # telemetry sent before we opened
-        sequence = 0x5A
-        port.write(frame(sequence, 0x01))
-        reply = None
-        telemetry = 0
-        for got_sequence, frame_type, payload in read_frames(port, time.monotonic() + 30):
-            if frame_type == 0x82:
-                telemetry += 1
-            elif frame_type == 0x81:
-                reply = (got_sequence, payload)
-                break
-        port.close()
-        if reply is None:
-            fail("no identify reply within 30 s")
-        got_sequence, payload = reply
-        (protocol, depth, build_id, weights_crc, network_hz, board_hz, control_hz,
-         setpoint_hz) = struct.unpack("<HHIIIIHH", payload)
-        print("identify: protocol %d, depth %d, build id %08x, weights CRC %08x, clocks %d / %d Hz, rates %d / %d Hz;"
-              " %d telemetry frames before it" % (protocol, depth, build_id, weights_crc, network_hz, board_hz,
-                                                  control_hz, setpoint_hz, telemetry))
-        checks = [(got_sequence == sequence, "reply sequence %d, request %d" % (got_sequence, sequence)),
-                  (protocol == 3, "protocol version %d" % protocol),
-                  (depth == 256, "setpoint depth %d" % depth),
-                  (build_id == expected_build, "build id %08x, quantise says %08x" % (build_id, expected_build)),
-                  (weights_crc == expected_crc, "weights CRC %08x, quantise says %08x" % (weights_crc, expected_crc)),
-                  ((network_hz, board_hz, control_hz, setpoint_hz) == (46500000, 23250000, 10000, 1000),
-                   "clocks and rates")]
-        for ok, what in checks:
-            if not ok:
-                fail(what)
+        def identify_and_flags():
+            port = serial.Serial(link, 1000000, timeout=0.05)
+            port.reset_input_buffer()  # telemetry sent before we opened
+            sequence = 0x5A
+            port.write(frame(sequence, 0x01))
+            reply, flags, telemetry = None, None, 0
+            for got_sequence, frame_type, payload in read_frames(port, time.monotonic() + 30):
+                if frame_type == 0x82:
+                    telemetry += 1
+                    flags = payload[33]  # TelemetryFlagsOffset
+                elif frame_type == 0x81:
+                    reply = (got_sequence, payload)
+                if reply is not None and flags is not None:
+                    break
+            port.close()
+            if reply is None or flags is None:
+                fail("no identify reply and telemetry within 30 s")
+            got_sequence, payload = reply
+            fields = struct.unpack("<HHIIIIHH", payload)
+            print("identify: protocol %d, depth %d, build id %08x, weights CRC %08x, clocks %d / %d Hz, rates %d / %d"
+                  " Hz; telemetry flags %02x (%d frames)" % (fields + (flags, telemetry)))
+            if got_sequence != sequence:
+                fail("reply sequence %d, request %d" % (got_sequence, sequence))
+            return fields, flags
+
+        def check(fields, flags, crc, model):
+            (protocol, depth, build_id, weights_crc, network_hz, board_hz, control_hz, setpoint_hz) = fields
+            checks = [(protocol == 3, "protocol version %d" % protocol),
+                      (depth == 256, "setpoint depth %d" % depth),
+                      (build_id == expected_build, "build id %08x, quantise says %08x" % (build_id, expected_build)),
+                      (weights_crc == crc, "weights CRC %08x, expected %08x" % (weights_crc, crc)),
+                      (bool(flags & 0x80) == model, "model flag (bit 7) %s" % ("clear" if model else "set")),
+                      ((network_hz, board_hz, control_hz, setpoint_hz) == (46500000, 23250000, 10000, 1000),
+                       "clocks and rates")]
+            for ok, what in checks:
+                if not ok:
+                    fail(what)
+
+        fields, flags = identify_and_flags()
+        check(fields, flags, 0, False)  # no model
+        load = subprocess.run([deltactl, "host", "load", "--port", link, "--weights", weights],
+                              capture_output=True, text=True)
+        print(load.stdout.strip())
+        if load.returncode != 0:
+            fail("host load exit %d: %s" % (load.returncode, load.stderr))
+        fields, flags = identify_and_flags()
+        check(fields, flags, expected_crc, True)
     finally:
         if board.poll() is None:
             board.send_signal(signal.SIGTERM)
