@@ -125,6 +125,9 @@ module model_loader #(
     reset_only_in_the_first_cycle: assume (rst_ni == f_past_valid);
     nothing_is_delivered_while_stalled: assume (!stall_o || (!frame_ok_i && !payload_valid_i));
     a_model_frames_ok_follows_its_payload: assume (!(frame_ok_i && is_model_i) || f_seen_q == 8'hFF);
+    // link_rx's parser presents a payload byte and decides a frame (ok) in different branches of
+    // one step: never in the same clock.
+    no_payload_byte_in_the_clock_of_an_ok: assume (!(frame_ok_i && payload_valid_i));
   end
   // The specification, written independently: the frame number and word as the payload presents
   // them, and the CRC-32/ISO-HDLC of a word's six little-endian bytes in one step.

@@ -263,10 +263,13 @@ TEST(LinkState, AHomingStoppedWithTheDrivesOffSaysHowFarItGot) {
   TelemetryPayload t;
   t.set(TelemetryFlag::kHomed, true);
   t.set(TelemetryFlag::kHoming, true);
+  t.set(TelemetryFlag::kModel, true);
   t.home = 1u << 3;  // joint 1 referenced
   EXPECT_EQ(describe_state(t), "drives off, homed by hand, homing unfinished (1 of 3 joints referenced)");
   t.set(TelemetryFlag::kDriveEnable, true);
   EXPECT_EQ(describe_state(t), "drives on, homed by hand, homing");
+  t.set(TelemetryFlag::kModel, false);
+  EXPECT_EQ(describe_state(t), "drives on, homed by hand, no model, homing");
 }
 
 }  // namespace
