@@ -79,3 +79,15 @@ delta_add_gtest(rtl_model_board_module_tests
   LIBRARIES delta_rtl_board_probe_model delta::virtual_board delta::rtl_board delta::golden delta::nn delta::host
   LABELS rtl cosim)
 target_include_directories(rtl_model_board_module_tests PRIVATE ${CMAKE_CURRENT_LIST_DIR}/rtl)
+
+# One gateware for every model: the bitstream's sources (rtl/board/CMakeLists.txt's board_sources)
+# elaborated by yosys with the mem folder `deltactl quantise` writes for two W.json in turn: the
+# tanh tables and identify.mem (the build id) byte-identical, the elaborated design byte-identical,
+# and the same from those three files alone (a few seconds, no synthesis).
+get_directory_property(delta_bitstream_sources DIRECTORY ${PROJECT_SOURCE_DIR}/rtl/board DEFINITION board_sources)
+add_test(NAME Gateware.TheBitstreamsInputsAreTheSameWhicheverWeightsTheBuildWasConfiguredWith
+  COMMAND bash ${CMAKE_CURRENT_LIST_DIR}/rtl/bitstream_inputs_without_model.sh ${PROJECT_SOURCE_DIR} ${PROJECT_BINARY_DIR}
+          $<TARGET_FILE:deltactl> icebreaker_top ${PROJECT_SOURCE_DIR}/weights/paper_like_deployed.json
+          ${PROJECT_SOURCE_DIR}/weights/paper_like_calibration_deployed.json ${delta_bitstream_sources})
+set_tests_properties(Gateware.TheBitstreamsInputsAreTheSameWhicheverWeightsTheBuildWasConfiguredWith PROPERTIES
+  LABELS rtl TIMEOUT 300)
