@@ -1,6 +1,6 @@
 // `deltactl ik --backend rtl` (SPEC): the raw output codes equal those of `--backend fixed` row by
-// row, on the shipped weights, for poses inside and beyond the trained range; and for the deployed
-// model in row order, compensation included.
+// row, on the shipped weights, for poses inside and beyond the trained range; and for both shipped
+// deployed models in row order, compensation (and a joint ripple table) included.
 #include <gtest/gtest.h>
 
 #include <sstream>
@@ -54,34 +54,49 @@ TEST(BackendRtl, RawCodesEqualFixedBackend) {
   EXPECT_NE(rtl.err.find("latency 92 cycles"), std::string::npos) << rtl.err;
 }
 
-// The deployed model on a recording of the paper-like robot (experiment 1, in time order): the
+// The deployed models on a recording of the paper-like robot (experiment 1, in time order): the
 // raw codes of rtl (network + backlash_compensation.sv), fixed and hls are the same, row by row.
-TEST(BackendRtl, DeployedModelInRowOrderEqualsFixedAndHls) {
+// Both shipped deployed models: the board's default and the lab loop's (another network, input
+// shifts and CRC, with a joint ripple table that shapes the setpoints: the model a board loads
+// as data in place of the first).
+TEST(BackendRtl, DeployedModelsInRowOrderEqualFixedAndHls) {
   const std::string dir = ::testing::TempDir() + "backend_rtl_deployed_" + std::to_string(::getpid());
   const CommandResult simulate =
       run_deltactl("simulate --experiment experiment1 --samples 1500 --seed 3 --effects " +
                    std::string(DELTA_SOURCE_DIR) + "/sim/paper_like_effects.json --out " + dir + "_exp1.csv");
   ASSERT_EQ(simulate.exit_code, 0) << simulate.err;
-  const std::string weights = std::string(DELTA_SOURCE_DIR) + "/weights/paper_like_deployed.json";
-  std::vector<std::vector<std::string>> raw;
-  for (const char* backend : {"rtl", "fixed", "hls"}) {
-    const CommandResult ik = run_deltactl("ik --weights " + weights + " --backend " + backend + " --in " + dir +
-                                          "_exp1.csv --out " + dir + "_" + backend + ".csv");
-    ASSERT_EQ(ik.exit_code, 0) << ik.err;
-    EXPECT_NE(ik.err.find("applied in row order"), std::string::npos) << ik.err;
-    raw.push_back(raw_columns(read_text(dir + "_" + backend + ".csv")));
+  std::vector<std::string> first_model_rtl;
+  for (const char* name : {"paper_like_deployed", "paper_like_calibration_deployed"}) {
+    SCOPED_TRACE(name);
+    const std::string weights = std::string(DELTA_SOURCE_DIR) + "/weights/" + name + ".json";
+    std::vector<std::vector<std::string>> raw;
+    for (const char* backend : {"rtl", "fixed", "hls"}) {
+      const CommandResult ik = run_deltactl("ik --weights " + weights + " --backend " + backend + " --in " + dir +
+                                            "_exp1.csv --out " + dir + "_" + backend + ".csv");
+      ASSERT_EQ(ik.exit_code, 0) << ik.err;
+      EXPECT_NE(ik.err.find("applied in row order"), std::string::npos) << ik.err;
+      raw.push_back(raw_columns(read_text(dir + "_" + backend + ".csv")));
+    }
+    ASSERT_EQ(raw[0].size(), 1501u);
+    EXPECT_EQ(raw[0], raw[1]);
+    EXPECT_EQ(raw[0], raw[2]);
+    // The compensation acts: the pose-wise raw codes differ on most rows of this back-and-forth path.
+    const CommandResult alone = run_deltactl("ik --weights " + weights + " --backend rtl --pose-wise --in " + dir +
+                                             "_exp1.csv --out " + dir + "_alone.csv");
+    ASSERT_EQ(alone.exit_code, 0) << alone.err;
+    const std::vector<std::string> pose_wise = raw_columns(read_text(dir + "_alone.csv"));
+    std::size_t differ = 0;
+    for (std::size_t i = 1; i < pose_wise.size(); ++i) differ += pose_wise[i] != raw[0][i];
+    EXPECT_GT(differ, pose_wise.size() / 2);
+    // The second model's codes are its own, not the first's.
+    if (first_model_rtl.empty()) {
+      first_model_rtl = raw[0];
+    } else {
+      std::size_t other = 0;
+      for (std::size_t i = 1; i < raw[0].size(); ++i) other += raw[0][i] != first_model_rtl[i];
+      EXPECT_GT(other, raw[0].size() / 2);
+    }
   }
-  ASSERT_EQ(raw[0].size(), 1501u);
-  EXPECT_EQ(raw[0], raw[1]);
-  EXPECT_EQ(raw[0], raw[2]);
-  // The compensation acts: the pose-wise raw codes differ on most rows of this back-and-forth path.
-  const CommandResult alone = run_deltactl("ik --weights " + weights + " --backend rtl --pose-wise --in " + dir +
-                                           "_exp1.csv --out " + dir + "_alone.csv");
-  ASSERT_EQ(alone.exit_code, 0) << alone.err;
-  const std::vector<std::string> pose_wise = raw_columns(read_text(dir + "_alone.csv"));
-  std::size_t differ = 0;
-  for (std::size_t i = 1; i < pose_wise.size(); ++i) differ += pose_wise[i] != raw[0][i];
-  EXPECT_GT(differ, pose_wise.size() / 2);
 }
 
 TEST(BackendRtl, BadWeightsFileIsAnInputError) {

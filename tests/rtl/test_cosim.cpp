@@ -2,6 +2,7 @@
 // virtual board (the Verilated board core as built, three joint plants, the paper-like robot's effects).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <iostream>
@@ -10,6 +11,7 @@
 #include "delta/board_facts.hpp"
 #include "delta/cosim/board_cosim.hpp"
 #include "delta/effect_file.hpp"
+#include "delta/golden/board_network.hpp"
 #include "delta/golden/export.hpp"
 #include "delta/golden/fixed_network.hpp"
 #include "delta/golden/fixed_point_backend.hpp"
@@ -186,6 +188,41 @@ TEST(Cosim, AJointRippleTableShapesTheSetpointsAndPlacesThePlateCloser) {
   EXPECT_LT(shaped.network_ideal.rms_distance_m, 0.8 * unshaped.network_ideal.rms_distance_m);
   EXPECT_LT(shaped.closed_loop.rms_distance_m, 0.9 * unshaped.closed_loop.rms_distance_m);
   for (int j = 0; j < 3; ++j) EXPECT_LT(shaped.board_joint_rms_deg[j], 0.005) << "joint " << j + 1;
+}
+
+// A second model as data: `deltactl cosim` builds the same gateware (the tanh tables and
+// identify.mem) whatever the model and loads the W.json over the link as `host load` does, then
+// runs the host's streaming loop in board time. With the lab loop's model (not the board's default:
+// another network, CRC and input shifts, a joint ripple table) the RTL board and the model board
+// write byte-identical recordings of 0.3 s of experiment 1 (and its approach), and the model's
+// recording is not the default model's.
+TEST(Cosim, ASecondModelLoadedAsDataGivesByteIdenticalRecordingsOnTheRtlAndModelBoards) {
+  const std::string first = std::string(DELTA_SOURCE_DIR) + "/weights/paper_like_deployed.json";
+  const std::string second = std::string(DELTA_SOURCE_DIR) + "/weights/paper_like_calibration_deployed.json";
+  const std::uint32_t first_crc = weights_crc(golden::read_board_weights(first).network);
+  const std::uint32_t second_crc = weights_crc(golden::read_board_weights(second).network);
+  ASSERT_NE(first_crc, second_crc);
+  const std::string dir = fresh_directory("cosim_second_model");
+  auto record = [&](const std::string& weights, const std::string& fidelity) {
+    const std::string out = dir + "/" + fidelity + (weights == first ? "_first" : "_second") + ".csv";
+    const CommandResult cosim = run_deltactl("cosim --fidelity " + fidelity + " --weights " + weights + " --effects " +
+                                             kEffects + " --duration 0.3 --out " + out);
+    EXPECT_EQ(cosim.exit_code, 0) << fidelity << ": " << cosim.err;
+    return read_text(out);
+  };
+  const std::string rtl = record(second, "rtl"), model = record(second, "model");
+  const std::size_t rows = static_cast<std::size_t>(std::count(rtl.begin(), rtl.end(), '\n'));
+  std::cout << "CRC " << golden::hex_word(second_crc, 32) << " (default " << golden::hex_word(first_crc, 32)
+            << "): " << rows << " lines, " << rtl.size() << " bytes from the RTL board\n";
+  EXPECT_GT(rows, 900u);
+  if (rtl != model) {
+    std::size_t at = 0;
+    while (at < rtl.size() && at < model.size() && rtl[at] == model[at]) ++at;
+    ADD_FAILURE() << "the recordings differ at byte " << at << ": RTL '" << rtl.substr(at, 80) << "', model '"
+                  << model.substr(at, 80) << "'";
+  }
+  EXPECT_NE(record(first, "model"), model) << "the second model's recording is the default model's";
+  std::filesystem::remove_all(dir);
 }
 
 TEST(Cosim, CommandRefusesHybridWeightsAndUnknownTrajectories) {
