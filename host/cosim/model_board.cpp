@@ -1892,7 +1892,8 @@ std::vector<ModelBoard::ProbedRegister> ModelBoard::probe_registers(const std::s
       add(check + "difference_q", bits(s.difference_q[j], kDifferenceBits));
       add(check + "outside_q", s.outside_q[j]);
     }
-    add("u_pwm.pwm_phase_q", static_cast<std::uint64_t>(s.pwm_phase));
+    // joint_pwm counts the period down: pwm_remaining_q = 2^PwmBits - 1 - phase.
+    add("u_pwm.pwm_remaining_q", static_cast<std::uint64_t>(((1 << board::kPwmBits) - 1) - s.pwm_phase));
     std::uint64_t duty = 0;
     for (int j = 0; j < kJoints; ++j) duty |= static_cast<std::uint64_t>(s.duty[j]) << (kDutyBits * j);
     add("u_pwm.duty_q", duty);

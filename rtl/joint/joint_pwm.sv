@@ -23,18 +23,27 @@ module joint_pwm #(
   // |current| <= 2^14 (0.5 A) -> duty <= 2^PwmBits: the duty is |current| >> (14 - PwmBits).
   localparam int unsigned DutyShift = 14 - PwmBits;
 
-  logic [PwmBits-1:0]    pwm_phase_q;
+  // The PWM period's position counts down (remaining = 2^PwmBits - 1 - phase), so that the duty
+  // comparison is one carry chain per joint with no inverters: phase < duty <=> duty + remaining
+  // >= 2^PwmBits.
+  logic [PwmBits-1:0]    pwm_remaining_q;
   logic [3*DutyBits-1:0] duty_q, duty_d;
   logic [2:0]            direction_q, direction_d;
+
+  // |x| >> DutyShift without a negation: -x keeps x's bits up to its lowest 1 and flips those
+  // above, so bit k of |x| is x[k] ^ (x < 0 && x[k-1:0] != 0). That prefix OR is the carry of
+  // {x[14:DutyShift], x[DutyShift-1:0] != 0} + {x[15] repeated} (a carry chain, one logic cell per bit
+  // with the duty's flip-flop); 16'(-x) >> DutyShift bit for bit, for every x.
+  function automatic logic [DutyBits-1:0] duty_of(logic [15:0] x);
+    duty_of = DutyBits'(({x[14:DutyShift], x[DutyShift-1:0] != '0} + {(DutyBits + 1){x[15]}}) >> 1) ^ {DutyBits{x[15]}};
+  endfunction
 
   always_comb begin
     duty_d      = duty_q;
     direction_d = direction_q;
     for (int j = 0; j < 3; j++) begin
       if (current_valid_i[j]) begin
-        // The limit keeps 16'(-x) exact (no -32768).
-        duty_d[DutyBits * j +: DutyBits] =
-            DutyBits'((currents_i[16 * j + 15] ? 16'(-currents_i[16 * j +: 16]) : currents_i[16 * j +: 16]) >> DutyShift);
+        duty_d[DutyBits * j +: DutyBits] = duty_of(currents_i[16 * j +: 16]);
         direction_d[j] = currents_i[16 * j + 15];
       end
     end
@@ -45,19 +54,20 @@ module joint_pwm #(
   logic       enable_q;
   always_comb begin
     for (int j = 0; j < 3; j++) begin
-      pwm_d[j] = enabled_i && !fault_i && ({1'b0, pwm_phase_q} < duty_q[DutyBits * j +: DutyBits]);
+      // duty + remaining < 2^DutyBits (duty <= 2^PwmBits, remaining < 2^PwmBits).
+      pwm_d[j] = enabled_i && !fault_i && DutyBits'(duty_q[DutyBits * j +: DutyBits] + DutyBits'(pwm_remaining_q)) >= DutyBits'(1 << PwmBits);
     end
   end
 
   always_ff @(posedge clk_i or negedge rst_ni) begin
     if (!rst_ni) begin
-      pwm_phase_q <= '0;
+      pwm_remaining_q <= '1;
       duty_q      <= '0;
       direction_q <= '0;
       pwm_q       <= '0;
       enable_q    <= 1'b0;
     end else begin
-      pwm_phase_q <= pwm_phase_q + 1'b1;
+      pwm_remaining_q <= pwm_remaining_q - 1'b1;
       duty_q      <= duty_d;
       direction_q <= direction_d;
       pwm_q       <= pwm_d;

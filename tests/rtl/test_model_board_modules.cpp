@@ -191,7 +191,7 @@ std::unordered_map<std::string, Reader> rtl_registers() {
   DELTA_JA(u_safety, checked_q)
   DELTA_JA(u_safety, fault_cause_q)
   DELTA_JA(u_safety, active_q)
-  DELTA_JA(u_pwm, pwm_phase_q)
+  DELTA_JA(u_pwm, pwm_remaining_q)
   DELTA_JA(u_pwm, duty_q)
   DELTA_JA(u_pwm, direction_q)
   DELTA_JA(u_pwm, pwm_q)
