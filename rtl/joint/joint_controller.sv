@@ -19,7 +19,7 @@
 // coefficient multiplies the complemented operand by its magnitude plus a correction, and an
 // OpInit's rounding constant is ORed in or, where its bit is inside the state, is the next OpMac's
 // correction.
-// The instruction, every memory word (word_q), each step of the operand and the shifted
+// The instruction, every memory word (word_n_q), each step of the operand and the shifted
 // accumulator pass a register, so no path holds more than one carry chain: 25 MHz beside the
 // network on the UP5K.
 module joint_controller (
@@ -55,6 +55,10 @@ module joint_controller (
   input  logic [delta_joint_pkg::ShiftBits-1:0] shift_value
 );
   localparam int unsigned AccWidth = delta_joint_pkg::AccumulatorWidth;
+  localparam int unsigned LimitBit = $clog2(delta_joint_pkg::CurrentLimit);  // CurrentLimit = 2^LimitBit
+  if (delta_joint_pkg::CurrentLimit != 16'(1 << LimitBit)) begin : g_limit_is_a_power_of_two
+    $error("joint_controller: delta_joint_pkg::CurrentLimit must be a power of two");
+  end
 
   typedef enum logic [1:0] {StateIdle, StateLoad, StateRun, StateDone} state_e;
 
@@ -69,7 +73,8 @@ module joint_controller (
   logic [AccWidth-1:0] acc_q, acc_d;
   logic [AccWidth-1:0] multiplicand_q, multiplicand_d;  // operand << bit
   logic [22:0]  coefficient_q, coefficient_d;  // |c|, shifted right a bit per step
-  logic [31:0]  word_q, word_d;      // the word read two cycles ago, masked (pipeline register)
+  logic [31:0]  word_n_q, word_d;    // the word read two cycles ago, masked, complemented (pipeline register)
+  logic [31:0]  memory_word;         // ~word_n_q: a subtraction of the word takes word_n_q, no inverters
   logic [31:0]  first_q, first_d;    // operand a
   logic [57:0]  shifted_difference_q, shifted_difference_d;  // (a - b) << operand_shift
   logic [57:0]  operand_wide_q, operand_wide_d;              // ((a - b) << operand_shift) - c
@@ -148,6 +153,18 @@ module joint_controller (
     endcase
   endfunction
 
+  // acc >>> shift fits 32 bits: acc[65:31 + shift] all equal the sign, for shift 22, 25, 26 or
+  // else 29 (nested ranges, so no shifted copy of the accumulator's top is built); top is acc_q's
+  // bits 53 and up (index 0 here is bit 53).
+  function automatic logic fits_word(logic [AccWidth-54:0] top, logic sign, logic [4:0] shift);
+    logic s22, s26, s29;
+    s22 = shift == 5'd22;
+    s26 = shift == 5'd26;
+    s29 = !(s22 || s26 || shift == 5'd25);
+    fits_word = top[AccWidth-54:7] == {(AccWidth - 60){sign}} && (s29 || top[6:4] == {3{sign}}) &&
+                (s29 || s26 || top[3] == sign) && (!s22 || top[2:0] == {3{sign}});
+  endfunction
+
   // (a - b) << shift on 58 bits, exact; the operand is this minus c.
   function automatic logic [57:0] shift_difference(logic [32:0] difference, logic [2:0] shift);
     logic [57:0] extended;
@@ -164,7 +181,7 @@ module joint_controller (
   logic [57:0]         operand_wide;
   logic [39:0]         operand;
   logic                operand_saturated;
-  logic [AccWidth-1:0] shifted_acc;    // acc >>> shift; its low word and overflow registered
+  logic [31:0]         shifted_acc;    // (acc >>> shift)[31:0], registered
   logic [31:0]         shifted_word_q;   // (acc >>> shift)[31:0]
   logic                shifted_sign_q;   // acc < 0
   logic                shifted_over_q;   // acc >>> shift does not fit 32 bits
@@ -180,14 +197,16 @@ module joint_controller (
     operand_wide = operand_wide_q;
     operand_saturated = operand_wide[57:39] != {19{operand_wide[57]}};
     operand = operand_saturated ? {operand_wide[57], {39{!operand_wide[57]}}} : operand_wide[39:0];
-    shifted_acc = shift_right(acc_q, instr_shift);
+    shifted_acc = 32'(shift_right(acc_q, instr_shift));
     state_saturated = shifted_over_q;
     state_word = state_saturated ? {shifted_sign_q, {31{!shifted_sign_q}}} : shifted_word_q;
-    // acc >>> shift beyond +-CurrentLimit: beyond 32 bits, or its word beyond.
-    current_high = !shifted_sign_q && (shifted_over_q ||
-                   $signed(shifted_word_q) > $signed({16'd0, delta_joint_pkg::CurrentLimit}));
-    current_low = shifted_sign_q && (shifted_over_q ||
-                  $signed(shifted_word_q) < $signed(32'(-{16'd0, delta_joint_pkg::CurrentLimit})));
+    // acc >>> shift beyond +-CurrentLimit: beyond 32 bits, or its word beyond. The limit is a power
+    // of two, 2^LimitBit, so these are bit tests of the word (whose bit 31 is the sign when it fits):
+    // above 2^LimitBit a bit over LimitBit is set, or bit LimitBit and one below; below -2^LimitBit
+    // a bit from LimitBit up is clear.
+    current_high = !shifted_sign_q && (shifted_over_q || shifted_word_q[30:LimitBit+1] != '0 ||
+                   (shifted_word_q[LimitBit] && shifted_word_q[LimitBit-1:0] != '0));
+    current_low = shifted_sign_q && (shifted_over_q || shifted_word_q[30:LimitBit] != '1);
     current_word = current_high ? delta_joint_pkg::CurrentLimit :
                    current_low  ? 16'(-delta_joint_pkg::CurrentLimit) : shifted_word_q[15:0];
     acc_sum = acc_q + multiplicand_q;
@@ -196,6 +215,7 @@ module joint_controller (
 
   assign source_data = reads_zero(source_q, primed_q) ? 32'd0 : read_data;
   assign word_d      = source_data;
+  assign memory_word = ~word_n_q;
 
   always_comb begin
     // Which operand is fetched this cycle: a at phase 0, b at 1, c at 2.
@@ -263,7 +283,7 @@ module joint_controller (
           delta_joint_pkg::OpInit: begin
             phase_d = phase_q + 3'd1;
             if (phase_q == 3'd2) begin
-              acc_d   = init_value(word_q, instr_frac, instr_shift);
+              acc_d   = init_value(memory_word, instr_frac, instr_shift);
               phase_d = 3'd0;
               pc_d    = pc_q + 5'd1;
             end
@@ -272,10 +292,10 @@ module joint_controller (
             phase_d = phase_q + 3'd1;
             unique case (phase_q)
               3'd0, 3'd1: ;  // reads of a and b issued
-              3'd2: first_d = word_q;
-              3'd3: shifted_difference_d = shift_difference({first_q[31], first_q} - {word_q[31], word_q}, operand_shift);
+              3'd2: first_d = memory_word;
+              3'd3: shifted_difference_d = shift_difference({first_q[31], first_q} - {memory_word[31], memory_word}, operand_shift);
               3'd4: begin
-                operand_wide_d = shifted_difference_q - {{26{word_q[31]}}, word_q};
+                operand_wide_d = shifted_difference_q - {{26{memory_word[31]}}, memory_word};
                 multiplicand_d = delta_joint_pkg::mac_correction(pc_q);
               end
               3'd5: begin
@@ -356,7 +376,7 @@ module joint_controller (
       acc_q          <= '0;
       multiplicand_q <= '0;
       coefficient_q  <= '0;
-      word_q         <= '0;
+      word_n_q       <= '1;
       first_q        <= '0;
       shifted_difference_q <= '0;
       operand_wide_q <= '0;
@@ -380,7 +400,7 @@ module joint_controller (
       acc_q          <= acc_d;
       multiplicand_q <= multiplicand_d;
       coefficient_q  <= coefficient_d;
-      word_q         <= word_d;
+      word_n_q       <= ~word_d;
       first_q        <= first_d;
       shifted_difference_q <= shifted_difference_d;
       operand_wide_q <= operand_wide_d;
@@ -390,9 +410,9 @@ module joint_controller (
       overflow_q     <= overflow_d;
       current_valid_q <= current_valid_d;
       instruction_q  <= delta_joint_pkg::program_rom(pc_d);
-      shifted_word_q <= shifted_acc[31:0];
+      shifted_word_q <= shifted_acc;
       shifted_sign_q <= acc_q[AccWidth-1];
-      shifted_over_q <= shifted_acc[AccWidth-1:31] != {(AccWidth - 31){shifted_acc[AccWidth-1]}};
+      shifted_over_q <= !(fits_word(acc_q[AccWidth-1:53], 1'b0, instr_shift) || fits_word(acc_q[AccWidth-1:53], 1'b1, instr_shift));
     end
   end
 
