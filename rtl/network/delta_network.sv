@@ -122,22 +122,29 @@ module delta_network #(
 
   // The token in stage k (1..LastStage): valid_q[k], neuron and group at [(k - 1) * width +: width]
   // (flat vectors: yosys 0.23 reads neither arrays of structs nor multi-dimensional packed arrays).
-  logic [LastStage:1]               valid_q;
-  logic [LastStage*NeuronWidth-1:0] neurons_q;
-  logic [LastStage*GroupWidth-1:0]  groups_q;
-  logic [NeuronWidth-1:0]           neuron_s [1:LastStage];
-  logic [GroupWidth-1:0]            group_s [1:LastStage];
-  for (genvar k = 1; k <= LastStage; k++) begin : g_stage
+  // Only the stages that are read are kept: the neuron up to S7 (the LW' address), the group up to
+  // S11 (the accumulator select). The stream is contiguous, so the rest follows from valid_q: the
+  // last token is in S12 when S12 holds a token and S11 none, and the token in S9 is a neuron-0
+  // token when stage 9 + Groups (the token Groups earlier) holds none.
+  localparam int unsigned NeuronStages = 7;
+  localparam int unsigned GroupStages  = 11;
+  logic [LastStage:1]                  valid_q;
+  logic [NeuronStages*NeuronWidth-1:0] neurons_q;
+  logic [GroupStages*GroupWidth-1:0]   groups_q;
+  logic [NeuronWidth-1:0]              neuron_s [1:NeuronStages];
+  logic [GroupWidth-1:0]               group_s [1:GroupStages];
+  for (genvar k = 1; k <= NeuronStages; k++) begin : g_neuron_stage
     assign neuron_s[k] = neurons_q[(k-1)*NeuronWidth +: NeuronWidth];
-    assign group_s[k]  = groups_q[(k-1)*GroupWidth +: GroupWidth];
+  end
+  for (genvar k = 1; k <= GroupStages; k++) begin : g_group_stage
+    assign group_s[k] = groups_q[(k-1)*GroupWidth +: GroupWidth];
   end
 
   wire accept     = ap_start && !busy_q;
   wire issue      = busy_q && (step_q != StepWidth'(Steps));
   wire last_group = (group_q == GroupWidth'(Groups - 1));
   // The last token in S12: every output accumulator is complete.
-  wire final_token = valid_q[LastStage] && neuron_s[LastStage] == NeuronWidth'(NumHidden) &&
-                     group_s[LastStage] == GroupWidth'(Groups - 1);
+  wire final_token = valid_q[LastStage] && !valid_q[LastStage-1];
 
   always_ff @(posedge ap_clk) begin
     if (ap_rst) begin
@@ -167,8 +174,8 @@ module delta_network #(
   end
 
   always_ff @(posedge ap_clk) begin
-    neurons_q <= {neurons_q[(LastStage-1)*NeuronWidth-1:0], neuron_q};
-    groups_q  <= {groups_q[(LastStage-1)*GroupWidth-1:0], group_q};
+    neurons_q <= {neurons_q[(NeuronStages-1)*NeuronWidth-1:0], neuron_q};
+    groups_q  <= {groups_q[(GroupStages-1)*GroupWidth-1:0], group_q};
   end
 
   // ---- spec step 2 is the host's: the inputs are the scaled codes u, captured at the accept ----
@@ -293,7 +300,9 @@ module delta_network #(
     interpolation_q <= {1'b0, entry_s8_q, {TanhFractionWidth{1'b0}}} + InterpolationWidth'(slope_product_q);
     // h of neuron h is loaded by its last token in S9 and used by the tokens of h + 1; m is a bit
     // select of the interpolation (its rounding half is in the table word), so S9 only negates.
-    if (valid_q[9] && group_s[9] == GroupWidth'(Groups - 1) && neuron_s[9] != NeuronWidth'(NumHidden)) begin
+    // Every last-group slot loads, token or not: a load that is no neuron's (neuron NumHidden's,
+    // or between inferences) is read only by neuron-0 tokens, whose products are never used.
+    if (group_s[9] == GroupWidth'(Groups - 1)) begin
       activation_q <= negative_q[5]
           ? HiddenWidth'(0) - HiddenWidth'(delta_network_pkg::tanh_round(interpolation_q))
           : HiddenWidth'(delta_network_pkg::tanh_round(interpolation_q));
@@ -400,7 +409,7 @@ module delta_network #(
       logic signed [Product2Width-1:0] product;
       weight2_q         <= signed'(weight2_word);
       activation_lane_q <= activation_q;
-      bias_token_s10_q  <= neuron_s[9] == '0;
+      bias_token_s10_q  <= !valid_q[9 + Groups];  // no token Groups earlier: neuron 0
       product           = Product2Width'(activation_lane_q) * Product2Width'(weight2_q);
       product2_q[lane]  <= bias_token_s10_q ? signed'(bias2) : Accum2Width'(product);
     end
@@ -448,18 +457,21 @@ module delta_network #(
   // S12 adds the low part's pending carry c to the high part: resolved = acc2 >> 20 (the rounding
   // half is already in); S13 saturates it to 24 bits. In one cycle, the carry chain and the
   // range check behind it were the board's critical path.
-  logic [delta_network_pkg::Accum2RoundedWidth-1:0] resolved_q [NumOutputs];  // S12
-  logic signed [OutputWidth-1:0]                    y_q [NumOutputs];         // S13
+  // resolved_q holds the high part only: the low part's bits stay in the accumulators, which no
+  // token changes after the last one's S11 (until the next accept).
+  logic [Accum2HighWidth-1:0]    resolved_q [NumOutputs];  // S12
+  logic signed [OutputWidth-1:0] y_q [NumOutputs];         // S13
   always_ff @(posedge ap_clk) begin
     if (final_token) begin
       for (int o = 0; o < NumOutputs; o++) begin
-        resolved_q[o] <= {accum2_high_q[o] + Accum2HighWidth'(accum2_low_q[o][Accum2LowWidth]),
-                          accum2_low_q[o][Accum2LowWidth-1:delta_network_pkg::OutputShift]};
+        resolved_q[o] <= accum2_high_q[o] + Accum2HighWidth'(accum2_low_q[o][Accum2LowWidth]);
       end
     end
     if (output_q) begin
       for (int o = 0; o < NumOutputs; o++) begin
-        y_q[o] <= delta_network_pkg::output_code({resolved_q[o], delta_network_pkg::OutputShift'(0)});
+        y_q[o] <= delta_network_pkg::output_code({resolved_q[o],
+                                                  accum2_low_q[o][Accum2LowWidth-1:delta_network_pkg::OutputShift],
+                                                  delta_network_pkg::OutputShift'(0)});
       end
     end
   end
