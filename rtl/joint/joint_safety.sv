@@ -39,6 +39,17 @@ module joint_safety #(
   logic [CauseBits-1:0]     fault_cause_q;
   logic [2:0]               following, outside;
 
+  // a < b (unsigned) with one side constant, as bit logic: synthesis maps a comparison operator
+  // to a carry chain, a cell per bit, where this folds into a few LUTs.
+  function automatic logic unsigned_below(logic [31:0] a, logic [31:0] b);
+    unsigned_below = 1'b0;
+    for (int i = 0; i < 32; i++) if (a[i] != b[i]) unsigned_below = b[i];
+  endfunction
+  localparam logic [13:0] MinOffset = 14'(MinTravelBlock) ^ 14'h2000;
+  localparam logic [13:0] MaxOffset = 14'(MaxTravelBlock) ^ 14'h2000;
+  logic watchdog_expired;  // silent_periods_q > WatchdogPeriods
+  assign watchdog_expired = unsigned_below(32'(WatchdogPeriods), 32'(silent_periods_q));
+
   // Cheap on a full device: the following error is a 17-bit difference whose bits from
   // FollowingBits up must be a sign extension (and the reference fits 16 bits when it is inside
   // the travel); the travel is checked on the reference's 1024-count blocks (its bits 23..10).
@@ -50,10 +61,12 @@ module joint_safety #(
     assign reference_count = references_i[32 * j + 8 +: 24];
     assign difference      = reference_count[16:0] - {counts_i[16 * j + 15], counts_i[16 * j +: 16]};
     assign block           = reference_count[23:10];
+    logic [13:0] block_offset;
+    assign block_offset = {~block[13], block[12:0]};
     // Pipeline registers (no reset: read only when checked_q says they hold this period's values).
     always_ff @(posedge clk_i) begin
       difference_q <= difference;
-      outside_q    <= block < 14'(MinTravelBlock) || block > 14'(MaxTravelBlock);
+      outside_q    <= unsigned_below(32'(block_offset), 32'(MinOffset)) || unsigned_below(32'(MaxOffset), 32'(block_offset));
     end
     assign following[j] = difference_q[16:FollowingBits] != '0 && difference_q[16:FollowingBits] != '1;
     assign outside[j]   = outside_q;
@@ -74,7 +87,7 @@ module joint_safety #(
       if (following != '0) fault_cause_d[delta_board_pkg::FaultFollowing] = 1'b1;
       if (outside != '0) fault_cause_d[delta_board_pkg::FaultTravel] = 1'b1;
     end
-    if (enabled_i && silent_periods_q > WatchdogWidth'(WatchdogPeriods)) begin
+    if (enabled_i && watchdog_expired) begin
       fault_cause_d[delta_board_pkg::FaultWatchdog] = 1'b1;
     end
   end
