@@ -35,7 +35,7 @@ result=$(choice DELTA_YOWASP="$work/npm" DELTA_FPGA_TOOLS=)
   fail "one package installed: expected Debian's tools, got '$result'"
 echo 'export async function runNextpnrIce40() {}' >"$work/npm/@yowasp/nextpnr-ice40/gen/bundle.js"
 result=$(choice DELTA_YOWASP="$work/npm" DELTA_FPGA_TOOLS=)
-[[ $result == "yowasp|synth_ice40 -dsp|$work/npm/@yowasp/yosys/gen/share/ice40/cells_sim.v" ]] ||
+[[ $result == "yowasp|synth_ice40 -dsp -abc2 -dffe_min_ce_use 4|$work/npm/@yowasp/yosys/gen/share/ice40/cells_sim.v" ]] ||
   fail "both packages installed: expected YoWASP's tools, got '$result'"
 result=$(choice DELTA_YOWASP="$work/npm" DELTA_FPGA_TOOLS=debian)
 [[ $result == debian\|* ]] || fail "DELTA_FPGA_TOOLS=debian: got '$result'"
