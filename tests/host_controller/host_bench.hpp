@@ -141,6 +141,25 @@ inline PlateError plate_error_on_path(const Table& out, const Table& truth, doub
   return e;
 }
 
+// `deltactl host run` of experiment 1 on PORT with WEIGHTS for DURATION_S, recorded to RECORD.
+inline std::vector<std::string> host_run_arguments(const std::string& port, const std::string& weights,
+                                                   const std::string& record, double duration_s) {
+  return {"host",
+          "run",
+          "--port",
+          port,
+          "--weights",
+          weights,
+          "--trajectory",
+          "experiment1",
+          "--duration",
+          std::to_string(duration_s),
+          "--record",
+          record,
+          "--link-timeout-ms",
+          "1000"};
+}
+
 // A virtual board, homed at its references through `deltactl host home` unless told not to.
 struct Bench {
   std::string dir, link, truth, weights;
@@ -164,20 +183,7 @@ struct Bench {
     if (home.exit_code != 0) throw std::runtime_error("host home: " + home.err);
   }
   std::vector<std::string> run_arguments(const std::string& port, double duration_s) const {
-    return {"host",
-            "run",
-            "--port",
-            port,
-            "--weights",
-            weights,
-            "--trajectory",
-            "experiment1",
-            "--duration",
-            std::to_string(duration_s),
-            "--record",
-            dir + "/out.csv",
-            "--link-timeout-ms",
-            "1000"};
+    return host_run_arguments(port, weights, dir + "/out.csv", duration_s);
   }
 };
 

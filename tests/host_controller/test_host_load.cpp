@@ -42,20 +42,7 @@ struct NoModelBench {
     if (ready.find(link) == std::string::npos) throw std::runtime_error("virtual board not ready: " + ready);
   }
   std::vector<std::string> run_arguments(double duration_s) const {
-    return {"host",
-            "run",
-            "--port",
-            link,
-            "--weights",
-            kWeights,
-            "--trajectory",
-            "experiment1",
-            "--duration",
-            std::to_string(duration_s),
-            "--record",
-            dir + "/out.csv",
-            "--link-timeout-ms",
-            "1000"};
+    return host_run_arguments(link, kWeights, dir + "/out.csv", duration_s);
   }
 };
 
