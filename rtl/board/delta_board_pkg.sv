@@ -99,6 +99,15 @@ package delta_board_pkg;
   localparam int CommandClearFault /*verilator public*/ = 4;  // refused while a cause persists
   localparam int CommandSetHome /*verilator public*/ = 5;  // counts of the joints not referenced := HomeCount (drives off only)
   localparam int CommandHomeStart /*verilator public*/ = 6;  // drives off only: forget the references, start homing
+  localparam int CommandEstop /*verilator public*/ = 7;  // drives off at once, buffer flushed, the e-stop cause latched (any state) until a clear-fault
+  // Bench jog (`deltactl bench jog`, docs/bench.md): byte CommandJogBase + 2 j + n, drives off, no fault
+  // latched, homed or not (no model needed): joint j alone at the open-loop current +JogCurrentCode
+  // (n = 0) or -JogCurrentCode (n = 1), the other joints at zero current, for JogPeriods control
+  // periods, then the drives off. Any fault, a disable or an e-stop ends it at once; setpoints are
+  // refused while it runs.
+  localparam int CommandJogBase /*verilator public*/ = 16;  // .. CommandJogBase + 5
+  localparam int JogCurrentCode /*verilator public*/ = 1_638;  // 0.05 A in Q1.15 (a tenth of the current limit)
+  localparam int JogPeriods /*verilator public*/ = 5_000;  // 0.5 s
 
   // Identify payload (u16/u32 little-endian).
   localparam int IdentifyProtocolOffset /*verilator public*/ = 0;  // u16 ProtocolVersion
@@ -118,7 +127,7 @@ package delta_board_pkg;
   localparam int TelemetryReferencesOffset /*verilator public*/ = 8;  // 3 x i32 joint references, Q24.8 counts
   localparam int TelemetryCountsOffset /*verilator public*/ = 20;  // 3 x i16 encoder counts
   localparam int TelemetryCurrentsOffset /*verilator public*/ = 26;  // 3 x i16 applied currents, Q1.15 A
-  localparam int TelemetryFaultOffset /*verilator public*/ = 32;  // u8 fault cause bits (Fault*, bits 0-3), play sides (bits 4-6)
+  localparam int TelemetryFaultOffset /*verilator public*/ = 32;  // u8 fault cause bits (Fault*, bits 0-3), play sides (bits 4-6), e-stop latched (bit 7)
   localparam int TelemetryPlaySideShift /*verilator public*/ = 4;  // bit 4 + j of the fault byte: joint j's count last stepped up
   localparam int TelemetryFlagsOffset /*verilator public*/ = 33;  // u8 flags (Flag*)
   localparam int TelemetryFillOffset /*verilator public*/ = 34;  // u16 setpoints buffered
@@ -127,7 +136,7 @@ package delta_board_pkg;
   localparam int TelemetryUnderrunsOffset /*verilator public*/ = 38;  // u16 setpoint periods with an empty buffer
   localparam int TelemetrySaturationsOffset /*verilator public*/ = 40;  // u16 controller saturations (saturating)
   localparam int TelemetrySlewLimitsOffset /*verilator public*/ = 42;  // u16 reference changes limited (saturating)
-  localparam int TelemetryRejectedOffset /*verilator public*/ = 44;  // u16 refused commands and setpoints (saturating)
+  localparam int TelemetryRejectedOffset /*verilator public*/ = 44;  // u16 refused commands and setpoints (bits 0-11, saturating), board faults (bits 12-15)
   localparam int TelemetrySequenceOffset /*verilator public*/ = 46;  // u8 sequence of the last accepted frame
   localparam int TelemetryHomeOffset /*verilator public*/ = 47;  // u8 home switches (bits 0-2), joints referenced (bits 3-5)
   localparam int FlagDriveEnable /*verilator public*/ = 0;
@@ -163,6 +172,21 @@ package delta_board_pkg;
   localparam int FaultWatchdog /*verilator public*/ = 2;  // no valid frame for 250 ms with the drives on
   localparam int FaultTravel /*verilator public*/ = 3;  // a reference outside the travel
   localparam int FaultCauseBits /*verilator public*/ = 4;
+  // The board's own latched causes, beside the joints' (each drives off, flushes the buffer, latches
+  // until a clear-fault that finds the cause gone; never cleared by itself):
+  // bit TelemetryEstopBit of the fault byte: an e-stop command (CommandEstop) was received;
+  // bits BoardFaultShift + BoardFault* of the u16 at TelemetryBoardFaultOffset (the rejected counter's
+  // word, whose count is 12 bits): the board's safety inputs (icebreaker_top.sv, docs/bench.md).
+  localparam int TelemetryEstopBit /*verilator public*/ = 7;
+  localparam int TelemetryBoardFaultOffset /*verilator public*/ = 44;  // = TelemetryRejectedOffset: bits 12-15
+  localparam int BoardFaultShift /*verilator public*/ = 12;
+  localparam int BoardFaultEstopInput /*verilator public*/ = 0;  // the e-stop chain opened (estop_open_i high)
+  localparam int BoardFaultDrive /*verilator public*/ = 1;  // + j: drive j's fault line (drive_fault_i[j] high)
+  localparam int BoardFaultBits /*verilator public*/ = 4;
+  // Safety inputs: high = stop (the pins pulled up: a broken wire stops), synchronised, then sampled
+  // at each control period's tick 0; BoardInputFilterPeriods samples in a row at the stop level latch
+  // the cause (a shorter glitch is ignored): drives off within BoardInputFilterPeriods + 1 periods.
+  localparam int BoardInputFilterPeriods /*verilator public*/ = 3;
 
   // ---- status LEDs ----
   localparam int LedWindowBits /*verilator public*/ = 11;  // LED windows: 2^11 control periods (0.2 s)
