@@ -108,6 +108,7 @@ package delta_board_pkg;
   localparam int CommandJogBase /*verilator public*/ = 16;  // .. CommandJogBase + 5
   localparam int JogCurrentCode /*verilator public*/ = 1_638;  // 0.05 A in Q1.15 (a tenth of the current limit)
   localparam int JogPeriods /*verilator public*/ = 5_000;  // 0.5 s
+  localparam int TelemetryJogBit /*verilator public*/ = 6;  // bit 6 of the home byte: a bench jog runs (the drives on, open loop)
 
   // Identify payload (u16/u32 little-endian).
   localparam int IdentifyProtocolOffset /*verilator public*/ = 0;  // u16 ProtocolVersion
@@ -138,7 +139,7 @@ package delta_board_pkg;
   localparam int TelemetrySlewLimitsOffset /*verilator public*/ = 42;  // u16 reference changes limited (saturating)
   localparam int TelemetryRejectedOffset /*verilator public*/ = 44;  // u16 refused commands and setpoints (bits 0-11, saturating), board faults (bits 12-15)
   localparam int TelemetrySequenceOffset /*verilator public*/ = 46;  // u8 sequence of the last accepted frame
-  localparam int TelemetryHomeOffset /*verilator public*/ = 47;  // u8 home switches (bits 0-2), joints referenced (bits 3-5)
+  localparam int TelemetryHomeOffset /*verilator public*/ = 47;  // u8 home switches (bits 0-2), joints referenced (bits 3-5), a bench jog runs (bit 6)
   localparam int FlagDriveEnable /*verilator public*/ = 0;
   localparam int FlagHomed /*verilator public*/ = 1;
   localparam int FlagHolding /*verilator public*/ = 2;
