@@ -51,8 +51,9 @@ MeasuringStage::MeasuringStage(const StageOptions& options, const EffectSet& eff
 }
 
 void MeasuringStage::host_bytes(const std::uint8_t* data, std::size_t size, double t_s) {
-  if (start_s_ || !path_) return;
+  if (!path_ || holding(t_s)) return;
   const std::vector<link::Frame> frames = decoder_.feed(data, size);  // (fed throughout: frames span reads)
+  if (start_s_) return;  // armed: the stage takes hold at *start_s_ unless the board re-arms it
   if (options_.after_home_s < 0.0) {
     if (!frames.empty()) start_s_ = t_s;
     return;
@@ -70,13 +71,19 @@ void MeasuringStage::host_bytes(const std::uint8_t* data, std::size_t size, doub
 }
 
 void MeasuringStage::board_bytes(const std::uint8_t* data, std::size_t size, double t_s) {
-  if (homed_s_ || !path_ || options_.after_home_s < 0.0) return;
+  if (!path_ || options_.after_home_s < 0.0 || holding(t_s)) return;
   for (const link::Frame& frame : telemetry_decoder_.feed(data, size)) {
     if (frame.type != link::FrameType::kTelemetry) continue;
     const link::TelemetryPayload t = link::decode_telemetry(frame.payload);
-    if (t.has(link::TelemetryFlag::kReferenced) && !t.has(link::TelemetryFlag::kDriveEnable)) {
+    if (t.has(link::TelemetryFlag::kDriveEnable) || t.has(link::TelemetryFlag::kHoming)) {
+      // The board is moving its arms (homing, or anything else) before the stage took hold: the
+      // homing had not ended (a later phase, a keep-alive's identify in between); wait for its end
+      // again, so that the stage never takes hold sooner than after_home_s after the drives went off.
+      homed_s_.reset();
+      homing_ended_ = false;
+      start_s_.reset();
+    } else if (!homed_s_ && t.has(link::TelemetryFlag::kReferenced)) {
       homed_s_ = t_s;
-      return;
     }
   }
 }

@@ -186,9 +186,9 @@ TEST(ReferencedCalibration, FromARandomPowerUpPoseHomeThenDragRecordsTheRobotsOw
   EXPECT_GT(compared, 5500u);
   EXPECT_LE(worst_counts, 2.0 + 1e-9);
   // (With the drives off after homing the arms settle by a few micrometres; the drag moves millimetres.)
-  // The stage takes hold 2 s after the first identify that follows the homing's end (host record's;
-  // on a loaded machine an earlier one of the homing's own tail can start it, so the recording may
-  // miss the drag's first moments, never the homing): the plate is still for 1.5 s after the homing.
+  // The stage takes hold 2 s after the first identify that follows the homing's end (host record's);
+  // telemetry with the drives on or homing before then waits for the end again, so however late the
+  // recording's first row comes on a loaded machine, the plate is still for 1.5 s after the homing.
   EXPECT_LT(moved_after_home, 50e-6) << "the stage took hold during or right after the homing";
   EXPECT_GT(recording_s, truth.at(at_home, "t_s"));
   EXPECT_GT(moved_after, 1e-3) << "the stage never dragged the plate";

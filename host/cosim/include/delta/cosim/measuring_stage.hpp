@@ -11,7 +11,8 @@
 // after_home_s, that long after the next command starts once the board is homed at its references:
 // after the board's telemetry first shows every joint referenced with the drives off, the homing's
 // last command (the disable `host home` ends with), then the next command's identify request, that
-// of `host record`): a quintic move from where the plate rests to the trajectory's start during one
+// of `host record`; telemetry with the drives on or homing before the stage holds waits for the
+// homing's end again): a quintic move from where the plate rests to the trajectory's start during one
 // second, then the trajectory at its own time; at its end the stage holds the plate there.
 //
 // Wiring (deltactl virtual-board): the host's bytes go to host_bytes(), the board's to
@@ -60,7 +61,8 @@ class MeasuringStage {
   // after_home_s >= 0, the identify request of the first command after the homing).
   void host_bytes(const std::uint8_t* data, std::size_t size, double t_s);
   // Bytes the board sent, at board time t_s: with after_home_s >= 0, the first telemetry frame
-  // that shows the board referenced with the drives off is the homing's end.
+  // that shows the board referenced with the drives off and not homing is the homing's end; a
+  // frame with the drives on or homing before the stage holds the plate waits for it again.
   void board_bytes(const std::uint8_t* data, std::size_t size, double t_s);
   // The plate's true position held by the stage at board time t_s (nothing: not holding yet).
   std::optional<Vec3> drag(double t_s) const;
@@ -76,6 +78,8 @@ class MeasuringStage {
   std::uint64_t samples() const { return samples_; }
   double drag_start_s() const { return start_s_ ? *start_s_ + 1.0 : -1.0; }
   bool after_home() const { return options_.after_home_s >= 0.0; }
+  // The stage holds the plate from board time *start_s_ on.
+  bool holding(double t_s) const { return start_s_ && t_s >= *start_s_; }
   double path_duration_s() const { return duration_s_; }
 
  private:
