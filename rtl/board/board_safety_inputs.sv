@@ -109,6 +109,11 @@ module board_safety_inputs #(
     assign f_latching[i] = sample_i && f_raw_2[i] && f_run_q >= RunBits'(FilterPeriods - 1);
   end
   always_ff @(posedge clk_i) begin
+    // A reset leaves no cause latched (nor any sample kept: stopping_is_any_last_sample_at_stop).
+    if (f_past_valid && !$past(rst_ni)) no_cause_after_a_reset: assert (cause_o == '0);
+    if (f_past_valid) no_cause_after_a_reset_c: cover (!$past(rst_ni) && rst_ni);
+  end
+  always_ff @(posedge clk_i) begin
     if (f_past_valid && $past(rst_ni) && rst_ni) begin
       // FilterPeriods samples in a row at stop (this one the last) latch the cause.
       filter_periods_samples_at_stop_latch: assert ((cause_o & $past(f_latching)) == $past(f_latching));
