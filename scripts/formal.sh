@@ -80,6 +80,8 @@ job_config() { job_setup[$1]=$2; }
 
 job joint_safety joint_safety "$rtl/joint/joint_safety.sv"
 job joint_pwm joint_pwm "$rtl/joint/joint_pwm.sv"
+# The board's safety inputs: synchronisers, the filter, the latches.
+job board_safety_inputs board_safety_inputs "$rtl/board/board_safety_inputs.sv"
 job setpoint_buffer setpoint_buffer "$rtl/board/setpoint_buffer.sv"
 job link_rx link_rx "$rtl/board/link_crc16.sv $rtl/board/link_rx.sv"
 # The model loader (the model flag, the drives-on refusal, the serial CRC against CRC-32).
@@ -88,14 +90,16 @@ job model_loader model_loader "$rtl/board/model_loader.sv"
 job uart_rx uart_rx "$rtl/board/uart_rx.sv"
 job uart_rx_any_line uart_rx "$rtl/board/uart_rx.sv"
 job_config uart_rx_any_line "define FORMAL_UART_RX_ANY_LINE 1"
-# The board's command logic with joint_axes (fault latch, PWM, encoders) and the setpoint buffer;
-# link_rx (job link_rx) and the controllers' current clamp (job joint_controller) trusted.
-job board_core board_core "$rtl/network/delta_network_pkg.sv $rtl/board/board_core.sv $rtl/board/setpoint_buffer.sv $rtl/board/model_loader.sv $rtl/joint/joint_axes.sv
+# The board's command logic with joint_axes (fault latch, PWM, encoders), the setpoint buffer, the
+# model loader and the safety inputs; link_rx (job link_rx: its delivery, as setpoint_buffer's and
+# model_loader's assumptions state it, the stall included) and the controllers' current clamp (job
+# joint_controller) trusted.
+job board_core board_core "$rtl/network/delta_network_pkg.sv $rtl/board/board_core.sv $rtl/board/setpoint_buffer.sv $rtl/board/model_loader.sv $rtl/board/board_safety_inputs.sv $rtl/joint/joint_axes.sv
     $rtl/joint/joint_safety.sv $rtl/joint/joint_pwm.sv $rtl/joint/quadrature_counter.sv" \
   "$rtl/network/readmemh_table.sv $rtl/network/model_ram.sv $rtl/network/delta_network.sv $rtl/board/network_crossing.sv
     $rtl/board/reference_interpolator.sv $rtl/board/link_tx.sv $rtl/board/uart_tx.sv $rtl/board/uart_rx.sv
     $rtl/board/link_rx.sv $rtl/joint/joint_controller.sv" \
-  "setpoint_buffer joint_pwm"
+  "setpoint_buffer joint_pwm model_loader"
 # What the model board (host/cosim/model_board.cpp) relies on (docs/formal.md): link_tx's payload
 # RAM and word index (read with SYNTHESIS defined: readmemh_load.svh's $readmemh, the RAM cut out
 # as everywhere), the interpolator's schedule, the controllers' state memory while idle.

@@ -36,10 +36,12 @@ work=$(mktemp -d "${TMPDIR:-/tmp}/mutation.XXXXXX")
 trap 'rm -rf "$work"' EXIT
 echo "formal_mutation: seed $seed, $per_module mutants per module, PDR timeout $timeout s"
 
-# module file -> the proof job that checks it [-> the lines mutated: board_core's commands and drive
-# state; the rest of board_core (telemetry, LEDs, counters) is checked by simulation, not here]
+# module file -> the proof job that checks it [-> the lines mutated: board_core's commands, its own
+# causes, the jog and the drive state; the rest of board_core (telemetry, LEDs, counters) is checked
+# by simulation, not here]
 modules="joint/joint_safety.sv:joint_safety joint/joint_pwm.sv:joint_pwm board/setpoint_buffer.sv:setpoint_buffer
-board/link_rx.sv:link_rx board/link_crc16.sv:link_rx board/uart_rx.sv:uart_rx board/board_core.sv:board_core:109-165"
+board/link_rx.sv:link_rx board/link_crc16.sv:link_rx board/uart_rx.sv:uart_rx board/board_safety_inputs.sv:board_safety_inputs
+board/board_core.sv:board_core:193-333"
 if [ -n "$chosen" ]; then
   picked=
   for m in $modules; do
@@ -91,7 +93,17 @@ for entry in modules:
     handmade = {'board/link_rx.sv': [("write_q <= write_q + 1'b1;", " + 1'b1", " + 2'd2"),
                                      ("assign ring_write_addr = write_q;", "write_q;", "write_q + 1'b1;"),
                                      ("assign ring_read_addr  = read_q;", "read_q;", "read_q + 1'b1;"),
-                                     ("assign ring_write_data = rx_data_i;", "rx_data_i;", "rx_data_i ^ 8'h01;")]}
+                                     ("assign ring_write_data = rx_data_i;", "rx_data_i;", "rx_data_i ^ 8'h01;")],
+                # the safety inputs: a wrong polarity, one synchroniser stage, a filter that counts 2,
+                # a latch that clears itself, a clear that wins over a latching sample, no refusal
+                'board/board_safety_inputs.sv': [("assign raw = {drive_fault_i, estop_open_i};", "{drive_fault_i", "~{drive_fault_i"),
+                                                 ("sync_q <= meta_q;", "meta_q;", "raw;"),
+                                                 ("assign latch[i] = sample_i && sync_q[i] && history == '1;", "history == '1", "history[0]"),
+                                                 ("else if (clear_i) cause_q[i] <= 1'b0;", "if (clear_i)", "if (!sample_i)"),
+                                                 ("if (latch[i]) cause_q[i] <= 1'b1;", "latch[i])", "latch[i] && !clear_i)"),
+                                                 ("stopping_o = stopping_o || history_q[HistoryBits * i];", " || history_q[HistoryBits * i]", "")],
+                # a clear that ignores the safety inputs still at stop
+                'board/board_core.sv': [("assign fault_active        = joint_fault_active || inputs_stopping;", " || inputs_stopping", "")]}
     for line_text, old, new in handmade.get(path, []):
         number = next(n for n, line in enumerate(lines) if line_text in line)
         print('\x1f'.join([path, job, str(number + 1), old, new, str(lines[number].find(old))]))

@@ -45,7 +45,7 @@ target_include_directories(rtl_board_tests PRIVATE ${CMAKE_CURRENT_LIST_DIR}/rtl
 
 # The link v2 through the board core's pins (docs/board_link.md).
 delta_add_gtest(rtl_board_link_tests
-  SOURCES ${CMAKE_CURRENT_LIST_DIR}/rtl/test_board_link.cpp
+  SOURCES ${CMAKE_CURRENT_LIST_DIR}/rtl/test_board_link.cpp ${CMAKE_CURRENT_LIST_DIR}/rtl/test_board_safety.cpp
   LIBRARIES delta::rtl_board delta::golden delta::host delta::gateware
   LABELS rtl link)
 target_include_directories(rtl_board_link_tests PRIVATE ${CMAKE_CURRENT_LIST_DIR}/rtl)

@@ -13,11 +13,29 @@
 // tick ClocksPerPeriod/2 of k = 0 the telemetry snapshot; tick ClocksPerPeriod - InterpolationLeadClocks
 // the references of the next period are computed (delta_board_pkg's schedule facts).
 //
-// Safety: the drives run only after an accepted enable (homed, no fault); a fault (encoder skip,
-// following error, travel, watchdog: no valid frame for 250 ms with the drives on) stops the
-// torque, turns the enable off and flushes the buffer; clear fault is refused while a cause
-// persists and never re-enables. Setpoints are taken only with the drives on (a disable and a
-// fault flush), so an enable always starts on an empty buffer.
+// Safety: the drives run only after an accepted enable (homed, no fault) or during a bench jog; a
+// fault stops the torque, turns the enable off and flushes the buffer; clear fault is refused
+// while a cause persists and never re-enables. The causes: the joints' (encoder skip, following
+// error, travel, watchdog: no valid frame for 250 ms with the drives on), the board's safety
+// inputs (board_safety_inputs.sv: the e-stop chain open, a drive's fault line, each filtered over
+// BoardInputFilterPeriods samples at tick 0) and an e-stop command (CommandEstop, taken in every
+// state). Setpoints are taken only with the drives on (a disable and a fault flush), so an enable
+// always starts on an empty buffer.
+//
+// Bench jog (command CommandJogBase + 2 j + n, docs/bench.md): taken with the drives off, no fault,
+// not homing. From the clock after its frame it enables the drives with joint j's current
+// +-JogCurrentCode open loop (the others 0: joint_axes overrides the controllers' currents into
+// the PWM) until the JogPeriods-th tick 0 after the command, then the drives are off; a fault or a
+// disable ends it at once. The controllers run meanwhile as with the drives off (reset every
+// period; following, travel and watchdog disarmed), so an enable afterwards starts them clean.
+//
+// Timing choices the C++ model board follows (/work/helpers/gate_choices.md; t = the edge that
+// ends cycle t): a safety input's cause latches at the edge of the tick-0 cycle of its
+// BoardInputFilterPeriods-th sample at stop (visible from tick 1; the drive pins off from tick 2,
+// as for a joint fault); the e-stop latch and a jog's start or end by command change at the edge
+// after the command's frame_ok; a jog's length ends at its JogPeriods-th tick 0 (jog_q low from
+// the next cycle), and in the one clock after jog_q falls the PWM's stored duties are set to 0;
+// the DIR pins are low whenever the drives are off (joint_pwm).
 //
 // Homing (delta_board_pkg, docs/homing.md): home start (drives off) forgets the references and
 // starts homing; set home gives the joints not referenced HomeCount. While homing with the drives
@@ -49,13 +67,17 @@ module board_core #(
   input  logic [2:0] encoder_a_i,     // quadrature encoders, asynchronous
   input  logic [2:0] encoder_b_i,
   input  logic [2:0] home_switch_i,   // home switches, asynchronous: 1 = arm j at or above its reference
+  input  logic       estop_open_i,    // asynchronous: 1 = the e-stop chain is open (stop)
+  input  logic [2:0] drive_fault_i,   // asynchronous: 1 = drive j reports a fault (stop)
   output logic [2:0] drive_pwm_o,     // drive current command: PWM duty = |current| / 0.5 A
   output logic [2:0] drive_dir_o,     // drive current command: sign (1 = negative)
   output logic       drive_enable_o,  // enabled and no fault
   output logic [2:0] encoder_error_o, // sticky: encoder j skipped a quadrature state
   output logic       joint_limited_o, // sticky: a joint controller saturated an operand or state
-  output logic       joint_fault_o,   // latched until an accepted clear fault: torque off
+  output logic       joint_fault_o,   // any fault latched (the joints', the board's, an e-stop) until an accepted clear fault: torque off
   output logic [delta_board_pkg::FaultCauseBits-1:0] joint_fault_cause_o,  // bits: delta_board_pkg::Fault*
+  output logic [delta_board_pkg::BoardFaultBits-1:0] board_fault_cause_o,  // latched safety inputs: BoardFault* bits
+  output logic       estop_latched_o, // an e-stop command latched
   output logic       stage_sync_o     // bit StageSyncBit of the periods since reset: a clock a stage can log
 );
   localparam int unsigned NumInputs   = delta_network_pkg::NumInputs;
@@ -138,7 +160,7 @@ module board_core #(
     .payload_byte_i (payload_byte),
     .frame_ok_i     (frame_ok),
     .stall_o        (model_stall),
-    .drives_on_i    (enabled_q),
+    .drives_on_i    (drives_on),
     .refused_o      (model_refused),
     .write_o        (model_write),
     .address_o      (model_address),
@@ -146,6 +168,14 @@ module board_core #(
     .loaded_o       (model_loaded),
     .crc_o          (model_crc)
   );
+  // The telemetry word at TelemetryRejectedOffset is the refused counter (bits 0-11) under the board's
+  // causes (bits BoardFaultShift ..).
+  if (delta_board_pkg::TelemetryBoardFaultOffset != delta_board_pkg::TelemetryRejectedOffset ||
+      delta_board_pkg::BoardFaultShift != delta_board_pkg::StatusCounterBits ||
+      delta_board_pkg::BoardFaultShift + delta_board_pkg::BoardFaultBits != 16 ||
+      delta_board_pkg::TelemetryEstopBit != 7) begin : g_bad_board_fault_layout
+    $error("board_core: the board's causes do not fit the telemetry words as board_core lays them out");
+  end
   // The network's port takes frame numbers as its memories' layout (delta_network.sv); the package's
   // frames must be that layout.
   if (delta_board_pkg::ModelBias1Frame != NumInputs * delta_network_pkg::NumHidden ||
@@ -160,9 +190,44 @@ module board_core #(
   logic       homing_q, home_start, homed_at_switch;
   logic [2:0] referenced_q, switch_edge, switch_meta_q, switch_q, switch_previous_q;
   logic [7:0] command_q;
-  logic       fault, fault_active;
+  logic       fault, fault_active, joint_fault, joint_fault_active;
   logic       command_ok;
   assign command_ok = frame_ok && is_command;
+
+  // ---- the board's own causes: the safety inputs and the e-stop command ------------------------------
+  logic [delta_board_pkg::BoardFaultBits-1:0] board_cause;
+  logic inputs_stopping, estop_q, estop, board_stop;
+  board_safety_inputs u_safety_inputs (
+    .clk_i,
+    .rst_ni,
+    .sample_i     (tick == '0),
+    .estop_open_i,
+    .drive_fault_i,
+    .clear_i      (clear_fault),
+    .cause_o      (board_cause),
+    .stopping_o   (inputs_stopping)
+  );
+  always_ff @(posedge clk_i or negedge rst_ni) begin
+    if (!rst_ni) estop_q <= 1'b0;
+    else if (estop) estop_q <= 1'b1;
+    else if (clear_fault) estop_q <= 1'b0;
+  end
+  assign board_stop          = estop_q || board_cause != '0;
+  assign fault               = joint_fault || board_stop;  // every latched cause stops the same way
+  assign fault_active        = joint_fault_active || inputs_stopping;  // a clear is refused
+  assign board_fault_cause_o = board_cause;
+  assign estop_latched_o     = estop_q;
+
+  // ---- bench jog ---------------------------------------------------------------------------------------
+  localparam int unsigned JogCountBits = $clog2(delta_board_pkg::JogPeriods + 1);
+  logic                    jog_q, jog_was_q, jog_negative_q, jog_start, drives_on;
+  logic [1:0]              jog_joint_q;
+  logic [JogCountBits-1:0] jog_left_q;  // tick 0s until the end, the current one included
+  logic                    is_jog;
+  logic [7:0]              jog_offset;  // 2 j + n
+  assign jog_offset = command_q - 8'(delta_board_pkg::CommandJogBase);
+  assign is_jog     = jog_offset < 8'd6;
+  assign drives_on = enabled_q || jog_q;
 
   always_comb begin
     flush           = (fault && enabled_q) || homed_at_switch;  // a fault or a reference empties the buffer
@@ -170,9 +235,11 @@ module board_core #(
     home_start      = 1'b0;
     clear_fault     = 1'b0;
     command_refused = 1'b0;
+    estop           = 1'b0;
+    jog_start       = 1'b0;
     if (command_ok) begin
       unique case (command_q)
-        8'(delta_board_pkg::CommandEnable):     command_refused = fault || !homed_q || !model_loaded || (enabled_q && !holding_q);
+        8'(delta_board_pkg::CommandEnable):     command_refused = fault || !homed_q || !model_loaded || (enabled_q && !holding_q) || jog_q;
         8'(delta_board_pkg::CommandDisable):    flush = 1'b1;
         8'(delta_board_pkg::CommandHold):       command_refused = !enabled_q;
         8'(delta_board_pkg::CommandClearFault): begin
@@ -180,14 +247,18 @@ module board_core #(
           clear_fault     = !fault_active;
         end
         8'(delta_board_pkg::CommandSetHome): begin
-          command_refused = enabled_q;
-          home            = !enabled_q;
+          command_refused = drives_on;
+          home            = !drives_on;
         end
         8'(delta_board_pkg::CommandHomeStart): begin
-          command_refused = enabled_q;
-          home_start      = !enabled_q;
+          command_refused = drives_on;
+          home_start      = !drives_on;
         end
-        default: command_refused = 1'b1;
+        8'(delta_board_pkg::CommandEstop): estop = 1'b1;  // taken in every state
+        default: begin
+          command_refused = !is_jog || drives_on || fault || homing_q;
+          jog_start       = is_jog && !command_refused;
+        end
       endcase
     end
   end
@@ -227,6 +298,39 @@ module board_core #(
       if (fault) homing_q <= 1'b0;
     end
   end
+
+  // The jog: from the clock after its command to its JogPeriods-th tick 0, or a fault or a disable.
+  always_ff @(posedge clk_i or negedge rst_ni) begin
+    if (!rst_ni) begin
+      jog_q          <= 1'b0;
+      jog_was_q      <= 1'b0;
+      jog_negative_q <= 1'b0;
+      jog_joint_q    <= '0;
+      jog_left_q     <= '0;
+    end else begin
+      jog_was_q <= jog_q;
+      if (jog_start) begin
+        jog_q          <= 1'b1;
+        jog_joint_q    <= jog_offset[2:1];
+        jog_negative_q <= jog_offset[0];
+        jog_left_q     <= JogCountBits'(delta_board_pkg::JogPeriods);
+      end else if (jog_q && tick == '0) begin
+        jog_left_q <= jog_left_q - 1'b1;
+        if (jog_left_q == JogCountBits'(1)) jog_q <= 1'b0;
+      end
+      if (fault || (command_ok && command_q == 8'(delta_board_pkg::CommandDisable))) jog_q <= 1'b0;
+    end
+  end
+  // The currents the PWM takes while a jog runs, and in the clock after (zero: its duties cleared).
+  logic [47:0] jog_currents;
+  logic        jog_override;
+  logic [15:0] jog_current;  // the jogged joint's
+  localparam logic [15:0] JogCurrent = 16'(delta_board_pkg::JogCurrentCode);
+  assign jog_current = jog_negative_q ? 16'(-JogCurrent) : JogCurrent;
+  always_comb begin
+    for (int j = 0; j < 3; j++) jog_currents[16 * j +: 16] = (jog_q && jog_joint_q == 2'(j)) ? jog_current : 16'd0;
+  end
+  assign jog_override = jog_q || jog_was_q;
 
   // ---- home switches ---------------------------------------------------------------------------------
   // Two-flip-flop synchronisers and the previous state: a rising edge while homing with the drives on
@@ -281,7 +385,7 @@ module board_core #(
     .payload_byte_i (payload_byte),
     .frame_ok_i     (frame_ok),
     .refused_o      (setpoint_refused),
-    .accept_i       (enabled_q && !fault),
+    .accept_i       (enabled_q && !fault),  // a jog (enabled_q low) refuses setpoints
     .flush_i        (flush),
     .play_i         (play),
     .underrun_o     (underrun),
@@ -409,6 +513,10 @@ module board_core #(
     .shift_joint_i   (shift_joint),
     .shift_i         (shift),
     .enabled_i       (enabled_q),
+    .stop_i          (board_stop),
+    .jog_i           (jog_q),
+    .jog_override_i  (jog_override),
+    .jog_currents_i  (jog_currents),
     .frame_valid_i   (frame_ok),
     .clear_fault_i   (clear_fault),
     .tick_o          (tick),
@@ -421,9 +529,9 @@ module board_core #(
     .drive_enable_o,
     .encoder_error_o,
     .overflow_count_o(joint_overflow_count),
-    .fault_o         (fault),
+    .fault_o         (joint_fault),
     .fault_cause_o   (joint_fault_cause_o),
-    .fault_active_o  (fault_active)
+    .fault_active_o  (joint_fault_active)
   );
   assign joint_limited_o = joint_overflow_count != '0;
   assign joint_fault_o   = fault;
@@ -483,7 +591,7 @@ module board_core #(
 
   always_comb begin
     flags = '0;
-    flags[delta_board_pkg::FlagDriveEnable]  = enabled_q && !fault;
+    flags[delta_board_pkg::FlagDriveEnable]  = drives_on && !fault;
     flags[delta_board_pkg::FlagHomed]        = homed_q;
     flags[delta_board_pkg::FlagHolding]      = holding_q;
     flags[delta_board_pkg::FlagFault]        = fault;
@@ -496,17 +604,18 @@ module board_core #(
       5'(delta_board_pkg::TelemetrySampleIndexOffset / 2 + 1): telemetry_word = sample_index[31:16];
       5'(delta_board_pkg::TelemetryTickOffset / 2):            telemetry_word = period_count_q[15:0];
       5'(delta_board_pkg::TelemetryTickOffset / 2 + 1):        telemetry_word = period_count_q[31:16];
-      5'(delta_board_pkg::TelemetryFaultOffset / 2):           telemetry_word = {flags, 1'b0, counts_rising, 4'(joint_fault_cause_o)};
+      5'(delta_board_pkg::TelemetryFaultOffset / 2):           telemetry_word = {flags, estop_q, counts_rising, 4'(joint_fault_cause_o)};
       5'(delta_board_pkg::TelemetryFillOffset / 2):            telemetry_word = fill;
       5'(delta_board_pkg::TelemetryBadFramesOffset / 2):       telemetry_word = 16'(bad_frames_q);
       5'(delta_board_pkg::TelemetryUnderrunsOffset / 2):       telemetry_word = 16'(underruns_q);
       5'(delta_board_pkg::TelemetrySaturationsOffset / 2):     telemetry_word = joint_overflow_count;
       5'(delta_board_pkg::TelemetrySlewLimitsOffset / 2):      telemetry_word = 16'(slew_limits_q);
-      5'(delta_board_pkg::TelemetryRejectedOffset / 2):        telemetry_word = 16'(refused_q);
-      5'(delta_board_pkg::TelemetrySequenceOffset / 2):        telemetry_word = {2'd0, referenced_q, switch_q, last_sequence_q};
-      default: begin  // references (low, high half), counts and currents (low half)
+      5'(delta_board_pkg::TelemetryRejectedOffset / 2):        telemetry_word = {board_cause, refused_q};
+      5'(delta_board_pkg::TelemetrySequenceOffset / 2):        telemetry_word = {1'b0, jog_q, referenced_q, switch_q, last_sequence_q};
+      default: begin  // references (low, high half), counts and currents (low half; a jog's own)
         telemetry_word = (word_index_q >= 5'(ReferenceWord) && word_index_q < 5'(CountWord) && word_index_q[0] != 1'(ReferenceWord))
                              ? peek_data[31:16] : peek_data[15:0];
+        if (jog_q && word_index_q >= 5'(CurrentWord)) telemetry_word = (2'(word_index_q - 5'(CurrentWord)) == jog_joint_q) ? jog_current : 16'd0;
       end
     endcase
   end
@@ -577,11 +686,26 @@ module board_core #(
   assign f_valid_hold    = frame_ok && is_command && f_command_q == 8'(delta_board_pkg::CommandHold);
   assign f_valid_clear   = frame_ok && is_command && f_command_q == 8'(delta_board_pkg::CommandClearFault);
   assign f_valid_home    = frame_ok && is_command && f_command_q == 8'(delta_board_pkg::CommandSetHome);
+  logic f_valid_estop, f_valid_jog, f_board_cause;
+  assign f_valid_estop = frame_ok && is_command && f_command_q == 8'(delta_board_pkg::CommandEstop);
+  assign f_valid_jog   = frame_ok && is_command && f_command_q >= 8'(delta_board_pkg::CommandJogBase) &&
+                         f_command_q < 8'(delta_board_pkg::CommandJogBase + 6);
+  assign f_board_cause = board_fault_cause_o != '0 || estop_latched_o;
   always_comb begin
     pwm_outputs_off_whenever_the_drives_are_off: assert (drive_enable_o || drive_pwm_o == '0);
     pwm_outputs_off_whenever_the_drives_are_off_c: cover (!drive_enable_o && enabled_q);
-    the_fault_pin_is_the_latch: assert (joint_fault_o == (joint_fault_cause_o != '0));
+    the_fault_pin_is_the_latch: assert (joint_fault_o == (joint_fault_cause_o != '0 || f_board_cause));
     the_fault_pin_is_the_latch_c: cover (joint_fault_o);
+    // The board's causes (board_safety_inputs.sv proves its filter and latch in its own job).
+    if (f_valid_clear && inputs_stopping) a_clear_is_refused_while_an_input_samples_at_stop: assert (!clear_fault && command_refused);
+    a_clear_is_refused_while_an_input_samples_at_stop_c: cover (f_valid_clear && inputs_stopping && board_fault_cause_o != '0);
+    // The bench jog: never beside the closed-loop enable, and bounded by its period count.
+    a_jog_never_runs_with_the_drives_enabled: assert (!(jog_q && enabled_q));
+    a_jog_never_runs_with_the_drives_enabled_c: cover (jog_q);
+    if (jog_q) a_jog_is_bounded_by_its_periods: assert (jog_left_q != '0 && jog_left_q <= JogCountBits'(delta_board_pkg::JogPeriods));
+    a_jog_is_bounded_by_its_periods_c: cover (jog_q && jog_left_q == JogCountBits'(delta_board_pkg::JogPeriods - 1));
+    if (jog_q) a_jog_takes_no_setpoints: assert (!enabled_q && !play);
+    a_jog_takes_no_setpoints_c: cover (jog_q && frame_ok && is_setpoint);
     if (clear_fault) a_clear_is_taken_only_with_the_cause_gone: assert (f_valid_clear && !fault_active);
     a_clear_is_taken_only_with_the_cause_gone_c: cover (clear_fault && fault);
     if (f_valid_clear && !fault_active) a_valid_clear_with_the_cause_gone_is_taken: assert (clear_fault);
@@ -602,7 +726,7 @@ module board_core #(
       // Enable: only after an enable command in a CRC-valid frame, homed, a model loaded, no fault latched.
       if (!$past(enabled_q) && enabled_q) enables_only_on_a_valid_enable_homed_without_fault: assert ($past(f_valid_enable) && $past(homed_q) && $past(model_loaded) && !$past(fault));
       enables_only_on_a_valid_enable_homed_without_fault_c: cover (!$past(enabled_q) && enabled_q);
-      if (!$past(drive_enable_o) && drive_enable_o) drives_on_only_a_clock_after_the_enable: assert ($past(enabled_q) && !$past(fault));
+      if (!$past(drive_enable_o) && drive_enable_o) drives_on_only_a_clock_after_the_enable: assert (($past(enabled_q) || $past(jog_q)) && !$past(fault));
       drives_on_only_a_clock_after_the_enable_c: cover (!$past(drive_enable_o) && drive_enable_o);
       // Progress: a valid enable in the allowed state enables in the next clock.
       if ($past(f_valid_enable) && $past(homed_q) && $past(model_loaded) && !$past(fault) && !$past(homed_at_switch) &&
@@ -617,8 +741,33 @@ module board_core #(
         state_changes_only_on_a_valid_command_or_a_fault: assert ($past(frame_ok && is_command) || (($past(fault) || $past(homed_at_switch)) && !enabled_q && !holding_q));
       end
       state_changes_only_on_a_valid_command_or_a_fault_c: cover ($past(frame_bad) && $past(enabled_q) && enabled_q);
-      if ($past(fault)) a_fault_turns_the_enable_off: assert (!enabled_q && !holding_q && !drive_enable_o);
+      if ($past(fault)) a_fault_turns_the_enable_off: assert (!enabled_q && !holding_q && !jog_q && !drive_enable_o);
       a_fault_turns_the_enable_off_c: cover ($past(fault) && $past(enabled_q));
+      // A board cause (a safety input's latch, an e-stop command) turns the drives off, the PWM and
+      // direction pins low, in the next clock; with board_safety_inputs' filter (a cause latches at
+      // the BoardInputFilterPeriods-th sample at stop), an input held at stop has the drives off
+      // within BoardInputFilterPeriods tick 0s and two clocks.
+      if ($past(f_board_cause)) a_board_cause_turns_the_drives_off: assert (!drive_enable_o && drive_pwm_o == '0 && drive_dir_o == '0 && !enabled_q && !jog_q);
+      a_board_cause_turns_the_drives_off_c: cover ($past(board_fault_cause_o != '0) && $past(drive_enable_o));
+      // The e-stop command latches in every state; only an accepted clear ends it; nothing else raises it.
+      if ($past(f_valid_estop)) an_estop_command_latches_in_every_state: assert (estop_latched_o && !$past(command_refused));
+      an_estop_command_latches_in_every_state_jogging_c: cover ($past(f_valid_estop) && $past(jog_q));
+      an_estop_command_latches_in_every_state_c: cover ($past(f_valid_estop) && $past(enabled_q));
+      if (!$past(estop_latched_o) && estop_latched_o) the_estop_latch_rises_only_on_an_estop_command: assert ($past(f_valid_estop));
+      the_estop_latch_rises_only_on_an_estop_command_c: cover (!$past(estop_latched_o) && estop_latched_o && $past(fault));
+      if ($past(estop_latched_o) && !estop_latched_o) the_estop_latch_falls_only_at_an_accepted_clear: assert ($past(f_valid_clear) && !$past(fault_active));
+      the_estop_latch_falls_only_at_an_accepted_clear_c: cover ($past(estop_latched_o) && !estop_latched_o);
+      // A board cause falls only at an accepted clear, which no input sampled at stop allows.
+      if (($past(board_fault_cause_o) & ~board_fault_cause_o) != '0) a_board_cause_falls_only_at_a_clear_with_the_inputs_back: assert (
+          $past(f_valid_clear) && !$past(inputs_stopping) && !$past(fault_active));
+      a_board_cause_falls_only_at_a_clear_with_the_inputs_back_c: cover ($past(board_fault_cause_o) != '0 && board_fault_cause_o == '0);
+      // The jog starts only on a valid jog command with the drives off, no fault, not homing; a
+      // fault or a disable ends it in the next clock.
+      if (!$past(jog_q) && jog_q) a_jog_starts_only_on_a_valid_jog_command_with_the_drives_off: assert (
+          $past(f_valid_jog) && !$past(enabled_q) && !$past(fault) && !$past(homing_q));
+      a_jog_starts_only_on_a_valid_jog_command_with_the_drives_off_c: cover (!$past(jog_q) && jog_q);
+      if ($past(jog_q) && ($past(fault) || $past(f_valid_disable))) a_fault_or_a_disable_ends_a_jog: assert (!jog_q);
+      a_fault_or_a_disable_ends_a_jog_c: cover ($past(jog_q) && $past(f_valid_disable));
       if ($past(f_valid_disable)) disable_turns_the_drives_off: assert (!enabled_q && !holding_q);
       disable_turns_the_drives_off_c: cover ($past(f_valid_disable) && $past(enabled_q));
       if ($past(f_valid_hold) && $past(enabled_q) && !$past(fault) && !$past(homed_at_switch)) hold_holds: assert (holding_q && enabled_q);

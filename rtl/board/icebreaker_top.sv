@@ -26,11 +26,15 @@ module icebreaker_top #(
   input  logic [2:0] home_switch_i, // P1A9, P1A10, P1B10 (46, 44, 28): home switch j, 1 = at or above the reference
   output logic [2:0] drive_pwm_o,   // PMOD1B pins 1, 3, 7 (43, 34, 42)
   output logic [2:0] drive_dir_o,   // PMOD1B pins 2, 4, 8 (38, 31, 36)
-  output logic       drive_enable_o,// PMOD1B pin 9 (32)
-  output logic [2:0] led_encoder_error_o, // break-off board LED1..LED3 (26, 27, 25): encoder j skipped a state
-  output logic       led_joint_fault_o,   // break-off board LED4 (23): joint fault, torque off (until reset)
-  output logic       led_drive_enable_o,  // break-off board LED5 (21): drives enabled
-  output logic       stage_sync_o         // PMOD2 pin 10 (18): the board's time for a measuring stage to log
+  output logic       drive_enable_no, // PMOD1B pin 9 (32), active low: low = drives enabled (the pull-up
+                                      // before and during configuration reads disabled)
+  // PMOD2, the safety connector (docs/bench.md); inputs pulled up (icebreaker.pcf): high = stop
+  input  logic       estop_open_i,    // P2_9 (20): the e-stop chain is open
+  input  logic [2:0] drive_fault_i,   // P2_1, P2_2, P2_4 (27, 25, 19): drive j reports a fault
+  output logic       led_encoder_error_o, // P2_7 (26): an encoder skipped a state (sticky)
+  output logic       led_joint_fault_o,   // P2_8 (23): a fault latched (the joints', the board's), torque off
+  output logic       led_drive_enable_o,  // P2_3 (21): drives enabled (active high)
+  output logic       stage_sync_o         // P2_10 (18): the board's time for a measuring stage to log
 );
   logic clk_network, clk, pll_locked;  // port A, port B (half)
 
@@ -76,8 +80,10 @@ module icebreaker_top #(
   localparam int unsigned BoardClockHz = NetworkClockHz / 2;
   // Seen in simulation (tests, deltactl cosim); on the board the fault LED and the drive-enable
   // LED show what matters.
-  logic       joint_limited;
+  logic       joint_limited, estop_latched, drive_enable;
+  logic [2:0] encoder_error;
   logic [delta_board_pkg::FaultCauseBits-1:0] joint_fault_cause;
+  logic [delta_board_pkg::BoardFaultBits-1:0] board_fault_cause;
   logic       stage_sync;
   board_core #(
     .ClocksPerBit   ((BoardClockHz + BaudRate / 2) / BaudRate),
@@ -95,13 +101,17 @@ module icebreaker_top #(
     .encoder_a_i,
     .encoder_b_i,
     .home_switch_i,
+    .estop_open_i,
+    .drive_fault_i,
     .drive_pwm_o,
     .drive_dir_o,
-    .drive_enable_o,
-    .encoder_error_o    (led_encoder_error_o),
+    .drive_enable_o     (drive_enable),
+    .encoder_error_o    (encoder_error),
     .joint_limited_o    (joint_limited),
     .joint_fault_o      (led_joint_fault_o),
     .joint_fault_cause_o(joint_fault_cause),
+    .board_fault_cause_o(board_fault_cause),
+    .estop_latched_o    (estop_latched),
     .stage_sync_o       (stage_sync)
   );
   // The stage sync output leaves through the pin's own output register (PIN_TYPE 0101_01, the
@@ -117,8 +127,10 @@ module icebreaker_top #(
   );
 `endif
   logic       unused_status;
-  assign unused_status = ^{joint_limited, joint_fault_cause};
-  assign led_drive_enable_o = drive_enable_o;
+  assign unused_status = ^{joint_limited, joint_fault_cause, board_fault_cause, estop_latched};
+  assign drive_enable_no     = !drive_enable;
+  assign led_drive_enable_o  = drive_enable;
+  assign led_encoder_error_o = encoder_error != '0;
   assign led_red_no   = !led_red;
   assign led_green_no = !led_green;
 endmodule

@@ -25,7 +25,11 @@ module joint_axes #(
   input  logic        shift_write_i,      // the next period's play shift of joint shift_joint_i
   input  logic [1:0]  shift_joint_i,      //   (reference_interpolator, while the controller is idle)
   input  logic [delta_joint_pkg::ShiftBits-1:0] shift_i,
-  input  logic        enabled_i,          // drives on (the board's enable state)
+  input  logic        enabled_i,          // drives on (the board's enable state), closed loop
+  input  logic        stop_i,             // a board cause latched (board_core): torque off as for a fault
+  input  logic        jog_i,              // a bench jog runs: drives on, the PWM takes jog_currents_i
+  input  logic        jog_override_i,     // the PWM takes jog_currents_i (a jog, and the clock after it)
+  input  logic [47:0] jog_currents_i,     // open-loop currents, Q1.15 A, joint j at [16j +: 16]
   input  logic        frame_valid_i,      // a valid link frame arrived (watchdog)
   input  logic        clear_fault_i,      // clear the latched causes
   output logic [$clog2(ClocksPerPeriod)-1:0] tick_o,  // cycle within the control period
@@ -153,13 +157,20 @@ module joint_axes #(
   );
 
   // ---- PWM and drive enable ----------------------------------------------------------------------
+  // A bench jog (board_core) overrides the controllers' currents every clock while it runs and in
+  // the clock after it (then zero: no stale duty when the drives come on again); the controllers
+  // run on with enabled_i low meanwhile. A board cause stops the torque as a joint fault does.
+  logic [47:0] pwm_currents;
+  logic [2:0]  pwm_current_valid;
+  assign pwm_currents      = jog_override_i ? jog_currents_i : currents;
+  assign pwm_current_valid = jog_override_i ? 3'b111 : current_valid;
   joint_pwm u_pwm (
     .clk_i,
     .rst_ni,
-    .currents_i     (currents),
-    .current_valid_i(current_valid),
-    .enabled_i,
-    .fault_i        (fault),
+    .currents_i     (pwm_currents),
+    .current_valid_i(pwm_current_valid),
+    .enabled_i      (enabled_i || jog_i),
+    .fault_i        (fault || stop_i),
     .drive_pwm_o,
     .drive_dir_o,
     .drive_enable_o

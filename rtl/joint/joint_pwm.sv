@@ -2,10 +2,10 @@
 //
 // Each current (Q1.15 A, |current| <= CurrentLimitCode = 0.5 A) updates its joint's duty as soon
 // as it is stored (current_valid_i); PWM period 2^PwmBits board cycles, duty = |current| / 0.5 A,
-// direction = sign (1 = negative). A fault stops the torque: every PWM output low and the enable
-// low, registered with the outputs (glitch-free pins). The drives are on while the board enables
-// them (enabled_i: an accepted enable command, docs/board_link.md) and there is no fault; off,
-// every PWM output is low too.
+// direction = sign (1 = negative). A fault stops the torque: every PWM output, every direction
+// output and the enable low, registered with the outputs (glitch-free pins). The drives are on
+// while the board enables them (enabled_i: an accepted enable command or a bench jog,
+// docs/board_link.md) and there is no fault; off, every PWM and direction output is low too.
 module joint_pwm #(
   parameter int unsigned PwmBits = delta_board_pkg::PwmBits
 ) (
@@ -50,7 +50,7 @@ module joint_pwm #(
   end
 
   // Outputs registered (the fault gate included): glitch-free pins.
-  logic [2:0] pwm_d, pwm_q;
+  logic [2:0] pwm_d, pwm_q, dir_q;
   logic       enable_q;
   always_comb begin
     for (int j = 0; j < 3; j++) begin
@@ -65,18 +65,20 @@ module joint_pwm #(
       duty_q      <= '0;
       direction_q <= '0;
       pwm_q       <= '0;
+      dir_q       <= '0;
       enable_q    <= 1'b0;
     end else begin
       pwm_remaining_q <= pwm_remaining_q - 1'b1;
       duty_q      <= duty_d;
       direction_q <= direction_d;
       pwm_q       <= pwm_d;
+      dir_q       <= direction_d & {3{enabled_i && !fault_i}};  // low whenever the drives are off
       enable_q    <= enabled_i && !fault_i;
     end
   end
 
   assign drive_pwm_o    = pwm_q;
-  assign drive_dir_o    = direction_q;
+  assign drive_dir_o    = dir_q;
   assign drive_enable_o = enable_q;
 
 `ifdef FORMAL
@@ -134,7 +136,7 @@ module joint_pwm #(
       torque_off_the_clock_after_a_fault_or_disable_c: cover ($past(fault_i) && $past(drive_pwm_o) != '0);
       if ($past(rst_ni)) begin
         pwm_duty_is_the_current_over_full_scale: assert (drive_pwm_o == ($past(enabled_i && !fault_i) ? $past(f_on) : 3'b000));
-        direction_is_the_currents_sign: assert (drive_dir_o == {f_current_q[47], f_current_q[31], f_current_q[15]});
+        direction_is_the_currents_sign: assert (drive_dir_o == ($past(enabled_i && !fault_i) ? {f_current_q[47], f_current_q[31], f_current_q[15]} : 3'b000));
       end
       pwm_duty_is_the_current_over_full_scale_c: cover (drive_pwm_o == 3'b101 && drive_enable_o);
       direction_is_the_currents_sign_c: cover (drive_dir_o == 3'b011 && drive_enable_o);

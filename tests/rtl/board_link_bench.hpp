@@ -43,6 +43,8 @@ class LinkBench {
     core_->uart_rx_i = 1;
     core_->encoder_a_i = 0;
     core_->encoder_b_i = 0;
+    core_->estop_open_i = 0;  // the safety inputs at their run level
+    core_->drive_fault_i = 0;
     core_->clk_i = 0;
     core_->clk_network_i = 0;
     core_->eval();
@@ -90,6 +92,8 @@ class LinkBench {
 
   // Frames from the board.
   const std::vector<link::TelemetryPayload>& telemetry() const { return telemetry_; }
+  // The same frames' payloads as sent (every bit, the ones the host's decoder masks included).
+  const std::vector<std::vector<std::uint8_t>>& telemetry_payloads() const { return telemetry_payloads_; }
   const std::vector<std::uint8_t>& telemetry_sequences() const { return telemetry_sequences_; }
   const std::vector<link::Frame>& identify_frames() const { return identify_; }
   const link::DecoderCounters& host_decoder() const { return decoder_.counters(); }
@@ -144,6 +148,7 @@ class LinkBench {
     if (frame.type == link::FrameType::kTelemetry) {
       telemetry_sequences_.push_back(frame.sequence);
       telemetry_.push_back(link::decode_telemetry(frame.payload));
+      telemetry_payloads_.push_back(frame.payload);
     } else if (frame.type == link::FrameType::kIdentify) {
       identify_.push_back(std::move(frame));
     }
@@ -170,6 +175,7 @@ class LinkBench {
   rtl::UartLine line_{kLinkClocksPerBit};
   link::FrameDecoder decoder_{link::Receiver::kHost};
   std::vector<link::TelemetryPayload> telemetry_;
+  std::vector<std::vector<std::uint8_t>> telemetry_payloads_;
   std::vector<std::uint8_t> telemetry_sequences_;
   std::vector<link::Frame> identify_;
   std::int64_t cycles_ = 0;

@@ -107,5 +107,56 @@ TEST(BoardFacts, PcfTargetsAndPllMakeThePackageClocks) {
       << "12 MHz * (DIVF + 1) / (DIVR + 1) / 2^DIVQ";
 }
 
+// icebreaker.pcf against icebreaker_top.sv's ports: every port has exactly one pin (a bus, one per
+// bit) and every pin a port; the safety connector's four inputs (PMOD2) are pulled up (a broken wire
+// reads high: stop) and nothing else is; the drive enable leaves active low on pin 32.
+TEST(BoardFacts, EveryTopPortHasOnePinAndTheSafetyInputsArePulledUp) {
+  const std::string pcf = read_file(std::string(DELTA_SOURCE_DIR) + "/rtl/board/icebreaker.pcf");
+  const std::string top = read_file(std::string(DELTA_SOURCE_DIR) + "/rtl/board/icebreaker_top.sv");
+  std::map<std::string, int> pins;  // pin name (bus bits as name[i]) -> package pin
+  std::map<std::string, bool> pulled_up;
+  const std::regex set_io(R"(^set_io((?:\s+-\S+(?:\s+(?:yes|no))?)*)\s+(\S+)\s+(\d+)\s*$)");
+  std::istringstream lines(pcf);
+  std::string line;
+  while (std::getline(lines, line)) {
+    std::smatch match;
+    if (line.rfind("set_io", 0) != 0) continue;
+    ASSERT_TRUE(std::regex_match(line, match, set_io)) << "icebreaker.pcf: cannot read '" << line << "'";
+    EXPECT_EQ(pins.count(match[2]), 0u) << match[2] << " twice";
+    pins[match[2]] = std::stoi(match[3]);
+    pulled_up[match[2]] = std::regex_search(std::string(match[1]), std::regex(R"(-pullup\s+yes)"));
+  }
+  std::map<std::string, int> expected_bits;  // port -> width, from the top's port list
+  const std::regex port(R"(\n\s*(input|output)\s+logic\s*(?:\[(\d+):0\])?\s*(\w+)\s*(?:,|//|\)))");
+  for (auto it = std::sregex_iterator(top.begin(), top.end(), port); it != std::sregex_iterator(); ++it) {
+    expected_bits[(*it)[3]] = (*it)[2].matched ? std::stoi((*it)[2]) + 1 : 1;
+  }
+  ASSERT_GE(expected_bits.size(), 15u) << "icebreaker_top.sv's ports not found";
+  std::size_t bits = 0;
+  for (const auto& [name, width] : expected_bits) {
+    for (int i = 0; i < width; ++i) {
+      const std::string bit = width == 1 ? name : name + "[" + std::to_string(i) + "]";
+      EXPECT_EQ(pins.count(bit), 1u) << bit << " has no pin in icebreaker.pcf";
+      ++bits;
+    }
+  }
+  EXPECT_EQ(pins.size(), bits) << "icebreaker.pcf names a pin that is no port of icebreaker_top.sv";
+  // The design's pins (docs/bench.md).
+  const std::map<std::string, int> safety{
+      {"estop_open_i", 20}, {"drive_fault_i[0]", 27}, {"drive_fault_i[1]", 25}, {"drive_fault_i[2]", 19}};
+  for (const auto& [name, pin] : pins) {
+    const auto it = safety.find(name);
+    EXPECT_EQ(pulled_up[name], it != safety.end()) << name;
+    if (it != safety.end()) EXPECT_EQ(pin, it->second) << name;
+  }
+  EXPECT_EQ(pins["drive_enable_no"], 32);
+  EXPECT_EQ(pins["led_encoder_error_o"], 26);
+  EXPECT_EQ(pins["led_joint_fault_o"], 23);
+  EXPECT_EQ(pins["led_drive_enable_o"], 21);
+  EXPECT_EQ(pins["stage_sync_o"], 18);
+  EXPECT_TRUE(std::regex_search(top, std::regex(R"(assign\s+drive_enable_no\s*=\s*!\s*drive_enable\s*;)")))
+      << "the enable pin is active low";
+}
+
 }  // namespace
 }  // namespace delta::test
