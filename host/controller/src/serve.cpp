@@ -239,6 +239,9 @@ struct HostServer::Impl {
     if (t) {
       out["description"] = link::describe_state(*t);
       out["fault_bits"] = t->fault_cause;
+      out["board_fault_bits"] = t->board_fault;
+      out["estop_on_board"] = t->estop;
+      out["fault"] = t->has(link::TelemetryFlag::kFault) ? json(link::describe_fault(*t)) : json();
       const Referencing referencing = board_referencing(*t);
       out["homed_by"] = referencing == Referencing::kHomeSwitches ? "reference"
                         : referencing == Referencing::kHand       ? "hand"
@@ -573,6 +576,14 @@ struct HostServer::Impl {
       return reply;
     } else if (work.command == "disable") {
       session.disable();
+    } else if (work.command == "board-estop") {
+      // The e-stop's own work: the board latches its e-stop (drives off, a clear-fault needed), and
+      // a disable follows for a board whose gateware has no e-stop command.
+      try {
+        session.estop();
+      } catch (const link::LinkError&) {
+        session.disable();
+      }
     } else if (work.command == "clear-fault") {
       // The explicit clear: the board's latched fault (if any), then the e-stop latch.
       if (fresh_telemetry(session).has(link::TelemetryFlag::kFault)) session.clear_fault();
@@ -854,7 +865,7 @@ struct HostServer::Impl {
     std::shared_ptr<RunJob> job;
     std::deque<std::shared_ptr<Work>> refused;
     auto work = std::make_shared<Work>();
-    work->command = "disable";
+    work->command = "board-estop";
     {
       std::lock_guard<std::mutex> lock(mutex);
       job = running;
