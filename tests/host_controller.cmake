@@ -65,6 +65,14 @@ delta_add_gtest(homing_tests
   # The jogs' bounds are arithmetic on the shipped networks: no board.
   SERIAL PARALLEL_TESTS Homing.EveryJogMeetsTheHomingBoundsWithTheShippedNetworksIncludingTheCalibrationDrags)
 
+# The board's own safety (its e-stop and drive-fault inputs, its e-stop command) through the host:
+# the drives off and the cause latched, named, refused clears, then a run again.
+delta_add_gtest(board_safety_tests
+  SOURCES ${CMAKE_CURRENT_LIST_DIR}/host_controller/test_board_safety.cpp
+  LIBRARIES delta::host nlohmann_json::nlohmann_json
+  LABELS host host_controller virtual_board
+  SERIAL)
+
 # A calibration tied to the robot's reference: host record refuses a board not homed at its
 # references and its header says how the counts were referenced, the stage that drags after homing
 # (the acceptance: a random power-up pose, home, drag, record), lost frames, park.

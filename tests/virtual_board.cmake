@@ -6,6 +6,7 @@ endif()
 delta_add_gtest(virtual_board_tests
   SOURCES ${CMAKE_CURRENT_LIST_DIR}/virtual_board/test_virtual_board.cpp
           ${CMAKE_CURRENT_LIST_DIR}/virtual_board/test_measuring_stage.cpp
+          ${CMAKE_CURRENT_LIST_DIR}/virtual_board/test_board_safety_inputs.cpp
   LIBRARIES delta::board_cosim delta::golden delta::nn delta::host delta::gateware
   LABELS virtual_board cosim)
 

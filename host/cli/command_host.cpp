@@ -133,36 +133,40 @@ void run_status(const StatusOptions& options) {
   const bool unfinished = referencing == Referencing::kNone && t.has(link::TelemetryFlag::kHoming);
   const bool model = board_has_model(t);  // a complete model whose CRC checked (identify's CRC is its)
   if (options.json) {
-    nlohmann::json out = {{"port", port->name()},
-                          {"low_latency", port->info().low_latency},
-                          {"port_notes", port->info().notes},
-                          {"protocol", c.identify.protocol_version},
-                          {"gateware_build_id", hex(c.identify.build_id)},
-                          {"gateware_matches_host", gateware_matches},
-                          {"weights_crc", model ? nlohmann::json(hex(c.identify.weights_crc)) : nlohmann::json()},
-                          {"model", model ? "loaded" : "none"},
-                          {"board_clock_hz", c.identify.board_clock_hz},
-                          {"network_clock_hz", c.identify.network_clock_hz},
-                          {"state", state_name(state_of(t))},
-                          {"description", link::describe_state(t)},
-                          {"fault_bits", t.fault_cause},
-                          {"tick", t.tick},
-                          {"sample_index", t.sample_index},
-                          {"encoder_deg", {t.counts[0] * kCountDeg, t.counts[1] * kCountDeg, t.counts[2] * kCountDeg}},
-                          {"homed", referencing != Referencing::kNone},
-                          {"homed_by", referencing == Referencing::kHomeSwitches ? "reference"
-                                       : referencing == Referencing::kHand       ? "hand"
-                                                                                 : "none"},
-                          {"homing_unfinished", unfinished},
-                          {"homing", t.has(link::TelemetryFlag::kHoming)},
-                          {"referenced", {t.referenced(0), t.referenced(1), t.referenced(2)}},
-                          {"home_switches", {t.home_switch(0), t.home_switch(1), t.home_switch(2)}},
-                          {"play_sides", {t.play_side(0), t.play_side(1), t.play_side(2)}},
-                          {"bad_frames", t.bad_frames},
-                          {"underruns", t.underruns},
-                          {"rejected", t.rejected},
-                          {"slew_limits", t.slew_limits},
-                          {"saturations", t.saturations}};
+    nlohmann::json out = {
+        {"port", port->name()},
+        {"low_latency", port->info().low_latency},
+        {"port_notes", port->info().notes},
+        {"protocol", c.identify.protocol_version},
+        {"gateware_build_id", hex(c.identify.build_id)},
+        {"gateware_matches_host", gateware_matches},
+        {"weights_crc", model ? nlohmann::json(hex(c.identify.weights_crc)) : nlohmann::json()},
+        {"model", model ? "loaded" : "none"},
+        {"board_clock_hz", c.identify.board_clock_hz},
+        {"network_clock_hz", c.identify.network_clock_hz},
+        {"state", state_name(state_of(t))},
+        {"description", link::describe_state(t)},
+        {"fault_bits", t.fault_cause},
+        {"board_fault_bits", t.board_fault},
+        {"estop_on_board", t.estop},
+        {"fault", t.has(link::TelemetryFlag::kFault) ? nlohmann::json(link::describe_fault(t)) : nlohmann::json()},
+        {"tick", t.tick},
+        {"sample_index", t.sample_index},
+        {"encoder_deg", {t.counts[0] * kCountDeg, t.counts[1] * kCountDeg, t.counts[2] * kCountDeg}},
+        {"homed", referencing != Referencing::kNone},
+        {"homed_by", referencing == Referencing::kHomeSwitches ? "reference"
+                     : referencing == Referencing::kHand       ? "hand"
+                                                               : "none"},
+        {"homing_unfinished", unfinished},
+        {"homing", t.has(link::TelemetryFlag::kHoming)},
+        {"referenced", {t.referenced(0), t.referenced(1), t.referenced(2)}},
+        {"home_switches", {t.home_switch(0), t.home_switch(1), t.home_switch(2)}},
+        {"play_sides", {t.play_side(0), t.play_side(1), t.play_side(2)}},
+        {"bad_frames", t.bad_frames},
+        {"underruns", t.underruns},
+        {"rejected", t.rejected},
+        {"slew_limits", t.slew_limits},
+        {"saturations", t.saturations}};
     std::cout << out.dump() << '\n';
     return;
   }

@@ -18,6 +18,7 @@
 #include <system_error>
 #include <thread>
 #include <tuple>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 
@@ -62,12 +63,47 @@ struct VirtualBoardCommandOptions {
   double stage_noise_m = 20e-9;
   std::int64_t stage_seed = -1;
   bool stage_no_sync = false;
-  double stage_after_home_s = -1.0;    // < 0: the drag's clock starts at the host's first frame
-  std::string start_angles;            // A1,A2,A3 [deg], true shaft angles; empty: the home pose
-  int inject_seized_joint = 0;         // 1..3; 0: none
-  int inject_missing_home_switch = 0;  // 1..3; 0: none
-  std::string inject_count_slip;       // J,COUNTS,S
+  double stage_after_home_s = -1.0;         // < 0: the drag's clock starts at the host's first frame
+  std::string start_angles;                 // A1,A2,A3 [deg], true shaft angles; empty: the home pose
+  int inject_seized_joint = 0;              // 1..3; 0: none
+  int inject_missing_home_switch = 0;       // 1..3; 0: none
+  std::string inject_count_slip;            // J,COUNTS,S
+  std::vector<std::string> estop_open_at;   // S[,UNTIL]
+  std::vector<std::string> drive_fault_at;  // J,S[,UNTIL]
 };
+
+// --estop-open-at S[,UNTIL] (input 0) and --drive-fault-at J,S[,UNTIL] (input J): the window of
+// board time the input is at its stop level.
+SafetyInputWindow parse_safety_window(const std::string& option, const std::string& text, bool with_joint) {
+  const auto fail = [&](const std::string& why) {
+    return InputError(option, 0,
+                      "'" + text + "': " + why + "; give " +
+                          (with_joint ? "J,S[,UNTIL]: a drive 1-3, " : "S[,UNTIL]: ") +
+                          "the board time in s it starts at and, if it ends, the time it ends at (later)");
+  };
+  std::vector<std::string> fields;
+  for (std::size_t at = 0;;) {
+    const std::size_t comma = text.find(',', at);
+    fields.push_back(text.substr(at, comma == std::string::npos ? std::string::npos : comma - at));
+    if (comma == std::string::npos) break;
+    at = comma + 1;
+  }
+  const std::size_t first = with_joint ? 1 : 0;
+  if (fields.size() < first + 1 || fields.size() > first + 2) throw fail("wrong number of fields");
+  SafetyInputWindow window;
+  if (with_joint) {
+    const std::string& j = fields[0];
+    if (j.size() != 1 || j[0] < '1' || j[0] > '3') throw fail("the drive '" + j + "' is not 1, 2 or 3");
+    window.input = j[0] - '0';
+  }
+  window.from_s = parse_decimal(fields[first]).value_or(NAN);
+  if (!std::isfinite(window.from_s) || window.from_s < 0.0) throw fail("the start is not a time >= 0");
+  if (fields.size() == first + 2) {
+    window.until_s = parse_decimal(fields[first + 1]).value_or(NAN);
+    if (!std::isfinite(window.until_s) || window.until_s <= window.from_s) throw fail("the end is not after the start");
+  }
+  return window;
+}
 
 // --start-angles A1,A2,A3: three true shaft angles within the board's travel.
 Vec3 parse_start_angles(const std::string& text) {
@@ -183,6 +219,14 @@ void run_virtual_board(const VirtualBoardCommandOptions& options) {
     std::tie(board_options.inject_slip_joint, board_options.inject_slip_counts, board_options.inject_slip_at_s) =
         parse_count_slip(options.inject_count_slip);
   }
+  for (const std::string& text : options.estop_open_at)
+    board_options.safety_inputs.push_back(parse_safety_window("--estop-open-at", text, false));
+  for (const std::string& text : options.drive_fault_at)
+    board_options.safety_inputs.push_back(parse_safety_window("--drive-fault-at", text, true));
+  if (!model && !board_options.safety_inputs.empty() && !rtl_board_has_safety_inputs()) {
+    throw InputError(options.estop_open_at.empty() ? "--drive-fault-at" : "--estop-open-at", 0,
+                     "this build's RTL board core has no safety input ports: use --fidelity model");
+  }
   std::unique_ptr<MeasuringStage> stage;
   if (!options.stage.empty() || !options.stage_log.empty()) {
     if (options.stage.empty() || options.stage_log.empty()) {
@@ -232,7 +276,8 @@ void run_virtual_board(const VirtualBoardCommandOptions& options) {
     truth.open(options.truth, std::ios::trunc);
     if (!truth) throw InputError(options.truth, 0, "cannot be written");
     truth << "t_s,x_m,y_m,z_m,true_alpha1_deg,true_alpha2_deg,true_alpha3_deg,drives_enabled,"
-             "encoder1_deg,encoder2_deg,encoder3_deg,current1_a,current2_a,current3_a\n";
+             "encoder1_deg,encoder2_deg,encoder3_deg,current1_a,current2_a,current3_a,"
+             "estop_open,drive_fault1,drive_fault2,drive_fault3\n";
     board.observe_truth([&truth](const TruthSample& s, const RobotWorld&) {
       truth << format_number(s.t_s);
       for (int k = 0; k < 3; ++k) truth << ',' << format_number(s.position_m[k]);
@@ -240,6 +285,8 @@ void run_virtual_board(const VirtualBoardCommandOptions& options) {
       truth << ',' << (s.drives_enabled ? 1 : 0);
       for (int k = 0; k < 3; ++k) truth << ',' << format_number(s.encoder_deg[k]);
       for (int k = 0; k < 3; ++k) truth << ',' << format_number(s.current_a[k]);
+      truth << ',' << (s.estop_open ? 1 : 0);
+      for (int k = 0; k < 3; ++k) truth << ',' << ((s.drive_fault >> k) & 1);
       truth << '\n';
     });
   }
@@ -399,7 +446,12 @@ const RegisterCommand command("virtual-board", 72, [](CLI::App& root) {
           "Prints one line naming PATH when ready; runs until SIGINT or SIGTERM, then removes PATH.\n"
           "--truth: CSV at 1 kHz of board time, written as it runs (flushed twice a second, complete on\n"
           "exit): t_s (board time since reset), x/y/z_m (the plate as the measuring stage sees it),\n"
-          "true_alpha*_deg (plant angles), drives_enabled, encoder*_deg, current*_a.\n"
+          "true_alpha*_deg (plant angles), drives_enabled, encoder*_deg, current*_a, estop_open and\n"
+          "drive_fault1..3 (the board's safety inputs, 1 = at the stop level).\n"
+          "--estop-open-at S[,UNTIL]: the board's e-stop chain opens at board time S (closes at UNTIL);\n"
+          "--drive-fault-at J,S[,UNTIL] (repeatable): drive J (1-3) reports a fault from S (to UNTIL) and\n"
+          "gives no current meanwhile. The board latches the cause (e-stop input open, drive J fault)\n"
+          "after 3 control periods at the stop level; a clear-fault is refused while the input stays there.\n"
           "The board holds a model when the host starts: before the first host byte the virtual board\n"
           "loads --weights over its link as 'deltactl host load' does (the model's frames, docs/board_link.md\n"
           "\"The model\"; 26 ms of board time) and the ready line names its CRC. --no-model: it starts as a\n"
@@ -463,6 +515,13 @@ const RegisterCommand command("virtual-board", 72, [](CLI::App& root) {
   sub->add_option("--inject-count-slip", options->inject_count_slip,
                   "J,COUNTS,S: at board time S joint J's encoder silently gains COUNTS (valid quadrature steps, as "
                   "from noise; the board cannot see it): a test's fault injection");
+  sub->add_option("--estop-open-at", options->estop_open_at,
+                  "S[,UNTIL]: the board's e-stop chain opens at board time S [s] (and closes at UNTIL); repeatable")
+      ->type_name("S[,UNTIL]");
+  sub->add_option("--drive-fault-at", options->drive_fault_at,
+                  "J,S[,UNTIL]: drive J (1-3) reports a fault (and gives no current) from board time S [s] to UNTIL; "
+                  "repeatable")
+      ->type_name("J,S[,UNTIL]");
   sub->add_option("--stage", options->stage,
                   "measuring stage: drag:NAME|drag:FILE.csv (drags the plate, drives off) or follow")
       ->type_name("MODE");

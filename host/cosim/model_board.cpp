@@ -266,13 +266,48 @@ int quadrature_move(int previous, int ab) {
   }
 }
 
+// ---- the board's safety inputs, its e-stop and the bench jog (board_core.sv) ----
+// The safety inputs in one word as ModelBoard::safety_in_ and the registers hold them: bit
+// BoardFaultEstopInput the e-stop chain open, bit BoardFaultDrive + j drive j's fault line (1 = stop).
+constexpr int kBoardInputs = static_cast<int>(board::kBoardFaultBits);
+// board_safety_inputs.sv keeps each input's last BoardInputFilterPeriods - 1 samples (bit 0 the last).
+constexpr int kHistoryMask = (1 << (board::kBoardInputFilterPeriods - 1)) - 1;
+constexpr int kJogCommands = 2 * kJoints;  // CommandJogBase + 2 j + n
+constexpr std::uint16_t kJogCurrent = static_cast<std::uint16_t>(board::kJogCurrentCode);
+
+// Any latched cause (the joints', the board inputs', the e-stop command): board_core's fault.
+template <typename Registers>
+bool faulted(const Registers& s) {
+  return s.fault_cause != 0 || s.board_cause != 0 || s.estop;
+}
+// The drives on (drive_enable_o's next value): enabled or a bench jog, no cause latched.
+template <typename Registers>
+bool drives_on(const Registers& s) {
+  return (s.enabled || s.jog) && !faulted(s);
+}
+// A safety input's last sample (the last tick 0) at the stop level (board_safety_inputs.sv's
+// stopping_o): a clear-fault is refused.
+template <typename Registers>
+bool input_active(const Registers& s) {
+  for (int i = 0; i < kBoardInputs; ++i)
+    if ((s.history[i] & 1) != 0) return true;
+  return false;
+}
+// The current joint_pwm takes for joint j: the controller's, or while a bench jog runs the jog's
+// (+-JogCurrentCode on its joint, 0 on the others).
+template <typename Registers>
+std::uint16_t jog_current(const Registers& s, int j) {
+  if (j != s.jog_joint) return 0;
+  return s.jog_negative ? static_cast<std::uint16_t>(-static_cast<int>(kJogCurrent)) : kJogCurrent;
+}
+
 // The home switches ride in bits kHomeSwitchShift.. of the A lines (ModelBoard::clock): board_core's
 // synchronisers and previous state. A rising edge while homing with the drives on references its
 // joint (switch_edge: a full clock's work, never a quiet one's).
 constexpr int kHomeSwitchShift = kJoints;
 template <typename Registers>
 int switch_edge(const Registers& s) {
-  if (!s.homing || !s.enabled || s.fault_cause != 0) return 0;
+  if (!s.homing || !s.enabled || faulted(s)) return 0;
   return ((s.enc_a >> kHomeSwitchShift) & kAllJoints) & ~s.switch_previous & ~s.referenced & kAllJoints;
 }
 
@@ -318,12 +353,40 @@ bool encoders_settled(const Registers& s, int encoder_a, int encoder_b) {
 // CurrentLimitCode = 2^kCurrentLimitBits, is 100 % duty.
 constexpr int kCurrentLimitBits = 14;
 static_assert((1LL << kCurrentLimitBits) == board::kCurrentLimitCode, "the current limit is a power of two");
-template <typename Registers>
-void set_duty(Registers& n, int j, std::uint16_t current) {
+int duty_of(std::uint16_t current) {
   const std::int16_t c = static_cast<std::int16_t>(current);
   const int magnitude = c < 0 ? static_cast<std::uint16_t>(-c) : c;
-  n.duty[j] = (magnitude >> (kCurrentLimitBits - board::kPwmBits)) & ((1 << (board::kPwmBits + 1)) - 1);
-  n.direction = (n.direction & ~(1 << j)) | ((c < 0 ? 1 : 0) << j);
+  return (magnitude >> (kCurrentLimitBits - board::kPwmBits)) & ((1 << (board::kPwmBits + 1)) - 1);
+}
+template <typename Registers>
+void set_duty(Registers& n, int j, std::uint16_t current) {
+  n.duty[j] = duty_of(current);
+  n.direction = (n.direction & ~(1 << j)) | ((static_cast<std::int16_t>(current) < 0 ? 1 : 0) << j);
+}
+// While a bench jog runs joint_pwm takes the jog's currents every clock instead of the
+// controllers' (and currents 0 in the clock after it ends): n's duties and directions from the
+// present jog registers in s (n may be s). False: no jog, the controllers' stores stand.
+template <typename Registers>
+bool jog_duties(const Registers& s, Registers& n) {
+  if (!s.jog && !s.jog_tail) return false;
+  for (int j = 0; j < kJoints; ++j) set_duty(n, j, s.jog ? jog_current(s, j) : std::uint16_t{0});
+  return true;
+}
+// Whether the duty registers already hold what jog_duties writes (a clock that writes them again
+// changes nothing).
+template <typename Registers>
+bool jog_duties_held(const Registers& s) {
+  for (int j = 0; j < kJoints; ++j) {
+    const std::uint16_t current = jog_current(s, j);
+    if (s.duty[j] != duty_of(current) || ((s.direction >> j) & 1) != (static_cast<std::int16_t>(current) < 0 ? 1 : 0))
+      return false;
+  }
+  return true;
+}
+// The direction pins: the stored signs while the drives are on, low while they are off.
+template <typename Registers>
+int direction_pins(const Registers& s) {
+  return s.enable_out ? s.direction : 0;
 }
 
 // joint_controller and joint_pwm in the clock `elapsed` cycles after ap_start was seen: joint j's
@@ -569,6 +632,17 @@ struct ModelBoard::State {
   int fault_cause = 0;
   std::array<std::int32_t, 3> difference_q{};
   std::array<bool, 3> outside_q{};
+  // the safety inputs (bit BoardFaultEstopInput, BoardFaultDrive + j): the two-flip-flop
+  // synchroniser, each input's filter (stop-level samples in a row at tick 0, saturating at
+  // BoardInputFilterPeriods), the latched board causes; the e-stop command's latch
+  int safety_meta = 0, safety = 0;
+  std::array<int, kBoardInputs> history{};
+  int board_cause = 0;
+  bool estop = false;
+  // the bench jog: running (and a clock after it ran: jog_tail), its joint and sign, the tick 0s
+  // it still runs to
+  bool jog = false, jog_tail = false, jog_negative = false;
+  int jog_joint = 0, jog_periods = 0;
   // joint_controller
   bool running = false, primed = false;
   // A quiet clock has recomputed the registers that only follow constant inputs in quiet clocks
@@ -646,9 +720,11 @@ bool ModelBoard::quiet() const {
   if (s.load_shift != 0) return false;  // the loader's CRC (link_rx stalled)
   if (s.step_error[0] || s.step_error[1] || s.step_error[2]) return false;
   if (switch_edge(s) != 0) return false;
-  const bool fault = s.fault_cause != 0;
-  if (fault && (s.enabled || s.holding || s.homing)) return false;  // a fault ends homing, enabled or not
-  if (s.answered && (!s.enabled || fault)) return false;            // the interpolator forgets the answer
+  if (!safety_settled()) return false;  // the safety inputs' synchroniser takes a change
+  if (s.jog != s.jog_tail || (s.jog && !jog_duties_held(s))) return false;  // the jog writes the duties
+  const bool fault = faulted(s);
+  if (fault && (s.enabled || s.holding || s.homing || s.jog)) return false;  // a fault ends homing, enabled or not
+  if (s.answered && (!s.enabled || fault)) return false;                     // the interpolator forgets the answer
   if (!s.enabled && s.silent_periods != 0) return false;
   if (s.enabled && s.silent_periods > board::kWatchdogPeriods) return false;
   if (s.running) {
@@ -735,6 +811,16 @@ bool ModelBoard::quiet() const {
   X(checked)                           \
   X(active)                            \
   X(fault_cause)                       \
+  X(safety_meta)                       \
+  X(safety)                            \
+  X(history)                           \
+  X(board_cause)                       \
+  X(estop)                             \
+  X(jog)                               \
+  X(jog_tail)                          \
+  X(jog_negative)                      \
+  X(jog_joint)                         \
+  X(jog_periods)                       \
   X(difference_q)                      \
   X(outside_q)                         \
   X(running)                           \
@@ -834,7 +920,7 @@ std::uint64_t ModelBoard::skip_run(std::uint64_t limit, int encoder_a, int encod
   pattern->phase = s.pwm_phase;
   for (int j = 0; j < kJoints; ++j) pattern->duty[j] = s.duty[j];
   pattern->direction = s.direction;
-  pattern->enable = s.enabled && s.fault_cause == 0;
+  pattern->enable = drives_on(s);
   std::uint64_t taken = 0;
   while (taken < limit) {
     if (quiet()) {
@@ -854,7 +940,7 @@ std::uint64_t ModelBoard::skip_run(std::uint64_t limit, int encoder_a, int encod
     }
   }
   pins_.drive_pwm = s.pwm;
-  pins_.drive_dir = s.direction;
+  pins_.drive_dir = direction_pins(s);
   pins_.drive_enable = s.enable_out;
   pins_.stage_sync = stage_sync(s.period_count);
   return taken;
@@ -907,7 +993,7 @@ std::uint64_t ModelBoard::quiet_run(std::uint64_t limit, int encoder_a, int enco
     if (count_encoders(s, encoder_a, encoder_b)) clocks = counted;
   }
 
-  const bool enabled = s.enabled && s.fault_cause == 0;
+  const bool enabled = drives_on(s);
   const int period = 1 << board::kPwmBits;
   const int last_phase = static_cast<int>((static_cast<std::uint64_t>(s.pwm_phase) + clocks - 1) % period);
   int pwm = 0;
@@ -999,6 +1085,7 @@ bool ModelBoard::micro_clock(int encoder_a, int encoder_b, std::uint64_t lines_h
 
   // joint controller: a current stored with its PWM duty (the third ends the run)
   if (c.elapsed != 0) store_current(s, c.elapsed);
+  jog_duties(s, s);  // (a jog's duties, held: the same values)
 
   // telemetry capture (the capture's word read before count_clock moved what it reads)
   telemetry_capture_next(s, s, c.word, false, false);
@@ -1009,10 +1096,15 @@ bool ModelBoard::micro_clock(int encoder_a, int encoder_b, std::uint64_t lines_h
 // in c (before any of them is written).
 bool ModelBoard::plan_micro_clock(int encoder_a, int encoder_b, std::uint64_t lines_hold, MicroClock& c) const {
   const State& s = *state_;
-  const bool fault = s.fault_cause != 0;
+  const bool fault = faulted(s);
+  // (the safety inputs: a change in the synchroniser, a stop-level sample or a jog's count at tick 0)
+  const bool sampled_at_stop = s.history != decltype(s.history){};  // (the samples kept shift at tick 0)
+  if (!safety_settled() || (s.tick == 0 && (s.jog || s.safety != 0 || sampled_at_stop))) return false;
+  if (s.jog != s.jog_tail || (s.jog && !jog_duties_held(s))) return false;
   if (s.step_error[0] || s.step_error[1] || s.step_error[2] || s.slew_limited || s.check || switch_edge(s) != 0 ||
-      s.load_shift != 0 || (fault && (s.enabled || s.holding || s.homing)) || (s.answered && (!s.enabled || fault)) ||
-      (!s.enabled && s.silent_periods != 0) || (s.enabled && s.silent_periods > board::kWatchdogPeriods) ||
+      s.load_shift != 0 || (fault && (s.enabled || s.holding || s.homing || s.jog)) ||
+      (s.answered && (!s.enabled || fault)) || (!s.enabled && s.silent_periods != 0) ||
+      (s.enabled && s.silent_periods > board::kWatchdogPeriods) ||
       (s.tx_state == kTxIdle && (s.telemetry_pending || s.identify_pending))) {
     return false;
   }
@@ -1197,9 +1289,10 @@ bool ModelBoard::take_tx_byte(std::uint8_t* byte) {
 std::uint16_t ModelBoard::telemetry_word_of(const State& s) {
   const int reference_word = static_cast<int>(board::kTelemetryReferencesOffset / 2);
   const int count_word = static_cast<int>(board::kTelemetryCountsOffset / 2);
-  const bool fault = s.fault_cause != 0;
+  const int current_word = static_cast<int>(board::kTelemetryCurrentsOffset / 2);
+  const bool fault = faulted(s);
   int flags = 0;
-  if (s.enabled && !fault) flags |= 1 << board::kFlagDriveEnable;
+  if (drives_on(s)) flags |= 1 << board::kFlagDriveEnable;
   if (s.homed) flags |= 1 << board::kFlagHomed;
   if (s.holding) flags |= 1 << board::kFlagHolding;
   if (fault) flags |= 1 << board::kFlagFault;
@@ -1217,8 +1310,8 @@ std::uint16_t ModelBoard::telemetry_word_of(const State& s) {
   else if (w == board::kTelemetryTickOffset / 2 + 1)
     return s.period_count >> 16;
   else if (w == board::kTelemetryFaultOffset / 2)
-    return static_cast<std::uint16_t>((flags << 8) | (rising_bits(s) << board::kTelemetryPlaySideShift) |
-                                      s.fault_cause);
+    return static_cast<std::uint16_t>((flags << 8) | ((s.estop ? 1 : 0) << board::kTelemetryEstopBit) |
+                                      (rising_bits(s) << board::kTelemetryPlaySideShift) | s.fault_cause);
   else if (w == board::kTelemetryFillOffset / 2)
     return static_cast<std::uint16_t>(s.fill);
   else if (w == board::kTelemetryBadFramesOffset / 2)
@@ -1230,10 +1323,14 @@ std::uint16_t ModelBoard::telemetry_word_of(const State& s) {
   else if (w == board::kTelemetrySlewLimitsOffset / 2)
     return s.slew_limits;
   else if (w == board::kTelemetryRejectedOffset / 2)
-    return s.refused;
+    return static_cast<std::uint16_t>((s.board_cause << board::kBoardFaultShift) | s.refused);
   else if (w == board::kTelemetrySequenceOffset / 2)
-    return static_cast<std::uint16_t>(
-        (((s.referenced << kJoints) | ((s.enc_a >> kHomeSwitchShift) & kAllJoints)) << 8) | s.last_sequence);
+    return static_cast<std::uint16_t>((((s.jog ? 1 : 0) << board::kTelemetryJogBit) | (s.referenced << kJoints) |
+                                       ((s.enc_a >> kHomeSwitchShift) & kAllJoints))
+                                          << 8 |
+                                      s.last_sequence);
+  else if (s.jog && w >= current_word && w < current_word + kJoints)
+    return jog_current(s, w - current_word);  // a bench jog: the current it applies
   else if (w >= reference_word && w < count_word && (w & 1) != (reference_word & 1))
     return s.peek_data >> 16;
   else
@@ -1324,6 +1421,7 @@ struct ModelBoard::Wires {
   bool fault = false, command_ok = false;
   int edge = 0;  // bit j: joint j's home switch references it
   bool flush = false, home = false, home_start = false, clear_fault = false, command_refused = false;
+  bool estop = false, jog_start = false;
   // the period schedule
   bool play = false, snapshot = false, update = false;
   // the setpoint buffer
@@ -1342,6 +1440,7 @@ void ModelBoard::clock(int encoder_a, int encoder_b) {
   uart_rx_next(s, n);
   link_rx_next(s, n, w);
   commands_next(s, n, w);
+  board_inputs_next(s, n, w);
   model_loader_next(s, n, w);
   schedule_next(s, n, w);
   setpoint_buffer_next(s, n, w);
@@ -1358,11 +1457,13 @@ void ModelBoard::clock(int encoder_a, int encoder_b) {
 
   const State& q = *state_;
   pins_.drive_pwm = q.pwm;
-  pins_.drive_dir = q.direction;
+  pins_.drive_dir = direction_pins(q);
   pins_.drive_enable = q.enable_out;
   pins_.encoder_error_bits = q.encoder_error;
   pins_.joint_limited = q.overflow != 0;
   pins_.fault_cause_bits = q.fault_cause;
+  pins_.board_fault_bits = q.board_cause;
+  pins_.estop_latched = q.estop;
   pins_.stage_sync = stage_sync(q.period_count);
 }
 
@@ -1403,14 +1504,19 @@ void ModelBoard::link_rx_next(const State& s, State& n, Wires& w) {
 
 // ---- joint_axes: fault, commands (board_core.sv's commands and home switches) ----
 void ModelBoard::commands_next(const State& s, State& n, Wires& w) {
-  w.fault = s.fault_cause != 0;
+  w.fault = faulted(s);
   w.command_ok = w.rx.frame_ok && w.is_command;
   w.edge = switch_edge(s);
   w.flush = (w.fault && s.enabled) || w.edge != 0;
-  if (w.command_ok) {
+  const int jog_command = static_cast<int>(s.command) - static_cast<int>(board::kCommandJogBase);
+  if (w.command_ok && jog_command >= 0 && jog_command < kJogCommands) {
+    // A bench jog: only with the drives off, no cause latched, not homing (homed or not, model or not).
+    w.command_refused = s.enabled || s.jog || w.fault || s.homing;
+    w.jog_start = !w.command_refused;
+  } else if (w.command_ok) {
     switch (s.command) {
       case board::kCommandEnable:
-        w.command_refused = w.fault || !s.homed || !s.loaded || (s.enabled && !s.holding);
+        w.command_refused = w.fault || !s.homed || !s.loaded || (s.enabled && !s.holding) || s.jog;
         break;
       case board::kCommandDisable:
         w.flush = true;
@@ -1418,17 +1524,20 @@ void ModelBoard::commands_next(const State& s, State& n, Wires& w) {
       case board::kCommandHold:
         w.command_refused = !s.enabled;
         break;
-      case board::kCommandClearFault:
-        w.command_refused = s.active;
-        w.clear_fault = !s.active;
+      case board::kCommandClearFault:  // refused while a cause persists (a joint's, a safety input at stop)
+        w.command_refused = s.active || input_active(s);
+        w.clear_fault = !w.command_refused;
         break;
-      case board::kCommandSetHome:
-        w.command_refused = s.enabled;
-        w.home = !s.enabled;
+      case board::kCommandEstop:  // in every state: the e-stop latched (the fault turns the drives off)
+        w.estop = true;
+        break;
+      case board::kCommandSetHome:  // (refused with the drives on: enabled or a jog)
+        w.command_refused = s.enabled || s.jog;
+        w.home = !w.command_refused;
         break;
       case board::kCommandHomeStart:
-        w.command_refused = s.enabled;
-        w.home_start = !s.enabled;
+        w.command_refused = s.enabled || s.jog;
+        w.home_start = !w.command_refused;
         break;
       default:
         w.command_refused = true;
@@ -1457,6 +1566,48 @@ void ModelBoard::commands_next(const State& s, State& n, Wires& w) {
     n.holding = false;
   }
   if (w.fault) n.homing = false;
+  // The bench jog: started by its command, to the JogPeriods-th tick 0 after it (its counter
+  // loaded with JogPeriods, counted down at tick 0); a fault (the e-stop's too) or a disable ends it
+  // at once.
+  n.jog_tail = s.jog;
+  if (w.jog_start) {
+    n.jog = true;
+    n.jog_joint = jog_command / 2;
+    n.jog_negative = (jog_command & 1) != 0;
+    n.jog_periods = static_cast<int>(board::kJogPeriods);
+  } else if (s.jog) {
+    if (s.tick == 0) n.jog_periods = s.jog_periods - 1;
+    const bool disabled = w.command_ok && s.command == board::kCommandDisable;
+    if (w.fault || disabled || (s.tick == 0 && s.jog_periods == 1)) n.jog = false;
+  }
+}
+
+void ModelBoard::set_safety_inputs(bool estop_open, int drive_fault) {
+  safety_in_ =
+      (estop_open ? 1 << board::kBoardFaultEstopInput : 0) | ((drive_fault & kAllJoints) << board::kBoardFaultDrive);
+}
+
+bool ModelBoard::safety_settled() const { return state_->safety_meta == safety_in_ && state_->safety == safety_in_; }
+
+// ---- the safety inputs and the e-stop command (board_core.sv) ----
+// Each input through a two-flip-flop synchroniser, sampled at tick 0 of every control period:
+// BoardInputFilterPeriods samples in a row at the stop level latch its cause. The causes and the
+// e-stop latch hold until a clear-fault is taken (commands_next: refused while an input samples at
+// the stop level).
+void ModelBoard::board_inputs_next(const State& s, State& n, const Wires& w) const {
+  n.safety_meta = safety_in_;
+  n.safety = s.safety_meta;
+  int cause = w.clear_fault ? 0 : s.board_cause;
+  if (s.tick == 0) {
+    for (int i = 0; i < kBoardInputs; ++i) {
+      const int stop = (s.safety >> i) & 1;
+      n.history[i] = ((s.history[i] << 1) | stop) & kHistoryMask;
+      if (stop != 0 && s.history[i] == kHistoryMask) cause |= 1 << i;  // (a latch beats a clear)
+    }
+  }
+  n.board_cause = cause;
+  n.estop = (s.estop && !w.clear_fault) || w.estop;
+  // (the history and causes as board_safety_inputs.sv's history_q, cause_q; the latch board_core's)
 }
 
 // ---- model_loader (docs/board_link.md, "The model") ----
@@ -1494,7 +1645,8 @@ void ModelBoard::model_loader_next(const State& s, State& n, Wires& w) {
   }
   if (!(w.rx.frame_ok && w.is_model)) return;
   const bool start = !s.load_number_high && s.load_number == 0;
-  const bool take = !s.enabled && (start || (s.loading && !s.load_number_high && s.load_number == s.load_expected));
+  const bool take = !s.enabled && !s.jog &&  // refused with the drives on (enabled or a jog)
+                    (start || (s.loading && !s.load_number_high && s.load_number == s.load_expected));
   if (!take) {
     w.model_refused = true;
     return;
@@ -1714,7 +1866,8 @@ void ModelBoard::joint_safety_next(const State& s, State& n, const Wires& w) {
 
 // ---- joint_pwm (n may be s) ----
 void ModelBoard::joint_pwm_next(const State& s, State& n) {
-  const bool enabled = s.enabled && s.fault_cause == 0;
+  jog_duties(s, n);  // over the controllers' stores in this clock (joint_controller_next before)
+  const bool enabled = drives_on(s);
   const int phase = s.pwm_phase;
   int pwm = 0;
   for (int j = 0; j < kJoints; ++j) {
@@ -1918,6 +2071,14 @@ std::vector<ModelBoard::ProbedRegister> ModelBoard::probe_registers(const std::s
     add("length_q", static_cast<std::uint64_t>(s.tx_length));
     add("sequence_q", s.tx_sequence);
     add("state_q", static_cast<std::uint64_t>(s.tx_state));  // Idle, or Send (the model folds Fetch into it)
+  } else if (instance == "u_safety_inputs") {                // board_safety_inputs.sv (the gate's RTL, not yet probed)
+    add("meta_q", static_cast<std::uint64_t>(s.safety_meta));
+    add("sync_q", static_cast<std::uint64_t>(s.safety));
+    std::uint64_t history = 0;
+    const int history_bits = static_cast<int>(board::kBoardInputFilterPeriods - 1);
+    for (int i = 0; i < kBoardInputs; ++i) history |= static_cast<std::uint64_t>(s.history[i]) << (history_bits * i);
+    add("history_q", history);
+    add("cause_q", static_cast<std::uint64_t>(s.board_cause));
   } else if (instance == "u_model_loader") {
     add("word_q", s.load_word);
     add("number_q", static_cast<std::uint64_t>(s.load_number));

@@ -4,8 +4,11 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <optional>
 #include <stdexcept>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "Vboard_core.h"
@@ -23,6 +26,38 @@
 namespace delta::cosim {
 
 namespace {
+
+// Whether a Verilated core has the safety input ports (estop_open_i, drive_fault_i).
+template <typename Core, typename = void>
+struct HasSafetyPorts : std::false_type {};
+template <typename Core>
+struct HasSafetyPorts<
+    Core, std::void_t<decltype(std::declval<Core&>().estop_open_i), decltype(std::declval<Core&>().drive_fault_i)>>
+    : std::true_type {};
+
+// Whether it has the board causes' outputs (board_fault_cause_o, estop_latched_o).
+template <typename Core, typename = void>
+struct HasBoardCauseOutputs : std::false_type {};
+template <typename Core>
+struct HasBoardCauseOutputs<Core, std::void_t<decltype(std::declval<const Core&>().board_fault_cause_o),
+                                              decltype(std::declval<const Core&>().estop_latched_o)>> : std::true_type {
+};
+template <typename Core>
+void read_board_causes(const Core& core, BoardPins& pins) {
+  if constexpr (HasBoardCauseOutputs<Core>::value) {
+    pins.board_fault_bits = core.board_fault_cause_o;
+    pins.estop_latched = core.estop_latched_o != 0;
+  }
+}
+
+// The safety inputs onto the Verilated core's ports, where it has them.
+template <typename Core>
+void set_safety_ports(Core& core, const BoardLines& lines) {
+  if constexpr (HasSafetyPorts<Core>::value) {
+    core.estop_open_i = lines.estop_open ? 1 : 0;
+    core.drive_fault_i = static_cast<std::uint8_t>(lines.drive_fault & 7);
+  }
+}
 
 // The Verilated board core as a BoardModel: its context (one per board: the plusarg names this
 // board's .mem files), the serial line at its pins, and the network's clock skipped while idle.
@@ -53,6 +88,7 @@ class RtlBoardModel final : public BoardModel {
     core.encoder_a_i = lines.encoder_a;
     core.encoder_b_i = lines.encoder_b;
     core.home_switch_i = lines.home_switches;
+    set_safety_ports(core, lines);
     network_clock_.clock(core);
     if (line_.sample_tx_pin(core.uart_tx_o)) tx_.push_back(line_.byte());
   }
@@ -72,6 +108,7 @@ class RtlBoardModel final : public BoardModel {
     pins.joint_limited = core.joint_limited_o;
     pins.fault_cause_bits = core.joint_fault_cause_o;
     pins.stage_sync = core.stage_sync_o != 0;
+    read_board_causes(core, pins);
     return pins;
   }
   std::uint64_t idle_network_clocks() const override { return network_clock_.skipped(); }
@@ -94,6 +131,8 @@ std::unique_ptr<BoardModel> make_board(const VirtualBoardOptions& options) {
 }
 
 }  // namespace
+
+bool rtl_board_has_safety_inputs() { return HasSafetyPorts<Vboard_core>::value; }
 
 VirtualBoard::VirtualBoard(const VirtualBoardOptions& options) : board_(make_board(options)) {
   BoardInterface board_interface;
@@ -118,7 +157,30 @@ VirtualBoard::VirtualBoard(const VirtualBoardOptions& options) : board_(make_boa
     world_->slip_encoder(options.inject_slip_joint, options.inject_slip_counts,
                          static_cast<std::uint64_t>(options.inject_slip_at_s * kBoardClockHz));
   }
+  for (const SafetyInputWindow& window : options.safety_inputs) {
+    const auto clock_of = [](double t_s) {
+      return std::isfinite(t_s) ? static_cast<std::uint64_t>(std::llround(t_s * kBoardClockHz)) : ~std::uint64_t{0};
+    };
+    safety_windows_.push_back({1 << window.input, clock_of(window.from_s), clock_of(window.until_s)});
+  }
+  safety_now_ = safety_inputs_at(0);
   if (options.network != nullptr) load_at_start(*options.network);
+}
+
+int VirtualBoard::safety_inputs_at(std::uint64_t clock) const {
+  int bits = 0;
+  for (const SafetyClocks& w : safety_windows_)
+    if (clock >= w.from && clock < w.until) bits |= w.bit;
+  return bits;
+}
+
+std::uint64_t VirtualBoard::next_safety_change(std::uint64_t clock) const {
+  std::uint64_t next = ~std::uint64_t{0};
+  for (const SafetyClocks& w : safety_windows_) {
+    if (w.from > clock) next = std::min(next, w.from);
+    if (w.until > clock) next = std::min(next, w.until);
+  }
+  return next;
 }
 
 // The model's load as a host sends it (`deltactl host load`: its frames in order, then an
@@ -175,7 +237,10 @@ std::size_t VirtualBoard::read(std::uint8_t* data, std::size_t capacity) {
 
 BoardLines VirtualBoard::lines() const {
   const int skipped = clocks_ >= encoder_skip_clock_ ? 1 : 0;  // joint 1's lines inverted
-  return {world_->encoder_a() ^ skipped, world_->encoder_b() ^ skipped, world_->home_switches()};
+  BoardLines lines{world_->encoder_a() ^ skipped, world_->encoder_b() ^ skipped, world_->home_switches()};
+  lines.estop_open = (safety_now_ & 1) != 0;
+  lines.drive_fault = safety_now_ >> 1;
+  return lines;
 }
 
 void VirtualBoard::take_bytes() {
@@ -192,8 +257,10 @@ void VirtualBoard::clock() {
   board_->clock(lines());
   take_bytes();
   const BoardPins pins = board_->pins();
-  world_->step({pins.drive_pwm, pins.drive_dir, pins.drive_enable});
+  // A drive in fault gives no current, whatever its PWM input.
+  world_->step({pins.drive_pwm & ~(safety_now_ >> 1), pins.drive_dir, pins.drive_enable});
   ++clocks_;
+  if (!safety_windows_.empty()) safety_now_ = safety_inputs_at(clocks_);
   if (++period_phase_ == kClocksPerTick) period_phase_ = 0;
   if (++millisecond_phase_ == kClocksPerMillisecond) millisecond_phase_ = 0;
 }
@@ -206,6 +273,8 @@ void VirtualBoard::observe(bool drives_enabled) {
   truth.encoder_deg = world_->encoder_deg();
   truth.current_a = world_->current_a();
   truth.drives_enabled = drives_enabled;
+  truth.estop_open = (safety_now_ & 1) != 0;
+  truth.drive_fault = safety_now_ >> 1;
   observed([&] { truth_observer_(truth, *world_); });
 }
 
@@ -232,10 +301,14 @@ bool VirtualBoard::skip_run(std::uint64_t limit, std::size_t needed_bytes) {
     if (completes != ~std::uint64_t{0}) clocks = std::min(clocks, completes - clocks_ + 1);
   }
   if (clocks_ < encoder_skip_clock_) clocks = std::min(clocks, encoder_skip_clock_ - clocks_);
+  const std::uint64_t safety_change = next_safety_change(clocks_);  // (the inputs held over the run)
+  if (safety_change != ~std::uint64_t{0}) clocks = std::min(clocks, safety_change - clocks_);
   DrivePattern pattern;
   const std::uint64_t taken = board_->skip(clocks, lines(), &pattern);
   if (taken == 0) return false;
   take_bytes();
+  for (int j = 0; j < 3; ++j)
+    if (((safety_now_ >> (j + 1)) & 1) != 0) pattern.duty[j] = 0;  // a drive in fault: no current
   const int period = static_cast<int>(board::kPwmPeriodCycles);
   const bool continues = world_cycles_ != 0 && pattern.enable == world_pattern_.enable &&
                          pattern.direction == world_pattern_.direction && pattern.duty == world_pattern_.duty &&
@@ -248,6 +321,7 @@ bool VirtualBoard::skip_run(std::uint64_t limit, std::size_t needed_bytes) {
   world_cycles_ += taken;
   if (taken == to_world_event) flush_world();  // the world's event: its plant step or an encoder line
   clocks_ += taken;
+  if (!safety_windows_.empty()) safety_now_ = safety_inputs_at(clocks_);
   period_phase_ += taken;  // (a run crosses a period's start only where nothing observes it)
   if (period_phase_ >= kClocksPerTick) period_phase_ %= kClocksPerTick;
   millisecond_phase_ += taken;

@@ -14,6 +14,8 @@
 #include "delta/csv.hpp"
 #include "delta/input_error.hpp"
 #include "delta/input_file.hpp"
+#include "delta/link/payloads.hpp"
+#include "delta/link/session.hpp"
 #include "delta/output_file.hpp"
 #include "delta/plot.hpp"
 #include "delta/plot_marks.hpp"
@@ -151,10 +153,11 @@ void add_spans(std::vector<PlotSpan>& spans, const std::vector<double>& t, const
 
 const std::set<std::string>& not_plotted() {
   // Indices, counters and bit fields: marks on the time axis, or nothing a curve would show.
-  static const std::set<std::string> names = {"t_s",         "sample_index", "stream_sample", "fill",
-                                              "tau_s",       "bad_frames",   "rejected",      "slew_limits",
-                                              "flags",       "fault_bits",   "underruns",     "drives_enabled",
-                                              "saturations", "fault",        "holding",       "tick"};
+  static const std::set<std::string> names = {
+      "t_s",         "sample_index", "stream_sample",    "fill",      "tau_s",          "bad_frames",   "rejected",
+      "slew_limits", "flags",        "fault_bits",       "underruns", "drives_enabled", "saturations",  "fault",
+      "holding",     "tick",         "board_fault_bits", "estop",     "estop_open",     "drive_fault1", "drive_fault2",
+      "drive_fault3"};
   return names;
 }
 
@@ -330,6 +333,22 @@ RecordingPlot describe_recording(const std::string& csv_path) {
     add_spans(
         marks.spans, t, [&](std::size_t i) { return d[i] == 0.0; }, "drives off", "#808080");
   }
+  // The fault band names the causes latched where it starts (link::describe_fault: the board's
+  // own, an e-stop command, an e-stop input, a drive's fault, and the joints').
+  const std::vector<double> zeros(n, 0.0);
+  const auto column_or_zero = [&](const char* name) { return c.has(name) ? column(name) : zeros; };
+  const std::vector<double> joint_causes = column_or_zero("fault_bits"),
+                            board_causes = column_or_zero("board_fault_bits"), estops = column_or_zero("estop");
+  std::string fault_label = "fault";
+  for (std::size_t i = 0; i < n; ++i) {
+    if (joint_causes[i] == 0.0 && board_causes[i] == 0.0 && estops[i] == 0.0) continue;
+    link::TelemetryPayload causes;
+    causes.fault_cause = static_cast<std::uint8_t>(joint_causes[i]);
+    causes.board_fault = static_cast<std::uint8_t>(board_causes[i]);
+    causes.estop = estops[i] != 0.0;
+    fault_label = "fault: " + link::describe_fault(causes);
+    break;
+  }
   if (c.has("flags")) {
     const std::vector<double> f = column("flags");
     // A run's recording holds before its stream plays (the primed start) and after it ends (the
@@ -344,18 +363,28 @@ RecordingPlot describe_recording(const std::string& csv_path) {
         "feed hold", "#1f77b4");
     add_spans(
         marks.spans, t, [&](std::size_t i) { return (static_cast<long long>(f[i]) & (1LL << board::kFlagFault)) != 0; },
-        "fault", "#d62728");
+        fault_label, "#d62728");
   }
   if (c.has("holding")) {
     const std::vector<double> h = column("holding");
     add_spans(
         marks.spans, t, [&](std::size_t i) { return h[i] != 0.0; }, "feed hold", "#1f77b4");
   }
-  for (const std::string fault : {"fault_bits", "fault"}) {
+  for (const std::string fault : {"fault_bits", "fault", "board_fault_bits", "estop"}) {
     if (!c.has(fault)) continue;
     const std::vector<double> f = column(fault);
     add_spans(
-        marks.spans, t, [&](std::size_t i) { return f[i] != 0.0; }, "fault", "#d62728");
+        marks.spans, t, [&](std::size_t i) { return f[i] != 0.0; }, fault_label, "#d62728");
+  }
+  // A virtual board's truth: its safety inputs at the stop level, each named as the cause it latches.
+  const char* const inputs[] = {"estop_open", "drive_fault1", "drive_fault2", "drive_fault3"};
+  for (int k = 0; k < 4; ++k) {
+    if (!c.has(inputs[k])) continue;
+    link::TelemetryPayload cause;
+    cause.board_fault = static_cast<std::uint8_t>(1 << k);  // BoardFault: the e-stop input, then drives 1-3
+    const std::vector<double> f = column(inputs[k]);
+    add_spans(
+        marks.spans, t, [&](std::size_t i) { return f[i] != 0.0; }, link::describe_fault(cause), "#9c27b0");
   }
   if (c.has("underruns")) {  // while the drives are on (the counter also counts before a stream starts)
     const std::vector<double> u = column("underruns");

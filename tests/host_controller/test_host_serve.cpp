@@ -31,11 +31,6 @@ namespace {
 
 constexpr int kFlagDrives = 1, kFlagHolding = 4;
 
-std::vector<std::string> with_model_fidelity(std::vector<std::string> extra) {
-  extra.insert(extra.begin(), {"--fidelity", "model"});
-  return extra;
-}
-
 // The drives-on intervals of a truth file, [from, to) in board seconds.
 std::vector<std::pair<double, double>> drive_intervals(const Table& truth) {
   std::vector<std::pair<double, double>> out;
@@ -99,53 +94,6 @@ class NotifySocket {
   std::mutex mutex_;
   std::vector<std::chrono::steady_clock::time_point> pings_;
   std::thread reader_;
-};
-
-struct Server {
-  Bench bench;
-  std::string socket;
-  std::unique_ptr<HostProcess> serve;
-  explicit Server(const std::string& name, std::vector<std::string> board_extra = {})
-      : bench(name, with_model_fidelity(std::move(board_extra)), false) {
-    socket = bench.dir + "/ctl.sock";
-    serve = std::make_unique<HostProcess>(
-        std::vector<std::string>{"host", "serve", "--port", bench.link, "--weights", kWeights, "--socket", socket,
-                                 "--record-folder", bench.dir + "/runs", "--link-timeout-ms", "1000"},
-        bench.dir + "/serve");
-    // Connected: the board identified with the right gateware and weights.
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
-    while (status().value("connection", "") != "connected") {
-      if (std::chrono::steady_clock::now() > deadline)
-        throw std::runtime_error("serve never connected: " + serve->err());
-      std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    }
-  }
-  CommandResult ctl(const std::string& arguments) const {
-    return run_deltactl("host ctl --socket " + socket + " " + arguments);
-  }
-  nlohmann::json status() const {
-    const CommandResult result = ctl("status --json");
-    if (result.exit_code != 0) return nlohmann::json::object();
-    return nlohmann::json::parse(result.out);
-  }
-  // Polls status until `done` or timeout; false on timeout.
-  template <typename Done>
-  bool wait_for(Done&& done, double timeout_s) const {
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
-    while (std::chrono::steady_clock::now() < deadline) {
-      if (done(status())) return true;
-      std::this_thread::sleep_for(std::chrono::milliseconds(50));
-    }
-    return false;
-  }
-  // `record`: a name in the controller's recordings folder (recorded(record) is its path).
-  std::unique_ptr<HostProcess> start_run(double duration_s, const std::string& record) const {
-    return std::make_unique<HostProcess>(
-        std::vector<std::string>{"host", "ctl", "--socket", socket, "run", "--trajectory", "experiment1", "--duration",
-                                 std::to_string(duration_s), "--record", record},
-        bench.dir + "/" + record + ".ctl");
-  }
-  std::string recorded(const std::string& record) const { return bench.dir + "/runs/" + record; }
 };
 
 std::size_t played(const nlohmann::json& status) {

@@ -111,7 +111,9 @@ TEST(LinkPayloads, TelemetryRoundTripsOnRandomValues) {
     sent.saturations = random_value<std::uint16_t>(random);
     sent.slew_limits = random_value<std::uint16_t>(random);
     sent.sequence = random_value<std::uint8_t>(random);
-    sent.rejected = random_value<std::uint16_t>(random);
+    sent.rejected = random_value<std::uint16_t>(random) & ((1u << board::kStatusCounterBits) - 1);
+    sent.board_fault = random_value<std::uint8_t>(random) & ((1u << board::kBoardFaultBits) - 1);
+    sent.estop = (random() & 1) != 0;
     const std::vector<std::uint8_t> bytes = encode(sent);
     ASSERT_EQ(bytes.size(), static_cast<std::size_t>(board::kTelemetryPayloadBytes));
     const TelemetryPayload received = decode_telemetry(bytes);
@@ -130,21 +132,63 @@ TEST(LinkPayloads, TelemetryRoundTripsOnRandomValues) {
     ASSERT_EQ(received.slew_limits, sent.slew_limits);
     ASSERT_EQ(received.sequence, sent.sequence);
     ASSERT_EQ(received.rejected, sent.rejected);
+    ASSERT_EQ(received.board_fault, sent.board_fault);
+    ASSERT_EQ(received.estop, sent.estop);
     ASSERT_EQ(encode(received), bytes) << "trial " << trial;
   }
 }
 
 TEST(LinkPayloads, EveryCommandRoundTripsAndOtherBytesAreNoCommand) {
   for (Command command : {Command::kEnable, Command::kDisable, Command::kHold, Command::kClearFault, Command::kSetHome,
-                          Command::kHomeStart}) {
+                          Command::kHomeStart, Command::kEstop}) {
     const std::vector<std::uint8_t> bytes = encode(command);
     ASSERT_EQ(bytes.size(), static_cast<std::size_t>(board::kCommandPayloadBytes));
     EXPECT_EQ(decode_command(bytes), command);
   }
   EXPECT_EQ(encode(Command::kHold), std::vector<std::uint8_t>{board::kCommandHold});
+  // The bench jog's six bytes, joint j and sign n at CommandJogBase + 2 j + n.
+  for (int joint = 0; joint < 3; ++joint) {
+    for (const bool negative : {false, true}) {
+      const std::uint8_t byte = jog_command_byte(joint, negative);
+      EXPECT_EQ(byte, board::kCommandJogBase + 2 * joint + (negative ? 1 : 0));
+      EXPECT_EQ(decode_command({byte}), static_cast<Command>(byte));
+    }
+  }
   int known = 0;
   for (int byte = 0; byte < 256; ++byte) known += decode_command({static_cast<std::uint8_t>(byte)}).has_value();
-  EXPECT_EQ(known, 6);
+  EXPECT_EQ(known, 7 + 6);
+}
+
+// The board's own causes: the e-stop command's latch in the fault byte's bit TelemetryEstopBit, the
+// safety inputs' causes above the refused counter's 12 bits; each named, the board's first.
+TEST(LinkPayloads, TheBoardCausesAreDecodedApartFromTheCountersAndNamed) {
+  TelemetryPayload sent;
+  std::vector<std::uint8_t> bytes = encode(sent);
+  bytes[board::kTelemetryFaultOffset] = static_cast<std::uint8_t>((1 << board::kTelemetryEstopBit) | 0b10);
+  bytes[board::kTelemetryRejectedOffset] = 0x23;
+  bytes[board::kTelemetryRejectedOffset + 1] = 0x51;  // causes 0b0101 (e-stop input, drive 2), count 0x123
+  TelemetryPayload t = decode_telemetry(bytes);
+  EXPECT_TRUE(t.estop);
+  EXPECT_EQ(t.fault_cause, 0b10);
+  EXPECT_EQ(t.rejected, 0x123);
+  EXPECT_EQ(t.board_fault, 0b0101);
+  EXPECT_TRUE(t.has(BoardFault::kEstopInput));
+  EXPECT_FALSE(t.has(BoardFault::kDrive1));
+  EXPECT_TRUE(t.has(BoardFault::kDrive2));
+  EXPECT_TRUE(t.board_cause());
+  EXPECT_EQ(describe_fault(t), "e-stop command, e-stop input open, drive 2 fault, following error");
+  EXPECT_EQ(encode(t), bytes);
+  // A saturated counter (4095) stays apart from the causes.
+  sent.rejected = 4095;
+  sent.board_fault = 0b1010;
+  bytes = encode(sent);
+  EXPECT_EQ(bytes[board::kTelemetryRejectedOffset], 0xFF);
+  EXPECT_EQ(bytes[board::kTelemetryRejectedOffset + 1], 0xAF);
+  t = decode_telemetry(bytes);
+  EXPECT_EQ(t.rejected, 4095);
+  EXPECT_EQ(describe_fault(t), "drive 1 fault, drive 3 fault");
+  EXPECT_FALSE(t.estop);
+  EXPECT_EQ(describe_fault(TelemetryPayload{}), "none");
 }
 
 TEST(LinkPayloads, FieldsAreLittleEndianAtThePackagesOffsets) {
@@ -154,7 +198,8 @@ TEST(LinkPayloads, FieldsAreLittleEndianAtThePackagesOffsets) {
   telemetry.references[0] = -2;  // i32: 0xFFFFFFFE
   telemetry.references[2] = 0x12345678;
   telemetry.slew_limits = 0x1234;
-  telemetry.rejected = 0xABCD;
+  telemetry.rejected = 0x0BCD;
+  telemetry.board_fault = 0xA;
   const std::vector<std::uint8_t> bytes = encode(telemetry);
   const std::size_t tick = board::kTelemetryTickOffset;
   EXPECT_EQ(std::vector<std::uint8_t>(bytes.begin() + tick, bytes.begin() + tick + 4),

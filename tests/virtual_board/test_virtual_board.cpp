@@ -10,6 +10,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -402,6 +403,26 @@ TEST(VirtualBoard, RefusesAnUnknownFidelityAndAPathThatIsNotALink) {
   EXPECT_EQ(effects.exit_code, 2) << effects.err;
   EXPECT_NE(effects.err.find("none.json"), std::string::npos) << effects.err;
   EXPECT_FALSE(std::filesystem::exists(std::filesystem::symlink_status(dir + "/tty")));
+  std::filesystem::remove_all(dir);
+}
+
+TEST(VirtualBoard, RefusesBadSafetyInputTimesInOneLineNamingTheOption) {
+  const std::string dir = ::testing::TempDir() + "virtual_board_safety_" + std::to_string(::getpid());
+  std::filesystem::create_directories(dir);
+  for (const std::string bad :
+       {"--estop-open-at x", "--estop-open-at 2,1", "--estop-open-at -1", "--estop-open-at 1,2,3",
+        "--drive-fault-at 4,1", "--drive-fault-at 2", "--drive-fault-at 1,0.5,0.5",
+        "--fidelity model --drive-fault-at 2,1 --drive-fault-at 0,1"}) {
+    const CommandResult refused =
+        run_deltactl("virtual-board --link " + dir + "/tty --truth " + dir + "/truth.csv " + bad);
+    EXPECT_EQ(refused.exit_code, 2) << bad << ": " << refused.err;
+    const std::string option = bad.find("drive") != std::string::npos ? "--drive-fault-at" : "--estop-open-at";
+    EXPECT_EQ(refused.err.rfind("deltactl: error: " + option + ": ", 0), 0u) << bad << ": " << refused.err;
+    EXPECT_EQ(std::count(refused.err.begin(), refused.err.end(), '\n'), 1) << bad << ": " << refused.err;
+    EXPECT_TRUE(refused.out.empty()) << bad << ": " << refused.out;
+    EXPECT_FALSE(std::filesystem::exists(std::filesystem::symlink_status(dir + "/tty"))) << bad;
+    EXPECT_FALSE(std::filesystem::exists(dir + "/truth.csv")) << bad;
+  }
   std::filesystem::remove_all(dir);
 }
 

@@ -406,7 +406,7 @@ struct Dashboard::Impl {
       const link::TelemetryPayload& t = last->telemetry;
       status["homed"] = t.has(link::TelemetryFlag::kHomed);
       status["drives_enabled"] = t.has(link::TelemetryFlag::kDriveEnable);
-      if (t.has(link::TelemetryFlag::kFault)) status["fault"] = link::describe_fault(t.fault_cause);
+      if (t.has(link::TelemetryFlag::kFault)) status["fault"] = link::describe_fault(t);
       status["board_time_s"] = t.tick / 1e4;
       status["data_age_ms"] = std::chrono::duration<double, std::milli>(Clock::now() - at).count();
       status["counters"]["underruns"] = t.underruns;

@@ -241,7 +241,7 @@ HomingReport home_at_references(link::LinkSession& session, const golden::BoardW
   try {
     link::TelemetryPayload t = checked([&] { return next(); });
     if (t.has(link::TelemetryFlag::kFault)) {
-      throw HostFailure(kExitFault, "home: the board has a latched fault: " + link::describe_fault(t.fault_cause) +
+      throw HostFailure(kExitFault, "home: the board has a latched fault: " + link::describe_fault(t) +
                                         " (clear it deliberately first)");
     }
     if (t.has(link::TelemetryFlag::kDriveEnable)) {
@@ -269,7 +269,7 @@ HomingReport home_at_references(link::LinkSession& session, const golden::BoardW
       }
       const int referenced = (t.home >> 3) & 7;
       if (referenced == 7) break;
-      if (t.has(link::TelemetryFlag::kFault)) fail(kExitFault, "fault: " + link::describe_fault(t.fault_cause));
+      if (t.has(link::TelemetryFlag::kFault)) fail(kExitFault, "fault: " + link::describe_fault(t));
       if (!t.has(link::TelemetryFlag::kHoming))
         fail(kExitFault, "the board left homing (" + link::describe_state(t) + ")");
       // A joint not referenced whose switch is closed at rest passed its switch with the drives off
@@ -381,7 +381,7 @@ HomingReport home_at_references(link::LinkSession& session, const golden::BoardW
             }
           }
           fail(kExitFault, joint_name(worst) + " " + (delta[worst] > 0 ? "moving up" : "moving down") +
-                               ": fault: " + link::describe_fault(f.fault_cause) + " (" + fixed(worst_error, 2) +
+                               ": fault: " + link::describe_fault(f) + " (" + fixed(worst_error, 2) +
                                " deg behind its reference: stuck, or blocked before its switch)");
         }
         for (int j = 0; j < 3; ++j) {

@@ -190,7 +190,8 @@ void StreamingLoop::run() {
                         " ms (bound " + std::to_string(options_.link_timeout_ms) + " ms)";
         break;
       }
-      if (estop_.load()) {  // ahead of anything else: the drives off now
+      if (estop_.load()) {  // ahead of anything else: the drives off now, the board's own e-stop latched
+        session_.send_command(link::Command::kEstop);
         session_.send_command(link::Command::kDisable);
         result_.outcome = StreamingResult::Outcome::kFault;
         result_.cause = "e-stop on request: drives off";
@@ -209,7 +210,7 @@ void StreamingLoop::run() {
         played_.store(pacer.played(t));
         if (t.has(link::TelemetryFlag::kFault)) {
           result_.outcome = StreamingResult::Outcome::kFault;
-          result_.cause = link::describe_fault(t.fault_cause);
+          result_.cause = link::describe_fault(t);
           finished = true;
           break;
         }

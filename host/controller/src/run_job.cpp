@@ -286,7 +286,7 @@ struct TelemetryRecorder {
         "alpha1_ref_deg,alpha2_ref_deg,alpha3_ref_deg,alpha1_deg,alpha2_deg,alpha3_deg,current1_a,current2_a,"
         "current3_a,fault_bits,flags,drives_enabled,sample_index,fill,";
     if (streaming) header += "tau_s,stream_sample,";
-    header += "bad_frames,underruns,rejected,slew_limits\n";
+    header += "bad_frames,underruns,rejected,slew_limits,board_fault_bits,estop\n";
     file.open(header);
   }
   // The last line: how the run ended, at the board time of the last frame the host acted on
@@ -313,7 +313,8 @@ struct TelemetryRecorder {
     }
     if (streaming) out += ',' + format_number(r.tau_s) + ',' + std::to_string(r.stream_sample);
     for (const long long value : {static_cast<long long>(t.bad_frames), static_cast<long long>(t.underruns),
-                                  static_cast<long long>(t.rejected), static_cast<long long>(t.slew_limits)}) {
+                                  static_cast<long long>(t.rejected), static_cast<long long>(t.slew_limits),
+                                  static_cast<long long>(t.board_fault), static_cast<long long>(t.estop ? 1 : 0)}) {
       out += ',' + std::to_string(value);
     }
     out += '\n';
@@ -452,8 +453,7 @@ RunOutcome RunJob::execute(link::LinkSession& session, const std::string& port_n
   log(std::string(state_name(HostState::kDisconnected)) + " -> " + state_name(state_of(t0)) + " (" +
       link::describe_state(t0) + ")");
   if (t0.has(link::TelemetryFlag::kFault)) {
-    throw HostFailure(kExitFault, port_name +
-                                      ": the board has a latched fault: " + link::describe_fault(t0.fault_cause) +
+    throw HostFailure(kExitFault, port_name + ": the board has a latched fault: " + link::describe_fault(t0) +
                                       " (clear it deliberately; this host re-enables nothing by itself)");
   }
   if (t0.has(link::TelemetryFlag::kDriveEnable)) {

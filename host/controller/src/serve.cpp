@@ -169,6 +169,7 @@ struct HostServer::Impl {
   EstopLatch estop_latch;
   std::string estop_file;                      // the latch kept across a restart: <recordings>/.estop-latched (JSON)
   bool homing = false;                         // the board thread is homing (a stop, an estop or the shutdown ends it)
+  bool homing_interrupted = false;             // the last homing failed or was stopped (no homing since)
   volatile std::sig_atomic_t homing_stop = 0;  // non-zero: the homing ends now, drives off
 
   // ---- client threads: counted, each ends on its own ----
@@ -239,12 +240,19 @@ struct HostServer::Impl {
     if (t) {
       out["description"] = link::describe_state(*t);
       out["fault_bits"] = t->fault_cause;
-      const Referencing referencing = board_referencing(*t);
+      out["board_fault_bits"] = t->board_fault;
+      out["estop_on_board"] = t->estop;
+      out["fault"] = t->has(link::TelemetryFlag::kFault) ? json(link::describe_fault(*t)) : json();
+      Referencing referencing = board_referencing(*t);
+      // A homing that a fault ended (a board e-stop included: the board forgets it was homing)
+      // leaves the board's homed flag from its set-home: not homed by hand, but unfinished.
+      const bool interrupted = homing_interrupted && referencing != Referencing::kHomeSwitches;
+      if (interrupted) referencing = Referencing::kNone;
       out["homed_by"] = referencing == Referencing::kHomeSwitches ? "reference"
                         : referencing == Referencing::kHand       ? "hand"
                                                                   : "none";
       out["homing_unfinished"] =
-          referencing == Referencing::kNone && t->has(link::TelemetryFlag::kHoming) && !homing_now;
+          referencing == Referencing::kNone && (t->has(link::TelemetryFlag::kHoming) || interrupted) && !homing_now;
       out["referencing"] = unreferenced_reason(*t);  // "" when homed at the references
       out["board_time_s"] = t->tick / 1e4;
       out["encoder_deg"] = {t->counts[0] * kCountDeg, t->counts[1] * kCountDeg, t->counts[2] * kCountDeg};
@@ -528,9 +536,12 @@ struct HostServer::Impl {
         home_at_references(
             session, weights, homing_options(),
             [](const std::string& line) { std::cerr << "host serve: " << line << std::endl; }, &homing_stop);
-      } catch (const HostFailure& error) {
-        if (homing_stop == 0) throw;
         std::lock_guard<std::mutex> lock(mutex);
+        homing_interrupted = false;
+      } catch (const std::exception&) {
+        std::lock_guard<std::mutex> lock(mutex);
+        homing_interrupted = true;
+        if (homing_stop == 0) throw;
         throw HostFailure(kExitFault, "home stopped (" + std::string(estop_latch.latched ? "e-stop" : "stop") +
                                           "): drives off, not homed");
       }
@@ -573,6 +584,14 @@ struct HostServer::Impl {
       return reply;
     } else if (work.command == "disable") {
       session.disable();
+    } else if (work.command == "board-estop") {
+      // The e-stop's own work: the board latches its e-stop (drives off, a clear-fault needed), and
+      // a disable follows for a board whose gateware has no e-stop command.
+      try {
+        session.estop();
+      } catch (const link::LinkError&) {
+        session.disable();
+      }
     } else if (work.command == "clear-fault") {
       // The explicit clear: the board's latched fault (if any), then the e-stop latch.
       if (fresh_telemetry(session).has(link::TelemetryFlag::kFault)) session.clear_fault();
@@ -854,7 +873,7 @@ struct HostServer::Impl {
     std::shared_ptr<RunJob> job;
     std::deque<std::shared_ptr<Work>> refused;
     auto work = std::make_shared<Work>();
-    work->command = "disable";
+    work->command = "board-estop";
     {
       std::lock_guard<std::mutex> lock(mutex);
       job = running;

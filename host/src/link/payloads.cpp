@@ -176,14 +176,25 @@ std::vector<std::uint8_t> encode(const IdentifyPayload& payload) {
   return bytes;
 }
 
-// The fault byte carries the fault causes (low bits) and the play sides (TelemetryPlaySideShift..).
+// The fault byte carries the fault causes (low bits), the play sides (TelemetryPlaySideShift..) and
+// the e-stop latch (TelemetryEstopBit); the rejected counter's word the count (StatusCounterBits) and
+// the board causes above it (BoardFaultShift..).
 constexpr int kFaultCauseMask = (1 << board::kFaultCauseBits) - 1;
+constexpr int kRejectedMask = (1 << board::kStatusCounterBits) - 1;
+constexpr int kBoardFaultMask = (1 << board::kBoardFaultBits) - 1;
+static_assert(board::kBoardFaultShift == board::kStatusCounterBits &&
+                  board::kBoardFaultShift + board::kBoardFaultBits == 16 &&
+                  board::kTelemetryBoardFaultOffset == board::kTelemetryRejectedOffset,
+              "the board causes are the rejected counter's word's bits above its count");
 
 std::vector<std::uint8_t> encode(const TelemetryPayload& payload) {
   std::vector<std::uint8_t> bytes(board::kTelemetryPayloadBytes);
   TelemetryPayload packed = payload;
   packed.fault_cause = static_cast<std::uint8_t>((payload.fault_cause & kFaultCauseMask) |
-                                                 ((payload.rising & 7) << board::kTelemetryPlaySideShift));
+                                                 ((payload.rising & 7) << board::kTelemetryPlaySideShift) |
+                                                 ((payload.estop ? 1 : 0) << board::kTelemetryEstopBit));
+  packed.rejected = static_cast<std::uint16_t>((payload.rejected & kRejectedMask) |
+                                               ((payload.board_fault & kBoardFaultMask) << board::kBoardFaultShift));
   visit_telemetry(packed, [&bytes](const layout::Field& field, const auto& value) { write(bytes, field, value); });
   return bytes;
 }
@@ -213,8 +224,10 @@ std::optional<Command> decode_command(const std::vector<std::uint8_t>& payload) 
     case board::kCommandClearFault:
     case board::kCommandSetHome:
     case board::kCommandHomeStart:
+    case board::kCommandEstop:
       return static_cast<Command>(byte);
     default:
+      if (byte >= board::kCommandJogBase && byte < board::kCommandJogBase + 6) return static_cast<Command>(byte);
       return std::nullopt;
   }
 }
@@ -231,7 +244,10 @@ TelemetryPayload decode_telemetry(const std::vector<std::uint8_t>& payload) {
   TelemetryPayload telemetry;
   visit_telemetry(telemetry, [&payload](const layout::Field& field, auto& value) { read(payload, field, value); });
   telemetry.rising = static_cast<std::uint8_t>((telemetry.fault_cause >> board::kTelemetryPlaySideShift) & 7);
+  telemetry.estop = ((telemetry.fault_cause >> board::kTelemetryEstopBit) & 1) != 0;
   telemetry.fault_cause = static_cast<std::uint8_t>(telemetry.fault_cause & kFaultCauseMask);
+  telemetry.board_fault = static_cast<std::uint8_t>((telemetry.rejected >> board::kBoardFaultShift) & kBoardFaultMask);
+  telemetry.rejected = static_cast<std::uint16_t>(telemetry.rejected & kRejectedMask);
   return telemetry;
 }
 

@@ -206,7 +206,25 @@ TelemetryPayload LinkSession::disable() {
 }
 
 TelemetryPayload LinkSession::clear_fault() {
-  return command(Command::kClearFault, [](const TelemetryPayload& t) { return !t.has(TelemetryFlag::kFault); });
+  try {
+    return command(Command::kClearFault, [](const TelemetryPayload& t) { return !t.has(TelemetryFlag::kFault); });
+  } catch (const LinkError& error) {
+    if (error.kind() != LinkError::Kind::kRefused || !last_telemetry_) throw;
+    const TelemetryPayload& t = *last_telemetry_;
+    std::string why = "a cause persists";
+    if (t.has(BoardFault::kEstopInput)) why = "the e-stop input is still open (close the e-stop chain first)";
+    for (int j = 0; j < 3; ++j) {
+      if (t.has(static_cast<BoardFault>(static_cast<int>(BoardFault::kDrive1) + j))) {
+        why = "drive " + std::to_string(j + 1) + " may still report its fault (clear the drive first)";
+      }
+    }
+    throw LinkError(LinkError::Kind::kRefused, stream_.name() + ": the board refused the clear-fault while " + why +
+                                                   "; latched: " + describe_fault(t));
+  }
+}
+
+TelemetryPayload LinkSession::estop() {
+  return command(Command::kEstop, [](const TelemetryPayload& t) { return t.estop && !drives_on(t); });
 }
 
 ModelLoadReport LinkSession::load_model(const std::vector<ModelPayload>& frames) {
@@ -306,14 +324,23 @@ ModelLoadReport LinkSession::load_model(const std::vector<ModelPayload>& frames)
   return report;
 }
 
-std::string describe_fault(std::uint8_t fault_cause) {
+std::string describe_fault(const TelemetryPayload& t) {
   std::string out;
-  auto add = [&out](const char* what) { out += (out.empty() ? "" : ", ") + std::string(what); };
+  auto add = [&out](const std::string& what) { out += (out.empty() ? "" : ", ") + what; };
+  // The board's own causes first: they name what stopped it from outside the joints.
+  if (t.estop) add("e-stop command");
+  if (t.has(BoardFault::kEstopInput)) add("e-stop input open");
+  for (int j = 0; j < 3; ++j) {
+    if (t.has(static_cast<BoardFault>(static_cast<int>(BoardFault::kDrive1) + j))) {
+      add("drive " + std::to_string(j + 1) + " fault");
+    }
+  }
+  const std::uint8_t fault_cause = t.fault_cause;
   if (fault_cause & mask(FaultCause::kEncoderSkip)) add("encoder skipped a state");
   if (fault_cause & mask(FaultCause::kFollowing)) add("following error");
   static const std::string watchdog =
       "watchdog (no valid frame for " + std::to_string(board::kWatchdogPeriods * 1000 / board::kControlRateHz) + " ms)";
-  if (fault_cause & mask(FaultCause::kWatchdog)) add(watchdog.c_str());
+  if (fault_cause & mask(FaultCause::kWatchdog)) add(watchdog);
   if (fault_cause & mask(FaultCause::kTravel)) add("reference outside the travel");
   return out.empty() ? "none" : out;
 }
@@ -339,7 +366,7 @@ std::string describe_state(const TelemetryPayload& t) {
   }
   if (t.has(TelemetryFlag::kHolding)) out += ", holding";
   if (t.has(TelemetryFlag::kEncoderError)) out += ", encoder error seen";
-  if (t.has(TelemetryFlag::kFault)) out += "; fault: " + describe_fault(t.fault_cause);
+  if (t.has(TelemetryFlag::kFault)) out += "; fault: " + describe_fault(t);
   return out;
 }
 

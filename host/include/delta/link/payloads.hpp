@@ -48,7 +48,14 @@ enum class Command : std::uint8_t {
   kClearFault = board::kCommandClearFault,
   kSetHome = board::kCommandSetHome,      // the joints not referenced: count := home count
   kHomeStart = board::kCommandHomeStart,  // forget the references, start homing (docs/homing.md)
+  kEstop = board::kCommandEstop,          // drives off, the e-stop latched (any state) until a clear-fault
 };
+
+// The bench jog's command byte (CommandJogBase + 2 j + n): joint j (0-2) alone at the open-loop
+// current +JogCurrentCode (negative: -JogCurrentCode) for JogPeriods control periods.
+constexpr std::uint8_t jog_command_byte(int joint, bool negative) {
+  return static_cast<std::uint8_t>(board::kCommandJogBase + 2 * joint + (negative ? 1 : 0));
+}
 
 // Identify (board -> host), the answer to an identify request.
 struct IdentifyPayload {
@@ -86,6 +93,14 @@ enum class FaultCause : std::uint8_t {
   kTravel = board::kFaultTravel,
 };
 
+// Bits of TelemetryPayload::board_fault: the board's safety inputs' latched causes.
+enum class BoardFault : std::uint8_t {
+  kEstopInput = board::kBoardFaultEstopInput,  // the e-stop chain opened
+  kDrive1 = board::kBoardFaultDrive,           // drive j's fault line: kDrive1 + j
+  kDrive2 = board::kBoardFaultDrive + 1,
+  kDrive3 = board::kBoardFaultDrive + 2,
+};
+
 constexpr std::uint8_t mask(TelemetryFlag flag) { return static_cast<std::uint8_t>(1u << static_cast<int>(flag)); }
 constexpr std::uint8_t mask(FaultCause cause) { return static_cast<std::uint8_t>(1u << static_cast<int>(cause)); }
 
@@ -96,7 +111,8 @@ struct TelemetryPayload {
   std::array<std::int16_t, 3> counts{};      // encoder counts, 0.01 deg
   std::array<std::int32_t, 3> references{};  // joint references, Q24.8 encoder counts (converted, interpolated answers)
   std::array<std::int16_t, 3> currents{};    // current commands, Q1.15 A
-  std::uint8_t fault_cause = 0;              // FaultCause bits (the fault byte's low bits)
+  std::uint8_t fault_cause = 0;              // FaultCause bits (the fault byte's low bits): the joints' causes
+  bool estop = false;                        // an e-stop command latched (the fault byte's TelemetryEstopBit)
   std::uint8_t rising = 0;                   // bit j: joint j's count last stepped up (the fault byte's play sides)
   std::uint8_t flags = 0;                    // TelemetryFlag bits
   std::uint16_t fill = 0;                    // setpoints waiting in the buffer
@@ -105,16 +121,21 @@ struct TelemetryPayload {
   std::uint16_t saturations = 0;             // controller saturations, saturating
   std::uint16_t slew_limits = 0;             // segments whose reference change was saturated, saturating
   std::uint8_t sequence = 0;                 // of the last accepted frame
-  std::uint16_t rejected = 0;                // refused commands and setpoints, saturating
-  std::uint8_t home = 0;                     // bit j: joint j's home switch closed; bit 3 + j: joint j referenced
+  std::uint16_t rejected = 0;                // refused commands and setpoints, saturating (12 bits)
+  std::uint8_t board_fault = 0;              // BoardFault bits latched (bits 12-15 of the rejected counter's word)
+  std::uint8_t home = 0;  // bit j: joint j's home switch closed; bit 3 + j: joint j referenced; bit 6: a bench jog runs
 
   bool home_switch(int joint) const { return ((home >> joint) & 1) != 0; }
   bool referenced(int joint) const { return ((home >> (3 + joint)) & 1) != 0; }
+  bool jogging() const { return ((home >> board::kTelemetryJogBit) & 1) != 0; }
   // Where joint j's play was last taken up: +1 above (its count last stepped up), -1 below.
   int play_side(int joint) const { return ((rising >> joint) & 1) != 0 ? 1 : -1; }
 
   bool has(TelemetryFlag flag) const { return (flags & mask(flag)) != 0; }
   bool has(FaultCause cause) const { return (fault_cause & mask(cause)) != 0; }
+  bool has(BoardFault cause) const { return ((board_fault >> static_cast<int>(cause)) & 1) != 0; }
+  // A cause latched by the board itself (an e-stop command, a safety input), not by a joint.
+  bool board_cause() const { return estop || board_fault != 0; }
   void set(TelemetryFlag flag, bool on) {
     flags = static_cast<std::uint8_t>(on ? flags | mask(flag) : flags & ~mask(flag));
   }
@@ -133,7 +154,7 @@ std::vector<std::uint8_t> encode(const TelemetryPayload& payload);
 
 // Decoding: each throws std::invalid_argument naming the payload and both sizes when `payload`
 // is not the type's size. decode_command returns nothing for a byte that is no Command (the board
-// refuses it and counts it in `rejected`).
+// refuses it and counts it in `rejected`); a bench jog's byte (jog_command_byte) comes back as it is.
 SetpointPayload decode_setpoint(const std::vector<std::uint8_t>& payload);
 ModelPayload decode_model(const std::vector<std::uint8_t>& payload);
 std::optional<Command> decode_command(const std::vector<std::uint8_t>& payload);

@@ -192,7 +192,10 @@ class LinkSession {
   TelemetryPayload enable();    // homed, no fault: drives on
   TelemetryPayload hold();      // drives on: the reference stops at the end of the segment
   TelemetryPayload disable();   // drives off, buffer flushed
+  // Refused (LinkError kRefused, naming the causes) while a cause persists: a safety input still at
+  // its stop level (the e-stop chain open, a drive in fault) or a joint's condition.
   TelemetryPayload clear_fault();
+  TelemetryPayload estop();  // any state: drives off, the board's e-stop latched until a clear-fault
 
   // Sends a model load (golden::model_frames: frames 0 .. the commit, in order) paced by the
   // board's acceptance: at most kModelLoadWindowBytes of frames beyond the last one the telemetry's
@@ -242,6 +245,8 @@ class LinkSession {
 
 // One line of what the flags and fault cause say, e.g. "drives on, homed; fault: watchdog".
 std::string describe_state(const TelemetryPayload& telemetry);
-std::string describe_fault(std::uint8_t fault_cause);
+// The latched causes named, the board's own first ("e-stop command", "e-stop input open",
+// "drive 2 fault"), then the joints' ("following error", ...); "none" if none.
+std::string describe_fault(const TelemetryPayload& telemetry);
 
 }  // namespace delta::link

@@ -22,6 +22,8 @@ struct BoardPins {
   int encoder_error_bits = 0;  // bit j: encoder j skipped a quadrature state
   bool joint_limited = false;  // a joint controller saturated an operand or state
   int fault_cause_bits = 0;    // delta_board_pkg Fault* bits, latched
+  int board_fault_bits = 0;    // bit BoardFaultEstopInput, BoardFaultDrive + j: the safety inputs' causes, latched
+  bool estop_latched = false;  // the e-stop command latched (telemetry fault byte bit TelemetryEstopBit)
   bool stage_sync = false;     // stage_sync_o: bit StageSyncBit of the periods since reset
 };
 
@@ -30,6 +32,9 @@ struct BoardLines {
   int encoder_a = 0;
   int encoder_b = 0;
   int home_switches = 0;
+  // The safety inputs (1 = stop): the e-stop chain open, bit j drive j's fault line.
+  bool estop_open = false;
+  int drive_fault = 0;
 };
 
 class BoardModel {

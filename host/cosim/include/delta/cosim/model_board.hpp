@@ -61,7 +61,10 @@ class ModelBoard final : public BoardModel {
   // encoder_b joint j's A and B line, bit 3 + j of encoder_a joint j's home switch (board_core's
   // home_switch_i).
   void clock(int encoder_a, int encoder_b);
-  void clock(const BoardLines& lines) override { clock(lines_a(lines), lines.encoder_b); }
+  void clock(const BoardLines& lines) override {
+    set_safety_inputs(lines);
+    clock(lines_a(lines), lines.encoder_b);
+  }
   BoardPins pins() const override { return pins_; }
 
   // Up to `limit` clocks at once with the pins held, if they are clocks that only count: the
@@ -74,8 +77,13 @@ class ModelBoard final : public BoardModel {
   std::uint64_t skip(std::uint64_t limit, int encoder_a, int encoder_b, DrivePattern* pattern);
   bool takes_runs() const override { return true; }
   std::uint64_t skip(std::uint64_t limit, const BoardLines& lines, DrivePattern* pattern) override {
+    set_safety_inputs(lines);
     return skip(limit, lines_a(lines), lines.encoder_b, pattern);
   }
+  // The safety inputs the next clocks sample (board_core's estop_open_i, drive_fault_i; 1 = stop),
+  // held until set again.
+  void set_safety_inputs(bool estop_open, int drive_fault);
+  void set_safety_inputs(const BoardLines& lines) { set_safety_inputs(lines.estop_open, lines.drive_fault); }
 
   // The run check (tests): every skip() runs its clocks again as full clocks from the same state
   // and throws std::logic_error naming the first register, block RAM, drive pin or line byte that
@@ -110,6 +118,8 @@ class ModelBoard final : public BoardModel {
  private:
   // The A lines carry the home switches above the three encoder lines.
   static int lines_a(const BoardLines& lines) { return lines.encoder_a | (lines.home_switches << 3); }
+  bool safety_settled() const;  // the safety synchroniser holds safety_in_
+  int safety_in_ = 0;
   struct State;
   std::uint64_t skip_run(std::uint64_t limit, int encoder_a, int encoder_b, DrivePattern* pattern);
   static const char* differing_register(const State& a, const State& b);
@@ -132,6 +142,7 @@ class ModelBoard final : public BoardModel {
   void uart_rx_next(const State& s, State& n);
   void link_rx_next(const State& s, State& n, Wires& w);
   static void commands_next(const State& s, State& n, Wires& w);
+  void board_inputs_next(const State& s, State& n, const Wires& w) const;
   static void schedule_next(const State& s, State& n, Wires& w);
   void setpoint_buffer_next(const State& s, State& n, Wires& w);
   void interpolator_next(const State& s, State& n, const Wires& w) const;

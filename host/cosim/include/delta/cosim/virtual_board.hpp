@@ -20,9 +20,11 @@
 #include <cstdint>
 #include <deque>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "delta/board_facts.hpp"
 #include "delta/cosim/board_model.hpp"
@@ -45,6 +47,14 @@ constexpr double kCountDeg = board::kEncoderCountMicrodeg * 1e-6;
 
 // BoardFidelity (board_model.hpp) rtl: the Verilated board core; model: the same board in C++
 // (model_board.hpp), bit-exact at its pins.
+
+// A safety input of the board (board_core's estop_open_i, drive_fault_i) at its stop level over a
+// window of board time: from from_s until until_s (infinite: to the end).
+struct SafetyInputWindow {
+  int input = 0;  // 0: the e-stop chain open; 1..3: drive j's fault line (joint j - 1)
+  double from_s = 0.0;
+  double until_s = std::numeric_limits<double>::infinity();
+};
 
 struct VirtualBoardOptions {
   BoardFidelity fidelity = BoardFidelity::kRtl;
@@ -82,7 +92,15 @@ struct VirtualBoardOptions {
   int inject_slip_joint = -1;
   int inject_slip_counts = 0;
   double inject_slip_at_s = 0.0;
+  // The board's safety inputs at the stop level over these windows (`--estop-open-at`,
+  // `--drive-fault-at`). A drive in fault also stops its torque from the window's start (its motor's
+  // current zero, as a real drive's output stage turns off), whatever the board's pins.
+  std::vector<SafetyInputWindow> safety_inputs;
 };
+
+// Whether this build's Verilated board core has the safety input ports (estop_open_i,
+// drive_fault_i): the RTL fidelity applies SafetyInputWindow only then.
+bool rtl_board_has_safety_inputs();
 
 // What the world is, every 1 ms of board time (ground truth: no sensor saw it).
 struct TruthSample {
@@ -92,6 +110,8 @@ struct TruthSample {
   Vec3 encoder_deg = Vec3::Zero();     // what the encoder lines show (0.01 deg counts)
   Vec3 current_a = Vec3::Zero();       // drive currents (PWM averaged)
   bool drives_enabled = false;         // the board's drive enable pin
+  bool estop_open = false;             // the board's e-stop input at the stop level (the chain open)
+  int drive_fault = 0;                 // bit j: drive j's fault line at the stop level
 };
 
 class VirtualBoard {
@@ -143,6 +163,8 @@ class VirtualBoard {
   void flush_world();
   void run(std::uint64_t board_clocks, std::size_t until_bytes);  // until_bytes 0: all board_clocks
   void observe(bool drives_enabled);
+  int safety_inputs_at(std::uint64_t clock) const;  // bit 0: the e-stop chain open, bit j + 1: drive j's fault
+  std::uint64_t next_safety_change(std::uint64_t clock) const;  // the first clock after `clock` they change in
   void load_at_start(const golden::QuantisedNetwork& network);
   // Calls an observer, its wall time counted in observer_s_ (not the board's).
   template <typename Call>
@@ -161,6 +183,12 @@ class VirtualBoard {
   std::uint64_t period_phase_ = 0;       // clocks_ mod kClocksPerTick
   std::uint64_t millisecond_phase_ = 0;  // clocks_ mod kClocksPerMillisecond
   std::uint64_t encoder_skip_clock_ = ~std::uint64_t{0};
+  struct SafetyClocks {
+    int bit;  // in safety_inputs_at's word
+    std::uint64_t from, until;
+  };
+  std::vector<SafetyClocks> safety_windows_;
+  int safety_now_ = 0;  // safety_inputs_at(clocks_)
   double busy_s_ = 0.0;
   double observer_s_ = 0.0;         // (inside runs, taken out of busy_s_)
   DrivePattern world_pattern_;      // a board that takes runs: the drive pattern of the runs the world has not taken
