@@ -48,7 +48,7 @@ void run_bench(const std::string& name, const BenchCommon& common, Check&& check
   if (!common.limits_confirmed) {
     fail(kExitBadInput, "bench " + name +
                             ": set the drives' current limits low first (the MCBL's LPC and LCC, docs/bench.md), "
-                            "then pass --limits-confirmed");
+                            "then pass --limits-confirmed\n");
   }
   struct sigaction action {};
   action.sa_handler = request_bench_stop;
@@ -136,16 +136,17 @@ const RegisterCommand command("bench", 76, [](CLI::App& root) {
   auto switches = std::make_shared<SwitchesCli>();
   CLI::App* sw = bench->add_subcommand("switches", "Watch the home switches while the arms are moved by hand");
   sw->footer(
-      "\nWhat it does: reads every telemetry frame (1 kHz) with the drives off and prints the three home\n"
-      "switches' states at the start, then one line per change: the board time, the switch, closed or\n"
-      "opened, its joint's encoder count there, and all three counts.\n"
+      "\nWhat it does: reads every telemetry frame (1 kHz) with the drives off and watches the three home\n"
+      "switches.\n"
       "What you do: move each arm by hand up through its home switch (it closes at and above the home\n"
       "angle, 30.00 deg) and back down, a few times.\n"
-      "At the end (--duration S of board time, or Ctrl-C): one line per switch: seen open and closed or\n"
+      "What it prints: the switches' states at the start, then one line per change: the board time, the\n"
+      "switch, closed or opened, its joint's encoder count there, and all three counts. At the end\n"
+      "(--duration S of board time, or Ctrl-C): one line per switch: seen open and closed or\n"
       "not, the count at each closing and opening edge and the spread of the closing counts (the\n"
       "switch's repeatability). Exit 1 when a switch was not seen both open and closed (its wiring,\n"
       "or the arm was not moved through it); Ctrl-C ends the watch as the duration does.\n" +
-      kExitCodes + "\nExample: deltactl bench switches --port icebreaker --limits-confirmed");
+      kExitCodes + "\nExample: deltactl bench switches --port icebreaker --limits-confirmed\n");
   common_options(sw, switches->common);
   sw->add_option("--duration", switches->options.duration_s, "seconds of board time (default: until Ctrl-C)")
       ->check(options::real_number(0, 1e6, true));
@@ -169,7 +170,7 @@ const RegisterCommand command("bench", 76, [](CLI::App& root) {
       "the expected 100 and the error in %. Exit 1 when the error is outside --tolerance-percent, or a\n"
       "reading moved more than 5 counts (the joint was not held still). The angles are differences:\n"
       "where the encoders count from (homed or not) does not matter.\n" +
-      kExitCodes + "\nExample: deltactl bench scale --port icebreaker --limits-confirmed --joint 1 --from 0 --to 60");
+      kExitCodes + "\nExample: deltactl bench scale --port icebreaker --limits-confirmed --joint 1 --from 0 --to 60\n");
   common_options(sc, scale->common);
   sc->add_option("--joint", scale->joint, "the joint, 1-3")->required()->check(CLI::Range(1, 3));
   sc->add_option("--from", scale->options.from_deg, "the first fixture's angle [deg]")
@@ -210,7 +211,7 @@ const RegisterCommand command("bench", 76, [](CLI::App& root) {
       "gaps, missed telemetry periods: tick gaps, late telemetry frames: more than 100 ms after the\n"
       "one before, unanswered identify requests) and the totals. Exit 0 only when none counted a\n"
       "fault, else 1 naming those that did.\n" +
-      kExitCodes + "\nExample: deltactl bench soak --port icebreaker --limits-confirmed --minutes 30");
+      kExitCodes + "\nExample: deltactl bench soak --port icebreaker --limits-confirmed --minutes 30\n");
   common_options(so, soak->common);
   CLI::Option* minutes =
       so->add_option("--minutes", soak->minutes, "minutes of board time")->check(options::real_number(0, 10080, true));
@@ -240,7 +241,7 @@ const RegisterCommand command("bench", 76, [](CLI::App& root) {
       "the joint moved fewer than 5 counts (its motor, its drive or the arm stuck) or the other way\n"
       "than --expect-sign (default: the jog's own sign, a positive current raises the count: otherwise\n"
       "the motor or the encoder is reversed; 'any' checks only that it moved).\n" +
-      kExitCodes + "\nExample: deltactl bench jog --port icebreaker --limits-confirmed --joint 2 --direction +");
+      kExitCodes + "\nExample: deltactl bench jog --port icebreaker --limits-confirmed --joint 2 --direction +\n");
   common_options(jg, jog->common);
   jg->add_option("--joint", jog->joint, "the joint, 1-3")->required()->check(CLI::Range(1, 3));
   jg->add_option("--direction", jog->direction, "+ (positive current) or -")

@@ -18,6 +18,7 @@
 #include "delta/link/frame_codec.hpp"
 #include "delta/link/payloads.hpp"
 #include "delta/link/session.hpp"
+#include "support/line_time_board.hpp"
 
 namespace delta {
 namespace {
@@ -164,7 +165,7 @@ TEST(BenchJog, TheWatchMeasuresFromTheJogsStartToItsEndAndNamesAStillOrReversedJ
 // identify requests, takes disable (drives off, a jog ended) and the bench jog (drives off and no
 // fault: the drives on for kJogPeriods, the joint's count moving `counts_per_ms` a millisecond with
 // the current's sign), refuses any other command and every setpoint (the drives off).
-class ScriptedBenchBoard : public io::ByteStream {
+class ScriptedBenchBoard : public test::LineTimeBoard {
  public:
   int counts_per_ms = 1;               // the jogged joint's motion (negative: a reversed motor)
   bool knows_jog = true;               // false: a gateware without the bench jog (the command byte refused)
@@ -173,26 +174,17 @@ class ScriptedBenchBoard : public io::ByteStream {
   std::vector<std::uint8_t> commands;  // every command byte the board took, in order
   int identify_requests = 0;
   bool drives_on() const { return jog_ms_ > 0; }
-
-  std::size_t read_some(std::uint8_t* data, std::size_t capacity) override {
-    const std::size_t n = std::min(capacity, to_host_.size());
-    std::copy(to_host_.begin(), to_host_.begin() + static_cast<std::ptrdiff_t>(n), data);
-    to_host_.erase(to_host_.begin(), to_host_.begin() + static_cast<std::ptrdiff_t>(n));
-    return n;
+  // The line delivers what the host sent last (nobody reading).
+  void run_ms(int ms) {
+    for (int k = 0; k < 100 * ms; ++k) step();
   }
+
   void write_all(const std::uint8_t* data, std::size_t size, int) override {
     line_.insert(line_.end(), data, data + size);
   }
-  int fd() const override { return -1; }
-  using io::ByteStream::wait_readable;
-  bool wait_readable(int timeout_ms) override {
-    for (long steps = 0; to_host_.empty() && steps < 100L * timeout_ms; ++steps) step();
-    return !to_host_.empty();
-  }
-  const std::string& name() const override { return name_; }
 
  private:
-  void step() {  // one byte time, 10 us
+  void step() override {  // one byte time, 10 us
     ++time_;
     if (!line_.empty()) {
       const std::uint8_t byte = line_.front();
@@ -257,9 +249,8 @@ class ScriptedBenchBoard : public io::ByteStream {
     }
   }
 
-  std::string name_ = "scripted board";
   link::FrameDecoder decoder_{link::Receiver::kBoard};
-  std::deque<std::uint8_t> line_, to_host_;
+  std::deque<std::uint8_t> line_;
   std::uint64_t time_ = 0, ms_ = 0, sent_bytes_ = 0;
   std::array<std::int16_t, 3> counts_ = {3000, 3000, 3000};
   int jog_ms_ = 0, jog_joint_ = 0, jog_sign_ = 1;
@@ -288,6 +279,7 @@ bench::Outcome jog_on(ScriptedBenchBoard& board, bench::JogOptions options, Capt
     outcome = bench::jog(session, options, kNoStop, captured.output());
     if (outcome.code == 0) off.finish();
   }
+  board.run_ms(2);
   return outcome;
 }
 
