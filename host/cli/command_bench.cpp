@@ -48,7 +48,7 @@ void run_bench(const std::string& name, const BenchCommon& common, Check&& check
   if (!common.limits_confirmed) {
     fail(kExitBadInput, "bench " + name +
                             ": set the drives' current limits low first (the MCBL's LPC and LCC, docs/bench.md), "
-                            "then pass --limits-confirmed\n");
+                            "then pass --limits-confirmed");
   }
   struct sigaction action {};
   action.sa_handler = request_bench_stop;

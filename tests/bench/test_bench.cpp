@@ -196,6 +196,18 @@ TEST(Bench, SoakOnACleanLinkCountsNothing) {
   EXPECT_NE(r.err.find("bench soak: 10 s of board time, drives off"), std::string::npos) << r.err;
 }
 
+TEST(Bench, ACtrlCEndsASoakWithItsCountersSoFar) {
+  Bench b = model_board("soak_interrupted");
+  HostProcess soak(
+      {"bench", "soak", "--minutes", "10", "--port", b.link, "--limits-confirmed", "--link-timeout-ms", "2000"},
+      b.dir + "/soak");
+  std::this_thread::sleep_for(std::chrono::seconds(2));
+  ::kill(soak.pid(), SIGINT);
+  EXPECT_EQ(soak.wait(10.0), 128 + SIGINT) << soak.err();
+  EXPECT_NE(soak.out().find("host CRC errors: 0"), std::string::npos) << soak.out();
+  EXPECT_NE(soak.err().find("bench soak: stopped by signal 2 (drives off)"), std::string::npos) << soak.err();
+}
+
 // A link between the virtual board's pty and a pty of its own that drops every Nth byte each way.
 class LossyLink {
  public:

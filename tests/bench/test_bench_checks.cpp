@@ -172,6 +172,8 @@ class ScriptedBenchBoard : public test::LineTimeBoard {
   bool fault = false;                  // a latched fault (watchdog)
   std::size_t corrupt_every = 0;       // every Nth byte to the host flipped (0: none)
   std::vector<std::uint8_t> commands;  // every command byte the board took, in order
+  volatile std::sig_atomic_t* stop_at_jog_ms = nullptr;  // set to SIGINT 100 ms into a jog (a Ctrl-C)
+  int jog_ms_left_at_disable = -1;                       // the jog's milliseconds left when a disable came
   int identify_requests = 0;
   bool drives_on() const { return jog_ms_ > 0; }
   // The line delivers what the host sent last (nobody reading).
@@ -207,6 +209,7 @@ class ScriptedBenchBoard : public test::LineTimeBoard {
     const std::uint8_t byte = frame.payload.at(0);
     commands.push_back(byte);
     if (byte == board::kCommandDisable) {
+      if (jog_ms_ > 0) jog_ms_left_at_disable = jog_ms_;
       jog_ms_ = 0;
       return;
     }
@@ -226,6 +229,7 @@ class ScriptedBenchBoard : public test::LineTimeBoard {
     if (jog_ms_ > 0) {
       counts_[jog_joint_] = static_cast<std::int16_t>(counts_[jog_joint_] + jog_sign_ * counts_per_ms);
       --jog_ms_;
+      if (stop_at_jog_ms && jog_ms_ == board::kJogPeriods / board::kPeriodsPerSetpoint - 100) *stop_at_jog_ms = SIGINT;
     }
     t.counts = counts_;
     if (jog_ms_ > 0) {
@@ -322,6 +326,26 @@ TEST(BenchJog, AReversedMotorAndAStuckJointFailAndTheDrivesEndOff) {
   EXPECT_EQ(still.code, 1);
   EXPECT_NE(still.error.find("joint 1 did not move: 0 counts"), std::string::npos) << still.error;
   EXPECT_EQ(stuck.commands.back(), board::kCommandDisable);
+}
+
+TEST(BenchJog, ACtrlCInTheJogTurnsTheDrivesOffAtOnce) {
+  ScriptedBenchBoard board;
+  volatile std::sig_atomic_t stop = 0;
+  board.stop_at_jog_ms = &stop;
+  link::LinkSession session(board);
+  Captured captured;
+  bench::Outcome outcome;
+  {
+    bench::DrivesOff off(session);
+    outcome = bench::jog(session, bench::JogOptions{}, stop, captured.output());
+  }
+  board.run_ms(2);
+  EXPECT_EQ(outcome.code, 128 + SIGINT);
+  EXPECT_FALSE(board.drives_on());
+  // The disable came within a few frames of the signal, most of the jog still to run.
+  const int jog_ms = static_cast<int>(board::kJogPeriods / board::kPeriodsPerSetpoint);
+  EXPECT_GT(board.jog_ms_left_at_disable, jog_ms - 100 - 5);
+  EXPECT_EQ(board.commands.back(), board::kCommandDisable);
 }
 
 TEST(BenchJog, ABoardWithoutTheJogRefusesItAndNothingIsSentAgain) {
