@@ -16,6 +16,7 @@
 #include "command.hpp"
 #include "delta/board_facts.hpp"
 #include "delta/controller/bench.hpp"
+#include "delta/controller/realtime.hpp"
 #include "delta/controller/run_job.hpp"
 #include "delta/table.hpp"
 #include "delta/utf8_text.hpp"
@@ -23,6 +24,8 @@
 
 namespace delta::controller {
 namespace {
+
+constexpr int kStreamingPriority = 80;  // SCHED_FIFO, as the host's streaming thread (the virtual board's: 70)
 
 volatile std::sig_atomic_t bench_stop = 0;
 void request_bench_stop(int signal_number) {
@@ -72,6 +75,10 @@ void run_bench(const std::string& name, const BenchCommon& common, Check&& check
     }
     bench::DrivesOff drives_off(session);  // from here on, every way out sends a disable
     if (const std::string why = bench::refusal(c.telemetry, port->name()); !why.empty()) fail(kExitFault, why);
+    // Every telemetry frame is read as it comes (a stalled host shows as late frames in a soak, and
+    // a jog's disable goes out at once): real time when permitted, as a run's streaming thread.
+    const std::string realtime_note = make_thread_realtime(kStreamingPriority);
+    if (!realtime_note.empty()) std::cerr << "bench " << name << ": normal scheduling (" << realtime_note << ")\n";
     const bench::Output output{port->name(), [](const std::string& line) { std::cout << line << std::endl; },
                                [](const std::string& line) { std::cerr << line << std::endl; }};
     outcome = check(session, output);

@@ -360,6 +360,7 @@ Outcome soak(link::LinkSession& session, const SoakOptions& options, const volat
     frames_waited = 0;
   };
   request();
+  const std::uint64_t frames_before = session.statistics().telemetry_frames;
   auto last_frame_at = Clock::now();
   double next_progress = options.progress_s;
   bool ending = false;
@@ -402,7 +403,7 @@ Outcome soak(link::LinkSession& session, const SoakOptions& options, const volat
       const std::string faults = soak_faults(tally.counters(session.statistics()));
       const double percent = 100.0 * tally.seconds() / options.duration_s;
       output.note("bench soak: " + fixed(tally.seconds(), 0) + " s of " + fixed(options.duration_s, 0) + " s (" +
-                  fixed(percent, 0) + " %): " + std::to_string(session.statistics().telemetry_frames) +
+                  fixed(percent, 0) + " %): " + std::to_string(session.statistics().telemetry_frames - frames_before) +
                   " telemetry frames; " + (faults.empty() ? "no fault counted" : "faults so far: " + faults));
       next_progress += options.progress_s;
     }
