@@ -215,8 +215,8 @@ const RegisterCommand command("bench", 76, [](CLI::App& root) {
       "What it prints: a progress line every 10 s on stderr, then every counter: the board's (bad\n"
       "frames, underruns, saturations, slew limits, refused: their rise during the soak), the host's\n"
       "(CRC errors, bad lengths, unknown types, bytes outside frames, lost telemetry frames: sequence\n"
-      "gaps, missed telemetry periods: tick gaps, late telemetry frames: more than 100 ms after the\n"
-      "one before, unanswered identify requests) and the totals. Exit 0 only when none counted a\n"
+      "gaps, missed telemetry periods: tick gaps, late telemetry frames: more than --late-ms of wall\n"
+      "time after the one before, unanswered identify requests) and the totals. Exit 0 only when none counted a\n"
       "fault, else 1 naming those that did.\n" +
       kExitCodes + "\nExample: deltactl bench soak --port icebreaker --limits-confirmed --minutes 30\n");
   common_options(so, soak->common);
@@ -225,6 +225,10 @@ const RegisterCommand command("bench", 76, [](CLI::App& root) {
   so->add_option("--seconds", soak->seconds, "seconds of board time (instead of --minutes)")
       ->check(options::real_number(0, 604800, true))
       ->excludes(minutes);
+  so->add_option("--late-ms", soak->options.late_ms,
+                 "a telemetry frame more than this much wall time after the one before counts as late")
+      ->check(options::whole_number(2, 60000))
+      ->capture_default_str();
   so->callback([soak] {
     if (soak->minutes <= 0 && soak->seconds <= 0) fail(kExitBadInput, "bench soak: needs --minutes M or --seconds S");
     soak->options.duration_s = soak->minutes > 0 ? soak->minutes * 60.0 : soak->seconds;
