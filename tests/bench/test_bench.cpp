@@ -228,9 +228,11 @@ class LossyLink {
   std::size_t dropped() const { return dropped_; }
 
  private:
-  void forward(io::ByteStream& from, io::ByteStream& to, std::size_t every, std::size_t& counter) {
+  // Returns the bytes read from `from`.
+  std::size_t forward(io::ByteStream& from, io::ByteStream& to, std::size_t every, std::size_t& counter) {
     std::uint8_t buffer[1024], kept[1024];
     const std::size_t got = from.read_some(buffer, sizeof buffer);
+    if (&to == &host_ && !host_spoke_) return got;  // nobody there yet: a board's bytes go nowhere
     std::size_t n = 0;
     for (std::size_t i = 0; i < got; ++i) {
       if (++counter % every == 0) {
@@ -240,6 +242,7 @@ class LossyLink {
       }
     }
     if (n > 0) to.write_all(kept, n, 100);
+    return got;
   }
   void run() {
     std::size_t to_host = 0, to_board = 0;
@@ -248,8 +251,10 @@ class LossyLink {
       ::poll(p, 2, 1);
       try {
         forward(board_, host_, to_host_every_, to_host);
-        forward(host_, board_, to_board_every_, to_board);
-      } catch (const std::exception&) {  // nobody reading the host side yet: the bytes are dropped
+        // The board's bytes reach the host from its first byte on (before it, they would wait in
+        // the pty for the host to open it: stale telemetry a host would count against its identify).
+        if (forward(host_, board_, to_board_every_, to_board) > 0) host_spoke_ = true;
+      } catch (const std::exception&) {  // the host side full or gone: the bytes are dropped
       }
       if (turn % 128 == 0) host_.release_exclusive();
     }
@@ -257,6 +262,7 @@ class LossyLink {
   io::SerialPort board_;
   io::PseudoTerminal host_;
   std::size_t to_host_every_, to_board_every_;
+  bool host_spoke_ = false;
   std::atomic<bool> stop_{false};
   std::atomic<std::size_t> dropped_{0};
   std::thread thread_;
