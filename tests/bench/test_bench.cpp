@@ -146,7 +146,9 @@ struct ScaleRun {
   CommandResult result;
   double error_percent = NAN;
 };
-ScaleRun scale_run(const std::string& name, const std::string& effects_json, int joint) {
+// `reading`: how the readings are taken (--settle 3, or Enter from `input`, a shell pipe's first part).
+ScaleRun scale_run(const std::string& name, const std::string& effects_json, int joint,
+                   const std::string& reading = "--settle 3", const std::string& input = "") {
   const std::string dir = temp_dir("bench_scale_" + name);
   const std::string drag = write_drag(dir + "/drag.csv", {{0.0, 20.0}, {2.5, 20.0}, {4.0, 40.0}, {6.0, 40.0}});
   std::vector<std::string> extra = {"--start-angles", "30,30,30",         "--stage",      "drag:" + drag,
@@ -160,7 +162,7 @@ ScaleRun scale_run(const std::string& name, const std::string& effects_json, int
   Bench b = model_board("scale_" + name, extra);
   ScaleRun run;
   run.result =
-      run_deltactl(bench_command(b, "scale --joint " + std::to_string(joint) + " --from 20 --to 40 --settle 3"));
+      run_deltactl(bench_command(b, "scale --joint " + std::to_string(joint) + " --from 20 --to 40 " + reading), input);
   const std::size_t at = run.result.out.find("error ");
   if (at != std::string::npos) run.error_percent = std::stod(run.result.out.substr(at + 6));
   return run;
@@ -177,6 +179,20 @@ TEST(Bench, ScaleMeasuresTheEncodersCountsPerDegreeBetweenTwoHeldAngles) {
   EXPECT_EQ(off.result.exit_code, 1) << off.result.out << off.result.err;
   EXPECT_NEAR(off.error_percent, 1.0, 0.05) << off.result.out;
   EXPECT_NE(off.result.err.find("joint 2's scale is 1.0"), std::string::npos) << off.result.err;
+}
+
+TEST(Bench, ScaleReadsAtEachEnterAndRefusesAnInputThatEndsFirst) {
+  // Enter 3 s and 6 s after the start (the board keeps to the wall clock): at 20 and at 40 deg.
+  const ScaleRun entered = scale_run("enter", "", 3, "", "(sleep 3; echo; sleep 3; echo) | ");
+  EXPECT_EQ(entered.result.exit_code, 0) << entered.result.out << entered.result.err;
+  EXPECT_NEAR(entered.error_percent, 0.0, 0.05) << entered.result.out;
+  EXPECT_NE(entered.result.err.find("hold joint 3 at the second fixture, 40.00 deg, then press Enter"),
+            std::string::npos)
+      << entered.result.err;
+  const ScaleRun ended = scale_run("no_enter", "", 3, "", "true | ");
+  EXPECT_EQ(ended.result.exit_code, 2) << ended.result.out << ended.result.err;
+  EXPECT_NE(ended.result.err.find("give --settle S"), std::string::npos) << ended.result.err;
+  EXPECT_EQ(ended.result.out.find("scale:"), std::string::npos) << ended.result.out;
 }
 
 TEST(Bench, SoakOnACleanLinkCountsNothing) {
