@@ -6,6 +6,7 @@
 // delta/controller/bench.hpp; this file is their command line.
 #include <unistd.h>
 
+#include <cmath>
 #include <csignal>
 #include <iostream>
 #include <memory>
@@ -126,6 +127,7 @@ struct JogCli {
   BenchCommon common;
   bench::JogOptions options;
   int joint = 1;
+  double max_move_deg = 5.0;
   std::string direction, expect_sign;
 };
 
@@ -245,8 +247,9 @@ const RegisterCommand command("bench", 76, [](CLI::App& root) {
       "0.5 s of board time, then turns the drives off itself (an e-stop, a disable, an encoder skip or\n"
       "a safety input end it at once). Taken with the drives off, no fault latched and no homing under\n"
       "way, homed or not; the host reads every frame of it and sends a disable after it.\n"
-      "What you do: clear the arm's way (it moves a few degrees at most at the limited current), keep\n"
-      "the e-stop at hand.\n"
+      "The board bounds the jog's time and current, not its travel (a free arm can turn far in 0.5 s):\n"
+      "the host ends it with a disable once the joint has moved --max-move-deg (default 5 deg).\n"
+      "What you do: clear the arm's way, keep the e-stop at hand.\n"
       "What it prints: the counts the joint moved during the jog, the current applied, the direction\n"
       "seen (count rising or falling) and the counts in the 0.2 s after (the drives off). Exit 1 when\n"
       "the joint moved fewer than 5 counts (its motor, its drive or the arm stuck) or the other way\n"
@@ -258,12 +261,17 @@ const RegisterCommand command("bench", 76, [](CLI::App& root) {
   jg->add_option("--direction", jog->direction, "+ (positive current) or -")
       ->required()
       ->check(CLI::IsMember({"+", "-"}));
+  jg->add_option("--max-move-deg", jog->max_move_deg,
+                 "the host ends the jog (a disable) once the joint has moved this far [deg]")
+      ->check(options::real_number(0.1, 90))
+      ->capture_default_str();
   jg->add_option("--expect-sign", jog->expect_sign,
                  "+, - or any: the count's expected direction (default: --direction)")
       ->check(CLI::IsMember({"+", "-", "any"}));
   jg->callback([jog] {
     jog->options.joint = jog->joint - 1;
     jog->options.negative = jog->direction == "-";
+    jog->options.max_move_counts = static_cast<int>(std::lround(jog->max_move_deg / bench::kCountDeg));
     const std::string sign = jog->expect_sign.empty() ? jog->direction : jog->expect_sign;
     jog->options.expect_sign = sign == "+" ? 1 : sign == "-" ? -1 : 0;
     run_bench("jog", jog->common, [&](link::LinkSession& session, const bench::Output& output) {

@@ -294,6 +294,7 @@ TEST(BenchJog, AJogOnTheScriptedBoardIsMeasuredAndEndsWithADisable) {
   options.joint = 2;
   options.negative = true;
   options.expect_sign = -1;
+  options.max_move_counts = 10000;  // the whole jog
   Captured captured;
   const bench::Outcome outcome = jog_on(board, options, captured);
   EXPECT_EQ(outcome.code, 0) << outcome.error;
@@ -304,6 +305,21 @@ TEST(BenchJog, AJogOnTheScriptedBoardIsMeasuredAndEndsWithADisable) {
   ASSERT_GE(board.commands.size(), 2u);
   EXPECT_EQ(board.commands.front(), board::kCommandJogBase + 2 * 2 + 1);
   EXPECT_EQ(board.commands.back(), board::kCommandDisable);
+  EXPECT_FALSE(board.drives_on());
+}
+
+TEST(BenchJog, TheHostEndsAJogThatHasMovedTheJointItsMaximum) {
+  ScriptedBenchBoard board;
+  board.counts_per_ms = 5;
+  bench::JogOptions options;
+  options.max_move_counts = 100;
+  Captured captured;
+  const bench::Outcome outcome = jog_on(board, options, captured);
+  EXPECT_EQ(outcome.code, 0) << outcome.error;
+  // The disable went out at the frame that showed 100 counts; the board took it with most of the jog to run.
+  const int jog_ms = static_cast<int>(board::kJogPeriods / board::kPeriodsPerSetpoint);
+  EXPECT_GT(board.jog_ms_left_at_disable, jog_ms - 100 / 5 - 3);
+  EXPECT_TRUE(captured.out_has("joint 1 moved +1")) << captured.out.at(0);
   EXPECT_FALSE(board.drives_on());
 }
 

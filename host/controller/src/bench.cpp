@@ -492,6 +492,7 @@ Outcome jog(link::LinkSession& session, const JogOptions& options, const volatil
               " s (the board ends it and turns the drives off)");
   // The jog's bound on the board, with a margin of the host's: then the host turns the drives off.
   const int longest_frames = static_cast<int>(board::kJogPeriods / board::kPeriodsPerSetpoint) + 100;
+  bool ended_by_host = false;
   for (int frames = 0; watch.phase() != JogWatch::Phase::kDone; ++frames) {
     const link::TelemetryPayload t = session.next_telemetry();
     watch.feed(t);
@@ -505,6 +506,14 @@ Outcome jog(link::LinkSession& session, const JogOptions& options, const volatil
       }
       return {3, "the board did not start the jog in " + std::to_string(options.start_frames) +
                      " telemetry frames (its gateware has no bench jog? deltactl host status names it)"};
+    }
+    if (watch.phase() == JogWatch::Phase::kRunning && !ended_by_host &&
+        std::abs(watch.moved_so_far()) >= options.max_move_counts) {
+      session.send_command(link::Command::kDisable);  // ends the jog at once
+      ended_by_host = true;
+      output.note("bench jog: " + joint + " moved " + signed_counts(watch.moved_so_far()) +
+                  " counts: the host ended the jog (--max-move-deg " + fixed(options.max_move_counts * kCountDeg, 2) +
+                  ")");
     }
     if (watch.phase() == JogWatch::Phase::kRunning && frames >= longest_frames) {
       return {3, "the jog did not end after " + std::to_string(frames) + " ms; the host turned the drives off"};

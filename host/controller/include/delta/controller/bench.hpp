@@ -190,6 +190,7 @@ class JogWatch {
   Phase phase() const { return phase_; }
   int moved_counts() const { return end_count_ - start_count_; }  // start of the jog to its end
   int peak_counts() const { return peak_; }                       // the largest |moved| on the way
+  int moved_so_far() const { return end_count_ - start_count_; }  // while it runs: from its start to now
   std::int16_t applied_current() const { return current_; }       // the joint's current while it ran
   int frames_running() const { return running_frames_; }
   bool other_joints_quiet() const { return others_quiet_; }  // the other joints' currents stayed 0
@@ -212,6 +213,9 @@ struct JogOptions {
   int expect_sign = 0;    // +1 or -1: the count's expected direction; 0: either
   int min_counts = 5;     // fewer counts moved: the joint did not move
   int start_frames = 20;  // telemetry frames the board has to start the jog
+  // The host's own bound on the jog's travel: once the joint has moved this far, a disable ends the
+  // jog (the board bounds only its time and current; a free arm can turn far in 0.5 s).
+  int max_move_counts = 500;
   double settle_s = 0.2;  // board time watched after the jog (the drives off) before the last count
 };
 // "" when the jog moved as expected, else why not (the joint did not move, moved the wrong way).
