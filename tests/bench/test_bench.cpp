@@ -61,11 +61,22 @@ std::string bench_command(const Bench& b, const std::string& sub) {
   return "bench " + sub + " --port " + b.link + " --limits-confirmed --link-timeout-ms 2000";
 }
 
+// `host status` once it names `text` (the board's time runs from its start: a fault injected at
+// S s of board time is latched some time after the ready line), within 10 s.
+CommandResult status_naming(const Bench& b, const std::string& text) {
+  CommandResult status;
+  for (int attempt = 0; attempt < 100; ++attempt) {
+    status = run_deltactl("host status --port " + b.link + " --link-timeout-ms 2000");
+    if (status.out.find(text) != std::string::npos) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  return status;
+}
+
 TEST(Bench, EverySubcommandRefusesABoardWithAFaultLatchedNamingIt) {
   // An encoder skip at 50 ms of board time latches fault cause 0 (the drives off).
   Bench b = model_board("fault", {"--inject-encoder-skip-at", "0.05"});
-  // The skip is in: host status names it.
-  const CommandResult status = run_deltactl("host status --port " + b.link + " --link-timeout-ms 2000");
+  const CommandResult status = status_naming(b, "encoder skip");
   ASSERT_NE(status.out.find("encoder skip"), std::string::npos) << status.out << status.err;
   for (const char* sub : kSubcommands) {
     const CommandResult r = run_deltactl(bench_command(b, sub));
