@@ -24,6 +24,7 @@
 #include "delta/link/frame_codec.hpp"
 #include "delta/link/payloads.hpp"
 #include "delta/link/session.hpp"
+#include "support/line_time_board.hpp"
 #include "support/tree_paths.hpp"
 
 namespace delta {
@@ -39,7 +40,7 @@ const std::string kOtherWeights = std::string(DELTA_SOURCE_DIR) + "/weights/pape
 // requests. Its model rules are the spec's: frame 0 starts a load (no model from then), the next
 // frame number is taken, any other is refused and counted, the commit ends the load with a model
 // if and only if the CRC-32 of the words taken is the commit's; nothing is taken with the drives on.
-class ScriptedBoard : public io::ByteStream {
+class ScriptedBoard : public test::LineTimeBoard {
  public:
   double byte_cost = 1.0;                     // board byte times per received byte (model frames)
   bool drives_on = false;                     // every model frame refused
@@ -54,12 +55,6 @@ class ScriptedBoard : public io::ByteStream {
   bool model = false;
   std::uint32_t model_crc = 0;
 
-  std::size_t read_some(std::uint8_t* data, std::size_t capacity) override {
-    const std::size_t n = std::min(capacity, to_host_.size());
-    std::copy(to_host_.begin(), to_host_.begin() + static_cast<std::ptrdiff_t>(n), data);
-    to_host_.erase(to_host_.begin(), to_host_.begin() + static_cast<std::ptrdiff_t>(n));
-    return n;
-  }
   void write_all(const std::uint8_t* data, std::size_t size, int) override {
     // A board faster than the host: board time runs before the host's bytes reach the line, its
     // telemetry piling up for the host.
@@ -69,14 +64,6 @@ class ScriptedBoard : public io::ByteStream {
                                                                       : data[i]);
     }
   }
-  int fd() const override { return -1; }
-  using io::ByteStream::wait_readable;
-  bool wait_readable(int timeout_ms) override {
-    // Board time runs while the host waits: until a byte for the host is there, or the timeout.
-    for (long steps = 0; to_host_.empty() && steps < 100L * timeout_ms; ++steps) step();
-    return !to_host_.empty();
-  }
-  const std::string& name() const override { return name_; }
 
   void load_directly(const golden::QuantisedNetwork& q) {  // a board that had a model before
     model = true;
@@ -85,7 +72,7 @@ class ScriptedBoard : public io::ByteStream {
 
  private:
   // One byte time (10 us).
-  void step() {
+  void step() override {
     ++time_;
     if (!adapter_.empty()) {  // the line brings one byte
       ring_.push_back(adapter_.front());
@@ -161,14 +148,7 @@ class ScriptedBoard : public io::ByteStream {
     t.set(link::TelemetryFlag::kModel, model);
     send(link::make_frame(telemetry_sequence_++, t));
   }
-  void send(const link::Frame& frame) {
-    const std::vector<std::uint8_t> bytes = link::encode_frame(frame);
-    to_host_.insert(to_host_.end(), bytes.begin(), bytes.end());
-  }
-
-  std::string name_ = "scripted-board";
   std::deque<std::uint8_t> adapter_, ring_;
-  std::vector<std::uint8_t> to_host_;
   link::FrameDecoder decoder_{link::Receiver::kBoard};
   std::size_t host_bytes_ = 0;
   long long time_ = 0;
