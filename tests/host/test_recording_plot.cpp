@@ -5,6 +5,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -148,6 +149,36 @@ TEST(RecordingPlot, AnEstoppedOrFaultedRunIsBandedFromItsEndNotPlottedAsANormalE
       run_recording("completed.csv", 2000, row, "# outcome: completed at board time 11.5 s (exit 0)\n"));
   for (const PlotSpan& span : completed.marks.spans) EXPECT_EQ(span.label.rfind("end: ", 0), std::string::npos);
   EXPECT_EQ(completed.spec.title.find("ended by"), std::string::npos) << completed.spec.title;
+}
+
+// The fault band names the causes latched where it starts, the board's own (its safety inputs,
+// an e-stop command) beside the joints'; a truth's safety inputs are banded by the cause they latch.
+TEST(RecordingPlot, TheFaultBandNamesTheBoardsCauses) {
+  const std::string path = temp("board_fault.csv");
+  {
+    std::ofstream out(path);
+    out << "t_s,alpha1_deg,flags,fault_bits,board_fault_bits,estop\n";
+    for (int i = 0; i < 200; ++i) {
+      const bool faulted = i >= 100;
+      out << i * 1e-3 << ',' << i * 0.01 << ',' << (faulted ? 8 : 1) << ",0," << (faulted ? 4 : 0) << ','
+          << (faulted ? 1 : 0) << '\n';
+    }
+  }
+  const RecordingPlot plot = describe_recording(path);
+  const std::vector<std::string> labels = band_labels(plot);
+  ASSERT_FALSE(labels.empty());
+  for (const std::string& label : labels) EXPECT_EQ(label, "fault: e-stop command, drive 2 fault");
+  const std::string truth = temp("truth_inputs.csv");
+  {
+    std::ofstream out(truth);
+    out << "t_s,x_m,drives_enabled,estop_open,drive_fault1,drive_fault2,drive_fault3\n";
+    for (int i = 0; i < 200; ++i) out << i * 1e-3 << ",0.001,1," << (i >= 50 ? 1 : 0) << ",0,0," << (i >= 150) << '\n';
+  }
+  const std::vector<std::string> inputs = band_labels(describe_recording(truth));
+  EXPECT_NE(std::find(inputs.begin(), inputs.end(), "e-stop input open"), inputs.end())
+      << ::testing::PrintToString(inputs);
+  EXPECT_NE(std::find(inputs.begin(), inputs.end(), "drive 3 fault"), inputs.end()) << ::testing::PrintToString(inputs);
+  EXPECT_EQ(std::find(inputs.begin(), inputs.end(), "drive 1 fault"), inputs.end());
 }
 
 // On the plate panels z (about -71 mm) has an axis of its own; x and y (millimetres about 0)
