@@ -311,5 +311,107 @@ TEST(Bench, SoakThroughALinkThatDropsBytesFailsNamingTheCounters) {
   EXPECT_EQ(r.out.find("host CRC errors: 0"), std::string::npos) << r.out;
 }
 
+TEST(Bench, ABoardWhoseEstopChainOpenedIsRefusedNamingIt) {
+  Bench b = model_board("estop", {"--estop-open-at", "0.1"});
+  const CommandResult status = status_naming(b, "e-stop input open");
+  ASSERT_NE(status.out.find("e-stop input open"), std::string::npos) << status.out << status.err;
+  for (const char* sub : kSubcommands) {
+    const CommandResult r = run_deltactl(bench_command(b, sub));
+    EXPECT_EQ(r.exit_code, 3) << sub << ": " << r.out << r.err;
+    EXPECT_NE(r.err.find("e-stop input open"), std::string::npos) << sub << ": " << r.err;
+  }
+}
+
+// The truth's drives_enabled column: the board time of its first and last row at 1, and the rows at 1.
+struct DrivesOn {
+  double first_s = -1.0, last_s = -1.0;
+  std::size_t rows = 0;
+  bool off_at_end = false;
+};
+DrivesOn drives_on_in(const std::string& truth_path) {
+  const Table truth = read_table(truth_path);
+  DrivesOn on;
+  for (std::size_t i = 0; i < truth.rows.size(); ++i) {
+    if (truth.at(i, "drives_enabled") == 0) continue;
+    if (on.first_s < 0) on.first_s = truth.at(i, "t_s");
+    on.last_s = truth.at(i, "t_s");
+    ++on.rows;
+  }
+  on.off_at_end = !truth.rows.empty() && truth.at(truth.rows.size() - 1, "drives_enabled") == 0;
+  return on;
+}
+
+TEST(Bench, AJogMovesTheJointTheWayItsCurrentPushesForHalfASecondThenTheDrivesAreOff) {
+  for (const char* direction : {"+", "-"}) {
+    Bench b = model_board(std::string("jog") + (direction[0] == '+' ? "_up" : "_down"));
+    const CommandResult r =
+        run_deltactl(bench_command(b, std::string("jog --max-move-deg 90 --joint 2 --direction ") + direction));
+    EXPECT_EQ(r.exit_code, 0) << direction << ": " << r.out << r.err;
+    EXPECT_NE(r.out.find(direction[0] == '+' ? "count rising" : "count falling"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("jog: ok"), std::string::npos) << r.out;
+    ASSERT_EQ(b.board->terminate(), 0);
+    // The board's drive enable pin: on once, for the jog's 0.5 s, off at the end.
+    const DrivesOn on = drives_on_in(b.truth);
+    EXPECT_NEAR(static_cast<double>(on.rows), 500.0, 3.0) << direction;
+    EXPECT_NEAR(on.last_s - on.first_s, 0.5, 0.005) << direction;
+    EXPECT_TRUE(on.off_at_end) << direction;
+  }
+}
+
+TEST(Bench, TheHostEndsAJogOnceTheJointHasMovedFiveDegrees) {
+  Bench b = model_board("jog_bounded");
+  const CommandResult r = run_deltactl(bench_command(b, "jog --joint 1 --direction +"));
+  EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
+  EXPECT_NE(r.err.find("the host ended the jog (--max-move-deg 5.00)"), std::string::npos) << r.err;
+  const std::size_t at = r.out.find("joint 1 moved ");
+  ASSERT_NE(at, std::string::npos) << r.out;
+  const int moved = std::stoi(r.out.substr(at + 14));
+  // At least the bound (the disable goes out at the frame that shows 5 deg; the arm moves on meanwhile,
+  // and further still should the virtual board fall behind the wall clock and catch up).
+  EXPECT_GE(moved, 500) << r.out;
+  ASSERT_EQ(b.board->terminate(), 0);
+  const DrivesOn on = drives_on_in(b.truth);
+  EXPECT_GT(on.rows, 0u);
+  EXPECT_LT(on.rows, 450u);
+  EXPECT_TRUE(on.off_at_end);
+}
+
+TEST(Bench, AJogTheWrongWayOrOfASeizedJointFails) {
+  {
+    Bench b = model_board("jog_reversed");
+    const CommandResult r = run_deltactl(bench_command(b, "jog --joint 1 --direction - --expect-sign +"));
+    EXPECT_EQ(r.exit_code, 1) << r.out << r.err;
+    EXPECT_NE(r.err.find("joint 1 moved the wrong way"), std::string::npos) << r.err;
+  }
+  {
+    Bench b = model_board("jog_seized", {"--inject-seized-joint", "3"});
+    const CommandResult r = run_deltactl(bench_command(b, "jog --joint 3 --direction +"));
+    EXPECT_EQ(r.exit_code, 1) << r.out << r.err;
+    EXPECT_NE(r.err.find("joint 3 did not move"), std::string::npos) << r.err;
+    ASSERT_EQ(b.board->terminate(), 0);
+    EXPECT_TRUE(drives_on_in(b.truth).off_at_end);
+  }
+}
+
+TEST(Bench, ACtrlCInAJogTurnsTheDrivesOffAtOnce) {
+  Bench b = model_board("jog_interrupted");
+  HostProcess jog({"bench", "jog", "--joint", "1", "--direction", "+", "--port", b.link, "--limits-confirmed",
+                   "--link-timeout-ms", "2000"},
+                  b.dir + "/jog");
+  // Signalled 100 ms after the jog was sent (its note on stderr).
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (std::chrono::steady_clock::now() < deadline && jog.err().find("open loop") == std::string::npos) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  ::kill(jog.pid(), SIGINT);
+  EXPECT_EQ(jog.wait(10.0), 128 + SIGINT) << jog.err();
+  ASSERT_EQ(b.board->terminate(), 0);
+  const DrivesOn on = drives_on_in(b.truth);
+  EXPECT_GT(on.rows, 0u);
+  EXPECT_LT(on.rows, 450u);  // ended before the board's own 0.5 s
+  EXPECT_TRUE(on.off_at_end);
+}
+
 }  // namespace
 }  // namespace delta::test
