@@ -147,7 +147,9 @@ TEST(BoardFacts, EveryTopPortHasOnePinAndTheSafetyInputsArePulledUp) {
   for (const auto& [name, pin] : pins) {
     const auto it = safety.find(name);
     EXPECT_EQ(pulled_up[name], it != safety.end()) << name;
-    if (it != safety.end()) EXPECT_EQ(pin, it->second) << name;
+    if (it != safety.end()) {
+      EXPECT_EQ(pin, it->second) << name;
+    }
   }
   EXPECT_EQ(pins["drive_enable_no"], 32);
   EXPECT_EQ(pins["led_encoder_error_o"], 26);

@@ -295,8 +295,11 @@ TEST(BoardJog, AJogDrivesItsJointAloneWithItsSignForItsPeriodsThenTheDrivesAreOf
       dir_seen |= bench.core().drive_dir_o;
     }
     EXPECT_EQ(high[joint], board::kJogCurrentCode * board::kPwmPeriodCycles / board::kCurrentLimitCode);
-    for (int j = 0; j < 3; ++j)
-      if (j != joint) EXPECT_EQ(high[j], 0);
+    for (int j = 0; j < 3; ++j) {
+      if (j != joint) {
+        EXPECT_EQ(high[j], 0);
+      }
+    }
     EXPECT_EQ(dir_seen, negative ? 1 << joint : 0);
     Raw r = next(bench);
     EXPECT_TRUE(r.jogging());
