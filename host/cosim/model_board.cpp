@@ -1983,6 +1983,12 @@ std::vector<ModelBoard::ProbedRegister> ModelBoard::probe_registers(const std::s
     add("refused_q", s.refused);
     add("last_sequence_q", s.last_sequence);
     add("word_index_q", static_cast<std::uint64_t>(s.word_index));
+    add("estop_q", s.estop);
+    add("jog_q", s.jog);
+    add("jog_was_q", s.jog_tail);
+    add("jog_joint_q", static_cast<std::uint64_t>(s.jog_joint));
+    add("jog_negative_q", s.jog_negative);
+    add("jog_left_q", static_cast<std::uint64_t>(s.jog_periods));
     for (int j = 0; j < kJoints; ++j) add(indexed("net_outputs", j), bits(s.net_outputs[j], kNetworkOutputBits));
   } else if (instance == "u_uart_rx") {
     add("valid_q", s.rx_valid);
@@ -2053,6 +2059,7 @@ std::vector<ModelBoard::ProbedRegister> ModelBoard::probe_registers(const std::s
     add("u_pwm.direction_q", static_cast<std::uint64_t>(s.direction));
     add("u_pwm.pwm_q", static_cast<std::uint64_t>(s.pwm));
     add("u_pwm.enable_q", s.enable_out);
+    add("u_pwm.dir_q", static_cast<std::uint64_t>(direction_pins(s)));
     add("u_controller.ap_idle", !s.running);
     add("u_controller.primed_q", s.primed);
     add("u_controller.overflow_q", s.overflow);
@@ -2071,7 +2078,7 @@ std::vector<ModelBoard::ProbedRegister> ModelBoard::probe_registers(const std::s
     add("length_q", static_cast<std::uint64_t>(s.tx_length));
     add("sequence_q", s.tx_sequence);
     add("state_q", static_cast<std::uint64_t>(s.tx_state));  // Idle, or Send (the model folds Fetch into it)
-  } else if (instance == "u_safety_inputs") {                // board_safety_inputs.sv (the gate's RTL, not yet probed)
+  } else if (instance == "u_safety_inputs") {                // board_safety_inputs.sv
     add("meta_q", static_cast<std::uint64_t>(s.safety_meta));
     add("sync_q", static_cast<std::uint64_t>(s.safety));
     std::uint64_t history = 0;

@@ -52,6 +52,10 @@ constexpr std::uint64_t kPeriod = static_cast<std::uint64_t>(board::kClocksPerPe
 constexpr std::uint64_t kByteClocks = 10 * static_cast<std::uint64_t>(kClocksPerBit);
 constexpr int kDeltaStep = static_cast<int>(board::kInterpolatorDeltaStep);
 constexpr int kShiftBits = golden::kShiftBits;  // delta_joint_pkg::ShiftBits
+// Ticks 0 .. kDenseTicks - 1 of every period are compared in full in a long run's sparse
+// comparison (Lockstep::set_register_stride): the safety inputs' samples, the play, a jog's count.
+constexpr int kDenseTicks = 4;
+static_assert(board::kPlayTick + 1 < kDenseTicks, "the play's clocks are compared in full");
 
 // The deployed model (its backlash compensation runs in the interpolators).
 const std::string kWeights = std::string(DELTA_SOURCE_DIR) + "/weights/paper_like_deployed.json";
@@ -98,6 +102,12 @@ std::unordered_map<std::string, Reader> rtl_registers() {
   DELTA_BC(refused_q)
   DELTA_BC(last_sequence_q)
   DELTA_BC(word_index_q)
+  DELTA_BC(estop_q)
+  DELTA_BC(jog_q)
+  DELTA_BC(jog_was_q)
+  DELTA_BC(jog_joint_q)
+  DELTA_BC(jog_negative_q)
+  DELTA_BC(jog_left_q)
 #undef DELTA_BC
   for (int j = 0; j < 3; ++j) {
     const std::string k = std::to_string(j);
@@ -196,6 +206,7 @@ std::unordered_map<std::string, Reader> rtl_registers() {
   DELTA_JA(u_pwm, direction_q)
   DELTA_JA(u_pwm, pwm_q)
   DELTA_JA(u_pwm, enable_q)
+  DELTA_JA(u_pwm, dir_q)
   DELTA_JA(u_controller, primed_q)
   DELTA_JA(u_controller, overflow_q)
 #undef DELTA_JA
@@ -218,6 +229,15 @@ std::unordered_map<std::string, Reader> rtl_registers() {
   DELTA_TX(sequence_q)
   DELTA_TX(state_q)
 #undef DELTA_TX
+#define DELTA_SI(name)                                               \
+  r["u_safety_inputs." #name] = [](const Root& x) -> std::uint64_t { \
+    return x.board_core__DOT__u_safety_inputs__DOT__##name;          \
+  };
+  DELTA_SI(meta_q)
+  DELTA_SI(sync_q)
+  DELTA_SI(history_q)
+  DELTA_SI(cause_q)
+#undef DELTA_SI
 #define DELTA_ML(name)                                              \
   r["u_model_loader." #name] = [](const Root& x) -> std::uint64_t { \
     return x.board_core__DOT__u_model_loader__DOT__##name;          \
@@ -317,16 +337,22 @@ class Lockstep {
     core.encoder_a_i = encoder_a & 7;
     core.encoder_b_i = encoder_b & 7;
     core.home_switch_i = home_switches & 7;
+    core.estop_open_i = estop_open_ ? 1 : 0;
+    core.drive_fault_i = drive_fault_ & 7;
     network_clock_.clock(core);
-    const std::uint32_t index_before = model_sample_index();
+    // (a play is at tick PlayTick: in a long run's sparse clocks the index is read only near it)
+    const bool track_plays = register_stride_ <= 1 || tick() < kDenseTicks;
+    const std::uint32_t index_before = track_plays ? model_sample_index() : 0;
     try {
+      model_.set_safety_inputs(estop_open_, drive_fault_);
       model_.clock(encoder_a | (home_switches << 3), encoder_b);
     } catch (const std::logic_error& e) {
       fail_with(std::string("the model's run check: ") + e.what());
       return false;
     }
     ++clocks_;
-    if (model_sample_index() != index_before) answer_in_flight_ = true;  // a setpoint played: the network runs
+    if (track_plays && model_sample_index() != index_before)
+      answer_in_flight_ = true;  // a setpoint played: the network runs
     if (answer) answer_in_flight_ = false;
     if (shift_write) written_shift_[shift_joint & 3] = shift_value, shift_known_[shift_joint & 3] = true;
     rtl_idle_before_ = rtl_idle_before;
@@ -353,9 +379,16 @@ class Lockstep {
       fail_with("TX line: one board sent a byte the other did not");
       return false;
     }
-    compare();
+    compare_pins();
+    if (!failed_ && (register_stride_ <= 1 || clocks_ % register_stride_ == 0 || tick() < kDenseTicks)) compare();
     return !failed_;
   }
+
+  // The safety inputs both boards sample from the next clock on (1 = stop), held until set again.
+  void set_safety_inputs(bool estop_open, int drive_fault) { estop_open_ = estop_open, drive_fault_ = drive_fault; }
+  // Registers compared every clock (1), else only every `stride`-th clock and at ticks below kDenseTicks (the
+  // output pins and the TX line are still compared every clock): for long runs.
+  void set_register_stride(std::uint64_t stride) { register_stride_ = stride; }
 
   cosim::ModelBoard& model() { return model_; }
   const Root& rtl() const { return *core_->rootp; }
@@ -387,7 +420,9 @@ class Lockstep {
                   << int(rtl().board_core__DOT__homing_q) << ", referenced_q "
                   << int(rtl().board_core__DOT__referenced_q) << ", fault cause "
                   << int(rtl().board_core__DOT__u_joint_axes__DOT__u_safety__DOT__fault_cause_q) << ", fill "
-                  << rtl().board_core__DOT__u_setpoints__DOT__fill_q;
+                  << rtl().board_core__DOT__u_setpoints__DOT__fill_q << ", estop_q "
+                  << int(rtl().board_core__DOT__estop_q) << ", jog_q " << int(rtl().board_core__DOT__jog_q)
+                  << ", board causes " << int(rtl().board_core__DOT__u_safety_inputs__DOT__cause_q);
   }
 
   // Where the model keeps a register in another form than the RTL, as model_board.hpp states:
@@ -431,23 +466,69 @@ class Lockstep {
     return true;
   }
 
+  // The output pins: the drives' enable, PWM and direction, the fault and status outputs.
+  void compare_pins() {
+    const Vboard_core_probe& core = *core_;
+    const cosim::BoardPins p = model_.pins();
+    const std::array<std::pair<const char*, std::pair<std::uint64_t, std::uint64_t>>, 8> pins = {{
+        {"drive_enable_o", {p.drive_enable ? 1u : 0u, core.drive_enable_o}},
+        {"drive_pwm_o", {static_cast<std::uint64_t>(p.drive_pwm), core.drive_pwm_o}},
+        {"drive_dir_o", {static_cast<std::uint64_t>(p.drive_dir), core.drive_dir_o}},
+        {"joint_fault_cause_o", {static_cast<std::uint64_t>(p.fault_cause_bits), core.joint_fault_cause_o}},
+        {"board_fault_cause_o", {static_cast<std::uint64_t>(p.board_fault_bits), core.board_fault_cause_o}},
+        {"estop_latched_o", {p.estop_latched ? 1u : 0u, core.estop_latched_o}},
+        {"encoder_error_o", {static_cast<std::uint64_t>(p.encoder_error_bits), core.encoder_error_o}},
+        {"stage_sync_o", {p.stage_sync ? 1u : 0u, core.stage_sync_o}},
+    }};
+    for (const auto& [name, values] : pins) {
+      if (values.first != values.second) {
+        std::ostringstream what;
+        what << "pin " << name << ": model 0x" << std::hex << values.first << ", RTL 0x" << values.second << std::dec;
+        fail_with(what.str());
+        return;
+      }
+    }
+  }
+
+  // A probed register's RTL name and reader, kept by its place in the instance's probe list (the
+  // list changes only where a register is listed in some clocks: looked up again there).
+  struct Probed {
+    std::string name, key;
+    const Reader* reader = nullptr;
+  };
+  const Probed* probed(std::size_t instance, std::size_t place, const std::string& name) {
+    std::vector<Probed>& list = probed_[instance];
+    if (list.size() <= place) list.resize(place + 1);
+    Probed& p = list[place];
+    if (p.name != name || p.key.empty()) {
+      p.name = name;
+      p.key = instances_[instance] + "." + name;
+      const auto it = readers_.find(p.key);
+      p.reader = it == readers_.end() ? nullptr : &it->second;
+    }
+    return &p;
+  }
+
   void compare() {
-    for (const std::string& instance : instances_) {
+    probed_.resize(instances_.size());
+    for (std::size_t i = 0; i < instances_.size(); ++i) {
+      const std::string& instance = instances_[i];
+      std::size_t place = 0;
       for (const auto& reg : model_.probe_registers(instance)) {
-        const std::string key = instance + "." + reg.name;
+        const Probed& p = *probed(i, place++, reg.name);
+        const std::string& key = p.key;
         std::uint64_t rtl_value = 0;
         if (key.rfind("u_interpolator.shift_o[", 0) == 0) {  // the play shift written for joint j
           const int j = key[key.size() - 2] - '0';
           if (!shift_known_[j]) continue;
           rtl_value = written_shift_[j];
         } else {
-          const auto it = readers_.find(key);
-          if (it == readers_.end()) {
+          if (p.reader == nullptr) {
             fail_with("no RTL register for the model's " + key);
             return;
           }
           if (!comparable(key, reg.value)) continue;
-          rtl_value = it->second(rtl());
+          rtl_value = (*p.reader)(rtl());
           if (key == "u_link_tx.state_q") rtl_value = rtl_value != 0 ? 2 : 0;  // Fetch folded into Send
         }
         if (rtl_value != reg.value) {
@@ -484,7 +565,11 @@ class Lockstep {
   rtl::UartLine line_;
   std::unordered_map<std::string, Reader> readers_;
   std::vector<std::string> instances_, memories_;
+  std::vector<std::vector<Probed>> probed_;  // by instance, by place in its probe list
   std::uint64_t clocks_ = 0, tx_bytes_ = 0;
+  bool estop_open_ = false;
+  int drive_fault_ = 0;
+  std::uint64_t register_stride_ = 1;
   bool failed_ = false;
   bool answer_in_flight_ = false, rtl_idle_before_ = true;
   bool interpolating_ = false, interpolating_before_ = false;
@@ -966,6 +1051,167 @@ TEST(ModelBoardModules, LinkTxEqualsTheRtlUnderIdentifyRequestsAtRandomTimes) {
   report("link_tx", run, start);
   EXPECT_FALSE(run.failed());
   EXPECT_GT(run.tx_bytes(), 1000u);
+}
+
+// The board's safety inputs, the e-stop command and the bench jog (board_safety_inputs.sv and
+// board_core's estop_q and jog registers, joint_pwm's pins; the output pins and the telemetry
+// bytes on the TX line in the same clocks): the e-stop input and the three drive-fault inputs at
+// the stop level at random times, for random lengths (glitches shorter than the filter, a few
+// clocks or under BoardInputFilterPeriods - 1 periods, and long ones that latch); clear fault
+// while an input still samples at stop (refused) and after (accepted); CommandEstop in every
+// state; each joint's jog in both signs ended early by a disable, an e-stop command or a safety
+// input, and one jog run to its end (its JogPeriods periods: the registers compared every 256th
+// clock and at ticks 0-3 there, the pins and the TX line every clock).
+TEST(ModelBoardModules, SafetyInputsEstopAndJogEqualTheRtlUnderRandomInputsAndCommands) {
+  std::cout << "seed " << test_seed() << " (DELTA_TEST_SEED)\n";
+  const auto start = std::chrono::steady_clock::now();
+  Fixture& f = fixture();
+  Lockstep run(f.q, f.mem_dir, {"u_safety_inputs", "board_core", "u_joint_axes"}, {});
+  Stimulus s(f.q, test_seed() + 6);
+  Session session(run, s);
+  session.step_chance = 1.0 / 300;
+  bool estop_open = false;
+  int drive_fault = 0;
+  auto lines = [&] { run.set_safety_inputs(estop_open, drive_fault); };
+  const int kGlitchClocks = static_cast<int>((board::kBoardInputFilterPeriods - 1) * kPeriod) - 1;
+  const int kLatchClocks = static_cast<int>((board::kBoardInputFilterPeriods + 1) * kPeriod);
+  // One input (0: the e-stop chain, 1 + j: drive j) at stop for `clocks` clocks, then released;
+  // `during` runs with it held (e.g. a clear fault, refused).
+  auto pulse = [&](int input, int clocks, const std::function<bool()>& during) {
+    if (input == 0)
+      estop_open = true;
+    else
+      drive_fault |= 1 << (input - 1);
+    lines();
+    bool ok = session.wait(static_cast<std::uint64_t>(clocks)) && (!during || during());
+    if (input == 0)
+      estop_open = false;
+    else
+      drive_fault &= ~(1 << (input - 1));
+    lines();
+    return ok;
+  };
+  auto refused = [&] { return run.model_register("board_core", "refused_q"); };
+  auto board_causes = [&] { return run.model_register("u_safety_inputs", "cause_q"); };
+  int latches = 0, refused_clears = 0, accepted_clears = 0, jogs = 0, jogs_on = 0;
+  std::array<int, 4> jog_ends{};  // by a disable, an e-stop command, a safety input, its end
+  // A clear fault while an input is held at stop (refused, counted), then released and cleared.
+  auto clear_all = [&](bool check_refusal) {
+    bool ok = true;
+    if (check_refusal) {
+      const std::uint64_t before = refused();
+      ok = pulse(s.uniform(0, 3), static_cast<int>(kPeriod) + s.uniform(2, 200),
+                 [&] { return session.command(board::kCommandClearFault); });
+      if (refused() == before + 1)
+        ++refused_clears;
+      else
+        ADD_FAILURE() << "a clear fault with an input at stop was not refused";
+      ok = ok && session.wait(static_cast<std::uint64_t>(2 * kPeriod));  // the last sample back at run
+    }
+    ok = ok && session.command(board::kCommandClearFault);
+    if (run.model_register("u_safety_inputs", "cause_q") == 0 && run.model_register("board_core", "estop_q") == 0)
+      ++accepted_clears;
+    return ok;
+  };
+  // Drives on after a clear, then random events with the drives on or off.
+  run.set_register_stride(256);  // (the load: the modules under test idle)
+  bool ok = session.enable();
+  run.set_register_stride(1);
+  const std::uint64_t kClocks = run.clocks() + 160 * kPeriod;
+  while (ok && run.clocks() < kClocks && !run.failed()) {
+    const int pick = s.uniform(0, 99);
+    const std::uint64_t gap = static_cast<std::uint64_t>(s.uniform(0, 2 * static_cast<int>(kPeriod)));
+    if (pick < 25) {  // a glitch on one input: shorter than the filter
+      const int clocks = s.chance(0.4) ? s.uniform(1, 12) : s.uniform(1, kGlitchClocks);
+      const std::uint64_t before = board_causes();
+      ok = pulse(s.uniform(0, 3), clocks, nullptr) && session.wait(gap);
+      if (board_causes() != before) ADD_FAILURE() << "a glitch of " << clocks << " clocks latched a cause";
+    } else if (pick < 40) {  // an input held long enough to latch, maybe two at once
+      const int input = s.uniform(0, 3);
+      ok = pulse(input, kLatchClocks + s.uniform(0, static_cast<int>(kPeriod)),
+                 [&] { return !s.chance(0.3) || pulse((input + s.uniform(1, 3)) % 4, kLatchClocks, nullptr); });
+      if (board_causes() != 0) ++latches;
+      ok = ok && session.wait(gap);
+    } else if (pick < 50) {
+      ok = session.command(board::kCommandEstop, gap);
+    } else if (pick < 62) {
+      ok = clear_all(s.chance(0.5)) && session.command(board::kCommandEnable, gap);
+    } else if (pick < 70) {
+      ok = session.command(board::kCommandDisable, gap);
+    } else if (pick < 75) {
+      ok = session.send(s.setpoint(session.next_index()), gap);
+    } else {  // a jog (refused unless the drives are off and no cause is latched), ended early
+      const int code = s.uniform(0, 5);
+      if (s.chance(0.7)) ok = session.command(board::kCommandDisable) && clear_all(false);
+      ok = ok && session.command(static_cast<int>(board::kCommandJogBase) + code);
+      ++jogs;
+      if (run.model_register("board_core", "jog_q") != 0) ++jogs_on;
+      ok = ok && session.wait(static_cast<std::uint64_t>(s.uniform(1, 4 * static_cast<int>(kPeriod))));
+      const int end = s.uniform(0, 2);
+      ++jog_ends[static_cast<std::size_t>(end)];
+      if (end == 0)
+        ok = ok && session.command(board::kCommandDisable, gap);
+      else if (end == 1)
+        ok = ok && session.command(board::kCommandEstop, gap);
+      else
+        ok = ok && pulse(s.uniform(0, 3), kLatchClocks, nullptr) && session.wait(gap);
+    }
+  }
+  // Each joint's jog in both signs ended early by each of the three, then one jog run to its end
+  // (the encoders still: no joint cause).
+  session.step_chance = 0.0;
+  for (int code = 0; ok && code < 6; ++code) {
+    for (int end = 0; ok && end < 3; ++end) {
+      ok = session.command(board::kCommandDisable) && clear_all(false) &&
+           session.command(static_cast<int>(board::kCommandJogBase) + code);
+      ++jogs;
+      if (run.model_register("board_core", "jog_q") != 0)
+        ++jogs_on;
+      else
+        ADD_FAILURE() << "jog " << code << " refused with the drives off and no cause latched";
+      ok = ok && session.wait(static_cast<std::uint64_t>(s.uniform(1, 3 * static_cast<int>(kPeriod))));
+      ++jog_ends[static_cast<std::size_t>(end)];
+      if (end == 0)
+        ok = ok && session.command(board::kCommandDisable);
+      else if (end == 1)
+        ok = ok && session.command(board::kCommandEstop);
+      else
+        ok = ok && pulse(s.uniform(0, 3), kLatchClocks, nullptr) && session.wait(2 * kPeriod);
+      ok = ok && session.wait(static_cast<std::uint64_t>(s.uniform(0, static_cast<int>(kPeriod))));
+      if (run.model_register("board_core", "jog_q") != 0) ADD_FAILURE() << "jog " << code << " not ended by " << end;
+    }
+  }
+  const int full_code = s.uniform(0, 5);
+  ok = ok && session.command(board::kCommandDisable) && clear_all(false) &&
+       session.command(static_cast<int>(board::kCommandJogBase) + full_code);
+  const bool full_started = run.model_register("board_core", "jog_q") != 0;
+  run.set_register_stride(256);
+  std::uint64_t jog_clocks = 0;
+  const auto jog_start = std::chrono::steady_clock::now();
+  while (ok && run.rtl().board_core__DOT__jog_q != 0) {
+    ok = session.wait(1);
+    ++jog_clocks;
+  }
+  run.set_register_stride(1);
+  ++jog_ends[3];
+  ok = ok && session.wait(2 * kPeriod);
+  report("safety inputs, e-stop and jog", run, start);
+  EXPECT_FALSE(run.failed());
+  std::cout << "  causes latched " << latches << " times; clears refused " << refused_clears << ", accepted "
+            << accepted_clears << "; jogs " << jogs << " (" << jogs_on << " started), ended by a disable "
+            << jog_ends[0] << ", an e-stop command " << jog_ends[1] << ", a safety input " << jog_ends[2]
+            << "; the full jog (joint " << full_code / 2 << (full_code % 2 != 0 ? ", negative" : ", positive")
+            << ") ran " << jog_clocks << " clocks ("
+            << std::chrono::duration<double>(std::chrono::steady_clock::now() - jog_start).count() << " s)\n";
+  EXPECT_TRUE(full_started);
+  // The full jog ran between JogPeriods - 1 and JogPeriods periods (gate_choices.md 7).
+  EXPECT_GE(jog_clocks, (static_cast<std::uint64_t>(board::kJogPeriods) - 1) * kPeriod);
+  EXPECT_LE(jog_clocks, static_cast<std::uint64_t>(board::kJogPeriods) * kPeriod);
+  EXPECT_EQ(run.model_register("board_core", "jog_left_q"), 0u);
+  EXPECT_EQ(run.rtl().board_core__DOT__enabled_q, 0);
+  EXPECT_GT(latches, 0);
+  EXPECT_GT(refused_clears, 0);
+  EXPECT_GT(accepted_clears, 0);
 }
 
 }  // namespace
