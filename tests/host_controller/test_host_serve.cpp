@@ -323,6 +323,11 @@ TEST(HostServe, EstopDuringHomingAndRunLatchesForEveryClientUntilAClear) {
   const CommandResult clear = server.ctl("clear-fault");
   EXPECT_EQ(clear.exit_code, 0) << clear.err;
   EXPECT_FALSE(server.status()["estop"].value("latched", true));
+  // The clear keeps the e-stopped homing's counts provisional (the board homing again, drives off):
+  // not homed, not "hand".
+  const nlohmann::json after_clear = server.status();
+  EXPECT_EQ(after_clear.value("homed_by", ""), "none") << after_clear.dump();
+  EXPECT_TRUE(after_clear.value("homing_unfinished", false)) << after_clear.dump();
   const double cleared_at = server.status().value("board_time_s", 0.0);
   const auto homing_from = std::chrono::steady_clock::now();
   ASSERT_EQ(server.ctl("home").exit_code, 0);

@@ -110,6 +110,35 @@ TEST(ReferencedCalibration, HostRecordRefusesABoardNotHomedAtItsReferencesAndThe
   std::filesystem::remove_all(homed.dir);
 }
 
+// A homing that a fault ends (here the e-stop chain opening) on a board homed by hand before: the
+// board forgets it was homing and keeps its homed flag, so it would read as homed by hand; `host
+// home` homes again with the drives off before it exits, and a plain `host status` (no service to
+// remember) says not homed, the homing unfinished; `host record` refuses it as such.
+TEST(ReferencedCalibration, AHomingAFaultEndsReadsAsUnfinishedNotAsHomedByHand) {
+  Bench bench("ref_estop_home", {"--fidelity", "model", "--start-angles", "8,8,8", "--estop-open-at", "2.5"}, false,
+              kDeployed);
+  ASSERT_EQ(run_deltactl("host home --by-hand --port " + bench.link).exit_code, 0);
+  ASSERT_EQ(board_status(bench.link).value("homed_by", ""), "hand");
+  const CommandResult home = run_deltactl(home_command(bench));
+  EXPECT_EQ(home.exit_code, 3) << home.out << home.err;
+  EXPECT_NE(home.err.find("e-stop"), std::string::npos) << home.err;
+  const nlohmann::json after = board_status(bench.link);
+  EXPECT_NE(after.value("fault", nlohmann::json()).dump().find("e-stop"), std::string::npos) << after.dump();
+  EXPECT_EQ(after.value("homed_by", ""), "none") << after.dump();
+  EXPECT_FALSE(after.value("homed", true)) << after.dump();
+  EXPECT_TRUE(after.value("homing_unfinished", false)) << after.dump();
+  const CommandResult text = run_deltactl("host status --port " + bench.link);
+  EXPECT_NE(text.out.find("homed: no (a homing that did not finish"), std::string::npos) << text.out;
+  EXPECT_EQ(text.out.find("homed by hand"), std::string::npos) << text.out;
+  const std::string out = bench.dir + "/drag.csv";
+  const CommandResult record = run_deltactl(record_command(bench, out, 0.3));
+  EXPECT_EQ(record.exit_code, 3) << record.err;
+  EXPECT_NE(record.err.find("did not finish"), std::string::npos) << record.err;
+  EXPECT_FALSE(std::filesystem::exists(out));
+  ASSERT_EQ(bench.board->terminate(), 0);
+  std::filesystem::remove_all(bench.dir);
+}
+
 // The acceptance: from a seeded random power-up pose, with the stage set to take hold 2 s after the
 // first command that follows the board's homing at its references starts (host record; 2 s: its
 // first row comes once it has identified the board, tens of milliseconds after its first frame): `host record` refuses

@@ -51,9 +51,18 @@ struct StopRequested {
 
 }  // namespace
 
+bool homing_ended_by_fault(const link::TelemetryPayload& telemetry) {
+  return telemetry.has(link::TelemetryFlag::kFault) && telemetry.has(link::TelemetryFlag::kHomed) &&
+         !telemetry.has(link::TelemetryFlag::kHoming) && !telemetry.has(link::TelemetryFlag::kReferenced);
+}
+
 Referencing board_referencing(const link::TelemetryPayload& telemetry) {
   if (telemetry.has(link::TelemetryFlag::kReferenced)) return Referencing::kHomeSwitches;
   if (telemetry.has(link::TelemetryFlag::kHoming)) return Referencing::kNone;
+  // A fault ends the board's homing (it forgets it was homing) and keeps the homed flag of the
+  // set-home at each jog: counts set by hand and a homing a fault ended look alike. Neither is a
+  // reference; say not homed (a clear-fault through the service starts homing again, drives off).
+  if (telemetry.has(link::TelemetryFlag::kFault)) return Referencing::kNone;
   return telemetry.has(link::TelemetryFlag::kHomed) ? Referencing::kHand : Referencing::kNone;
 }
 
@@ -66,9 +75,12 @@ std::string unreferenced_reason(const link::TelemetryPayload& telemetry) {
     case Referencing::kNone:
       break;
   }
-  return telemetry.has(link::TelemetryFlag::kHoming)
-             ? "a homing that did not finish (stopped or failed): the counts are provisional"
-             : "never homed: the counts started at 30.00 deg wherever the arms were at power-up";
+  if (telemetry.has(link::TelemetryFlag::kHoming))
+    return "a homing that did not finish (stopped or failed): the counts are provisional";
+  if (homing_ended_by_fault(telemetry))
+    return "a homing that did not finish (a fault ended it), or counts set by hand before the fault: the counts are "
+           "provisional";
+  return "never homed: the counts started at 30.00 deg wherever the arms were at power-up";
 }
 
 std::optional<link::TelemetryPayload> arms_at_rest(link::LinkSession& session,

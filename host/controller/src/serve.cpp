@@ -251,8 +251,9 @@ struct HostServer::Impl {
       out["homed_by"] = referencing == Referencing::kHomeSwitches ? "reference"
                         : referencing == Referencing::kHand       ? "hand"
                                                                   : "none";
-      out["homing_unfinished"] =
-          referencing == Referencing::kNone && (t->has(link::TelemetryFlag::kHoming) || interrupted) && !homing_now;
+      out["homing_unfinished"] = referencing == Referencing::kNone &&
+                                 (t->has(link::TelemetryFlag::kHoming) || interrupted || homing_ended_by_fault(*t)) &&
+                                 !homing_now;
       out["referencing"] = unreferenced_reason(*t);  // "" when homed at the references
       out["board_time_s"] = t->tick / 1e4;
       out["encoder_deg"] = {t->counts[0] * kCountDeg, t->counts[1] * kCountDeg, t->counts[2] * kCountDeg};
@@ -594,7 +595,16 @@ struct HostServer::Impl {
       }
     } else if (work.command == "clear-fault") {
       // The explicit clear: the board's latched fault (if any), then the e-stop latch.
-      if (fresh_telemetry(session).has(link::TelemetryFlag::kFault)) session.clear_fault();
+      if (fresh_telemetry(session).has(link::TelemetryFlag::kFault)) {
+        const link::TelemetryPayload cleared = session.clear_fault();
+        // Counts a fault left unreferenced (a homing it ended, or set by hand) stay provisional:
+        // homing again with the drives off (no motion) keeps the board saying so after the clear.
+        if (cleared.has(link::TelemetryFlag::kHomed) && !cleared.has(link::TelemetryFlag::kReferenced) &&
+            !cleared.has(link::TelemetryFlag::kHoming)) {
+          session.command(link::Command::kHomeStart,
+                          [](const link::TelemetryPayload& f) { return f.has(link::TelemetryFlag::kHoming); });
+        }
+      }
       std::lock_guard<std::mutex> lock(mutex);
       if (estop_latch.latched) std::cerr << "host serve: e-stop cleared" << std::endl;
       estop_latch = EstopLatch{};
