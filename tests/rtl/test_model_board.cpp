@@ -4,9 +4,11 @@
 // same drive currents the world applies, encoder lines, plant angles and status pins.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <deque>
 #include <iostream>
 #include <string>
 #include <vector>
@@ -168,6 +170,44 @@ class CorruptingStream : public io::ByteStream {
   std::size_t written_ = 0;
 };
 
+// The board's bytes reach the host `delay` bytes late (a USB adapter's batching, a loaded PC): when
+// the host sends a request, the frames already on their way were sent before the board had it.
+class DelayLineStream : public io::ByteStream {
+ public:
+  DelayLineStream(io::ByteStream& inner, std::size_t delay) : inner_(inner), delay_(delay) {}
+  std::size_t read_some(std::uint8_t* data, std::size_t capacity) override {
+    pull();
+    const std::size_t n = held_.size() > delay_ ? std::min(capacity, held_.size() - delay_) : 0;
+    std::copy(held_.begin(), held_.begin() + static_cast<std::ptrdiff_t>(n), data);
+    held_.erase(held_.begin(), held_.begin() + static_cast<std::ptrdiff_t>(n));
+    return n;
+  }
+  void write_all(const std::uint8_t* data, std::size_t size, int timeout_ms) override {
+    inner_.write_all(data, size, timeout_ms);
+  }
+  bool wait_readable(int timeout_ms) override {
+    for (;;) {
+      pull();
+      if (held_.size() > delay_) return true;
+      if (!inner_.wait_readable(timeout_ms)) return false;
+    }
+  }
+  bool wait_readable(int timeout_ms, std::size_t) override { return wait_readable(timeout_ms); }
+  int fd() const override { return inner_.fd(); }
+  const std::string& name() const override { return inner_.name(); }
+
+ private:
+  void pull() {
+    std::uint8_t buffer[4096];
+    for (std::size_t got; (got = inner_.read_some(buffer, sizeof buffer)) > 0;) {
+      held_.insert(held_.end(), buffer, buffer + got);
+    }
+  }
+  io::ByteStream& inner_;
+  std::size_t delay_;
+  std::deque<std::uint8_t> held_;
+};
+
 FaultRun run_fault_session(cosim::BoardFidelity fidelity, const golden::QuantisedNetwork& q, const std::string& mem_dir,
                            bool skip_idle_network = true, std::uint64_t* idle_network_clocks = nullptr,
                            std::uint64_t* clocks = nullptr, bool check_model_runs = false,
@@ -253,6 +293,31 @@ TEST(ModelBoard, EqualsTheRtlBoardThroughAnEncoderSkipFaultAndItsRecovery) {
 // against as many full clocks, register by register, block RAM by block RAM and drive pin by
 // drive pin (ModelBoard::check_runs throws at the first difference); the checked session is the
 // unchecked one.
+// A host that reads the board's bytes about 40 telemetry frames late (more than identify's wait of
+// 20 frames): identify counts only the frames the board sent after it had the request (telemetry
+// names the last frame it accepted), not the ones already on their way.
+TEST(ModelBoard, IdentifyWaitsOnlyOnTelemetrySentAfterTheBoardHadTheRequest) {
+  const golden::QuantisedNetwork q = deployed_network();
+  const std::string mem_dir = fresh_directory("model_board_late_mem");
+  golden::write_export(q, mem_dir);
+  cosim::VirtualBoardOptions options;
+  options.fidelity = cosim::BoardFidelity::kModel;
+  options.network = &q;
+  options.mem_dir = mem_dir;
+  options.effects = read_effect_file(kEffects);
+  cosim::VirtualBoard board(options);
+  cosim::VirtualBoardStream board_stream(board);
+  const std::size_t late_bytes = 40 * (board::kTelemetryPayloadBytes + 8);  // a frame: payload + at least 8
+  DelayLineStream late(board_stream, late_bytes);
+  link::LinkSession session(late);
+  for (int i = 0; i < 5; ++i) session.next_telemetry();
+  const std::uint64_t before = session.statistics().telemetry_frames;
+  link::IdentifyPayload identify;
+  ASSERT_NO_THROW(identify = session.identify());
+  EXPECT_EQ(identify.protocol_version, board::kProtocolVersion);
+  EXPECT_GT(session.statistics().telemetry_frames - before, 30u) << "the reply came behind the frames on their way";
+}
+
 TEST(ModelBoard, ItsRunsOfClocksAreExactlyItsFullClocks) {
   const golden::QuantisedNetwork q = deployed_network();
   const std::string mem_dir = fresh_directory("model_board_runs_mem");

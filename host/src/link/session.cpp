@@ -45,6 +45,7 @@ void LinkSession::take(const Frame& frame) {
   }
   last_telemetry_sequence_ = frame.sequence;
   last_telemetry_ = telemetry;
+  if (waiting_ != nullptr) waiting_->count(telemetry.sequence);
   if (options_.keep_telemetry) telemetry_.push_back(telemetry);
   unread_telemetry_.push_back(telemetry);
 }
@@ -122,18 +123,26 @@ IdentifyPayload LinkSession::identify() {
   // What waited in the device's buffer is older than the request: read first, then not counted.
   poll_frames();
   unread_identify_.clear();
+  SentFrames sent;
+  sent.add(sequence_);
   send_frame(make_identify_request(sequence_++));
   // The reply comes within a frame time after the telemetry frame on the line; allow a few, and
-  // ask again every 4 frames (the request or the reply may be corrupted on the line).
-  const std::uint64_t before = statistics_.telemetry_frames;
+  // ask again every 4 frames (the request or the reply may be corrupted on the line). Frames the
+  // board sent before it had the request (on their way, or held by a USB adapter's batching) are
+  // not counted: telemetry names the last frame the board accepted.
+  waiting_ = &sent;
+  struct Unwait {
+    SentFrames*& waiting;
+    ~Unwait() { waiting = nullptr; }
+  } unwait{waiting_};
   std::uint64_t resend_at = 4;
   for (int calls = 0; unread_identify_.empty(); ++calls) {
-    const std::uint64_t frames = statistics_.telemetry_frames - before;
-    if (frames > static_cast<std::uint64_t>(options_.command_timeout_frames) ||
-        calls > 4 * options_.command_timeout_frames) {
+    if (sent.counted() > static_cast<std::uint64_t>(options_.command_timeout_frames) ||
+        calls > 8 * options_.command_timeout_frames) {
       throw LinkError(LinkError::Kind::kLinkLost, stream_.name() + ": no identify reply from the board");
     }
-    if (frames >= resend_at) {
+    if (sent.frames() >= resend_at) {
+      sent.add(sequence_);
       send_frame(make_identify_request(sequence_++));
       resend_at += 4;
     }

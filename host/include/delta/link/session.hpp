@@ -23,6 +23,7 @@
 
 #include <algorithm>
 #include <array>
+#include <bitset>
 #include <cstddef>
 #include <cstdint>
 #include <deque>
@@ -231,8 +232,32 @@ class LinkSession {
   void receive_frames();
   void take(const Frame& frame);
 
+  // The frames an identify request was sent in, and the telemetry frames since: counted once one
+  // names a frame of the request as the last the board accepted (earlier ones were on their way
+  // before the board had it), or once kStaleFrames were not (the request lost: the wait goes on).
+  class SentFrames {
+   public:
+    static constexpr std::uint64_t kStaleFrames = 64;
+    void add(std::uint8_t sequence) { sent_.set(sequence); }
+    void count(std::uint8_t accepted_sequence) {
+      if (sent_.test(accepted_sequence) || stale_ >= kStaleFrames || counted_ > 0) {
+        ++counted_;
+      } else {
+        ++stale_;
+      }
+    }
+    std::uint64_t counted() const { return counted_; }
+    std::uint64_t frames() const { return counted_ + stale_; }
+
+   private:
+    std::bitset<256> sent_;
+    std::uint64_t stale_ = 0;
+    std::uint64_t counted_ = 0;
+  };
+
   io::ByteStream& stream_;
   SessionOptions options_;
+  SentFrames* waiting_ = nullptr;  // identify's, while it waits (take() counts frames into it)
   FrameDecoder decoder_{Receiver::kHost};
   std::uint8_t sequence_ = 0;
   LinkStatistics statistics_;
