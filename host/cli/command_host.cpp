@@ -131,7 +131,7 @@ void run_status(const StatusOptions& options) {
   const Referencing referencing = board_referencing(t);
   // Homing not finished (stopped or failed): the board stays homing with provisional counts.
   const bool unfinished =
-      referencing == Referencing::kNone && (t.has(link::TelemetryFlag::kHoming) || homing_ended_by_fault(t));
+      referencing == Referencing::kNone && (t.has(link::TelemetryFlag::kHoming) || t.homing_ended_by_fault());
   const bool model = board_has_model(t);  // a complete model whose CRC checked (identify's CRC is its)
   if (options.json) {
     nlohmann::json out = {

@@ -51,11 +51,6 @@ struct StopRequested {
 
 }  // namespace
 
-bool homing_ended_by_fault(const link::TelemetryPayload& telemetry) {
-  return telemetry.has(link::TelemetryFlag::kFault) && telemetry.has(link::TelemetryFlag::kHomed) &&
-         !telemetry.has(link::TelemetryFlag::kHoming) && !telemetry.has(link::TelemetryFlag::kReferenced);
-}
-
 Referencing board_referencing(const link::TelemetryPayload& telemetry) {
   if (telemetry.has(link::TelemetryFlag::kReferenced)) return Referencing::kHomeSwitches;
   if (telemetry.has(link::TelemetryFlag::kHoming)) return Referencing::kNone;
@@ -77,7 +72,7 @@ std::string unreferenced_reason(const link::TelemetryPayload& telemetry) {
   }
   if (telemetry.has(link::TelemetryFlag::kHoming))
     return "a homing that did not finish (stopped or failed): the counts are provisional";
-  if (homing_ended_by_fault(telemetry))
+  if (telemetry.homing_ended_by_fault())
     return "a homing that did not finish (a fault ended it), or counts set by hand before the fault: the counts are "
            "provisional";
   return "never homed: the counts started at 30.00 deg wherever the arms were at power-up";

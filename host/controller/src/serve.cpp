@@ -252,7 +252,7 @@ struct HostServer::Impl {
                         : referencing == Referencing::kHand       ? "hand"
                                                                   : "none";
       out["homing_unfinished"] = referencing == Referencing::kNone &&
-                                 (t->has(link::TelemetryFlag::kHoming) || interrupted || homing_ended_by_fault(*t)) &&
+                                 (t->has(link::TelemetryFlag::kHoming) || interrupted || t->homing_ended_by_fault()) &&
                                  !homing_now;
       out["referencing"] = unreferenced_reason(*t);  // "" when homed at the references
       out["board_time_s"] = t->tick / 1e4;
@@ -599,8 +599,7 @@ struct HostServer::Impl {
         const link::TelemetryPayload cleared = session.clear_fault();
         // Counts a fault left unreferenced (a homing it ended, or set by hand) stay provisional:
         // homing again with the drives off (no motion) keeps the board saying so after the clear.
-        if (cleared.has(link::TelemetryFlag::kHomed) && !cleared.has(link::TelemetryFlag::kReferenced) &&
-            !cleared.has(link::TelemetryFlag::kHoming)) {
+        if (cleared.homed_unreferenced()) {
           session.command(link::Command::kHomeStart,
                           [](const link::TelemetryPayload& f) { return f.has(link::TelemetryFlag::kHoming); });
         }

@@ -358,7 +358,7 @@ std::string describe_state(const TelemetryPayload& t) {
   std::string out = t.has(TelemetryFlag::kDriveEnable) ? "drives on" : "drives off";
   if (t.has(TelemetryFlag::kReferenced)) {
     out += ", homed at the references";
-  } else if (t.has(TelemetryFlag::kHomed) && t.has(TelemetryFlag::kFault) && !t.has(TelemetryFlag::kHoming)) {
+  } else if (t.homing_ended_by_fault()) {
     out += ", not homed (provisional counts: a fault ends a homing)";
   } else if (t.has(TelemetryFlag::kHomed)) {
     out += ", homed by hand";

@@ -136,6 +136,13 @@ struct TelemetryPayload {
   bool has(BoardFault cause) const { return ((board_fault >> static_cast<int>(cause)) & 1) != 0; }
   // A cause latched by the board itself (an e-stop command, a safety input), not by a joint.
   bool board_cause() const { return estop || board_fault != 0; }
+  // Counts homed but not at the references, no homing under way: set by hand (a set-home), or a
+  // homing that a fault ended (the board forgets it was homing on a fault and keeps the homed flag
+  // of the set-home at each jog). With a fault latched the two look alike: neither is a reference.
+  bool homed_unreferenced() const {
+    return has(TelemetryFlag::kHomed) && !has(TelemetryFlag::kReferenced) && !has(TelemetryFlag::kHoming);
+  }
+  bool homing_ended_by_fault() const { return has(TelemetryFlag::kFault) && homed_unreferenced(); }
   void set(TelemetryFlag flag, bool on) {
     flags = static_cast<std::uint8_t>(on ? flags | mask(flag) : flags & ~mask(flag));
   }

@@ -73,9 +73,6 @@ HomingReport home_at_references(link::LinkSession& session, const golden::BoardW
 // a hold or the next homing), or counts set by hand or at a homing's jog and then a fault (the board
 // forgets a homing at a fault: the two look alike; neither is a reference).
 Referencing board_referencing(const link::TelemetryPayload& telemetry);
-// Homed flag set, a latched fault, neither homing nor referenced: a homing that a fault ended (or
-// counts set by hand before the fault).
-bool homing_ended_by_fault(const link::TelemetryPayload& telemetry);
 // One line of why counts that are not referenced at the home switches are not ("" when they are).
 std::string unreferenced_reason(const link::TelemetryPayload& telemetry);
 
