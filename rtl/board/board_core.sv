@@ -423,7 +423,7 @@ module board_core #(
     .net_inputs_o  (net_clk_inputs),
     .net_outputs_i (net_clk_outputs)
   );
-  delta_network #(.MemDir(MemDir), .ModelFromFiles(1'b0)) u_network (
+  delta_network #(.MemDir(MemDir), .ModelFromFiles(1'b0), .CaptureInputs(1'b0)) u_network (
     .ap_clk      (clk_network_i),
     .ap_rst      (!rst_network_ni),
     .ap_start    (net_clk_start),

@@ -67,6 +67,10 @@ module link_rx #(
   logic [5:0]              index_d, index_q, end_d, end_q;
   logic [7:0]              length_d, length_q, type_d, type_q, sequence_d, sequence_q;
   logic                    crc_high_ok_d, crc_high_ok_q;
+  // The byte at read_q is the frame's CRC low byte (index_q == end_q + 1, index_q >= 5): a
+  // register, so that ok_o is a short path from the ring (its consumers act on it in the same clock).
+  logic                    crc_low_d, crc_low_q;
+  logic                    crc_low_match;
   logic                    crc_clear, crc_valid;
   logic [15:0]             crc;
 
@@ -106,11 +110,11 @@ module link_rx #(
     type_d          = type_q;
     sequence_d      = sequence_q;
     crc_high_ok_d   = crc_high_ok_q;
+    crc_low_d       = crc_low_q;
     crc_clear       = 1'b0;
     crc_valid       = 1'b0;
     start_o         = 1'b0;
     payload_valid_o = 1'b0;
-    ok_o            = 1'b0;
     bad_o           = 1'b0;
     if (stall_i) begin
       fetched_d = fetched_q;  // hold: the ring reads read_q again
@@ -148,11 +152,11 @@ module link_rx #(
       end else if (index_q == end_q) begin
         crc_high_ok_d = ring_data_q == crc[15:8];
         index_d       = index_q + 1'b1;
+        crc_low_d     = 1'b1;
       end else begin
-        index_d = 6'd0;
-        if (crc_high_ok_q && ring_data_q == crc[7:0]) begin
-          ok_o = 1'b1;
-        end else begin
+        index_d   = 6'd0;
+        crc_low_d = 1'b0;
+        if (!crc_low_match) begin  // ok_o otherwise (below)
           bad_o  = 1'b1;
           read_d = start_q + 1'b1;
         end
@@ -160,8 +164,12 @@ module link_rx #(
     end
   end
 
+  assign crc_low_match = crc_high_ok_q && ring_data_q == crc[7:0];
+  assign ok_o          = !stall_i && fetched_q && crc_low_q && crc_low_match;
+
   always_ff @(posedge clk_i or negedge rst_ni) begin
     if (!rst_ni) begin
+      crc_low_q     <= 1'b0;
       fetched_q     <= 1'b0;
       read_q        <= '0;
       start_q       <= '0;
@@ -181,6 +189,7 @@ module link_rx #(
       type_q        <= type_d;
       sequence_q    <= sequence_d;
       crc_high_ok_q <= crc_high_ok_d;
+      crc_low_q     <= crc_low_d;
     end
   end
 
@@ -303,7 +312,8 @@ module link_rx #(
         (f_pos_q < 8'd2 || length_q == f_length_q) && (f_pos_q < 8'd3 || sequence_q == f_sequence_q) &&
         (f_pos9 < 9'd4 || (type_q == f_type_q && f_payload_end < 9'd64 && end_q == 6'(f_payload_end) &&
                            f_pos9 <= f_payload_end + 9'd1)) &&
-        (f_pos9 < 9'd4 || f_pos9 != f_payload_end + 9'd1 || crc_high_ok_q == (f_high_q == f_crc_q[15:8])));
+        (f_pos9 < 9'd4 || f_pos9 != f_payload_end + 9'd1 || crc_high_ok_q == (f_high_q == f_crc_q[15:8])) &&
+        crc_low_q == (f_pos9 >= 9'd4 && f_pos9 == f_payload_end + 9'd1));
     the_parser_follows_the_specification_c: cover (f_past_valid && f_pos9 >= 9'd4 && f_pos9 == f_payload_end + 9'd1);
     // The ring: the parser reads only received bytes and never falls a ring behind the receiver
     // (a frame it may still rescan is never overwritten).

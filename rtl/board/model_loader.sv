@@ -53,6 +53,7 @@ module model_loader #(
   logic                  restart_q;       // the word shifting is frame 0's: the CRC starts from all ones
   logic [31:0]           crc_base;
   logic [CountWidth-1:0] shift_count_q;   // CRC bits still to shift
+  logic                  stall_q;         // shift_count_q != 0, a register (link_rx's parser waits on it)
 
   logic take, start, commit;
   assign start     = !number_high_q && number_q == 8'd0;
@@ -63,7 +64,7 @@ module model_loader #(
   assign write_o   = take && !commit;
   assign address_o = number_q;
   assign word_o    = word_q;
-  assign stall_o   = shift_count_q != '0;
+  assign stall_o   = stall_q;
   // The CRC's initial value enters at frame 0's first bit (a register of all ones then), so the
   // register itself only ever shifts.
   assign crc_base  = restart_q ? '1 : crc_q;
@@ -79,6 +80,7 @@ module model_loader #(
       crc_q         <= '0;
       restart_q     <= 1'b0;
       shift_count_q <= '0;
+      stall_q       <= 1'b0;
     end else begin
       if (payload_valid_i && is_model_i && payload_index_i == 3'd0) number_q <= payload_byte_i;
       if (payload_valid_i && is_model_i && payload_index_i == 3'd1) number_high_q <= payload_byte_i != 8'd0;
@@ -90,6 +92,7 @@ module model_loader #(
         restart_q     <= 1'b0;
         word_q        <= word_q >> 1;
         shift_count_q <= shift_count_q - 1'b1;
+        if (shift_count_q == CountWidth'(1)) stall_q <= 1'b0;
       end
       if (take) begin
         if (commit) begin
@@ -100,6 +103,7 @@ module model_loader #(
           loaded_q      <= 1'b0;
           expected_q    <= number_q + 8'd1;
           shift_count_q <= CountWidth'(delta_board_pkg::ModelCrcClocks);
+          stall_q       <= 1'b1;
           restart_q     <= start;
         end
       end
@@ -177,6 +181,8 @@ module model_loader #(
           loaded_q == $past(loaded_q) && crc_q == $past(crc_q) && loading_q == $past(loading_q) &&
           expected_q == $past(expected_q) && shift_count_q == $past(shift_count_q));
       a_model_frame_with_the_drives_on_changes_nothing_c: cover ($past(f_drives_on_frame) && loaded_q);
+      // The stall is the count's: shift_count_q != 0 (a register, off link_rx's parser path).
+      the_stall_is_a_nonzero_count: assert (stall_q == (shift_count_q != '0));
       // The bit-serial CRC: a taken word's ModelCrcClocks clocks leave the CRC-32 of its six bytes.
       if ($past(stall_o) && !stall_o) the_serial_crc_is_the_crc32_of_the_word: assert (crc_q == f_crc_expected_q);
       the_serial_crc_is_the_crc32_of_the_word_c: cover ($past(stall_o) && !stall_o);

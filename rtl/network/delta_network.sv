@@ -20,8 +20,8 @@
 // one token per cycle. Layer 1 of neuron h uses the tokens (h, *); layer 2 of neuron h uses the
 // tokens (h + 1, *) nine stages later, when tanh(h) is ready (the extra neuron NumHidden only
 // finishes layer 2 of the last real neuron). Stages of a token:
-//   S0  weight/bias ROM addresses                    S6  tanh ROM data (T[i], D[i])
-//   S1  ROM data; lane input selected                S7  D[i] * f
+//   S0  weight RAM address                           S6  tanh ROM data (T[i], D[i])
+//   S1  weight data; lane input; bias RAM address    S7  D[i] * f
 //   S2  multiply u * IW'                             S8  T[i] * 2^10 + D[i] * f; LW' ROM address
 //   S3  acc1 = b1' + sum of products                 S9  h = +-round_shift(.., 13) (a shift); LW' data
 //   S4  n = sat_21(round_shift(acc1, 17)) and        S10 multiply h * LW'
@@ -44,7 +44,10 @@
 module delta_network #(
   parameter int unsigned ReuseFactor    = 75,   // 25 or 75, see above
   parameter              MemDir         = ".",  // directory of the .mem files (+delta_mem_dir in sim)
-  parameter bit          ModelFromFiles = 1'b1  // the model from MemDir's files (1) or the port only (0)
+  parameter bit          ModelFromFiles = 1'b1, // the model from MemDir's files (1) or the port only (0)
+  // The inputs captured at the accept (1, ap_ctrl_hs), or read where they are (0, the board: its
+  // setpoint buffer's RAM output register holds them from ap_start until long after ap_done)
+  parameter bit          CaptureInputs  = 1'b1
 ) (
   input  logic                                              ap_clk,
   input  logic                                              ap_rst,
@@ -120,25 +123,17 @@ module delta_network #(
   logic                   output_q;  // S13 of the last token: the outputs are saturated
   logic                   done_q;
 
-  // The token in stage k (1..LastStage): valid_q[k], neuron and group at [(k - 1) * width +: width]
-  // (flat vectors: yosys 0.23 reads neither arrays of structs nor multi-dimensional packed arrays).
-  // Only the stages that are read are kept: the neuron up to S7 (the LW' address), the group up to
-  // S11 (the accumulator select). The stream is contiguous, so the rest follows from valid_q: the
-  // last token is in S12 when S12 holds a token and S11 none, and the token in S9 is a neuron-0
-  // token when stage 9 + Groups (the token Groups earlier) holds none.
-  localparam int unsigned NeuronStages = 7;
-  localparam int unsigned GroupStages  = 11;
-  logic [LastStage:1]                  valid_q;
-  logic [NeuronStages*NeuronWidth-1:0] neurons_q;
-  logic [GroupStages*GroupWidth-1:0]   groups_q;
-  logic [NeuronWidth-1:0]              neuron_s [1:NeuronStages];
-  logic [GroupWidth-1:0]               group_s [1:GroupStages];
-  for (genvar k = 1; k <= NeuronStages; k++) begin : g_neuron_stage
-    assign neuron_s[k] = neurons_q[(k-1)*NeuronWidth +: NeuronWidth];
-  end
-  for (genvar k = 1; k <= GroupStages; k++) begin : g_group_stage
-    assign group_s[k] = groups_q[(k-1)*GroupWidth +: GroupWidth];
-  end
+  // The token in stage k (1..LastStage): valid_q[k]; its neuron and group only where they are
+  // read: neuron_s1 (the bias address), group_s1 and group_s2 (the lane input, the bias select),
+  // neuron_s7 and group_s7 (the LW' address), group_s9 .. group_s11 (the layer-2 bias, the
+  // accumulator select). The stream is contiguous and starts at (0, 0), so a stage far down the
+  // pipeline counts its own tokens (from (0, 0) again after a cycle without one) instead of a
+  // delay line carrying them: stages 7 and 9 count, the others are one-stage copies. The rest
+  // follows from valid_q too: the last token is in S12 when S12 holds a token and S11 none, and
+  // the token in S9 is a neuron-0 token when stage 9 + Groups (the token Groups earlier) holds none.
+  logic [LastStage:1]     valid_q;
+  logic [NeuronWidth-1:0] neuron_s1, neuron_s7;
+  logic [GroupWidth-1:0]  group_s1, group_s2, group_s7, group_s9, group_s10, group_s11;
 
   wire accept     = ap_start && !busy_q;
   wire issue      = busy_q && (step_q != StepWidth'(Steps));
@@ -174,19 +169,39 @@ module delta_network #(
   end
 
   always_ff @(posedge ap_clk) begin
-    neurons_q <= {neurons_q[(NeuronStages-1)*NeuronWidth-1:0], neuron_q};
-    groups_q  <= {groups_q[(GroupStages-1)*GroupWidth-1:0], group_q};
+    neuron_s1 <= neuron_q;
+    group_s1  <= group_q;
+    group_s2  <= group_s1;
+    // The next token of stage 7 (that of a token now in S7 is the one after it).
+    if (!valid_q[7]) begin
+      neuron_s7 <= '0;
+      group_s7  <= '0;
+    end else if (group_s7 == GroupWidth'(Groups - 1)) begin
+      neuron_s7 <= neuron_s7 + 1'b1;
+      group_s7  <= '0;
+    end else begin
+      group_s7 <= group_s7 + 1'b1;
+    end
+    if (!valid_q[9] || group_s9 == GroupWidth'(Groups - 1)) group_s9 <= '0;
+    else group_s9 <= group_s9 + 1'b1;
+    group_s10 <= group_s9;
+    group_s11 <= group_s10;
   end
 
   // ---- spec step 2 is the host's: the inputs are the scaled codes u, captured at the accept ----
+  // (or, CaptureInputs = 0, held by the caller from ap_start to ap_done)
   logic signed [ScaledInputWidth-1:0] u [NumInputs];
   logic signed [ScaledInputWidth-1:0] scaled_q [NumInputs];
   assign u[0] = u_0;
   assign u[1] = u_1;
   assign u[2] = u_2;
   for (genvar j = 0; j < NumInputs; j++) begin : g_input
-    always_ff @(posedge ap_clk) begin
-      if (accept) scaled_q[j] <= u[j];
+    if (CaptureInputs) begin : g_capture
+      always_ff @(posedge ap_clk) begin
+        if (accept) scaled_q[j] <= u[j];
+      end
+    end else begin : g_held
+      assign scaled_q[j] = u[j];
     end
   end
 
@@ -194,7 +209,7 @@ module delta_network #(
   logic signed [Weight1Width-1:0]     weight1_q [Lanes];     // S2
   logic signed [ScaledInputWidth-1:0] lane_input_q [Lanes];  // S2
   logic signed [Product1Width-1:0]    product1_q [Lanes];    // S3
-  logic signed [Accum1Width-1:0]      bias1_s2_q, bias1_s3_q;   // b1', then b1' + 2^16
+  logic signed [Accum1Width-1:0]      bias1_s3_q;            // b1' + 2^16
   logic                               first_group_s3_q;      // the token in S3 starts a neuron
   logic signed [Accum1Width-1:0]      accum1_q;              // S4
 
@@ -221,7 +236,7 @@ module delta_network #(
 
     always_ff @(posedge ap_clk) begin
       // scaled_q is valid from S1 of token 0 on.
-      lane_input_q[lane] <= scaled_q[group_s[1] * Lanes + lane];
+      lane_input_q[lane] <= scaled_q[group_s1 * Lanes + lane];
       weight1_q[lane]    <= signed'(weight1_word);
       product1_q[lane]   <= Product1Width'(lane_input_q[lane]) * Product1Width'(weight1_q[lane]);
     end
@@ -237,7 +252,7 @@ module delta_network #(
     .FileAddress (Bias1Frame)
   ) u_bias1_ram (
     .clk_i          (ap_clk),
-    .address_i      (ModelAddressWidth'(Bias1Frame) + ModelAddressWidth'(neuron_q)),
+    .address_i      (ModelAddressWidth'(Bias1Frame) + ModelAddressWidth'(neuron_s1)),
     .data_o         (bias1_word),
     .write_clk_i    (model_clk_i),
     .write_i        (model_write_i),
@@ -246,8 +261,9 @@ module delta_network #(
   );
 
   // S3: acc1 starts from the bias at the neuron's first group; exact in 41 bits (spec step 3).
-  // The accumulator carries + 2^16, the rounding half of n = round_shift(acc1, 17), added to the
-  // bias in S2, so S4 only shifts and saturates. The bias/accumulator select is a register
+  // The bias memory is read with the token in S1 (its output register holds b1' in S2, no copy of
+  // it in the fabric). The accumulator carries + 2^16, the rounding half of n = round_shift(acc1,
+  // 17), added to the bias in S2, so S4 only shifts and saturates. The bias/accumulator select is a register
   // (decoded in S2). The 41-bit add is a carry-select adder: the low 20 bits and the high 21
   // bits, the latter both without and with the low carry, chosen by it (three short carry chains
   // side by side instead of one of 41 bits: the recurrence must fit one cycle).
@@ -259,9 +275,8 @@ module delta_network #(
     logic [Accum1LowWidth:0]         low;      // with its carry out
     logic [Accum1HighWidth-1:0]      high_without_carry;
     logic [Accum1HighWidth-1:0]      high_with_carry;  // the carry enters below the LSB as 1 + 1
-    bias1_s2_q       <= Accum1Width'(signed'(bias1_word));
-    bias1_s3_q       <= bias1_s2_q + (Accum1Width'(1) <<< (delta_network_pkg::TanhInputShift - 1));
-    first_group_s3_q <= (group_s[2] == '0);
+    bias1_s3_q       <= Accum1Width'(signed'(bias1_word)) + (Accum1Width'(1) <<< (delta_network_pkg::TanhInputShift - 1));
+    first_group_s3_q <= (group_s2 == '0);
     base   = first_group_s3_q ? bias1_s3_q : accum1_q;
     addend = '0;
     for (int lane = 0; lane < Lanes; lane++) addend = addend + Accum1Width'(product1_q[lane]);
@@ -300,9 +315,10 @@ module delta_network #(
     interpolation_q <= {1'b0, entry_s8_q, {TanhFractionWidth{1'b0}}} + InterpolationWidth'(slope_product_q);
     // h of neuron h is loaded by its last token in S9 and used by the tokens of h + 1; m is a bit
     // select of the interpolation (its rounding half is in the table word), so S9 only negates.
-    // Every last-group slot loads, token or not: a load that is no neuron's (neuron NumHidden's,
-    // or between inferences) is read only by neuron-0 tokens, whose products are never used.
-    if (group_s[9] == GroupWidth'(Groups - 1)) begin
+    // Every last-group slot loads (with one group, every slot, token or not): a load that is no
+    // neuron's (neuron NumHidden's, or between inferences) is read only by neuron-0 tokens, whose
+    // products are never used.
+    if (group_s9 == GroupWidth'(Groups - 1)) begin
       activation_q <= negative_q[5]
           ? HiddenWidth'(0) - HiddenWidth'(delta_network_pkg::tanh_round(interpolation_q))
           : HiddenWidth'(delta_network_pkg::tanh_round(interpolation_q));
@@ -380,8 +396,8 @@ module delta_network #(
     // would otherwise share its cycle.
     logic [ModelAddressWidth-1:0]   weight2_address_q;
     always_ff @(posedge ap_clk) begin
-      weight2_address_q <= ModelAddressWidth'(Weight2Frame + (group_s[7] * Lanes + lane) * NumHidden) +
-                           ((neuron_s[7] != '0) ? ModelAddressWidth'(neuron_s[7]) - ModelAddressWidth'(1)
+      weight2_address_q <= ModelAddressWidth'(Weight2Frame + (group_s7 * Lanes + lane) * NumHidden) +
+                           ((neuron_s7 != '0) ? ModelAddressWidth'(neuron_s7) - ModelAddressWidth'(1)
                                                 : ModelAddressWidth'(0));
     end
     model_ram #(
@@ -422,14 +438,14 @@ module delta_network #(
       .FileAddress (Bias2Frame)
     ) u_bias2_ram (
       .clk_i          (ap_clk),
-      .address_i      (ModelAddressWidth'(Bias2Frame + group_s[9] * Lanes + lane)),
+      .address_i      (ModelAddressWidth'(Bias2Frame + group_s9 * Lanes + lane)),
       .data_o         (bias2_word),
       .write_clk_i    (model_clk_i),
       .write_i        (model_write_i),
       .write_address_i(model_address_i),
       .write_data_i   (model_word_i[Bias2WordWidth-1:0])
     );
-    assign bias2 = ModelFromFiles ? file_biases[(group_s[10] * Lanes + lane) * Accum2Width +: Accum2Width]
+    assign bias2 = ModelFromFiles ? file_biases[(group_s10 * Lanes + lane) * Accum2Width +: Accum2Width]
                                   : bias2_word[Accum2Width-1:0];
     logic unused_bias_bits;
     assign unused_bias_bits = ^bias2_word[Bias2WordWidth-1:Accum2Width];
@@ -444,7 +460,7 @@ module delta_network #(
       if (accept) begin
         accum2_low_q[o]  <= '0;
         accum2_high_q[o] <= '0;
-      end else if (valid_q[11] && group_s[11] == GroupWidth'(o / Lanes)) begin
+      end else if (valid_q[11] && group_s11 == GroupWidth'(o / Lanes)) begin
         accum2_low_q[o]  <= {1'b0, accum2_low_q[o][Accum2LowWidth-1:0]} +
                             {1'b0, product[Accum2LowWidth-1:0]};
         accum2_high_q[o] <= accum2_high_q[o] + product[Accum2Width-1:Accum2LowWidth] +
