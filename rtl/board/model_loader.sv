@@ -183,6 +183,7 @@ module model_loader #(
       a_model_frame_with_the_drives_on_changes_nothing_c: cover ($past(f_drives_on_frame) && loaded_q);
       // The stall is the count's: shift_count_q != 0 (a register, off link_rx's parser path).
       the_stall_is_a_nonzero_count: assert (stall_q == (shift_count_q != '0));
+      the_stall_is_a_nonzero_count_c: cover (stall_q && shift_count_q == CountWidth'(1));
       // The bit-serial CRC: a taken word's ModelCrcClocks clocks leave the CRC-32 of its six bytes.
       if ($past(stall_o) && !stall_o) the_serial_crc_is_the_crc32_of_the_word: assert (crc_q == f_crc_expected_q);
       the_serial_crc_is_the_crc32_of_the_word_c: cover ($past(stall_o) && !stall_o);
