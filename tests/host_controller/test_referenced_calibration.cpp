@@ -6,6 +6,7 @@
 // `host park` naming no recording it removes. The acceptance: from a seeded random power-up pose,
 // home, drag, record: the recorded counts are the robot's own.
 #include <signal.h>
+#include <cstdlib>
 
 #include <algorithm>
 #include <chrono>
@@ -149,8 +150,9 @@ TEST(ReferencedCalibration, AHomingAFaultEndsReadsAsUnfinishedNotAsHomedByHand) 
 // millimetres; the plate held still for 1.5 s after the homing. (`merge` carrying the
 // header into DATA.csv: StageDrag.HostRecordAndMerge..., whose drag is long enough to merge.)
 TEST(ReferencedCalibration, FromARandomPowerUpPoseHomeThenDragRecordsTheRobotsOwnCounts) {
-  const unsigned seed = std::random_device{}();
-  std::printf("seed %u\n", seed);
+  const char* seed_text = std::getenv("DELTA_TEST_SEED");
+  const unsigned seed = seed_text != nullptr ? static_cast<unsigned>(std::stoul(seed_text)) : std::random_device{}();
+  std::printf("seed %u (DELTA_TEST_SEED replays it)\n", seed);
   std::mt19937 random(seed);
   std::uniform_real_distribution<double> angle(12.0, 50.0);
   Vec3 start;
@@ -178,7 +180,8 @@ TEST(ReferencedCalibration, FromARandomPowerUpPoseHomeThenDragRecordsTheRobotsOw
   const Table recorded = read_table(run);
   std::map<long, std::size_t> truth_at;
   for (std::size_t i = 0; i < truth.rows.size(); ++i) truth_at[std::lround(truth.at(i, "t_s") * 1e3)] = i;
-  double worst_counts = 0.0;
+  double worst_counts = 0.0, worst_at_s = 0.0;
+  int worst_joint = 0;
   std::size_t compared = 0;
   for (std::size_t i = 0; i < recorded.rows.size(); ++i) {
     const auto found = truth_at.find(std::lround(recorded.at(i, "t_s") * 1e3));
@@ -186,9 +189,13 @@ TEST(ReferencedCalibration, FromARandomPowerUpPoseHomeThenDragRecordsTheRobotsOw
     ++compared;
     for (int j = 0; j < 3; ++j) {
       const std::string n = std::to_string(j + 1);
-      worst_counts = std::max(
-          worst_counts,
-          std::abs(recorded.at(i, "alpha" + n + "_deg") - truth.at(found->second, "encoder" + n + "_deg")) / 0.01);
+      const double counts =
+          std::abs(recorded.at(i, "alpha" + n + "_deg") - truth.at(found->second, "encoder" + n + "_deg")) / 0.01;
+      if (counts > worst_counts) {
+        worst_counts = counts;
+        worst_joint = j + 1;
+        worst_at_s = recorded.at(i, "t_s");
+      }
     }
   }
   // The plate: still from the end of the homing until the recording starts (the stage takes hold at
@@ -209,9 +216,9 @@ TEST(ReferencedCalibration, FromARandomPowerUpPoseHomeThenDragRecordsTheRobotsOw
     moved_after = std::max(moved_after, d);
   }
   std::printf(
-      "start %s: %zu recorded rows against the truth, recorded - the robot's encoder at most %.1f counts; "
-      "plate moved %.1f um from the homing to the recording's start, %.2f mm in all\n",
-      start_text, compared, worst_counts, moved_before * 1e6, moved_after * 1e3);
+      "start %s: %zu recorded rows against the truth, recorded - the robot's encoder at most %.1f counts (joint %d at "
+      "%.4f s); plate moved %.1f um from the homing to the recording's start, %.2f mm in all\n",
+      start_text, compared, worst_counts, worst_joint, worst_at_s, moved_before * 1e6, moved_after * 1e3);
   EXPECT_GT(compared, 5500u);
   EXPECT_LE(worst_counts, 2.0 + 1e-9);
   // (With the drives off after homing the arms settle by a few micrometres; the drag moves millimetres.)
