@@ -130,8 +130,7 @@ void run_status(const StatusOptions& options) {
   const bool gateware_matches = c.identify.build_id == kGatewareBuildId;
   const Referencing referencing = board_referencing(t);
   // Homing not finished (stopped or failed): the board stays homing with provisional counts.
-  const bool unfinished =
-      referencing == Referencing::kNone && (t.has(link::TelemetryFlag::kHoming) || t.homing_ended_by_fault());
+  const bool unfinished = homing_unfinished(t);
   const bool model = board_has_model(t);  // a complete model whose CRC checked (identify's CRC is its)
   if (options.json) {
     nlohmann::json out = {

@@ -139,6 +139,41 @@ TEST(Homing, FromRandomStartsTheCountsAreTheRobotsOwnWithinOneCount) {
   }
 }
 
+// A joint powered up just below its switch (joint 1 at 30.50 deg, its switch closing about 0.05 deg
+// above, with 0.15 deg of play on the paper-like robot): the clear's first enable, the play's side
+// unknown, kicks it up into its switch, and the board references it on that edge, at the kick's
+// speed. That is no reference (before: joint 1 ended 6 counts off the robot's own and every drag
+// after it recorded them): homing says so, forgets the references, clears again and homes every
+// joint from below, the counts the robot's own within one count.
+TEST(Homing, AJointKickedIntoItsSwitchWhileClearingIsHomedAgainFromBelow) {
+  const std::string deployed = std::string(DELTA_SOURCE_DIR) + "/weights/paper_like_deployed.json";
+  const std::array<double, 3> start = {30.503, 39.043, 27.229};
+  Bench bench("homing_kick", {"--fidelity", "model", "--start-angles", angles_text(start)}, false, deployed);
+  const CommandResult home =
+      run_deltactl("host home --port " + bench.link + " --weights " + deployed + " --link-timeout-ms 2000");
+  ASSERT_EQ(home.exit_code, 0) << home.out << home.err;
+  const std::string said = home.err + home.out;  // (the homing's lines on stderr, the summary on stdout)
+  std::printf("%s", said.c_str());
+  EXPECT_NE(said.find("joint 1 closed its switch while clearing (a kick, not a search); references forgotten"),
+            std::string::npos)
+      << "the start no longer kicks joint 1 into its switch: the test did not test\n"
+      << said;
+  EXPECT_NE(said.find("joint 1 referenced ("), std::string::npos) << said;
+  const nlohmann::json after = board_status(bench.link);
+  EXPECT_EQ(after.value("homed_by", ""), "reference") << after.dump();
+  const double homed_s = after.value("tick", 0.0) / 10'000.0;
+  ASSERT_EQ(bench.board->terminate(), 0);
+  const Table truth = read_table(bench.truth);
+  std::size_t at_home = 0;
+  while (at_home + 1 < truth.rows.size() && truth.at(at_home + 1, "t_s") <= homed_s) ++at_home;
+  for (int j = 0; j < 3; ++j) {
+    EXPECT_NEAR(after["encoder_deg"][j].get<double>(), truth.at(at_home, "encoder" + std::to_string(j + 1) + "_deg"),
+                0.0101)
+        << "joint " << j + 1 << ": the board's count against the robot's";
+  }
+  std::filesystem::remove_all(bench.dir);
+}
+
 // A run stopped mid-path leaves the arms anywhere: `host park` takes the plate to a rest pose; homing
 // again brings the same counts (none of the old fixture homing's zeroing where the arms stand), and
 // the run after it completes and ends with the board's counts still the robot's own.

@@ -147,7 +147,7 @@ TEST(ReferencedCalibration, AHomingAFaultEndsReadsAsUnfinishedNotAsHomedByHand) 
 // homing fought it: a following-error fault); the drag recorded after it carries the robot's own counts: every recorded
 // encoder within 2 counts (0.02 deg, the home reference's own accuracy) of the reading the robot's
 // encoder gives at the true pose at that board time, while the stage moved the plate by
-// millimetres; the plate held still for 1.5 s after the homing. (`merge` carrying the
+// millimetres; the plate held still for 1.5 s after the homing, from where the arms came to rest. (`merge` carrying the
 // header into DATA.csv: StageDrag.HostRecordAndMerge..., whose drag is long enough to merge.)
 TEST(ReferencedCalibration, FromARandomPowerUpPoseHomeThenDragRecordsTheRobotsOwnCounts) {
   const char* seed_text = std::getenv("DELTA_TEST_SEED");
@@ -207,21 +207,39 @@ TEST(ReferencedCalibration, FromARandomPowerUpPoseHomeThenDragRecordsTheRobotsOw
     if (truth.at(i, "drives_enabled") == 1.0) at_home = i;
   }
   ASSERT_GT(at_home, 0u) << "no homing in the truth";
-  double moved_before = 0.0, moved_after = 0.0, moved_after_home = 0.0;
+  // The arms at rest after the homing: the first row from which the true joint angles hold for 20 ms.
+  // (The homing ends when the last joint's switch stops every drive, the others wherever the jog had
+  // them: a joint still moving coasts, by up to a few tenths of a degree, before it stops.)
+  const auto angles = [&](std::size_t i) {
+    return Vec3(truth.at(i, "true_alpha1_deg"), truth.at(i, "true_alpha2_deg"), truth.at(i, "true_alpha3_deg"));
+  };
+  std::size_t at_rest = at_home + 1;
+  for (std::size_t still = 0; at_rest + still < truth.rows.size() && still < 20;) {
+    if ((angles(at_rest + still) - angles(at_rest)).norm() < 1e-9) {
+      ++still;
+    } else {
+      at_rest += still + 1;
+      still = 0;
+    }
+  }
   const double homed_s = truth.at(at_home, "t_s");
-  for (std::size_t i = at_home; i < truth.rows.size(); ++i) {
-    const double d = (plate(i) - plate(at_home)).norm();
+  ASSERT_LT(truth.at(at_rest, "t_s"), homed_s + 0.5) << "the arms did not come to rest after the homing";
+  double moved_before = 0.0, moved_after = 0.0, moved_after_home = 0.0;
+  for (std::size_t i = at_rest; i < truth.rows.size(); ++i) {
+    const double d = (plate(i) - plate(at_rest)).norm();
     if (truth.at(i, "t_s") < recording_s) moved_before = std::max(moved_before, d);
     if (truth.at(i, "t_s") < homed_s + 1.5) moved_after_home = std::max(moved_after_home, d);
     moved_after = std::max(moved_after, d);
   }
   std::printf(
       "start %s: %zu recorded rows against the truth, recorded - the robot's encoder at most %.1f counts (joint %d at "
-      "%.4f s); plate moved %.1f um from the homing to the recording's start, %.2f mm in all\n",
-      start_text, compared, worst_counts, worst_joint, worst_at_s, moved_before * 1e6, moved_after * 1e3);
+      "%.4f s); the arms at rest %.3f s after the homing, having coasted %.1f um; the plate moved %.1f um from there "
+      "to the recording's start, %.2f mm in all\n",
+      start_text, compared, worst_counts, worst_joint, worst_at_s, truth.at(at_rest, "t_s") - homed_s,
+      (plate(at_rest) - plate(at_home)).norm() * 1e6, moved_before * 1e6, moved_after * 1e3);
   EXPECT_GT(compared, 5500u);
   EXPECT_LE(worst_counts, 2.0 + 1e-9);
-  // (With the drives off after homing the arms settle by a few micrometres; the drag moves millimetres.)
+  // (At rest with the drives off after the homing the arms stay within micrometres; the drag moves millimetres.)
   // The stage takes hold 2 s after the first identify that follows the homing's end (host record's);
   // telemetry with the drives on or homing before then waits for the end again, so however late the
   // recording's first row comes on a loaded machine, the plate is still for 1.5 s after the homing.

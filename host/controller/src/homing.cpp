@@ -61,6 +61,11 @@ Referencing board_referencing(const link::TelemetryPayload& telemetry) {
   return telemetry.has(link::TelemetryFlag::kHomed) ? Referencing::kHand : Referencing::kNone;
 }
 
+bool homing_unfinished(const link::TelemetryPayload& telemetry) {
+  return board_referencing(telemetry) == Referencing::kNone &&
+         (telemetry.has(link::TelemetryFlag::kHoming) || telemetry.homing_ended_by_fault());
+}
+
 std::string unreferenced_reason(const link::TelemetryPayload& telemetry) {
   switch (board_referencing(telemetry)) {
     case Referencing::kHomeSwitches:
@@ -254,11 +259,14 @@ HomingReport home_at_references(link::LinkSession& session, const golden::BoardW
     if (t.has(link::TelemetryFlag::kDriveEnable)) {
       throw HostFailure(kExitFault, "home: the drives are on (another controller?); homing starts with the drives off");
     }
-    t = checked([&] {
-      return command(link::Command::kHomeStart, [](const link::TelemetryPayload& frame) {
-        return frame.has(link::TelemetryFlag::kHoming) && (frame.home >> 3) == 0;
+    const auto home_start = [&] {
+      return checked([&] {
+        return command(link::Command::kHomeStart, [](const link::TelemetryPayload& frame) {
+          return frame.has(link::TelemetryFlag::kHoming) && (frame.home >> 3) == 0;
+        });
       });
-    });
+    };
+    t = home_start();
     say("homing: references forgotten; switches " + std::to_string(t.home & 7) + " (bit j: joint j+1 closed)");
 
     const std::int32_t search = q8_per_setpoint(options.search_deg_s);
@@ -267,6 +275,8 @@ HomingReport home_at_references(link::LinkSession& session, const golden::BoardW
     std::array<double, 3> open_run{};                      // degrees moved down with the switch open (clear phase)
     std::array<double, 3> one_way{};                       // degrees moved the present way without the switch
     bool clearing = true;
+    int kicked = 0;    // joints the board referenced while clearing (bit j: joint j+1)
+    int restarts = 0;  // homings started again for such a reference
     while (true) {
       // At rest first (a jog ends at speed, and a switch read in motion may still change).
       {
@@ -274,9 +284,29 @@ HomingReport home_at_references(link::LinkSession& session, const golden::BoardW
         if (!rest) fail(kExitFault, "the arms do not come to rest with the drives off");
         t = *rest;
       }
+      if (t.has(link::TelemetryFlag::kFault)) fail(kExitFault, "fault: " + link::describe_fault(t));
+      // A reference the board took while the joints were clearing is not one: a joint that powered
+      // up just below its switch, kicked up into it by an enable (the play's side unknown), closes it
+      // at the kick's speed, not the search's, counts off. Forget every reference and clear again.
+      if (kicked != 0) {
+        if (++restarts > options.max_restarts) {
+          fail(kExitFault, "a joint closed its switch while clearing " + std::to_string(restarts) +
+                               " times (kicked up into it at each enable?)");
+        }
+        for (int j = 0; j < 3; ++j) {
+          if (((kicked >> j) & 1) != 0)
+            say("homing: " + joint_name(j) + " closed its switch while clearing (a kick, not a search); " +
+                "references forgotten, clearing again");
+        }
+        t = home_start();
+        kicked = 0;
+        clearing = true;
+        clear_first = {true, true, true};
+        open_run = {};
+        continue;
+      }
       const int referenced = (t.home >> 3) & 7;
       if (referenced == 7) break;
-      if (t.has(link::TelemetryFlag::kFault)) fail(kExitFault, "fault: " + link::describe_fault(t));
       if (!t.has(link::TelemetryFlag::kHoming))
         fail(kExitFault, "the board left homing (" + link::describe_state(t) + ")");
       // A joint not referenced whose switch is closed at rest passed its switch with the drives off
@@ -405,6 +435,10 @@ HomingReport home_at_references(link::LinkSession& session, const golden::BoardW
           const int now = (f.home >> 3) & 7;
           for (int j = 0; j < 3; ++j) {
             if (((now >> j) & 1) != 0 && ((referenced >> j) & 1) == 0) {
+              if (clearing) {
+                kicked |= 1 << j;
+                continue;
+              }
               say("homing: " + joint_name(j) + " referenced (" + fixed(one_way[j], 2) +
                   " deg up from below its switch)");
               one_way[j] = 0.0;

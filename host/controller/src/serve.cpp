@@ -251,9 +251,7 @@ struct HostServer::Impl {
       out["homed_by"] = referencing == Referencing::kHomeSwitches ? "reference"
                         : referencing == Referencing::kHand       ? "hand"
                                                                   : "none";
-      out["homing_unfinished"] = referencing == Referencing::kNone &&
-                                 (t->has(link::TelemetryFlag::kHoming) || interrupted || t->homing_ended_by_fault()) &&
-                                 !homing_now;
+      out["homing_unfinished"] = (interrupted || homing_unfinished(*t)) && !homing_now;
       out["referencing"] = unreferenced_reason(*t);  // "" when homed at the references
       out["board_time_s"] = t->tick / 1e4;
       out["encoder_deg"] = {t->counts[0] * kCountDeg, t->counts[1] * kCountDeg, t->counts[2] * kCountDeg};

@@ -10,6 +10,9 @@
 //      `clear_margin_deg` of its own motion (so each approach comes from below, the backlash's play
 //      taken up the same way every time); the drives stop as each joint gets there, and it is held
 //      while the others go on, so no joint goes lower than that margin below its start or switch;
+//      a joint the board references meanwhile (kicked up into its switch by an enable, at the
+//      kick's speed) is no reference: the references are forgotten and the clear starts again
+//      (at most `max_restarts` times);
 //   3. search: every joint not referenced moves up at `search_deg_s` until its switch closes: the
 //      board references it and stops the drives; the others go on after the next enable.
 //
@@ -41,7 +44,10 @@ struct HomingOptions {
   double recentre_deg = 15.0;     // provisional motion before the counts are set again
   double max_travel_deg = 102.4;  // one way without the switch (the board's travel): no reference
   double timeout_s = 120.0;       // the whole homing
-  int keep_alive_ms = 20;         // a frame to the board at least this often (its watchdog: 250 ms)
+  // A reference the board takes while the joints clear (a joint kicked up into its switch by an
+  // enable) is forgotten and the homing starts again, at most this many times.
+  int max_restarts = 3;
+  int keep_alive_ms = 20;  // a frame to the board at least this often (its watchdog: 250 ms)
   // Polled on every telemetry frame homing reads (empty: never): true ends homing at once, the
   // drives off, with HostFailure (kExitFault, "home: homing stopped on request; ..."). The service's
   // e-stop, stop and shutdown.
@@ -75,6 +81,9 @@ HomingReport home_at_references(link::LinkSession& session, const golden::BoardW
 Referencing board_referencing(const link::TelemetryPayload& telemetry);
 // One line of why counts that are not referenced at the home switches are not ("" when they are).
 std::string unreferenced_reason(const link::TelemetryPayload& telemetry);
+// Not referenced because a homing did not finish: the board still homing (stopped, failed), or a
+// fault ended it (TelemetryPayload::homing_ended_by_fault). Status's `homing_unfinished`.
+bool homing_unfinished(const link::TelemetryPayload& telemetry);
 
 // Reads telemetry until the counts have been still for 30 frames (the arms at rest with the drives
 // off), at most 2000 frames: that last frame, or nothing if they never came to rest. `each` (may be
