@@ -2,10 +2,12 @@
 # iCE40 UP5K flow: yosys synth_ice40 -> nextpnr-ice40 --up5k -> icepack, with timing and resource reports.
 #
 # Usage: scripts/fpga_flow.sh --top MODULE --pcf FILE.pcf --freq MHZ --out DIR [--seed N]
-#                             [--tries K] [--param NAME=VALUE]... SOURCE.sv...
+#                             [--tries K] [--place FILE.place] [--param NAME=VALUE]... SOURCE.sv...
 #   --freq is the target of every clock the .pcf gives no `set_frequency` for.
 #   --tries K: place and route with seeds N, N+1, .. N+K-1 until every clock meets its target
 #     (default 1: seed N only); synthesis runs once.
+#   --place FILE: fixed BELs for some cells of the netlist (scripts/place_cells.py: "PREFIX BEL..."
+#     lines), set before place and route; a line that no longer matches the design stops the flow.
 #   --param sets a top-level parameter (string values are given with their quotes: MemDir='"/abs"').
 # The tools (yosys 0.55 / nextpnr-ice40 0.8 from npm when installed, else Debian's; DELTA_FPGA_TOOLS
 # chooses) and the synthesis command: scripts/ice40_synth.sh.
@@ -18,7 +20,7 @@
 set -euo pipefail
 
 usage() { awk 'NR == 1 { next } /^#/ { sub(/^# ?/, ""); print; next } { exit }' "$0"; }
-top="" pcf="" freq="" out="" seed=1 tries=1 params=() sources=()
+top="" pcf="" freq="" out="" place="" seed=1 tries=1 params=() sources=()
 while (($#)); do
   case "$1" in
     --top) top=$2; shift 2 ;;
@@ -27,6 +29,7 @@ while (($#)); do
     --out) out=$2; shift 2 ;;
     --seed) seed=$2; shift 2 ;;
     --tries) tries=$2; shift 2 ;;
+    --place) place=$2; shift 2 ;;
     --param) params+=("$2"); shift 2 ;;
     -h|--help) usage; exit 0 ;;
     -*) echo "fpga_flow: unknown option $1" >&2; usage >&2; exit 2 ;;
@@ -36,7 +39,7 @@ done
 if [[ -z $top || -z $pcf || -z $freq || -z $out || ${#sources[@]} -eq 0 ]]; then
   echo "fpga_flow: need --top, --pcf, --freq, --out and at least one source" >&2; usage >&2; exit 2
 fi
-for file in "$pcf" "${sources[@]}"; do
+for file in "$pcf" ${place:+"$place"} "${sources[@]}"; do
   [[ -f $file ]] || { echo "fpga_flow: error: $file: no such file" >&2; exit 2; }
 done
 [[ $seed =~ ^[0-9]+$ && $tries =~ ^[1-9][0-9]*$ ]] ||
@@ -62,6 +65,11 @@ FPGA_MOUNTS=("$(realpath "$out")" "$(dirname "$(realpath "$pcf")")")
 fpga_mount_inputs
 echo "fpga_flow: yosys ($fpga_tools) $ice40_synth ($top)" >&2
 fpga_yosys -q -l "$out/yosys.log" -p "$read_sources $chparams $ice40_synth -top $top -json $out/$top.json" >/dev/null
+if [[ -n $place ]]; then
+  echo "fpga_flow: fixed places from $(basename "$place")" >&2
+  python3 "$(dirname "$0")/place_cells.py" "$place" "$out/$top.json" "$top" 2>"$out/place.log" ||
+    { cat "$out/place.log" >&2; exit 1; }
+fi
 
 # Place and route with one seed; writes timing.txt and sets timing_ok.
 place_and_route() {

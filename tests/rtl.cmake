@@ -84,6 +84,10 @@ target_include_directories(rtl_model_board_module_tests PRIVATE ${CMAKE_CURRENT_
 # elaborated by yosys with the mem folder `deltactl quantise` writes for two W.json in turn: the
 # tanh tables and identify.mem (the build id) byte-identical, the elaborated design byte-identical,
 # and the same from those three files alone (a few seconds, no synthesis).
+add_test(NAME Gateware.PlaceCellsPinsTheNamedCellsOrStopsWithTheLineAndLeavesTheNetlist
+  COMMAND bash ${CMAKE_CURRENT_LIST_DIR}/rtl/place_cells_checks.sh ${PROJECT_SOURCE_DIR})
+set_tests_properties(Gateware.PlaceCellsPinsTheNamedCellsOrStopsWithTheLineAndLeavesTheNetlist PROPERTIES
+  LABELS rtl TIMEOUT 60)
 get_directory_property(delta_bitstream_sources DIRECTORY ${PROJECT_SOURCE_DIR}/rtl/board DEFINITION board_sources)
 add_test(NAME Gateware.TheBitstreamsInputsAreTheSameWhicheverWeightsTheBuildWasConfiguredWith
   COMMAND bash ${CMAKE_CURRENT_LIST_DIR}/rtl/bitstream_inputs_without_model.sh ${PROJECT_SOURCE_DIR} ${PROJECT_BINARY_DIR}
