@@ -1157,9 +1157,11 @@ TEST(ModelBoardModules, SafetyInputsEstopAndJogEqualTheRtlUnderRandomInputsAndCo
         ok = ok && pulse(s.uniform(0, 3), kLatchClocks, nullptr) && session.wait(gap);
     }
   }
+  // A clear fault with an input at stop, whatever the random events were (refused), then accepted.
+  session.step_chance = 0.0;
+  ok = ok && clear_all(true);
   // Each joint's jog in both signs ended early by each of the three, then one jog run to its end
   // (the encoders still: no joint cause).
-  session.step_chance = 0.0;
   for (int code = 0; ok && code < 6; ++code) {
     for (int end = 0; ok && end < 3; ++end) {
       ok = session.command(board::kCommandDisable) && clear_all(false) &&
