@@ -190,8 +190,12 @@ build_job() {  # job [cover] -> $work/<job>[.cover]/{model.il, model.aig, props}
   # yosys reads in the model's directory: a $readmemh of MemDir "." (link_tx's identify.mem) finds
   # a file there, one zero word (the RAM is cut out: its contents are free anyway).
   echo 0000 >"$d/identify.mem"
+  # The trusted modules by name, and as hierarchy names them when an instance sets a parameter
+  # ($paramod\NAME\PARAM=... or $paramod$HASH\NAME): a plain name alone misses those.
+  local keep="$top"
+  for m in ${job_trusted[$j]}; do keep+=" $m \$paramod*$m*"; done
   if ! (cd "$d" && yosys -q -l "$d/read.log" -p "read_verilog -formal -sv -I$rtl/network $defines $pkg ${job_src[$j]}; $lib $params hierarchy -top $top;
-        prep -top $top; select -set keep $top ${job_trusted[$j]}; chformal -assume -assume2assert @keep %n; chformal -cover -remove $top %n;
+        prep -top $top; select -set keep $keep; chformal -assume -assume2assert @keep %n; chformal -cover -remove $top %n;
         flatten; $cut $lemmas memory -nomap; delete $memories; setundef -undriven -anyseq; opt_clean;
         write_rtlil $d/model.il;
         tee -q -o $d/asserts select -list t:\$assert; tee -q -o $d/covers select -list t:\$cover" >/dev/null 2>&1); then
