@@ -161,7 +161,7 @@ TEST(HostLoad, WithTheDrivesOnTheLoadIsRefusedAndTheModelStays) {
 }
 
 TEST(HostLoad, RunRefusesNoModelAndAnotherModelNamingHostLoadThenRunsAfterTheLoad) {
-  NoModelBench bench("load_run", {"--fidelity", "model", "--free-run"});
+  NoModelBench bench("load_run", {"--fidelity", "model"});
   const std::string load_hint = "deltactl host load --port " + bench.link + " --weights " + kWeights;
   const CommandResult none = run_deltactl("host home --quiet --port " + bench.link + " --weights " + kWeights);
   EXPECT_EQ(none.exit_code, 5) << none.err;
