@@ -6,7 +6,7 @@
 #   --freq is the target of every clock the .pcf gives no `set_frequency` for.
 #   --tries K: place and route with seeds N, N+1, .. N+K-1 until every clock meets its target
 #     (default 1: seed N only); synthesis runs once.
-#   --place FILE: fixed BELs for some cells of the netlist (scripts/place_cells.py: "PREFIX BEL..."
+#   --place FILE: fixed BELs for some cells of the netlist (scripts/place_cells.py: "TYPE PREFIX BEL..."
 #     lines), set before place and route; a line that no longer matches the design stops the flow.
 #   --param sets a top-level parameter (string values are given with their quotes: MemDir='"/abs"').
 # The tools (yosys 0.55 / nextpnr-ice40 0.8 from npm when installed, else Debian's; DELTA_FPGA_TOOLS
