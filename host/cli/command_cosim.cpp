@@ -19,6 +19,7 @@
 #include "delta/input_error.hpp"
 #include "delta/output_file.hpp"
 #include "delta/plot.hpp"
+#include "delta/run_report.hpp"
 #include "delta/table.hpp"
 #include "delta/temporary_directory.hpp"
 #include "options.hpp"
@@ -90,6 +91,20 @@ void write_cosim_plot(const std::string& path, const CosimResult& result, const 
   write_plot(path, spec);
 }
 
+// The closed loop's plate by what the reference does (the run-report's segments and dwells: where
+// a part is set down), from the same path time on.
+void print_where_it_rests(const CosimResult& result, double from_s) {
+  RunReport report;
+  try {
+    report = run_report_of(result, from_s);
+  } catch (const InputError&) {  // no sample with the drives on from from_s: the table above says so
+    return;
+  }
+  std::cout << "closed loop, where it moves, rests and reverses (" << report.dwells.size() << " dwells, "
+            << report.reversals.size() << " reversals of an axis or a joint; the definitions: run-report --help)\n\n"
+            << plate_segments_text(report) << dwells_text(report);
+}
+
 void run_cosim_command(const CosimCommandOptions& options, const std::string& command_line) {
   const golden::BoardWeights weights = golden::read_board_weights(options.weights);
   const golden::QuantisedNetwork& quantised = weights.network;
@@ -157,7 +172,8 @@ void run_cosim_command(const CosimCommandOptions& options, const std::string& co
 
   const double from_s = options.settle_s;
   const TrackingSummary summary = summarise(result, from_s);
-  std::cout << "Co-simulation: '" << options.trajectory << "', " << options.duration_s << " s of path after a "
+  const double path_s = static_cast<double>(result.stream.planned - result.approach_samples) / 1e3;
+  std::cout << "Co-simulation: '" << options.trajectory << "', " << fixed(path_s, 3) << " s of path after a "
             << fixed(result.approach_samples / 1e3, 3)
             << " s approach, as `host run` streams it; statistics from path time " << from_s << " s ("
             << summary.samples << " samples at 1 kHz)\n\n";
@@ -184,6 +200,7 @@ void run_cosim_command(const CosimCommandOptions& options, const std::string& co
                   fixed(summary.board_joint_rms_deg[1], 4), fixed(summary.board_joint_rms_deg[2], 4)});
   joints.print(std::cout);
   std::cout << '\n';
+  print_where_it_rests(result, from_s);
   const link::LinkStatistics& s = result.link;
   const controller::StreamingResult& r = result.stream;
   Table link({"link v2 and board", "value"});
@@ -271,7 +288,7 @@ const RegisterCommand command("cosim", 70, [](CLI::App& root) {
   sub->add_option("--effects", options->effects, "virtual robot's effects (JSON); none: the nominal robot");
   sub->add_option(
          "--trajectory", options->trajectory,
-         "NAME (experiment1, experiment2, validation, sweep, ...), FILE.csv or move:X,Y,Z;... as host run takes it")
+         "NAME (experiment1, experiment2, validation, sweep, pick-place, ...), FILE.csv or move:X,Y,Z;... as host run takes it")
       ->capture_default_str();
   sub->add_option("--duration", options->duration_s, "seconds of trajectory time (0: the trajectory's own length)")
       ->capture_default_str()

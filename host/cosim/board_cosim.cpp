@@ -201,6 +201,25 @@ CosimResult run_cosim(const CosimOptions& options) {
   return result;
 }
 
+RunReport run_report_of(const CosimResult& result, double from_s) {
+  RunColumns run;
+  run.path = "the co-simulation";
+  run.has_drives_column = true;
+  for (std::size_t i = 0; i < result.samples.size(); ++i) {
+    const CosimSample& sample = result.samples[i];
+    run.t_s.push_back(sample.t_s);
+    run.line.push_back(i + 1);
+    run.alpha_deg.push_back(sample.encoder_deg);
+    run.alpha_ref_deg.push_back(sample.network_deg);
+    run.driven.push_back(sample.drives_enabled && sample.tau_s >= from_s);
+    run.reference_m.push_back(sample.reference_m);
+    run.plate_m.push_back(sample.position_m);
+  }
+  PlateTrack plate = plate_from_run(run);
+  plate.source = "the virtual robot's plate (truth)";
+  return make_run_report(run, &plate);
+}
+
 TrackingSummary summarise(const CosimResult& result, double from_s) {
   TrackingSummary summary;
   struct Accumulator {

@@ -308,7 +308,7 @@ RunReport make_run_report(const RunColumns& run, const PlateTrack* plate) {
   }
   Accumulator plate_sum[kRunSegments], joint_sum[kRunSegments];
   std::size_t dwell = 0;
-  std::vector<double> dwell_sum(report.dwells.size(), 0.0);
+  std::vector<double> dwell_sum(report.dwells.size(), 0.0), settled_sum(report.dwells.size(), 0.0);
   for (std::size_t i = 0; i < rows.size(); ++i) {
     const std::size_t row = rows[i];
     const Vec3 joint = run.alpha_ref_deg[row] - run.alpha_deg[row];
@@ -325,11 +325,19 @@ RunReport make_run_report(const RunColumns& run, const PlateTrack* plate) {
       ++d.measured_rows;
       dwell_sum[dwell] += e.norm();
       d.max_distance_m = std::max(d.max_distance_m, e.norm());
+      if (t[i] >= d.start_s + kDwellSettleS - 1e-9) {
+        ++d.settled_rows;
+        settled_sum[dwell] += e.norm();
+        d.settled_max_distance_m = std::max(d.settled_max_distance_m, e.norm());
+      }
     }
   }
   for (std::size_t d = 0; d < report.dwells.size(); ++d) {
     if (report.dwells[d].measured_rows > 0) {
       report.dwells[d].mean_distance_m = dwell_sum[d] / static_cast<double>(report.dwells[d].measured_rows);
+    }
+    if (report.dwells[d].settled_rows > 0) {
+      report.dwells[d].settled_mean_distance_m = settled_sum[d] / static_cast<double>(report.dwells[d].settled_rows);
     }
   }
   report.plate_rows = plate_sum[kAllRows].rows;
@@ -359,6 +367,55 @@ RunReport run_report_of_file(const std::string& path) {
   return make_run_report(run, &plate);
 }
 
+std::string plate_segments_text(const RunReport& r) {
+  if (!r.plate_measured) return "";
+  std::ostringstream out;
+  Table plate({"plate - reference", "rows", "rms x / y / z [um]", "max |x| / |y| / |z| [um]", "rms [um]", "max [um]",
+               "max at [s]"});
+  for (int s = 0; s < kRunSegments; ++s) {
+    const PlateFigures& p = r.plate[s];
+    if (p.rows == 0) {
+      plate.add_row({segment_name(s), "0", "-", "-", "-", "-", "-"});
+      continue;
+    }
+    plate.add_row({segment_name(s), std::to_string(p.rows), triple(p.rms_m, 1e6, 2), triple(p.max_abs_m, 1e6, 2),
+                   um(p.rms_distance_m), um(p.max_distance_m), fixed(p.max_at_s, 3)});
+  }
+  plate.print(out);
+  out << '\n';
+  return out.str();
+}
+
+std::string dwells_text(const RunReport& r) {
+  if (r.dwells.empty()) return "";
+  std::ostringstream out;
+  const std::string settled = "after " + fixed(kDwellSettleS * 1e3, 0) + " ms";
+  Table dwells({"dwell", "start [s]", "duration [s]", "reference x / y / z [mm]", "mean [um]", "max [um]",
+                "mean " + settled + " [um]", "max " + settled + " [um]"});
+  for (std::size_t d = 0; d < r.dwells.size(); ++d) {
+    const Dwell& w = r.dwells[d];
+    const bool measured = w.measured_rows > 0, settled_rows = w.settled_rows > 0;
+    dwells.add_row({std::to_string(d + 1), fixed(w.start_s, 3), fixed(w.duration_s, 3),
+                    r.has_reference_position ? triple(w.reference_m, 1e3, 3) : "-",
+                    measured ? um(w.mean_distance_m) : "-", measured ? um(w.max_distance_m) : "-",
+                    settled_rows ? um(w.settled_mean_distance_m) : "-",
+                    settled_rows ? um(w.settled_max_distance_m) : "-"});
+  }
+  dwells.print(out);
+  out << '\n';
+  return out.str();
+}
+
+const Dwell* worst_dwell(const RunReport& r) {
+  const Dwell* worst = nullptr;
+  for (const Dwell& d : r.dwells) {
+    if (d.settled_rows > 0 && (worst == nullptr || d.settled_mean_distance_m > worst->settled_mean_distance_m)) {
+      worst = &d;
+    }
+  }
+  return worst;
+}
+
 std::string report_text(const RunReport& r) {
   std::ostringstream out;
   out << "run-report: " << r.run << ", " << r.driven_rows << " of " << r.rows << " rows with the drives on, "
@@ -371,33 +428,7 @@ std::string report_text(const RunReport& r) {
   out << "segments of the reference (" << (r.has_reference_position ? "x/y/z_ref_m" : "the joint references")
       << "): " << r.joints[kMoving].rows << " rows moving, " << rest_rows << " at rest in " << r.dwells.size()
       << " dwells, " << reversal_rows << " through " << r.reversals.size() << " reversals\n\n";
-  if (r.plate_measured) {
-    Table plate({"plate - reference", "rows", "rms x / y / z [um]", "max |x| / |y| / |z| [um]", "rms [um]", "max [um]",
-                 "max at [s]"});
-    for (int s = 0; s < kRunSegments; ++s) {
-      const PlateFigures& p = r.plate[s];
-      if (p.rows == 0) {
-        plate.add_row({segment_name(s), "0", "-", "-", "-", "-", "-"});
-        continue;
-      }
-      plate.add_row({segment_name(s), std::to_string(p.rows), triple(p.rms_m, 1e6, 2), triple(p.max_abs_m, 1e6, 2),
-                     um(p.rms_distance_m), um(p.max_distance_m), fixed(p.max_at_s, 3)});
-    }
-    plate.print(out);
-    out << '\n';
-  }
-  if (!r.dwells.empty()) {
-    Table dwells({"dwell", "start [s]", "duration [s]", "reference x / y / z [mm]", "mean [um]", "max [um]"});
-    for (std::size_t d = 0; d < r.dwells.size(); ++d) {
-      const Dwell& w = r.dwells[d];
-      const bool measured = w.measured_rows > 0;
-      dwells.add_row({std::to_string(d + 1), fixed(w.start_s, 3), fixed(w.duration_s, 3),
-                      r.has_reference_position ? triple(w.reference_m, 1e3, 3) : "-",
-                      measured ? um(w.mean_distance_m) : "-", measured ? um(w.max_distance_m) : "-"});
-    }
-    dwells.print(out);
-    out << '\n';
-  }
+  out << plate_segments_text(r) << dwells_text(r);
   Table joints({"joint reference - encoder", "rows", "rms 1 / 2 / 3 [deg]", "max |1| / |2| / |3| [deg]"});
   for (int s = 0; s < kRunSegments; ++s) {
     const JointFigures& j = r.joints[s];
@@ -458,6 +489,9 @@ nlohmann::json report_json(const RunReport& r) {
       w["mean_um"] = nullptr;
       w["max_um"] = nullptr;
     }
+    w["settled_rows"] = d.settled_rows;
+    w["settled_mean_um"] = d.settled_rows > 0 ? nlohmann::json(d.settled_mean_distance_m * 1e6) : nlohmann::json();
+    w["settled_max_um"] = d.settled_rows > 0 ? nlohmann::json(d.settled_max_distance_m * 1e6) : nlohmann::json();
     dwells.push_back(w);
   }
   j["dwells"] = dwells;
@@ -470,7 +504,8 @@ nlohmann::json report_json(const RunReport& r) {
       {"rows", "the run's rows with the drives on"},
       {"at_rest", "a dwell: at least " + format_number(kDwellMinS) + " s with the reference within " +
                       format_number(kDwellBandM * 1e6) + " um (joints " + format_number(kDwellBandDeg) +
-                      " deg) of where it started"},
+                      " deg) of where it started; settled_*: from " + format_number(kDwellSettleS * 1e3) +
+                      " ms after its start"},
       {"reversals", "from " + format_number(kReversalBeforeS * 1e3) + " ms before to " +
                         format_number(kReversalAfterS * 1e3) +
                         " ms after the last row at an extreme of any axis's or joint's reference (turning back by more "
@@ -492,7 +527,15 @@ std::string report_headline(const RunReport& r) {
           um(p.max_distance_m) + " um";
   if (r.plate[kAtRest].rows > 0) line += "; at rest rms " + um(r.plate[kAtRest].rms_distance_m) + " um";
   if (r.plate[kReversals].rows > 0) line += "; reversals rms " + um(r.plate[kReversals].rms_distance_m) + " um";
-  return line + "\n";
+  line += "\n";
+  if (const Dwell* worst = worst_dwell(r)) {
+    double largest = 0.0;
+    for (const Dwell& d : r.dwells) largest = std::max(largest, d.settled_max_distance_m);
+    line += "where it rests (" + std::to_string(r.dwells.size()) + " dwells, from " + fixed(kDwellSettleS * 1e3, 0) +
+            " ms after each stop): worst mean " + um(worst->settled_mean_distance_m) + " um (the dwell at " +
+            fixed(worst->start_s, 3) + " s), max " + um(largest) + " um\n";
+  }
+  return line;
 }
 
 }  // namespace delta

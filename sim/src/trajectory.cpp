@@ -16,7 +16,10 @@ const std::vector<std::pair<std::string, std::string>>& trajectory_catalogue() {
       {"sweep", "Lissajous sweep of the 10 mm cube, frequencies and phases drawn from --seed; 6000 at 10 Hz"},
       {"calibration",
        "slow Lissajous over +-12 mm in x, y and 16 mm of z (the wide angles that separate arm "
-       "lengths, radius and encoder scale); 9000 at 10 Hz"}};
+       "lengths, radius and encoder scale); 9000 at 10 Hz"},
+      {"pick-place",
+       "pick and place: 0.5 s dwells at the centre (z -76 mm) and four stations x, y = +-4.5 mm at z -72 "
+       "and -80 mm, 0.4 s quintic moves between; 5 s, 500 at 100 Hz"}};
   return catalogue;
 }
 
@@ -74,9 +77,25 @@ Trajectory make_trajectory(const std::string& name, std::uint64_t seed) {
       return Vec3(start * 0.012 * std::sin(two_pi * 0.0113 * t), start * 0.012 * std::sin(two_pi * 0.0171 * t),
                   -0.080 + start * 0.008 * std::sin(two_pi * 0.0071 * t));
     };
+  } else if (name == "pick-place") {
+    // Where a positioning robot is judged: the dwells. Each joint turns at some stations, so the
+    // stops come from both sides of the play.
+    trajectory.rate_hz = 100.0;
+    trajectory.samples = 500;
+    trajectory.position_m = [](double t) {
+      static const Vec3 stations[] = {{0.0, 0.0, -0.076},         {0.0045, 0.0045, -0.072},  {-0.0045, 0.0045, -0.080},
+                                      {-0.0045, -0.0045, -0.072}, {0.0045, -0.0045, -0.080}, {0.0, 0.0, -0.076}};
+      constexpr double dwell_s = 0.5, move_s = 0.4;
+      constexpr int last = 5;
+      const int k = std::clamp(static_cast<int>(std::floor(t / (dwell_s + move_s))), 0, last);
+      const double into_move = t - k * (dwell_s + move_s) - dwell_s;
+      if (k == last || into_move <= 0.0) return stations[k];
+      return Vec3(stations[k] + quintic_blend(into_move / move_s) * (stations[k + 1] - stations[k]));
+    };
   } else {
-    throw std::invalid_argument("unknown trajectory '" + name +
-                                "' (choose validation, experiment1, experiment2, sweep or calibration)");
+    std::string names;
+    for (const auto& entry : trajectory_catalogue()) names += (names.empty() ? "" : ", ") + entry.first;
+    throw std::invalid_argument("unknown trajectory '" + name + "' (choose one of " + names + ")");
   }
   return trajectory;
 }

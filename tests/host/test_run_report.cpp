@@ -31,15 +31,19 @@ double x_reference(double t) {
   return 0.0;
 }
 Vec3 reference(double t) { return Vec3(x_reference(t), 0.0, -0.075); }
-Vec3 plate(double t) {
+// With `settling`, the plate also overshoots by 20 um in y for the first 30 ms of the dwell at 5 mm
+// (1.5 .. 1.53 s: inside the 50 ms a dwell is given to settle).
+constexpr double kSettlingFromS = 1.5, kSettlingToS = 1.53;
+Vec3 plate(double t, bool settling) {
   Vec3 p = reference(t) + kOffsetM;
   if (std::abs(t - kSpikeAtS) < 1e-9) p.z() += 12e-6;
+  if (settling && t >= kSettlingFromS - 1e-9 && t < kSettlingToS - 1e-9) p.y() += 20e-6;
   return p;
 }
 
 // 1 kHz rows 0 .. 3.3 s; the drives on from row 5; joint 1's reference follows x (1 deg per mm),
 // joint 2's encoder 0.01 deg behind.
-std::string run_csv(bool with_plate) {
+std::string run_csv(bool with_plate, bool settling = false) {
   std::ostringstream out;
   out << std::setprecision(17) << "# a run of known errors\n"
       << "t_s,x_ref_m,y_ref_m,z_ref_m,alpha1_ref_deg,alpha2_ref_deg,alpha3_ref_deg,alpha1_deg,alpha2_deg,alpha3_deg,"
@@ -51,7 +55,7 @@ std::string run_csv(bool with_plate) {
     out << t << ',' << r.x() << ',' << r.y() << ',' << r.z() << ',' << a1 << ",31,32," << a1 << ",30.99,32,"
         << (k >= 5 ? 1 : 0);
     if (with_plate) {
-      const Vec3 p = plate(t);
+      const Vec3 p = plate(t, settling);
       out << ',' << p.x() << ',' << p.y() << ',' << p.z();
     }
     out << '\n';
@@ -95,6 +99,8 @@ TEST(RunReport, FiguresDwellsAndReversalsOfARunOfKnownErrors) {
     EXPECT_NEAR(r.dwells[d].start_s + r.dwells[d].duration_s, ends[d], 0.013) << d;
     EXPECT_NEAR(r.dwells[d].mean_distance_m, 5e-6, 1e-12) << d;
     EXPECT_NEAR(r.dwells[d].max_distance_m, 5e-6, 1e-12) << d;
+    EXPECT_NEAR(r.dwells[d].settled_mean_distance_m, 5e-6, 1e-12) << d;
+    EXPECT_EQ(r.dwells[d].settled_rows + 50u, r.dwells[d].rows) << d;  // 1 kHz rows
   }
   EXPECT_NEAR(r.dwells[1].reference_m.x(), 5e-3, 1e-6);
   // One reversal, of x and of joint 1 (which follows it), as the dwell at 5 mm ends; none where
@@ -119,6 +125,36 @@ TEST(RunReport, FiguresDwellsAndReversalsOfARunOfKnownErrors) {
   EXPECT_EQ(j["dwells"].size(), 3u);
   EXPECT_EQ(j["reversals"].size(), 2u);
   EXPECT_NE(report_headline(r).find("plate - reference: rms"), std::string::npos) << report_headline(r);
+  std::system(("rm -rf " + dir).c_str());
+}
+
+// Where a part is set down: a dwell's settled figures leave out its first 50 ms (an overshoot of
+// 20 um there), its figures over the whole dwell do not; the headline names the worst settled dwell.
+TEST(RunReport, ADwellsSettledFiguresLeaveOutItsFirst50Ms) {
+  const std::string dir = folder();
+  write_text(dir + "run.csv", run_csv(true, true));
+  const RunReport r = run_report_of_file(dir + "run.csv");
+  std::cout << dwells_text(r);
+  ASSERT_EQ(r.dwells.size(), 3u);
+  const Dwell& d = r.dwells[1];
+  ASSERT_LE(d.start_s, kSettlingFromS);  // the overshoot lies inside the dwell's first 50 ms
+  ASSERT_GE(d.start_s + kDwellSettleS, kSettlingToS);
+  const double overshoot = Vec3(3e-6, 16e-6, 0.0).norm();  // kOffsetM + 20 um in y
+  EXPECT_NEAR(d.max_distance_m, overshoot, 1e-12);
+  const double n = static_cast<double>(d.measured_rows);
+  const double overshoot_rows = std::round((kSettlingToS - kSettlingFromS) * 1e3);
+  EXPECT_NEAR(d.mean_distance_m, ((n - overshoot_rows) * 5e-6 + overshoot_rows * overshoot) / n, 1e-12);
+  EXPECT_NEAR(d.settled_mean_distance_m, 5e-6, 1e-12);
+  EXPECT_NEAR(d.settled_max_distance_m, 5e-6, 1e-12);
+  ASSERT_NE(worst_dwell(r), nullptr);  // all settle to 5 um
+  EXPECT_NEAR(worst_dwell(r)->settled_mean_distance_m, 5e-6, 1e-12);
+  const nlohmann::json j = report_json(r);
+  EXPECT_NEAR(j["dwells"][1]["settled_mean_um"].get<double>(), 5.0, 1e-6);
+  EXPECT_NEAR(j["dwells"][1]["max_um"].get<double>(), overshoot * 1e6, 1e-6);
+  const std::string headline = report_headline(r);
+  EXPECT_NE(headline.find("where it rests (3 dwells, from 50 ms after each stop): worst mean 5.00 um"),
+            std::string::npos)
+      << headline;
   std::system(("rm -rf " + dir).c_str());
 }
 

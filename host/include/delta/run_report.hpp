@@ -13,7 +13,8 @@
 // only and says the plate is not measured.
 // The reference's segments (from x_ref_m.. when present, else the joint references):
 //   at rest: a dwell, a stretch of at least kDwellMinS during which the reference stays within
-//     kDwellBandM (joints: kDwellBandDeg) of where it was at the stretch's start;
+//     kDwellBandM (joints: kDwellBandDeg) of where it was at the stretch's start; each dwell's
+//     plate error also from kDwellSettleS after its start (settled: where a part is set down);
 //   through a reversal: within [-kReversalBeforeS, +kReversalAfterS] of a reversal of any axis's
 //     or any joint's reference: the last row at its extreme (a peak, or the end of a dwell there)
 //     before it moves back by more than kReversalHysteresisM (joints: kReversalHysteresisDeg);
@@ -32,6 +33,7 @@
 namespace delta {
 
 constexpr double kDwellMinS = 0.1;
+constexpr double kDwellSettleS = 0.05;  // a dwell's settled figures: from this long after its start
 constexpr double kDwellBandM = 1e-6;
 constexpr double kDwellBandDeg = 1e-3;
 constexpr double kReversalBeforeS = 0.02;
@@ -87,6 +89,9 @@ struct Dwell {
   std::size_t rows = 0, measured_rows = 0;
   Vec3 reference_m = Vec3::Zero();                     // where it rests (x_ref_m..; zero when the run has none)
   double mean_distance_m = 0.0, max_distance_m = 0.0;  // of the plate error (measured rows)
+  // The same from kDwellSettleS after the start on (where the part is set down, the arms settled).
+  std::size_t settled_rows = 0;
+  double settled_mean_distance_m = 0.0, settled_max_distance_m = 0.0;
 };
 
 struct Reversal {
@@ -124,5 +129,10 @@ RunReport run_report_of_file(const std::string& path);
 std::string report_text(const RunReport& report);
 nlohmann::json report_json(const RunReport& report);
 std::string report_headline(const RunReport& report);
+// Pieces of report_text: the plate's table by segment, and the dwells' table ("" without dwells).
+std::string plate_segments_text(const RunReport& report);
+std::string dwells_text(const RunReport& report);
+// The dwell with the largest settled mean plate error (nullptr: no dwell has a settled row).
+const Dwell* worst_dwell(const RunReport& report);
 
 }  // namespace delta

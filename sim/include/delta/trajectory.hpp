@@ -23,6 +23,7 @@ const std::vector<std::pair<std::string, std::string>>& trajectory_catalogue();
 // "validation": the paper's trajectory (1), 13333 samples at 10 Hz, z descending 10 mm.
 // "experiment1", "experiment2": the paper's control experiments at f = 0.2 Hz (10 periods, 100 Hz).
 // "sweep": a Lissajous sweep of the 10 mm cube with seed-drawn frequencies and phases (6000 at 10 Hz).
+// "calibration": the slow drag over +-12 mm; "pick-place": dwells at five stations (the catalogue).
 // Throws std::invalid_argument for an unknown name.
 Trajectory make_trajectory(const std::string& name, std::uint64_t seed = 1);
 

@@ -36,6 +36,7 @@
 #include "delta/joint_plant.hpp"
 #include "delta/link/payloads.hpp"
 #include "delta/link/session.hpp"
+#include "delta/run_report.hpp"
 
 namespace delta::cosim {
 
@@ -142,5 +143,10 @@ struct TrackingSummary {
   std::size_t telemetry_frames = 0;
 };
 TrackingSummary summarise(const CosimResult& result, double from_s);
+
+// The run-report (delta/run_report.hpp) of the samples with path time tau >= from_s and the drives
+// on: the virtual robot's plate against the reference moving, at rest (each dwell, settled or not)
+// and through reversals; the joints: encoder - the network's answer due.
+RunReport run_report_of(const CosimResult& result, double from_s);
 
 }  // namespace delta::cosim
