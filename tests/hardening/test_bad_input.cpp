@@ -1,6 +1,6 @@
-// deltactl against hostile and careless input: one test per defect, then the bad-input
-// table that runs every command on one shared set of malformed files. Each asserts exit code 2, a
-// one-line message naming the file, line or option, and outputs left exactly as they were.
+// deltactl against hostile and careless input: one test per way an input or an output can go
+// wrong, then the bad-input table that runs every command on one shared set of malformed files. Each asserts exit code
+// 2, a one-line message naming the file, line or option, and outputs left exactly as they were.
 #include <gtest/gtest.h>
 
 #include <sys/stat.h>
@@ -92,8 +92,8 @@ test::CommandResult run_on_full_disk(const std::string& arguments, int kib) {
 // Commands that once ran for ever or grew without bound: a regression fails instead of hanging.
 const std::string kBounded = "ulimit -v 2000000; timeout 60 ";
 
-// ---- Defect 1: deep JSON crashed every effects and weights reader.
-TEST(Defect01, DeeplyNestedJsonIsBadInputInEveryReader) {
+// ---- Deep JSON is bad input, not a crash, in every effects and weights reader.
+TEST(HostileInput, DeeplyNestedJsonIsBadInputInEveryReader) {
   const std::string deep = temp("deep.json");
   write_text(deep, "{\"joint_offset\": " + std::string(100000, '[') + std::string(100000, ']') + "}\n");
   const std::string out = temp("d1_out");
@@ -109,8 +109,8 @@ TEST(Defect01, DeeplyNestedJsonIsBadInputInEveryReader) {
   EXPECT_FALSE(fs::exists(out));
 }
 
-// ---- Defect 2: the output writer replaced devices, links and read-only files.
-TEST(Defect02, OutputsThatAreNotPlainFilesAreNeverReplaced) {
+// ---- The output writer never replaces devices, links or read-only files.
+TEST(SafeOutputs, OutputsThatAreNotPlainFilesAreNeverReplaced) {
   const std::string recording = recording_text(20);
   const std::string in = temp("d2_in.csv");
   write_text(in, recording);
@@ -146,8 +146,8 @@ TEST(Defect02, OutputsThatAreNotPlainFilesAreNeverReplaced) {
   EXPECT_EQ(read_text(locked), "keep\n");
 }
 
-// ---- Defect 3: full disk gave exit 0 with empty or truncated files.
-TEST(Defect03, AFullDiskIsAnErrorAndLeavesNoFile) {
+// ---- A full disk is an error, not exit 0 with empty or truncated files.
+TEST(SafeOutputs, AFullDiskIsAnErrorAndLeavesNoFile) {
   const fs::path where = folder() / "d3";
   fs::create_directories(where);
   const std::string mat = (where / "net.mat").string();
@@ -162,8 +162,8 @@ TEST(Defect03, AFullDiskIsAnErrorAndLeavesNoFile) {
   EXPECT_EQ(run_deltactl("export-matlab --weights " + kWeights + " --out " + mat).exit_code, 0);
 }
 
-// ---- Defect 4 and 9: numeric options range-checked at parse time, naming the option.
-TEST(Defect04And09, NumericOptionsAreRangeChecked) {
+// ---- Numeric options range-checked at parse time, naming the option.
+TEST(OptionRanges, NumericOptionsAreRangeChecked) {
   const std::string out = temp("d4_out");
   const std::string rec = good_recording();
   const std::vector<std::pair<std::string, std::string>> cases = {
@@ -193,8 +193,8 @@ TEST(Defect04And09, NumericOptionsAreRangeChecked) {
   EXPECT_FALSE(fs::exists(folder() / "golden_vectors.txt"));
 }
 
-// ---- Defect 5: unbounded reads.
-TEST(Defect05, InputsWithoutLineBreaksOrOfAbsurdSizeFailFast) {
+// ---- Unbounded reads.
+TEST(HostileInput, InputsWithoutLineBreaksOrOfAbsurdSizeFailFast) {
   const std::string out = temp("d5_out.csv"), no_breaks = temp("d5_no_breaks.csv"), huge = temp("d5_huge.json");
   write_text(no_breaks, std::string(200000, '1'));
   { std::ofstream(huge) << ""; }
@@ -295,7 +295,7 @@ TEST(LabInputs, MergeRefusesImplausibleRowsOfTheFileTheyAreIn) {
 }
 
 // A 2 MB compressed .mat inflated to gigabytes before it was rejected: sizes are checked first.
-TEST(Defect05, ACompressedMatBombIsRejectedBeforeItIsInflated) {
+TEST(HostileInput, ACompressedMatBombIsRejectedBeforeItIsInflated) {
   const std::string bomb = temp("d5_bomb.mat"), out = temp("d5_bomb.json");
   {
     std::vector<double> zeros(std::size_t{3} * 4000000, 0.0);  // 96 MB of zeros, about 100 kB compressed
@@ -315,7 +315,7 @@ TEST(Defect05, ACompressedMatBombIsRejectedBeforeItIsInflated) {
 
 // The .mat inputs the fuzzer found (libmatio allocated 1.6 and 8.5 GB for them): bad input, in
 // bounded memory.
-TEST(Defect05, MatFilesFoundByTheFuzzerAreBadInput) {
+TEST(HostileInput, MatFilesFoundByTheFuzzerAreBadInput) {
   const fs::path corpus = fs::path(DELTA_SOURCE_DIR) / "tests/fuzz/corpus/mat";
   int found = 0;
   for (const auto& entry : fs::directory_iterator(corpus)) {
@@ -330,8 +330,8 @@ TEST(Defect05, MatFilesFoundByTheFuzzerAreBadInput) {
   EXPECT_FALSE(fs::exists(temp("d5_fuzz.json")));
 }
 
-// ---- Defect 6: a command's outputs appear together or not at all.
-TEST(Defect06, QuantiseWritesItsFileSetWhollyOrNotAtAll) {
+// ---- A command's outputs appear together or not at all.
+TEST(WholeOutputs, QuantiseWritesItsFileSetWhollyOrNotAtAll) {
   const fs::path where = folder() / "d6";
   fs::create_directories(where / "golden_vectors.txt");  // the last file cannot be written
   const auto result = run_deltactl("quantise --weights " + kWeights + " --out-dir " + where.string() + " --vectors 10");
@@ -339,7 +339,7 @@ TEST(Defect06, QuantiseWritesItsFileSetWhollyOrNotAtAll) {
   EXPECT_EQ(listing(where), std::vector<std::string>{"golden_vectors.txt"}) << "part of the file set was written";
 }
 
-TEST(Defect06, DiagnoseWritesJsonAndPredictionsTogetherOrNeither) {
+TEST(WholeOutputs, DiagnoseWritesJsonAndPredictionsTogetherOrNeither) {
   const fs::path where = folder() / "d6_diagnose";
   fs::create_directories(where);
   const std::string check = temp("d6_check.csv");
@@ -356,7 +356,7 @@ TEST(Defect06, DiagnoseWritesJsonAndPredictionsTogetherOrNeither) {
 // SIGINT through the command line: each long command (train, diagnose, cosim) is interrupted a second in, while it
 // computes or writes; it must exit non-zero and leave nothing in its output folder (no output, no
 // temporary, no plot folder).
-TEST(Defect06, SigintDuringALongCommandLeavesNoFile) {
+TEST(WholeOutputs, SigintDuringALongCommandLeavesNoFile) {
   const std::string check = temp("d6_sigint_check.csv");
   ASSERT_EQ(run_deltactl("simulate --experiment sweep --seed 3 --out " + check).exit_code, 0);
   const std::vector<std::pair<std::string, std::string>> commands = {
@@ -383,8 +383,8 @@ TEST(Defect06, SigintDuringALongCommandLeavesNoFile) {
   }
 }
 
-// ---- Defect 7: an output that is an input (or another output) is refused.
-TEST(Defect07, AnOutputThatIsAnInputIsRefused) {
+// ---- An output that is an input (or another output) is refused.
+TEST(SafeOutputs, AnOutputThatIsAnInputIsRefused) {
   const std::string data = temp("d7_data.csv");
   const std::string text = recording_text(30);
   write_text(data, text);
@@ -407,8 +407,8 @@ TEST(Defect07, AnOutputThatIsAnInputIsRefused) {
   EXPECT_FALSE(fs::exists(temp("d7_same")));
 }
 
-// ---- Defect 8: implausible rows are rejected by every recording reader.
-TEST(Defect08, ImplausibleRowsAreRejectedNamingTheirLine) {
+// ---- Implausible rows are rejected by every recording reader.
+TEST(RecordingRows, ImplausibleRowsAreRejectedNamingTheirLine) {
   const std::string far = temp("d8_far.csv"), huge = temp("d8_huge.csv"), out = temp("d8_out");
   write_text(far, recording_text(20) + "2.0,30,30,30,1e6,0,-0.072\n");
   write_text(huge, recording_text(20) + "2.0,1e300,30,30,0,0,-0.072\n");
@@ -421,8 +421,8 @@ TEST(Defect08, ImplausibleRowsAreRejectedNamingTheirLine) {
   EXPECT_FALSE(fs::exists(out));
 }
 
-// ---- Defect 10: duplicates are errors.
-TEST(Defect10, DuplicateColumnsAndKeysAreErrors) {
+// ---- Duplicates are errors.
+TEST(RecordingRows, DuplicateColumnsAndKeysAreErrors) {
   const std::string csv = temp("d10.csv"), json = temp("d10.json"), out = temp("d10_out");
   write_text(csv, "x_m,y_m,z_m,x_m\n0,0,-0.07,1\n");
   write_text(json, "{\n\"joint_offset\": [0, 0, 0],\n\"joint_offset\": [1, 1, 1]\n}\n");
@@ -433,8 +433,8 @@ TEST(Defect10, DuplicateColumnsAndKeysAreErrors) {
   EXPECT_FALSE(fs::exists(out));
 }
 
-// ---- Defect 11: import-matlab cannot write a weights file no reader accepts.
-TEST(Defect11, ImportRefusesMoreHiddenNeuronsThanTheWeightsFileAllows) {
+// ---- Import-matlab cannot write a weights file no reader accepts.
+TEST(MatlabImportLimits, ImportRefusesMoreHiddenNeuronsThanTheWeightsFileAllows) {
   const int hidden = 20000;
   std::string text;
   auto variable = [&](const char* name, int rows, int columns, double value) {
@@ -457,16 +457,16 @@ TEST(Defect11, ImportRefusesMoreHiddenNeuronsThanTheWeightsFileAllows) {
   EXPECT_FALSE(fs::exists(out));
 }
 
-// ---- Defect 12: a plate above the base is unreachable.
-TEST(Defect12, APlateAboveTheBaseIsUnreachable) {
+// ---- A plate above the base is unreachable.
+TEST(Reach, APlateAboveTheBaseIsUnreachable) {
   const std::string in = temp("d12.csv"), out = temp("d12_out.csv");
   write_text(in, "x_m,y_m,z_m\n0,0,-0.075\n0,0,0.05\n");
   expect_bad_input(run_deltactl("ik --model nominal --in " + in + " --out " + out), in + ":3: pose unreachable", "ik");
   EXPECT_FALSE(fs::exists(out));
 }
 
-// ---- Defect 13: messages name the file and stay readable.
-TEST(Defect13, MessagesNameTheFileAndStayReadable) {
+// ---- Messages name the file and stay readable.
+TEST(ErrorMessages, MessagesNameTheFileAndStayReadable) {
   const std::string few = temp("d13_few.csv"), out = temp("d13_out");
   write_text(few, recording_text(5));
   expect_bad_input(run_deltactl("train --data " + few + " --out " + out), few + ": training needs at least 10 samples",
@@ -492,7 +492,7 @@ TEST(Defect13, MessagesNameTheFileAndStayReadable) {
 
 // cosim checks the trajectory before any motion as `host run` does: a sample outside the weights'
 // trained range is bad input (exit 2), the message naming its file and line, and no output file.
-TEST(Defect13, CosimRefusesATrajectoryBeyondItsLimitsAsBadInput) {
+TEST(ErrorMessages, CosimRefusesATrajectoryBeyondItsLimitsAsBadInput) {
   const std::string file = temp("d13_untrained.csv");
   write_text(file, "t_s,x_m,y_m,z_m\n0,0,0,-0.075\n1,0,0,-0.075\n100,0.008,0,-0.075\n");
   const std::string out = temp("d13_cosim.csv");
@@ -508,7 +508,7 @@ TEST(Defect13, CosimRefusesATrajectoryBeyondItsLimitsAsBadInput) {
 
 // A bare --port NAME is looked up under /dev/serial/by-id/; where it is only a file in the working
 // directory (a virtual board's --link tty), the message says how to name that file.
-TEST(Defect13, ABarePortNameThatIsAFileHereSaysHowToNameIt) {
+TEST(ErrorMessages, ABarePortNameThatIsAFileHereSaysHowToNameIt) {
   const fs::path here = folder() / "d13_port";
   fs::create_directories(here);
   write_text((here / "board_tty").string(), "");
