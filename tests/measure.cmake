@@ -1,7 +1,7 @@
 # The lab's measurement path: `deltactl merge` (clocks aligned from the data), the virtual measuring
 # stage and `deltactl host record` against the model board (docs/contracts.md, "The lab's measurements").
 delta_add_gtest(measure_tests
-  SOURCES ${CMAKE_CURRENT_LIST_DIR}/measure/test_merge.cpp
+  SOURCES ${CMAKE_CURRENT_LIST_DIR}/measure/test_merge.cpp ${CMAKE_CURRENT_LIST_DIR}/measure/test_merge_phases.cpp
   LIBRARIES delta::diagnosis delta::sim delta::host
   LABELS measure diagnosis)
 if(DELTA_HOST_ONLY)
