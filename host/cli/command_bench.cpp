@@ -131,17 +131,8 @@ struct JogCli {
   std::string direction, expect_sign;
 };
 
-const RegisterCommand command("bench", 76, [](CLI::App& root) {
-  CLI::App* bench = root.add_subcommand("bench", "Bench bring-up checks: home switches, encoder scale, link soak, jog");
-  bench->require_subcommand(1);
-  bench->footer(
-      "\nThe checks of a first power-up (docs/bench.md), on the board's port, with the drives off: only\n"
-      "'bench jog' turns them on, for the board's own 0.5 s open-loop jog at 0.05 A. Each needs\n"
-      "--limits-confirmed: set the drives' current limits low first (the MCBL's LPC and LCC). Each\n"
-      "refuses a board with a fault latched or its drives on (exit 3, naming why) and leaves the\n"
-      "drives off however it ends (Ctrl-C included).\n" +
-      kExitCodes);
-
+// deltactl bench switches.
+void add_switches_command(CLI::App* bench) {
   auto switches = std::make_shared<SwitchesCli>();
   CLI::App* sw = bench->add_subcommand("switches", "Watch the home switches while the arms are moved by hand");
   sw->footer(
@@ -164,7 +155,10 @@ const RegisterCommand command("bench", 76, [](CLI::App& root) {
       return bench::watch_switches(session, switches->options, bench_stop, output);
     });
   });
+}
 
+// deltactl bench scale.
+void add_scale_command(CLI::App* bench) {
   auto scale = std::make_shared<ScaleCli>();
   CLI::App* sc = bench->add_subcommand("scale", "Measure one joint's encoder counts per degree between two fixtures");
   sc->footer(
@@ -204,7 +198,10 @@ const RegisterCommand command("bench", 76, [](CLI::App& root) {
       return bench::check_scale(session, scale->options, bench_stop, output);
     });
   });
+}
 
+// deltactl bench soak.
+void add_soak_command(CLI::App* bench) {
   auto soak = std::make_shared<SoakCli>();
   CLI::App* so = bench->add_subcommand("soak", "Run the link both ways at full rate, drives off; report every counter");
   so->footer(
@@ -238,7 +235,10 @@ const RegisterCommand command("bench", 76, [](CLI::App& root) {
       return bench::soak(session, soak->options, bench_stop, output);
     });
   });
+}
 
+// deltactl bench jog.
+void add_jog_command(CLI::App* bench) {
   auto jog = std::make_shared<JogCli>();
   CLI::App* jg = bench->add_subcommand("jog", "Turn one joint a little, open loop (the board's 0.5 s jog), check it");
   jg->footer(
@@ -278,6 +278,22 @@ const RegisterCommand command("bench", 76, [](CLI::App& root) {
       return bench::jog(session, jog->options, bench_stop, output);
     });
   });
+}
+
+const RegisterCommand command("bench", 76, [](CLI::App& root) {
+  CLI::App* bench = root.add_subcommand("bench", "Bench bring-up checks: home switches, encoder scale, link soak, jog");
+  bench->require_subcommand(1);
+  bench->footer(
+      "\nThe checks of a first power-up (docs/bench.md), on the board's port, with the drives off: only\n"
+      "'bench jog' turns them on, for the board's own 0.5 s open-loop jog at 0.05 A. Each needs\n"
+      "--limits-confirmed: set the drives' current limits low first (the MCBL's LPC and LCC). Each\n"
+      "refuses a board with a fault latched or its drives on (exit 3, naming why) and leaves the\n"
+      "drives off however it ends (Ctrl-C included).\n" +
+      kExitCodes);
+  add_switches_command(bench);
+  add_scale_command(bench);
+  add_soak_command(bench);
+  add_jog_command(bench);
 });
 
 }  // namespace

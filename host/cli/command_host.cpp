@@ -761,18 +761,8 @@ void run_latency(const LatencyOptions& options) {
             << " us; overruns " << probe.overruns << " in " << w.count() << " cycles\n";
 }
 
-const RegisterCommand command("host", 75, [](CLI::App& root) {
-  CLI::App* host = root.add_subcommand("host", "The host controller: talk to the board (or the virtual board)");
-  host->require_subcommand(1);
-  host->footer(
-      "\nPORT: a serial device path (/dev/ttyUSB1, a virtual board's --link PATH), a name under\n"
-      "/dev/serial/by-id/, or 'icebreaker' (the iCEBreaker's UART found there). Opened raw 8N1 at\n"
-      "1 Mbaud, exclusively, with the driver's low-latency flag where it has one.\n"
-      "Exit codes: 0 completed; 2 bad input, found before any motion; 3 the board faulted or is not\n"
-      "ready (the cause is printed); 4 the link was lost (or the port cannot be opened); 5 the board's\n"
-      "gateware is not this checkout's, or it holds no model or another than W.json's (deltactl host\n"
-      "load); 128+N after a controlled stop on signal N (SIGINT, SIGTERM, SIGHUP, SIGQUIT).");
-
+// deltactl host status.
+void add_status_command(CLI::App* host) {
   auto status = std::make_shared<StatusOptions>();
   CLI::App* s = host->add_subcommand("status", "Identify the board and print its state");
   s->add_option("--port", status->port, "serial port (see 'deltactl host --help')")->required();
@@ -784,7 +774,10 @@ const RegisterCommand command("host", 75, [](CLI::App& root) {
       ->check(options::whole_number(10, 60000))
       ->capture_default_str();
   s->callback([status] { run_status(*status); });
+}
 
+// deltactl host load.
+void add_load_command(CLI::App* host) {
   auto load = std::make_shared<LoadOptions>();
   CLI::App* ld = host->add_subcommand("load", "Load a model (W.json) onto the board, drives off: seconds, no flashing");
   ld->footer(
@@ -809,7 +802,10 @@ const RegisterCommand command("host", 75, [](CLI::App& root) {
       ->check(options::whole_number(10, 60000))
       ->capture_default_str();
   ld->callback([load] { run_load(*load); });
+}
 
+// deltactl host home.
+void add_home_command(CLI::App* host) {
   auto home = std::make_shared<HomeOptions>();
   CLI::App* h = host->add_subcommand("home", "Home against the robot's references (its home switches)");
   h->footer(
@@ -838,7 +834,10 @@ const RegisterCommand command("host", 75, [](CLI::App& root) {
       ->check(options::whole_number(10, 60000))
       ->capture_default_str();
   h->callback([home] { run_home(*home); });
+}
 
+// deltactl host run.
+void add_run_command(CLI::App* host) {
   auto run = std::make_shared<RunOptions>();
   CLI::App* r = host->add_subcommand("run", "Check a trajectory, enable, stream it, stop, disable; record the run");
   r->footer(
@@ -885,7 +884,10 @@ const RegisterCommand command("host", 75, [](CLI::App& root) {
       ->check(options::real_number(0, 45, true))
       ->capture_default_str();
   r->callback([run] { run_run(*run); });
+}
 
+// deltactl host park.
+void add_park_command(CLI::App* host) {
   auto park = std::make_shared<ParkOptions>();
   CLI::App* pk = host->add_subcommand("park", "Move the plate to a rest pose and turn the drives off");
   pk->footer(
@@ -908,7 +910,10 @@ const RegisterCommand command("host", 75, [](CLI::App& root) {
       ->check(options::whole_number(10, 60000))
       ->capture_default_str();
   pk->callback([park] { run_park(*park); });
+}
 
+// deltactl host record.
+void add_record_command(CLI::App* host) {
   auto record = std::make_shared<RecordOptions>();
   CLI::App* rec =
       host->add_subcommand("record", "Record the board's telemetry with the drives off (a calibration drag)");
@@ -936,7 +941,10 @@ const RegisterCommand command("host", 75, [](CLI::App& root) {
       ->check(options::whole_number(10, 60000))
       ->capture_default_str();
   rec->callback([record] { run_record(*record); });
+}
 
+// deltactl host serve.
+void add_serve_command(CLI::App* host) {
   auto serve = std::make_shared<ServeCliOptions>();
   CLI::App* sv = host->add_subcommand("serve", "The long-running controller: owns the port, answers a control socket");
   sv->footer(
@@ -973,7 +981,10 @@ const RegisterCommand command("host", 75, [](CLI::App& root) {
   sv->add_option("--http-token-file", serve->http_token_file,
                  "the dashboard's token (default: $STATE_DIRECTORY/http-token, else ./http-token)");
   sv->callback([serve] { run_serve(*serve); });
+}
 
+// deltactl host ctl.
+void add_ctl_command(CLI::App* host) {
   auto ctl = std::make_shared<CtlOptions>();
   CLI::App* c = host->add_subcommand("ctl", "Talk to a running 'host serve': status, run, hold, resume, stop, ...");
   c->footer(
@@ -1006,7 +1017,10 @@ const RegisterCommand command("host", 75, [](CLI::App& root) {
     if (ctl->command == "run" && ctl->trajectory.empty()) fail(kExitBadInput, "host ctl run: needs --trajectory");
     run_ctl(*ctl);
   });
+}
 
+// deltactl host latency.
+void add_latency_command(CLI::App* host) {
   auto latency = std::make_shared<LatencyOptions>();
   CLI::App* l = host->add_subcommand("latency", "Wake latency of a 1 kHz loop with absolute deadlines (no board)");
   l->add_option("--seconds", latency->seconds, "how long")
@@ -1015,6 +1029,28 @@ const RegisterCommand command("host", 75, [](CLI::App& root) {
   l->add_flag("--normal", latency->normal, "normal scheduling (default: SCHED_FIFO and locked memory when permitted)");
   l->add_flag("--json", latency->json, "one JSON object");
   l->callback([latency] { run_latency(*latency); });
+}
+
+const RegisterCommand command("host", 75, [](CLI::App& root) {
+  CLI::App* host = root.add_subcommand("host", "The host controller: talk to the board (or the virtual board)");
+  host->require_subcommand(1);
+  host->footer(
+      "\nPORT: a serial device path (/dev/ttyUSB1, a virtual board's --link PATH), a name under\n"
+      "/dev/serial/by-id/, or 'icebreaker' (the iCEBreaker's UART found there). Opened raw 8N1 at\n"
+      "1 Mbaud, exclusively, with the driver's low-latency flag where it has one.\n"
+      "Exit codes: 0 completed; 2 bad input, found before any motion; 3 the board faulted or is not\n"
+      "ready (the cause is printed); 4 the link was lost (or the port cannot be opened); 5 the board's\n"
+      "gateware is not this checkout's, or it holds no model or another than W.json's (deltactl host\n"
+      "load); 128+N after a controlled stop on signal N (SIGINT, SIGTERM, SIGHUP, SIGQUIT).");
+  add_status_command(host);
+  add_load_command(host);
+  add_home_command(host);
+  add_run_command(host);
+  add_park_command(host);
+  add_record_command(host);
+  add_serve_command(host);
+  add_ctl_command(host);
+  add_latency_command(host);
 });
 
 }  // namespace

@@ -194,22 +194,14 @@ std::size_t write_what_fits(int fd, const std::uint8_t* data, std::size_t size, 
   return written;
 }
 
-void run_virtual_board(const VirtualBoardCommandOptions& options) {
-  const bool model = options.fidelity == "model";
-  // The model keeps to wall-clock time unless told to run free; the RTL cannot keep up anyway.
-  const bool paced = model && !options.free_run;
-  // Everything is checked before PATH or TRUTH appear.
-  // (--no-model: the shipped weights only for the gateware's files, whose identify.mem and tables
-  // are the same for every model.)
-  const golden::QuantisedNetwork quantised = read_board_network(options.weights);
-  const EffectSet effects = read_board_effects(options.effects);
-
-  const TemporaryDirectory mem("deltactl_virtual_board");  // the gateware's .mem files and identify.mem
-  golden::write_export(quantised, mem.path());
+// The virtual board's options from the command's (everything checked before PATH or TRUTH appear).
+VirtualBoardOptions board_options_of(const VirtualBoardCommandOptions& options, bool model,
+                                     const golden::QuantisedNetwork& quantised, const EffectSet& effects,
+                                     const std::string& mem_dir) {
   VirtualBoardOptions board_options;
   board_options.fidelity = model ? BoardFidelity::kModel : BoardFidelity::kRtl;
   board_options.network = options.no_model ? nullptr : &quantised;  // loaded through its frames at start
-  board_options.mem_dir = mem.path();
+  board_options.mem_dir = mem_dir;
   board_options.effects = effects;
   board_options.inject_encoder_skip_at_s = options.inject_encoder_skip_at_s;
   if (!options.start_angles.empty()) board_options.start_true_alpha_deg = parse_start_angles(options.start_angles);
@@ -227,94 +219,72 @@ void run_virtual_board(const VirtualBoardCommandOptions& options) {
     throw InputError(options.estop_open_at.empty() ? "--drive-fault-at" : "--estop-open-at", 0,
                      "this build's RTL board core has no safety input ports: use --fidelity model");
   }
-  std::unique_ptr<MeasuringStage> stage;
-  if (!options.stage.empty() || !options.stage_log.empty()) {
-    if (options.stage.empty() || options.stage_log.empty()) {
-      throw InputError("--stage", 0, "--stage and --stage-log go together");
-    }
-    StageOptions stage_options;
-    stage_options.mode = options.stage;
-    stage_options.log_path = options.stage_log;
-    std::tie(stage_options.clock_offset_s, stage_options.clock_ppm) = parse_stage_clock(options.stage_clock);
-    stage_options.rate_hz = options.stage_rate_hz;
-    stage_options.noise_m = options.stage_noise_m;
-    stage_options.log_sync = !options.stage_no_sync;
-    if (options.stage_after_home_s >= 0.0) {
-      if (options.stage.rfind("drag:", 0) != 0) throw InputError("--stage-after-home", 0, "needs --stage drag:...");
-      stage_options.after_home_s = options.stage_after_home_s;
-    }
-    stage_options.seed = options.stage_seed >= 0 ? static_cast<std::uint64_t>(options.stage_seed)
-                                                 : static_cast<std::uint64_t>(std::random_device{}()) & 0xffffffffu;
-    stage = std::make_unique<MeasuringStage>(stage_options, effects, Geometry::nominal());
-    if (stage->drags()) board_options.drag = [s = stage.get()](double t) { return s->drag(t); };
-    std::cout << "virtual-board: stage " << options.stage << ", log " << options.stage_log << " on its clock "
-              << options.stage_clock << " (offset s, ppm) at " << format_number(options.stage_rate_hz) << " Hz, noise "
-              << format_number(options.stage_noise_m) << " m RMS, seed " << stage_options.seed
-              << (stage_options.after_home_s >= 0.0
-                      ? "; the drag takes hold " + format_number(stage_options.after_home_s) +
-                            " s after the first command that follows the homing at the references starts"
-                      : "")
-              << std::endl;
-  }
-  const auto make_board = [&]() {
-    try {
-      return std::make_unique<VirtualBoard>(board_options);
-    } catch (const std::invalid_argument& error) {  // the arms placed where the plate has no pose
-      throw InputError("--start-angles", 0, "'" + options.start_angles + "': " + error.what());
-    }
-  };
-  const std::unique_ptr<VirtualBoard> board_owner = make_board();
-  VirtualBoard& board = *board_owner;
-  if (stage) {
-    board.observe_periods([s = stage.get()](std::uint64_t clocks, const BoardPins& pins, const RobotWorld& world) {
-      s->sample(static_cast<double>(clocks) / kBoardClockHz, world, pins.stage_sync);
-    });
-  }
+  return board_options;
+}
 
-  std::ofstream truth;
-  if (!options.truth.empty()) {
-    truth.open(options.truth, std::ios::trunc);
-    if (!truth) throw InputError(options.truth, 0, "cannot be written");
-    truth << "t_s,x_m,y_m,z_m,true_alpha1_deg,true_alpha2_deg,true_alpha3_deg,drives_enabled,"
-             "encoder1_deg,encoder2_deg,encoder3_deg,current1_a,current2_a,current3_a,"
-             "estop_open,drive_fault1,drive_fault2,drive_fault3\n";
-    board.observe_truth([&truth](const TruthSample& s, const RobotWorld&) {
-      truth << format_number(s.t_s);
-      for (int k = 0; k < 3; ++k) truth << ',' << format_number(s.position_m[k]);
-      for (int k = 0; k < 3; ++k) truth << ',' << format_number(s.true_alpha_deg[k]);
-      truth << ',' << (s.drives_enabled ? 1 : 0);
-      for (int k = 0; k < 3; ++k) truth << ',' << format_number(s.encoder_deg[k]);
-      for (int k = 0; k < 3; ++k) truth << ',' << format_number(s.current_a[k]);
-      truth << ',' << (s.estop_open ? 1 : 0);
-      for (int k = 0; k < 3; ++k) truth << ',' << ((s.drive_fault >> k) & 1);
-      truth << '\n';
-    });
+// The measuring stage beside the robot (--stage, --stage-log), its drag into *board_options; none
+// without --stage.
+std::unique_ptr<MeasuringStage> make_stage(const VirtualBoardCommandOptions& options, const EffectSet& effects,
+                                           VirtualBoardOptions* board_options) {
+  if (options.stage.empty() && options.stage_log.empty()) return nullptr;
+  if (options.stage.empty() || options.stage_log.empty()) {
+    throw InputError("--stage", 0, "--stage and --stage-log go together");
   }
-
-  std::unique_ptr<io::PseudoTerminal> pty;
-  try {
-    pty = std::make_unique<io::PseudoTerminal>(options.link);
-  } catch (const std::system_error& error) {
-    std::cerr << "deltactl: error: --link " << error.what() << '\n';
-    throw CommandExit{kExitBadInput};
+  StageOptions stage_options;
+  stage_options.mode = options.stage;
+  stage_options.log_path = options.stage_log;
+  std::tie(stage_options.clock_offset_s, stage_options.clock_ppm) = parse_stage_clock(options.stage_clock);
+  stage_options.rate_hz = options.stage_rate_hz;
+  stage_options.noise_m = options.stage_noise_m;
+  stage_options.log_sync = !options.stage_no_sync;
+  if (options.stage_after_home_s >= 0.0) {
+    if (options.stage.rfind("drag:", 0) != 0) throw InputError("--stage-after-home", 0, "needs --stage drag:...");
+    stage_options.after_home_s = options.stage_after_home_s;
   }
-  struct sigaction action {};
-  action.sa_handler = request_stop;
-  sigemptyset(&action.sa_mask);
-  for (int signal_number : {SIGINT, SIGTERM, SIGHUP}) ::sigaction(signal_number, &action, nullptr);
-
-  // A paced board runs as the real board's hardware does, whatever else the PC runs: SCHED_FIFO
-  // (below the host controller's 80) when permitted, so that a busy PC does not stop its clock.
-  const std::string scheduling = paced ? controller::make_thread_realtime(kPacedPriority) : "";
-  std::cout << "virtual-board: ready on " << options.link << " (" << pty->slave_path() << "), "
-            << (model ? "model" : "RTL") << " fidelity" << (paced ? " (real time)" : "")
-            << (options.no_model ? ", no model" : ", weights CRC " + golden::hex_word(weights_crc(quantised), 32))
-            << ", gateware " << golden::hex_word(kGatewareBuildId, 32)
-            << (!paced               ? ""
-                : scheduling.empty() ? ", SCHED_FIFO " + std::to_string(kPacedPriority)
-                                     : ", normal scheduling (" + scheduling + ")")
+  stage_options.seed = options.stage_seed >= 0 ? static_cast<std::uint64_t>(options.stage_seed)
+                                               : static_cast<std::uint64_t>(std::random_device{}()) & 0xffffffffu;
+  auto stage = std::make_unique<MeasuringStage>(stage_options, effects, Geometry::nominal());
+  if (stage->drags()) board_options->drag = [s = stage.get()](double t) { return s->drag(t); };
+  std::cout << "virtual-board: stage " << options.stage << ", log " << options.stage_log << " on its clock "
+            << options.stage_clock << " (offset s, ppm) at " << format_number(options.stage_rate_hz) << " Hz, noise "
+            << format_number(options.stage_noise_m) << " m RMS, seed " << stage_options.seed
+            << (stage_options.after_home_s >= 0.0
+                    ? "; the drag takes hold " + format_number(stage_options.after_home_s) +
+                          " s after the first command that follows the homing at the references starts"
+                    : "")
             << std::endl;
+  return stage;
+}
 
+// --truth: the CSV's header, and a row per millisecond of board time as the board runs.
+void record_truth(const std::string& path, VirtualBoard& board, std::ofstream& truth) {
+  truth.open(path, std::ios::trunc);
+  if (!truth) throw InputError(path, 0, "cannot be written");
+  truth << "t_s,x_m,y_m,z_m,true_alpha1_deg,true_alpha2_deg,true_alpha3_deg,drives_enabled,"
+           "encoder1_deg,encoder2_deg,encoder3_deg,current1_a,current2_a,current3_a,"
+           "estop_open,drive_fault1,drive_fault2,drive_fault3\n";
+  board.observe_truth([&truth](const TruthSample& s, const RobotWorld&) {
+    truth << format_number(s.t_s);
+    for (int k = 0; k < 3; ++k) truth << ',' << format_number(s.position_m[k]);
+    for (int k = 0; k < 3; ++k) truth << ',' << format_number(s.true_alpha_deg[k]);
+    truth << ',' << (s.drives_enabled ? 1 : 0);
+    for (int k = 0; k < 3; ++k) truth << ',' << format_number(s.encoder_deg[k]);
+    for (int k = 0; k < 3; ++k) truth << ',' << format_number(s.current_a[k]);
+    truth << ',' << (s.estop_open ? 1 : 0);
+    for (int k = 0; k < 3; ++k) truth << ',' << ((s.drive_fault >> k) & 1);
+    truth << '\n';
+  });
+}
+
+// What the line carried, for the stop's summary.
+struct LineCounts {
+  std::chrono::steady_clock::duration largest_lag{};
+  std::uint64_t bytes_in = 0, bytes_out = 0, bytes_dropped = 0;
+};
+
+// Runs the board behind the pty until SIGINT or SIGTERM.
+LineCounts serve_line(VirtualBoard& board, io::PseudoTerminal& pty, MeasuringStage* stage, std::ofstream& truth,
+                      bool model, bool paced, bool free_running, std::chrono::steady_clock::time_point start) {
   // One control period of board time per turn (100 us): the pty's bytes join the line at the board's
   // bit timing, the board's bytes go out as they complete. Paced: each turn waits until its board
   // time is due on the wall clock (a board that behaves like the real one for a host in a dry run).
@@ -328,21 +298,24 @@ void run_virtual_board(const VirtualBoardCommandOptions& options) {
   // The host's bytes wait in the pty while the line holds kReceiveQueueBytes (the FT2232H's 4 KiB
   // buffer): a writer faster than the line is slowed down and finally blocked, as by a real port.
   constexpr std::size_t kReceiveQueueBytes = 4096;
-  const auto start = std::chrono::steady_clock::now();
   // The wall time of board time 0 while pacing (the model's load at start took board time: now is that).
   auto origin = start - std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                             std::chrono::duration<double>(board.time_s()));
   // Free-running, the model board still keeps to real time while its drives are on: a host's homing
   // or run then meets the board's watchdog (250 ms of board time) as on the real board, whatever the
   // host's scheduling; with them off it runs free again.
-  const bool free_run = model && options.free_run;
+  const bool free_run = model && free_running;
   bool pacing = paced;
-  std::chrono::steady_clock::duration largest_lag{};
+  LineCounts counts;
+  std::chrono::steady_clock::duration& largest_lag = counts.largest_lag;
   auto last_flush = start;
-  std::uint64_t bytes_in = 0, bytes_out = 0, bytes_dropped = 0, turns = 0;
+  std::uint64_t& bytes_in = counts.bytes_in;
+  std::uint64_t& bytes_out = counts.bytes_out;
+  std::uint64_t& bytes_dropped = counts.bytes_dropped;
+  std::uint64_t turns = 0;
   bool pty_full = false, behind = false;
   std::uint8_t buffer[kReceiveQueueBytes];
-  const int fd = pty->fd();
+  const int fd = pty.fd();
   while (!stop_requested) {
     const std::size_t queued = board.bytes_to_board();
     if (queued < kReceiveQueueBytes) {
@@ -353,7 +326,7 @@ void run_virtual_board(const VirtualBoardCommandOptions& options) {
         bytes_in += static_cast<std::uint64_t>(got);
       }
     }
-    if (++turns % 128 == 0) pty->release_exclusive();
+    if (++turns % 128 == 0) pty.release_exclusive();
     if (free_run && board.pins().drive_enable != pacing) {
       pacing = !pacing;
       behind = false;
@@ -388,6 +361,67 @@ void run_virtual_board(const VirtualBoardCommandOptions& options) {
       last_flush = now;
     }
   }
+  return counts;
+}
+
+void run_virtual_board(const VirtualBoardCommandOptions& options) {
+  const bool model = options.fidelity == "model";
+  // The model keeps to wall-clock time unless told to run free; the RTL cannot keep up anyway.
+  const bool paced = model && !options.free_run;
+  // Everything is checked before PATH or TRUTH appear.
+  // (--no-model: the shipped weights only for the gateware's files, whose identify.mem and tables
+  // are the same for every model.)
+  const golden::QuantisedNetwork quantised = read_board_network(options.weights);
+  const EffectSet effects = read_board_effects(options.effects);
+
+  const TemporaryDirectory mem("deltactl_virtual_board");  // the gateware's .mem files and identify.mem
+  golden::write_export(quantised, mem.path());
+  VirtualBoardOptions board_options = board_options_of(options, model, quantised, effects, mem.path());
+  const std::unique_ptr<MeasuringStage> stage = make_stage(options, effects, &board_options);
+  const auto make_board = [&]() {
+    try {
+      return std::make_unique<VirtualBoard>(board_options);
+    } catch (const std::invalid_argument& error) {  // the arms placed where the plate has no pose
+      throw InputError("--start-angles", 0, "'" + options.start_angles + "': " + error.what());
+    }
+  };
+  const std::unique_ptr<VirtualBoard> board_owner = make_board();
+  VirtualBoard& board = *board_owner;
+  if (stage) {
+    board.observe_periods([s = stage.get()](std::uint64_t clocks, const BoardPins& pins, const RobotWorld& world) {
+      s->sample(static_cast<double>(clocks) / kBoardClockHz, world, pins.stage_sync);
+    });
+  }
+
+  std::ofstream truth;
+  if (!options.truth.empty()) record_truth(options.truth, board, truth);
+
+  std::unique_ptr<io::PseudoTerminal> pty;
+  try {
+    pty = std::make_unique<io::PseudoTerminal>(options.link);
+  } catch (const std::system_error& error) {
+    std::cerr << "deltactl: error: --link " << error.what() << '\n';
+    throw CommandExit{kExitBadInput};
+  }
+  struct sigaction action {};
+  action.sa_handler = request_stop;
+  sigemptyset(&action.sa_mask);
+  for (int signal_number : {SIGINT, SIGTERM, SIGHUP}) ::sigaction(signal_number, &action, nullptr);
+
+  // A paced board runs as the real board's hardware does, whatever else the PC runs: SCHED_FIFO
+  // (below the host controller's 80) when permitted, so that a busy PC does not stop its clock.
+  const std::string scheduling = paced ? controller::make_thread_realtime(kPacedPriority) : "";
+  std::cout << "virtual-board: ready on " << options.link << " (" << pty->slave_path() << "), "
+            << (model ? "model" : "RTL") << " fidelity" << (paced ? " (real time)" : "")
+            << (options.no_model ? ", no model" : ", weights CRC " + golden::hex_word(weights_crc(quantised), 32))
+            << ", gateware " << golden::hex_word(kGatewareBuildId, 32)
+            << (!paced               ? ""
+                : scheduling.empty() ? ", SCHED_FIFO " + std::to_string(kPacedPriority)
+                                     : ", normal scheduling (" + scheduling + ")")
+            << std::endl;
+
+  const auto start = std::chrono::steady_clock::now();
+  const LineCounts counts = serve_line(board, *pty, stage.get(), truth, model, paced, options.free_run, start);
   if (truth.is_open()) {
     truth.close();
     if (!truth) std::cerr << "deltactl: error: " << options.truth << ": write failed\n";
@@ -408,79 +442,82 @@ void run_virtual_board(const VirtualBoardCommandOptions& options) {
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   std::cerr << "virtual-board: stopped after " << fixed(board.time_s(), 3) << " s of board time in " << fixed(wall, 1)
             << " s wall"
-            << (paced ? "; at most " + fixed(std::chrono::duration<double>(largest_lag).count() * 1e3, 1) +
+            << (paced ? "; at most " + fixed(std::chrono::duration<double>(counts.largest_lag).count() * 1e3, 1) +
                             " ms behind the wall clock (caught up)"
                       : "")
-            << "; " << bytes_in << " bytes from the host, " << bytes_out << " to it, " << bytes_dropped
-            << " dropped (nobody reading)\n";
+            << "; " << counts.bytes_in << " bytes from the host, " << counts.bytes_out << " to it, "
+            << counts.bytes_dropped << " dropped (nobody reading)\n";
   pty.reset();  // removes PATH
 }
 
-const RegisterCommand command("virtual-board", 72, [](CLI::App& root) {
-  auto options = std::make_shared<VirtualBoardCommandOptions>();
-  CLI::App* sub = root.add_subcommand(
-      "virtual-board", "The virtual robot and its board behind a pseudo-terminal at PATH (talk to it as to the board)");
+// deltactl virtual-board --help's text after the options.
+std::string virtual_board_footer() {
   const std::string sync_period_s = format_number(board::kStageSyncLevelSeconds);
-  sub->footer(
-      std::string(
-          "\nCreates a pseudo-terminal (raw, no echo) whose slave is linked at PATH; any program that opens\n"
-          "PATH as a serial port talks the board link v2 (docs/board_link.md) to the virtual board: the\n"
-          "Verilated board core as built for the iCEBreaker (23.25 MHz board clock, 46.5 MHz network\n"
-          "clock, 23 clocks per bit at 1 Mbaud) with the robot world (three joint plants, the effects'\n"
-          "sensor chain, quadrature encoders, PWM averaging). Bytes from PATH enter the board's UART at its\n"
-          "bit timing; the board's bytes come back as they leave its TX pin. The simulation runs as fast as\n"
-          "it can, about 0.4 x real time: a host paces itself by the board's telemetry, never by its\n"
-          "own clock. --fidelity model runs the C++ model board instead (bit-exact with the RTL at its\n"
-          "pins: the same bytes, PWM and encoder counts), kept to wall-clock time unless --free-run (over\n"
-          "100 x real time with nobody reading, and at real time while its drives are on, so that a host's\n"
-          "homing or run meets the board's watchdog as on the real board), as SCHED_FIFO 70 when permitted (the "
-          "board's hardware\n"
-          "never waits for the PC). Board time is real time, as on the real board: a paced\n"
-          "board that falls behind, its process not scheduled, catches up on the bytes that arrived\n"
-          "meanwhile and sends the telemetry of the time it missed at once; the largest lag is printed\n"
-          "on exit. The board's receive queue holds 4 KiB (the FT2232H's buffer): a program writing\n"
-          "faster than the line is slowed down and blocked, as by a real port.\n"
-          "Bytes the board sends while nobody reads PATH are dropped once the pty is full.\n"
-          "A program's exclusive mode on PATH (TIOCEXCL) ends when it closes PATH, as on a serial port.\n"
-          "A --link that names a live virtual board's link is refused.\n"
-          "Prints one line naming PATH when ready; runs until SIGINT or SIGTERM, then removes PATH.\n"
-          "--truth: CSV at 1 kHz of board time, written as it runs (flushed twice a second, complete on\n"
-          "exit): t_s (board time since reset), x/y/z_m (the plate as the measuring stage sees it),\n"
-          "true_alpha*_deg (plant angles), drives_enabled, encoder*_deg, current*_a, estop_open and\n"
-          "drive_fault1..3 (the board's safety inputs, 1 = at the stop level).\n"
-          "--estop-open-at S[,UNTIL]: the board's e-stop chain opens at board time S (closes at UNTIL);\n"
-          "--drive-fault-at J,S[,UNTIL] (repeatable): drive J (1-3) reports a fault from S (to UNTIL) and\n"
-          "gives no current meanwhile. The board latches the cause (e-stop input open, drive J fault)\n"
-          "after 3 control periods at the stop level; a clear-fault is refused while the input stays there.\n"
-          "The board holds a model when the host starts: before the first host byte the virtual board\n"
-          "loads --weights over its link as 'deltactl host load' does (the model's frames, docs/board_link.md\n"
-          "\"The model\"; 26 ms of board time) and the ready line names its CRC. --no-model: it starts as a\n"
-          "board after power-up, with no model (enable refused) until a host loads one.\n"
-          "Defaults: the deployed model (weights/paper_like_deployed.json; the plain\n"
-          "network: --weights weights/paper_like.json) and the paper-like robot\n"
-          "(sim/paper_like_effects.json), both of the checkout deltactl was built from; --effects '' is the\n"
-          "nominal robot.\n"
-          "--inject-encoder-skip-at S: at board time S joint 1's A and B lines both invert (a skipped\n"
-          "quadrature state: the board latches fault cause 0, encoder skip), for the host's fault tests.\n"
-          "--stage: a measuring stage beside the robot (docs/contracts.md, \"The lab's measurements\"). drag:NAME or\n"
-          "drag:FILE.csv (t_s,x_m,y_m,z_m): with the drives off the stage moves the plate, the arms following\n"
-          "through the true geometry and every effect; it takes hold at the board's first valid frame (with\n"
-          "--stage-after-home S: S seconds of board time after the first command that follows the board's\n"
-          "homing at its references starts, 'host record' after 'host home': homing runs undisturbed and the\n"
-          "drag starts with the recording; telemetry with the drives on or homing before then waits for the\n"
-          "homing's end again, so the stage never takes hold sooner than S after the drives went off),\n"
-          "moves the plate to the trajectory's start in one second (quintic), along the trajectory, then\n"
-          "holds it at the end.\n"
-          "follow: it only measures. --stage-log gets the stage controller's own log,\n"
-          "t_s,x_m,y_m,z_m, on its clock (t_stage = OFFSET + (1 + PPM 1e-6) t_board) at --stage-rate, the\n"
-          "plate through the frame misalignment with --stage-noise, quantised to 6.87 nm; the seed is printed.\n"
-          "A fifth column, sync, is the board's stage sync output (bit ") +
-      std::to_string(board::kStageSyncBit) + " of its control periods, a level\nthat changes every " + sync_period_s +
-      " s of board time) on the stage's digital input, sampled with the\n"
-      "positions: merge aligns the clocks on it. --stage-no-sync: a stage without that wire.\n"
-      "Merge it with a host recording: deltactl merge (docs/lab_loop.md).\n"
-      "Example: deltactl virtual-board --link /tmp/delta-tty --truth truth.csv &\n"
-      "         deltactl host status --port /tmp/delta-tty");
+  return std::string(
+             "\nCreates a pseudo-terminal (raw, no echo) whose slave is linked at PATH; any program that opens\n"
+             "PATH as a serial port talks the board link v2 (docs/board_link.md) to the virtual board: the\n"
+             "Verilated board core as built for the iCEBreaker (23.25 MHz board clock, 46.5 MHz network\n"
+             "clock, 23 clocks per bit at 1 Mbaud) with the robot world (three joint plants, the effects'\n"
+             "sensor chain, quadrature encoders, PWM averaging). Bytes from PATH enter the board's UART at its\n"
+             "bit timing; the board's bytes come back as they leave its TX pin. The simulation runs as fast as\n"
+             "it can, about 0.4 x real time: a host paces itself by the board's telemetry, never by its\n"
+             "own clock. --fidelity model runs the C++ model board instead (bit-exact with the RTL at its\n"
+             "pins: the same bytes, PWM and encoder counts), kept to wall-clock time unless --free-run (over\n"
+             "100 x real time with nobody reading, and at real time while its drives are on, so that a host's\n"
+             "homing or run meets the board's watchdog as on the real board), as SCHED_FIFO 70 when permitted (the "
+             "board's hardware\n"
+             "never waits for the PC). Board time is real time, as on the real board: a paced\n"
+             "board that falls behind, its process not scheduled, catches up on the bytes that arrived\n"
+             "meanwhile and sends the telemetry of the time it missed at once; the largest lag is printed\n"
+             "on exit. The board's receive queue holds 4 KiB (the FT2232H's buffer): a program writing\n"
+             "faster than the line is slowed down and blocked, as by a real port.\n"
+             "Bytes the board sends while nobody reads PATH are dropped once the pty is full.\n"
+             "A program's exclusive mode on PATH (TIOCEXCL) ends when it closes PATH, as on a serial port.\n"
+             "A --link that names a live virtual board's link is refused.\n"
+             "Prints one line naming PATH when ready; runs until SIGINT or SIGTERM, then removes PATH.\n"
+             "--truth: CSV at 1 kHz of board time, written as it runs (flushed twice a second, complete on\n"
+             "exit): t_s (board time since reset), x/y/z_m (the plate as the measuring stage sees it),\n"
+             "true_alpha*_deg (plant angles), drives_enabled, encoder*_deg, current*_a, estop_open and\n"
+             "drive_fault1..3 (the board's safety inputs, 1 = at the stop level).\n"
+             "--estop-open-at S[,UNTIL]: the board's e-stop chain opens at board time S (closes at UNTIL);\n"
+             "--drive-fault-at J,S[,UNTIL] (repeatable): drive J (1-3) reports a fault from S (to UNTIL) and\n"
+             "gives no current meanwhile. The board latches the cause (e-stop input open, drive J fault)\n"
+             "after 3 control periods at the stop level; a clear-fault is refused while the input stays there.\n"
+             "The board holds a model when the host starts: before the first host byte the virtual board\n"
+             "loads --weights over its link as 'deltactl host load' does (the model's frames, docs/board_link.md\n"
+             "\"The model\"; 26 ms of board time) and the ready line names its CRC. --no-model: it starts as a\n"
+             "board after power-up, with no model (enable refused) until a host loads one.\n"
+             "Defaults: the deployed model (weights/paper_like_deployed.json; the plain\n"
+             "network: --weights weights/paper_like.json) and the paper-like robot\n"
+             "(sim/paper_like_effects.json), both of the checkout deltactl was built from; --effects '' is the\n"
+             "nominal robot.\n"
+             "--inject-encoder-skip-at S: at board time S joint 1's A and B lines both invert (a skipped\n"
+             "quadrature state: the board latches fault cause 0, encoder skip), for the host's fault tests.\n"
+             "--stage: a measuring stage beside the robot (docs/contracts.md, \"The lab's measurements\"). drag:NAME "
+             "or\n"
+             "drag:FILE.csv (t_s,x_m,y_m,z_m): with the drives off the stage moves the plate, the arms following\n"
+             "through the true geometry and every effect; it takes hold at the board's first valid frame (with\n"
+             "--stage-after-home S: S seconds of board time after the first command that follows the board's\n"
+             "homing at its references starts, 'host record' after 'host home': homing runs undisturbed and the\n"
+             "drag starts with the recording; telemetry with the drives on or homing before then waits for the\n"
+             "homing's end again, so the stage never takes hold sooner than S after the drives went off),\n"
+             "moves the plate to the trajectory's start in one second (quintic), along the trajectory, then\n"
+             "holds it at the end.\n"
+             "follow: it only measures. --stage-log gets the stage controller's own log,\n"
+             "t_s,x_m,y_m,z_m, on its clock (t_stage = OFFSET + (1 + PPM 1e-6) t_board) at --stage-rate, the\n"
+             "plate through the frame misalignment with --stage-noise, quantised to 6.87 nm; the seed is printed.\n"
+             "A fifth column, sync, is the board's stage sync output (bit ") +
+         std::to_string(board::kStageSyncBit) + " of its control periods, a level\nthat changes every " +
+         sync_period_s +
+         " s of board time) on the stage's digital input, sampled with the\n"
+         "positions: merge aligns the clocks on it. --stage-no-sync: a stage without that wire.\n"
+         "Merge it with a host recording: deltactl merge (docs/lab_loop.md).\n"
+         "Example: deltactl virtual-board --link /tmp/delta-tty --truth truth.csv &\n"
+         "         deltactl host status --port /tmp/delta-tty";
+}
+
+// The virtual board's options, into *options.
+void add_virtual_board_options(CLI::App* sub, const std::shared_ptr<VirtualBoardCommandOptions>& options) {
   sub->add_option("--link", options->link, "path at which to link the pseudo-terminal (a serial port to open)")
       ->required();
   sub->add_option("--effects", options->effects,
@@ -543,6 +580,14 @@ const RegisterCommand command("virtual-board", 72, [](CLI::App& root) {
       ->check(options::real_number(0, 3600));
   sub->add_flag("--stage-no-sync", options->stage_no_sync,
                 "the stage logs no sync column (its input not wired to the board's sync output)");
+}
+
+const RegisterCommand command("virtual-board", 72, [](CLI::App& root) {
+  auto options = std::make_shared<VirtualBoardCommandOptions>();
+  CLI::App* sub = root.add_subcommand(
+      "virtual-board", "The virtual robot and its board behind a pseudo-terminal at PATH (talk to it as to the board)");
+  sub->footer(virtual_board_footer());
+  add_virtual_board_options(sub, options);
   sub->callback([options] { run_virtual_board(*options); });
 });
 
