@@ -290,10 +290,7 @@ const RegisterCommand command("bench", 76, [](CLI::App& root) {
       "refuses a board with a fault latched or its drives on (exit 3, naming why) and leaves the\n"
       "drives off however it ends (Ctrl-C included).\n" +
       kExitCodes);
-  add_switches_command(bench);
-  add_scale_command(bench);
-  add_soak_command(bench);
-  add_jog_command(bench);
+  for (const auto add : {add_switches_command, add_scale_command, add_soak_command, add_jog_command}) add(bench);
 });
 
 }  // namespace

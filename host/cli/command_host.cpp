@@ -1042,15 +1042,9 @@ const RegisterCommand command("host", 75, [](CLI::App& root) {
       "ready (the cause is printed); 4 the link was lost (or the port cannot be opened); 5 the board's\n"
       "gateware is not this checkout's, or it holds no model or another than W.json's (deltactl host\n"
       "load); 128+N after a controlled stop on signal N (SIGINT, SIGTERM, SIGHUP, SIGQUIT).");
-  add_status_command(host);
-  add_load_command(host);
-  add_home_command(host);
-  add_run_command(host);
-  add_park_command(host);
-  add_record_command(host);
-  add_serve_command(host);
-  add_ctl_command(host);
-  add_latency_command(host);
+  for (const auto add : {add_status_command, add_load_command, add_home_command, add_run_command, add_park_command,
+                         add_record_command, add_serve_command, add_ctl_command, add_latency_command})
+    add(host);
 });
 
 }  // namespace
