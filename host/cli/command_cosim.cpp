@@ -105,33 +105,9 @@ void print_where_it_rests(const CosimResult& result, double from_s) {
             << plate_segments_text(report) << dwells_text(report);
 }
 
-void run_cosim_command(const CosimCommandOptions& options, const std::string& command_line) {
-  const golden::BoardWeights weights = golden::read_board_weights(options.weights);
-  const golden::QuantisedNetwork& quantised = weights.network;
-  const EffectSet effects = read_board_effects(options.effects);
-  try {
-    controller::load_path(options.trajectory, options.duration_s);  // a bad name or file: before the board is built
-  } catch (const std::invalid_argument& error) {
-    std::cerr << "deltactl: error: --trajectory: " << error.what() << '\n';
-    throw CommandExit{kExitBadInput};
-  }
-  // Probe the output paths before minutes of simulation (OutputFile refuses an unwritable folder).
-  if (!options.out.empty()) OutputFile probe(options.out);
-  if (!options.plot.empty()) OutputFile probe(options.plot);
-
-  const TemporaryDirectory mem("deltactl_cosim");  // the network's .mem files and identify.mem
-  golden::write_export(quantised, mem.path());
-  CosimOptions cosim;
-  cosim.model = &weights.model;
-  cosim.fidelity = options.fidelity == "model" ? BoardFidelity::kModel : BoardFidelity::kRtl;
-  cosim.mem_dir = mem.path();
-  cosim.network = &quantised;
-  cosim.trained_min_m = weights.trained_min_m;
-  cosim.trained_max_m = weights.trained_max_m;
-  cosim.effects = effects;
-  cosim.trajectory = options.trajectory;
-  cosim.duration_s = options.duration_s;
-  cosim.session.target_fill = options.target_fill;
+// Runs the co-simulation with its progress on stderr (a line rewriting itself on a terminal, else a
+// line per simulated second) and its speed after it; a refused plan is bad input.
+CosimResult simulate(const CosimCommandOptions& options, CosimOptions& cosim) {
   const auto start = std::chrono::steady_clock::now();
   auto wall_s = [&start] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
   // On a terminal the progress line rewrites itself; in a log, one line per simulated second.
@@ -169,14 +145,13 @@ void run_cosim_command(const CosimCommandOptions& options, const std::string& co
               << fixed(alone / 1e6, 2) << " M board cycles/s, " << fixed(alone / kBoardClockHz, 1)
               << " x real time (the rest: the host, the truth recording)\n";
   }
+  return result;
+}
 
-  const double from_s = options.settle_s;
-  const TrackingSummary summary = summarise(result, from_s);
-  const double path_s = static_cast<double>(result.stream.planned - result.approach_samples) / 1e3;
-  std::cout << "Co-simulation: '" << options.trajectory << "', " << fixed(path_s, 3) << " s of path after a "
-            << fixed(result.approach_samples / 1e3, 3)
-            << " s approach, as `host run` streams it; statistics from path time " << from_s << " s ("
-            << summary.samples << " samples at 1 kHz)\n\n";
+// The plate error of the closed loop, of the network's answers and of the textbook IK, and the
+// joint tracking.
+void print_accuracy_tables(const CosimCommandOptions& options, const golden::QuantisedNetwork& quantised,
+                           const TrackingSummary& summary) {
   Table plate({"plate error (measured - reference)", "rms x [um]", "rms y [um]", "rms z [um]", "rms distance [um]",
                "max distance [um]"});
   auto add = [&plate](const std::string& label, const ErrorStats& e) {
@@ -200,7 +175,10 @@ void run_cosim_command(const CosimCommandOptions& options, const std::string& co
                   fixed(summary.board_joint_rms_deg[1], 4), fixed(summary.board_joint_rms_deg[2], 4)});
   joints.print(std::cout);
   std::cout << '\n';
-  print_where_it_rests(result, from_s);
+}
+
+// The link's and the board's counters over the run.
+void print_link_table(const CosimResult& result, const CosimOptions& cosim) {
   const link::LinkStatistics& s = result.link;
   const controller::StreamingResult& r = result.stream;
   Table link({"link v2 and board", "value"});
@@ -236,7 +214,47 @@ void run_cosim_command(const CosimCommandOptions& options, const std::string& co
                 result.pins.fault_cause_bits ? std::to_string(result.pins.fault_cause_bits) : "none"});
   link.add_row({"samples with a current at the 0.5 A limit", std::to_string(result.full_scale_current_samples)});
   link.print(std::cout);
+}
 
+void run_cosim_command(const CosimCommandOptions& options, const std::string& command_line) {
+  const golden::BoardWeights weights = golden::read_board_weights(options.weights);
+  const golden::QuantisedNetwork& quantised = weights.network;
+  const EffectSet effects = read_board_effects(options.effects);
+  try {
+    controller::load_path(options.trajectory, options.duration_s);  // a bad name or file: before the board is built
+  } catch (const std::invalid_argument& error) {
+    std::cerr << "deltactl: error: --trajectory: " << error.what() << '\n';
+    throw CommandExit{kExitBadInput};
+  }
+  // Probe the output paths before minutes of simulation (OutputFile refuses an unwritable folder).
+  if (!options.out.empty()) OutputFile probe(options.out);
+  if (!options.plot.empty()) OutputFile probe(options.plot);
+
+  const TemporaryDirectory mem("deltactl_cosim");  // the network's .mem files and identify.mem
+  golden::write_export(quantised, mem.path());
+  CosimOptions cosim;
+  cosim.model = &weights.model;
+  cosim.fidelity = options.fidelity == "model" ? BoardFidelity::kModel : BoardFidelity::kRtl;
+  cosim.mem_dir = mem.path();
+  cosim.network = &quantised;
+  cosim.trained_min_m = weights.trained_min_m;
+  cosim.trained_max_m = weights.trained_max_m;
+  cosim.effects = effects;
+  cosim.trajectory = options.trajectory;
+  cosim.duration_s = options.duration_s;
+  cosim.session.target_fill = options.target_fill;
+  const CosimResult result = simulate(options, cosim);
+  const double from_s = options.settle_s;
+  const TrackingSummary summary = summarise(result, from_s);
+  const double path_s = static_cast<double>(result.stream.planned - result.approach_samples) / 1e3;
+  std::cout << "Co-simulation: '" << options.trajectory << "', " << fixed(path_s, 3) << " s of path after a "
+            << fixed(result.approach_samples / 1e3, 3)
+            << " s approach, as `host run` streams it; statistics from path time " << from_s << " s ("
+            << summary.samples << " samples at 1 kHz)\n\n";
+  print_accuracy_tables(options, quantised, summary);
+  print_where_it_rests(result, from_s);
+  print_link_table(result, cosim);
+  const controller::StreamingResult& r = result.stream;
   if (!options.out.empty()) {
     write_samples(options.out, result, command_line);
     std::cout << "\nrecording: " << options.out << '\n';
@@ -286,9 +304,9 @@ const RegisterCommand command("cosim", 70, [](CLI::App& root) {
   sub->add_option("--weights", options->weights, "network weights (W.json: model 'deployed' or 'network', 25 hidden)")
       ->required();
   sub->add_option("--effects", options->effects, "virtual robot's effects (JSON); none: the nominal robot");
-  sub->add_option(
-         "--trajectory", options->trajectory,
-         "NAME (experiment1, experiment2, validation, sweep, pick-place, ...), FILE.csv or move:X,Y,Z;... as host run takes it")
+  sub->add_option("--trajectory", options->trajectory,
+                  "NAME (experiment1, experiment2, validation, sweep, pick-place, ...), FILE.csv or move:X,Y,Z;... as "
+                  "host run takes it")
       ->capture_default_str();
   sub->add_option("--duration", options->duration_s, "seconds of trajectory time (0: the trajectory's own length)")
       ->capture_default_str()

@@ -598,10 +598,9 @@ std::string ask_stop(const std::string& path) {
   }
 }
 
-void run_ctl(const CtlOptions& options) {
-  const std::string path = control_socket(options);
+// The request of `host ctl COMMAND`: for run, the trajectory as the controller sees it.
+nlohmann::json ctl_request(const CtlOptions& options) {
   nlohmann::json request = {{"cmd", options.command}};
-  const bool waits = options.command == "run" && !options.no_wait;
   if (options.command == "run") {
     // The trajectory as the controller sees it: absolute (it runs elsewhere, maybe as another
     // user). The recording's name as given: the controller writes it in its recordings folder.
@@ -623,6 +622,37 @@ void run_ctl(const CtlOptions& options) {
     }
     request["wait"] = !options.no_wait;
   }
+  return request;
+}
+
+// `host ctl status`'s reply, in words.
+void print_controller_status(const nlohmann::json& reply) {
+  std::cout << "controller: " << reply.value("state", std::string()) << " (" << reply.value("connection", std::string())
+            << ": " << reply.value("note", std::string()) << ")\n"
+            << "board: " << reply.value("port", std::string());
+  if (reply.contains("description")) std::cout << ", " << reply["description"].get<std::string>();
+  std::cout << "\n";
+  if (reply.contains("estop") && reply["estop"].value("latched", false)) {
+    const nlohmann::json& e = reply["estop"];
+    std::cout << "e-stop: latched, by the " << e.value("source", std::string("?"))
+              << (e["board_time_s"].is_number() ? " at board time " + fixed(e["board_time_s"].get<double>(), 3) + " s"
+                                                : std::string())
+              << "; home, enable and run are refused until 'deltactl host ctl clear-fault'\n";
+  }
+  if (reply.contains("run")) {
+    std::cout << "run: " << reply["run"].value("played", 0) << " of " << reply["run"].value("planned", 0)
+              << " samples played (" << reply["run"].value("feed", std::string()) << ")\n";
+  }
+  if (reply.contains("last_run") && reply["last_run"].is_object()) {
+    std::cout << "last run: " << reply["last_run"].value("outcome", std::string("refused")) << ", exit "
+              << reply["last_run"].value("exit", 0) << ' ' << reply["last_run"].value("error", std::string()) << '\n';
+  }
+}
+
+void run_ctl(const CtlOptions& options) {
+  const std::string path = control_socket(options);
+  const nlohmann::json request = ctl_request(options);
+  const bool waits = options.command == "run" && !options.no_wait;
   // While a run streams for this client: Ctrl-C (and SIGTERM, SIGHUP, SIGQUIT) stops it at rest.
   if (waits) install_stop_handlers();
   const int fd = connect_controller(path);
@@ -691,28 +721,7 @@ void run_ctl(const CtlOptions& options) {
     }
     if (!options.json) {
       if (options.command == "status" && reply.value("ok", false)) {
-        std::cout << "controller: " << reply.value("state", std::string()) << " ("
-                  << reply.value("connection", std::string()) << ": " << reply.value("note", std::string()) << ")\n"
-                  << "board: " << reply.value("port", std::string());
-        if (reply.contains("description")) std::cout << ", " << reply["description"].get<std::string>();
-        std::cout << "\n";
-        if (reply.contains("estop") && reply["estop"].value("latched", false)) {
-          const nlohmann::json& e = reply["estop"];
-          std::cout << "e-stop: latched, by the " << e.value("source", std::string("?"))
-                    << (e["board_time_s"].is_number()
-                            ? " at board time " + fixed(e["board_time_s"].get<double>(), 3) + " s"
-                            : std::string())
-                    << "; home, enable and run are refused until 'deltactl host ctl clear-fault'\n";
-        }
-        if (reply.contains("run")) {
-          std::cout << "run: " << reply["run"].value("played", 0) << " of " << reply["run"].value("planned", 0)
-                    << " samples played (" << reply["run"].value("feed", std::string()) << ")\n";
-        }
-        if (reply.contains("last_run") && reply["last_run"].is_object()) {
-          std::cout << "last run: " << reply["last_run"].value("outcome", std::string("refused")) << ", exit "
-                    << reply["last_run"].value("exit", 0) << ' ' << reply["last_run"].value("error", std::string())
-                    << '\n';
-        }
+        print_controller_status(reply);
       } else if (reply.contains("summary")) {
         std::cout << reply["summary"].get<std::string>();
         if (code == 0 || code > 128) std::cerr << "host ctl: run " << reply.value("outcome", std::string()) << '\n';

@@ -33,6 +33,76 @@ const std::vector<std::string> kCarried = {"drives_enabled", "alpha1_ref_deg", "
                                            "x_ref_m",        "y_ref_m",        "z_ref_m",        "fault_bits",
                                            "flags",          "stream_sample"};
 
+// The merge's figures as --report writes them.
+nlohmann::json merge_report(const MergeOptions& options, const diagnosis::MergeResult& m, bool closed_loop) {
+  return {{"run", options.run},
+          {"closed_loop", closed_loop},
+          {"stage", options.stage},
+          {"clock_from", m.from_sync ? "sync" : "data"},
+          {"sync_changes", m.sync_changes},
+          {"sync_consistent", m.sync_consistent},
+          {"data_offset_s", m.data_offset_s},
+          {"data_offset_sd_s", m.data_offset_sd_s},
+          {"data_rate_ppm", m.data_rate_ppm},
+          {"data_rate_sd_ppm", m.data_rate_sd_ppm},
+          {"data_residual_rms_m", m.data_residual_rms_m},
+          {"sync_shift_s", m.sync_shift_s},
+          {"sync_corrected_lost_alignment", m.sync_corrected_lost_alignment},
+          {"offset_s", m.offset_s},
+          {"offset_sd_s", m.offset_sd_s},
+          {"rate_ppm", m.rate_ppm},
+          {"rate_sd_ppm", m.rate_sd_ppm},
+          {"offset_signal_left", m.offset_signal_left},
+          {"rate_signal_left", m.rate_signal_left},
+          {"residual_rms_m", m.residual_rms_m},
+          {"motion_rms_m", m.motion_rms_m},
+          {"correlation", m.correlation},
+          {"overlap_s", m.overlap_s},
+          {"run_rows", m.run_rows},
+          {"stage_rows", m.stage_rows},
+          {"fit_rows", m.fit_rows},
+          {"merged_rows", m.merged_rows},
+          {"clock_model", "t_stage = offset_s + (1 + rate_ppm * 1e-6) * t_board"},
+          {"uncertainty", m.from_sync ? "standard (1 sigma), of the region the sync output's changes leave"
+                                      : "standard (1 sigma), residuals correlated over 2 s blocks"}};
+}
+
+// What the user should know of a merge: counts not referenced at the home switches, a sync that
+// corrected or never changed, a closed-loop run without the sync, clocks poorly fixed.
+void print_merge_warnings(const MergeOptions& options, const diagnosis::MergeResult& m,
+                          const std::optional<Referencing>& referencing, const diagnosis::StageLog& stage,
+                          bool closed_loop, std::size_t drives_on, std::size_t run_rows) {
+  if (referencing && *referencing != Referencing::kHomeSwitches) {
+    std::cout << "merge: warning: " << options.run << " says its counts were not referenced at the home switches "
+              << "(referenced: " << referencing_name(*referencing) << "), and so does " << options.out
+              << ": diagnose and train refuse it unless --unreferenced\n";
+  }
+  if (m.sync_corrected_lost_alignment) {
+    std::cout << "merge: the positions alone put the clocks " << fixed(m.sync_shift_s, 3)
+              << " s off (this drag cannot fix them: too short or too repetitive); the sync output's phase "
+                 "corrected them, and the positions fit there as well\n";
+  }
+  if (!stage.sync.empty() && !m.from_sync) {
+    std::cout << "merge: the stage's sync column never changes (its input not wired to the board's stage_sync_o?): "
+                 "the clocks come from the data alone\n";
+  }
+  if (closed_loop && !m.from_sync) {
+    std::cout << "merge: a closed-loop run (the drives on in " << drives_on << " of " << run_rows
+              << " rows): the readings are corrected for the controller's lead over the arm, but inside a "
+                 "joint's play the arm falls back and creeps on unseen by them, and the alignment can be "
+                 "milliseconds off (1.5-4.2 ms, 3-11 um of plate, on 4-5 minute runs of robots with 0.1-0.25 deg "
+                 "of play): log the board's stage sync output with the stage (a column sync), or calibrate on "
+                 "drags\n";
+  }
+  if (!m.from_sync && (m.offset_signal_left < kSignalLeast || m.rate_signal_left < kSignalLeast)) {
+    std::cout << "merge: the logs fix the clocks poorly (the robot's unknown effects absorb "
+              << fixed(100.0 * (1.0 - m.offset_signal_left), 1) << " % of the offset's signal and "
+              << fixed(100.0 * (1.0 - m.rate_signal_left), 1)
+              << " % of the rate's; the uncertainties are larger than stated): drag longer, 5 minutes or more of "
+                 "the validation run or a sweep\n";
+  }
+}
+
 void run_merge(const MergeOptions& options) {
   const CsvTable run = read_csv(options.run, {"t_s", "alpha1_deg", "alpha2_deg", "alpha3_deg"}, kCarried);
   const std::optional<Referencing> referencing = referencing_of(run);  // carried into DATA.csv
@@ -89,37 +159,7 @@ void run_merge(const MergeOptions& options) {
   }
   const bool closed_loop = drives_on > run.rows.size() / 2;
   if (report) {
-    const nlohmann::json j = {
-        {"run", options.run},
-        {"closed_loop", closed_loop},
-        {"stage", options.stage},
-        {"clock_from", m.from_sync ? "sync" : "data"},
-        {"sync_changes", m.sync_changes},
-        {"sync_consistent", m.sync_consistent},
-        {"data_offset_s", m.data_offset_s},
-        {"data_offset_sd_s", m.data_offset_sd_s},
-        {"data_rate_ppm", m.data_rate_ppm},
-        {"data_rate_sd_ppm", m.data_rate_sd_ppm},
-        {"data_residual_rms_m", m.data_residual_rms_m},
-        {"sync_shift_s", m.sync_shift_s},
-        {"sync_corrected_lost_alignment", m.sync_corrected_lost_alignment},
-        {"offset_s", m.offset_s},
-        {"offset_sd_s", m.offset_sd_s},
-        {"rate_ppm", m.rate_ppm},
-        {"rate_sd_ppm", m.rate_sd_ppm},
-        {"offset_signal_left", m.offset_signal_left},
-        {"rate_signal_left", m.rate_signal_left},
-        {"residual_rms_m", m.residual_rms_m},
-        {"motion_rms_m", m.motion_rms_m},
-        {"correlation", m.correlation},
-        {"overlap_s", m.overlap_s},
-        {"run_rows", m.run_rows},
-        {"stage_rows", m.stage_rows},
-        {"fit_rows", m.fit_rows},
-        {"merged_rows", m.merged_rows},
-        {"clock_model", "t_stage = offset_s + (1 + rate_ppm * 1e-6) * t_board"},
-        {"uncertainty", m.from_sync ? "standard (1 sigma), of the region the sync output's changes leave"
-                                    : "standard (1 sigma), residuals correlated over 2 s blocks"}};
+    const nlohmann::json j = merge_report(options, m, closed_loop);
     report->stream() << j.dump(2) << '\n';
     report->finish();
   }
@@ -135,35 +175,7 @@ void run_merge(const MergeOptions& options) {
                                   fixed(m.data_rate_ppm - m.rate_ppm, 3) + " ppm off it)"
                             : std::string("the data alone"))
             << "; residual " << fixed(m.residual_rms_m * 1e6, 2) << " um RMS -> " << options.out << '\n';
-  if (referencing && *referencing != Referencing::kHomeSwitches) {
-    std::cout << "merge: warning: " << options.run << " says its counts were not referenced at the home switches "
-              << "(referenced: " << referencing_name(*referencing) << "), and so does " << options.out
-              << ": diagnose and train refuse it unless --unreferenced\n";
-  }
-  if (m.sync_corrected_lost_alignment) {
-    std::cout << "merge: the positions alone put the clocks " << fixed(m.sync_shift_s, 3)
-              << " s off (this drag cannot fix them: too short or too repetitive); the sync output's phase "
-                 "corrected them, and the positions fit there as well\n";
-  }
-  if (!stage.sync.empty() && !m.from_sync) {
-    std::cout << "merge: the stage's sync column never changes (its input not wired to the board's stage_sync_o?): "
-                 "the clocks come from the data alone\n";
-  }
-  if (closed_loop && !m.from_sync) {
-    std::cout << "merge: a closed-loop run (the drives on in " << drives_on << " of " << run.rows.size()
-              << " rows): the readings are corrected for the controller's lead over the arm, but inside a "
-                 "joint's play the arm falls back and creeps on unseen by them, and the alignment can be "
-                 "milliseconds off (1.5-4.2 ms, 3-11 um of plate, on 4-5 minute runs of robots with 0.1-0.25 deg "
-                 "of play): log the board's stage sync output with the stage (a column sync), or calibrate on "
-                 "drags\n";
-  }
-  if (!m.from_sync && (m.offset_signal_left < kSignalLeast || m.rate_signal_left < kSignalLeast)) {
-    std::cout << "merge: the logs fix the clocks poorly (the robot's unknown effects absorb "
-              << fixed(100.0 * (1.0 - m.offset_signal_left), 1) << " % of the offset's signal and "
-              << fixed(100.0 * (1.0 - m.rate_signal_left), 1)
-              << " % of the rate's; the uncertainties are larger than stated): drag longer, 5 minutes or more of "
-                 "the validation run or a sweep\n";
-  }
+  print_merge_warnings(options, m, referencing, stage, closed_loop, drives_on, run.rows.size());
 }
 
 const RegisterCommand command("merge", 61, [](CLI::App& root) {
