@@ -438,20 +438,10 @@ RunProgress RunJob::progress() const {
   return p;
 }
 
-RunOutcome RunJob::execute(link::LinkSession& session, const std::string& port_name, const link::TelemetryPayload& t0,
-                           const volatile std::sig_atomic_t& stop_signal,
-                           const std::function<void(const std::string&)>& log,
-                           const std::function<void(const RunProgress&)>& progress) {
-  struct Finished {  // whatever way execute() ends, later requests are refused
-    RunJob& job;
-    ~Finished() {
-      std::lock_guard<std::mutex> lock(job.mutex_);
-      job.loop_ = nullptr;
-      job.finished_ = true;
-    }
-  } finished{*this};
-  log(std::string(state_name(HostState::kDisconnected)) + " -> " + state_name(state_of(t0)) + " (" +
-      link::describe_state(t0) + ")");
+// Ready to run: no fault latched, the drives off, homed at the references (or by hand, allowed),
+// and each home switch closed above its reference, open below (HostFailure, exit 3).
+void RunJob::check_ready(const std::string& port_name, const link::TelemetryPayload& t0,
+                         const std::function<void(const std::string&)>& log) const {
   if (t0.has(link::TelemetryFlag::kFault)) {
     throw HostFailure(kExitFault, port_name + ": the board has a latched fault: " + link::describe_fault(t0) +
                                       " (clear it deliberately; this host re-enables nothing by itself)");
@@ -487,7 +477,10 @@ RunOutcome RunJob::execute(link::LinkSession& session, const std::string& port_n
                                         "homing); run deltactl host home; nothing moved");
     }
   }
+}
 
+// The arms at rest with the drives off (HostFailure, exit 3 or 4).
+link::TelemetryPayload RunJob::wait_at_rest(link::LinkSession& session, const std::string& port_name) const {
   // ---- the arms at rest: a run that follows another (or a drag) within milliseconds finds them still
   // settling with the drives off; enabled in motion, a joint's last counts land after the first
   // answer and its correction crosses the play (arms_at_rest: still for 30 frames, at most 2 s). ----
@@ -499,8 +492,13 @@ RunOutcome RunJob::execute(link::LinkSession& session, const std::string& port_n
   }
   if (!at_rest)
     throw HostFailure(kExitFault, port_name + ": the arms do not come to rest with the drives off; nothing moved");
-  const link::TelemetryPayload& rest = *at_rest;
+  const link::TelemetryPayload rest = *at_rest;
+  return rest;
+}
 
+// The plan from the pose the encoders report at rest, checked whole (HostFailure, exit 2 or 3).
+StreamPlan RunJob::plan_from_rest(const std::string& port_name, const link::TelemetryPayload& rest,
+                                  Vec3* start_out) const {
   // ---- the approach from the pose the encoders report, checked with the rest ----
   Vec3 start;
   try {
@@ -513,23 +511,19 @@ RunOutcome RunJob::execute(link::LinkSession& session, const std::string& port_n
                                   request_.limits, &weights_.model)) {
     throw HostFailure(kExitBadInput, *violation + " (from the encoders' pose; no motion)");
   }
+  *start_out = start;
+  return plan;
+}
 
-  RunOutcome out;
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    if (stop_signal != 0 || stop_pending_) {  // stopped before anything moved
-      out.outcome = "stopped";
-      out.code = stop_signal != 0 ? 128 + static_cast<int>(stop_signal) : kExitOk;
-      out.summary = "stopped before the enable: nothing moved, nothing recorded\n";
-      return out;
-    }
-  }
-
+// Homed -> running: the recording opened, the drives enabled and the board holding, its buffer
+// empty (HostFailure; a failure after the enable disables). Returns the memory lock's note.
+std::string RunJob::enable_primed(link::LinkSession& session, const std::string& port_name,
+                                  const link::TelemetryPayload& t0, RunOutcome* out) {
   // ---- homed -> running ----
   const std::string lock_note = lock_memory();
   if (estop_.load()) throw HostFailure(kExitFault, port_name + ": e-stop before the run started; nothing enabled");
   recorder_->open(board_referencing(t0));  // under its name before the first motion
-  out.record = recorder_->file.path();
+  out->record = recorder_->file.path();
   link::TelemetryPayload enabled;
   try {
     enabled = session.enable();
@@ -556,11 +550,15 @@ RunOutcome RunJob::execute(link::LinkSession& session, const std::string& port_n
   } catch (const link::LinkError& error) {
     disable_and_fail(link_error_code(error), error.what());
   }
-  log(std::string("homed -> running: ") + std::to_string(plan.size()) + " samples (" +
-      std::to_string(plan.approach_samples()) + " to the start, then " + request_.trajectory + " for " +
-      fixed(path_.duration_s(), 3) + " s)");
+  return lock_note;
+}
 
-  RecordQueue queue(1 << 14);
+// Streams the plan on its own thread while this one writes the recording and reports progress.
+StreamingResult RunJob::stream_and_record(link::LinkSession& session, StreamPlan& plan, const Vec3& start,
+                                          RecordQueue& queue, const volatile std::sig_atomic_t& stop_signal,
+                                          const std::string& lock_note,
+                                          const std::function<void(const std::string&)>& log,
+                                          const std::function<void(const RunProgress&)>& progress) {
   StreamingOptions streaming;
   streaming.link_timeout_ms = request_.link_timeout_ms;
   streaming.following_error_deg = request_.following_error_deg;
@@ -613,10 +611,15 @@ RunOutcome RunJob::execute(link::LinkSession& session, const std::string& port_n
     loop_ = nullptr;
   }
   write_queued();
-  const StreamingResult& result = loop.result();
+  return loop.result();
+}
 
-  // ---- stop: hold (after a completed or stopped run) and disable, always; nothing is ever
-  // re-enabled here. Every frame meanwhile goes into the recording: it ends with the drives off.
+// Stop: hold (after a completed or stopped run) and disable, always; nothing is ever re-enabled
+// here. Every frame meanwhile goes into the recording: it ends with the drives off.
+void RunJob::stop(link::LinkSession& session, const std::string& port_name, const StreamingResult& result,
+                  const Vec3& start, const volatile std::sig_atomic_t& stop_signal,
+                  const std::function<void(const std::string&)>& log, RunOutcome* out_ptr) {
+  RunOutcome& out = *out_ptr;
   TelemetryRecord final_row;
   if (recorder_->last) {
     final_row = *recorder_->last;
@@ -713,6 +716,50 @@ RunOutcome RunJob::execute(link::LinkSession& session, const std::string& port_n
       }
       break;
   }
+}
+
+RunOutcome RunJob::execute(link::LinkSession& session, const std::string& port_name, const link::TelemetryPayload& t0,
+                           const volatile std::sig_atomic_t& stop_signal,
+                           const std::function<void(const std::string&)>& log,
+                           const std::function<void(const RunProgress&)>& progress) {
+  struct Finished {  // whatever way execute() ends, later requests are refused
+    RunJob& job;
+    ~Finished() {
+      std::lock_guard<std::mutex> lock(job.mutex_);
+      job.loop_ = nullptr;
+      job.finished_ = true;
+    }
+  } finished{*this};
+  log(std::string(state_name(HostState::kDisconnected)) + " -> " + state_name(state_of(t0)) + " (" +
+      link::describe_state(t0) + ")");
+  check_ready(port_name, t0, log);
+
+  const link::TelemetryPayload rest = wait_at_rest(session, port_name);
+
+  Vec3 start;
+  StreamPlan plan = plan_from_rest(port_name, rest, &start);
+
+  RunOutcome out;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (stop_signal != 0 || stop_pending_) {  // stopped before anything moved
+      out.outcome = "stopped";
+      out.code = stop_signal != 0 ? 128 + static_cast<int>(stop_signal) : kExitOk;
+      out.summary = "stopped before the enable: nothing moved, nothing recorded\n";
+      return out;
+    }
+  }
+
+  const std::string lock_note = enable_primed(session, port_name, t0, &out);
+  log(std::string("homed -> running: ") + std::to_string(plan.size()) + " samples (" +
+      std::to_string(plan.approach_samples()) + " to the start, then " + request_.trajectory + " for " +
+      fixed(path_.duration_s(), 3) + " s)");
+
+  RecordQueue queue(1 << 14);
+  const auto wall_start = std::chrono::steady_clock::now();
+  const StreamingResult result = stream_and_record(session, plan, start, queue, stop_signal, lock_note, log, progress);
+
+  stop(session, port_name, result, start, stop_signal, log, &out);
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   recorder_->write_outcome(out.outcome, result.last.tick, out.code, out.error);
   const std::string record_error = recorder_->file.close();

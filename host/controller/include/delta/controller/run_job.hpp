@@ -149,6 +149,21 @@ class RunJob {
   RunProgress progress() const;
 
  private:
+  // execute()'s phases, in order.
+  void check_ready(const std::string& port_name, const link::TelemetryPayload& t0,
+                   const std::function<void(const std::string&)>& log) const;
+  link::TelemetryPayload wait_at_rest(link::LinkSession& session, const std::string& port_name) const;
+  StreamPlan plan_from_rest(const std::string& port_name, const link::TelemetryPayload& rest, Vec3* start) const;
+  std::string enable_primed(link::LinkSession& session, const std::string& port_name, const link::TelemetryPayload& t0,
+                            RunOutcome* out);
+  StreamingResult stream_and_record(link::LinkSession& session, StreamPlan& plan, const Vec3& start, RecordQueue& queue,
+                                    const volatile std::sig_atomic_t& stop_signal, const std::string& lock_note,
+                                    const std::function<void(const std::string&)>& log,
+                                    const std::function<void(const RunProgress&)>& progress);
+  void stop(link::LinkSession& session, const std::string& port_name, const StreamingResult& result, const Vec3& start,
+            const volatile std::sig_atomic_t& stop_signal, const std::function<void(const std::string&)>& log,
+            RunOutcome* out);
+
   const golden::BoardWeights& weights_;
   RunRequest request_;
   Path path_;
