@@ -1950,6 +1950,8 @@ void ModelBoard::telemetry_capture_next(const State& s, State& n, std::uint16_t 
 
 std::uint64_t ModelBoard::cycle() const { return state_->cycle; }
 
+// The RTL's register map, instance by instance: a row per register (name, the model's value).
+// house: table
 std::vector<ModelBoard::ProbedRegister> ModelBoard::probe_registers(const std::string& instance) const {
   const State& s = *state_;
   std::vector<ProbedRegister> out;

@@ -326,144 +326,161 @@ struct HostServer::Impl {
     return work->done ? work->reply : failure(kExitFault, "the controller is shutting down");
   }
 
-  // ---------------------------------------------------------------------------------------------
-  void board_thread() {
+  // The board thread's link: the port, its session (none while disconnected) and its clocks.
+  struct BoardLink {
     std::unique_ptr<io::SerialPort> port;
     std::unique_ptr<link::LinkSession> session;
-    auto disconnect = [&](const std::string& why) {
-      session.reset();
-      port.reset();
+    Clock::time_point last_frame = Clock::now(), last_hold = Clock::now(), next_attempt = Clock::now();
+  };
+
+  void disconnect(BoardLink& b, const std::string& why) {
+    b.session.reset();
+    b.port.reset();
+    std::lock_guard<std::mutex> lock(mutex);
+    connection = "disconnected";
+    note = why;
+    telemetry.reset();
+    holding_enabled = false;
+  }
+
+  // Opens the port and identifies the board; loads the configured model onto a board without it.
+  void connect_board_link(BoardLink& b) {
+    try {
+      b.port = open_board_port(options.port);
+      b.session = std::make_unique<link::LinkSession>(*b.port, host_session_options(options.link_timeout_ms));
+      Connected c = connect_board(*b.session);
+      // The configured model onto a board without it (a board starts with none: after a
+      // power-up, a reset or a flash), with the drives off; a failed load is said and the
+      // board stays "mismatch" (runs refused) until the next connection tries again.
+      std::string loaded;
+      if (c.identify.build_id == kGatewareBuildId && !c.telemetry.has(link::TelemetryFlag::kDriveEnable) &&
+          !(board_has_model(c.telemetry) && c.identify.weights_crc == weights_crc(weights.network))) {
+        try {
+          const ModelLoaded load = load_board_model(*b.session, c, weights.network, b.port->name());
+          c.identify = b.session->identify();
+          c.telemetry = load.telemetry;
+          loaded = "; loaded its model " + golden::hex_word(load.crc, 32) + " (" + std::to_string(load.frames) +
+                   " frames in " + std::to_string(static_cast<int>(load.seconds * 1000 + 0.5)) + " ms)";
+          std::cerr << "host serve: " << b.port->name() << ": loaded the model " << options.weights_path << " ("
+                    << golden::hex_word(load.crc, 32) << "), " << load.frames << " frames in "
+                    << static_cast<int>(load.seconds * 1000 + 0.5) << " ms" << std::endl;
+        } catch (const HostFailure& error) {
+          if (error.code() == kExitLinkLost) throw;
+          loaded = std::string("; the model's load failed: ") + error.what();
+          std::cerr << "host serve: " << error.what() << std::endl;
+          if (b.session->last_telemetry()) c.telemetry = *b.session->last_telemetry();
+        }
+      }
+      std::string mismatch;
+      try {
+        check_board_identity(c, weights, options.weights_path, b.port->name());
+      } catch (const HostFailure& error) {
+        mismatch = error.what();
+      }
       std::lock_guard<std::mutex> lock(mutex);
-      connection = "disconnected";
-      note = why;
-      telemetry.reset();
-      holding_enabled = false;
-    };
-    auto last_frame = Clock::now();
-    auto last_hold = Clock::now();
-    auto next_attempt = Clock::now();
+      connection = mismatch.empty() ? "connected" : "mismatch";
+      note = (mismatch.empty() ? std::string("identified") : mismatch) + loaded;
+      model_load = loaded.empty() ? model_load : loaded.substr(2);
+      identify = c.identify;
+      telemetry = c.telemetry;
+      port_name = b.port->name();
+      b.last_frame = Clock::now();
+    } catch (const HostFailure& error) {
+      disconnect(b, error.what());
+    } catch (const link::LinkError& error) {
+      disconnect(b, error.what());
+    }
+  }
+
+  // The next piece of work from the queue, executed on the board (false: none queued).
+  bool run_queued_work(BoardLink& b) {
+    std::shared_ptr<Work> work;
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      if (!queue.empty()) {
+        work = queue.front();
+        queue.pop_front();
+        if (work->job) running = work->job;
+      }
+    }
+    if (!work) return false;
+    json reply;
+    try {
+      reply = execute(*b.session, *work);
+    } catch (const HostFailure& error) {
+      reply = failure(error.code(), error.what());
+    } catch (const link::LinkError& error) {
+      reply = failure(error.kind() == link::LinkError::Kind::kLinkLost ? kExitLinkLost : kExitFault, error.what());
+    } catch (const std::exception& error) {
+      reply = failure(kExitFailure, error.what());
+    }
+    finish(work, reply, b.session.get());
+    if (reply.value("exit", 0) == kExitLinkLost) disconnect(b, reply.value("error", std::string("link lost")));
+    b.last_frame = Clock::now();
+    return true;
+  }
+
+  // Idle: keep reading the telemetry (the board sends it at 1 kHz); after `enable`, keep the
+  // drives' hold alive (idempotent; it feeds the board's 50 ms watchdog). False: the link was lost.
+  bool idle_turn(BoardLink& b) {
+    try {
+      b.session->poll_frames();
+      std::optional<link::TelemetryPayload> newest;
+      while (auto frame = b.session->take_telemetry()) newest = *frame;
+      if (newest) {
+        observed(*newest);
+        b.last_frame = Clock::now();
+        std::lock_guard<std::mutex> lock(mutex);
+        telemetry = newest;
+        if (!newest->has(link::TelemetryFlag::kDriveEnable)) holding_enabled = false;
+      } else if (Clock::now() - b.last_frame > std::chrono::milliseconds(options.link_timeout_ms)) {
+        disconnect(b, "no telemetry for " + std::to_string(options.link_timeout_ms) + " ms: link lost");
+        return false;
+      }
+      bool keep_alive = false;
+      {
+        std::lock_guard<std::mutex> lock(mutex);
+        keep_alive = holding_enabled;
+      }
+      if (keep_alive && Clock::now() - b.last_hold >= std::chrono::milliseconds(10)) {
+        b.session->send_command(link::Command::kHold);
+        b.last_hold = Clock::now();
+      }
+    } catch (const link::LinkError& error) {
+      disconnect(b, std::string("link lost: ") + error.what());
+      return false;
+    }
+    return true;
+  }
+
+  // ---------------------------------------------------------------------------------------------
+  void board_thread() {
+    BoardLink b;
     while (!shutting_down.load()) {
       beat();
       try {
-        if (!session) {
-          if (Clock::now() < next_attempt) {
+        if (!b.session) {
+          if (Clock::now() < b.next_attempt) {
             std::this_thread::sleep_for(std::chrono::milliseconds(50));
             fail_queued("the board is not connected: " + note_copy());
             continue;
           }
-          next_attempt = Clock::now() + std::chrono::seconds(1);
-          try {
-            port = open_board_port(options.port);
-            session = std::make_unique<link::LinkSession>(*port, host_session_options(options.link_timeout_ms));
-            Connected c = connect_board(*session);
-            // The configured model onto a board without it (a board starts with none: after a
-            // power-up, a reset or a flash), with the drives off; a failed load is said and the
-            // board stays "mismatch" (runs refused) until the next connection tries again.
-            std::string loaded;
-            if (c.identify.build_id == kGatewareBuildId && !c.telemetry.has(link::TelemetryFlag::kDriveEnable) &&
-                !(board_has_model(c.telemetry) && c.identify.weights_crc == weights_crc(weights.network))) {
-              try {
-                const ModelLoaded load = load_board_model(*session, c, weights.network, port->name());
-                c.identify = session->identify();
-                c.telemetry = load.telemetry;
-                loaded = "; loaded its model " + golden::hex_word(load.crc, 32) + " (" + std::to_string(load.frames) +
-                         " frames in " + std::to_string(static_cast<int>(load.seconds * 1000 + 0.5)) + " ms)";
-                std::cerr << "host serve: " << port->name() << ": loaded the model " << options.weights_path << " ("
-                          << golden::hex_word(load.crc, 32) << "), " << load.frames << " frames in "
-                          << static_cast<int>(load.seconds * 1000 + 0.5) << " ms" << std::endl;
-              } catch (const HostFailure& error) {
-                if (error.code() == kExitLinkLost) throw;
-                loaded = std::string("; the model's load failed: ") + error.what();
-                std::cerr << "host serve: " << error.what() << std::endl;
-                if (session->last_telemetry()) c.telemetry = *session->last_telemetry();
-              }
-            }
-            std::string mismatch;
-            try {
-              check_board_identity(c, weights, options.weights_path, port->name());
-            } catch (const HostFailure& error) {
-              mismatch = error.what();
-            }
-            std::lock_guard<std::mutex> lock(mutex);
-            connection = mismatch.empty() ? "connected" : "mismatch";
-            note = (mismatch.empty() ? std::string("identified") : mismatch) + loaded;
-            model_load = loaded.empty() ? model_load : loaded.substr(2);
-            identify = c.identify;
-            telemetry = c.telemetry;
-            port_name = port->name();
-            last_frame = Clock::now();
-          } catch (const HostFailure& error) {
-            disconnect(error.what());
-          } catch (const link::LinkError& error) {
-            disconnect(error.what());
-          }
+          b.next_attempt = Clock::now() + std::chrono::seconds(1);
+          connect_board_link(b);
           continue;
         }
-        std::shared_ptr<Work> work;
-        {
-          std::lock_guard<std::mutex> lock(mutex);
-          if (!queue.empty()) {
-            work = queue.front();
-            queue.pop_front();
-            if (work->job) running = work->job;
-          }
-        }
-        if (work) {
-          json reply;
-          try {
-            reply = execute(*session, *work);
-          } catch (const HostFailure& error) {
-            reply = failure(error.code(), error.what());
-          } catch (const link::LinkError& error) {
-            reply =
-                failure(error.kind() == link::LinkError::Kind::kLinkLost ? kExitLinkLost : kExitFault, error.what());
-          } catch (const std::exception& error) {
-            reply = failure(kExitFailure, error.what());
-          }
-          finish(work, reply, session.get());
-          if (reply.value("exit", 0) == kExitLinkLost) disconnect(reply.value("error", std::string("link lost")));
-          last_frame = Clock::now();
-          continue;
-        }
-        // Idle: keep reading the telemetry (the board sends it at 1 kHz); after `enable`, keep the
-        // drives' hold alive (idempotent; it feeds the board's 50 ms watchdog).
-        try {
-          session->poll_frames();
-          std::optional<link::TelemetryPayload> newest;
-          while (auto frame = session->take_telemetry()) newest = *frame;
-          if (newest) {
-            observed(*newest);
-            last_frame = Clock::now();
-            std::lock_guard<std::mutex> lock(mutex);
-            telemetry = newest;
-            if (!newest->has(link::TelemetryFlag::kDriveEnable)) holding_enabled = false;
-          } else if (Clock::now() - last_frame > std::chrono::milliseconds(options.link_timeout_ms)) {
-            disconnect("no telemetry for " + std::to_string(options.link_timeout_ms) + " ms: link lost");
-            continue;
-          }
-          bool keep_alive = false;
-          {
-            std::lock_guard<std::mutex> lock(mutex);
-            keep_alive = holding_enabled;
-          }
-          if (keep_alive && Clock::now() - last_hold >= std::chrono::milliseconds(10)) {
-            session->send_command(link::Command::kHold);
-            last_hold = Clock::now();
-          }
-        } catch (const link::LinkError& error) {
-          disconnect(std::string("link lost: ") + error.what());
-          continue;
-        }
+        if (run_queued_work(b)) continue;
+        if (!idle_turn(b)) continue;
         std::this_thread::sleep_for(std::chrono::milliseconds(5));
       } catch (const std::exception& error) {  // nothing may end this thread but the shutdown
-        disconnect(std::string("error: ") + error.what());
+        disconnect(b, std::string("error: ") + error.what());
       }
     }
     // Shutting down: whatever the state, the drives off (a run has stopped itself by now).
-    if (session) {
+    if (b.session) {
       try {
-        if (session->last_telemetry() && session->last_telemetry()->has(link::TelemetryFlag::kDriveEnable)) {
-          session->disable();
+        if (b.session->last_telemetry() && b.session->last_telemetry()->has(link::TelemetryFlag::kDriveEnable)) {
+          b.session->disable();
         }
       } catch (const link::LinkError&) {
       }
