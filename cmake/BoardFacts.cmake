@@ -61,6 +61,8 @@ namespace delta::board {
 
 ${board_facts}
 // Derived from the facts above (written here once, used wherever the value is needed).
+// One encoder count [deg].
+constexpr double kEncoderCountDeg = static_cast<double>(kEncoderCountMicrodeg) * 1e-6;
 // How long the stage sync output holds each level: 2^StageSyncBit control periods [s].
 constexpr double kStageSyncLevelSeconds =
     static_cast<double>(1LL << kStageSyncBit) / static_cast<double>(kControlRateHz);

@@ -271,7 +271,7 @@ void add_jog_command(CLI::App* bench) {
   jg->callback([jog] {
     jog->options.joint = jog->joint - 1;
     jog->options.negative = jog->direction == "-";
-    jog->options.max_move_counts = static_cast<int>(std::lround(jog->max_move_deg / bench::kCountDeg));
+    jog->options.max_move_counts = static_cast<int>(std::lround(jog->max_move_deg / board::kEncoderCountDeg));
     const std::string sign = jog->expect_sign.empty() ? jog->direction : jog->expect_sign;
     jog->options.expect_sign = sign == "+" ? 1 : sign == "-" ? -1 : 0;
     run_bench("jog", jog->common, [&](link::LinkSession& session, const bench::Output& output) {

@@ -54,8 +54,6 @@
 namespace delta::controller {
 namespace {
 
-constexpr double kCountDeg = board::kEncoderCountMicrodeg * 1e-6;
-
 volatile std::sig_atomic_t stop_signal = 0;
 void request_stop(int signal_number) {
   if (stop_signal == 0) stop_signal = signal_number;
@@ -152,7 +150,9 @@ void run_status(const StatusOptions& options) {
         {"fault", t.has(link::TelemetryFlag::kFault) ? nlohmann::json(link::describe_fault(t)) : nlohmann::json()},
         {"tick", t.tick},
         {"sample_index", t.sample_index},
-        {"encoder_deg", {t.counts[0] * kCountDeg, t.counts[1] * kCountDeg, t.counts[2] * kCountDeg}},
+        {"encoder_deg",
+         {t.counts[0] * board::kEncoderCountDeg, t.counts[1] * board::kEncoderCountDeg,
+          t.counts[2] * board::kEncoderCountDeg}},
         {"homed", referencing != Referencing::kNone},
         {"homed_by", referencing == Referencing::kHomeSwitches ? "reference"
                      : referencing == Referencing::kHand       ? "hand"
@@ -183,8 +183,9 @@ void run_status(const StatusOptions& options) {
             << (referencing == Referencing::kHomeSwitches ? std::string("at the home switches")
                                                           : "no (" + unreferenced_reason(t) + "; deltactl host home)")
             << '\n'
-            << "encoders: " << fixed(t.counts[0] * kCountDeg, 2) << ", " << fixed(t.counts[1] * kCountDeg, 2) << ", "
-            << fixed(t.counts[2] * kCountDeg, 2) << " deg; board time " << fixed(t.tick / 1e4, 4)
+            << "encoders: " << fixed(t.counts[0] * board::kEncoderCountDeg, 2) << ", "
+            << fixed(t.counts[1] * board::kEncoderCountDeg, 2) << ", "
+            << fixed(t.counts[2] * board::kEncoderCountDeg, 2) << " deg; board time " << fixed(t.tick / 1e4, 4)
             << " s; counters: bad frames " << t.bad_frames << ", underruns " << t.underruns << ", refused "
             << t.rejected << ", slew limits " << t.slew_limits << ", saturations " << t.saturations << '\n';
 }
@@ -263,7 +264,8 @@ void run_home(const HomeOptions& options) {
       // Set home gives the joints not referenced the home count; referenced joints keep theirs.
       const link::TelemetryPayload homed = session.set_home();
       const int referenced = (homed.home >> 3) & 7;
-      std::cout << "homed by hand: encoders := " << fixed(board::kHomeCount * kCountDeg, 2) << " deg where the arms are"
+      std::cout << "homed by hand: encoders := " << fixed(board::kHomeCount * board::kEncoderCountDeg, 2)
+                << " deg where the arms are"
                 << (referenced != 0 ? " (joints referenced at their switches keep their counts)" : "") << " ("
                 << link::describe_state(homed) << ")"
                 << (referenced == 7 ? "\n"
@@ -286,9 +288,10 @@ void run_home(const HomeOptions& options) {
       or_exit([&] { return home_at_references(session, *weights, options.homing, log, &stop_signal); });
   const link::TelemetryPayload& t = report.final;
   std::cout << "home: ok, every joint at its reference (" << link::describe_state(t) << "); encoders "
-            << fixed(t.counts[0] * kCountDeg, 2) << ", " << fixed(t.counts[1] * kCountDeg, 2) << ", "
-            << fixed(t.counts[2] * kCountDeg, 2) << " deg; moved " << fixed(report.travelled_deg[0], 1) << ", "
-            << fixed(report.travelled_deg[1], 1) << ", " << fixed(report.travelled_deg[2], 1) << " deg in "
+            << fixed(t.counts[0] * board::kEncoderCountDeg, 2) << ", "
+            << fixed(t.counts[1] * board::kEncoderCountDeg, 2) << ", "
+            << fixed(t.counts[2] * board::kEncoderCountDeg, 2) << " deg; moved " << fixed(report.travelled_deg[0], 1)
+            << ", " << fixed(report.travelled_deg[1], 1) << ", " << fixed(report.travelled_deg[2], 1) << " deg in "
             << fixed(report.seconds, 1) << " s (" << report.enables << " jogs)\n";
 }
 

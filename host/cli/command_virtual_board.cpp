@@ -116,8 +116,8 @@ Vec3 parse_start_angles(const std::string& text) {
     if (!std::isfinite(value)) {
       throw InputError("--start-angles", 0, "'" + text + "': give three angles in degrees, A1,A2,A3, e.g. 12.5,40,33");
     }
-    const double low = board::kMinTravelBlock * 1024 * kCountDeg,
-                 high = ((board::kMaxTravelBlock + 1) * 1024 - 1) * kCountDeg;
+    const double low = board::kMinTravelBlock * 1024 * board::kEncoderCountDeg,
+                 high = ((board::kMaxTravelBlock + 1) * 1024 - 1) * board::kEncoderCountDeg;
     if (value < low || value > high) {
       throw InputError("--start-angles", 0,
                        "joint " + std::to_string(j + 1) + " at " + field + " deg is outside the travel (" +

@@ -140,7 +140,7 @@ VirtualBoard::VirtualBoard(const VirtualBoardOptions& options) : board_(make_boa
   board_interface.pwm_period_cycles = static_cast<int>(board::kPwmPeriodCycles);
   board_interface.current_full_scale_a = kCurrentFullScaleA;
   board_interface.home_count = kHomeCount;
-  board_interface.count_deg = kCountDeg;
+  board_interface.count_deg = board::kEncoderCountDeg;
   // The plants step once per control period, 35 cycles before it starts: up to 8 counts (4 cycles
   // each) and the synchronisers' 3 cycles reach the counters the controllers sample at tick 0.
   board_interface.plant_divider = static_cast<int>(kClocksPerTick);

@@ -21,7 +21,7 @@ std::string joint_name(int joint) { return "joint " + std::to_string(joint + 1);
 
 std::string signed_counts(int counts) { return (counts > 0 ? "+" : "") + std::to_string(counts); }
 
-std::string degrees(double counts) { return fixed(counts * kCountDeg, 2) + " deg"; }
+std::string degrees(double counts) { return fixed(counts * board::kEncoderCountDeg, 2) + " deg"; }
 
 Outcome stopped(int signal_number) {
   return {128 + signal_number, "stopped by signal " + std::to_string(signal_number) + " (drives off)"};
@@ -512,8 +512,8 @@ Outcome jog(link::LinkSession& session, const JogOptions& options, const volatil
       session.send_command(link::Command::kDisable);  // ends the jog at once
       ended_by_host = true;
       output.note("bench jog: " + joint + " moved " + signed_counts(watch.moved_so_far()) +
-                  " counts: the host ended the jog (--max-move-deg " + fixed(options.max_move_counts * kCountDeg, 2) +
-                  ")");
+                  " counts: the host ended the jog (--max-move-deg " +
+                  fixed(options.max_move_counts * board::kEncoderCountDeg, 2) + ")");
     }
     if (watch.phase() == JogWatch::Phase::kRunning && frames >= longest_frames) {
       return {3, "the jog did not end after " + std::to_string(frames) + " ms; the host turned the drives off"};

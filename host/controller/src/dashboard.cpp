@@ -47,7 +47,6 @@ namespace {
 using nlohmann::json;
 using Clock = std::chrono::steady_clock;
 namespace fs = std::filesystem;
-constexpr double kCountDeg = board::kEncoderCountMicrodeg * 1e-6;
 constexpr int kPublishMs = 40;             // one telemetry event per 40 ms: 25 events per second
 constexpr std::uint32_t kKeepTicks = 200;  // a sample kept per 20 ms of board time (ticks of 100 us)
 constexpr std::size_t kEventRing = 64;     // events a client may lag behind before it skips ahead
@@ -60,8 +59,8 @@ json sample_json(const TelemetryRecord& r) {
   const link::TelemetryPayload& t = r.telemetry;
   json row = json::array();
   row.push_back(t.tick / 1e4);
-  for (int k = 0; k < 3; ++k) row.push_back(std::round(t.counts[k] * kCountDeg * 1e4) / 1e4);
-  for (int k = 0; k < 3; ++k) row.push_back(std::round(t.references[k] / 256.0 * kCountDeg * 1e4) / 1e4);
+  for (int k = 0; k < 3; ++k) row.push_back(std::round(t.counts[k] * board::kEncoderCountDeg * 1e4) / 1e4);
+  for (int k = 0; k < 3; ++k) row.push_back(std::round(t.references[k] / 256.0 * board::kEncoderCountDeg * 1e4) / 1e4);
   for (int k = 0; k < 3; ++k) row.push_back(std::round(t.currents[k] * kCurrentCodeA * 1e4) / 1e4);
   for (int k = 0; k < 3; ++k) {
     const double mm = r.reference_m[k] * 1e3;

@@ -19,7 +19,6 @@ namespace delta::controller {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-constexpr double kCountDeg = board::kEncoderCountMicrodeg * 1e-6;
 constexpr double kQ8 = 256.0;
 
 std::string joint_name(int j) { return "joint " + std::to_string(j + 1); }
@@ -30,7 +29,7 @@ int link_code(const link::LinkError& error) {
 
 // Q24.8 counts per setpoint period for a speed in deg/s.
 std::int32_t q8_per_setpoint(double deg_s) {
-  return static_cast<std::int32_t>(std::lround(deg_s / board::kSetpointRateHz / kCountDeg * kQ8));
+  return static_cast<std::int32_t>(std::lround(deg_s / board::kSetpointRateHz / board::kEncoderCountDeg * kQ8));
 }
 
 // How far a jog's change d (Q.8 counts per ms) misses delta, in units of home_at_references' bound:
@@ -113,7 +112,7 @@ std::array<std::int32_t, 3> jog_setpoint(const golden::BoardWeights& weights,
   for (int j = 0; j < 3; ++j) {
     const std::int64_t sign = delta_q8[j] > 0 ? 1 : delta_q8[j] < 0 ? -1 : 0;
     target[j] = static_cast<double>(std::int64_t{references[j]} + delta_q8[j] + sign * half_plays[j]);
-    target_deg[j] = target[j] / kQ8 * kCountDeg;
+    target_deg[j] = target[j] / kQ8 * board::kEncoderCountDeg;
   }
   // The nominal model's inverse of the network, then Newton on the input codes themselves with the
   // golden network (its answer in Q.8 counts, 25 y / 16 unrounded, as the function to zero).
@@ -422,14 +421,14 @@ HomingReport home_at_references(link::LinkSession& session, const golden::BoardW
                                " deg behind its reference: stuck, or blocked before its switch)");
         }
         for (int j = 0; j < 3; ++j) {
-          const double step = static_cast<std::int16_t>(f.counts[j] - last[j]) * kCountDeg;
+          const double step = static_cast<std::int16_t>(f.counts[j] - last[j]) * board::kEncoderCountDeg;
           report.travelled_deg[j] += std::abs(step);
           if (delta[j] != 0) one_way[j] += std::abs(step);
           if (clearing && delta[j] < 0) open_run[j] = f.home_switch(j) ? 0.0 : open_run[j] - step;
         }
         last = f.counts;
         if (f.has(link::TelemetryFlag::kDriveEnable)) {
-          for (int j = 0; j < 3; ++j) lag[j] = std::abs(f.references[j] / kQ8 - f.counts[j]) * kCountDeg;
+          for (int j = 0; j < 3; ++j) lag[j] = std::abs(f.references[j] / kQ8 - f.counts[j]) * board::kEncoderCountDeg;
         }
         if (!f.has(link::TelemetryFlag::kDriveEnable)) {  // a switch referenced its joint (or a disable)
           const int now = (f.home >> 3) & 7;
@@ -470,7 +469,7 @@ HomingReport home_at_references(link::LinkSession& session, const golden::BoardW
         }
         bool recentre = false;
         for (int j = 0; j < 3; ++j) {
-          const double provisional = (f.counts[j] - board::kHomeCount) * kCountDeg;
+          const double provisional = (f.counts[j] - board::kHomeCount) * board::kEncoderCountDeg;
           if (delta[j] != 0 && std::abs(provisional) > options.recentre_deg) recentre = true;
         }
         if (goal || recentre) {

@@ -10,7 +10,6 @@
 namespace delta::controller {
 namespace {
 
-constexpr double kCountDeg = board::kEncoderCountMicrodeg * 1e-6;
 // A controlled stop ends within about 0.4 s (the lead, the ramp to rest); past 1 s something else
 // keeps the board from playing: the loop ends and the caller holds and disables.
 constexpr std::uint32_t kStopBoundTicks = static_cast<std::uint32_t>(board::kControlRateHz);
@@ -229,7 +228,7 @@ void StreamingLoop::run() {
         }
         if (options_.following_error_deg > 0.0) {
           for (int j = 0; j < 3 && !finished; ++j) {
-            const double error = (t.counts[j] - t.references[j] / 256.0) * kCountDeg;
+            const double error = (t.counts[j] - t.references[j] / 256.0) * board::kEncoderCountDeg;
             if (std::abs(error) > options_.following_error_deg) {
               result_.outcome = StreamingResult::Outcome::kFault;
               result_.cause = "following error on joint " + std::to_string(j + 1) + ": " + std::to_string(error) +
@@ -328,7 +327,7 @@ void StreamingLoop::run() {
 
 void TrackingStatistics::add(const link::TelemetryPayload& t) {
   for (int j = 0; j < 3; ++j) {
-    const double error = (t.counts[j] - t.references[j] / 256.0) * kCountDeg;
+    const double error = (t.counts[j] - t.references[j] / 256.0) * board::kEncoderCountDeg;
     sum_sq_deg2[j] += error * error;
     max_abs_deg[j] = std::max(max_abs_deg[j], std::abs(error));
   }

@@ -44,7 +44,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 using nlohmann::json;
-constexpr double kCountDeg = board::kEncoderCountMicrodeg * 1e-6;
 
 // The board's state now: what waits in the device's buffer is read and dropped, then the next frame.
 link::TelemetryPayload fresh_telemetry(link::LinkSession& session) {
@@ -254,7 +253,8 @@ struct HostServer::Impl {
       out["homing_unfinished"] = (interrupted || homing_unfinished(*t)) && !homing_now;
       out["referencing"] = unreferenced_reason(*t);  // "" when homed at the references
       out["board_time_s"] = t->tick / 1e4;
-      out["encoder_deg"] = {t->counts[0] * kCountDeg, t->counts[1] * kCountDeg, t->counts[2] * kCountDeg};
+      out["encoder_deg"] = {t->counts[0] * board::kEncoderCountDeg, t->counts[1] * board::kEncoderCountDeg,
+                            t->counts[2] * board::kEncoderCountDeg};
       out["counters"] = {{"bad_frames", t->bad_frames},
                          {"underruns", t->underruns},
                          {"rejected", t->rejected},

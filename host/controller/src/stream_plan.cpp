@@ -399,7 +399,7 @@ std::optional<std::string> check_plan(const StreamPlan& plan, const std::string&
 }
 
 JointTravel joint_travel() {
-  const double count_deg = board::kEncoderCountMicrodeg * 1e-6;
+  const double count_deg = board::kEncoderCountDeg;
   return {static_cast<double>(board::kMinTravelBlock * 1024) * count_deg,
           static_cast<double>((board::kMaxTravelBlock + 1) * 1024 - 1) * count_deg};
 }

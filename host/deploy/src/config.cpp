@@ -20,9 +20,8 @@
 
 namespace delta::deploy {
 
-const double kEncoderCountDeg = board::kEncoderCountMicrodeg * 1e-6;
 const double kBoardSlewDegS = static_cast<double>((1 << (golden::interpolation::kDeltaBits - 1)) - 1) /
-                              (1 << golden::interpolation::kReferenceFractionBits) * kEncoderCountDeg *
+                              (1 << golden::interpolation::kReferenceFractionBits) * board::kEncoderCountDeg *
                               board::kSetpointRateHz;
 
 namespace {
@@ -49,7 +48,7 @@ const std::map<std::string, std::map<std::string, KeySpec>>& schema() {
       {"board", {{"port", {Kind::kPath, 0, 0}}, {"baud", {Kind::kInteger, 0, 12e6}}}},
       {"network", {{"weights", {Kind::kPath, 0, 0}}, {"bitstream", {Kind::kPath, 0, 0}}}},
       {"limits",
-       {{"following_error_deg", {Kind::kNumber, kEncoderCountDeg, 45, true, " (one encoder count to 45 deg)"}},
+       {{"following_error_deg", {Kind::kNumber, board::kEncoderCountDeg, 45, true, " (one encoder count to 45 deg)"}},
         {"velocity_deg_s",
          {Kind::kNumber, kMinVelocityDegS, kBoardSlewDegS, true, " (the board's slew limit is the top)"}}}},
       {"service",

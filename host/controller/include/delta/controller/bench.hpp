@@ -21,7 +21,6 @@
 
 namespace delta::controller::bench {
 
-constexpr double kCountDeg = board::kEncoderCountMicrodeg * 1e-6;            // degrees per encoder count
 constexpr double kCountsPerDegree = 1e6 / board::kEncoderCountMicrodeg;      // the expected scale
 constexpr std::uint8_t kSwitchBits = 0x7;                                    // the home byte's switch bits
 constexpr std::uint16_t kRefusedMask = (1u << board::kBoardFaultShift) - 1;  // the refused counter's bits

@@ -43,7 +43,6 @@ constexpr std::uint64_t kClocksPerTick = static_cast<std::uint64_t>(board::kCloc
 constexpr std::uint64_t kClocksPerMillisecond = kClocksPerTick * board::kPeriodsPerSetpoint;
 constexpr int kHomeCount = static_cast<int>(board::kHomeCount);
 constexpr double kCurrentFullScaleA = board::kCurrentFullScaleMilliamp / 1000.0;
-constexpr double kCountDeg = board::kEncoderCountMicrodeg * 1e-6;
 
 // BoardFidelity (board_model.hpp) rtl: the Verilated board core; model: the same board in C++
 // (model_board.hpp), bit-exact at its pins.
