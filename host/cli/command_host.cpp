@@ -185,7 +185,7 @@ void run_status(const StatusOptions& options) {
             << '\n'
             << "encoders: " << fixed(t.counts[0] * board::kEncoderCountDeg, 2) << ", "
             << fixed(t.counts[1] * board::kEncoderCountDeg, 2) << ", "
-            << fixed(t.counts[2] * board::kEncoderCountDeg, 2) << " deg; board time " << fixed(t.tick / 1e4, 4)
+            << fixed(t.counts[2] * board::kEncoderCountDeg, 2) << " deg; board time " << fixed(t.time_s(), 4)
             << " s; counters: bad frames " << t.bad_frames << ", underruns " << t.underruns << ", refused "
             << t.rejected << ", slew limits " << t.slew_limits << ", saturations " << t.saturations << '\n';
 }

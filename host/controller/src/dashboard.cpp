@@ -58,9 +58,9 @@ constexpr int kMarkEstopLatched = 2;       //   and a latched e-stop
 json sample_json(const TelemetryRecord& r) {
   const link::TelemetryPayload& t = r.telemetry;
   json row = json::array();
-  row.push_back(t.tick / 1e4);
+  row.push_back(t.time_s());
   for (int k = 0; k < 3; ++k) row.push_back(std::round(t.counts[k] * board::kEncoderCountDeg * 1e4) / 1e4);
-  for (int k = 0; k < 3; ++k) row.push_back(std::round(t.references[k] / 256.0 * board::kEncoderCountDeg * 1e4) / 1e4);
+  for (int k = 0; k < 3; ++k) row.push_back(std::round(t.reference_deg(k) * 1e4) / 1e4);
   for (int k = 0; k < 3; ++k) row.push_back(std::round(t.currents[k] * kCurrentCodeA * 1e4) / 1e4);
   for (int k = 0; k < 3; ++k) {
     const double mm = r.reference_m[k] * 1e3;
@@ -406,7 +406,7 @@ struct Dashboard::Impl {
       status["homed"] = t.has(link::TelemetryFlag::kHomed);
       status["drives_enabled"] = t.has(link::TelemetryFlag::kDriveEnable);
       if (t.has(link::TelemetryFlag::kFault)) status["fault"] = link::describe_fault(t);
-      status["board_time_s"] = t.tick / 1e4;
+      status["board_time_s"] = t.time_s();
       status["data_age_ms"] = std::chrono::duration<double, std::milli>(Clock::now() - at).count();
       status["counters"]["underruns"] = t.underruns;
       // The controller's state as its board thread last read it, from the newest frame instead;

@@ -228,7 +228,7 @@ void StreamingLoop::run() {
         }
         if (options_.following_error_deg > 0.0) {
           for (int j = 0; j < 3 && !finished; ++j) {
-            const double error = (t.counts[j] - t.references[j] / 256.0) * board::kEncoderCountDeg;
+            const double error = (t.counts[j] - t.reference_counts(j)) * board::kEncoderCountDeg;
             if (std::abs(error) > options_.following_error_deg) {
               result_.outcome = StreamingResult::Outcome::kFault;
               result_.cause = "following error on joint " + std::to_string(j + 1) + ": " + std::to_string(error) +
@@ -243,7 +243,7 @@ void StreamingLoop::run() {
         if ((stop_request_ != 0 || request == FeedRequest::kStop) && feed != FeedState::kStopping) {
           if (feed == FeedState::kHeld) {
             set_plan(pacer.next());  // at rest already (the board holds the rest of its buffer)
-            result_.held_s += static_cast<double>(t.tick - held_since_tick) / 1e4;
+            result_.held_s += link::ticks_s(t.tick - held_since_tick);
           } else {
             set_plan(plan_.stop_from(pacer.next()));
           }
@@ -262,7 +262,7 @@ void StreamingLoop::run() {
             pacer.update(t, send);  // the buffer first, then the resume: no underrun
             session_.send_command(link::Command::kEnable);
             command_frame = 0;
-            result_.held_s += static_cast<double>(t.tick - held_since_tick) / 1e4;
+            result_.held_s += link::ticks_s(t.tick - held_since_tick);
             feed = FeedState::kResuming;
           }
         }
@@ -327,7 +327,7 @@ void StreamingLoop::run() {
 
 void TrackingStatistics::add(const link::TelemetryPayload& t) {
   for (int j = 0; j < 3; ++j) {
-    const double error = (t.counts[j] - t.references[j] / 256.0) * board::kEncoderCountDeg;
+    const double error = (t.counts[j] - t.reference_counts(j)) * board::kEncoderCountDeg;
     sum_sq_deg2[j] += error * error;
     max_abs_deg[j] = std::max(max_abs_deg[j], std::abs(error));
   }

@@ -298,11 +298,11 @@ struct TelemetryRecorder {
   void write(const TelemetryRecord& r) {
     const link::TelemetryPayload& t = r.telemetry;
     std::string& out = file.buffer();
-    out += format_number(t.tick / 1e4);
+    out += format_number(t.time_s());
     if (streaming) {
       for (int k = 0; k < 3; ++k) out += ',' + format_number(r.reference_m[k]);
     }
-    for (int k = 0; k < 3; ++k) out += ',' + format_number(t.references[k] / 256.0 * board::kEncoderCountDeg);
+    for (int k = 0; k < 3; ++k) out += ',' + format_number(t.reference_deg(k));
     for (int k = 0; k < 3; ++k) out += ',' + format_number(t.counts[k] * board::kEncoderCountDeg);
     for (int k = 0; k < 3; ++k) out += ',' + format_number(t.currents[k] * kCurrentCodeA);
     for (const long long value : {static_cast<long long>(t.fault_cause), static_cast<long long>(t.flags),
@@ -836,7 +836,7 @@ RunOutcome RecordJob::execute(link::LinkSession& session, const std::string& por
         break;
       }
       if (std::chrono::steady_clock::now() >= next_progress) {
-        log(fixed((t.tick - first.tick) / 1e4, 1) + " s of board time recorded");
+        log(fixed(link::ticks_s(t.tick - first.tick), 1) + " s of board time recorded");
         next_progress += std::chrono::seconds(5);
       }
     }
@@ -859,7 +859,7 @@ RunOutcome RecordJob::execute(link::LinkSession& session, const std::string& por
   const std::uint64_t lost = link.lost_telemetry + link.skipped_telemetry;
   const double lost_percent = 100.0 * static_cast<double>(lost) / static_cast<double>(frames + lost);
   std::ostringstream summary;
-  summary << "record: " << frames << " telemetry frames over " << fixed((t.tick - first.tick) / 1e4, 3)
+  summary << "record: " << frames << " telemetry frames over " << fixed(link::ticks_s(t.tick - first.tick), 3)
           << " s of board time (" << fixed(wall, 1) << " s wall), drives off; " << lost << " lost ("
           << fixed(lost_percent, 2) << " %: on the line " << link.lost_telemetry << ", skipped "
           << link.skipped_telemetry << "); referenced: " << referencing_name(referencing)

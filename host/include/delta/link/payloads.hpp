@@ -104,6 +104,11 @@ enum class BoardFault : std::uint8_t {
 constexpr std::uint8_t mask(TelemetryFlag flag) { return static_cast<std::uint8_t>(1u << static_cast<int>(flag)); }
 constexpr std::uint8_t mask(FaultCause cause) { return static_cast<std::uint8_t>(1u << static_cast<int>(cause)); }
 
+// Control periods of board time in seconds.
+constexpr double ticks_s(std::int64_t ticks) {
+  return static_cast<double>(ticks) / static_cast<double>(board::kControlRateHz);
+}
+
 // Telemetry (board -> host, one frame per setpoint period).
 struct TelemetryPayload {
   std::uint32_t sample_index = 0;            // the next setpoint to play
@@ -127,6 +132,11 @@ struct TelemetryPayload {
 
   bool home_switch(int joint) const { return ((home >> joint) & 1) != 0; }
   bool referenced(int joint) const { return ((home >> (3 + joint)) & 1) != 0; }
+  // In units: board time [s], a joint's count [deg], its reference [counts, deg].
+  double time_s() const { return ticks_s(tick); }
+  double count_deg(int joint) const { return counts[static_cast<std::size_t>(joint)] * board::kEncoderCountDeg; }
+  double reference_counts(int joint) const { return references[static_cast<std::size_t>(joint)] / 256.0; }
+  double reference_deg(int joint) const { return reference_counts(joint) * board::kEncoderCountDeg; }
   bool jogging() const { return ((home >> board::kTelemetryJogBit) & 1) != 0; }
   // Where joint j's play was last taken up: +1 above (its count last stepped up), -1 below.
   int play_side(int joint) const { return ((rising >> joint) & 1) != 0 ? 1 : -1; }
