@@ -319,78 +319,66 @@ json family_parameters_json(Family family, const Parameters& theta) {
   return json{{keys[index_of(family)], effect}};
 }
 
-json diagnosis_json(const Diagnosis& diagnosis) {
-  json document;
-  document["noise_floor_deg"] = diagnosis.noise_floor_deg;
-  document["explained"] = diagnosis.explained;
-  document["rows_used"] = {{"fit", diagnosis.fit_rows_used}, {"check", diagnosis.check_rows_used}};
-  document["fit_joint_travel_deg"] = {diagnosis.fit_joint_travel_deg[0], diagnosis.fit_joint_travel_deg[1],
-                                      diagnosis.fit_joint_travel_deg[2]};
-  document["explained_fraction"] = diagnosis.explained_fraction;
-  if (diagnosis.fit_closed_loop) {
-    document["closed_loop_fit"] = {{"steady_speed_deg_s", closed_loop::kSteadySpeedDegS},
-                                   {"play_fitted_where_faster", fitted_so(diagnosis, FitRows::fast_only)},
-                                   {"play_never_fast_enough", fitted_so(diagnosis, FitRows::too_slow)},
-                                   {"slow_rows_shift_deg", triple(diagnosis.fit_slow_rows_shift_deg)}};
+namespace {
+
+// An effect outside the vocabulary (a scale error of the measuring stage) as an entry of "effects".
+json new_effect_json(const NewEffect& effect) {
+  json parameters, half_widths;
+  if (effect.per_axis) {
+    for (int axis = 0; axis < 3; ++axis) {
+      const std::string name = std::string("s_") + "xyz"[axis];
+      parameters[name] = effect.scale[axis];
+      half_widths[name] = effect.confidence_95[axis];
+    }
+  } else {
+    parameters["s"] = effect.scale[0];
+    half_widths["s"] = effect.confidence_95[0];
   }
+  return {
+      {"name", effect.name},
+      {"significant", true},
+      {"in_vocabulary", false},
+      {"subsystem", effect.subsystem},
+      {"parameters", parameters},
+      {"final_parameters", parameters},
+      {"confidence_95_half_width", half_widths},
+      {"holdout_rmse_deg", triple(effect.holdout_rmse_deg)},
+      {"description", effect.per_axis ? "p_measured = (1 + s_axis) p_true per axis: a scale error of the "
+                                        "measuring stage's axes"
+                                      : "p_measured = (1 + s) p_true: a uniform scale error of the measuring stage"}};
+}
+
+// A family of the vocabulary as ranked, as an entry of "effects".
+json finding_json(const EffectFinding& finding, const Diagnosis& diagnosis) {
+  json effect = {{"name", family_name(finding.family)},
+                 {"significant", finding.significant},
+                 {"subsystem", subsystem_of(finding.family)},
+                 {"parameters", family_parameters_json(finding.family, finding.theta)},
+                 {"holdout_rmse_deg", triple(finding.holdout_rmse_deg)},
+                 {"holdout_gain_deg2", finding.holdout_gain_deg2}};
+  if (finding.significant) {
+    // The final model's values and their 95 % intervals (value +- half width; null: the data
+    // cannot separate the parameter from those `inseparable` names). The values when selection
+    // added the family stay in `selection_parameters`.
+    effect["parameters"] = family_parameters_json(finding.family, diagnosis.theta);
+    effect["final_parameters"] = effect["parameters"];
+    effect["selection_parameters"] = family_parameters_json(finding.family, finding.theta);
+    effect["confidence_95_half_width"] = family_parameters_json(
+        finding.family, confidence_theta(finding.family, diagnosis.confidence_95, diagnosis.final_model));
+    effect["inseparable"] = inseparable_json(finding.family, diagnosis.final_model);
+  }
+  return effect;
+}
+
+// The effects outside the vocabulary first, then the vocabulary's families as ranked.
+json effects_json(const Diagnosis& diagnosis) {
   json effects = json::array();
-  for (const NewEffect& effect : diagnosis.new_effects) {
-    json parameters, half_widths;
-    if (effect.per_axis) {
-      for (int axis = 0; axis < 3; ++axis) {
-        const std::string name = std::string("s_") + "xyz"[axis];
-        parameters[name] = effect.scale[axis];
-        half_widths[name] = effect.confidence_95[axis];
-      }
-    } else {
-      parameters["s"] = effect.scale[0];
-      half_widths["s"] = effect.confidence_95[0];
-    }
-    effects.push_back(
-        {{"name", effect.name},
-         {"significant", true},
-         {"in_vocabulary", false},
-         {"subsystem", effect.subsystem},
-         {"parameters", parameters},
-         {"final_parameters", parameters},
-         {"confidence_95_half_width", half_widths},
-         {"holdout_rmse_deg", triple(effect.holdout_rmse_deg)},
-         {"description", effect.per_axis
-                             ? "p_measured = (1 + s_axis) p_true per axis: a scale error of the "
-                               "measuring stage's axes"
-                             : "p_measured = (1 + s) p_true: a uniform scale error of the measuring stage"}});
-  }
-  for (const EffectFinding& finding : diagnosis.findings) {
-    json effect = {{"name", family_name(finding.family)},
-                   {"significant", finding.significant},
-                   {"subsystem", subsystem_of(finding.family)},
-                   {"parameters", family_parameters_json(finding.family, finding.theta)},
-                   {"holdout_rmse_deg", triple(finding.holdout_rmse_deg)},
-                   {"holdout_gain_deg2", finding.holdout_gain_deg2}};
-    if (finding.significant) {
-      // The final model's values and their 95 % intervals (value +- half width; null: the data
-      // cannot separate the parameter from those `inseparable` names). The values when selection
-      // added the family stay in `selection_parameters`.
-      effect["parameters"] = family_parameters_json(finding.family, diagnosis.theta);
-      effect["final_parameters"] = effect["parameters"];
-      effect["selection_parameters"] = family_parameters_json(finding.family, finding.theta);
-      effect["confidence_95_half_width"] = family_parameters_json(
-          finding.family, confidence_theta(finding.family, diagnosis.confidence_95, diagnosis.final_model));
-      effect["inseparable"] = inseparable_json(finding.family, diagnosis.final_model);
-    }
-    effects.push_back(effect);
-  }
-  document["effects"] = effects;
-  document["floor_test"] = floor_test_json(diagnosis.floor_test);
-  if (!diagnosis.explained) {
-    const UnexplainedResidual& where = diagnosis.unexplained;
-    document["unexplained"] = {{"excess_rms_deg", where.excess_rms_deg},
-                               {"joint", where.joint + 1},
-                               {"octant", where.region},
-                               {"octant_excess_rms_deg", where.region_excess_rms_deg},
-                               {"time_s", json::array({where.t_from_s, where.t_to_s})},
-                               {"time_excess_rms_deg", where.time_excess_rms_deg}};
-  }
+  for (const NewEffect& effect : diagnosis.new_effects) effects.push_back(new_effect_json(effect));
+  for (const EffectFinding& finding : diagnosis.findings) effects.push_back(finding_json(finding, diagnosis));
+  return effects;
+}
+
+json alternatives_json(const Diagnosis& diagnosis) {
   json alternatives = json::array();
   for (const Alternative& alternative : diagnosis.alternatives) {
     json names = json::array(), parameters = json::object();
@@ -407,7 +395,10 @@ json diagnosis_json(const Diagnosis& diagnosis) {
                             {"at_floor", alternative.at_floor},
                             {"separate_by", alternative.separate_by}});
   }
-  document["alternatives"] = alternatives;
+  return alternatives;
+}
+
+json outliers_json(const Diagnosis& diagnosis) {
   json outliers = json::array();
   for (const Outlier& outlier : diagnosis.outliers) {
     outliers.push_back({{"recording", outlier.recording},
@@ -416,7 +407,62 @@ json diagnosis_json(const Diagnosis& diagnosis) {
                         {"position_spike_mm", outlier.position_spike_mm},
                         {"angle_spike_deg", outlier.angle_spike_deg}});
   }
-  document["outliers"] = outliers;
+  return outliers;
+}
+
+// Forward selection's steps: each candidate's held-out RMSE and the family added (null: stop).
+json selection_json(const Diagnosis& diagnosis) {
+  json steps = json::array();
+  for (const SelectionStep& step : diagnosis.steps) {
+    json candidates = json::object();
+    for (const auto& [family, mse] : step.candidate_mse) candidates[family_name(family)] = std::sqrt(mse);
+    steps.push_back({{"model", describe(step.base)},
+                     {"candidate_holdout_rmse_deg", candidates},
+                     {"added", step.chosen >= 0 ? json(family_name(family_at(step.chosen))) : json(nullptr)}});
+  }
+  return steps;
+}
+
+json regions_json(const Diagnosis& diagnosis) {
+  json regions = json::array();
+  for (const RegionError& region : diagnosis.regions) {
+    regions.push_back({{"octant", region.label},
+                       {"samples", region.samples},
+                       {"rmse_nominal_deg", triple(region.nominal_rmse_deg)},
+                       {"rmse_after_deg", triple(region.after_rmse_deg)}});
+  }
+  return regions;
+}
+
+}  // namespace
+
+json diagnosis_json(const Diagnosis& diagnosis) {
+  json document;
+  document["noise_floor_deg"] = diagnosis.noise_floor_deg;
+  document["explained"] = diagnosis.explained;
+  document["rows_used"] = {{"fit", diagnosis.fit_rows_used}, {"check", diagnosis.check_rows_used}};
+  document["fit_joint_travel_deg"] = {diagnosis.fit_joint_travel_deg[0], diagnosis.fit_joint_travel_deg[1],
+                                      diagnosis.fit_joint_travel_deg[2]};
+  document["explained_fraction"] = diagnosis.explained_fraction;
+  if (diagnosis.fit_closed_loop) {
+    document["closed_loop_fit"] = {{"steady_speed_deg_s", closed_loop::kSteadySpeedDegS},
+                                   {"play_fitted_where_faster", fitted_so(diagnosis, FitRows::fast_only)},
+                                   {"play_never_fast_enough", fitted_so(diagnosis, FitRows::too_slow)},
+                                   {"slow_rows_shift_deg", triple(diagnosis.fit_slow_rows_shift_deg)}};
+  }
+  document["effects"] = effects_json(diagnosis);
+  document["floor_test"] = floor_test_json(diagnosis.floor_test);
+  if (!diagnosis.explained) {
+    const UnexplainedResidual& where = diagnosis.unexplained;
+    document["unexplained"] = {{"excess_rms_deg", where.excess_rms_deg},
+                               {"joint", where.joint + 1},
+                               {"octant", where.region},
+                               {"octant_excess_rms_deg", where.region_excess_rms_deg},
+                               {"time_s", json::array({where.t_from_s, where.t_to_s})},
+                               {"time_excess_rms_deg", where.time_excess_rms_deg}};
+  }
+  document["alternatives"] = alternatives_json(diagnosis);
+  document["outliers"] = outliers_json(diagnosis);
   document["verdict"] = verdict(diagnosis);
   document["warnings"] = diagnosis_warnings(diagnosis);
   document["holdout"] = {{"rmse_nominal_deg", triple(diagnosis.holdout_rmse_nominal_deg)},
@@ -429,29 +475,14 @@ json diagnosis_json(const Diagnosis& diagnosis) {
                      {"samples", diagnosis.fit_samples},
                      {"span_s", diagnosis.fit_span_s}};
   document["fitted_effects"] = effects_to_json(diagnosis.fitted_effects);
-  json steps = json::array();
-  for (const SelectionStep& step : diagnosis.steps) {
-    json candidates = json::object();
-    for (const auto& [family, mse] : step.candidate_mse) candidates[family_name(family)] = std::sqrt(mse);
-    steps.push_back({{"model", describe(step.base)},
-                     {"candidate_holdout_rmse_deg", candidates},
-                     {"added", step.chosen >= 0 ? json(family_name(family_at(step.chosen))) : json(nullptr)}});
-  }
-  document["selection"] = steps;
+  document["selection"] = selection_json(diagnosis);
   json eliminated = json::array();
   for (const Elimination& entry : diagnosis.eliminated) eliminated.push_back(elimination_text(entry));
   document["eliminated"] = eliminated;
   json subsystems = json::object();
   for (const auto& [name, rmse] : diagnosis.subsystem_rmse_without_deg) subsystems[name] = triple(rmse);
   document["holdout_rmse_without_subsystem_deg"] = subsystems;
-  json regions = json::array();
-  for (const RegionError& region : diagnosis.regions) {
-    regions.push_back({{"octant", region.label},
-                       {"samples", region.samples},
-                       {"rmse_nominal_deg", triple(region.nominal_rmse_deg)},
-                       {"rmse_after_deg", triple(region.after_rmse_deg)}});
-  }
-  document["regions"] = regions;
+  document["regions"] = regions_json(diagnosis);
   document["identifiability"] = {{"final_model", identifiability_json(diagnosis.final_model)},
                                  {"all_families", identifiability_json(diagnosis.all_families)}};
   document["seconds"] = diagnosis.seconds;
@@ -515,132 +546,132 @@ void print_summary(std::ostream& out, const Diagnosis& diagnosis) {
   if (diagnosis.fit_closed_loop) out << closed_loop_note(diagnosis) << "\n";
 }
 
-void write_report(const std::string& markdown_path, const ReportInputs& inputs, const std::vector<Sample>& check,
-                  const Diagnosis& diagnosis) {
-  namespace fs = std::filesystem;
-  const fs::path markdown(markdown_path);
-  const std::string stem = markdown.stem().string();
-  const fs::path folder = markdown.has_parent_path() ? markdown.parent_path() : fs::path(".");
-  const std::string residual_png = stem + "_residual.png", ranking_png = stem + "_ranking.png",
-                    map_png = stem + "_map.png";
+namespace {
+
+// Residual along the CHECK trajectory, before and after.
+void write_residual_plot(const std::string& png_path, const ReportInputs& inputs, const std::vector<Sample>& check,
+                         const Diagnosis& diagnosis) {
+  PlotSpec spec;
+  spec.title = "Held-out residual (measured - predicted) along " + inputs.check_path;
+  PlotPanel before{"nominal model", "t [s]", "residual [deg]", {}, false};
+  PlotPanel after{"after diagnosis (" + model_name(diagnosis) + ")", "t [s]", "residual [deg]", {}, false};
+  for (int j = 0; j < 3; ++j) {
+    PlotSeries b{"alpha" + std::to_string(j + 1), {}, {}, false}, a = b;
+    for (std::size_t i = 0; i < check.size(); ++i) {
+      b.x.push_back(check[i].t_s);
+      b.y.push_back(check[i].alpha_deg[j] - diagnosis.check_nominal_deg[i][j]);
+      a.x.push_back(check[i].t_s);
+      a.y.push_back(check[i].alpha_deg[j] - diagnosis.check_after_deg[i][j]);
+    }
+    before.series.push_back(std::move(b));
+    after.series.push_back(std::move(a));
+  }
+  spec.panels = {before, after};
+  write_plot(png_path, spec);
+}
+
+// Effect ranking: held-out RMSE as effects are added, and what each would still add.
+void write_ranking_plot(const std::string& png_path, const Diagnosis& diagnosis) {
   const double floor = diagnosis.noise_floor_deg;
-  std::error_code error;
-  fs::create_directories(folder, error);
-  if (error) throw InputError(markdown_path, 0, "cannot create the report folder: " + error.message());
-
-  // Residual along the CHECK trajectory, before and after.
-  {
-    PlotSpec spec;
-    spec.title = "Held-out residual (measured - predicted) along " + inputs.check_path;
-    PlotPanel before{"nominal model", "t [s]", "residual [deg]", {}, false};
-    PlotPanel after{"after diagnosis (" + model_name(diagnosis) + ")", "t [s]", "residual [deg]", {}, false};
-    for (int j = 0; j < 3; ++j) {
-      PlotSeries b{"alpha" + std::to_string(j + 1), {}, {}, false}, a = b;
-      for (std::size_t i = 0; i < check.size(); ++i) {
-        b.x.push_back(check[i].t_s);
-        b.y.push_back(check[i].alpha_deg[j] - diagnosis.check_nominal_deg[i][j]);
-        a.x.push_back(check[i].t_s);
-        a.y.push_back(check[i].alpha_deg[j] - diagnosis.check_after_deg[i][j]);
-      }
-      before.series.push_back(std::move(b));
-      after.series.push_back(std::move(a));
-    }
-    spec.panels = {before, after};
-    write_plot((folder / residual_png).string(), spec);
+  PlotSpec spec;
+  spec.title = "Effect ranking on held-out data";
+  PlotPanel path{
+      "held-out RMSE (mean over joints) after each added effect; step 0 = nominal", "step", "RMSE [deg]", {}, true};
+  PlotSeries model{"model", {0.0}, {rms(diagnosis.holdout_rmse_nominal_deg)}, true};
+  PlotSeries floor_line{"noise floor 0.01/sqrt(12) deg", {}, {}, false};
+  int step = 0;
+  for (const EffectFinding& finding : diagnosis.findings) {
+    if (!finding.significant) continue;
+    model.x.push_back(++step);
+    model.y.push_back(rms(finding.holdout_rmse_deg));
   }
-  // Effect ranking: held-out RMSE as effects are added, and what each would still add.
-  {
-    PlotSpec spec;
-    spec.title = "Effect ranking on held-out data";
-    PlotPanel path{
-        "held-out RMSE (mean over joints) after each added effect; step 0 = nominal", "step", "RMSE [deg]", {}, true};
-    PlotSeries model{"model", {0.0}, {rms(diagnosis.holdout_rmse_nominal_deg)}, true};
-    PlotSeries floor_line{"noise floor 0.01/sqrt(12) deg", {}, {}, false};
-    int step = 0;
-    for (const EffectFinding& finding : diagnosis.findings) {
-      if (!finding.significant) continue;
-      model.x.push_back(++step);
-      model.y.push_back(rms(finding.holdout_rmse_deg));
-    }
-    floor_line.x = {0.0, static_cast<double>(std::max(step, 1))};
-    floor_line.y = {floor, floor};
-    path.series = {model, floor_line};
-    PlotPanel gains{"held-out MSE gain of each family at its rank (ranked order; significant first)",
-                    "rank",
-                    "gain [deg^2]",
-                    {},
-                    true};
-    PlotSeries gain{"gain", {}, {}, true};
-    PlotSeries threshold{"significance threshold", {}, {}, false};
-    for (std::size_t r = 0; r < diagnosis.findings.size(); ++r) {
-      gain.x.push_back(static_cast<double>(r + 1));
-      gain.y.push_back(std::max(diagnosis.findings[r].holdout_gain_deg2, 1e-12));
-    }
-    threshold.x = {1.0, static_cast<double>(diagnosis.findings.size())};
-    threshold.y = {diagnosis.significance_threshold_deg2, diagnosis.significance_threshold_deg2};
-    gains.series = {gain, threshold};
-    spec.panels = {path, gains};
-    write_plot((folder / ranking_png).string(), spec);
+  floor_line.x = {0.0, static_cast<double>(std::max(step, 1))};
+  floor_line.y = {floor, floor};
+  path.series = {model, floor_line};
+  PlotPanel gains{"held-out MSE gain of each family at its rank (ranked order; significant first)",
+                  "rank",
+                  "gain [deg^2]",
+                  {},
+                  true};
+  PlotSeries gain{"gain", {}, {}, true};
+  PlotSeries threshold{"significance threshold", {}, {}, false};
+  for (std::size_t r = 0; r < diagnosis.findings.size(); ++r) {
+    gain.x.push_back(static_cast<double>(r + 1));
+    gain.y.push_back(std::max(diagnosis.findings[r].holdout_gain_deg2, 1e-12));
   }
-  write_error_map((folder / map_png).string(), check, diagnosis);
+  threshold.x = {1.0, static_cast<double>(diagnosis.findings.size())};
+  threshold.y = {diagnosis.significance_threshold_deg2, diagnosis.significance_threshold_deg2};
+  gains.series = {gain, threshold};
+  spec.panels = {path, gains};
+  write_plot(png_path, spec);
+}
 
-  OutputFile file(markdown_path);
-  std::ostream& out = file.stream();
+// The report's title, data, verdict, warnings and closed-loop note.
+void write_report_head(std::ostream& out, const ReportInputs& inputs, const std::vector<Sample>& check,
+                       const Diagnosis& diagnosis) {
   out << "# Sim-to-real diagnosis\n\n"
       << "Fitted on `" << inputs.fit_path << "` (" << inputs.fit_rows << " rows), judged on the held-out `"
       << inputs.check_path << "` (" << check.size()
-      << " rows). Noise floor (encoder quantisation 0.01 deg / sqrt(12)): " << fixed(floor, 5) << " deg.\n\n"
+      << " rows). Noise floor (encoder quantisation 0.01 deg / sqrt(12)): " << fixed(diagnosis.noise_floor_deg, 5)
+      << " deg.\n\n"
       << "**Verdict:** " << verdict(diagnosis) << "; " << fixed(100.0 * diagnosis.explained_fraction, 1)
       << " % of the held-out mean-square error above the floor removed.\n\n";
   for (const std::string& warning : diagnosis_warnings(diagnosis)) out << "**Warning:** " << warning << "\n\n";
   if (diagnosis.fit_closed_loop) out << closed_loop_note(diagnosis) << ".\n\n";
-  if (!diagnosis.alternatives.empty()) {
-    out << "## Equivalent explanations\n\nSets the held-out data cannot tell from the chosen one (held-out MSE "
-           "not worse by more than the stopping rule's threshold, or not significantly by the paired test; same "
-           "floor test). `significant` in the JSON stays the chosen set.\n\n";
-    Table table({"effects", "held-out RMSE a1/a2/a3 [deg]", "MSE - chosen [deg^2]", "paired z", "separate by"});
-    for (const Alternative& alternative : diagnosis.alternatives) {
-      std::ostringstream difference;
-      difference.precision(3);
-      difference << alternative.mse_difference_deg2;
-      table.add_row({describe_as_added(alternative.families, diagnosis),
-                     fixed(alternative.holdout_rmse_deg[0], 5) + " / " + fixed(alternative.holdout_rmse_deg[1], 5) +
-                         " / " + fixed(alternative.holdout_rmse_deg[2], 5),
-                     difference.str(), fixed(alternative.paired_z, 2), alternative.separate_by});
-    }
-    table.print(out);
-    out << "\n";
-  }
-  {
-    const FloorTest& test = diagnosis.floor_test;
-    out << "## Floor test\n\nNoise model per joint: encoder quantisation 0.01/sqrt(12) deg, stage quantisation "
-           "6.87 nm/sqrt(12) per axis through the kinematics ("
-        << format_number(test.stage_sigma_deg) << " deg RMS) and an extra white noise estimated from the FIT "
-        << "residual differences (" << format_number(test.extra_noise_deg)
-        << " deg, z = " << fixed(test.extra_noise_z, 2)
-        << "; counted only above z = 4). Statistic: mean of r^2 / sigma^2 over the " << test.rows
-        << " held-out rows against 1, standard error by batch means over " << test.blocks << " blocks; ratio "
-        << fixed(test.ratio, 4) << " (joints " << fixed(test.joint_ratio[0], 4) << " / "
-        << fixed(test.joint_ratio[1], 4) << " / " << fixed(test.joint_ratio[2], 4) << "), z = " << fixed(test.z, 2)
-        << " (joints " << fixed(test.joint_z[0], 2) << " / " << fixed(test.joint_z[1], 2) << " / "
-        << fixed(test.joint_z[2], 2) << "); at the floor when z <= " << fixed(test.threshold, 1)
-        << " and every joint's z <= " << fixed(test.threshold + 0.5, 1) << ": " << (test.at_floor ? "yes" : "no")
-        << ".\n\n";
-  }
-  if (!diagnosis.outliers.empty()) {
-    out << "## Outlier rows (left out of the fit and the scores)\n\n";
-    Table table({"recording", "data row", "t [s]", "position spike [mm]", "angle spike [deg]"});
-    for (const Outlier& outlier : diagnosis.outliers) {
-      table.add_row({outlier.recording, std::to_string(outlier.row), fixed(outlier.t_s, 3),
-                     fixed(outlier.position_spike_mm, 4), fixed(outlier.angle_spike_deg, 4)});
-    }
-    table.print(out);
-    out << "\n";
-  }
+}
 
-  out << "## How far the gap shrinks (held-out RMSE per joint)\n\n";
-  print_summary(out, diagnosis);
+// The sets CHECK cannot tell from the chosen one, when there are any.
+void write_alternatives_section(std::ostream& out, const Diagnosis& diagnosis) {
+  if (diagnosis.alternatives.empty()) return;
+  out << "## Equivalent explanations\n\nSets the held-out data cannot tell from the chosen one (held-out MSE "
+         "not worse by more than the stopping rule's threshold, or not significantly by the paired test; same "
+         "floor test). `significant` in the JSON stays the chosen set.\n\n";
+  Table table({"effects", "held-out RMSE a1/a2/a3 [deg]", "MSE - chosen [deg^2]", "paired z", "separate by"});
+  for (const Alternative& alternative : diagnosis.alternatives) {
+    std::ostringstream difference;
+    difference.precision(3);
+    difference << alternative.mse_difference_deg2;
+    table.add_row({describe_as_added(alternative.families, diagnosis),
+                   fixed(alternative.holdout_rmse_deg[0], 5) + " / " + fixed(alternative.holdout_rmse_deg[1], 5) +
+                       " / " + fixed(alternative.holdout_rmse_deg[2], 5),
+                   difference.str(), fixed(alternative.paired_z, 2), alternative.separate_by});
+  }
+  table.print(out);
+  out << "\n";
+}
 
+// The floor test: its noise model, its statistic and whether the final model is at the floor.
+void write_floor_test_section(std::ostream& out, const FloorTest& test) {
+  out << "## Floor test\n\nNoise model per joint: encoder quantisation 0.01/sqrt(12) deg, stage quantisation "
+         "6.87 nm/sqrt(12) per axis through the kinematics ("
+      << format_number(test.stage_sigma_deg) << " deg RMS) and an extra white noise estimated from the FIT "
+      << "residual differences (" << format_number(test.extra_noise_deg) << " deg, z = " << fixed(test.extra_noise_z, 2)
+      << "; counted only above z = 4). Statistic: mean of r^2 / sigma^2 over the " << test.rows
+      << " held-out rows against 1, standard error by batch means over " << test.blocks << " blocks; ratio "
+      << fixed(test.ratio, 4) << " (joints " << fixed(test.joint_ratio[0], 4) << " / " << fixed(test.joint_ratio[1], 4)
+      << " / " << fixed(test.joint_ratio[2], 4) << "), z = " << fixed(test.z, 2) << " (joints "
+      << fixed(test.joint_z[0], 2) << " / " << fixed(test.joint_z[1], 2) << " / " << fixed(test.joint_z[2], 2)
+      << "); at the floor when z <= " << fixed(test.threshold, 1)
+      << " and every joint's z <= " << fixed(test.threshold + 0.5, 1) << ": " << (test.at_floor ? "yes" : "no")
+      << ".\n\n";
+}
+
+// The rows left out of the fit and the scores, when there are any.
+void write_outliers_section(std::ostream& out, const Diagnosis& diagnosis) {
+  if (diagnosis.outliers.empty()) return;
+  out << "## Outlier rows (left out of the fit and the scores)\n\n";
+  Table table({"recording", "data row", "t [s]", "position spike [mm]", "angle spike [deg]"});
+  for (const Outlier& outlier : diagnosis.outliers) {
+    table.add_row({outlier.recording, std::to_string(outlier.row), fixed(outlier.t_s, 3),
+                   fixed(outlier.position_spike_mm, 4), fixed(outlier.angle_spike_deg, 4)});
+  }
+  table.print(out);
+  out << "\n";
+}
+
+// The ranked effects with their parameters and intervals, the ranking plot, and what backward
+// elimination dropped.
+void write_ranking_section(std::ostream& out, const Diagnosis& diagnosis, const std::string& ranking_png) {
   out << "\n## Effects, ranked\n\nSignificant effects in the order forward selection added them (judged on the "
          "held-out rows only); then the others by the held-out gain they would still bring. The stopping rule "
          "keeps an effect only if it lowers the held-out mean-square error by more than "
@@ -667,7 +698,11 @@ void write_report(const std::string& markdown_path, const ReportInputs& inputs, 
     for (const Elimination& entry : diagnosis.eliminated) out << ' ' << elimination_text(entry);
     out << " (made redundant by effects added later).\n";
   }
+}
 
+// Where the gap lives: per subsystem and per octant of the workspace, with the map and residual plots.
+void write_where_sections(std::ostream& out, const Diagnosis& diagnosis, const std::string& map_png,
+                          const std::string& residual_png) {
   out << "\n## Where: per subsystem\n\nHeld-out RMSE of the final model with one subsystem's effects taken out "
          "(the part of the gap that lives there).\n\n";
   Table subsystems({"final model without", "alpha_1 [deg]", "alpha_2 [deg]", "alpha_3 [deg]"});
@@ -688,7 +723,9 @@ void write_report(const std::string& markdown_path, const ReportInputs& inputs, 
   regions.print(out);
   out << "\n![error map before and after](" << map_png << ")\n\n![residual along the trajectory](" << residual_png
       << ")\n";
+}
 
+void write_selection_trace(std::ostream& out, const Diagnosis& diagnosis) {
   out << "\n## Selection trace (held-out RMSE, mean over joints, of each candidate)\n\n";
   for (const SelectionStep& step : diagnosis.steps) {
     out << "- from **" << describe_as_added(step.base, diagnosis) << "**: ";
@@ -698,40 +735,76 @@ void write_report(const std::string& markdown_path, const ReportInputs& inputs, 
     }
     out << " -> " << (step.chosen >= 0 ? std::string("added ") + family_name(family_at(step.chosen)) : "stop") << "\n";
   }
+}
 
+// One model's identifiability: its singular values, weak directions and strongest correlations.
+void write_weak_section(std::ostream& out, const Identifiability& identifiability, const std::string& what) {
+  out << "### " << what << " (" << identifiability.model << ")\n\n";
+  if (!identifiability.singular_values.empty()) {
+    out << "Normalised Jacobian singular values: largest " << fixed(identifiability.singular_values.front(), 3)
+        << ", smallest " << format_number(identifiability.singular_values.back()) << ".\n\n";
+  }
+  if (identifiability.weak.empty()) {
+    out << "No direction below 1e-2: every parameter is determined by this data.\n\n";
+  }
+  for (const WeakDirection& direction : identifiability.weak) {
+    out << "- singular value " << format_number(direction.singular_value) << ": ";
+    for (std::size_t c = 0; c < direction.components.size() && c < 6; ++c) {
+      out << (c ? " " : "") << (direction.components[c].second >= 0 ? "+" : "-")
+          << fixed(std::abs(direction.components[c].second), 2) << " "
+          << parameter_table()[direction.components[c].first].name;
+    }
+    out << ". Separate by: " << direction.advice << ".\n";
+  }
+  if (!identifiability.correlations.empty()) {
+    out << "\nStrongest parameter correlations:";
+    for (const Correlation& c : identifiability.correlations) {
+      out << " " << parameter_table()[c.a].name << "~" << parameter_table()[c.b].name << " " << fixed(c.value, 3)
+          << ";";
+    }
+    out << "\n\n";
+  }
+}
+
+void write_identifiability_section(std::ostream& out, const Diagnosis& diagnosis) {
   out << "\n## What this data cannot tell apart\n\n";
-  auto weak_section = [&out](const Identifiability& identifiability, const std::string& what) {
-    out << "### " << what << " (" << identifiability.model << ")\n\n";
-    if (!identifiability.singular_values.empty()) {
-      out << "Normalised Jacobian singular values: largest " << fixed(identifiability.singular_values.front(), 3)
-          << ", smallest " << format_number(identifiability.singular_values.back()) << ".\n\n";
-    }
-    if (identifiability.weak.empty()) {
-      out << "No direction below 1e-2: every parameter is determined by this data.\n\n";
-    }
-    for (const WeakDirection& direction : identifiability.weak) {
-      out << "- singular value " << format_number(direction.singular_value) << ": ";
-      for (std::size_t c = 0; c < direction.components.size() && c < 6; ++c) {
-        out << (c ? " " : "") << (direction.components[c].second >= 0 ? "+" : "-")
-            << fixed(std::abs(direction.components[c].second), 2) << " "
-            << parameter_table()[direction.components[c].first].name;
-      }
-      out << ". Separate by: " << direction.advice << ".\n";
-    }
-    if (!identifiability.correlations.empty()) {
-      out << "\nStrongest parameter correlations:";
-      for (const Correlation& c : identifiability.correlations) {
-        out << " " << parameter_table()[c.a].name << "~" << parameter_table()[c.b].name << " " << fixed(c.value, 3)
-            << ";";
-      }
-      out << "\n\n";
-    }
-  };
-  weak_section(diagnosis.final_model, "The fitted model");
-  weak_section(diagnosis.all_families, "Every family of the vocabulary at once");
+  write_weak_section(out, diagnosis.final_model, "The fitted model");
+  write_weak_section(out, diagnosis.all_families, "Every family of the vocabulary at once");
   out << "Gauge fixing: with chain_angle and frame_misalignment both in a model the common chain rotation is "
          "pinned to zero (it is the frame yaw rz); every parameter carries a weak prior worth one observation at "
          "the noise floor, so directions the data cannot see stay at zero instead of drifting.\n";
+}
+
+}  // namespace
+
+void write_report(const std::string& markdown_path, const ReportInputs& inputs, const std::vector<Sample>& check,
+                  const Diagnosis& diagnosis) {
+  namespace fs = std::filesystem;
+  const fs::path markdown(markdown_path);
+  const std::string stem = markdown.stem().string();
+  const fs::path folder = markdown.has_parent_path() ? markdown.parent_path() : fs::path(".");
+  const std::string residual_png = stem + "_residual.png", ranking_png = stem + "_ranking.png",
+                    map_png = stem + "_map.png";
+  std::error_code error;
+  fs::create_directories(folder, error);
+  if (error) throw InputError(markdown_path, 0, "cannot create the report folder: " + error.message());
+
+  write_residual_plot((folder / residual_png).string(), inputs, check, diagnosis);
+  write_ranking_plot((folder / ranking_png).string(), diagnosis);
+  write_error_map((folder / map_png).string(), check, diagnosis);
+
+  OutputFile file(markdown_path);
+  std::ostream& out = file.stream();
+  write_report_head(out, inputs, check, diagnosis);
+  write_alternatives_section(out, diagnosis);
+  write_floor_test_section(out, diagnosis.floor_test);
+  write_outliers_section(out, diagnosis);
+  out << "## How far the gap shrinks (held-out RMSE per joint)\n\n";
+  print_summary(out, diagnosis);
+  write_ranking_section(out, diagnosis, ranking_png);
+  write_where_sections(out, diagnosis, map_png, residual_png);
+  write_selection_trace(out, diagnosis);
+  write_identifiability_section(out, diagnosis);
   file.commit();
 }
 
