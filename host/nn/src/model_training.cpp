@@ -377,115 +377,118 @@ Vec3 network_target(const JointRippleTable& table, const Vec3& target_deg) {
 constexpr double kRippleTableFloors = 1.0;
 constexpr double kRippleTableDegWithoutFloor = 0.003;
 
-}  // namespace
-
-ModelTraining train_model(const Recording& recording, const std::string& model, const TrainingOptions& options,
-                          const std::function<void(const TrainingEpoch&)>& progress) {
-  if (model != "network" && model != "hybrid" && model != "deployed") {
-    throw std::invalid_argument("unknown model '" + model + "' (choose deployed, network or hybrid)");
-  }
-  // The deployed model adds anchor poses: count the recording's own samples first.
-  if (recording.samples.size() < kMinTrainingSamples) {
-    throw InputError(recording.path, 0, "training needs at least " + std::to_string(kMinTrainingSamples) + " samples");
-  }
-  ModelTraining result;
-  result.weights.model = model;
+// What the network learns from: the recorded poses and angles as the model's preparation leaves
+// them and, deployed, how many anchor poses end the rows and the static targets (the network's
+// targets before the ripple table comes off them).
+struct TrainingSet {
   std::vector<Vec3> inputs, targets;
   std::size_t anchors = 0;           // deployed: poses the recording does not visit (add_anchors)
   std::vector<Vec3> static_targets;  // deployed: the static angles (the network's targets less the ripple table)
-  for (const Sample& sample : recording.samples) {
-    inputs.push_back(sample.position_m);
-    targets.push_back(sample.alpha_deg);
+};
+
+// The network learns what the identified model, backlash included, leaves: a residual that
+// depends on the pose alone. The weights file keeps the pose-wise effects (no backlash).
+void prepare_hybrid(const Recording& recording, TrainingSet& set, ModelTraining& result) {
+  result.effect_fit = fit_math_model_effects(recording.samples);
+  const std::vector<Vec3> predicted = predict_recording(result.effect_fit->effects, recording.samples);
+  for (std::size_t i = 0; i < set.inputs.size(); ++i) set.targets[i] -= predicted[i];
+  result.weights.effects = result.effect_fit->effects;
+  result.weights.effects.backlash_deg.reset();
+}
+
+// The recorded angles less the identified play, in time order. The play's input is the static
+// angle: the math model's angles `model` plus what that model leaves per joint as a function of its
+// angle (transmission ripple) once a first pass has removed the play; the ripple moves where the
+// play switches, so the second pass removes it better.
+void remove_identified_play(const Vec3& half_play, const std::vector<Vec3>& model, std::vector<Vec3>& targets) {
+  std::vector<Vec3> first_pass = targets;
+  const std::vector<Vec3> first_lag = play_lag(half_play, model);
+  for (std::size_t i = 0; i < targets.size(); ++i) first_pass[i] -= first_lag[i];
+  const JointResiduals first_maps = joint_residuals(model, first_pass);
+  std::vector<Vec3> static_deg(targets.size());
+  for (std::size_t i = 0; i < targets.size(); ++i) static_deg[i] = with_residuals(first_maps, model[i]);
+  const std::vector<Vec3> lag = play_lag(half_play, static_deg);
+  for (std::size_t i = 0; i < targets.size(); ++i) targets[i] -= lag[i];
+}
+
+// The network learns the recorded angles without the play identified in time order; the board
+// puts the identified play back on its answers, in time order. Then a joint ripple table where
+// the math model leaves a ripple worth one, the anchor poses, and the recording thinned.
+void prepare_deployed(const Recording& recording, const TrainingOptions& options, TrainingSet& set,
+                      ModelTraining& result) {
+  std::vector<Vec3>& inputs = set.inputs;
+  std::vector<Vec3>& targets = set.targets;
+  result.effect_fit = fit_math_model_effects(recording.samples);
+  EffectSet without_backlash = result.effect_fit->effects;
+  without_backlash.backlash_deg.reset();
+  const Vec3 half_play = 0.5 * *result.effect_fit->effects.backlash_deg;
+  result.weights.backlash_half_play_deg = half_play;
+  std::vector<Vec3> model(inputs.size());
+  for (std::size_t i = 0; i < inputs.size(); ++i) {
+    const IkSolution solution = math_model_angles(without_backlash, inputs[i]);
+    if (!solution.ok()) throw std::invalid_argument("the math model cannot reach a recorded pose");
+    model[i] = solution.alpha_deg;
   }
-  // What the data cannot support (too few rows, an axis that does not vary, a pose the math
-  // model cannot reach) is a fault of the recording: name it.
-  try {
-    if (model == "hybrid") {
-      result.effect_fit = fit_math_model_effects(recording.samples);
-      // The network learns what the identified model, backlash included, leaves: a residual that
-      // depends on the pose alone. The weights file keeps the pose-wise effects (no backlash).
-      const std::vector<Vec3> predicted = predict_recording(result.effect_fit->effects, recording.samples);
-      for (std::size_t i = 0; i < inputs.size(); ++i) targets[i] -= predicted[i];
-      result.weights.effects = result.effect_fit->effects;
-      result.weights.effects.backlash_deg.reset();
-    } else if (model == "deployed") {
-      // The network learns the recorded angles without the play identified in time order; the
-      // board puts the identified play back on its answers, in time order. The play's input is the
-      // static angle: the identified math model without backlash, plus what that model leaves per
-      // joint as a function of its angle (transmission ripple) once a first pass has removed the
-      // play; the ripple moves where the play switches, so the second pass removes it better.
-      result.effect_fit = fit_math_model_effects(recording.samples);
-      EffectSet without_backlash = result.effect_fit->effects;
-      without_backlash.backlash_deg.reset();
-      const Vec3 half_play = 0.5 * *result.effect_fit->effects.backlash_deg;
-      result.weights.backlash_half_play_deg = half_play;
-      std::vector<Vec3> model(inputs.size());
-      for (std::size_t i = 0; i < inputs.size(); ++i) {
-        const IkSolution solution = math_model_angles(without_backlash, inputs[i]);
-        if (!solution.ok()) throw std::invalid_argument("the math model cannot reach a recorded pose");
-        model[i] = solution.alpha_deg;
-      }
-      std::vector<Vec3> first_pass = targets;
-      const std::vector<Vec3> first_lag = play_lag(half_play, model);
-      for (std::size_t i = 0; i < inputs.size(); ++i) first_pass[i] -= first_lag[i];
-      const JointResiduals first_maps = joint_residuals(model, first_pass);
-      std::vector<Vec3> static_deg(inputs.size());
-      for (std::size_t i = 0; i < inputs.size(); ++i) static_deg[i] = with_residuals(first_maps, model[i]);
-      const std::vector<Vec3> lag = play_lag(half_play, static_deg);
-      for (std::size_t i = 0; i < inputs.size(); ++i) targets[i] -= lag[i];
-      const JointResiduals maps = joint_residuals(model, targets);
-      result.ripple = ripples_of(maps);
-      RippleFit ripple;
-      result.floor_deg = quantisation_floor_deg(recording);
-      const double table_from_deg =
-          result.floor_deg > 0.0 ? kRippleTableFloors * result.floor_deg : kRippleTableDegWithoutFloor;
-      if (options.joint_ripple_table && std::any_of(result.ripple.begin(), result.ripple.end(),
-                                                    [&](const auto& r) { return r.rms_deg >= table_from_deg; })) {
-        ripple = ripple_table(model, targets);
-        result.weights.joint_ripple = ripple.table;
-      }
-      if (ripple.table.empty()) {
-        add_anchors(
-            without_backlash, [&](const Vec3& angles) { return with_residuals(maps, angles); }, inputs, targets);
-      } else {
-        add_anchors(
-            without_backlash, [&](const Vec3& angles) { return with_ripple(ripple, angles); }, inputs, targets);
-      }
-      anchors = inputs.size() - recording.samples.size();
-      thin_recording(recording.samples.size(), inputs, targets);
-      static_targets = targets;
-      if (!result.weights.joint_ripple.empty()) {
-        for (Vec3& target : targets) target = network_target(result.weights.joint_ripple, target);
-      }
-    }
-    result.training = train_network(inputs, targets, options, progress);
-    if (model == "deployed") {
-      if (result.training.validation_samples > 0 && result.floor_deg > 0.0 &&
-          std::sqrt(result.training.validation_mse_deg2) > kStallFloors * result.floor_deg) {
-        TrainingOptions restart = options;
-        restart.seed = options.seed + kRestartSeedOffset;
-        result.restart_seed = restart.seed;
-        TrainingResult second = train_network(inputs, targets, restart, progress);
-        result.restart_kept = second.validation_mse_deg2 < result.training.validation_mse_deg2;
-        if (result.restart_kept) result.training = std::move(second);
-      }
-    }
-    if (model == "deployed") {
-      // The thinned recording's rows come first, the anchors last (thin_recording).
-      // The model's answers: the network plus the joint ripple table when there is one.
-      const std::vector<Vec3> learnt(static_targets.begin(),
-                                     static_targets.end() - static_cast<std::ptrdiff_t>(anchors));
-      std::vector<Vec3> answers(learnt.size());
-      for (std::size_t i = 0; i < learnt.size(); ++i) {
-        const Vec3 answer = result.training.network.evaluate(inputs[i]);
-        answers[i] = answer + result.weights.joint_ripple.at(answer);
-      }
-      result.recording_rmse_deg = joint_error_stats(learnt, answers).rmse_deg;
-    }
-  } catch (const std::invalid_argument& error) {
-    throw InputError(recording.path, 0, error.what());
+  remove_identified_play(half_play, model, targets);
+  const JointResiduals maps = joint_residuals(model, targets);
+  result.ripple = ripples_of(maps);
+  RippleFit ripple;
+  result.floor_deg = quantisation_floor_deg(recording);
+  const double table_from_deg =
+      result.floor_deg > 0.0 ? kRippleTableFloors * result.floor_deg : kRippleTableDegWithoutFloor;
+  if (options.joint_ripple_table && std::any_of(result.ripple.begin(), result.ripple.end(),
+                                                [&](const auto& r) { return r.rms_deg >= table_from_deg; })) {
+    ripple = ripple_table(model, targets);
+    result.weights.joint_ripple = ripple.table;
   }
-  result.weights.network = result.training.network;
+  if (ripple.table.empty()) {
+    add_anchors(
+        without_backlash, [&](const Vec3& angles) { return with_residuals(maps, angles); }, inputs, targets);
+  } else {
+    add_anchors(
+        without_backlash, [&](const Vec3& angles) { return with_ripple(ripple, angles); }, inputs, targets);
+  }
+  set.anchors = inputs.size() - recording.samples.size();
+  thin_recording(recording.samples.size(), inputs, targets);
+  set.static_targets = targets;
+  if (!result.weights.joint_ripple.empty()) {
+    for (Vec3& target : targets) target = network_target(result.weights.joint_ripple, target);
+  }
+}
+
+// Deployed: a training that stalled above kStallFloors encoder floors is run once more from
+// another seed, and the better of the two by validation error kept.
+void restart_if_stalled(const TrainingSet& set, const TrainingOptions& options,
+                        const std::function<void(const TrainingEpoch&)>& progress, ModelTraining& result) {
+  if (result.training.validation_samples > 0 && result.floor_deg > 0.0 &&
+      std::sqrt(result.training.validation_mse_deg2) > kStallFloors * result.floor_deg) {
+    TrainingOptions restart = options;
+    restart.seed = options.seed + kRestartSeedOffset;
+    result.restart_seed = restart.seed;
+    TrainingResult second = train_network(set.inputs, set.targets, restart, progress);
+    result.restart_kept = second.validation_mse_deg2 < result.training.validation_mse_deg2;
+    if (result.restart_kept) result.training = std::move(second);
+  }
+}
+
+// Deployed: the model's error per joint on the recording's rows it learnt from. The thinned
+// recording's rows come first, the anchors last (thin_recording). The model's answers: the network
+// plus the joint ripple table when there is one.
+Vec3 deployed_recording_rmse(const TrainingSet& set, const ModelTraining& result) {
+  const std::vector<Vec3> learnt(set.static_targets.begin(),
+                                 set.static_targets.end() - static_cast<std::ptrdiff_t>(set.anchors));
+  std::vector<Vec3> answers(learnt.size());
+  for (std::size_t i = 0; i < learnt.size(); ++i) {
+    const Vec3 answer = result.training.network.evaluate(set.inputs[i]);
+    answers[i] = answer + result.weights.joint_ripple.at(answer);
+  }
+  return joint_error_stats(learnt, answers).rmse_deg;
+}
+
+// The weights file's provenance: the data, the options, how the training went and, with a math
+// model, what it was fitted to; deployed, the anchors, the ripple table and the restart.
+void write_provenance(const Recording& recording, const TrainingOptions& options, std::size_t anchors,
+                      ModelTraining& result) {
   const TrainingResult& training = result.training;
   nlohmann::json& provenance = result.weights.provenance;
   provenance["tool"] = "deltactl train";
@@ -526,6 +529,44 @@ ModelTraining train_model(const Recording& recording, const std::string& model, 
                                 format_number(kAnchorMargin) + " of each range, farther than " +
                                 format_number(kAnchorGap) + " of each range from every recorded pose";
   }
+}
+
+}  // namespace
+
+ModelTraining train_model(const Recording& recording, const std::string& model, const TrainingOptions& options,
+                          const std::function<void(const TrainingEpoch&)>& progress) {
+  if (model != "network" && model != "hybrid" && model != "deployed") {
+    throw std::invalid_argument("unknown model '" + model + "' (choose deployed, network or hybrid)");
+  }
+  // The deployed model adds anchor poses: count the recording's own samples first.
+  if (recording.samples.size() < kMinTrainingSamples) {
+    throw InputError(recording.path, 0, "training needs at least " + std::to_string(kMinTrainingSamples) + " samples");
+  }
+  ModelTraining result;
+  result.weights.model = model;
+  TrainingSet set;
+  for (const Sample& sample : recording.samples) {
+    set.inputs.push_back(sample.position_m);
+    set.targets.push_back(sample.alpha_deg);
+  }
+  // What the data cannot support (too few rows, an axis that does not vary, a pose the math
+  // model cannot reach) is a fault of the recording: name it.
+  try {
+    if (model == "hybrid") {
+      prepare_hybrid(recording, set, result);
+    } else if (model == "deployed") {
+      prepare_deployed(recording, options, set, result);
+    }
+    result.training = train_network(set.inputs, set.targets, options, progress);
+    if (model == "deployed") {
+      restart_if_stalled(set, options, progress, result);
+      result.recording_rmse_deg = deployed_recording_rmse(set, result);
+    }
+  } catch (const std::invalid_argument& error) {
+    throw InputError(recording.path, 0, error.what());
+  }
+  result.weights.network = result.training.network;
+  write_provenance(recording, options, set.anchors, result);
   return result;
 }
 
