@@ -69,24 +69,26 @@ def strip_code(text):
 
 
 def functions(path):
-    """(name, first line, lines) of every function body at namespace or class scope in a C++ file."""
+    """(name, first line, lines, excepted as a table) of every function body at namespace or class
+    scope in a C++ file."""
     raw = path.read_text(encoding="utf-8", errors="replace")
     code = strip_code(raw)
     raw_lines = raw.split("\n")
-    stack = []  # per open brace: 'scope' (namespace, class, extern), 'function' or 'block'
-    opened = []  # per open brace: (kind, name, line)
+    # Per open brace: its kind ('scope': namespace, class, extern; 'function'; 'init': a member's
+    # brace initialiser; 'block'), its function's name, its line and the line its statement starts on.
+    opened = []
     start = 0  # where the current statement's text begins
     line = 1
     found = []
     for i, c in enumerate(code):
         if c == "\n":
             line += 1
-        elif c in ";":
+        elif c == ";":
             start = i + 1
         elif c == "{":
             head = code[start:i]
             head_flat = " ".join(head.split())
-            in_scope = all(kind == "scope" for kind, _, _ in opened)
+            in_scope = all(entry[0] == "scope" for entry in opened)
             if re.search(r"\b(namespace|class|struct|union|enum)\b[^()=]*$", head_flat) or re.search(
                     r'\bextern\s+"', head_flat):
                 kind, name = "scope", ""
@@ -105,14 +107,12 @@ def functions(path):
                 kind = "init"  # a member's brace initialiser in a constructor's initialiser list
             p = start + (len(head) - len(head.lstrip()))
             head_line = line - code[p:i].count("\n")
-            opened.append((kind, name, line))
-            stack.append(head_line)
+            opened.append((kind, name, line, head_line))
             if kind != "init":
                 start = i + 1
         elif c == "}":
             if opened:
-                kind, name, first = opened.pop()
-                head_line = stack.pop()
+                kind, name, first, head_line = opened.pop()
                 if kind == "function":
                     marker = raw_lines[head_line - 2].strip() if head_line >= 2 else ""
                     found.append((name, head_line, line - first + 1, marker.startswith("// house: table")))

@@ -150,9 +150,7 @@ void run_status(const StatusOptions& options) {
         {"fault", t.has(link::TelemetryFlag::kFault) ? nlohmann::json(link::describe_fault(t)) : nlohmann::json()},
         {"tick", t.tick},
         {"sample_index", t.sample_index},
-        {"encoder_deg",
-         {t.counts[0] * board::kEncoderCountDeg, t.counts[1] * board::kEncoderCountDeg,
-          t.counts[2] * board::kEncoderCountDeg}},
+        {"encoder_deg", {t.count_deg(0), t.count_deg(1), t.count_deg(2)}},
         {"homed", referencing != Referencing::kNone},
         {"homed_by", referencing == Referencing::kHomeSwitches ? "reference"
                      : referencing == Referencing::kHand       ? "hand"
@@ -183,11 +181,10 @@ void run_status(const StatusOptions& options) {
             << (referencing == Referencing::kHomeSwitches ? std::string("at the home switches")
                                                           : "no (" + unreferenced_reason(t) + "; deltactl host home)")
             << '\n'
-            << "encoders: " << fixed(t.counts[0] * board::kEncoderCountDeg, 2) << ", "
-            << fixed(t.counts[1] * board::kEncoderCountDeg, 2) << ", "
-            << fixed(t.counts[2] * board::kEncoderCountDeg, 2) << " deg; board time " << fixed(t.time_s(), 4)
-            << " s; counters: bad frames " << t.bad_frames << ", underruns " << t.underruns << ", refused "
-            << t.rejected << ", slew limits " << t.slew_limits << ", saturations " << t.saturations << '\n';
+            << "encoders: " << fixed(t.count_deg(0), 2) << ", " << fixed(t.count_deg(1), 2) << ", "
+            << fixed(t.count_deg(2), 2) << " deg; board time " << fixed(t.time_s(), 4) << " s; counters: bad frames "
+            << t.bad_frames << ", underruns " << t.underruns << ", refused " << t.rejected << ", slew limits "
+            << t.slew_limits << ", saturations " << t.saturations << '\n';
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -288,11 +285,10 @@ void run_home(const HomeOptions& options) {
       or_exit([&] { return home_at_references(session, *weights, options.homing, log, &stop_signal); });
   const link::TelemetryPayload& t = report.final;
   std::cout << "home: ok, every joint at its reference (" << link::describe_state(t) << "); encoders "
-            << fixed(t.counts[0] * board::kEncoderCountDeg, 2) << ", "
-            << fixed(t.counts[1] * board::kEncoderCountDeg, 2) << ", "
-            << fixed(t.counts[2] * board::kEncoderCountDeg, 2) << " deg; moved " << fixed(report.travelled_deg[0], 1)
-            << ", " << fixed(report.travelled_deg[1], 1) << ", " << fixed(report.travelled_deg[2], 1) << " deg in "
-            << fixed(report.seconds, 1) << " s (" << report.enables << " jogs)\n";
+            << fixed(t.count_deg(0), 2) << ", " << fixed(t.count_deg(1), 2) << ", " << fixed(t.count_deg(2), 2)
+            << " deg; moved " << fixed(report.travelled_deg[0], 1) << ", " << fixed(report.travelled_deg[1], 1) << ", "
+            << fixed(report.travelled_deg[2], 1) << " deg in " << fixed(report.seconds, 1) << " s (" << report.enables
+            << " jogs)\n";
 }
 
 // ---------------------------------------------------------------------------------------------

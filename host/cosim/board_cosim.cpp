@@ -248,7 +248,7 @@ TrackingSummary summarise(const CosimResult& result, double from_s) {
   for (const controller::TelemetryRecord& r : result.records) {
     if (r.tau_s < from_s) continue;
     for (int j = 0; j < 3; ++j) {
-      const double error_deg = (r.telemetry.counts[j] - r.telemetry.reference_counts(j)) * board::kEncoderCountDeg;
+      const double error_deg = r.telemetry.following_error_deg(j);
       board_sq[j] += error_deg * error_deg;
     }
     ++summary.telemetry_frames;

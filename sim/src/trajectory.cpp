@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <random>
 #include <stdexcept>
 
@@ -86,7 +87,7 @@ Trajectory make_trajectory(const std::string& name, std::uint64_t seed) {
       static const Vec3 stations[] = {{0.0, 0.0, -0.076},         {0.0045, 0.0045, -0.072},  {-0.0045, 0.0045, -0.080},
                                       {-0.0045, -0.0045, -0.072}, {0.0045, -0.0045, -0.080}, {0.0, 0.0, -0.076}};
       constexpr double dwell_s = 0.5, move_s = 0.4;
-      constexpr int last = 5;
+      constexpr int last = static_cast<int>(std::size(stations)) - 1;
       const int k = std::clamp(static_cast<int>(std::floor(t / (dwell_s + move_s))), 0, last);
       const double into_move = t - k * (dwell_s + move_s) - dwell_s;
       if (k == last || into_move <= 0.0) return stations[k];

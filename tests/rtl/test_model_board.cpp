@@ -232,7 +232,7 @@ FaultRun run_fault_session(cosim::BoardFidelity fidelity, const golden::Quantise
   session.set_home();
   const link::TelemetryPayload enabled = session.enable();
   Vec3 counts_deg;
-  for (int j = 0; j < 3; ++j) counts_deg[j] = enabled.counts[j] * board::kEncoderCountDeg;
+  for (int j = 0; j < 3; ++j) counts_deg[j] = enabled.count_deg(j);
   const Vec3 start = cosim::locate_plate(q, Geometry::nominal(), counts_deg);
   auto circle = [](const Vec3& centre) {
     std::vector<Vec3> points;
@@ -247,7 +247,7 @@ FaultRun run_fault_session(cosim::BoardFidelity fidelity, const golden::Quantise
   out.cleared = session.clear_fault();
   out.reenabled = session.enable();
   // From where the arms are now (they fell with the torque off), as a host plans a run.
-  for (int j = 0; j < 3; ++j) counts_deg[j] = out.reenabled.counts[j] * board::kEncoderCountDeg;
+  for (int j = 0; j < 3; ++j) counts_deg[j] = out.reenabled.count_deg(j);
   out.second =
       stream_with_the_lab_loop(session, q, circle(cosim::locate_plate(q, Geometry::nominal(), counts_deg)), &clock);
   session.disable();
@@ -499,7 +499,7 @@ LoadRun run_load_session(cosim::BoardFidelity fidelity, const golden::QuantisedN
       link::encode_frame(link::make_frame(sequence++, golden::model_frames(q).front()));
   board.write(first.data(), first.size());
   Vec3 counts_deg;
-  for (int j = 0; j < 3; ++j) counts_deg[j] = enabled.counts[j] * board::kEncoderCountDeg;
+  for (int j = 0; j < 3; ++j) counts_deg[j] = enabled.count_deg(j);
   const Vec3 start = cosim::locate_plate(q, Geometry::nominal(), counts_deg);
   std::vector<Vec3> points;
   for (std::size_t k = 0; k < 200; ++k) {
@@ -632,7 +632,7 @@ TEST(ModelBoard, EqualsTheRtlBoardThroughAHomingAtTheSwitches) {
   EXPECT_FALSE(last.has(link::TelemetryFlag::kDriveEnable));
   // Each joint's count is the robot's own reading (the world's encoder) at rest at the end.
   for (int j = 0; j < 3; ++j) {
-    EXPECT_NEAR(last.counts[j] * board::kEncoderCountDeg, rtl.periods.back().encoder_deg[j], 1e-9) << "joint " << j + 1;
+    EXPECT_NEAR(last.count_deg(j), rtl.periods.back().encoder_deg[j], 1e-9) << "joint " << j + 1;
   }
   expect_same_session(rtl, model);
 }

@@ -59,7 +59,7 @@ json sample_json(const TelemetryRecord& r) {
   const link::TelemetryPayload& t = r.telemetry;
   json row = json::array();
   row.push_back(t.time_s());
-  for (int k = 0; k < 3; ++k) row.push_back(std::round(t.counts[k] * board::kEncoderCountDeg * 1e4) / 1e4);
+  for (int k = 0; k < 3; ++k) row.push_back(std::round(t.count_deg(k) * 1e4) / 1e4);
   for (int k = 0; k < 3; ++k) row.push_back(std::round(t.reference_deg(k) * 1e4) / 1e4);
   for (int k = 0; k < 3; ++k) row.push_back(std::round(t.currents[k] * kCurrentCodeA * 1e4) / 1e4);
   for (int k = 0; k < 3; ++k) {

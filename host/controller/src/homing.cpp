@@ -428,7 +428,7 @@ HomingReport home_at_references(link::LinkSession& session, const golden::BoardW
         }
         last = f.counts;
         if (f.has(link::TelemetryFlag::kDriveEnable)) {
-          for (int j = 0; j < 3; ++j) lag[j] = std::abs(f.references[j] / kQ8 - f.counts[j]) * board::kEncoderCountDeg;
+          for (int j = 0; j < 3; ++j) lag[j] = std::abs(f.following_error_deg(j));
         }
         if (!f.has(link::TelemetryFlag::kDriveEnable)) {  // a switch referenced its joint (or a disable)
           const int now = (f.home >> 3) & 7;

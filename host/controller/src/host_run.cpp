@@ -228,7 +228,7 @@ void StreamingLoop::run() {
         }
         if (options_.following_error_deg > 0.0) {
           for (int j = 0; j < 3 && !finished; ++j) {
-            const double error = (t.counts[j] - t.reference_counts(j)) * board::kEncoderCountDeg;
+            const double error = t.following_error_deg(j);
             if (std::abs(error) > options_.following_error_deg) {
               result_.outcome = StreamingResult::Outcome::kFault;
               result_.cause = "following error on joint " + std::to_string(j + 1) + ": " + std::to_string(error) +
@@ -327,7 +327,7 @@ void StreamingLoop::run() {
 
 void TrackingStatistics::add(const link::TelemetryPayload& t) {
   for (int j = 0; j < 3; ++j) {
-    const double error = (t.counts[j] - t.reference_counts(j)) * board::kEncoderCountDeg;
+    const double error = t.following_error_deg(j);
     sum_sq_deg2[j] += error * error;
     max_abs_deg[j] = std::max(max_abs_deg[j], std::abs(error));
   }

@@ -67,7 +67,7 @@ Vec3 resting_start(const golden::BoardWeights& weights, const link::TelemetryPay
 
 Vec3 start_at_rest(const golden::BoardWeights& weights, const link::TelemetryPayload& rest) {
   Vec3 counts_deg;
-  for (int j = 0; j < 3; ++j) counts_deg[j] = rest.counts[j] * board::kEncoderCountDeg;
+  for (int j = 0; j < 3; ++j) counts_deg[j] = rest.count_deg(j);
   // The plan is in plate positions; the setpoints sent are shaped (a joint ripple table): start at
   // the position whose shaped setpoint is the resting one.
   return nn::unshape_setpoint(
@@ -303,7 +303,7 @@ struct TelemetryRecorder {
       for (int k = 0; k < 3; ++k) out += ',' + format_number(r.reference_m[k]);
     }
     for (int k = 0; k < 3; ++k) out += ',' + format_number(t.reference_deg(k));
-    for (int k = 0; k < 3; ++k) out += ',' + format_number(t.counts[k] * board::kEncoderCountDeg);
+    for (int k = 0; k < 3; ++k) out += ',' + format_number(t.count_deg(k));
     for (int k = 0; k < 3; ++k) out += ',' + format_number(t.currents[k] * kCurrentCodeA);
     for (const long long value : {static_cast<long long>(t.fault_cause), static_cast<long long>(t.flags),
                                   static_cast<long long>(t.has(link::TelemetryFlag::kDriveEnable) ? 1 : 0),
@@ -468,7 +468,7 @@ void RunJob::check_ready(const std::string& port_name, const link::TelemetryPayl
     const bool closed = t0.home_switch(j);
     if ((above > kSwitchMarginCounts && !closed) || (above < -kSwitchMarginCounts && closed)) {
       throw HostFailure(kExitFault, port_name + ": joint " + std::to_string(j + 1) + "'s encoder reads " +
-                                        fixed(t0.counts[j] * board::kEncoderCountDeg, 2) + " deg, " +
+                                        fixed(t0.count_deg(j), 2) + " deg, " +
                                         fixed(std::abs(above) * board::kEncoderCountDeg, 2) + " deg " +
                                         (above > 0 ? "above" : "below") + " its reference, but its home switch is " +
                                         (closed ? "closed" : "open") +

@@ -253,8 +253,7 @@ struct HostServer::Impl {
       out["homing_unfinished"] = (interrupted || homing_unfinished(*t)) && !homing_now;
       out["referencing"] = unreferenced_reason(*t);  // "" when homed at the references
       out["board_time_s"] = t->tick / 1e4;
-      out["encoder_deg"] = {t->counts[0] * board::kEncoderCountDeg, t->counts[1] * board::kEncoderCountDeg,
-                            t->counts[2] * board::kEncoderCountDeg};
+      out["encoder_deg"] = {t->count_deg(0), t->count_deg(1), t->count_deg(2)};
       out["counters"] = {{"bad_frames", t->bad_frames},
                          {"underruns", t->underruns},
                          {"rejected", t->rejected},

@@ -3,11 +3,9 @@
 #include "delta/diagnosis/merge.hpp"
 
 #include <cmath>
-#include <cstdio>
 #include <string>
 
 #include "delta/board_facts.hpp"
-#include "delta/kinematics.hpp"
 
 #include "merge_phases.hpp"
 #include "sync_alignment.hpp"

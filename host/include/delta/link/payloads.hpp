@@ -137,6 +137,10 @@ struct TelemetryPayload {
   double count_deg(int joint) const { return counts[static_cast<std::size_t>(joint)] * board::kEncoderCountDeg; }
   double reference_counts(int joint) const { return references[static_cast<std::size_t>(joint)] / 256.0; }
   double reference_deg(int joint) const { return reference_counts(joint) * board::kEncoderCountDeg; }
+  // The count less its reference [deg] (the joint's following error as the board sees it).
+  double following_error_deg(int joint) const {
+    return (counts[static_cast<std::size_t>(joint)] - reference_counts(joint)) * board::kEncoderCountDeg;
+  }
   bool jogging() const { return ((home >> board::kTelemetryJogBit) & 1) != 0; }
   // Where joint j's play was last taken up: +1 above (its count last stepped up), -1 below.
   int play_side(int joint) const { return ((rising >> joint) & 1) != 0 ? 1 : -1; }
