@@ -9,11 +9,14 @@ if(DELTA_HOST_ONLY)
 endif()
 # The model board's calibration drag (600 s of the validation trajectory or a sweep, about 40 s of
 # wall time) through host record and merge, checked against the board's truth within 1 um RMS, and
-# merge's refusals of a truncated, garbled or at-rest stage file.
+# merge's refusals of a truncated, garbled or at-rest stage file. Alone on the machine: each homes
+# the board at its references first, with the drives on in real time (tests/README.md, "Real
+# time, alone").
 delta_add_gtest(measure_board_tests
   SOURCES ${CMAKE_CURRENT_LIST_DIR}/measure/test_stage_board.cpp
   LIBRARIES delta::host nlohmann_json::nlohmann_json
-  LABELS measure virtual_board)
+  LABELS measure virtual_board
+  SERIAL)
 
 # A closed-loop `host run` of a robot with play through a 250 Hz stage (60 s kept to real time,
 # alone on the machine), merged and diagnosed: its play as the robot's (about 100 s).
